@@ -163,6 +163,12 @@ def solve_focal_parameters(c: np.ndarray, *, infinity_rtol: float = 1e-10,
     ``infinity_rtol * scale``) is a focal point at infinity and is returned as ``+inf``
     (a cylinder's rulings). ``D`` within rounding of zero is a double root; ``D < 0`` gives NaN.
 
+    Examples
+    --------
+    >>> solve_focal_parameters(np.array([[1.0, 4.0, 4.0], [0.0, 1.0, 2.0]]))
+    array([[-2., -2.],
+           [-2., inf]])
+
     Parameters
     ----------
     c : (F, 3) float
@@ -170,13 +176,15 @@ def solve_focal_parameters(c: np.ndarray, *, infinity_rtol: float = 1e-10,
     infinity_rtol : float
         Relative size of ``c_2`` below which the quadratic degenerates.
     scale : (F,) float, optional
-        Natural size of ``c_2`` (``|e_u| |e_v| |e|``); default ``|c_1| + |c_0|``-free
-        absolute test ``c_2 == 0``.
+        Natural size of ``c_2`` (``|e_u| |e_v| |e|``); without it only ``c_2 == 0`` exactly
+        counts as degenerate.
     """
     c2, c1, c0 = c[..., 0], c[..., 1], c[..., 2]
     disc, tol = _discriminant(c)
     hyperbolic = disc >= -tol
-    sq = np.sqrt(np.where(hyperbolic, np.maximum(disc, 0.0), 0.0))
+    # a discriminant within rounding of zero is a double root (a bundle): taking its square
+    # root would turn rounding noise of size eps into a root error of size sqrt(eps)
+    sq = np.sqrt(np.where(disc > tol, disc, 0.0))
     sign = np.where(c1 >= 0, 1.0, -1.0)
     q = -0.5 * (c1 + sign * sq)
     degenerate = np.abs(c2) <= (infinity_rtol * scale if scale is not None else 0.0)

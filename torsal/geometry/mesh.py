@@ -62,8 +62,8 @@ def load_mesh(path: str | Path, *, validate: bool = True) -> trimesh.Trimesh:
 
     Examples
     --------
-    >>> mesh = load_mesh("examples/facade_patch.obj")  # doctest: +SKIP
-    >>> mesh.faces.shape
+    >>> mesh = load_mesh("examples/facade_7a.obj")  # doctest: +SKIP
+    >>> mesh.faces.shape  # doctest: +SKIP
     (2048, 3)
     """
     path = Path(path)
