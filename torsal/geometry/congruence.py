@@ -54,6 +54,31 @@ def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i->...", x, y)
 
 
+# Hot-path arithmetic on components: vectors as tuples (x, y, z) of 1-D arrays. Frames are
+# stored column-major, so each component is contiguous; this is several times faster than
+# np.cross / einsum over (F, 3) rows on million-face meshes.
+def _c(x: np.ndarray) -> tuple:
+    return x[..., 0], x[..., 1], x[..., 2]
+
+
+def _cross3(a: tuple, b: tuple) -> tuple:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot3(a: tuple, b: tuple) -> np.ndarray:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _lin3(s: np.ndarray, a: tuple, t: np.ndarray, b: tuple) -> tuple:
+    """s a + t b, componentwise."""
+    return (s * a[0] + t * b[0], s * a[1] + t * b[1], s * a[2] + t * b[2])
+
+
+def _stack3(a: tuple) -> np.ndarray:
+    """Components back to an (F, 3) array (column-major)."""
+    return np.stack(a, axis=0).T
+
+
 def _norm(x: np.ndarray) -> np.ndarray:
     return np.sqrt(_dot(x, x))
 
@@ -97,22 +122,30 @@ def face_frame(vertices, faces, directions, barycentric=None) -> FaceFrame:
     -------
     FaceFrame
     """
-    v = np.asarray(vertices, dtype=float)
-    d = np.asarray(directions, dtype=float)
+    vt = np.asarray(vertices, dtype=float).T  # (3, n): gathers give contiguous components
+    dt = np.asarray(directions, dtype=float).T
     f = np.asarray(faces)
-    a0, a1, a2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    e0, e1, e2 = d[f[:, 0]], d[f[:, 1]], d[f[:, 2]]
+    a0, a1, a2 = vt[:, f[:, 0]], vt[:, f[:, 1]], vt[:, f[:, 2]]
+    e0, e1, e2 = dt[:, f[:, 0]], dt[:, f[:, 1]], dt[:, f[:, 2]]
     if barycentric is None:
         a = (a0 + a1 + a2) / 3.0
         e = (e0 + e1 + e2) / 3.0
     else:
-        w = np.broadcast_to(np.asarray(barycentric, dtype=float), (len(f), 3))
-        a = w[:, :1] * a0 + w[:, 1:2] * a1 + w[:, 2:] * a2
-        e = w[:, :1] * e0 + w[:, 1:2] * e1 + w[:, 2:] * e2
-    return FaceFrame(a=a, e=e, a_u=a1 - a0, a_v=a2 - a0, e_u=e1 - e0, e_v=e2 - e0)
+        w = np.broadcast_to(np.asarray(barycentric, dtype=float), (len(f), 3)).T
+        a = w[0] * a0 + w[1] * a1 + w[2] * a2
+        e = w[0] * e0 + w[1] * e1 + w[2] * e2
+    # (F, 3) views of (3, F) arrays: column-major, each component contiguous
+    return FaceFrame(a=a.T, e=e.T, a_u=(a1 - a0).T, a_v=(a2 - a0).T, e_u=(e1 - e0).T,
+                     e_v=(e2 - e0).T)
 
 
-def torsal_coefficients(fr: FaceFrame) -> np.ndarray:
+def _frame_crosses(fr: FaceFrame) -> dict:
+    """The four cross products with e that eqs. (1), (3) and (7) share, as components."""
+    e = _c(fr.e)
+    return {k: _cross3(_c(getattr(fr, k)), e) for k in ("a_u", "a_v", "e_u", "e_v")}
+
+
+def torsal_coefficients(fr: FaceFrame, crosses: dict | None = None) -> np.ndarray:
     """Coefficients (gamma_0, gamma_1, gamma_2) of eq. (1), (F, 3).
 
     Wang et al. 2013, eq. (1)::
@@ -123,26 +156,26 @@ def torsal_coefficients(fr: FaceFrame) -> np.ndarray:
     ``gamma_0 u_t^2 + 2 gamma_1 u_t v_t + gamma_2 v_t^2 = 0``.
     Units: length * |e|^3 (length^1 for unit directions).
     """
-    x_au = np.cross(fr.a_u, fr.e)
-    x_av = np.cross(fr.a_v, fr.e)
-    g0 = _dot(fr.e_u, x_au)
-    g1 = 0.5 * (_dot(fr.e_u, x_av) + _dot(fr.e_v, x_au))
-    g2 = _dot(fr.e_v, x_av)
+    x = crosses or _frame_crosses(fr)
+    e_u, e_v, x_au, x_av = _c(fr.e_u), _c(fr.e_v), x["a_u"], x["a_v"]
+    g0 = _dot3(e_u, x_au)
+    g1 = 0.5 * (_dot3(e_u, x_av) + _dot3(e_v, x_au))
+    g2 = _dot3(e_v, x_av)
     return np.stack([g0, g1, g2], axis=-1)
 
 
-def focal_coefficients(fr: FaceFrame) -> np.ndarray:
+def focal_coefficients(fr: FaceFrame, crosses: dict | None = None) -> np.ndarray:
     """Coefficients (c_2, c_1, c_0) of the focal quadratic eq. (3), (F, 3).
 
     Wang et al. 2013, eq. (3): ``c_2 lambda^2 + c_1 lambda + c_0 = 0`` with
     ``c_2 = [e_u, e_v, e]``, ``c_1 = [a_u, e_v, e] + [e_u, a_v, e]``, ``c_0 = [a_u, a_v, e]``.
     Its discriminant ``c_1^2 - 4 c_2 c_0`` is eq. (2) / c_hyp of section 4.1.
     """
-    x_ev = np.cross(fr.e_v, fr.e)
-    x_av = np.cross(fr.a_v, fr.e)
-    c2 = _dot(fr.e_u, x_ev)
-    c1 = _dot(fr.a_u, x_ev) + _dot(fr.e_u, x_av)
-    c0 = _dot(fr.a_u, x_av)
+    x = crosses or _frame_crosses(fr)
+    e_u, a_u, x_ev, x_av = _c(fr.e_u), _c(fr.a_u), x["e_v"], x["a_v"]
+    c2 = _dot3(e_u, x_ev)
+    c1 = _dot3(a_u, x_ev) + _dot3(e_u, x_av)
+    c0 = _dot3(a_u, x_av)
     return np.stack([c2, c1, c0], axis=-1)
 
 
@@ -220,19 +253,19 @@ def solve_torsal_directions(fr: FaceFrame, gamma: np.ndarray) -> np.ndarray:
     return np.stack([uv1, uv2], axis=-2)
 
 
-def _paired_focal_parameter(fr: FaceFrame, a_t: np.ndarray, e_t: np.ndarray) -> np.ndarray:
-    """lambda where ``a_t + lambda e_t`` is parallel to ``e``: the regression point of the
-    developable through the torsal direction (least squares in the plane orthogonal to e)."""
-    p = np.cross(a_t, fr.e[..., None, :] if a_t.ndim == 3 else fr.e)
-    q = np.cross(e_t, fr.e[..., None, :] if e_t.ndim == 3 else fr.e)
-    qq = _dot(q, q)
-    at_infinity = qq <= (1e-20 * _dot(p, p))
+def _paired_focal_parameter(e: tuple, a_t: tuple, e_t: tuple) -> np.ndarray:
+    """lambda where ``a_t + lambda e_t`` is parallel to ``e`` (components): the regression
+    point of the developable through a torsal direction (least squares orthogonal to e)."""
+    p = _cross3(a_t, e)
+    q = _cross3(e_t, e)
+    qq = _dot3(q, q)
+    at_infinity = qq <= (1e-20 * _dot3(p, p))
     with np.errstate(divide="ignore", invalid="ignore"):
-        lam = -_dot(p, q) / np.where(at_infinity, 1.0, qq)
+        lam = -_dot3(p, q) / np.where(at_infinity, 1.0, qq)
     return np.where(at_infinity, np.inf, lam)
 
 
-def normality_residual(fr: FaceFrame) -> np.ndarray:
+def normality_residual(fr: FaceFrame, crosses: dict | None = None) -> np.ndarray:
     """Residual of the discrete normality condition, eq. (7), (F,).
 
     Wang et al. 2013, eq. (7) with ``(i, j, k)`` the face's corners::
@@ -242,11 +275,8 @@ def normality_residual(fr: FaceFrame) -> np.ndarray:
     Zero iff the torsal planes at the barycenter are orthogonal (Prop. 1). Units:
     length * |e|^3. This is the quantity squared in f_norm (section 4.1).
     """
-    x_au = np.cross(fr.a_u, fr.e)
-    x_av = np.cross(fr.a_v, fr.e)
-    x_eu = np.cross(fr.e_u, fr.e)
-    x_ev = np.cross(fr.e_v, fr.e)
-    return _dot(x_au, x_ev) - _dot(x_av, x_eu)
+    x = crosses or _frame_crosses(fr)
+    return _dot3(x["a_u"], x["e_v"]) - _dot3(x["a_v"], x["e_u"])
 
 
 def _as_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -363,12 +393,33 @@ class Congruence:
         return face_frame(self._v, self._f, self._d)
 
     @cached_property
+    def _norms(self) -> dict:
+        fr = self._frame
+        return {k: np.sqrt(_dot3(_c(getattr(fr, k)), _c(getattr(fr, k))))
+                for k in ("a_u", "a_v", "e_u", "e_v", "e")}
+
+    @cached_property
+    def _crosses(self) -> dict:
+        return _frame_crosses(self._frame)
+
+    @cached_property
     def _gamma(self) -> np.ndarray:
-        return torsal_coefficients(self._frame)
+        return torsal_coefficients(self._frame, self._crosses)
 
     @cached_property
     def _focal_c(self) -> np.ndarray:
-        return focal_coefficients(self._frame)
+        return focal_coefficients(self._frame, self._crosses)
+
+    @cached_property
+    def _disc(self) -> tuple[np.ndarray, np.ndarray]:
+        return _discriminant(self._focal_c)
+
+    @cached_property
+    def _lambda(self) -> np.ndarray:
+        n = self._norms
+        lam = solve_focal_parameters(self._focal_c, scale=n["e_u"] * n["e_v"] * n["e"])
+        lam.flags.writeable = False
+        return lam
 
     def barycenters(self) -> np.ndarray:
         """Face barycenters a_c of A, (F, 3)."""
@@ -384,11 +435,11 @@ class Congruence:
 
         ``>= 0`` where the face has two (real) torsal directions. Units length^2 |e|^6.
         """
-        return _discriminant(self._focal_c)[0]
+        return self._disc[0].copy()
 
     def is_hyperbolic(self) -> np.ndarray:
         """(F,) bool: eq. (2) holds (up to rounding), so torsal directions are real."""
-        disc, tol = _discriminant(self._focal_c)
+        disc, tol = self._disc
         return disc >= -tol
 
     def bundle_deviation(self) -> np.ndarray:
@@ -398,9 +449,8 @@ class Congruence:
         zero for an exact bundle (all directions torsal, paper 2.1 remark), where torsal
         directions are undefined. Parallel lines (``e_u = e_v = 0``) count as a bundle.
         """
-        fr = self._frame
-        scale = (np.maximum(_norm(fr.a_u), _norm(fr.a_v))
-                 * np.maximum(_norm(fr.e_u), _norm(fr.e_v)) * _norm(fr.e))
+        n = self._norms
+        scale = np.maximum(n["a_u"], n["a_v"]) * np.maximum(n["e_u"], n["e_v"]) * n["e"]
         g = np.abs(self._gamma).max(axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(scale > 0, g / np.where(scale > 0, scale, 1.0), 0.0)
@@ -413,15 +463,22 @@ class Congruence:
     def _torsal(self) -> tuple[np.ndarray, np.ndarray]:
         fr = self._frame
         uv = solve_torsal_directions(fr, self._gamma)  # (F, 2, 2)
-        a_t = uv[..., 0:1] * fr.a_u[:, None] + uv[..., 1:2] * fr.a_v[:, None]
-        e_t = uv[..., 0:1] * fr.e_u[:, None] + uv[..., 1:2] * fr.e_v[:, None]
-        lam = _paired_focal_parameter(fr, a_t, e_t)  # (F, 2)
+        e, a_u, a_v, e_u, e_v = _c(fr.e), _c(fr.a_u), _c(fr.a_v), _c(fr.e_u), _c(fr.e_v)
+        dirs, lams = [], []
+        for k in (0, 1):
+            u, v = uv[:, k, 0], uv[:, k, 1]
+            a_t = _lin3(u, a_u, v, a_v)
+            lams.append(_paired_focal_parameter(e, a_t, _lin3(u, e_u, v, e_v)))
+            dirs.append(a_t)
         # order the pair like the sorted focal parameters (inf last)
-        swap = lam[:, 0] > lam[:, 1]
-        t = _unit(a_t)
-        t[swap] = t[swap][:, ::-1]
+        swap = lams[0] > lams[1]
         invalid = ~self.is_hyperbolic() | self.is_bundle()
-        t[invalid] = np.nan
+        t = np.empty((len(self._f), 2, 3))
+        for k in (0, 1):
+            d = tuple(np.where(swap, dirs[1 - k][i], dirs[k][i]) for i in range(3))
+            inv_len = 1.0 / np.sqrt(_dot3(d, d))
+            for i in range(3):
+                t[:, k, i] = np.where(invalid, np.nan, d[i] * inv_len)
         return t, invalid
 
     def torsal_directions(self) -> np.ndarray:
@@ -441,9 +498,7 @@ class Congruence:
         (the quadratic degenerates, as for a cylinder's rulings); NaN where not hyperbolic.
         Units: multiples of ``e_c`` (model units when directions are unit vectors).
         """
-        fr = self._frame
-        scale = _norm(fr.e_u) * _norm(fr.e_v) * _norm(fr.e)
-        return solve_focal_parameters(self._focal_c, scale=scale)
+        return self._lambda.copy()
 
     def focal_points(self) -> np.ndarray:
         """Focal points ``a_c + lambda_t e_c``, (F, 2, 3), paired with :meth:`torsal_directions`.
@@ -451,7 +506,7 @@ class Congruence:
         Point t is the edge-of-regression point of the developable through torsal
         direction t. Points at infinity are ``+inf`` in all coordinates; NaN where not hyperbolic.
         """
-        lam = self.focal_parameters()
+        lam = self._lambda
         fr = self._frame
         finite = np.isfinite(lam)
         safe = np.where(finite, lam, 0.0)
@@ -467,17 +522,24 @@ class Congruence:
         NaN where torsal directions are undefined.
         """
         t = self._torsal[0]
-        return _unit(np.cross(self._frame.e[:, None, :], t))
+        e = _c(self._frame.e)
+        out = np.empty_like(t)
+        for k in (0, 1):
+            n = _cross3(e, _c(t[:, k]))
+            inv_len = 1.0 / np.sqrt(_dot3(n, n))
+            for i in range(3):
+                out[:, k, i] = n[i] * inv_len
+        return out
 
     def torsal_angle(self) -> np.ndarray:
         """Angle between the two torsal directions, degrees in [0, 90], (F,); NaN where undefined."""
         t = self._torsal[0]
-        c = np.clip(np.abs(_dot(t[:, 0], t[:, 1])), 0.0, 1.0)
+        c = np.clip(np.abs(_dot3(_c(t[:, 0]), _c(t[:, 1]))), 0.0, 1.0)
         return np.degrees(np.arccos(c))
 
     def normality_residual(self) -> np.ndarray:
         """Eq. (7) residual per face, (F,); zero for a discrete normal congruence (Prop. 1)."""
-        return normality_residual(self._frame)
+        return normality_residual(self._frame, self._crosses)
 
     def summary(self) -> dict:
         """Counts and statistics of the per-face quantities, as plain Python numbers (JSON-ready)."""

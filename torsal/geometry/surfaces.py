@@ -90,19 +90,22 @@ def surface_of_revolution(profile_r: Callable[[np.ndarray], np.ndarray], *, z_ra
 
 
 def facade_patch(*, width: float = 12.0, height: float = 6.0, bulge: float = 0.9,
-                 twist: float = 0.6, nu: int = 33, nv: int = 17):
+                 sag: float = 0.4, twist: float = 0.6, nu: int = 33, nv: int = 17):
     """A doubly curved facade: a vertical wall in the x-z plane (x east, z up) bulging
-    towards -y (south, the outside) with a gentle saddle twist. The outside faces -y.
+    ``bulge`` towards -y (south, the outside) in plan, curving back by ``sag`` towards the
+    top and bottom, with a saddle ``twist``. The outside faces -y.
 
-    Sizes in metres. ``nu x nv`` vertices; 33 x 33 gives the paper's Fig. 7a size
-    (1089 vertices, 2048 faces).
+    The curvature is anticlastic everywhere (negative Gaussian curvature), so the normal
+    congruence has no umbilics and its torsal directions are defined on every face.
+    Sizes in metres; ``nu x nv`` vertices: 33 x 33 gives the paper's Fig. 7a size
+    (1089 vertices, 2048 faces), 33 x 17 the Fig. 7d size (561 vertices, 1024 faces).
     """
     s = np.linspace(-0.5, 0.5, nu)
     t = np.linspace(-0.5, 0.5, nv)
     S, T = np.meshgrid(s, t, indexing="ij")
     x = S * width
     z = (T + 0.5) * height
-    y = -bulge * (1.0 - 4.0 * S**2) * (1.0 - 0.5 * (2.0 * T) ** 2) - twist * S * T
+    y = -bulge * (1.0 - 4.0 * S**2) - sag * 4.0 * T**2 - twist * S * T
     V = np.c_[x.ravel(), y.ravel(), z.ravel()]
     # grid_faces winds counter-clockwise in (x, z), so the normals point to -y (outside)
     return V, grid_faces(nu, nv)

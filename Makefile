@@ -1,0 +1,39 @@
+# torsal: two commands on a fresh machine.
+#   make demo   create .venv, install torsal, run the example, write out/
+#   make test   create .venv, install torsal with test extras, run the test suite
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.torsal-installed
+
+.PHONY: demo test bench clean install
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	@# OpenCascade (build123d) needs libGL at import time; install it if we can, else say how
+	@if ! $(PY) -c "import build123d" 2>$(VENV)/import-error.txt; then \
+	  if grep -q "libGL" $(VENV)/import-error.txt && [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "build123d needs libGL: installing libgl1 with apt-get"; \
+	    apt-get update -qq && apt-get install -y -qq libgl1 && $(PY) -c "import build123d"; \
+	  elif grep -q "libGL" $(VENV)/import-error.txt; then \
+	    echo "build123d cannot load libGL. Fix it with:  sudo apt-get install -y libgl1"; exit 1; \
+	  else cat $(VENV)/import-error.txt; exit 1; fi; \
+	fi
+	@touch $(STAMP)
+
+demo: $(STAMP)
+	$(PY) examples/make_facade.py
+	$(VENV)/bin/torsal analyze examples/facade_patch.obj --out out/
+
+test: $(STAMP)
+	$(PY) -m pytest
+
+bench: $(STAMP)
+	$(PY) benchmarks/congruence_bench.py
+
+clean:
+	rm -rf out .pytest_cache

@@ -1,0 +1,84 @@
+"""The ``torsal`` command line: parses, shows progress, calls :mod:`torsal.design`.
+
+No geometry here; this is the only module that prints to the terminal.
+Exit status: 0 on success, 2 on bad input (a message names the problem), 1 on other failures.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+__all__ = ["main"]
+
+
+def _build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="torsal",
+        description="Discrete line congruences for shading and lighting: from a design surface "
+                    "and the sun to buildable planar fins.",
+    )
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    a = sub.add_parser("analyze", help="analyze the line congruence of a mesh (torsal directions, "
+                                       "focal points, hyperbolicity, normality)")
+    a.add_argument("mesh", help="triangle mesh A (OBJ, PLY, STL or OFF) in model units")
+    g = a.add_mutually_exclusive_group()
+    g.add_argument("--normals", action="store_true",
+                   help="use the normal congruence of A (the default)")
+    g.add_argument("--directions", metavar="FILE",
+                   help="per-vertex line directions: .npy or text with one 'x y z' row per vertex")
+    a.add_argument("--out", metavar="DIR", default=None,
+                   help="write analysis.json and torsal_field.png here")
+    a.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    return p
+
+
+def _analyze(args, console) -> int:
+    from .design import analyze
+
+    t0 = time.perf_counter()
+    with console.status(f"analyzing {args.mesh} ..."):
+        res = analyze(args.mesh, directions=args.directions, out_dir=args.out,
+                      plot=not args.no_plot)
+    s = res.summary
+    from rich.table import Table
+
+    table = Table(title=f"congruence of {args.mesh} ({s['directions']})", show_header=False)
+    table.add_row("vertices / faces", f"{s['vertices']} / {s['faces']}")
+    table.add_row("average edge length", f"{s['average_edge_length']:.4g}")
+    table.add_row("hyperbolic faces", f"{s['hyperbolic_faces']} ({100 * s['hyperbolic_share']:.1f}%)")
+    table.add_row("line-bundle faces", str(s["bundle_faces"]))
+    fd = s["focal_distance"]
+    if fd:
+        table.add_row("focal distance", f"{fd['min']:.4g} .. {fd['max']:.4g} (median {fd['median']:.4g})")
+    table.add_row("focal points at infinity", str(s["focal_points_at_infinity"]))
+    nr = s["normality_residual_relative"]
+    if nr:
+        table.add_row("normality residual (eq 7) / delta", f"median {nr['median']:.3g}, max {nr['max']:.3g}")
+    ta = s["torsal_angle_deg"]
+    if ta:
+        table.add_row("torsal angle (deg)", f"min {ta['min']:.1f}, median {ta['median']:.1f}")
+    console.print(table)
+    for kind, path in res.files.items():
+        console.print(f"wrote {kind}: {path}")
+    console.print(f"done in {time.perf_counter() - t0:.2f} s")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    from rich.console import Console
+
+    args = _build_parser().parse_args(argv)
+    console = Console(stderr=False)
+    err = Console(stderr=True)
+    try:
+        if args.command == "analyze":
+            return _analyze(args, console)
+    except (FileNotFoundError, ValueError) as exc:
+        err.print(f"[bold red]error:[/] {exc}")
+        return 2
+    return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
