@@ -30,7 +30,59 @@ def _build_parser() -> argparse.ArgumentParser:
     a.add_argument("--out", metavar="DIR", default=None,
                    help="write analysis.json and torsal_field.png here")
     a.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    d = sub.add_parser("design", help="run a design file end to end: optimize the congruence, "
+                                      "remesh, build the support structure, measure the light, "
+                                      "write STEP / 3DM / DXF / parts list and a report")
+    d.add_argument("file", help="TOML design file")
+    d.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    d.add_argument("--no-cache", action="store_true", help="recompute every stage")
     return p
+
+
+def _design(args, console) -> int:
+    from rich.live import Live
+    from rich.table import Table
+
+    from .design import STAGES, Design
+
+    design = Design.from_toml(args.file)
+    status = {s: ("waiting", "") for s in STAGES}
+    t_start = time.perf_counter()
+
+    def render():
+        t = Table(title=f"{design.spec.name}  ({time.perf_counter() - t_start:.0f} s)")
+        t.add_column("stage")
+        t.add_column("state")
+        t.add_column("detail")
+        for s in STAGES:
+            st, detail = status[s]
+            colour = {"done": "green", "cached": "cyan", "running": "yellow"}.get(st, "dim")
+            t.add_row(s, f"[{colour}]{st}[/]", detail)
+        return t
+
+    with Live(render(), console=console, refresh_per_second=4, transient=False) as live:
+        def progress(stage, event, info):
+            if event == "start":
+                status[stage] = ("running", "")
+            elif event == "iteration":
+                status[stage] = ("running", f"iteration {info.get('iteration')}, energy "
+                                            f"{info.get('objective', float('nan')):.4g}, "
+                                            f"infeasibility {info.get('infeasibility', float('nan')):.2g}")
+            elif event == "done":
+                status[stage] = ("done", f"{info['seconds']:.1f} s")
+            elif event == "cached":
+                status[stage] = ("cached", "inputs unchanged")
+            live.update(render())
+
+        res = design.run(args.out, progress=progress, use_cache=not args.no_cache)
+    r = res.report
+    s, li, fa = r["support"], r["light"], r["fabrication"]
+    console.print(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
+                  f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
+                  f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
+                  f"{fa['parts']} parts on {fa['sheets']} sheets")
+    console.print(f"wrote {len(res.files)} outputs to {args.out} (report: {args.out}/report.html)")
+    return 0
 
 
 def _analyze(args, console) -> int:
@@ -71,10 +123,14 @@ def main(argv: list[str] | None = None) -> int:
     args = _build_parser().parse_args(argv)
     console = Console(stderr=False)
     err = Console(stderr=True)
+    from .design import DesignError
+
     try:
         if args.command == "analyze":
             return _analyze(args, console)
-    except (FileNotFoundError, ValueError) as exc:
+        if args.command == "design":
+            return _design(args, console)
+    except (FileNotFoundError, ValueError, DesignError) as exc:
         err.print(f"[bold red]error:[/] {exc}")
         return 2
     return 1

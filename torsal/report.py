@@ -7,7 +7,8 @@ import numpy as np
 
 from ._io import atomic_path
 
-__all__ = ["plot_torsal_field", "principal_plane"]
+__all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
+           "design_report_html", "write_design_report"]
 
 
 def principal_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,3 +127,214 @@ def plot_torsal_field(congruence, path: str | Path, *, title: str | None = None,
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
     return path
+
+
+# ====================================================================== design report
+def _figure(figsize):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=110)
+
+
+def _save(fig, path: Path) -> str:
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    return path.name
+
+
+def plot_fins(structure, surface, path: str | Path, *, title: str = "") -> Path:
+    """3D view of the fins over the surface, each fin coloured by its planarity (Fig. 12's
+    measure: distance of the diagonals / their mean length, log scale), seen from outside."""
+    from matplotlib.colors import LogNorm
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    v, f = surface
+    quads = structure.fin_quads()
+    pl = np.maximum(structure.planarity(), 1e-9)
+    fig = _figure((11, 7.5))
+    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    ax.add_collection3d(Poly3DCollection(v[f], facecolor=(0.75, 0.78, 0.82, 0.35),
+                                         edgecolor=(0.6, 0.6, 0.6, 0.08), linewidths=0.2))
+    norm = LogNorm(vmin=1e-6, vmax=max(1e-2, float(pl.max())))
+    pc = Poly3DCollection(quads, array=pl, cmap="plasma", norm=norm, edgecolor=(0, 0, 0, 0.25),
+                          linewidths=0.15)
+    ax.add_collection3d(pc)
+    cb = fig.colorbar(pc, ax=ax, shrink=0.7, pad=0.08)
+    cb.set_label("fin planarity: diagonal distance / mean diagonal (log)")
+    pts = np.concatenate([v, structure.vertices_b])
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    mid, rad = (lo + hi) / 2, (hi - lo).max() / 2
+    ax.set_xlim(mid[0] - rad, mid[0] + rad)
+    ax.set_ylim(mid[1] - rad, mid[1] + rad)
+    ax.set_zlim(mid[2] - rad, mid[2] + rad)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
+    n /= np.linalg.norm(n)
+    ax.view_init(elev=float(np.clip(np.degrees(np.arcsin(n[2])), 15, 60)),
+                 azim=float(np.degrees(np.arctan2(n[1], n[0]))) + 25)
+    ax.set_xlabel("x (east)")
+    ax.set_ylabel("y (north)")
+    ax.set_zlabel("z (up)")
+    ax.set_title(title or f"{len(quads)} fins, delta_pl = {structure.delta_pl:.2e}")
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str = "") -> Path:
+    """Map of the blocked share of direct sun at the sample points, seen in the surface's
+    principal plane (0 = all sun gets through, 1 = fully shaded)."""
+    from matplotlib.collections import PolyCollection
+
+    v, f = surface
+    c, axes = principal_plane(v)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
+    if n @ axes[2] < 0:
+        axes = axes * [[1], [-1], [-1]]
+    uv = (v - c) @ axes[:2].T
+    p2 = (np.asarray(points) - c) @ axes[:2].T
+    fig = _figure((11, 5.5))
+    ax = fig.add_subplot(1, 1, 1)
+    ax.add_collection(PolyCollection(uv[f], facecolor=(0.92, 0.92, 0.92), edgecolor=(0.7, 0.7, 0.7, 0.3),
+                                     linewidths=0.2))
+    ok = np.isfinite(per_point)
+    sc = ax.scatter(p2[ok, 0], p2[ok, 1], c=per_point[ok], cmap="RdYlGn", vmin=0, vmax=1, s=9)
+    if (~ok).any():
+        ax.scatter(p2[~ok, 0], p2[~ok, 1], c="0.6", s=4, marker="x", label="no direct sun")
+        ax.legend(loc="upper right", fontsize=8)
+    cb = fig.colorbar(sc, ax=ax)
+    cb.set_label("share of direct sun blocked by the fins")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_xlabel("along the surface, principal axis 1 (model units)")
+    ax.set_ylabel("principal axis 2 (model units)")
+    ax.set_title(title or "blocked direct sun at the design hours")
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def plot_sheets(layout, path: str | Path, *, max_sheets: int = 6) -> Path:
+    """The nested cutting sheets: part outlines (cut), fold lines (dashed) and part ids."""
+    from matplotlib.patches import Rectangle
+
+    k = min(layout.n_sheets, max_sheets)
+    cols = min(k, 2)
+    rows = (k + cols - 1) // cols
+    W, H = layout.sheet
+    fig = _figure((7 * cols, 3.8 * rows + 0.4))
+    for s in range(k):
+        ax = fig.add_subplot(rows, cols, s + 1)
+        ax.add_patch(Rectangle((0, 0), W, H, fill=False, edgecolor="k", linewidth=1.2))
+        for pl in layout.on_sheet(s):
+            x, y = pl.polygon.exterior.xy
+            ax.fill(x, y, facecolor=(0.55, 0.7, 0.9, 0.6), edgecolor="tab:blue", linewidth=0.6)
+            for line, _angle in pl.folds:
+                fx, fy = line.xy
+                ax.plot(fx, fy, "--", color="tab:red", linewidth=0.5)
+            ax.text(pl.label[0], pl.label[1], pl.name, fontsize=4, ha="center", va="center")
+        ax.set_xlim(-0.02 * W, 1.02 * W)
+        ax.set_ylim(-0.02 * H, 1.02 * H)
+        ax.set_aspect("equal")
+        ax.set_title(f"sheet {s + 1} of {layout.n_sheets}: {100 * layout.sheet_utilization[s]:.0f}% used",
+                     fontsize=9)
+        ax.set_xlabel(f"{layout.unit}")
+        ax.set_ylabel(f"{layout.unit}")
+    return Path(path).parent / _save(fig, Path(path))
+
+
+_HTML = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<style>
+body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}
+table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}
+td, th {{ border: 1px solid #ccc; padding: 0.3em 0.8em; text-align: left; }}
+th {{ background: #f2f2f2; }} td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
+img {{ max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }}
+.bad {{ color: #b00; font-weight: bold; }} .ok {{ color: #070; font-weight: bold; }}
+</style></head><body>
+<h1>{title}</h1>
+<p>torsal design report. Method: Wang et al. 2013, <i>Discrete Line Congruences for Shading and
+Lighting</i>. Units: {units}. All numbers below are measured on this design.</p>
+{sections}
+</body></html>
+"""
+
+
+def _table(rows, header=("quantity", "value")) -> str:
+    def cell(x):
+        if isinstance(x, float):
+            return f'<td class="num">{x:.4g}</td>'
+        return f"<td>{x}</td>"
+
+    body = "".join("<tr>" + "".join(cell(c) for c in r) + "</tr>" for r in rows)
+    return "<table><tr>" + "".join(f"<th>{h}</th>" for h in header) + "</tr>" + body + "</table>"
+
+
+def design_report_html(report: dict, images: dict, title: str) -> str:
+    """The HTML report: tables of every figure in ``report`` and the PNGs next to it."""
+    import html
+
+    c, s, li, fa = (report.get(k, {}) for k in ("congruence", "support", "light", "fabrication"))
+    secs = []
+    if c:
+        rows = [("vertices / faces", f"{c['vertices']} / {c['faces']}"),
+                ("solver status", html.escape(str(c["status"]))),
+                ("build / solve time (s)", f"{c['build_s']:.2f} / {c['solve_s']:.2f}"),
+                ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
+                ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
+                 is not None else "n/a")]
+        rows += [(f"energy {k} (before &rarr; after)",
+                  f"{c['energies_before'].get(k, float('nan')):.4g} &rarr; {v:.4g}")
+                 for k, v in c["energies"].items()]
+        secs.append("<h2>1. Optimized line congruence (paper 4.1)</h2>" + _table(rows))
+        if "torsal_field" in images:
+            secs.append(f'<img src="{images["torsal_field"]}" alt="torsal direction fields">')
+    if s:
+        ok = s["delta_pl_optimized"] <= 1e-4
+        rows = [("faces of A~ (quads)", f"{s['faces']} ({s['quads']})"), ("fins (edges)", s["edges"]),
+                ("delta_pl after extraction", s["delta_pl_extracted"]),
+                ("delta_pl after optimization",
+                 f'<span class="{"ok" if ok else "bad"}">{s["delta_pl_optimized"]:.2e}</span>'),
+                ("support optimization (s)", s["solve_s"]), ("status", html.escape(s["status"]))]
+        secs.append("<h2>2. Torsion-free support structure (paper 4.2, eq. 8)</h2>" + _table(rows))
+        if "fins" in images:
+            secs.append(f'<img src="{images["fins"]}" alt="fins coloured by planarity">')
+    if li:
+        b = li["baseline_louvers"]
+        rows = [("fins of this design", li["blocked_share"], li["transparency"], li["transparency_cone"]),
+                ("horizontal louvers, same depth and spacing", b["blocked_share"], b["transparency"],
+                 b["transparency_cone"])]
+        secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>"
+                    + _table(rows, ("design", "direct sun blocked", "view clear along normal",
+                                    "view clear over 60&deg; cone")))
+        if "blocked_sun" in images:
+            secs.append(f'<img src="{images["blocked_sun"]}" alt="blocked sun map">')
+    if fa:
+        dxf = fa.get("dxf") or []
+        rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
+                ("sheet utilization", fa["utilization"]),
+                ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
+                ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
+        secs.append("<h2>4. Fabrication</h2>" + _table(rows))
+        if "sheets" in images:
+            secs.append(f'<img src="{images["sheets"]}" alt="nested cutting sheets">')
+    return _HTML.format(title=html.escape(title), units=html.escape(str(report.get("units", ""))),
+                        sections="\n".join(secs))
+
+
+def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,
+                        surface, layout) -> dict:
+    """Write the PNG renders and ``report.html`` for a design run; returns {kind: file name}."""
+    out = Path(out)
+    images = {
+        "torsal_field": plot_torsal_field(congruence, out / "torsal_field.png",
+                                          title=f"{spec.name}: optimized congruence").name,
+        "fins": plot_fins(structure, surface, out / "fins.png").name,
+        "blocked_sun": plot_blocked_sun(light_map["points"], light_map["per_point"], surface,
+                                        out / "blocked_sun.png").name,
+    }
+    if layout is not None and layout.n_sheets:
+        images["sheets"] = plot_sheets(layout, out / "sheets.png").name
+    with atomic_path(out / "report.html") as tmp:
+        tmp.write_text(design_report_html(report, images, spec.name))
+    return {**images, "report_html": "report.html"}

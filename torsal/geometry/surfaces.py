@@ -25,6 +25,7 @@ __all__ = [
     "surface_of_revolution",
     "facade_patch",
     "canopy",
+    "flat_facade",
     "GENERATORS",
 ]
 
@@ -122,10 +123,21 @@ def canopy(*, span: float = 10.0, rise: float = 2.5, sag: float = 0.8, nu: int =
     return V, grid_faces(nu, nv)
 
 
+def flat_facade(*, width: float = 12.0, height: float = 6.0, nu: int = 33, nv: int = 17):
+    """A truly flat facade (Fig. 7d): the plane y = 0 over ``width x height`` metres
+    (x east, z up), outside towards -y."""
+    x = np.linspace(-width / 2, width / 2, nu)
+    z = np.linspace(0.0, height, nv)
+    X, Z = np.meshgrid(x, z, indexing="ij")
+    V = np.c_[X.ravel(), np.zeros(X.size), Z.ravel()]
+    return V, grid_faces(nu, nv)
+
+
 #: Named generators for design files: name -> callable(**params) -> (vertices, faces)
 GENERATORS: dict[str, Callable[..., tuple[np.ndarray, np.ndarray]]] = {
     "facade_patch": facade_patch,
     "canopy": canopy,
     "sphere_patch": sphere_patch,
     "cylinder_patch": cylinder_patch,
+    "flat_facade": flat_facade,
 }
