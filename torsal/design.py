@@ -29,7 +29,8 @@ __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignErro
            "DesignFileError", "STAGES"]
 
 #: Pipeline stages in order.
-STAGES = ("surface", "sun", "congruence", "remesh", "support", "light", "fabrication")
+STAGES = ("surface", "sun", "congruence", "remesh", "support", "light", "substructure",
+          "fabrication")
 _CACHE_VERSION = "1"
 
 
@@ -286,8 +287,10 @@ class Design:
         weights = {rename.get(k, k): val for k, val in weights.items()}
         p = CongruenceProblem(c0)
         wget = weights.get
-        p.normal(weight=wget("normal", 2.0))
-        p.fair(weight=wget("fair", 1.0))
+        if wget("normal", 2.0) > 0:
+            p.normal(weight=wget("normal", 2.0))
+        if wget("fair", 1.0) > 0:
+            p.fair(weight=wget("fair", 1.0))
         if wget("fair_torsal"):
             p.fair_torsal(weight=wget("fair_torsal"))
         g = spec.goals
@@ -336,6 +339,16 @@ class Design:
             p.hyperbolic(margin=C.hyperbolic_margin)
         if C.min_torsal_angle is not None:
             p.min_torsal_angle(C.min_torsal_angle)
+        if spec.substructure is not None:
+            # Fig. 11: a second congruence behind A, optimized together with the first so that
+            # their torsal directions coincide (f_extra)
+            sub = spec.substructure
+            v2 = v - sub.offset * c0.directions
+            q = CongruenceProblem(Congruence.from_normals((v2, f)))
+            q.normal(weight=wget("normal", 2.0)).fair(weight=wget("fair", 1.0))
+            if C.hyperbolic:
+                q.hyperbolic(margin=C.hyperbolic_margin)
+            p.align_with(q, weight=sub.weight, label="substructure")
         return p
 
     def _stroke_faces(self, v, f):
@@ -467,7 +480,13 @@ class Design:
                     f"the congruence optimization did not converge ({r.status}); worst constraint: "
                     f"{max(r.max_violation, key=r.max_violation.get) if r.max_violation else 'none'}. "
                     "Relax [constraints] (e.g. min_torsal_angle) or raise constraints.max_iter")
+            extra = {}
+            if len(r.congruences) > 1:
+                c2 = r.congruences[1]
+                extra = {"substructure_vertices": np.asarray(c2.vertices),
+                         "substructure_directions": np.asarray(c2.directions)}
             return {
+                **extra,
                 "directions": np.asarray(c.directions),
                 "report": {
                     "vertices": int(len(v)), "faces": int(len(f)),
@@ -539,7 +558,15 @@ class Design:
             louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
             lb = direct_sun_blocked(louvers, (v, f), sun["vectors"], samples=n, weights=sun["weights"])
             lt = transparency(louvers, (v, f), samples=n // 2)
+            extra = {}
+            if spec.goals.reflect is not None:
+                from .light import reflected_hits
+
+                extra["reflected_to_target"] = float(reflected_hits(
+                    fins, sun["vectors"], _target_patch(spec.goals.reflect.target, v),
+                    weights=sun["weights"], resolution=128).share)
             return {"report": {
+                **extra,
                 "sun_directions": int(len(sun["vectors"])),
                 "blocked_share": float(blocked.share),
                 "transparency": float(clear.along_normal),
@@ -551,6 +578,30 @@ class Design:
 
         light = stage("light", (sup["_key"], sun["_key"], spec.outputs.light_samples), run_light)
         res.report["light"] = light["report"]
+
+        substructure = None
+        if "substructure_directions" in cong:
+            def run_substructure():
+                from .geometry.remesh import remesh_torsal
+                from .geometry.support import optimize_support
+
+                v2 = cong["substructure_vertices"]
+                c2 = Congruence(v2, f, cong["substructure_directions"])
+                s2 = remesh_torsal(c2, spec.fins.spacing)
+                e = s2.vertices_b - s2.vertices_a
+                s2.vertices_b = s2.vertices_a + spec.substructure.depth * e / np.linalg.norm(
+                    e, axis=1, keepdims=True)
+                extracted = s2.delta_pl
+                r2 = optimize_support(s2, reference=(v2, f))
+                return {"structure": r2.structure, "report": {
+                    "edges": int(len(r2.structure.edges)),
+                    "delta_pl_extracted": float(extracted),
+                    "delta_pl_optimized": float(r2.structure.delta_pl)}}
+
+            sub = stage("substructure", (cong["_key"], spec.fins.model_dump(),
+                                         spec.substructure.model_dump()), run_substructure)
+            substructure = sub["structure"]
+            res.report["substructure"] = sub["report"]
 
         files: dict = {}
 
@@ -593,6 +644,9 @@ class Design:
 
         # geometry outputs and the report are cheap: always written fresh
         files.update(_write_geometry(out, congruence, structure))
+        if substructure is not None:
+            _write_structure_obj(out / "substructure.obj", substructure)
+            files["substructure"] = "substructure.obj"
         write_json(out / "report.json", res.report)
         files["report_json"] = "report.json"
         if spec.outputs.renders:
@@ -600,6 +654,17 @@ class Design:
                                              light["map"], (v, f), fab.get("layout")))
         res.files = files
         return res
+
+
+def _target_patch(target, vertices, size: float | None = None):
+    """A horizontal square around a reflection target (a patch of ceiling), as a trimesh;
+    its side is a third of the surface's extent unless given."""
+    import trimesh
+
+    t = np.asarray(target, float)
+    h = 0.5 * (size or np.ptp(vertices, axis=0).max() / 3.0)
+    corners = t + np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, h, 0]])
+    return trimesh.Trimesh(corners, [[0, 1, 2], [0, 2, 3]], process=False)
 
 
 def _flat(x):
@@ -625,7 +690,13 @@ def _write_geometry(out: Path, congruence: Congruence, structure) -> dict:
     lines += [f"3 {a} {b} {c}" for a, b, c in f]
     with atomic_path(out / "congruence.ply") as tmp:
         tmp.write_text("\n".join(lines) + "\n")
-    s = structure
+    _write_structure_obj(out / "support.obj", structure)
+    return {"congruence": "congruence.ply", "support": "support.obj"}
+
+
+def _write_structure_obj(path: Path, s) -> None:
+    """A support structure as OBJ: groups A (nodes on the surface), B, and the fins of
+    each family (one quad per edge)."""
     n = len(s.vertices_a)
     obj = ["# torsal support structure: A~ (nodes on the surface), B~, one fin quad per edge"]
     obj += [f"v {x:.12g} {y:.12g} {z:.12g}" for x, y, z in s.vertices_a]
@@ -638,6 +709,5 @@ def _write_geometry(out: Path, congruence: Congruence, structure) -> dict:
         obj.append(f"g fins_family_{fam}")
         for i, j in s.edges[s.edge_family == fam]:
             obj.append(f"f {i + 1} {j + 1} {j + 1 + n} {i + 1 + n}")
-    with atomic_path(out / "support.obj") as tmp:
+    with atomic_path(path) as tmp:
         tmp.write_text("\n".join(obj) + "\n")
-    return {"congruence": "congruence.ply", "support": "support.obj"}

@@ -251,6 +251,15 @@ class OutputsSpec(_Spec):
     light_samples: int = Field(1500, gt=0)
 
 
+class SubstructureSpec(_Spec):
+    """A second, aligned congruence (Fig. 11): a steel substructure on a surface offset
+    behind A whose torsal directions coincide with the fins' (f_extra)."""
+
+    offset: float = Field(0.3, gt=0, description="distance behind A along -normal, model units")
+    weight: float = Field(200.0, ge=0, description="w_extra")
+    depth: float = Field(0.15, gt=0, description="beam depth along its lines, model units")
+
+
 class DesignSpec(_Spec):
     """A whole design file."""
 
@@ -265,6 +274,7 @@ class DesignSpec(_Spec):
     fins: FinsSpec
     material: MaterialSpec = Field(default_factory=MaterialSpec)
     outputs: OutputsSpec = Field(default_factory=OutputsSpec)
+    substructure: SubstructureSpec | None = None
 
     @model_validator(mode="after")
     def _site_for_dates(self):
