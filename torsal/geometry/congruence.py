@@ -83,12 +83,6 @@ def _norm(x: np.ndarray) -> np.ndarray:
     return np.sqrt(_dot(x, x))
 
 
-def _unit(x: np.ndarray) -> np.ndarray:
-    n = _norm(x)[..., None]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return x / n
-
-
 @dataclass(frozen=True)
 class FaceFrame:
     """The affine congruence of eq. (4) at one point per face, all (F, 3).
