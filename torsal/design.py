@@ -607,7 +607,8 @@ class Design:
 
             m = spec.material
             fs = FinSystem(structure, m.thickness_mm, family_split=m.family_split.value,
-                           clearance=m.clearance_mm, model_unit=spec.units, unit="mm")
+                           clearance=m.clearance_mm, fit_sheet=tuple(m.sheet_mm),
+                           model_unit=spec.units, unit="mm")
             written = {}
             if spec.outputs.step:
                 fs.export_step(out / "fins.step")

@@ -1,0 +1,189 @@
+"""FinSystem: grouping of fins into parts, ids, slots of crossing strips, trimming, errors."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from fab_structures import cylinder_structure, developable_strip, flat_structure, sphere_structure
+from torsal.fabrication import FamilySplit, FinSystem, PartId, SlotSide
+from torsal.geometry.support import SupportStructure
+
+
+def test_egg_crate_one_part_per_strip_with_stable_ids_and_colours():
+    s = sphere_structure(nu=4, nv=3)
+    fs = FinSystem(s, thickness=3.0)
+    assert len(fs.parts) == len(s.fins()) == 3 + 4
+    assert fs.n_panels == len(s.edges)
+    assert [p.name for p in fs.parts[:2]] == ["F0-S000-P00", "F0-S001-P00"]
+    assert fs.parts[3].id == PartId(1, 0, 0)
+    # ids are stable: rebuilding gives the same names for the same panels
+    again = FinSystem(s, thickness=3.0)
+    assert [p.name for p in again.parts] == [p.name for p in fs.parts]
+    assert all(np.array_equal(p.edges, q.edges) for p, q in zip(fs.parts, again.parts))
+    cols = {p.family: p.color for p in fs.parts}
+    assert cols[0] != cols[1] and all(p.color == cols[p.family] for p in fs.parts)
+    # every fin is used exactly once
+    assert sorted(np.concatenate([p.edges for p in fs.parts]).tolist()) == list(range(len(s.edges)))
+
+
+@pytest.mark.parametrize("make", [sphere_structure, cylinder_structure, flat_structure])
+@pytest.mark.parametrize("ratio", [0.5, 0.3])
+def test_slot_depths_add_up_to_fin_depth_and_widths_match(make, ratio):
+    s = make()
+    t, c = 3.0, 0.4
+    fs = FinSystem(s, thickness=t, clearance=c, slot_ratio=ratio)
+    # interior nodes of a 4x3 grid are the X crossings
+    assert sorted(x.node for x in fs.crossings) == [5, 6]
+    depth = np.linalg.norm(s.vertices_b - s.vertices_a, axis=1) * 1000.0
+    for x in fs.crossings:
+        s0 = [sl for p in fs.parts if p.family == 0 for sl in p.slots if sl.node == x.node]
+        s1 = [sl for p in fs.parts if p.family == 1 for sl in p.slots if sl.node == x.node]
+        assert len(s0) == len(s1) == 1
+        assert s0[0].side == SlotSide.B and s1[0].side == SlotSide.A
+        assert s0[0].depth + s1[0].depth == pytest.approx(depth[x.node], rel=1e-12)
+        assert s0[0].depth == pytest.approx(ratio * depth[x.node], rel=1e-12)
+        assert s0[0].width == s1[0].width == pytest.approx(t + c)
+
+
+def test_boundary_ends_are_trimmed_against_the_crossing_plate():
+    t, c = 3.0, 0.5
+    s = flat_structure()
+    fs = FinSystem(s, thickness=t, clearance=c)
+    # flat grid, step 300 mm: a column (family 1) ends on rows 0 and 2 (T junctions) and is
+    # shortened by t/2 + c/2 at both ends; row 1 ends on the boundary columns
+    col = fs.part("F1-S001-P00")
+    assert col.trimmed == (True, True)
+    length = np.linalg.norm(col.panels[-1, 1] - col.panels[0, 0])
+    assert length == pytest.approx(600.0 - 2 * (t / 2 + c / 2), rel=1e-12)
+    assert fs.part("F0-S001-P00").trimmed == (True, True)
+    # corners (L junctions): family 0 continues, family 1 butts
+    assert fs.part("F0-S000-P00").trimmed == (False, False)
+    assert fs.part("F1-S000-P00").trimmed == (True, True)
+
+
+def test_family0_continuous_cuts_family1_into_single_panels():
+    fs = FinSystem(sphere_structure(), thickness=3.0, family_split="family0-continuous")
+    assert fs.family_split is FamilySplit.FAMILY0_CONTINUOUS
+    f0 = [p for p in fs.parts if p.family == 0]
+    f1 = [p for p in fs.parts if p.family == 1]
+    assert len(f0) == 3 and all(len(p.panels) == 3 for p in f0)
+    assert len(f1) == 8 and all(len(p.panels) == 1 for p in f1)
+    assert not fs.crossings and not any(p.slots for p in fs.parts)
+    assert all(p.trimmed == (True, True) for p in f1)
+
+
+def test_sharp_folds_and_long_strips_are_split():
+    quads, folds = developable_strip(k=6, seed=0, max_fold_deg=50.0)
+    deg = np.degrees(np.abs(folds))
+    fs = FinSystem.from_strips([quads], thickness=2.0, max_fold_angle=30.0)
+    assert len(fs.parts) == 1 + np.count_nonzero(deg > 30.0)
+    for p in fs.parts:
+        assert np.all(np.degrees(np.abs(p.fold_angles)) <= 30.0)
+    fs2 = FinSystem.from_strips([quads], thickness=2.0, max_panels=4)
+    assert [len(p.panels) for p in fs2.parts] == [3, 3]
+    assert fs2.parts[0].name == "D-S000-P00"
+
+
+def test_closed_strips_become_two_parts():
+    s = cylinder_structure(nu=8, closed=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fs = FinSystem(s, thickness=3.0, fit_sheet=None)
+    rows = [p for p in fs.parts if p.family == 0]
+    assert len(rows) == 6 and all(len(p.panels) == 4 for p in rows)
+
+
+def test_parts_are_halved_until_they_fit_the_sheet():
+    s = cylinder_structure(nu=8, closed=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = FinSystem(s, thickness=3.0, fit_sheet=None)
+        fs = FinSystem(s, thickness=3.0, fit_sheet=(2500.0, 1250.0))
+    assert len(fs.parts) > len(whole.parts)
+    from shapely.geometry import box
+
+    for u in fs.unrolled().values():
+        rect = u.outline.minimum_rotated_rectangle
+        c = np.asarray(rect.exterior.coords)
+        sides = sorted([np.linalg.norm(c[1] - c[0]), np.linalg.norm(c[2] - c[1])])
+        assert sides[1] <= 2480 and sides[0] <= 1230
+    lay = fs.layout(sheet=(2500.0, 1250.0))
+    assert all(box(0, 0, 2500, 1250).contains(p.polygon) for p in lay.placements)
+    with pytest.raises(ValueError, match="fit_sheet"):
+        FinSystem(s, thickness=3.0, fit_sheet=(10.0, 10.0))
+
+
+def test_warns_when_clearance_is_too_small_for_folded_crossings():
+    s = cylinder_structure(nu=8, closed=True)
+    with pytest.warns(UserWarning, match="clearance"):
+        fs = FinSystem(s, thickness=3.0, clearance=0.5)
+    need = max(x.required_clearance for x in fs.crossings)
+    assert need > 0.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        FinSystem(s, thickness=3.0, clearance=need)
+
+
+def test_units_scale_the_structure():
+    s = flat_structure()
+    mm = FinSystem(s, thickness=3.0)
+    cm = FinSystem(s, thickness=0.3, clearance=0.05, unit="cm")
+    np.testing.assert_allclose(mm.parts[0].panels, 10 * cm.parts[0].panels, rtol=1e-12)
+
+
+@pytest.mark.parametrize("kw, msg", [
+    ({"thickness": 0.0}, "thickness"),
+    ({"thickness": -1.0}, "thickness"),
+    ({"thickness": 3.0, "clearance": -0.1}, "clearance"),
+    ({"thickness": 3.0, "family_split": "welded"}, "welded"),
+    ({"thickness": 3.0, "unit": "furlong"}, "unit"),
+    ({"thickness": 3.0, "slot_ratio": 1.0}, "slot_ratio"),
+])
+def test_bad_options_raise_clear_errors(kw, msg):
+    with pytest.raises(ValueError, match=msg):
+        FinSystem(flat_structure(), **kw)
+
+
+def test_empty_structure_raises():
+    s = SupportStructure(np.zeros((0, 3)), np.zeros((0, 3)), [], np.zeros((0, 2), int), np.zeros(0, int))
+    with pytest.raises(ValueError, match="no edges"):
+        FinSystem(s, thickness=3.0)
+
+
+def test_zero_depth_node_raises():
+    s = flat_structure()
+    b = s.vertices_b.copy()
+    b[4] = s.vertices_a[4]
+    bad = SupportStructure(s.vertices_a, b, s.faces, s.edges, s.edge_family)
+    with pytest.raises(ValueError, match="zero fin depth"):
+        FinSystem(bad, thickness=3.0)
+
+
+def test_max_part_length_splits_strips_to_fit_sheets():
+    s = sphere_structure(nu=9, nv=3, step=0.1)              # rows of 8 panels of ~300 mm
+    fs = FinSystem(s, thickness=3.0, max_part_length=1000.0)
+    for p in fs.parts:
+        la = np.linalg.norm(p.panels[:, 1] - p.panels[:, 0], axis=1).sum()
+        lb = np.linalg.norm(p.panels[:, 2] - p.panels[:, 3], axis=1).sum()
+        assert max(la, lb) <= 1000.0
+    rows = [p for p in fs.parts if p.family == 0 and p.id.strip == 1]
+    assert [len(p.panels) for p in rows] == [3, 3, 2]
+    assert sorted(np.concatenate([p.edges for p in fs.parts]).tolist()) == list(range(len(s.edges)))
+    with pytest.raises(ValueError, match="max_part_length"):
+        FinSystem(s, thickness=3.0, max_part_length=0.0)
+
+
+@pytest.mark.filterwarnings("ignore:.*egg-crate crossings")
+def test_end_that_cannot_be_trimmed_is_reported_not_fatal():
+    # a column ends against row 0 almost tangentially: move its second node along the row
+    s = flat_structure()
+    a, b = s.vertices_a.copy(), s.vertices_b.copy()
+    a[5] = a[1] + [0.3, 0.005, 0.0]          # column 1: node 1 -> node 5 runs nearly along row 0
+    b[5] = a[5] + [0, 0, 0.1]
+    bad = SupportStructure(a, b, s.faces, s.edges, s.edge_family)
+    with pytest.warns(UserWarning, match="could not be butt-trimmed"):
+        fs = FinSystem(bad, thickness=3.0)
+    assert any(name == "F1-S001-P00" and node == 1 for name, node, _ in fs.untrimmed_joints)
+    assert fs.part("F1-S001-P00").trimmed[0] is False

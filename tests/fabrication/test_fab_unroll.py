@@ -1,0 +1,136 @@
+"""Unrolling: edge lengths preserved, fold-back reproduces the 3D part, slots as notches."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from shapely.geometry import LineString, Point
+
+from fab_structures import cylinder_structure, developable_strip, sphere_structure
+from torsal.fabrication import FinSystem, SlotSide, fold_back, unroll
+
+EDGES = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+
+
+def _edge_lengths(q):
+    return np.linalg.norm(q[..., EDGES[:, 0], :] - q[..., EDGES[:, 1], :], axis=-1)
+
+
+def _refold(u):
+    """Independent rebuild of 3D from the flat panels and the fold angles: start from the
+    first panel placed by the recorded frame, rotate everything after fold i about it."""
+    from scipy.spatial.transform import Rotation
+
+    o, e1, e2, _ = u.frame
+    x = o + u.panels[..., :1] * e1 + u.panels[..., 1:2] * e2
+    for i, ang in enumerate(u.fold_angles):
+        p, q = x[i, 1].copy(), x[i, 2].copy()
+        axis = (q - p) / np.linalg.norm(q - p)
+        rot = Rotation.from_rotvec(ang * axis)
+        x[i + 1:] = rot.apply((x[i + 1:] - p).reshape(-1, 3)).reshape(x[i + 1:].shape) + p
+    return x
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_developable_strip_unrolls_isometrically_and_folds_back(seed):
+    quads, folds = developable_strip(k=7, seed=seed, max_fold_deg=50.0)
+    quads = quads * 1000.0
+    u = unroll(quads)
+    assert u.planar
+    rel = np.abs(_edge_lengths(u.panels) - _edge_lengths(quads)) / _edge_lengths(quads)
+    assert rel.max() < 1e-9
+    # diagonals too: every panel is congruent to its 3D quad
+    for d in ((0, 2), (1, 3)):
+        l3 = np.linalg.norm(quads[:, d[0]] - quads[:, d[1]], axis=1)
+        l2 = np.linalg.norm(u.panels[:, d[0]] - u.panels[:, d[1]], axis=1)
+        assert np.abs(l2 - l3).max() / l3.min() < 1e-9
+    # recorded fold angles are the ones the strip was built with
+    np.testing.assert_allclose(u.fold_angles, folds, atol=1e-12)
+    size = np.linalg.norm(np.ptp(quads.reshape(-1, 3), axis=0))
+    for rebuilt in (_refold(u), fold_back(u)):
+        assert np.abs(rebuilt - quads).max() < 1e-6 * size
+    # flat panels do not overlap: union area == sum of areas
+    assert u.outline.area == pytest.approx(sum(abs(_shoelace(p)) for p in u.panels), rel=1e-9)
+
+
+def _shoelace(p):
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * (x @ np.roll(y, -1) - y @ np.roll(x, -1))
+
+
+def test_unrolled_panels_are_not_mirrored():
+    quads, _ = developable_strip(k=4, seed=5)
+    u = unroll(quads * 1000)
+    # the top side (+normal) is up: flat panels keep the orientation of a_i a_j b_j b_i
+    assert all(_shoelace(p) > 0 for p in u.panels)
+
+
+@pytest.mark.parametrize("make", [sphere_structure, cylinder_structure])
+def test_fin_system_parts_unroll_and_fold_back(make):
+    fs = FinSystem(make(), thickness=3.0, clearance=0.5)
+    for p in fs.parts:
+        u = unroll(p)
+        assert u.name == p.name
+        rel = np.abs(_edge_lengths(u.panels) - _edge_lengths(p.panels)) / _edge_lengths(p.panels)
+        assert rel.max() < 1e-9, p.name
+        assert u.max_edge_error < 1e-9
+        assert np.abs(_refold(u) - p.panels).max() < 1e-6 * p.size, p.name
+        np.testing.assert_allclose(u.fold_angles, p.fold_angles, atol=1e-12)
+
+
+def test_cylinder_rows_have_real_folds():
+    fs = FinSystem(cylinder_structure(), thickness=3.0)
+    row = fs.parts[0]
+    assert row.family == 0
+    # rows of the tilted cylinder are cone strips: equal, non-trivial folds
+    ang = np.degrees(row.fold_angles)
+    assert np.all(np.abs(ang) > 3.0)
+    np.testing.assert_allclose(ang, ang[0], atol=1e-9)
+    assert unroll(row).fold_count == len(row.panels) - 1
+
+
+def test_slots_are_notches_of_measured_depth_and_width():
+    t, c = 3.0, 0.5
+    fs = FinSystem(sphere_structure(), thickness=t, clearance=c)
+    n_checked = 0
+    for p in fs.parts:
+        u = unroll(p)
+        for s in p.slots:
+            pos = s.position
+            a2, b2 = (u.panels[0, 0], u.panels[0, 3]) if pos == 0 else (u.panels[pos - 1, 1], u.panels[pos - 1, 2])
+            fin = np.linalg.norm(b2 - a2)
+            line = LineString([a2, b2])
+            inside = line.intersection(u.outline)
+            # the node line is in the part only beyond the slot bottom
+            assert inside.length == pytest.approx(fin - s.depth, rel=1e-9)
+            start, other = (b2, a2) if s.side == SlotSide.B else (a2, b2)
+            ax = (other - start) / fin
+            perp = np.array([-ax[1], ax[0]])
+            mid = start + 0.5 * s.depth * ax
+            cross = LineString([mid - 10 * t * perp, mid + 10 * t * perp])
+            cut = cross.difference(u.outline)
+            # the removed piece around the node line has width thickness + clearance
+            piece = min(getattr(cut, "geoms", [cut]), key=lambda g: g.distance(Point(mid)))
+            assert piece.distance(Point(mid)) < 1e-9
+            assert piece.length == pytest.approx(t + c, rel=1e-9)
+            n_checked += 1
+    assert n_checked == 2 * len(fs.crossings) > 0
+
+
+def test_nonplanar_strip_reports_worst_edge_error():
+    quads, _ = developable_strip(k=4, seed=1)
+    quads = quads * 1000
+    bent = quads.copy()
+    bent[1, 2] += np.array([0.0, 0.8, 0.0])          # lift one corner of panel 1 ...
+    bent[2, 3] = bent[1, 2]                          # ... shared with panel 2
+    u = unroll(bent)
+    assert not u.planar
+    rel = np.abs(_edge_lengths(u.panels) - _edge_lengths(bent)) / _edge_lengths(bent)
+    assert u.max_edge_error == pytest.approx(rel.max(), rel=1e-12)
+    assert 1e-7 < u.max_edge_error < 1e-2
+    # the same strip, planar, is exact
+    assert unroll(quads).max_edge_error < 1e-12
+
+
+def test_unroll_rejects_bad_input():
+    with pytest.raises(ValueError):
+        unroll(np.zeros((3, 3, 3)))

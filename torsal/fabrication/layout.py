@@ -1,0 +1,472 @@
+"""Nesting of unrolled parts on sheets, DXF/SVG cutting files, bill of materials (issue 6).
+
+* :func:`nest` places flat outlines (shapely) on rectangular sheets with a bottom-left fill:
+  every part, turned so that its minimum rotated rectangle is axis-aligned, largest first, is tried on each open sheet in every allowed rotation at the
+  candidate corners of the parts already there, then slid down and left as far as it stays
+  free; the placement with the lowest top edge wins; a new sheet is opened when nothing fits.
+  Overlap checks keep ``gap`` between parts and ``margin`` to the sheet edge.
+* :meth:`Layout.export_dxf` writes one DXF (R2010, ezdxf) per sheet: layers ``CUT`` (closed
+  LWPOLYLINE outlines and holes), ``FOLD`` (fold lines and their angle as TEXT, ``M``/``V`` for
+  mountain/valley seen from the top), ``ENGRAVE`` (part id TEXT), ``SHEET`` (sheet border, not
+  to be cut); ``$INSUNITS`` set from the unit; plus an SVG preview of each sheet (ezdxf's
+  drawing add-on, SVG backend).
+* :func:`bill_of_materials` writes the parts list as CSV.
+
+Units: sheet sizes, gaps and all coordinates in the fin system's ``unit`` (mm by default).
+
+Example
+-------
+>>> lay = nest(list(fin_system.unrolled().values()), sheet=(2500, 1250), gap=5)  # doctest: +SKIP
+>>> lay.n_sheets, round(lay.utilization, 3)                                    # doctest: +SKIP
+>>> lay.export_dxf("out/fins.dxf")   # out/fins_sheet01.dxf, ..., out/fins_sheet01.svg  # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import csv
+import io
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+import shapely
+from shapely import affinity
+from shapely.geometry import LineString, Point, Polygon
+from shapely.prepared import prep
+
+from .parts import INSUNITS, UNIT_TO_MM
+
+__all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "bill_of_materials",
+           "read_dxf_parts"]
+
+
+class PartTooLargeError(ValueError):
+    """A part does not fit the sheet in any allowed rotation."""
+
+
+@dataclass
+class Placement:
+    """One part on one sheet: ``placed = translate(rotate(outline, rotation), dx, dy)``."""
+
+    name: str
+    sheet: int
+    rotation: float
+    offset: tuple[float, float]
+    polygon: Polygon
+    folds: list = field(default_factory=list)       # [(LineString, angle rad)]
+    label: tuple[float, float] = (0.0, 0.0)
+    label_height: float = 10.0
+    label_angle: float = 0.0           # degrees
+
+
+@dataclass
+class Layout:
+    """Result of :func:`nest`: placements on ``n_sheets`` sheets of size ``sheet``."""
+
+    sheet: tuple[float, float]
+    placements: list[Placement]
+    n_sheets: int
+    unit: str = "mm"
+    gap: float = 5.0
+    margin: float = 10.0
+
+    @property
+    def sheet_of(self) -> dict[str, int]:
+        """``{part name: sheet number (1-based)}``."""
+        return {p.name: p.sheet + 1 for p in self.placements}
+
+    @property
+    def sheet_utilization(self) -> list[float]:
+        """Part area / sheet area for every sheet."""
+        a = np.zeros(self.n_sheets)
+        for p in self.placements:
+            a[p.sheet] += p.polygon.area
+        return (a / (self.sheet[0] * self.sheet[1])).tolist()
+
+    @property
+    def utilization(self) -> float:
+        """Total part area / total area of the sheets used."""
+        if self.n_sheets == 0:
+            return 0.0
+        return float(sum(p.polygon.area for p in self.placements)
+                     / (self.n_sheets * self.sheet[0] * self.sheet[1]))
+
+    def on_sheet(self, sheet: int) -> list[Placement]:
+        return [p for p in self.placements if p.sheet == sheet]
+
+    # ------------------------------------------------------------------ DXF / SVG
+    def sheet_document(self, sheet: int):
+        """The ezdxf document of one sheet (0-based)."""
+        import ezdxf
+        from ezdxf.enums import TextEntityAlignment
+
+        doc = ezdxf.new("R2010", setup=True)
+        doc.header["$INSUNITS"] = INSUNITS[self.unit]
+        doc.header["$MEASUREMENT"] = 0 if self.unit in ("in", "ft") else 1
+        doc.header["$EXTMIN"] = (0, 0, 0)
+        doc.header["$EXTMAX"] = (self.sheet[0], self.sheet[1], 0)
+        for name, color in (("CUT", 1), ("FOLD", 5), ("ENGRAVE", 3), ("SHEET", 8)):
+            doc.layers.add(name, color=color)
+        msp = doc.modelspace()
+        w, h = self.sheet
+        msp.add_lwpolyline([(0, 0), (w, 0), (w, h), (0, h)], close=True, dxfattribs={"layer": "SHEET"})
+        for p in self.on_sheet(sheet):
+            rings = [p.polygon.exterior] + list(p.polygon.interiors)
+            for ring in rings:
+                msp.add_lwpolyline(list(ring.coords)[:-1], close=True, dxfattribs={"layer": "CUT"})
+            for line, ang in p.folds:
+                segs = [line] if line.geom_type == "LineString" else list(getattr(line, "geoms", []))
+                for seg in segs:
+                    if seg.length <= 0:
+                        continue
+                    c = list(seg.coords)
+                    msp.add_line(c[0], c[-1], dxfattribs={"layer": "FOLD"})
+                if segs and ang is not None:
+                    longest = max(segs, key=lambda g: g.length)
+                    mid = longest.interpolate(0.5, normalized=True)
+                    deg = np.degrees(ang)
+                    txt = f"{'M' if deg >= 0 else 'V'} {abs(deg):.1f}°"
+                    d = np.subtract(longest.coords[-1], longest.coords[0])
+                    rot = float(np.degrees(np.arctan2(d[1], d[0])))
+                    if (rot + 90.0) % 360.0 > 180.0:
+                        rot = (rot + 180.0) % 360.0
+                    msp.add_text(txt, height=0.5 * p.label_height, rotation=rot,
+                                 dxfattribs={"layer": "FOLD"}).set_placement(
+                        (mid.x, mid.y), align=TextEntityAlignment.BOTTOM_CENTER)
+            up = (p.label_angle + 90.0) % 360.0 > 180.0      # keep text readable
+            msp.add_text(p.name, height=p.label_height, rotation=(p.label_angle + 180.0 * up) % 360.0,
+                         dxfattribs={"layer": "ENGRAVE"}).set_placement(
+                p.label, align=TextEntityAlignment.MIDDLE_CENTER)
+        return doc
+
+    def export_dxf(self, path, *, svg: bool = True) -> list[Path]:
+        """Write one DXF per sheet: ``<stem>_sheetNN.dxf`` next to ``path`` (and
+        ``<stem>_sheetNN.svg`` previews). Files are written atomically. Returns the DXF paths."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        out = []
+        for s in range(self.n_sheets):
+            doc = self.sheet_document(s)
+            target = path.with_name(f"{path.stem}_sheet{s + 1:02d}.dxf")
+            tmp = target.with_name(f".{target.name}.tmp")
+            doc.saveas(tmp)
+            os.replace(tmp, target)
+            out.append(target)
+            if svg:
+                svg_path = target.with_suffix(".svg")
+                tmp = svg_path.with_name(f".{svg_path.name}.tmp")
+                tmp.write_text(_svg_of(doc, self.sheet, self.unit), encoding="utf-8")
+                os.replace(tmp, svg_path)
+        return out
+
+
+def _svg_of(doc, sheet, unit) -> str:
+    """SVG preview through ezdxf's drawing add-on (native SVG backend)."""
+    from ezdxf.addons.drawing import Frontend, RenderContext, layout, svg
+
+    backend = svg.SVGBackend()
+    Frontend(RenderContext(doc), backend).draw_layout(doc.modelspace())
+    f = UNIT_TO_MM[unit]
+    page = layout.Page(sheet[0] * f, sheet[1] * f, layout.Units.mm)
+    return backend.get_string(page)
+
+
+# ---------------------------------------------------------------------------- nesting
+@dataclass
+class _Item:
+    name: str
+    outline: Polygon
+    folds: list
+    label: tuple[float, float]
+    label_height: float
+    label_angle: float = 0.0
+    base: float = 0.0            # degrees: rotation to the minimum rotated rectangle
+
+
+def _as_items(outlines) -> list[_Item]:
+    items = []
+    if isinstance(outlines, Mapping):
+        outlines = [(k, v) for k, v in outlines.items()]
+    for i, o in enumerate(outlines):
+        if isinstance(o, tuple):
+            name, poly = o
+            items.append(_Item(str(name), Polygon(poly) if not isinstance(poly, Polygon) else poly, [],
+                               _label(poly), 0.0))
+            continue
+        if isinstance(o, Polygon):
+            items.append(_Item(f"part{i}", o, [], _label(o), 0.0))
+            continue
+        # Unrolled
+        poly = o.outline
+        folds = []
+        for line, ang in zip(o.fold_lines, o.fold_angles):
+            if abs(ang) <= 1e-9:
+                continue
+            seg = LineString(line).intersection(poly)
+            folds.append((seg, float(ang)))
+        items.append(_Item(o.name, poly, folds, tuple(o.label_position), float(o.label_height),
+                           float(np.degrees(o.label_angle))))
+    for it in items:
+        if not it.outline.is_valid or it.outline.area <= 0:
+            raise ValueError(f"part {it.name}: invalid or empty outline")
+        # base orientation: the long side of the minimum rotated rectangle along x
+        rect = np.asarray(it.outline.minimum_rotated_rectangle.exterior.coords)[:3]
+        e1, e2 = rect[1] - rect[0], rect[2] - rect[1]
+        d = e1 if np.linalg.norm(e1) >= np.linalg.norm(e2) else e2
+        it.base = -float(np.degrees(np.arctan2(d[1], d[0])))
+        if it.label_height <= 0:
+            # text height: fits the part around the label point, 1..20 units
+            r = it.outline.exterior.distance(Point(it.label))
+            it.label_height = float(np.clip(0.8 * r, 1.0, 20.0)) if r > 0 else 1.0
+    names = [it.name for it in items]
+    if len(set(names)) != len(names):
+        raise ValueError("part names must be unique")
+    return items
+
+
+def _label(poly) -> tuple[float, float]:
+    from shapely.ops import polylabel
+
+    p = polylabel(poly if isinstance(poly, Polygon) else Polygon(poly), tolerance=1e-3)
+    return (p.x, p.y)
+
+
+class _Sheet:
+    def __init__(self, w, h, margin, gap):
+        self.w, self.h, self.margin, self.gap = w, h, margin, gap
+        self.polys: list[Polygon] = []
+        self.grown: list = []
+        self.bounds = np.zeros((0, 4))
+
+    def free(self, poly: Polygon, bnd) -> bool:
+        minx, miny, maxx, maxy = bnd
+        m = self.margin
+        if minx < m - 1e-9 or miny < m - 1e-9 or maxx > self.w - m + 1e-9 or maxy > self.h - m + 1e-9:
+            return False
+        if not len(self.bounds):
+            return True
+        g = self.gap
+        b = self.bounds
+        hit = np.flatnonzero((b[:, 0] - g < maxx) & (b[:, 2] + g > minx) &
+                             (b[:, 1] - g < maxy) & (b[:, 3] + g > miny))
+        for i in hit:
+            if self.grown[i].intersects(poly):
+                return False
+        return True
+
+    def add(self, poly: Polygon):
+        self.polys.append(poly)
+        grown = poly.buffer(self.gap * (1 - 1e-6), join_style="mitre", mitre_limit=2.0) if self.gap > 0 else poly
+        self.grown.append(prep(grown))
+        self.bounds = np.vstack([self.bounds, poly.bounds])
+
+
+def _slide(sheet: _Sheet, poly: Polygon, x: float, y: float, dx: int, dy: int, reach: float):
+    """Largest shift along (dx, dy) up to ``reach`` that keeps the part free (bisection)."""
+    def ok(s):
+        p = affinity.translate(poly, x + dx * s, y + dy * s)
+        return sheet.free(p, p.bounds)
+
+    lo, hi = 0.0, reach
+    if hi <= 0:
+        return 0.0
+    if ok(hi):
+        return hi
+    for _ in range(20):
+        mid = 0.5 * (lo + hi)
+        if ok(mid):
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 0.05:
+            break
+    return lo
+
+
+def _place_on(sheet: _Sheet, shapes) -> tuple | None:
+    """Best (score, rotation index, x, y) of a part on a sheet, or None."""
+    best = None
+    m, g = sheet.margin, sheet.gap
+    xs = np.unique(np.r_[m, sheet.bounds[:, 2] + g]) if len(sheet.bounds) else np.array([m])
+    ys = np.unique(np.r_[m, sheet.bounds[:, 3] + g]) if len(sheet.bounds) else np.array([m])
+    for r, (poly, (w, h)) in enumerate(shapes):
+        cand = [(y, x) for y in ys for x in xs if x + w <= sheet.w - m + 1e-9 and y + h <= sheet.h - m + 1e-9]
+        cand.sort()
+        for y, x in cand:
+            if best is not None and y + h >= best[0][0]:
+                break                       # cannot beat the best top edge any more
+            p = affinity.translate(poly, x, y)
+            if not sheet.free(p, p.bounds):
+                continue
+            # slide down and left while free (bottom-left compaction)
+            for _ in range(3):
+                sy = _slide(sheet, poly, x, y, 0, -1, y - m)
+                y -= sy
+                sx = _slide(sheet, poly, x, y, -1, 0, x - m)
+                x -= sx
+                if sy < 0.05 and sx < 0.05:
+                    break
+            score = (y + h, x)
+            if best is None or score < best[0]:
+                best = (score, r, x, y)
+            break
+    return best
+
+
+def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
+         margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270),
+         unit: str = "mm", open_sheets: int = 3) -> Layout:
+    """Nest flat parts on rectangular sheets (bottom-left fill over rotated candidates).
+
+    Parameters
+    ----------
+    outlines : sequence of Unrolled, of (name, Polygon), of Polygon, or {name: Polygon}
+        Flat parts in ``unit``; :class:`~.unroll.Unrolled` parts also carry their fold
+        lines and label position onto the sheet.
+    sheet : (width, height)
+        Sheet size in ``unit`` (default 2500 x 1250 mm).
+    gap : float
+        Minimum distance between parts (kerf + web), ``unit``.
+    margin : float
+        Minimum distance of parts to the sheet edge, ``unit``.
+    rotations : sequence of float
+        Allowed rotations in degrees, applied after turning each part so that its minimum
+        rotated rectangle is axis-aligned (long side along x).
+    open_sheets : int
+        How many of the most recent sheets are still tried for a part (older sheets are
+        closed); bounds the time for large jobs.
+
+    Raises
+    ------
+    PartTooLargeError
+        If a part fits the sheet in no allowed rotation.
+    """
+    w, h = map(float, sheet)
+    if w <= 0 or h <= 0:
+        raise ValueError(f"sheet must have positive size, got {sheet}")
+    if gap < 0 or margin < 0:
+        raise ValueError("gap and margin must be >= 0")
+    if not len(rotations):
+        raise ValueError("at least one rotation is needed")
+    items = _as_items(outlines)
+    prepared = []
+    for it in items:
+        shapes = []
+        for rot in rotations:
+            p = affinity.rotate(it.outline, it.base + rot, origin=(0, 0))
+            minx, miny, maxx, maxy = p.bounds
+            p = affinity.translate(p, -minx, -miny)
+            shapes.append((p, (maxx - minx, maxy - miny)))
+        if not any(sw <= w - 2 * margin + 1e-9 and sh <= h - 2 * margin + 1e-9 for _, (sw, sh) in shapes):
+            sw, sh = min((s[1] for s in shapes), key=lambda t: max(t[0] / w, t[1] / h))
+            raise PartTooLargeError(
+                f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) does not fit a {w:.0f} x {h:.0f} {unit} "
+                f"sheet with margin {margin:g} in any rotation {list(rotations)}; split it into "
+                f"shorter parts (FinSystem(max_part_length=..., max_panels=...)) or use a larger sheet")
+        prepared.append(shapes)
+    order = sorted(range(len(items)), key=lambda i: -items[i].outline.area)
+    sheets: list[_Sheet] = []
+    placements = []
+    for i in order:
+        it, shapes = items[i], prepared[i]
+        where = None
+        for si in range(max(0, len(sheets) - open_sheets), len(sheets)):
+            best = _place_on(sheets[si], shapes)
+            if best is not None:
+                where = (si, best)
+                break
+        if where is None:
+            sheets.append(_Sheet(w, h, margin, gap))
+            best = _place_on(sheets[-1], shapes)
+            if best is None:  # pragma: no cover - guarded by the size check above
+                raise PartTooLargeError(f"part {it.name} does not fit an empty sheet")
+            where = (len(sheets) - 1, best)
+        si, (_, r, x, y) = where
+        rot = float(rotations[r]) + it.base
+        placed = affinity.translate(shapes[r][0], x, y)
+        sheets[si].add(placed)
+        # transform of the original outline: rotate about origin, then shift
+        p0 = affinity.rotate(it.outline, rot, origin=(0, 0))
+        dx, dy = x - p0.bounds[0], y - p0.bounds[1]
+
+        def tf(g):
+            return affinity.translate(affinity.rotate(g, rot, origin=(0, 0)), dx, dy)
+
+        lab = tf(Point(it.label))
+        placements.append(Placement(it.name, si, rot, (dx, dy), placed,
+                                    [(tf(f), a) for f, a in it.folds], (lab.x, lab.y),
+                                    it.label_height, (it.label_angle + rot) % 360.0))
+    placements.sort(key=lambda p: (p.sheet, p.name))
+    return Layout((w, h), placements, len(sheets), unit=unit, gap=gap, margin=margin)
+
+
+# ---------------------------------------------------------------------------- reading back
+def read_dxf_parts(path) -> tuple[list[Polygon], list[str], "object"]:
+    """Re-read a sheet DXF: polygons of the closed CUT polylines (holes assigned to their
+    outlines), the ENGRAVE texts, and the ezdxf auditor. For verification of written files."""
+    import ezdxf
+
+    doc = ezdxf.readfile(path)
+    auditor = doc.audit()
+    rings = []
+    for e in doc.modelspace().query("LWPOLYLINE[layer=='CUT']"):
+        if not e.closed:
+            raise ValueError(f"{path}: open CUT polyline {e.dxf.handle}")
+        rings.append(Polygon([p[:2] for p in e.get_points("xy")]))
+    rings.sort(key=lambda p: -p.area)
+    outers: list[list] = []
+    for r in rings:
+        for o in outers:
+            if o[0].contains(r):
+                o.append(r)
+                break
+        else:
+            outers.append([r])
+    polys = [Polygon(o[0].exterior.coords, [h.exterior.coords for h in o[1:]]) for o in outers]
+    texts = [e.dxf.text for e in doc.modelspace().query("TEXT[layer=='ENGRAVE']")]
+    return polys, texts, auditor
+
+
+# ---------------------------------------------------------------------------- BOM
+BOM_COLUMNS = ["part_id", "family", "strip", "panels", "area_m2", "perimeter_m", "cut_length_m",
+               "fold_count", "mass_kg", "sheet"]
+
+
+def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout: Layout | None = None) -> list[dict]:
+    """Parts list as CSV (columns :data:`BOM_COLUMNS`), one row per part.
+
+    ``area_m2`` is the net flat area (slots removed), ``perimeter_m`` the outer boundary of the
+    flat part without its slots, ``cut_length_m`` the full cutting path (outline with slots and
+    holes), ``mass_kg = area * thickness * density`` with ``density`` in kg/m^3 (default
+    aluminium, 2700), ``sheet`` the 1-based sheet number from ``layout`` (empty if none).
+    Returns the rows; writes ``path`` (atomically) if given.
+    """
+    if density <= 0:
+        raise ValueError(f"density must be > 0 kg/m^3, got {density}")
+    to_m = UNIT_TO_MM[fin_system.unit] / 1000.0
+    sheets = layout.sheet_of if layout is not None else {}
+    rows = []
+    for p in fin_system.parts:
+        u = fin_system.unrolled()[p.name]
+        gross = shapely.union_all([Polygon(q) for q in u.panels])
+        area = u.outline.area * to_m ** 2
+        cut = u.outline.exterior.length + sum(r.length for r in u.outline.interiors)
+        rows.append({
+            "part_id": p.name, "family": p.family, "strip": p.id.strip, "panels": len(p.panels),
+            "area_m2": round(area, 8), "perimeter_m": round(gross.exterior.length * to_m, 6),
+            "cut_length_m": round(cut * to_m, 6), "fold_count": u.fold_count,
+            "mass_kg": round(area * fin_system.thickness * to_m * density, 6),
+            "sheet": sheets.get(p.name, ""),
+        })
+    if path is not None:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        buf = io.StringIO()
+        wr = csv.DictWriter(buf, fieldnames=BOM_COLUMNS)
+        wr.writeheader()
+        wr.writerows(rows)
+        tmp = path.with_name(f".{path.name}.tmp")
+        tmp.write_text(buf.getvalue(), encoding="utf-8")
+        os.replace(tmp, path)
+    return rows

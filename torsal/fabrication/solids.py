@@ -1,0 +1,344 @@
+"""Solid parts (OpenCascade through build123d) and their export: STEP, STL/glTF, 3DM (issue 6).
+
+Every part is thickened about its mid-plane by ``thickness``: the plate is built directly as
+a closed polyhedral shell (top face ``p + t/2 m``, bottom ``p - t/2 m`` with the mitre
+vectors ``m`` of :class:`~.parts.Part`, side faces along the ``a`` and ``b`` edges, end caps)
+sewn into one solid: folds are mitred on the bisector plane, so no boolean fuse is needed and
+the plate volume equals ``sum(panel area) * thickness`` up to the twist of side faces.
+Egg-crate slots are then cut with one boolean per part (a box per panel touching the slot,
+centred on the node line, ``thickness + clearance`` wide, through the plate).
+
+Every solid is checked with ``is_valid``; an invalid one is repaired with ``ShapeFix`` and if it
+stays invalid an :class:`InvalidSolidError` names the part: nothing is written silently.
+
+Units: the ``unit`` of the fin system (mm by default); STEP files are written in mm.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .parts import Part, SlotSide
+
+__all__ = ["InvalidSolidError", "part_solid", "build_solids", "export_step", "export_mesh",
+           "export_3dm", "read_step"]
+
+
+class InvalidSolidError(RuntimeError):
+    """A part's solid is not valid OpenCascade geometry even after repair."""
+
+    def __init__(self, parts: list[str], detail: str = ""):
+        self.parts = parts
+        super().__init__(f"invalid solid for part(s) {', '.join(parts)}" + (f": {detail}" if detail else ""))
+
+
+def _face(points, planar_tol: float):
+    """Planar face through the points, or a fan of triangles if they are not coplanar (to
+    ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's 1e-7)."""
+    from build123d import Face, Vector, Wire
+
+    pts = np.asarray(points, float)
+    # drop repeated points (degenerate twisted sides)
+    keep = [0] + [i for i in range(1, len(pts)) if np.linalg.norm(pts[i] - pts[i - 1]) > 1e-12]
+    pts = pts[keep]
+    if len(pts) > 3 and np.linalg.norm(pts[-1] - pts[0]) <= 1e-12:
+        pts = pts[:-1]
+    if len(pts) < 3:
+        return []
+    c = pts.mean(0)
+    _, sv, vt = np.linalg.svd(pts - c)
+    size = np.linalg.norm(pts.max(0) - pts.min(0))
+    if len(pts) == 3 or np.abs((pts - c) @ vt[2]).max() <= min(planar_tol * size, 1e-9):
+        try:
+            return [Face(Wire.make_polygon([Vector(*p) for p in pts], close=True))]
+        except ValueError:       # OpenCascade finds it not planar enough: use triangles
+            if len(pts) == 3:
+                raise
+    return [Face(Wire.make_polygon([Vector(*pts[0]), Vector(*pts[i]), Vector(*pts[i + 1])], close=True))
+            for i in range(1, len(pts) - 1)]
+
+
+def _box(origin, x_dir, z_dir, length, width, height):
+    from build123d import Plane, Solid, Vector
+
+    return Solid.make_box(length, width, height,
+                          Plane(origin=Vector(*origin), x_dir=Vector(*x_dir), z_dir=Vector(*z_dir)))
+
+
+def slot_boxes(part: Part, thickness: float) -> list:
+    """Cutting boxes of the slots of a part: per panel adjacent to the slotted node line, a box
+    in the panel plane centred on the node line, ``width`` wide, from ``2 width`` outside the
+    open edge to ``depth`` inside, ``2 thickness`` through the plate."""
+    boxes = []
+    k = len(part.panels)
+    normals = part.normals
+    for s in part.slots:
+        pos = s.position
+        if pos == 0:
+            a, b = part.panels[0, 0], part.panels[0, 3]
+        else:
+            a, b = part.panels[pos - 1, 1], part.panels[pos - 1, 2]
+        start, other = (b, a) if SlotSide(s.side) == SlotSide.B else (a, b)
+        u = other - start
+        u = u / np.linalg.norm(u)
+        over = 2.0 * s.width
+        for j in (pos - 1, pos):
+            if not 0 <= j < k:
+                continue
+            n = normals[j]
+            v = np.cross(n, u)
+            corner = start - over * u - 0.5 * s.width * v - thickness * n
+            boxes.append(_box(corner, u, n, over + s.depth, s.width, 2.0 * thickness))
+    return boxes
+
+
+def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
+    """The thickened, slotted solid of one part (build123d ``Solid``), labelled and coloured.
+
+    Raises
+    ------
+    InvalidSolidError
+        If the solid is invalid and cannot be repaired.
+    """
+    from build123d import Color, Shell, Solid
+
+    q = part.panels
+    m = part.miters
+    h = 0.5 * thickness
+    k = len(q)
+    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
+    top = np.empty_like(q)
+    bot = np.empty_like(q)
+    for j in range(k):
+        for c, node in ((0, j), (3, j), (1, j + 1), (2, j + 1)):
+            top[j, c] = q[j, c] + h * m[node]
+            bot[j, c] = q[j, c] - h * m[node]
+    faces = []
+    for j in range(k):
+        faces += _face(top[j], planar_tol)
+        faces += _face(bot[j], planar_tol)          # same diagonal as the top if warped
+        faces += _face([top[j, 1], top[j, 0], bot[j, 0], bot[j, 1]], planar_tol)   # a side
+        faces += _face([top[j, 3], top[j, 2], bot[j, 2], bot[j, 3]], planar_tol)   # b side
+    faces += _face([top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]], planar_tol)       # start cap
+    faces += _face([top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]], planar_tol)   # end cap
+    shell = Shell(faces)
+    from OCP.BRep import BRep_Tool
+
+    if not BRep_Tool.IsClosed_s(shell.wrapped):
+        raise InvalidSolidError([part.name], "the plate's faces do not sew into a closed shell")
+    solid = Solid(shell)
+    # a closed, valid shell can still be garbage (e.g. a bow-tie panel): the mitred plate has
+    # the volume sum(panel area) * thickness up to the twist of its side faces
+    expected = float(part.panel_areas.sum()) * thickness
+    if not abs(abs(solid.volume) - expected) <= 0.01 * expected:
+        raise InvalidSolidError([part.name], f"plate volume {solid.volume:.6g} differs from panel "
+                                f"area x thickness {expected:.6g}: broken or self-intersecting panels")
+    plate_volume = abs(solid.volume)
+    if part.slots:
+        boxes = slot_boxes(part, thickness)
+        solid = solid.cut(*boxes)
+        if not isinstance(solid, Solid):
+            sols = solid.solids()
+            if len(sols) != 1:
+                raise InvalidSolidError([part.name], f"slots split the plate into {len(sols)} pieces")
+            solid = sols[0]
+    if not solid.is_valid:
+        if repair:
+            solid = solid.fix()
+        if not solid.is_valid:
+            raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
+    if not 0.5 * plate_volume < solid.volume <= plate_volume * (1 + 1e-9):
+        raise InvalidSolidError([part.name], f"volume {solid.volume:.6g} after cutting slots is "
+                                f"implausible for a plate of {plate_volume:.6g}")
+    solid.label = part.name
+    solid.color = Color(*part.color)
+    return solid
+
+
+def build_solids(fin_system, *, repair: bool = True) -> dict:
+    """``{part name: Solid}`` for every part of a :class:`~.parts.FinSystem`.
+
+    All parts are attempted; if any is invalid an :class:`InvalidSolidError` listing every
+    invalid part id is raised.
+    """
+    out, bad, detail = {}, [], []
+    for p in fin_system.parts:
+        try:
+            out[p.name] = part_solid(p, fin_system.thickness, repair=repair)
+        except InvalidSolidError as e:
+            bad.append(p.name)
+            detail.append(str(e))
+        except Exception as e:  # OpenCascade errors: report by part id
+            bad.append(p.name)
+            detail.append(f"{p.name}: {type(e).__name__}: {e}")
+    if bad:
+        raise InvalidSolidError(bad, "; ".join(detail))
+    return out
+
+
+def _atomic(path: Path, write) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def export_step(fin_system, path) -> Path:
+    """Write one STEP assembly (AP214, mm) with a named, coloured solid per part.
+
+    The assembly is a build123d ``Compound`` labelled ``torsal_fins`` whose children are the
+    part solids (``label`` = part id, ``color`` by family).
+    """
+    from build123d import Compound, Unit
+    from build123d import export_step as _bd_export_step
+
+    sol = fin_system.solids()
+    assembly = Compound(label="torsal_fins", children=list(sol.values()))
+    unit = {"mm": Unit.MM, "cm": Unit.CM, "m": Unit.M, "in": Unit.IN, "ft": Unit.FT}[fin_system.unit]
+
+    def write(tmp):
+        if not _bd_export_step(assembly, str(tmp), unit=unit):
+            raise RuntimeError(f"STEP writer failed for {path}")
+
+    return _atomic(Path(path), write)
+
+
+def read_step(path) -> list[tuple[str, object]]:
+    """Read a STEP file with OCP's XCAF reader: ``[(name, TopoDS_Solid)]`` for every solid,
+    name from the label of the solid or of the nearest labelled parent (independent of
+    build123d's importer)."""
+    from OCP.IFSelect import IFSelect_RetDone
+    from OCP.STEPCAFControl import STEPCAFControl_Reader
+    from OCP.TCollection import TCollection_AsciiString, TCollection_ExtendedString
+    from OCP.TDataStd import TDataStd_Name
+    from OCP.collections import Sequence_TDF_Label as TDF_LabelSequence
+    from OCP.TDF import TDF_Label
+    from OCP.TDocStd import TDocStd_Document
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+    from OCP.XCAFDoc import XCAFDoc_DocumentTool
+
+    doc = TDocStd_Document(TCollection_ExtendedString("torsal"))
+    reader = STEPCAFControl_Reader()
+    reader.SetNameMode(True)
+    reader.SetColorMode(True)
+    if reader.ReadFile(str(path)) != IFSelect_RetDone:
+        raise OSError(f"cannot read STEP file {path}")
+    if not reader.Transfer(doc):
+        raise OSError(f"cannot transfer STEP file {path}")
+    tool = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
+
+    def name_of(label) -> str:
+        attr = TDataStd_Name()
+        if label.IsAttribute(TDataStd_Name.GetID_s()) and label.FindAttribute(TDataStd_Name.GetID_s(), attr):
+            return TCollection_AsciiString(attr.Get()).ToCString()
+        return ""
+
+    out = []
+
+    def walk(label, loc, inherited):
+        nm = name_of(label) or inherited
+        if tool.IsReference_s(label):
+            ref = TDF_Label()
+            tool.GetReferredShape_s(label, ref)
+            walk(ref, loc * tool.GetLocation_s(label), nm)
+            return
+        if tool.IsAssembly_s(label):
+            comps = TDF_LabelSequence()
+            tool.GetComponents_s(label, comps)
+            for i in range(1, comps.Length() + 1):
+                walk(comps.Value(i), loc, "")
+            return
+        shape = tool.GetShape_s(label).Moved(loc)
+        exp = TopExp_Explorer(shape, TopAbs_SOLID)
+        while exp.More():
+            out.append((nm, TopoDS.Solid(exp.Current())))
+            exp.Next()
+
+    roots = TDF_LabelSequence()
+    tool.GetFreeShapes(roots)
+    for i in range(1, roots.Length() + 1):
+        walk(roots.Value(i), TopLoc_Location(), "")
+    return out
+
+
+def _tessellate(fin_system, tolerance: float | None):
+    tol = tolerance if tolerance is not None else 0.05 * fin_system.thickness
+    res = {}
+    for name, s in fin_system.solids().items():
+        v, f = s.tessellate(tol)
+        res[name] = (np.array([[p.X, p.Y, p.Z] for p in v]), np.asarray(f, dtype=np.int64))
+    return res
+
+
+def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | None = None) -> Path:
+    """Preview meshes through trimesh: ``stl`` (one mesh) or ``glb``/``gltf`` (a scene with a
+    named, coloured node per part)."""
+    import trimesh
+
+    meshes = _tessellate(fin_system, tolerance)
+    colors = {p.name: p.color for p in fin_system.parts}
+    scene = trimesh.Scene()
+    for name, (v, f) in meshes.items():
+        m = trimesh.Trimesh(v, f, process=False)
+        rgba = (np.r_[colors[name], 1.0] * 255).astype(np.uint8)
+        m.visual.face_colors = np.tile(rgba, (len(f), 1))
+        scene.add_geometry(m, node_name=name, geom_name=name)
+
+    def write(tmp):
+        if file_type == "stl":
+            data = trimesh.util.concatenate(list(scene.geometry.values())).export(file_type="stl")
+        else:
+            data = scene.export(file_type=file_type)
+        Path(tmp).write_bytes(data if isinstance(data, bytes) else data.encode())
+
+    return _atomic(Path(path), write)
+
+
+def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
+    """Rhino 3DM (through rhino3dm): one named mesh object per part on a layer per family
+    (``family 0``, ``family 1``), coloured by family, model units set to ``unit``."""
+    import rhino3dm
+
+    model = rhino3dm.File3dm()
+    us = {"mm": rhino3dm.UnitSystem.Millimeters, "cm": rhino3dm.UnitSystem.Centimeters,
+          "m": rhino3dm.UnitSystem.Meters, "in": rhino3dm.UnitSystem.Inches,
+          "ft": rhino3dm.UnitSystem.Feet}[fin_system.unit]
+    model.Settings.ModelUnitSystem = us
+    layers = {}
+    for p in fin_system.parts:
+        if p.family not in layers:
+            lay = rhino3dm.Layer()
+            lay.Name = f"family {p.family}" if p.family >= 0 else "developable"
+            lay.Color = tuple(int(255 * c) for c in p.color) + (255,)
+            layers[p.family] = model.Layers.Add(lay)
+    meshes = _tessellate(fin_system, tolerance)
+    for p in fin_system.parts:
+        v, f = meshes[p.name]
+        mesh = rhino3dm.Mesh()
+        for x in v:
+            mesh.Vertices.Add(float(x[0]), float(x[1]), float(x[2]))
+        for t in f:
+            mesh.Faces.AddFace(int(t[0]), int(t[1]), int(t[2]))
+        mesh.Normals.ComputeNormals()
+        attr = rhino3dm.ObjectAttributes()
+        attr.Name = p.name
+        attr.LayerIndex = layers[p.family]
+        attr.ColorSource = rhino3dm.ObjectColorSource.ColorFromLayer
+        model.Objects.AddMesh(mesh, attr)
+
+    def write(tmp):
+        if not model.Write(str(tmp), 7):
+            raise RuntimeError(f"rhino3dm could not write {path}")
+
+    return _atomic(Path(path), write)

@@ -1,0 +1,265 @@
+"""Development (unrolling) of strips of planar panels into flat outlines (issue 6).
+
+A strip of quads ``p0 p1 p2 p3`` whose consecutive quads share the fold line ``p1 p2`` /
+``p0 p3`` is laid flat panel by panel: the first panel in its own plane frame, each next one
+rotated about the shared fold line into that plane. For planar panels this is an isometry
+of every panel (edge lengths preserved to rounding); for panels that are not quite planar each
+panel is replaced by the flat quad that best matches its 4 edges and 2 diagonals (least
+squares) and the worst relative edge-length error is reported.
+
+Coordinates are in the unit of the input (``unit`` of a :class:`~.parts.Part`, usually mm).
+The flat top side is the ``+normal`` side of the panels (Newell normal of ``a_i a_j b_j b_i``),
+so the unrolled part is never mirrored.
+
+Example
+-------
+>>> u = unroll(fin_system.parts[0])                            # doctest: +SKIP
+>>> u.outline.area, np.degrees(u.fold_angles), u.max_edge_error  # doctest: +SKIP
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+from shapely.ops import polylabel, unary_union
+
+from .parts import Slot, SlotSide, fold_angles, quad_normals
+
+__all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle"]
+
+_PAIRS = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 2], [1, 3]])
+_EDGES = _PAIRS[:4]
+
+
+@dataclass
+class Unrolled:
+    """A flat part.
+
+    Attributes
+    ----------
+    name : str
+        Part name (``"F0-S001-P00"``) or ``"strip"``.
+    panels : (k, 4, 2) float
+        Flat panel corners; ``panels[k, 1:3]`` and ``panels[k+1, [0, 3]]`` are the same points.
+    fold_angles : (k-1,) float
+        Signed fold angles in radians (see :func:`torsal.fabrication.parts.fold_angles`):
+        folding panel ``k+1`` about the fold line ``panels[k, 1] -> panels[k, 2]`` by this angle
+        (right-hand rule, top = +z) restores the 3D part.
+    fold_lines : (k-1, 2, 2) float
+        Fold lines (``a`` end, ``b`` end).
+    slots : list of (4, 2) float
+        Slot cut-outs (rectangles reaching past the open edge), removed from ``outline``.
+    outline : shapely Polygon
+        Union of the panels minus the slots: what is cut.
+    label_position : (2,) float
+        A point well inside the outline (pole of inaccessibility of the roomiest panel, off
+        the fold lines) for the engraved part id.
+    label_angle, label_height : float
+        Direction of the label text (radians, along the panel's ``a`` edge) and a text height
+        that fits the panel.
+    max_edge_error : float
+        Worst relative difference between a 3D panel edge and its flat length.
+    frame : (4, 3) float
+        ``origin, e1, e2, normal`` placing the first flat panel in 3D:
+        ``X = origin + x e1 + y e2``.
+    planar : bool
+        All panels planar to rounding (exact development).
+    """
+
+    name: str
+    panels: np.ndarray
+    fold_angles: np.ndarray
+    fold_lines: np.ndarray
+    slots: list
+    outline: Polygon
+    label_position: np.ndarray
+    label_angle: float
+    label_height: float
+    max_edge_error: float
+    frame: np.ndarray
+    planar: bool
+    slot_records: list = field(default_factory=list)
+
+    @property
+    def area(self) -> float:
+        return float(self.outline.area)
+
+    @property
+    def fold_count(self) -> int:
+        return int(np.count_nonzero(np.abs(self.fold_angles) > 1e-9))
+
+
+def _plane_frame(quad: np.ndarray) -> np.ndarray:
+    """origin, e1 (along p0 -> p1), e2 = n x e1, n for a quad (4, 3)."""
+    n = quad_normals(quad[None])[0]
+    e1 = quad[1] - quad[0]
+    e1 = e1 - (e1 @ n) * n
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    return np.array([quad.mean(axis=0), e1, e2, n])
+
+
+def _flat_quad(quad: np.ndarray, tol: float) -> tuple[np.ndarray, bool]:
+    """Flat (4, 2) version of a 3D quad in its own plane frame; least squares if not planar."""
+    fr = _plane_frame(quad)
+    x = (quad - fr[0]) @ fr[1:3].T
+    off = (quad - fr[0]) @ fr[3]
+    size = np.linalg.norm(quad[2] - quad[0]) + np.linalg.norm(quad[3] - quad[1])
+    if np.abs(off).max() <= tol * size:
+        return x, True
+    from scipy.optimize import least_squares
+
+    target = np.linalg.norm(quad[_PAIRS[:, 0]] - quad[_PAIRS[:, 1]], axis=1)
+
+    def res(z):
+        y = z.reshape(4, 2)
+        return (np.linalg.norm(y[_PAIRS[:, 0]] - y[_PAIRS[:, 1]], axis=1) - target) / target
+
+    sol = least_squares(res, x.ravel(), method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    return sol.x.reshape(4, 2), False
+
+
+def _rigid_2d(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation R (2, 2) and translation t with R src + t ~ dst (proper, least squares)."""
+    cs, cd = src.mean(0), dst.mean(0)
+    h = (src - cs).T @ (dst - cd)
+    ang = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    r = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
+    return r, cd - r @ cs
+
+
+def slot_rectangle(a2: np.ndarray, b2: np.ndarray, side: SlotSide, depth: float, width: float,
+                   overshoot: float | None = None) -> np.ndarray:
+    """The (4, 2) cut-out of a slot on the flat node line ``a2 -> b2``: ``width`` wide,
+    centred on the line, from the open end (``a2`` or ``b2``) ``depth`` into the part and
+    ``overshoot`` (default ``2 width``) beyond the open edge."""
+    a2, b2 = np.asarray(a2, float), np.asarray(b2, float)
+    start, other = (b2, a2) if SlotSide(side) == SlotSide.B else (a2, b2)
+    u = other - start
+    u /= np.linalg.norm(u)
+    v = np.array([-u[1], u[0]])
+    o = 2.0 * width if overshoot is None else overshoot
+    h = 0.5 * width
+    return np.array([start - o * u - h * v, start + depth * u - h * v,
+                     start + depth * u + h * v, start - o * u + h * v])
+
+
+def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
+           name: str | None = None) -> Unrolled:
+    """Develop a strip of quads into the plane.
+
+    Parameters
+    ----------
+    strip : Part, FinStrip or (k, 4, 3) array
+        Quads ``p0 p1 p2 p3`` (``a_i a_j b_j b_i``); ``p1 p2`` of one quad is ``p0 p3`` of
+        the next (the fold line).
+    slots : list of Slot, optional
+        Slot records (default: ``strip.slots`` for a Part); cut out of the outline.
+    planar_tol : float
+        Panels whose corners are within ``planar_tol * size`` of their plane are developed
+        exactly; others by least squares.
+
+    Returns
+    -------
+    Unrolled
+        Outline, fold lines and angles, slot cut-outs, label position, worst edge error.
+    """
+    quads = np.asarray(getattr(strip, "panels", getattr(strip, "quads", strip)), dtype=float)
+    if quads.ndim != 3 or quads.shape[1:] != (4, 3) or len(quads) == 0:
+        raise ValueError(f"expected (k, 4, 3) quads, got {quads.shape}")
+    if slots is None:
+        slots = list(getattr(strip, "slots", []))
+    if name is None:
+        name = getattr(strip, "name", "strip")
+    k = len(quads)
+    flat = np.empty((k, 4, 2))
+    planar = True
+    frame = _plane_frame(quads[0])
+    for i in range(k):
+        f, ok = _flat_quad(quads[i], planar_tol)
+        planar &= ok
+        if i == 0:
+            flat[0] = f
+            continue
+        # rotate about the shared fold line: align p0, p3 onto previous p1, p2
+        dst = flat[i - 1, [1, 2]]
+        r, t = _rigid_2d(f[[0, 3]], dst)
+        g = f @ r.T + t
+        g[[0, 3]] = dst                       # identical points on the shared fold
+        flat[i] = g
+    # errors
+    l3 = np.linalg.norm(quads[:, _EDGES[:, 0]] - quads[:, _EDGES[:, 1]], axis=2)
+    l2 = np.linalg.norm(flat[:, _EDGES[:, 0]] - flat[:, _EDGES[:, 1]], axis=2)
+    err = float(np.max(np.abs(l2 - l3) / l3))
+    # outline
+    polys = [Polygon(f) for f in flat]
+    for j, pg in enumerate(polys):
+        if not pg.is_valid or pg.area <= 0:
+            raise ValueError(f"{name}: flat panel {j} is self-intersecting or degenerate")
+    body = unary_union(polys)
+    total = sum(p.area for p in polys)
+    if abs(body.area - total) > 1e-6 * total or body.geom_type != "Polygon":
+        raise ValueError(f"{name}: the unrolled strip overlaps itself (union {body.area:.6g} vs "
+                         f"panels {total:.6g}); split it into shorter parts (max_panels)")
+    rects = []
+    for s in slots:
+        pos = s.position
+        a2, b2 = (flat[0, 0], flat[0, 3]) if pos == 0 else (flat[pos - 1, 1], flat[pos - 1, 2])
+        rects.append(slot_rectangle(a2, b2, s.side, s.depth, s.width))
+    outline = body
+    if rects:
+        outline = body.difference(unary_union([Polygon(r) for r in rects]))
+    if outline.geom_type != "Polygon":
+        raise ValueError(f"{name}: slots cut the part into {len(getattr(outline, 'geoms', []))} pieces")
+    outline = shapely.set_precision(outline, 0.0)
+    label, label_angle, label_height = _label(flat, outline)
+    fl = np.stack([flat[:-1, 1], flat[:-1, 2]], axis=1) if k > 1 else np.zeros((0, 2, 2))
+    return Unrolled(name=name, panels=flat, fold_angles=fold_angles(quads), fold_lines=fl,
+                    slots=rects, outline=outline, label_position=label, label_angle=label_angle,
+                    label_height=label_height, max_edge_error=err, frame=frame, planar=planar,
+                    slot_records=list(slots))
+
+
+def _label(flat: np.ndarray, outline: Polygon) -> tuple[np.ndarray, float, float]:
+    """Label point, direction (radians) and text height: inside the roomiest panel (so the
+    text stays off the fold lines), along the panel's ``a`` edge, sized to fit."""
+    best = None
+    for q in flat:
+        region = Polygon(q).intersection(outline)
+        if region.is_empty:
+            continue
+        if region.geom_type != "Polygon":
+            region = max(region.geoms, key=lambda g: g.area)
+        pt = region.centroid
+        if not region.contains(pt):
+            pt = polylabel(region, tolerance=max(1e-3, 1e-3 * np.sqrt(region.area)))
+        r = region.exterior.distance(pt)
+        if best is None or r > best[0]:
+            best = (r, pt, q)
+    r, pt, q = best
+    d = q[1] - q[0]
+    ang = float(np.arctan2(d[1], d[0]))
+    length = float(np.linalg.norm(d))
+    height = float(np.clip(min(0.8 * r, length / 12.0), 1.0, 20.0))
+    return np.array([pt.x, pt.y]), ang, height
+
+
+def _rotate(points: np.ndarray, origin: np.ndarray, axis: np.ndarray, ang: float) -> np.ndarray:
+    """Rotate points (..., 3) about the line ``origin + s axis`` by ``ang`` (Rodrigues)."""
+    k = axis / np.linalg.norm(axis)
+    p = points - origin
+    c, s = np.cos(ang), np.sin(ang)
+    return origin + p * c + np.cross(k, p) * s + np.outer(p.reshape(-1, 3) @ k, k).reshape(p.shape) * (1 - c)
+
+
+def fold_back(u: Unrolled) -> np.ndarray:
+    """Fold an unrolled part back by its recorded fold angles: 3D quads (k, 4, 3) placed
+    with the first panel in ``u.frame``."""
+    o, e1, e2, _ = u.frame
+    x = o + u.panels[..., 0:1] * e1 + u.panels[..., 1:2] * e2
+    for i, ang in enumerate(u.fold_angles):
+        p, q = x[i, 1], x[i, 2]
+        x[i + 1:] = _rotate(x[i + 1:], p, q - p, ang)
+    return x
