@@ -470,9 +470,10 @@ class Congruence:
         t = np.empty((len(self._f), 2, 3))
         for k in (0, 1):
             d = tuple(np.where(swap, dirs[1 - k][i], dirs[k][i]) for i in range(3))
-            inv_len = 1.0 / np.sqrt(_dot3(d, d))
-            for i in range(3):
-                t[:, k, i] = np.where(invalid, np.nan, d[i] * inv_len)
+            with np.errstate(divide="ignore", invalid="ignore"):  # bundles: zero vectors, masked
+                inv_len = 1.0 / np.sqrt(_dot3(d, d))
+                for i in range(3):
+                    t[:, k, i] = np.where(invalid, np.nan, d[i] * inv_len)
         return t, invalid
 
     def torsal_directions(self) -> np.ndarray:
@@ -520,9 +521,10 @@ class Congruence:
         out = np.empty_like(t)
         for k in (0, 1):
             n = _cross3(e, _c(t[:, k]))
-            inv_len = 1.0 / np.sqrt(_dot3(n, n))
-            for i in range(3):
-                out[:, k, i] = n[i] * inv_len
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv_len = 1.0 / np.sqrt(_dot3(n, n))
+                for i in range(3):
+                    out[:, k, i] = n[i] * inv_len
         return out
 
     def torsal_angle(self) -> np.ndarray:

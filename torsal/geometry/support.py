@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["SupportStructure", "FinStrip", "fin_planarity"]
+__all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support",
+           "SupportOptimizationResult", "SupportWeights", "graph_laplacian", "closest_points"]
 
 
 def fin_planarity(quads: np.ndarray) -> np.ndarray:
@@ -249,3 +250,545 @@ class SupportStructure:
             off, idx = z["face_offsets"], z["face_indices"]
             faces = [idx[off[k]:off[k + 1]].tolist() for k in range(len(off) - 1)]
             return cls(z["vertices_a"], z["vertices_b"], faces, z["edges"], z["edge_family"])
+
+
+# ============================================================================ eq. (8)
+@dataclass
+class SupportWeights:
+    """Weights of eq. (8) (Wang et al. 2013, Fig. 12 uses plnr 20, prox 1, fair 1 for 7c).
+
+    Attributes
+    ----------
+    plnr : float
+        Planarity: squared distance of the fin diagonals, normalized by ``delta~^2 |E|``.
+    prox : float
+        Proximity: ``|e~ - e~_0|^2`` plus squared distance of ``a~`` to the tangent plane of A at
+        its closest point (normalized by ``delta``), averaged over vertices. Nodes flagged in
+        ``structure.metadata['boundary']`` and their fin neighbours use the distance to the
+        closest point itself, so they do not slide off the patch.
+    prox_e : float
+        Relative weight of the ``|e~ - e~_0|^2`` part inside the proximity term.
+    fair : float
+        Fairness: squared umbrella Laplacian of ``a~`` along the edges, normalized by
+        ``delta~^2 |V|``.
+    prox_t : float
+        Weak regularizer ``|a~ - a~_start|^2 / delta^2`` (not in the paper): tangential sliding
+        is otherwise free, which makes IPOPT crawl along the fairness flow.
+    """
+
+    plnr: float = 20.0
+    prox: float = 1.0
+    prox_e: float = 1.0
+    fair: float = 0.001
+    prox_t: float = 0.01
+
+
+@dataclass
+class SupportOptimizationResult:
+    """Outcome of :func:`optimize_support`, shaped like the congruence solver's result.
+
+    Attributes
+    ----------
+    structure : SupportStructure
+        The optimized structure (a new object; the input is not modified).
+    success : bool
+        IPOPT converged in the last round and the requested planarity (if any) is met.
+    status : str
+        IPOPT's return status of the last round (or a message naming the problem).
+    solve_seconds : float
+        Wall time of all rounds (NLP construction included).
+    iterations : int
+        IPOPT iterations summed over rounds.
+    delta_pl_before, delta_pl_after : float
+        The paper's delta_pl (Fig. 12) before and after.
+    distance_to_reference : float
+        Largest distance of a node a~ to the reference surface A, divided by A's average
+        edge length delta (NaN when no reference was given).
+    history : list of dict
+        Per outer round: objective, delta_pl, IPOPT status and iterations.
+    """
+
+    structure: "SupportStructure"
+    success: bool
+    status: str
+    solve_seconds: float
+    iterations: int
+    delta_pl_before: float
+    delta_pl_after: float
+    distance_to_reference: float
+    history: list = field(default_factory=list)
+
+
+def graph_laplacian(edges: np.ndarray, n: int):
+    """Umbrella Laplacian of a graph, (n, n) sparse: ``(L x)_i = x_i - mean_{j~i} x_j``."""
+    import scipy.sparse as sp
+
+    e = np.asarray(edges, np.int64).reshape(-1, 2)
+    i = np.r_[e[:, 0], e[:, 1]]
+    j = np.r_[e[:, 1], e[:, 0]]
+    adj = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
+    adj.data[:] = 1.0
+    deg = np.asarray(adj.sum(1)).ravel()
+    inv = np.divide(1.0, deg, out=np.zeros_like(deg), where=deg > 0)
+    return (sp.diags((deg > 0).astype(float)) - sp.diags(inv) @ adj).tocsr()
+
+
+def _near_boundary(structure) -> np.ndarray:
+    """Nodes on the boundary of A (``metadata['boundary']``) and their fin neighbours, (n,) bool:
+    these use the distance to the closest point of A (not to its tangent plane) so that they
+    cannot slide off the patch."""
+    n = len(structure.vertices_a)
+    bnd = np.asarray(structure.metadata.get("boundary", np.zeros(n, bool)), bool)
+    if bnd.shape != (n,):
+        return np.zeros(n, bool)
+    e = structure.edges
+    near = bnd.copy()
+    near[e[bnd[e[:, 0]], 1]] = True
+    near[e[bnd[e[:, 1]], 0]] = True
+    return near
+
+
+def closest_points(vertices, faces, points):
+    """Closest points on a triangle mesh: ``(points (m, 3), distances (m,), faces (m,))``.
+
+    libigl's AABB ``point_mesh_squared_distance`` (exact, C++); trimesh's proximity query as a
+    fallback when libigl is missing.
+    """
+    pts = np.ascontiguousarray(points, dtype=float)
+    try:
+        import igl
+
+        d2, tri, cp = igl.point_mesh_squared_distance(pts, np.ascontiguousarray(vertices, dtype=float),
+                                                      np.ascontiguousarray(faces, dtype=np.int64))
+        return np.asarray(cp), np.sqrt(np.maximum(d2, 0.0)), np.asarray(tri)
+    except ImportError:  # pragma: no cover
+        import trimesh
+
+        m = trimesh.Trimesh(vertices, faces, process=False)
+        cp, d, tri = trimesh.proximity.closest_point(m, pts)
+        return cp, d, tri
+
+
+def _face_normals(vertices, faces):
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def _reference_arrays(reference):
+    if reference is None:
+        return None
+    if hasattr(reference, "vertices") and hasattr(reference, "faces"):
+        return np.asarray(reference.vertices, float), np.asarray(reference.faces, np.int64)
+    v, f = reference
+    return np.asarray(v, float), np.asarray(f, np.int64)
+
+
+def optimize_support(structure: "SupportStructure", reference=None, weights: SupportWeights | dict | None = None,
+                     *, hard_tol: float | None = None, rounds: int = 2, max_iter: int = 200,
+                     fixed_e: bool = False, ipopt_options: dict | None = None,
+                     method: str = "ipopt", exact_hessian: str = "assembled",
+                     start: str = "input") -> SupportOptimizationResult:
+    """Optimize a support structure towards planar fins, eq. (8) of Wang et al. 2013.
+
+    Minimizes, over ``a~`` and ``e~ = b~ - a~``::
+
+        w_plnr / (delta~^2 |E|) sum_E dist(a_i v b_j, a_j v b_i)^2
+      + w_prox / |V| sum_V (|e_i - e_i0|^2 + (dist(a_i, T_i) / delta)^2)
+      + w_fair / (delta~^2 |V|) sum_V |Laplace a_i|^2
+
+    with ``T_i`` the tangent plane of the reference surface A at the closest point of
+    ``a_i`` from the previous round (updated each of ``rounds`` outer rounds, Fig. 8c).
+    The diagonal distance is ``det[a_j - a_i, b_j - a_i, b_i - a_j] / |(b_j - a_i) x (b_i - a_j)|``.
+    Built as one vectorized casadi SX NLP and solved with IPOPT (MUMPS).
+
+    Parameters
+    ----------
+    structure : SupportStructure
+    reference : (vertices, faces) or trimesh.Trimesh, optional
+        Surface A; without it the proximity term keeps ``a~`` near its start instead.
+    weights : SupportWeights or dict, optional
+    hard_tol : float, optional
+        If given, planarity becomes a hard constraint: every fin's
+        :func:`fin_planarity` (signed) lies in ``[-hard_tol, hard_tol]`` (a 0.9 safety factor
+        is applied internally), i.e. ``delta_pl <= hard_tol``; the planarity summand of
+        eq. (8) is then dropped (the constraint replaces it).
+    rounds : int, default 2
+        Outer rounds (tangent planes updated between them).
+    max_iter : int, default 200
+        IPOPT iterations per round.
+    fixed_e : bool, default False
+        Keep the node directions e~ fixed (only a~ moves).
+    ipopt_options : dict, optional
+        Extra IPOPT options (``{"tol": 1e-10}``, ...).
+    start : {"input", "projection"}, default "input"
+        Starting point of IPOPT when ``hard_tol`` is given: the (feasible, planar) result of the
+        projection method, or the input structure. Proximity is always measured from the input.
+    exact_hessian : {"assembled", "casadi"}, default "assembled"
+        How IPOPT gets the exact Hessian of the Lagrangian: ``"assembled"`` maps a 12x12
+        per-fin SX Hessian over all fins and sums the blocks with one sparse product (fast);
+        ``"casadi"`` lets casadi differentiate the whole MX graph (slow for large meshes).
+    method : {"ipopt", "projection"}, default "ipopt"
+        ``"ipopt"``: the NLP above (casadi + IPOPT). ``"projection"``: a fast Gauss-Newton
+        projection onto the constraint set {every fin planar, every a~ on its tangent plane}
+        with minimal weighted change (``x <- x - W^-1 J^T (J W^-1 J^T)^-1 r``, one sparse solve
+        per step; in the spirit of guided projection, Tang et al. 2014). It needs ``hard_tol``
+        (default 1e-4) and ignores the fairness term; use it for large structures.
+
+    Returns
+    -------
+    SupportOptimizationResult
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([[0., 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    >>> b = a + [[0, 0, 1], [0, 0, 1], [0.1, 0, 1], [0, 0, 1]]
+    >>> s = SupportStructure(a, b, [[0, 1, 2, 3]], np.array([[0, 1], [1, 2], [2, 3], [0, 3]]),
+    ...                      np.array([0, 1, 0, 1]))
+    >>> r = optimize_support(s, hard_tol=1e-6)
+    >>> r.success, r.structure.delta_pl <= 1e-6
+    (True, True)
+    """
+    import time
+
+    import casadi as ca
+
+    t_start = time.perf_counter()
+    if method == "projection":
+        return _project_support(structure, reference, hard_tol=1e-4 if hard_tol is None else hard_tol,
+                                rounds=rounds, max_iter=max_iter, fixed_e=fixed_e)
+    if method != "ipopt":
+        raise ValueError(f"method must be 'ipopt' or 'projection', got {method!r}")
+    if weights is None:
+        weights = SupportWeights()
+    elif isinstance(weights, dict):
+        weights = SupportWeights(**weights)
+    s0 = structure
+    n, E = len(s0.vertices_a), len(s0.edges)
+    a0 = s0.vertices_a.copy()
+    e0 = s0.directions.copy()
+    before = s0.delta_pl
+    if E == 0:
+        return SupportOptimizationResult(s0, True, "no edges", 0.0, 0, before, before, float("nan"))
+    i, j = s0.edges[:, 0], s0.edges[:, 1]
+    len_a = np.linalg.norm(a0[j] - a0[i], axis=1)
+    dtil = float(len_a.mean())
+    ref = _reference_arrays(reference)
+    if ref is not None:
+        from .mesh import average_edge_length
+
+        delta = average_edge_length(*ref)
+        fn = _face_normals(*ref)
+    else:
+        delta = dtil
+    L = graph_laplacian(s0.edges, n)
+
+    # ----- symbolic problem: one per-fin SX kernel mapped over all fins (casadi Function.map),
+    # nodes stored column-wise (3, n) so a node's coordinates are contiguous
+    sa, sb_, sc, sd = (ca.SX.sym(nm, 3) for nm in ("ai", "aj", "ei", "ej"))
+    d1 = sb_ + sd - sa           # b_j - a_i
+    d2 = sa + sc - sb_           # b_i - a_j
+    cr = ca.cross(d1, d2)
+    det = ca.dot(sb_ - sa, cr)
+    dist_k = det / ca.sqrt(ca.dot(cr, cr) + 1e-300)
+    plan_k = dist_k / (0.5 * (ca.norm_2(d1) + ca.norm_2(d2)))
+    fin = ca.Function("fin", [sa, sb_, sc, sd], [dist_k, plan_k])
+    fin_map = fin.map(E, "serial")
+    nx = 3 * n if fixed_e else 6 * n
+    x = ca.MX.sym("x", nx)
+    xa = x[:3 * n]
+    A = ca.reshape(xa, 3, n)
+    if fixed_e:
+        Em = ca.DM(e0.T)
+    else:
+        Em = ca.reshape(x[3 * n:], 3, n)
+    p_pt = ca.MX.sym("p", 3 * n)
+    p_n = ca.MX.sym("q", 3 * n)
+    P_ = ca.reshape(p_pt, 3, n)
+    N_ = ca.reshape(p_n, 3, n)
+    il, jl = i.tolist(), j.tolist()
+    dist, plan = fin_map(A[:, il], A[:, jl], Em[:, il], Em[:, jl])
+    # with a hard planarity constraint the planarity summand is replaced by the constraint
+    # (keeping both makes the Lagrangian Hessian indefinite and IPOPT crawls)
+    w_pl = 0.0 if hard_tol is not None else weights.plnr
+    f_pl = w_pl / (dtil ** 2 * E) * ca.sumsqr(dist)
+    if ref is not None:
+        tang = ca.sum1((A - P_) * N_) / delta
+        f_tan = ca.sumsqr(tang)
+        # nodes on the boundary of A would slide off the patch along the tangent plane:
+        # for them the distance to the closest point itself is used
+        bnd = _near_boundary(s0)
+        if bnd.any():
+            bl = np.flatnonzero(bnd).tolist()
+            f_tan = f_tan + ca.sumsqr(A[:, bl] - P_[:, bl]) / delta ** 2
+    else:
+        f_tan = ca.sumsqr(A - P_) / delta ** 2
+    f_prox = weights.prox / n * f_tan
+    if not fixed_e:
+        f_prox = f_prox + weights.prox / n * weights.prox_e * ca.sumsqr(Em - ca.DM(e0.T))
+    Lc = L.tocoo()
+    Ls = ca.DM.triplet(Lc.row.tolist(), Lc.col.tolist(), ca.DM(Lc.data), n, n)
+    f_fair = weights.fair / (dtil ** 2 * n) * ca.sumsqr(ca.mtimes(A, Ls.T))
+    f_reg = weights.prox_t / n * ca.sumsqr(A - ca.DM(a0.T)) / delta ** 2
+    f = f_pl + f_prox + f_fair + f_reg
+    par = ca.vertcat(p_pt, p_n)
+    nlp = {"x": x, "f": f, "p": par}
+    lbg = ubg = None
+    if hard_tol is not None:
+        nlp["g"] = plan.T
+        tol_eff = 0.9 * float(hard_tol)
+        lbg, ubg = -tol_eff * np.ones(E), tol_eff * np.ones(E)
+    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.linear_solver": "mumps",
+            "ipopt.max_iter": int(max_iter), "ipopt.tol": 1e-9, "ipopt.sb": "yes",
+            "ipopt.mumps_pivot_order": 5}
+    if ipopt_options:
+        opts.update({(k if k.startswith("ipopt.") else "ipopt." + k): v for k, v in ipopt_options.items()})
+    if exact_hessian == "assembled":
+        bnd_mask = None
+        if ref is not None:
+            bnd_mask = _near_boundary(s0)
+        opts["hess_lag"] = _assembled_hessian(
+            ca, fin, x, par, N_, n, E, i, j, fixed_e, hard_tol is not None, ref is not None, bnd_mask,
+            c_pl=w_pl / (dtil ** 2 * E), c_tan=weights.prox / (n * delta ** 2),
+            c_e=weights.prox * weights.prox_e / n, c_fair=weights.fair / (dtil ** 2 * n),
+            c_reg=weights.prox_t / (n * delta ** 2), L=L)
+    solver = ca.nlpsol("support", "ipopt", nlp, opts)
+
+    a_cur, e_cur = a0.copy(), e0.copy()
+    history, iters, status, ok = [], 0, "not run", False
+    if start == "projection" and hard_tol is not None:
+        pr = _project_support(s0, reference, hard_tol=hard_tol, rounds=1, max_iter=50, fixed_e=fixed_e)
+        a_cur, e_cur = pr.structure.vertices_a.copy(), pr.structure.directions.copy()
+        history.append({"round": "start", "delta_pl": pr.delta_pl_after, "status": pr.status,
+                        "iterations": pr.iterations})
+    for rnd in range(max(1, int(rounds))):
+        if ref is not None:
+            cp, _, tri = closest_points(ref[0], ref[1], a_cur)
+            pn = fn[tri]
+        else:
+            cp, pn = a0, np.zeros_like(a0)
+        x0 = a_cur.ravel() if fixed_e else np.r_[a_cur.ravel(), e_cur.ravel()]
+        args = {"x0": x0, "p": np.r_[np.asarray(cp).ravel(), np.asarray(pn).ravel()]}
+        if lbg is not None:
+            args.update(lbg=lbg, ubg=ubg)
+        sol = solver(**args)
+        st = solver.stats()
+        status = st.get("return_status", "unknown")
+        ok = bool(st.get("success", False))
+        iters += int(st.get("iter_count", 0))
+        xs = np.asarray(sol["x"]).ravel()
+        a_cur = xs[:3 * n].reshape(n, 3).copy()
+        if not fixed_e:
+            e_cur = xs[3 * n:].reshape(n, 3).copy()
+        cur = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
+                               metadata=dict(s0.metadata))
+        history.append({"round": rnd, "objective": float(sol["f"]), "delta_pl": cur.delta_pl,
+                        "status": status, "iterations": int(st.get("iter_count", 0))})
+    out = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
+                           metadata=dict(s0.metadata))
+    if ref is not None:
+        _, dref, _ = closest_points(ref[0], ref[1], a_cur)
+        dist_ref = float(np.max(dref) / delta)
+    else:
+        dist_ref = float("nan")
+    after = out.delta_pl
+    success = ok and (hard_tol is None or after <= hard_tol)
+    if ok and not success:
+        status = f"{status}; delta_pl {after:.3g} above hard_tol {hard_tol:.3g}"
+    return SupportOptimizationResult(out, success, status, time.perf_counter() - t_start, iters,
+                                     before, after, dist_ref, history)
+
+
+def _fin_residual_jacobian(a, e, edges):
+    """Normalized signed fin planarity (E,) and its gradient blocks w.r.t. a_i, a_j, e_i, e_j."""
+    i, j = edges[:, 0], edges[:, 1]
+    u = a[j] - a[i]
+    d1 = a[j] + e[j] - a[i]
+    d2 = a[i] + e[i] - a[j]
+    c12 = np.cross(d1, d2)
+    c2u = np.cross(d2, u)
+    cu1 = np.cross(u, d1)
+    det = np.einsum("ij,ij->i", u, c12)
+    scale = np.linalg.norm(c12, axis=1) * 0.5 * (np.linalg.norm(d1, axis=1) + np.linalg.norm(d2, axis=1))
+    scale = np.maximum(scale, 1e-300)
+    r = det / scale
+    g_ai = (-c12 - c2u + cu1) / scale[:, None]
+    g_aj = -g_ai
+    g_ei = cu1 / scale[:, None]
+    g_ej = c2u / scale[:, None]
+    return r, g_ai, g_aj, g_ei, g_ej
+
+
+def _project_support(structure, reference, *, hard_tol, rounds, max_iter, fixed_e):
+    """Gauss-Newton projection onto planar fins with a~ on the tangent planes of A."""
+    import time
+
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    t_start = time.perf_counter()
+    s0 = structure
+    n, E = len(s0.vertices_a), len(s0.edges)
+    a, e = s0.vertices_a.copy(), s0.directions.copy()
+    before = s0.delta_pl
+    ref = _reference_arrays(reference)
+    if ref is not None:
+        from .mesh import average_edge_length
+
+        delta = average_edge_length(*ref)
+        fnrm = _face_normals(*ref)
+    else:
+        delta = float(np.linalg.norm(a[s0.edges[:, 1]] - a[s0.edges[:, 0]], axis=1).mean())
+    i, j = s0.edges[:, 0], s0.edges[:, 1]
+    # metric: moving a node costs 1 per unit/delta, changing e costs 1 per unit (e ~ fin depth)
+    wa, we = 1.0 / delta ** 2, 1.0 / max(float(np.linalg.norm(e, axis=1).mean()), 1e-12) ** 2
+    iters, history, status = 0, [], "max_iter reached"
+    target = 0.5 * hard_tol
+    converged = False
+    for rnd in range(max(1, int(rounds))):
+        if ref is not None:
+            cp, _, tri = closest_points(ref[0], ref[1], a)
+            nrm = fnrm[tri]
+        else:
+            cp, nrm = None, None
+        for _ in range(int(max_iter)):
+            r, g_ai, g_aj, g_ei, g_ej = _fin_residual_jacobian(a, e, s0.edges)
+            res_t = np.einsum("ij,ij->i", a - cp, nrm) / delta if ref is not None else np.zeros(0)
+            if np.abs(r).max() <= target and (res_t.size == 0 or np.abs(res_t).max() <= 1e-10):
+                converged = True
+                break
+            iters += 1
+            cols_a = lambda v: (3 * v[:, None] + np.arange(3)[None]).ravel()
+            rows = [np.repeat(np.arange(E), 3), np.repeat(np.arange(E), 3)]
+            cols = [cols_a(i), cols_a(j)]
+            vals = [g_ai.ravel(), g_aj.ravel()]
+            if not fixed_e:
+                rows += [np.repeat(np.arange(E), 3), np.repeat(np.arange(E), 3)]
+                cols += [3 * n + cols_a(i), 3 * n + cols_a(j)]
+                vals += [g_ei.ravel(), g_ej.ravel()]
+            nr = E
+            rr = [r]
+            if ref is not None:
+                rows.append(E + np.repeat(np.arange(n), 3))
+                cols.append(cols_a(np.arange(n)))
+                vals.append((nrm / delta).ravel())
+                rr.append(res_t)
+                nr += n
+            J = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(nr, 6 * n))
+            winv = np.r_[np.full(3 * n, 1.0 / wa), np.full(3 * n, 1.0 / we if not fixed_e else 0.0)]
+            JW = J @ sp.diags(winv)
+            K = (JW @ J.T).tocsc()
+            K = K + sp.identity(nr) * (1e-12 * K.diagonal().mean())
+            lam = spla.spsolve(K, np.concatenate(rr))
+            dx = -(JW.T @ lam)
+            a = a + dx[:3 * n].reshape(n, 3)
+            e = e + dx[3 * n:].reshape(n, 3)
+        cur = SupportStructure(a, a + e, s0.faces, s0.edges, s0.edge_family, metadata=dict(s0.metadata))
+        history.append({"round": rnd, "delta_pl": cur.delta_pl, "iterations": iters})
+    out = SupportStructure(a, a + e, s0.faces, s0.edges, s0.edge_family, metadata=dict(s0.metadata))
+    after = out.delta_pl
+    if ref is not None:
+        _, dref, _ = closest_points(ref[0], ref[1], a)
+        dist_ref = float(np.max(dref) / delta)
+    else:
+        dist_ref = float("nan")
+    success = converged and after <= hard_tol
+    status = "converged" if success else f"not converged: delta_pl {after:.3g} (target {hard_tol:.3g})"
+    return SupportOptimizationResult(out, success, status, time.perf_counter() - t_start, iters,
+                                     before, after, dist_ref, history)
+
+
+def _assembled_hessian(ca, fin, x, par, N_, n, E, i, j, fixed_e, constrained, with_ref, bnd_mask, *,
+                       c_pl, c_tan, c_e, c_fair, c_reg, L):
+    """casadi Function (x, p, lam_f, lam_g) -> upper triangle of the Lagrangian Hessian.
+
+    Per fin the 12x12 Hessian of ``lam_f c_pl dist^2 + lam_g plan`` (SX, mapped over all
+    fins); the quadratic terms of eq. (8) add constant (or parameter-bilinear) blocks. All
+    entries are summed into the global sparsity by one constant sparse matrix product.
+    """
+    import scipy.sparse as sp
+
+    nv = 6 if fixed_e else 12
+    z = ca.SX.sym("z", 12)
+    lf, lg = ca.SX.sym("lf"), ca.SX.sym("lg")
+    d_k, p_k = fin(z[0:3], z[3:6], z[6:9], z[9:12])
+    hk = ca.hessian(lf * c_pl * d_k ** 2 + lg * p_k, z[:nv])[0]
+    hk_fun = ca.Function("fin_hess", [z, lf, lg], [ca.vec(ca.densify(hk))])
+    hk_map = hk_fun.map(E, "serial")
+    A = ca.reshape(x[:3 * n], 3, n)
+    Em = ca.DM(np.zeros((3, n))) if fixed_e else ca.reshape(x[3 * n:], 3, n)
+    il, jl = i.tolist(), j.tolist()
+    Z = ca.vertcat(A[:, il], A[:, jl], Em[:, il], Em[:, jl])
+    lam_f = ca.MX.sym("lam_f")
+    lam_g = ca.MX.sym("lam_g", E if constrained else 0)
+    vals = [ca.vec(hk_map(Z, ca.repmat(lam_f, 1, E), lam_g.T if constrained else ca.DM.zeros(1, E)))]
+    # global index of each of the nv local variables of every fin, (E, nv)
+    three = np.arange(3)
+    gl = [3 * i[:, None] + three, 3 * j[:, None] + three]
+    if not fixed_e:
+        gl += [3 * n + 3 * i[:, None] + three, 3 * n + 3 * j[:, None] + three]
+    gl = np.concatenate(gl, axis=1)
+    r_loc, c_loc = np.meshgrid(np.arange(nv), np.arange(nv), indexing="ij")  # entry q = c*nv + r
+    q = (c_loc * nv + r_loc).ravel()
+    rows = [gl[:, r_loc.ravel()].ravel()]
+    cols = [gl[:, c_loc.ravel()].ravel()]
+    src = [(np.arange(E)[:, None] * nv * nv + q[None, :]).ravel()]
+    off = E * nv * nv
+    # quadratic terms: tangent planes (parameter dependent) ...
+    if with_ref:
+        ab = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+        nn = ca.vertcat(*[N_[a, :] * N_[b, :] for a, b in ab])  # (6, n)
+        vals.append(lam_f * 2.0 * c_tan * ca.vec(nn))
+        k = np.arange(n)
+        for t_, (a, b) in enumerate(ab):
+            rows.append(3 * k + a)
+            cols.append(3 * k + b)
+            src.append(off + k * 6 + t_)
+        off += 6 * n
+    # ... and constant blocks: fairness (L^T L per coordinate), regularizer, boundary, e-proximity
+    LtL = (L.T @ L).tocoo()
+    cr, cc, cv = [], [], []
+    for d in range(3):
+        cr.append(3 * LtL.row + d)
+        cc.append(3 * LtL.col + d)
+        cv.append(2.0 * c_fair * LtL.data)
+    diag_a = np.full(n, 2.0 * c_reg)
+    if not with_ref:
+        diag_a = diag_a + 2.0 * c_tan
+    elif bnd_mask is not None:
+        diag_a = diag_a + 2.0 * c_tan * bnd_mask
+    cr.append(np.arange(3 * n))
+    cc.append(np.arange(3 * n))
+    cv.append(np.repeat(diag_a, 3))
+    if not fixed_e:
+        cr.append(3 * n + np.arange(3 * n))
+        cc.append(3 * n + np.arange(3 * n))
+        cv.append(np.full(3 * n, 2.0 * c_e))
+    cr, cc, cv = np.concatenate(cr), np.concatenate(cc), np.concatenate(cv)
+    vals.append(lam_f * ca.DM(cv))
+    rows.append(cr)
+    cols.append(cc)
+    src.append(off + np.arange(len(cv)))
+    off += len(cv)
+    rows, cols, src = np.concatenate(rows), np.concatenate(cols), np.concatenate(src)
+    # upper triangle only (symmetric blocks: mirror the lower entries)
+    lo = rows > cols
+    rows[lo], cols[lo] = cols[lo], rows[lo].copy()
+    nx = int(x.numel())
+    key = cols.astype(np.int64) * nx + rows
+    ukey, inv = np.unique(key, return_inverse=True)
+    ur, uc = (ukey % nx).astype(np.int64), (ukey // nx).astype(np.int64)
+    # entries that were mirrored from the lower triangle must not be double counted: keep the
+    # strictly-lower copies out (the per-fin and L^T L blocks contain both halves)
+    keep = ~lo | (rows == cols)
+    S = sp.csr_matrix((np.ones(int(keep.sum())), (inv[keep], src[keep])), shape=(len(ukey), off))
+    Sc = S.tocoo()
+    Sdm = ca.DM.triplet(Sc.row.tolist(), Sc.col.tolist(), ca.DM(Sc.data), len(ukey), off)
+    values = ca.mtimes(Sdm, ca.vertcat(*vals))
+    spars = ca.Sparsity.triplet(nx, nx, ur.tolist(), uc.tolist())
+    H = ca.MX(spars, values)
+    return ca.Function("nlp_hess_l", [x, par, lam_f, lam_g], [H],
+                       ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])

@@ -1,0 +1,402 @@
+"""Torsal frame fields: smoothing, combing, matchings and singularities (Wang et al. 2013, 4.2).
+
+The torsal directions of a congruence (eq. (1), :meth:`Congruence.torsal_directions`) give per
+face two *lines* (sign-free, not orthogonal): a non-orthogonal frame field in the sense of
+libigl's ``FrameField``. Its symmetry group is the dihedral group of order 8 (swap the two
+lines and/or flip either sign), represented here by 2x2 signed permutation matrices.
+
+Steps of :func:`torsal_frame_field`:
+
+1. Faces whose torsal directions are undefined (not hyperbolic, eq. (2)), close to a line
+   bundle (paper 2.1 remark) or nearly parabolic (the two directions almost coincide) get
+   directions from a smoothness energy: the PolyVector representation of Diamanti et al.
+   2014 (coefficients ``z1^2 + z2^2`` and ``z1^2 z2^2`` of the per-face complex polynomial
+   are invariant under the symmetry group) is interpolated harmonically with the Levi-Civita
+   connection of the mesh, the torsal faces held fixed.
+2. The field is combed along a breadth-first dual spanning tree: every face picks the
+   permutation and signs that best match its parent (libigl ``comb_frame_field`` does the
+   same on the bisector cross field; written by hand here so that the permutation group of
+   a *non-orthogonal* line pair is used directly and the dual tree is returned for cutting).
+3. The matching of every interior edge after combing (identity on tree edges) and the
+   holonomy around every interior vertex give the singularities (libigl
+   ``cross_field_mismatch`` / ``find_cross_field_singularities`` work on cross fields; here the
+   same is done for the order-8 group, vectorized over faces).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csg
+import scipy.sparse.linalg as spla
+
+from .mesh import edge_face_adjacency
+
+__all__ = ["TorsalFrameField", "torsal_frame_field", "face_bases", "FrameFieldError"]
+
+
+class FrameFieldError(ValueError):
+    """The torsal frame field cannot be built (e.g. no face has torsal directions)."""
+
+
+# the 8 signed permutation matrices M with frame_f = M @ frame_g (rows: target vectors)
+def _group() -> np.ndarray:
+    mats = []
+    for perm in ((0, 1), (1, 0)):
+        for s0 in (1, -1):
+            for s1 in (1, -1):
+                m = np.zeros((2, 2), int)
+                m[0, perm[0]] = s0
+                m[1, perm[1]] = s1
+                mats.append(m)
+    return np.array(mats)
+
+
+GROUP = _group()  #: (8, 2, 2) int, index 0 is the identity
+
+
+def _group_index(m: np.ndarray) -> np.ndarray:
+    """Index into GROUP of (..., 2, 2) signed permutation matrices."""
+    flat = m.reshape(-1, 4)
+    g = GROUP.reshape(8, 4)
+    eq = (flat[:, None, :] == g[None]).all(-1)
+    return eq.argmax(1).reshape(m.shape[:-2])
+
+
+def face_bases(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Orthonormal per-face frames ``(b1, b2, n)``, each (F, 3).
+
+    ``b1`` along the face's first edge ``p1 - p0``, ``n`` the unit normal (right-handed with
+    the face's winding), ``b2 = n x b1`` (libigl ``local_basis`` convention).
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces)
+    e1 = v[f[:, 1]] - v[f[:, 0]]
+    e2 = v[f[:, 2]] - v[f[:, 0]]
+    n = np.cross(e1, e2)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    b1 = e1 / np.linalg.norm(e1, axis=1, keepdims=True)
+    b2 = np.cross(n, b1)
+    return b1, b2, n
+
+
+@dataclass
+class TorsalFrameField:
+    """A combed torsal frame field on a triangle mesh.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float
+    faces : (F, 3) int
+    directions : (F, 2, 3) float
+        Combed unit directions per face (tangent to the face). Row 0 is "family 0".
+    from_torsal : (F,) bool
+        True where the directions are the congruence's torsal directions (eq. (1)), False where
+        they were filled in by the smoothness energy.
+    edges : (E, 2) int
+        Unique mesh edges; ``edge_faces`` (E, 2) their faces (-1 on the boundary).
+    matching : (E,) int
+        Index into :data:`GROUP` of the matching ``M`` with ``frame[f0] ~ M @ frame[f1]`` after
+        combing (0 = identity; -1 on boundary edges).
+    tree_edge : (E,) bool
+        Edges crossed by the dual spanning tree used for combing (matching is identity there).
+    singularities : (s,) int
+        Interior vertices whose holonomy (product of matchings around the one-ring) is not
+        the identity.
+    holonomy : (s,) int
+        Index into :data:`GROUP` of the holonomy at each singularity (``-I`` = index +-1/2 of
+        both line fields, a swap = index +-1/4).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    directions: np.ndarray
+    from_torsal: np.ndarray
+    edges: np.ndarray
+    edge_faces: np.ndarray
+    matching: np.ndarray
+    tree_edge: np.ndarray
+    singularities: np.ndarray
+    holonomy: np.ndarray
+    metadata: dict = field(default_factory=dict)
+
+    def dual_frame(self) -> np.ndarray:
+        """Per face the dual frame ``(w1, w2)``, (F, 2, 3): in the face plane with
+        ``<w_i, t_j> = delta_ij`` for the combed directions ``t_0, t_1``.
+
+        A function with gradient ``w1`` increases by one along ``t_0`` and is constant along
+        ``t_1``: its iso-lines follow family 1.
+        """
+        t = self.directions
+        _, _, n = face_bases(self.vertices, self.faces)
+        t0, t1 = t[:, 0], t[:, 1]
+        # w1 is orthogonal to t1 (in plane), w2 orthogonal to t0
+        p1 = np.cross(n, t1)
+        p0 = np.cross(n, t0)
+        w1 = p1 / np.einsum("ij,ij->i", p1, t0)[:, None]
+        w2 = p0 / np.einsum("ij,ij->i", p0, t1)[:, None]
+        return np.stack([w1, w2], axis=1)
+
+    @property
+    def is_seamless(self) -> bool:
+        """True when every interior edge has the identity matching (a disk-like, singularity-free
+        combing: the parametrization needs no cuts)."""
+        inner = self.matching >= 0
+        return bool((self.matching[inner] == 0).all())
+
+
+def _edge_transport(vertices, faces, edges, edge_faces, b1, b2):
+    """Unit complex ``r`` per interior edge with ``z_in_f0 = r * z_in_f1`` (parallel transport
+    across the hinge: the shared edge has the same angle in both faces)."""
+    v = np.asarray(vertices, float)
+    inner = edge_faces[:, 1] >= 0
+    f0 = edge_faces[:, 0]
+    f1 = np.where(inner, edge_faces[:, 1], edge_faces[:, 0])
+    ev = v[edges[:, 1]] - v[edges[:, 0]]
+    a0 = np.einsum("ij,ij->i", ev, b1[f0]) + 1j * np.einsum("ij,ij->i", ev, b2[f0])
+    a1 = np.einsum("ij,ij->i", ev, b1[f1]) + 1j * np.einsum("ij,ij->i", ev, b2[f1])
+    r = (a0 / np.abs(a0)) / (a1 / np.abs(a1))
+    return r, inner
+
+
+def _best_matching(zf: np.ndarray, zg: np.ndarray) -> np.ndarray:
+    """Per pair, the GROUP index of M maximizing alignment of ``M @ zg`` with ``zf``.
+
+    zf, zg : (m, 2) complex unit directions already expressed in the same basis.
+    """
+    # alignment of line i of f with line j of g
+    c = np.real(np.conj(zf)[:, :, None] * zg[:, None, :])  # (m, 2, 2)
+    keep = np.abs(c[:, 0, 0]) + np.abs(c[:, 1, 1])
+    swap = np.abs(c[:, 0, 1]) + np.abs(c[:, 1, 0])
+    use_swap = swap > keep
+    s0 = np.where(use_swap, np.sign(c[:, 0, 1]), np.sign(c[:, 0, 0]))
+    s1 = np.where(use_swap, np.sign(c[:, 1, 0]), np.sign(c[:, 1, 1]))
+    s0 = np.where(s0 == 0, 1, s0)
+    s1 = np.where(s1 == 0, 1, s1)
+    # GROUP order: perm (id, swap) x s0 (+,-) x s1 (+,-)
+    return (use_swap.astype(int) * 4 + (s0 < 0).astype(int) * 2 + (s1 < 0).astype(int))
+
+
+def _smooth_fill(z, fixed, edges_inner, r_inner, ef_inner, n_faces):
+    """Harmonic interpolation of the PolyVector coefficients on the non-fixed faces."""
+    c1 = z[:, 0] ** 2 + z[:, 1] ** 2
+    c0 = z[:, 0] ** 2 * z[:, 1] ** 2
+    free = ~fixed
+    if not free.any():
+        return z
+    f0, f1 = ef_inner[:, 0], ef_inner[:, 1]
+    out = z.copy()
+    for coef, power in ((c1, 2), (c0, 4)):
+        rr = r_inner ** power  # coef_in_f0 = rr * coef_in_f1
+        # energy sum |x_f0 - rr x_f1|^2 -> Hermitian Laplacian
+        rows = np.r_[f0, f1, f0, f1]
+        cols = np.r_[f0, f1, f1, f0]
+        vals = np.r_[np.ones(len(f0)), np.ones(len(f0)), -rr, -np.conj(rr)]
+        L = sp.csr_matrix((vals, (rows, cols)), shape=(n_faces, n_faces))
+        fi = np.flatnonzero(free)
+        xi = np.flatnonzero(fixed)
+        Lff = L[fi][:, fi]
+        rhs = -(L[fi][:, xi] @ coef[xi])
+        Lff = Lff + sp.identity(len(fi)) * 1e-10
+        sol = spla.spsolve(Lff.tocsc(), rhs)
+        coef = coef.copy()
+        coef[fi] = sol
+        if power == 2:
+            c1 = coef
+        else:
+            c0 = coef
+    # roots of w^2 - c1 w + c0 = 0 are z1^2, z2^2
+    fi = np.flatnonzero(free)
+    disc = np.sqrt(c1[fi] ** 2 - 4 * c0[fi] + 0j)
+    w1 = 0.5 * (c1[fi] + disc)
+    w2 = 0.5 * (c1[fi] - disc)
+    za = np.sqrt(w1)
+    zb = np.sqrt(w2)
+    # degenerate (both zero): pick an orthogonal pair
+    za = np.where(np.abs(za) < 1e-300, 1.0 + 0j, za)
+    zb = np.where(np.abs(zb) < 1e-300, 1j * za, zb)
+    out[fi, 0] = za / np.abs(za)
+    out[fi, 1] = zb / np.abs(zb)
+    return out
+
+
+def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: float = 10.0,
+                       root: int | None = None) -> TorsalFrameField:
+    """Per face the two torsal directions of a congruence, filled, combed, with singularities.
+
+    Wang et al. 2013, section 4.2 (Fig. 8a): the frame field of torsal directions at face
+    barycenters (eq. (1)); faces that are not hyperbolic (eq. (2)), near a line bundle
+    (:meth:`Congruence.bundle_deviation` below ``bundle_tol``, paper 2.1 remark) or nearly
+    parabolic (torsal angle below ``min_angle_deg``) get directions from a smoothness energy.
+
+    Parameters
+    ----------
+    congruence : Congruence
+    bundle_tol : float, default 1e-3
+        Dimensionless bundle deviation below which torsal directions are not trusted.
+    min_angle_deg : float, default 10
+        Faces whose two torsal directions make a smaller angle (degrees) are filled in.
+    root : int, optional
+        Root face of the combing tree (default: the torsal face with the largest torsal angle).
+
+    Returns
+    -------
+    TorsalFrameField
+
+    Raises
+    ------
+    FrameFieldError
+        If no face has usable torsal directions, or a region of filled faces has no torsal
+        neighbour to interpolate from.
+
+    Examples
+    --------
+    >>> from torsal.geometry.congruence import Congruence
+    >>> from torsal.geometry.surfaces import graph_surface
+    >>> c = Congruence.from_normals(graph_surface(lambda x, y: 0.3 * (x**2 - 0.5 * y**2)))
+    >>> ff = torsal_frame_field(c)
+    >>> ff.is_seamless, len(ff.singularities)
+    (True, 0)
+    """
+    V = np.asarray(congruence.vertices, float)
+    F = np.asarray(congruence.faces, np.int64)
+    nF = len(F)
+    t = congruence.torsal_directions()
+    ang = congruence.torsal_angle()
+    dev = congruence.bundle_deviation()
+    usable = np.isfinite(t).all(axis=(1, 2)) & (dev > bundle_tol) & (ang >= min_angle_deg)
+    if not usable.any():
+        raise FrameFieldError(
+            "no face has usable torsal directions (all faces are non-hyperbolic, near a line bundle "
+            f"with bundle deviation <= {bundle_tol}, or have torsal angle < {min_angle_deg} deg); "
+            "optimize the congruence for hyperbolicity (c_hyp) or lower bundle_tol/min_angle_deg"
+        )
+    b1, b2, nrm = face_bases(V, F)
+    edges, ef = edge_face_adjacency(F)
+    r, inner = _edge_transport(V, F, edges, ef, b1, b2)
+    tt = np.where(usable[:, None, None], t, 0.0)
+    z = np.einsum("fkj,fj->fk", tt, b1) + 1j * np.einsum("fkj,fj->fk", tt, b2)
+    z = np.where(usable[:, None], z / np.where(np.abs(z) > 0, np.abs(z), 1.0), 1.0 + 0j)
+
+    # every non-usable face must be connected (through non-usable faces) to a usable one
+    ei = np.flatnonzero(inner)
+    adj = sp.csr_matrix((np.ones(len(ei)), (ef[ei, 0], ef[ei, 1])), shape=(nF, nF))
+    free_idx = np.flatnonzero(~usable)
+    if free_idx.size:
+        sub = adj[free_idx][:, free_idx]
+        ncomp, lab = csg.connected_components(sub, directed=False)
+        touches = np.zeros(ncomp, bool)
+        nb = (adj + adj.T)[free_idx][:, np.flatnonzero(usable)]
+        has_nb = np.asarray(nb.sum(axis=1)).ravel() > 0
+        touches[np.unique(lab[has_nb])] = True
+        if not touches.all():
+            bad = free_idx[lab == np.flatnonzero(~touches)[0]]
+            raise FrameFieldError(
+                f"faces {bad[:10].tolist()} (a region of {bad.size} faces without torsal directions) "
+                "are not connected to any face with torsal directions; the mesh has a component "
+                "that is a line bundle or non-hyperbolic everywhere"
+            )
+    z = _smooth_fill(z, usable, edges[ei], r[ei], ef[ei], nF)
+
+    # ---- combing along a BFS dual spanning tree
+    if root is None:
+        cand = np.where(usable, ang, -1.0)
+        root = int(np.argmax(cand))
+    ncomp, lab = csg.connected_components(adj, directed=False)
+    if ncomp > 1:
+        raise FrameFieldError(f"the mesh has {ncomp} face-connected components; remesh each separately")
+    order, pred = csg.breadth_first_order(adj + adj.T, root, directed=False, return_predecessors=True)
+    depth = np.zeros(nF, int)
+    for fidx in order[1:]:
+        depth[fidx] = depth[pred[fidx]] + 1
+    # transport factor from a child g into its parent p: z_in_p = rho * z_in_g
+    # build a lookup of r for (p, g) pairs
+    e_of_pair = np.full(nF, -1, int)
+    f0, f1 = ef[ei, 0], ef[ei, 1]
+    lut = sp.csr_matrix((np.arange(1, len(ei) + 1), (f0, f1)), shape=(nF, nF))
+    lut = lut + lut.T
+    child = order[1:]
+    par = pred[child]
+    eidx = np.asarray(lut[par, child]).ravel() - 1
+    e_of_pair[child] = ei[eidx]
+    ee = ei[eidx]
+    rho = np.where(ef[ee, 0] == par, r[ee], np.conj(r[ee]))  # r maps f1 -> f0
+    rho_full = np.ones(nF, complex)
+    rho_full[child] = rho
+    zc = z.copy()
+    for d in range(1, depth.max() + 1 if nF > 1 else 1):
+        fs = np.flatnonzero(depth == d)
+        p = pred[fs]
+        zg = zc[fs] * rho_full[fs][:, None]
+        g = _best_matching(zc[p], zg)
+        M = GROUP[g]
+        zc[fs] = np.einsum("mij,mj->mi", M.astype(complex), zc[fs])
+    tree_edge = np.zeros(len(edges), bool)
+    tree_edge[e_of_pair[child]] = True
+
+    # ---- matchings after combing: frame[f0] ~ M frame[f1]
+    matching = np.full(len(edges), -1, int)
+    zg = zc[f1] * r[ei][:, None]
+    matching[ei] = _best_matching(zc[f0], zg)
+    if np.any(matching[tree_edge] != 0):
+        raise FrameFieldError("internal error: combing left a non-identity matching on a tree edge")
+
+    directions = (np.real(zc)[..., None] * b1[:, None, :] + np.imag(zc)[..., None] * b2[:, None, :])
+
+    sing, hol = _singularities(F, edges, ef, matching, len(V))
+    return TorsalFrameField(
+        vertices=V, faces=F, directions=directions, from_torsal=usable, edges=edges, edge_faces=ef,
+        matching=matching, tree_edge=tree_edge, singularities=sing, holonomy=hol,
+        metadata={"root": root, "filled_faces": int((~usable).sum()),
+                  "mismatched_edges": int((matching > 0).sum())},
+    )
+
+
+def _singularities(F, edges, ef, matching, n_vertices):
+    """Interior vertices with non-identity holonomy. Only vertices touching a mismatched edge
+    can be singular; their one-rings are walked explicitly."""
+    bad_e = np.flatnonzero(matching > 0)
+    if bad_e.size == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    boundary = np.zeros(n_vertices, bool)
+    boundary[edges[ef[:, 1] < 0].ravel()] = True
+    cand = np.unique(edges[bad_e].ravel())
+    cand = cand[~boundary[cand]]
+    # edge lookup
+    emap = {(int(a), int(b)): k for k, (a, b) in enumerate(edges)}
+    sing, hol = [], []
+    flat = F.ravel()
+    order = np.argsort(flat, kind="stable")
+    starts = np.searchsorted(flat[order], cand)
+    ends = np.searchsorted(flat[order], cand, side="right")
+    vf = {int(c): (order[s:e] // 3).tolist() for c, s, e in zip(cand, starts, ends)}
+    for vtx in cand:
+        faces_v = vf[int(vtx)]
+        # walk the ring: start at a face, go to the neighbour across the edge (vtx, next corner)
+        start = faces_v[0]
+        cur = start
+        H = np.eye(2, dtype=int)
+        ok = True
+        for _ in range(len(faces_v)):
+            tri = F[cur]
+            k = int(np.flatnonzero(tri == vtx)[0])
+            nxt_v = int(tri[(k + 1) % 3])
+            a, b = min(vtx, nxt_v), max(vtx, nxt_v)
+            e = emap[(int(a), int(b))]
+            f0, f1 = ef[e]
+            if f1 < 0:
+                ok = False
+                break
+            other = f1 if f0 == cur else f0
+            M = GROUP[matching[e]]  # frame[f0] = M frame[f1]
+            # transformation taking frame coordinates of `cur` to those of `other`
+            step = np.linalg.inv(M).round().astype(int) if cur == f0 else M
+            H = step @ H
+            cur = other
+            if cur == start:
+                break
+        if ok and not np.array_equal(H, np.eye(2, dtype=int)):
+            sing.append(int(vtx))
+            hol.append(int(_group_index(H[None])[0]))
+    return np.array(sing, int), np.array(hol, int)
