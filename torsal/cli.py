@@ -48,7 +48,7 @@ def _design(args, console) -> int:
     design = Design.from_toml(args.file)
     status = {s: ("waiting", "") for s in STAGES}
     if design.spec.substructure is None:
-        status["substructure"] = ("skipped", "no [substructure] in the design")
+        status["substructure"] = ("skipped", "no \\[substructure] table in the design")
     t_start = time.perf_counter()
 
     def render():

@@ -209,7 +209,8 @@ class ConstraintsSpec(_Spec):
     hyperbolic: bool = True
     hyperbolic_margin: float = Field(0.0, ge=0)
     min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees")
-    max_iter: int = Field(200, gt=0)
+    max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
+                          "limit is kept (its status says so)")
 
 
 class FinsSpec(_Spec):

@@ -1,0 +1,80 @@
+"""Every example design runs end to end in a small version and writes all its outputs."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torsal.design import Design
+
+EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
+REPORT_KEYS = {
+    "congruence": {"vertices", "faces", "build_s", "solve_s", "status", "energies",
+                   "min_hyperbolicity", "min_torsal_angle_deg"},
+    "support": {"quads", "edges", "delta_pl_extracted", "delta_pl_optimized", "solve_s"},
+    "light": {"blocked_share", "transparency", "baseline_louvers"},
+    "fabrication": {"parts", "panels", "sheets", "utilization", "step", "dxf"},
+}
+
+
+def small(design: Design) -> Design:
+    """The same design on a coarse mesh with few fins: minutes become seconds."""
+    spec = design.spec
+    params = dict(spec.surface.params)
+    nu, nv = params.get("nu", 33), params.get("nv", 17)
+    params.update(nu=min(nu, 15), nv=min(nv, 11))
+    v, _ = design.__class__(spec.model_copy(update={"surface": spec.surface.model_copy(
+        update={"params": params})}))._surface()
+    extent = float(np.ptp(v, axis=0).max())
+    fins = spec.fins.model_copy(update={"spacing": max(spec.fins.spacing, extent / 8),
+                                        "developable_levels": min(spec.fins.developable_levels, 1)})
+    return Design(spec.model_copy(update={
+        "surface": spec.surface.model_copy(update={"params": params}),
+        "fins": fins,
+        "outputs": spec.outputs.model_copy(update={"light_samples": 300}),
+        "constraints": spec.constraints.model_copy(update={"max_iter": 400}),
+    }))
+
+
+def test_every_figure_has_an_example():
+    names = {p.name.split("_")[0] for p in EXAMPLES}
+    assert names == {"7a", "7b", "7c", "7d", "9", "10", "11", "13"}
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_example_runs_small(path, tmp_path):
+    d = small(Design.from_toml(path))
+    res = d.run(tmp_path)
+    report = json.loads((tmp_path / "report.json").read_text())
+    for section, keys in REPORT_KEYS.items():
+        assert keys <= set(report[section]), (section, keys - set(report[section]))
+    c, s, li, fa = (report[k] for k in ("congruence", "support", "light", "fabrication"))
+    assert c["min_hyperbolicity"] >= -1e-6 or not d.spec.constraints.hyperbolic
+    assert s["edges"] > 10 and s["delta_pl_optimized"] <= max(1e-4, s["delta_pl_extracted"])
+    assert 0.0 <= li["blocked_share"] <= 1.0 and 0.0 <= li["transparency"] <= 1.0
+    assert fa["parts"] > 0 and fa["sheets"] > 0 and 0 < fa["utilization"] <= 1
+    for name in ["report.json", "report.html", "congruence.ply", "support.obj", "fins.step",
+                 "fins.3dm", "parts.csv", "fins.png", "torsal_field.png", "blocked_sun.png",
+                 "sheets.png", *fa["dxf"]]:
+        assert (tmp_path / name).stat().st_size > 0, name
+    if d.spec.substructure is not None:
+        assert report["substructure"]["edges"] > 10
+        assert (tmp_path / "substructure.obj").exists()
+    if d.spec.goals.reflect is not None:
+        assert 0.0 <= li["reflected_to_target"] <= 1.0
+    assert not list(tmp_path.glob("*.tmp*")), "temporary files left behind"
+    assert set(res.files) >= {"report_json", "report_html", "congruence", "support"}
+
+
+def test_changing_only_the_material_reruns_only_fabrication(tmp_path):
+    d = small(Design.from_toml(EXAMPLES[0]))
+    first = d.run(tmp_path)
+    assert first.cached == []
+    again = d.run(tmp_path)
+    assert set(again.cached) == {"surface", "sun", "congruence", "remesh", "support", "light",
+                                 "fabrication"}
+    thicker = Design(d.spec.model_copy(update={"material": d.spec.material.model_copy(
+        update={"thickness_mm": 5.0})}))
+    third = thicker.run(tmp_path)
+    assert "fabrication" not in third.cached
+    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support", "light"}
