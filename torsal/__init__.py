@@ -2,16 +2,23 @@
 
 From a design surface and the path of the sun to buildable planar fins.
 """
+from .design import Design, DesignError
 from .geometry import (
     Congruence,
+    CongruenceProblem,
     MeshError,
+    OptimizationError,
+    OptimizationResult,
     SupportStructure,
     TorsalCurve,
     load_mesh,
+    optimize_support,
+    remesh_torsal,
     trace_torsal_curve,
 )
 
 __version__ = "0.1.0"
 
-__all__ = ["Congruence", "MeshError", "SupportStructure", "TorsalCurve", "load_mesh",
-           "trace_torsal_curve", "__version__"]
+__all__ = ["Congruence", "CongruenceProblem", "OptimizationResult", "OptimizationError",
+           "MeshError", "SupportStructure", "TorsalCurve", "load_mesh", "trace_torsal_curve",
+           "remesh_torsal", "optimize_support", "Design", "DesignError", "__version__"]

@@ -1,5 +1,6 @@
 """Geometry: meshes, discrete line congruences, torsal curves, support structures."""
 from .congruence import Congruence, FaceFrame
+from .optimize import CongruenceProblem, OptimizationError, OptimizationResult
 from .mesh import (
     MeshError,
     average_edge_length,
@@ -27,6 +28,7 @@ __all__ = [
     "Congruence", "FaceFrame", "MeshError", "load_mesh", "validate_mesh", "average_edge_length",
     "vertex_normals", "umbrella_laplacian", "boundary_vertices", "edge_face_adjacency",
     "SupportStructure", "FinStrip", "fin_planarity", "TorsalCurve", "trace_torsal_curve",
+    "CongruenceProblem", "OptimizationResult", "OptimizationError",
     "torsal_frame_field", "TorsalFrameField", "FrameFieldError", "parametrize", "TorsalParametrization",
     "ParametrizationError", "extract_quads", "remesh_torsal", "optimize_support",
     "SupportOptimizationResult", "SupportWeights", "refine_developable",
