@@ -1,0 +1,88 @@
+"""Run every example design at full size and write the results table of examples/README.md.
+
+    python examples/run_all.py [--out out/examples] [--only 7a 9 ...]
+
+Each example writes its outputs to OUT/<example>/; the table compares the measured numbers
+with the paper's Fig. 12 row (Wang et al. 2013). Times are wall-clock seconds on the machine
+that ran this script.
+"""
+import argparse
+import json
+import time
+from pathlib import Path
+
+from torsal.design import Design
+
+HERE = Path(__file__).resolve().parent
+#: Fig. 12 of the paper: |V|, |F|, T (s), delta_pl after extraction, after optimization
+PAPER = {
+    "7a": (1073, 2048, 0.4, 0.0004, 0.0004),
+    "7b": (1073, 2048, 1.4, 0.0003, 0.0003),
+    "7c": (1073, 2048, 3.7, 0.01, 0.006),
+    "7d": (561, 1024, 1.0, 0.001, 0.001),
+    "9": (2633, 5120, 29.0, 0.03, 0.017),
+    "10": None,
+    "11": (5087, 9182, 11.0, 0.01, 0.01),
+    "13": (4290, 8282, 17.0, 0.002, 0.002),
+}
+BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
+
+
+def run(path: Path, out: Path) -> dict:
+    t0 = time.perf_counter()
+    res = Design.from_toml(path).run(out / path.stem, use_cache=False)
+    r = res.report
+    r["wall_s"] = time.perf_counter() - t0
+    r["stage_s"] = res.stage_seconds
+    return r
+
+
+def row(key: str, r: dict | None, err: str | None) -> str:
+    p = PAPER.get(key)
+    paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
+    if r is None:
+        return f"| {key} | failed: {err} | | | | | | | {paper} |"
+    c, s, li = r["congruence"], r["support"], r["light"]
+    fa = r.get("fabrication", {})
+    return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
+            f"{r['wall_s']:.0f} | {s['delta_pl_extracted']:.1e} | {s['delta_pl_optimized']:.1e} | "
+            f"{100 * li['blocked_share']:.0f}% ({100 * li['baseline_louvers']['blocked_share']:.0f}%) | "
+            f"{100 * li['transparency']:.0f}% ({100 * li['baseline_louvers']['transparency']:.0f}%) | "
+            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {paper} |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default="out/examples")
+    ap.add_argument("--only", nargs="*")
+    args = ap.parse_args()
+    out = Path(args.out)
+    lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
+             "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
+             "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for path in sorted(HERE.glob("*.toml"), key=lambda p: (len(p.stem.split("_")[0]), p.stem)):
+        key = path.stem.split("_")[0]
+        if args.only and key not in args.only:
+            continue
+        try:
+            r, err = run(path, out), None
+        except Exception as exc:  # report and go on with the other examples
+            r, err = None, f"{type(exc).__name__}: {exc}".replace("|", "/")[:200]
+        lines.append(row(key, r, err))
+        print(lines[-1], flush=True)
+        if r is not None:
+            (out / path.stem / "timings.json").write_text(json.dumps(
+                {"wall_s": r["wall_s"], "stage_s": r["stage_s"]}, indent=2))
+    table = "\n".join(lines)
+    readme = HERE / "README.md"
+    text = readme.read_text()
+    if BEGIN in text and not args.only:
+        head, rest = text.split(BEGIN, 1)
+        text = head + BEGIN + "\n" + table + "\n" + END + rest.split(END, 1)[1]
+        readme.write_text(text)
+    print(table)
+
+
+if __name__ == "__main__":
+    main()
