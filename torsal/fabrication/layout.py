@@ -182,6 +182,7 @@ class _Item:
     label_height: float
     label_angle: float = 0.0
     base: float = 0.0            # degrees: rotation to the minimum rotated rectangle
+    n_panels: int = 0            # panels of an unrolled part (0: unknown)
 
 
 def _as_items(outlines) -> list[_Item]:
@@ -206,7 +207,7 @@ def _as_items(outlines) -> list[_Item]:
             seg = LineString(line).intersection(poly)
             folds.append((seg, float(ang)))
         items.append(_Item(o.name, poly, folds, tuple(o.label_position), float(o.label_height),
-                           float(np.degrees(o.label_angle))))
+                           float(np.degrees(o.label_angle)), n_panels=len(o.panels)))
     for it in items:
         if not it.outline.is_valid or it.outline.area <= 0:
             raise ValueError(f"part {it.name}: invalid or empty outline")
@@ -360,6 +361,12 @@ def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float 
             shapes.append((p, (maxx - minx, maxy - miny)))
         if not any(sw <= w - 2 * margin + 1e-9 and sh <= h - 2 * margin + 1e-9 for _, (sw, sh) in shapes):
             sw, sh = min((s[1] for s in shapes), key=lambda t: max(t[0] / w, t[1] / h))
+            if it.n_panels == 1:
+                raise PartTooLargeError(
+                    f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) is ONE fin panel and does not fit a "
+                    f"{w:.0f} x {h:.0f} {unit} sheet with margin {margin:g} in any rotation "
+                    f"{list(rotations)}; a single panel cannot be split into shorter parts: use a "
+                    f"smaller fin spacing (a finer remesh of the structure) or a larger sheet")
             raise PartTooLargeError(
                 f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) does not fit a {w:.0f} x {h:.0f} {unit} "
                 f"sheet with margin {margin:g} in any rotation {list(rotations)}; split it into "

@@ -15,11 +15,21 @@ fins (one planar quad ``a_i a_j b_j b_i`` per edge) into *parts*:
 Where a strip ends against a plate of the other family (a T or L junction on the boundary)
 its end panel is trimmed back until its end face clears the faces of that plate (both panels
 of it, if it folds there) by ``clearance/2``, so solids never overlap. Panels meeting at a fold
-sharper than ``max_fold_angle`` are split into separate parts, and so are strips with more than
-``max_panels`` panels, longer than ``max_part_length`` along their ``a`` and ``b`` edges, or whose
-unrolled outline does not fit ``fit_sheet`` (halved until it does); closed strips are always
-cut into at least two parts. Parts split inside a strip meet on the bisector plane of the fold
-(mitred), with half slots if the split node is a crossing.
+sharper than ``max_fold_angle`` are split into separate parts before anything is mitred: the
+later part is butt-trimmed against the square end of the earlier one (a fold that doubles back,
+or one at an egg-crate crossing, keeps square ends and is listed in ``untrimmed_joints``).
+Strips with more than ``max_panels`` panels, longer than ``max_part_length`` along their ``a``
+and ``b`` edges, or whose unrolled outline does not fit ``fit_sheet`` (halved until it does) are
+split too; closed strips are always cut into at least two parts. Those splits meet on the
+bisector plane of the fold (mitred), with half slots if the split node is a crossing.
+
+Real structures from the remesher have defects near boundaries and at coarse resolution; they
+are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
+into NaN or invalid solids: degenerate panels (narrower than ``min_panel_width`` or
+self-intersecting) are dropped and their strip split there (``dropped_panels``); butt trims
+without a solution are skipped (``untrimmed_joints``); slots that would cut a part in two are
+made shallower, the partner's slot deeper (``slot_conflicts``); single panels larger than
+``fit_sheet`` are named (``oversize_panels``; :meth:`FinSystem.layout` refuses them).
 
 Units: the structure is in ``model_unit`` (metres by default); every length held by a
 :class:`FinSystem` (``thickness``, ``clearance``, panel coordinates, slots, solids, sheets,
@@ -162,6 +172,46 @@ def fold_angles(quads: np.ndarray) -> np.ndarray:
     return np.arctan2(s, c)
 
 
+#: degrees: folds sharper than this are never mitred (the mitre vector grows as
+#: ``1/cos(fold/2)``): such folds always split the strip, and the two parts get square ends
+#: there (listed in ``FinSystem.untrimmed_joints``: they overlap near the fold)
+MITER_LIMIT = 170.0
+
+
+def _safe_normals(quads: np.ndarray) -> np.ndarray:
+    """Unit Newell normals (k, 3); NaN rows for zero-area quads (never raises)."""
+    q = np.asarray(quads, dtype=float)
+    n = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+    nn = np.linalg.norm(n, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(nn > 0, n / np.where(nn > 0, nn, 1.0), np.nan)
+
+
+def _fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:
+    """Unsigned fold angle between two unit normals, degrees (NaN if either is NaN)."""
+    return float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
+
+
+def panel_widths(quads: np.ndarray) -> np.ndarray:
+    """Narrowest width of every quad (k,): area over its longest edge (``unit``). A sliver
+    panel (its ``a`` edge nearly along the node lines, or all edges tiny) has width ~0."""
+    q = np.asarray(quads, dtype=float)
+    area = 0.5 * np.linalg.norm(np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1]), axis=1)
+    edges = np.linalg.norm(q - np.roll(q, -1, axis=1), axis=2).max(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(edges > 0, area / np.where(edges > 0, edges, 1.0), 0.0)
+    return np.where(np.isfinite(w), w, 0.0)
+
+
+def _bowtie(quads: np.ndarray) -> np.ndarray:
+    """Self-intersecting (bow-tie) quads (k,) bool: two corners turn against the normal."""
+    q = np.asarray(quads, dtype=float)
+    n = _safe_normals(q)
+    e = np.roll(q, -1, axis=1) - q                       # edge i: corner i -> i+1
+    turn = np.einsum("kij,kj->ki", np.cross(e, np.roll(e, -1, axis=1)), np.nan_to_num(n))
+    return (turn < 0).sum(axis=1) >= 2
+
+
 class _Untrimmable(Exception):
     """A part end that cannot be butt-trimmed (too shallow an angle, too short a panel)."""
 
@@ -217,6 +267,13 @@ class Part:
     trimmed: tuple = (False, False)
     color: tuple = (0.5, 0.5, 0.5)
     span: tuple = (0, 0)
+    #: how the start / end of the part is made: ``"end"`` (end of the strip), ``"miter"``
+    #: (split inside the strip, e.g. by ``max_panels``, mitred on the fold's bisector plane),
+    #: ``"fold"`` (split at a fold sharper than ``max_fold_angle``, or one too sharp to mitre:
+    #: never mitred; the start of the later part is butt-trimmed against the earlier one, or
+    #: square and listed in ``untrimmed_joints``) or ``"dropped"`` (next to a dropped
+    #: degenerate panel: square end, trimmed like a strip end)
+    ends: tuple = ("end", "end")
 
     @property
     def name(self) -> str:
@@ -269,7 +326,16 @@ class FinSystem:
         Fraction of the fin depth slotted into the family-0 plate (from its ``b`` edge), the
         rest into family 1 (from its ``a`` edge). 0.5 = half-depth slots.
     max_fold_angle : float
-        Degrees; consecutive panels folding by more than this become separate parts.
+        Degrees; consecutive panels folding by more than this become separate parts. The
+        parts meet mitred on the fold's bisector plane, up to a fold of :data:`MITER_LIMIT`
+        (170 deg); at sharper folds (a strip doubling back on itself) they get square ends,
+        overlap near the fold and are listed in ``untrimmed_joints`` (warned).
+    min_panel_width : float or None
+        Degenerate panels narrower than this (``unit``; area over longest edge, see
+        :func:`panel_widths`), e.g. slivers whose ``a`` edge runs along the node lines, are
+        dropped (the strip is split there) with a warning naming them; listed in
+        ``dropped_panels``. Default: ``thickness`` (a plate cannot be narrower than it is
+        thick); 0 drops only zero-area panels.
     max_part_length : float or None
         Split strips into parts no longer than this (``unit``, measured along the ``a`` and
         ``b`` edges, so the unrolled part is about this long), e.g. the sheet length minus the
@@ -293,7 +359,11 @@ class FinSystem:
         ``UserWarning`` is issued when ``clearance`` is below it somewhere (folded or oblique
         plates that would collide).
     untrimmed_joints : list of (part name, node, reason)
-        Part ends that meet the other plate too obliquely to be butt-trimmed (warned).
+        Part ends that meet the other plate too obliquely to be butt-trimmed, and splits at
+        folds sharper than :data:`MITER_LIMIT` (square ends): they overlap there (warned).
+    dropped_panels : list of (strip, structure edge, width)
+        Degenerate panels left out (narrower than ``min_panel_width``; warned); ``strip`` is
+        the part-id prefix ``F<family>-S<strip>``.
 
     Examples
     --------
@@ -309,7 +379,7 @@ class FinSystem:
                  max_fold_angle: float = 60.0, max_panels: int | None = None,
                  max_part_length: float | None = None,
                  fit_sheet: tuple[float, float] | None = (2500.0, 1250.0), fit_margin: float = 10.0,
-                 model_unit: str = "m", unit: str = "mm"):
+                 model_unit: str = "m", unit: str = "mm", min_panel_width: float | None = None):
         self._check_common(thickness, clearance, model_unit, unit, max_panels)
         if not 0.0 < slot_ratio < 1.0:
             raise ValueError(f"slot_ratio must be in (0, 1), got {slot_ratio}")
@@ -326,8 +396,18 @@ class FinSystem:
             raise ValueError(f"max_part_length must be > 0, got {max_part_length}")
         self.max_part_length = max_part_length
         self._set_fit(fit_sheet, fit_margin)
+        self._set_min_width(min_panel_width)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
+        #: degenerate panels dropped: (part-id prefix of the strip, structure edge, width)
+        self.dropped_panels: list[tuple[str, int, float]] = []
+        #: parts whose solid could not be slotted by OpenCascade: (name, slot nodes, reason)
+        self.unslotted_solids: list[tuple[str, list, str]] = []
+        #: slots made shallower or left out: (part name, node, old depth, new depth, partner note)
+        self.slot_conflicts: list[tuple[str, int, float, float, str]] = []
+        #: parts of one panel that do not fit ``fit_sheet`` (warned; :meth:`layout` will refuse)
+        self.oversize_panels: list[str] = []
+        self._oversize: list[int] = []
         self.crossings: list[Crossing] = []
         #: part ends that could not be butt-trimmed: (part name, node, reason)
         self.untrimmed_joints: list[tuple[str, int, str]] = []
@@ -351,6 +431,42 @@ class FinSystem:
         if max_panels is not None and max_panels < 1:
             raise ValueError(f"max_panels must be >= 1, got {max_panels}")
 
+    def _set_min_width(self, min_panel_width) -> None:
+        if min_panel_width is None:
+            min_panel_width = self.thickness
+        if not np.isfinite(min_panel_width) or min_panel_width < 0:
+            raise ValueError(f"min_panel_width must be >= 0, got {min_panel_width}")
+        self.min_panel_width = float(min_panel_width)
+
+    def _drop_mask(self, quads: np.ndarray) -> np.ndarray:
+        """Panels too narrow, of zero area or self-intersecting (bow-tie: the node lines cross
+        inside the fin) to be fabricated."""
+        w = panel_widths(quads)
+        tol = 1e-9 * max(1.0, float(np.abs(quads).max()))
+        return ((w <= tol) | (w < self.min_panel_width) | _bowtie(quads)
+                | ~np.isfinite(_safe_normals(quads)).all(axis=1))
+
+    def _miter_ok(self, n1, n2, w1, w2) -> bool:
+        """A fold can be mitred: at most MITER_LIMIT, and the bevel ``t/2 tan(fold/2)`` (how far
+        the mitre shifts the faces of the plate across the node line) is at most a tenth of
+        the narrowest width (:func:`panel_widths`) of both panels; beyond that the faces of a
+        narrow, slanted panel twist too much (or cross) for a sound solid."""
+        ang = _fold_deg(n1, n2)
+        if not ang <= MITER_LIMIT:
+            return False
+        return 0.5 * self.thickness * np.tan(np.radians(ang) / 2) <= 0.1 * min(w1, w2)
+
+    def _warn_dropped(self) -> None:
+        if self.dropped_panels:
+            d = self.dropped_panels
+            warnings.warn(
+                f"{len(d)} degenerate fin panels (narrower than min_panel_width="
+                f"{self.min_panel_width:g} {self.unit}, or self-intersecting) were dropped (their "
+                f"strips are split there): "
+                + "; ".join(f"{s} edge {e} ({w:.3g} {self.unit} wide)" for s, e, w in d[:8])
+                + (" ..." if len(d) > 8 else "") + "; see FinSystem.dropped_panels. Remesh more "
+                "finely or move the boundary if these fins are needed", stacklevel=3)
+
     def _set_fit(self, fit_sheet, fit_margin) -> None:
         if fit_sheet is not None:
             fit_sheet = tuple(float(x) for x in fit_sheet)
@@ -364,12 +480,14 @@ class FinSystem:
                     max_part_length: float | None = None,
                     fit_sheet: tuple[float, float] | None = (2500.0, 1250.0), fit_margin: float = 10.0,
                     max_fold_angle: float = 179.0, model_unit: str = "m", unit: str = "mm",
-                    family: int = -1) -> "FinSystem":
+                    family: int = -1, min_panel_width: float | None = None) -> "FinSystem":
         """Parts from free strips of quads, e.g. the developables of ``refine_developable``.
 
         ``strips`` are :class:`~torsal.geometry.support.FinStrip` objects or (k, 4, 3) arrays
         of quads ``p0 p1 p2 p3`` with ``p1 p2`` of one quad equal to ``p0 p3`` of the next.
-        They are thickened and unrolled like fins, without slots or trimming.
+        They are thickened and unrolled like fins, without slots or trimming. Folds sharper
+        than ``min(max_fold_angle, MITER_LIMIT)`` split the strip; degenerate panels are
+        dropped (see ``min_panel_width`` of :class:`FinSystem`).
         """
         self = cls.__new__(cls)
         cls._check_common(thickness, 0.0, model_unit, unit, max_panels)
@@ -379,9 +497,14 @@ class FinSystem:
         self.slot_ratio, self.max_fold_angle, self.max_panels = 0.5, float(max_fold_angle), max_panels
         self.max_part_length = max_part_length
         self._set_fit(fit_sheet, fit_margin)
+        self._set_min_width(min_panel_width)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
         self.crossings, self.parts, self.untrimmed_joints = [], [], []
+        self.dropped_panels, self.slot_conflicts, self.oversize_panels = [], [], []
+        quads_of: dict[int, np.ndarray] = {}
+        self._oversize = []
+        self.unslotted_solids = []
         self._solids = self._unrolled = None
         for s, st in enumerate(strips):
             q = np.asarray(getattr(st, "quads", st), dtype=float) * self.scale
@@ -390,24 +513,60 @@ class FinSystem:
                 raise ValueError(f"strip {s}: expected (k, 4, 3) quads, got {q.shape}")
             nodes = np.full(len(q) + 1, -1)
             edges = np.full(len(q), -1)
-            for index, (lo, hi) in enumerate(self._split_ranges(q, closed=False)):
+            drop = self._drop_mask(q)
+            quads_of[s] = q
+            prefix = str(PartId(fam, s, 0))[:-4]
+            self.dropped_panels += [(prefix, int(i), float(w))
+                                    for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])]
+            for index, (lo, hi) in enumerate(self._split_ranges(q, closed=False, drop=drop)):
                 self.parts.append(self._make_part(PartId(fam, s, index), q, lo, hi, nodes, edges,
-                                                  closed=False))
+                                                  closed=False, drop=drop))
         if not self.parts:
             raise ValueError("no strips given: nothing to fabricate")
+        self._warn_dropped()
+        # splits at sharp folds: butt joints (the later part trimmed back), never mitred
+        gap, h = 0.5 * self.thickness, 0.5 * self.thickness
+        untrimmed: list[tuple[str, int, str]] = []
+        by_strip: dict[int, list[Part]] = {}
+        for p in self.parts:
+            by_strip.setdefault(p.id.strip, []).append(p)
+        for sidx, parts in by_strip.items():
+            q = quads_of[sidx]
+            for p in parts:
+                if p.ends[0] == "fold":
+                    trimmed = list(p.trimmed)
+                    self._trim_fold(p, parts, q, -1, None, gap, h, untrimmed, trimmed)
+                    p.trimmed = tuple(trimmed)
+        self.untrimmed_joints = untrimmed
+        self._warn_untrimmed(stacklevel=3)
         return self
 
-    def _split_ranges(self, quads: np.ndarray, closed: bool) -> list[tuple[int, int]]:
-        """Panel ranges [lo, hi) of the parts of one strip."""
+    @property
+    def split_angle(self) -> float:
+        """Degrees: folds sharper than this split a strip (``min(max_fold_angle, MITER_LIMIT)``)."""
+        return min(self.max_fold_angle, MITER_LIMIT)
+
+    def _split_ranges(self, quads: np.ndarray, closed: bool,
+                      drop: np.ndarray | None = None) -> list[tuple[int, int]]:
+        """Panel ranges [lo, hi) of the parts of one strip (dropped panels left out)."""
         k = len(quads)
+        drop = np.zeros(k, dtype=bool) if drop is None else np.asarray(drop, dtype=bool)
         cuts = {0, k}
-        ang = np.degrees(np.abs(fold_angles(quads)))
-        cuts.update((np.flatnonzero(ang > self.max_fold_angle) + 1).tolist())
+        n = _safe_normals(quads)
+        with np.errstate(invalid="ignore"):
+            ang = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", n[:-1], n[1:]), -1, 1)))
+        cuts.update((np.flatnonzero(ang > self.split_angle) + 1).tolist())
+        ext = panel_widths(quads)
+        cuts.update(j for j in range(1, k) if not self._miter_ok(n[j - 1], n[j], ext[j - 1], ext[j]))
+        for i in np.flatnonzero(drop).tolist():
+            cuts.update((i, i + 1))
         if closed and k >= 2 and len(cuts) == 2:
             cuts.add(k // 2)
         cuts = sorted(cuts)
         out = []
         for lo, hi in zip(cuts[:-1], cuts[1:]):
+            if drop[lo:hi].all():
+                continue
             if self.max_panels and hi - lo > self.max_panels:
                 nchunk = -(-(hi - lo) // self.max_panels)
                 bounds = np.linspace(lo, hi, nchunk + 1).round().astype(int)
@@ -429,12 +588,17 @@ class FinSystem:
                 split.append((start, hi))
             out = split
         if self.fit_sheet is not None:
+            self._oversize = []
             out = [r for lo, hi in out for r in self._fit(quads, lo, hi)]
         return out
 
     def _fit(self, quads: np.ndarray, lo: int, hi: int) -> list[tuple[int, int]]:
         """Halve [lo, hi) until the unrolled part fits ``fit_sheet`` (any orientation)."""
-        if hi - lo <= 1 or self._fits(quads[lo:hi]):
+        if hi - lo <= 1:
+            if not self._fits(quads[lo:hi]):
+                self._oversize.append(lo)
+            return [(lo, hi)]
+        if self._fits(quads[lo:hi]):
             return [(lo, hi)]
         mid = (lo + hi) // 2
         return self._fit(quads, lo, mid) + self._fit(quads, mid, hi)
@@ -451,15 +615,33 @@ class FinSystem:
         m = 2.0 * self.fit_margin
         return max(w, h) <= sw - m and min(w, h) <= sh - m
 
-    def _make_part(self, pid: PartId, quads, lo, hi, nodes, edges, closed) -> Part:
-        """Part of panels [lo, hi) of a strip, with mitred folds (also across part splits)."""
+    def _make_part(self, pid: PartId, quads, lo, hi, nodes, edges, closed,
+                   drop: np.ndarray | None = None) -> Part:
+        """Part of panels [lo, hi) of a strip, with mitred folds (also across part splits, up
+        to a fold of MITER_LIMIT; square ends at sharper folds, next to dropped panels and at
+        the strip ends)."""
         q = quads[lo:hi].copy()
-        n_all = quad_normals(quads)
+        n_all = _safe_normals(quads)
         k = len(quads)
+        drop = np.zeros(k, dtype=bool) if drop is None else np.asarray(drop, dtype=bool)
+        ext = panel_widths(quads)
         miters = np.empty((hi - lo + 1, 3))
+        ends = ["end", "end"]
         for j in range(lo, hi + 1):
             left = j - 1 if j > 0 else (k - 1 if closed else None)
             right = j if j < k else (0 if closed else None)
+            end = 0 if j == lo else (1 if j == hi else None)
+            if end is not None and left is not None and right is not None:
+                other = left if end == 0 else right
+                if drop[other]:
+                    ends[end] = "dropped"
+                elif (_fold_deg(n_all[left], n_all[right]) > self.split_angle or
+                      not self._miter_ok(n_all[left], n_all[right], ext[left], ext[right])):
+                    ends[end] = "fold"
+                else:
+                    ends[end] = "miter"
+                if ends[end] != "miter":
+                    left, right = (None, right) if end == 0 else (left, None)
             if left is None:
                 m = n_all[right]
             elif right is None:
@@ -469,7 +651,16 @@ class FinSystem:
             miters[j - lo] = m
         return Part(id=pid, panels=q, nodes=np.asarray(nodes[lo:hi + 1]).copy(),
                     edges=np.asarray(edges[lo:hi]).copy(), miters=miters, span=(lo, hi),
-                    color=FAMILY_COLORS.get(pid.family, FAMILY_COLORS[-1]))
+                    color=FAMILY_COLORS.get(pid.family, FAMILY_COLORS[-1]), ends=tuple(ends))
+
+    def _warn_untrimmed(self, stacklevel: int = 4) -> None:
+        untrimmed = self.untrimmed_joints
+        if untrimmed:
+            warnings.warn(
+                f"{len(untrimmed)} part ends could not be butt-trimmed (or mitred) against the adjoining "
+                f"plate and overlap it: " + "; ".join(f"{n} at node {v} ({w})" for n, v, w in untrimmed[:6])
+                + (" ..." if len(untrimmed) > 6 else "") + "; see FinSystem.untrimmed_joints",
+                stacklevel=stacklevel)
 
     def _build_from_structure(self) -> None:
         st = self.structure
@@ -482,43 +673,66 @@ class FinSystem:
         if (depth[used_nodes] <= 1e-12 * max(1.0, float(np.abs(a).max()))).any():
             bad = used_nodes[depth[used_nodes] <= 1e-12 * max(1.0, float(np.abs(a).max()))]
             raise ValueError(f"nodes {bad[:10].tolist()} have zero fin depth (a_i == b_i)")
-        # how each family is present at each node: passes through (interior) or ends there
+        strip_quads = [fs.quads * self.scale for fs in strips]
+        drops = [self._drop_mask(q) for q in strip_quads]
+        # how each family is present at each node: passes through (two kept panels of a strip
+        # meet there) or ends there (one kept panel)
         n = len(a)
         passes = np.zeros((2, n), dtype=bool)
         ends = np.zeros((2, n), dtype=bool)
-        for fs in strips:
-            v = fs.vertices
-            if fs.closed:
-                passes[fs.family, v] = True
-            else:
-                passes[fs.family, v[1:-1]] = True
-                ends[fs.family, v[[0, -1]]] = True
+        for fs, drop in zip(strips, drops):
+            v = np.asarray(fs.vertices)
+            k = len(drop)
+            for j in range(len(v)):
+                if fs.closed and j == k:
+                    continue
+                left = j - 1 if j > 0 else (k - 1 if fs.closed else None)
+                right = j if j < k else None
+                cnt = sum(1 for i in (left, right) if i is not None and not drop[i])
+                if cnt == 2:
+                    passes[fs.family, v[j]] = True
+                elif cnt == 1:
+                    ends[fs.family, v[j]] = True
         present = passes | ends
         # parts
         strip_no = {0: 0, 1: 0}
         part_of_strip: list[list[Part]] = []
-        strip_quads = []
-        for fs in strips:
+        dropped, oversize = [], []
+        for fs, q, drop in zip(strips, strip_quads, drops):
             fam = fs.family
-            q = fs.quads * self.scale
-            ranges = self._split_ranges(q, fs.closed)
+            ranges = self._split_ranges(q, fs.closed, drop)
             if self.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1:
                 # family 1 is cut at every node where a family-0 plate is
                 cuts = sorted({0, len(q)} | {j for j in range(1, len(q))
                                              if present[0, fs.vertices[j]]} |
                               {x for r in ranges for x in r})
-                ranges = list(zip(cuts[:-1], cuts[1:]))
+                ranges = [(lo, hi) for lo, hi in zip(cuts[:-1], cuts[1:]) if not drop[lo:hi].all()]
             sn = strip_no[fam]
             strip_no[fam] += 1
-            parts = [self._make_part(PartId(fam, sn, i), q, lo, hi, fs.vertices, fs.edges, fs.closed)
+            prefix = str(PartId(fam, sn, 0))[:-4]
+            dropped += [(prefix, int(fs.edges[i]), float(w))
+                        for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])]
+            parts = [self._make_part(PartId(fam, sn, i), q, lo, hi, fs.vertices, fs.edges, fs.closed,
+                                     drop)
                      for i, (lo, hi) in enumerate(ranges)]
+            over = set(self._oversize) if self.fit_sheet is not None else set()
+            oversize += [p.name for p in parts if p.span[1] - p.span[0] == 1 and p.span[0] in over]
             part_of_strip.append(parts)
-            strip_quads.append(q)
+        self.dropped_panels = dropped
+        self.oversize_panels = oversize
+        self._warn_dropped()
+        if oversize:
+            warnings.warn(
+                f"{len(oversize)} parts are ONE fin panel each and still larger than the "
+                f"{self.fit_sheet[0]:g} x {self.fit_sheet[1]:g} {self.unit} sheet: {oversize[:8]}"
+                + (" ..." if len(oversize) > 8 else "") + "; a single panel cannot be split: use a "
+                "smaller fin spacing (finer remesh) or a larger sheet; see FinSystem.oversize_panels",
+                stacklevel=3)
         # panels of each family's plate around each node: (normal, in-plane direction from the
         # node line into the panel), for trimming and slot clearances
         plate: dict[tuple[int, int], list[tuple[np.ndarray, np.ndarray]]] = {}
-        for fs, q in zip(strips, strip_quads):
-            nq = quad_normals(q)
+        for fs, q, drop in zip(strips, strip_quads, drops):
+            nq = _safe_normals(q)
             for j, v in enumerate(fs.vertices):
                 if fs.closed and j == len(nq):
                     continue
@@ -527,11 +741,16 @@ class FinSystem:
                     adj = [len(nq) - 1, 0]
                 lst = plate.setdefault((fs.family, int(v)), [])
                 for i in adj:
+                    if drop[i]:
+                        continue
                     line = b[v] - a[v]
                     line = line / np.linalg.norm(line)
                     into = q[i].mean(axis=0) - a[v]
                     into = into - (into @ line) * line
-                    lst.append((nq[i], into / np.linalg.norm(into)))
+                    ni = np.linalg.norm(into)
+                    if not ni > 1e-9 * depth[v]:
+                        continue           # panel centre on the node line: no direction
+                    lst.append((nq[i], into / ni))
         self._plate = plate
 
         # trimming of part ends against the dominant plate of the other family
@@ -552,16 +771,18 @@ class FinSystem:
         gap = 0.5 * t + 0.5 * c
         h = 0.5 * t
         untrimmed: list[tuple[str, int, str]] = []
-        for fs, parts in zip(strips, part_of_strip):
+        for si, (fs, parts) in enumerate(zip(strips, part_of_strip)):
             fam = fs.family
             for p in parts:
                 trimmed = [False, False]
                 for end, (j, (ia, ib), (ja, jb)) in enumerate(
                         ((0, (0, 3), (1, 2)), (len(p.panels) - 1, (1, 2), (0, 3)))):
                     node = int(p.nodes[0 if end == 0 else -1])
-                    k_strip = len(fs.edges)
-                    strip_end = (not fs.closed) and ((end == 0 and p.span[0] == 0) or
-                                                     (end == 1 and p.span[1] == k_strip))
+                    if p.ends[end] == "fold" and end == 0:
+                        self._trim_fold(p, parts, strip_quads[si], node, passes, gap, h,
+                                        untrimmed, trimmed)
+                        continue
+                    strip_end = p.ends[end] in ("end", "dropped")
                     f0c_cut = (self.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1
                                and present[0, node])
                     if not strip_end and not f0c_cut:
@@ -573,12 +794,14 @@ class FinSystem:
                     far = quad[[ja, jb]].mean(axis=0)
                     # the other plate's panels, normals turned towards this part
                     panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk)
-                              for nk, vk in plate[(1 - fam, node)]]
-                    nbar = sum(nk for nk, _ in panels)
-                    nbar = nbar / np.linalg.norm(nbar)
-                    npan = quad_normals(quad[None])[0]
-                    d = npan @ nbar
+                              for nk, vk in plate.get((1 - fam, node), [])]
                     try:
+                        nbar = sum((nk for nk, _ in panels), np.zeros(3))
+                        if not np.linalg.norm(nbar) > 1e-6:
+                            raise _Untrimmable("no usable panel of the other plate there")
+                        nbar = nbar / np.linalg.norm(nbar)
+                        npan = quad_normals(quad[None])[0]
+                        d = npan @ nbar
                         if 1.0 - d * d < 0.04:
                             raise _Untrimmable(f"meets the plate at "
                                                f"{np.degrees(np.arccos(min(1.0, abs(d)))):.1f} deg")
@@ -589,18 +812,17 @@ class FinSystem:
                     except _Untrimmable as why:
                         untrimmed.append((p.name, node, str(why)))
                         continue
+                    if not all(np.isfinite(x).all() for x in moved.values()):
+                        untrimmed.append((p.name, node, "trim failed (non-finite)"))
+                        continue
                     for cc, x in moved.items():
                         quad[cc] = x
                     p.miters[0 if end == 0 else -1] = m_end
                     trimmed[end] = True
                 p.trimmed = tuple(trimmed)
+        self.parts = [p for parts in part_of_strip for p in parts]
         self.untrimmed_joints = untrimmed
-        if untrimmed:
-            warnings.warn(
-                f"{len(untrimmed)} part ends could not be butt-trimmed against the crossing plate "
-                f"and overlap it: " + "; ".join(f"{n} at node {v} ({w})" for n, v, w in untrimmed[:6])
-                + (" ..." if len(untrimmed) > 6 else "") + "; see FinSystem.untrimmed_joints",
-                stacklevel=3)
+        self._warn_untrimmed()
         # egg-crate slots at X crossings
         tight: list[tuple[int, float]] = []
         if self.family_split == FamilySplit.EGG_CRATE:
@@ -639,6 +861,117 @@ class FinSystem:
         self.parts = [p for parts in part_of_strip for p in parts]
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
+        self._fin_depth = depth
+        self._resolve_slot_splits()
+
+    def _resolve_slot_splits(self) -> None:
+        """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot
+        band runs out of the panel) are made shallower, leaving a web of ``thickness``; the
+        partner's slot is deepened by as much where that keeps it whole, else the two plates
+        interfere there. A slot that cuts the part apart at any depth is left out. Each case
+        is listed in ``slot_conflicts`` and warned about."""
+        from dataclasses import replace
+
+        from .unroll import unroll
+
+        def whole(p: Part, slots) -> bool:
+            try:
+                unroll(p.panels, slots=list(slots), name=p.name)
+            except ValueError as e:
+                return "slots cut" not in str(e)
+            return True
+
+        conflicts: list[tuple[str, int, float, float, str]] = []
+        for p in self.parts:
+            if not p.slots or whole(p, p.slots):
+                continue
+            for s in list(p.slots):
+                if whole(p, [s]):
+                    continue
+                i = p.slots.index(s)
+                lo, hi = 0.0, s.depth
+                if not whole(p, [replace(s, depth=1e-3 * s.depth)]):
+                    new = 0.0
+                else:
+                    for _ in range(12):
+                        mid = 0.5 * (lo + hi)
+                        lo, hi = (mid, hi) if whole(p, [replace(s, depth=mid)]) else (lo, mid)
+                    new = lo - self.thickness
+                    if new <= 0.05 * s.depth:
+                        new = 0.0
+                if new > 0:
+                    p.slots[i] = replace(s, depth=new)
+                else:
+                    del p.slots[i]
+                # the partner(s) take the difference if they stay whole
+                lack = s.depth - new
+                notes = []
+                for o in self.parts:
+                    if o.family == p.family:
+                        continue
+                    for jo, so in enumerate(o.slots):
+                        if so.node != s.node:
+                            continue
+                        deeper = replace(so, depth=min(so.depth + lack, float(self._fin_depth[s.node])))
+                        trial = o.slots[:jo] + [deeper] + o.slots[jo + 1:]
+                        if whole(o, trial):
+                            o.slots[jo] = deeper
+                            notes.append(f"{o.name} slotted {lack:.3g} deeper")
+                        else:
+                            notes.append(f"{o.name} cannot take it: the plates interfere by "
+                                         f"{lack:.3g} {self.unit}")
+                conflicts.append((p.name, s.node, float(s.depth), float(new),
+                                  "; ".join(notes) or "no partner slot"))
+        self.slot_conflicts = conflicts
+        if conflicts:
+            warnings.warn(
+                f"{len(conflicts)} egg-crate slots would cut their part in two (narrow or slanted "
+                f"panel at the node) and were made shallower or left out: "
+                + "; ".join(f"{n} at node {v}: depth {d0:.3g} -> {d1:.3g} {self.unit} ({note})"
+                            for n, v, d0, d1, note in conflicts[:6])
+                + (" ..." if len(conflicts) > 6 else "") + "; see FinSystem.slot_conflicts",
+                stacklevel=4)
+
+    def _trim_fold(self, p: Part, parts, q, node, passes, gap, h, untrimmed, trimmed):
+        """Butt joint at a split on a sharp fold: the start of part ``p`` is trimmed back until
+        it clears the (square) end of the previous panel of the strip, or the joint is listed."""
+        k = len(q)
+        i_prev = p.span[0] - 1 if p.span[0] > 0 else k - 1
+        prev = next((o for o in parts if o.span[1] == i_prev + 1), None)
+        nprev = quad_normals(q[i_prev][None])[0]
+        quad = p.panels[0]
+        ang = _fold_deg(nprev, quad_normals(quad[None])[0])
+        what = f"fold of {ang:.1f} deg to {prev.name if prev else 'the previous part'}"
+        if passes is not None and passes[0, node] and passes[1, node]:
+            untrimmed.append((p.name, node, f"{what} at an egg-crate crossing: square ends"))
+            return
+        pa = q[p.span[0] % k, 0]                   # a end of the node line (untrimmed)
+        far = quad[[1, 2]].mean(axis=0)
+        line = quad[3] - quad[0]
+        line = line / np.linalg.norm(line)
+        into = q[i_prev].mean(axis=0) - pa
+        into = into - (into @ line) * line
+        try:
+            if not np.linalg.norm(into) > 0:
+                raise _Untrimmable("the previous panel has no extent")
+            panels = [(nprev if (far - pa) @ nprev >= 0 else -nprev, into / np.linalg.norm(into))]
+            nbar = panels[0][0]
+            npan = quad_normals(quad[None])[0]
+            d = npan @ nbar
+            if 1.0 - d * d < 0.04:
+                raise _Untrimmable("too sharp to butt-trim: square ends overlap near the fold")
+            m_end = (npan - d * nbar) / (1.0 - d * d)
+            moved = {cc: self._trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
+                     for cc, oc in ((0, 1), (3, 2))}
+            if not all(np.isfinite(x).all() for x in moved.values()):
+                raise _Untrimmable("trim failed (non-finite)")
+        except _Untrimmable as why:
+            untrimmed.append((p.name, node, f"{what}: {why}"))
+            return
+        for cc, x in moved.items():
+            quad[cc] = x
+        p.miters[0] = m_end
+        trimmed[0] = True
 
     @staticmethod
     def _trim_corner(quad, cc, oc, panels, pa, m_end, gap, h) -> np.ndarray:
@@ -646,6 +979,8 @@ class FinSystem:
         (``+-h m_end``) clears every panel of the crossing plate by ``gap`` from its mid-plane."""
         u = quad[oc] - quad[cc]
         L = np.linalg.norm(u)
+        if not L > 0:
+            raise _Untrimmable("its edge has zero length")
         u = u / L
         s_req = 0.0
         for _ in range(4):      # laterals move a little with the trim: iterate
@@ -663,6 +998,8 @@ class FinSystem:
                     pts.append(pm + (lm / (lm - lp)) * (pp - pm))
                 for x in pts:
                     s_new = max(s_new, s_req + (gap - x @ nk) / cos)
+            if not np.isfinite(s_new):
+                raise _Untrimmable("its end does not lie over the other plate's panels")
             done = abs(s_new - s_req) <= 1e-12 * L
             s_req = s_new
             if done:

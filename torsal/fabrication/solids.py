@@ -10,6 +10,10 @@ centred on the node line, ``thickness + clearance`` wide, through the plate).
 
 Every solid is checked with ``is_valid``; an invalid one is repaired with ``ShapeFix`` and if it
 stays invalid an :class:`InvalidSolidError` names the part: nothing is written silently.
+The slots are checked too (the cut must remove the slot area of the unrolled part times the
+thickness); where OpenCascade cannot cut them (thin, oblique plates of real structures) the
+sound plate is kept without them, listed in ``FinSystem.unslotted_solids`` and warned about
+(the unrolled cutting outlines always have the slots).
 
 Units: the ``unit`` of the fin system (mm by default); STEP files are written in mm.
 """
@@ -22,7 +26,7 @@ import numpy as np
 
 from .parts import Part, SlotSide
 
-__all__ = ["InvalidSolidError", "part_solid", "build_solids", "export_step", "export_mesh",
+__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "export_step", "export_mesh",
            "export_3dm", "read_step"]
 
 
@@ -32,6 +36,16 @@ class InvalidSolidError(RuntimeError):
     def __init__(self, parts: list[str], detail: str = ""):
         self.parts = parts
         super().__init__(f"invalid solid for part(s) {', '.join(parts)}" + (f": {detail}" if detail else ""))
+
+
+class SlotCutError(InvalidSolidError):
+    """The plate of a part is sound but OpenCascade could not cut its slots (a boolean failure
+    on a thin, oblique plate). ``plate`` is the valid solid without slots."""
+
+    def __init__(self, parts: list[str], detail: str = "", plate=None, nodes=()):
+        super().__init__(parts, detail)
+        self.plate = plate
+        self.nodes = list(nodes)
 
 
 def _face(points, planar_tol: float):
@@ -60,6 +74,17 @@ def _face(points, planar_tol: float):
             for i in range(1, len(pts) - 1)]
 
 
+def _fan_volume(points) -> float:
+    """Signed volume contribution (divergence theorem) of a face as :func:`_face` builds it:
+    repeated points dropped, a fan of triangles from the first point."""
+    pts = np.asarray(points, float)
+    keep = [0] + [i for i in range(1, len(pts)) if np.linalg.norm(pts[i] - pts[i - 1]) > 1e-12]
+    pts = pts[keep]
+    if len(pts) < 3:
+        return 0.0
+    return float(sum(pts[0] @ np.cross(pts[i], pts[i + 1]) for i in range(1, len(pts) - 1)) / 6.0)
+
+
 def _box(origin, x_dir, z_dir, length, width, height):
     from build123d import Plane, Solid, Vector
 
@@ -67,10 +92,17 @@ def _box(origin, x_dir, z_dir, length, width, height):
                           Plane(origin=Vector(*origin), x_dir=Vector(*x_dir), z_dir=Vector(*z_dir)))
 
 
+#: degrees: a slot on a fold flatter than this is cut with one box on the fold's bisector plane
+#: (two nearly coplanar boxes make OpenCascade's boolean leave slivers or split the plate)
+SINGLE_BOX_FOLD = 20.0
+
+
 def slot_boxes(part: Part, thickness: float) -> list:
     """Cutting boxes of the slots of a part: per panel adjacent to the slotted node line, a box
     in the panel plane centred on the node line, ``width`` wide, from ``2 width`` outside the
-    open edge to ``depth`` inside, ``2 thickness`` through the plate."""
+    open edge to ``depth`` inside, ``2 thickness`` through the plate. On a fold flatter than
+    :data:`SINGLE_BOX_FOLD` one box on the bisector plane, ``width cos(fold/2)`` wide (so the
+    slot is ``width`` wide in both panels)."""
     boxes = []
     k = len(part.panels)
     normals = part.normals
@@ -84,6 +116,18 @@ def slot_boxes(part: Part, thickness: float) -> list:
         u = other - start
         u = u / np.linalg.norm(u)
         over = 2.0 * s.width
+        if 0 < pos < k:
+            n1, n2 = normals[pos - 1], normals[pos]
+            c = float(np.clip(n1 @ n2, -1.0, 1.0))
+            if np.degrees(np.arccos(c)) < SINGLE_BOX_FOLD:
+                n = (n1 + n2) / np.linalg.norm(n1 + n2)
+                uu = u - (u @ n) * n
+                uu /= np.linalg.norm(uu)
+                v = np.cross(n, uu)
+                w = s.width * np.sqrt(0.5 * (1.0 + c))          # width * cos(fold / 2)
+                corner = start - over * uu - 0.5 * w * v - thickness * n
+                boxes.append(_box(corner, uu, n, over + s.depth, w, 2.0 * thickness))
+                continue
         for j in (pos - 1, pos):
             if not 0 <= j < k:
                 continue
@@ -115,46 +159,143 @@ def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol:
         for c, node in ((0, j), (3, j), (1, j + 1), (2, j + 1)):
             top[j, c] = q[j, c] + h * m[node]
             bot[j, c] = q[j, c] - h * m[node]
-    faces = []
+    if not (np.isfinite(q).all() and np.isfinite(m).all()):
+        raise InvalidSolidError([part.name], "non-finite panel or mitre coordinates")
+    faces, poly_volume = [], 0.0
+    outlines = []                                   # (points, orientation) of every face
     for j in range(k):
-        faces += _face(top[j], planar_tol)
-        faces += _face(bot[j], planar_tol)          # same diagonal as the top if warped
-        faces += _face([top[j, 1], top[j, 0], bot[j, 0], bot[j, 1]], planar_tol)   # a side
-        faces += _face([top[j, 3], top[j, 2], bot[j, 2], bot[j, 3]], planar_tol)   # b side
-    faces += _face([top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]], planar_tol)       # start cap
-    faces += _face([top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]], planar_tol)   # end cap
+        outlines += [(top[j], 1.0), (bot[j], -1.0),   # bottom: same diagonal as the top if warped
+                     ([top[j, 1], top[j, 0], bot[j, 0], bot[j, 1]], 1.0),   # a side
+                     ([top[j, 3], top[j, 2], bot[j, 2], bot[j, 3]], 1.0)]   # b side
+    outlines += [([top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]], 1.0),       # start cap
+                 ([top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]], 1.0)]   # end cap
+    for pts, sign in outlines:
+        faces += _face(pts, planar_tol)
+        poly_volume += sign * _fan_volume(pts)
     shell = Shell(faces)
     from OCP.BRep import BRep_Tool
 
     if not BRep_Tool.IsClosed_s(shell.wrapped):
         raise InvalidSolidError([part.name], "the plate's faces do not sew into a closed shell")
     solid = Solid(shell)
-    # a closed, valid shell can still be garbage (e.g. a bow-tie panel): the mitred plate has
-    # the volume sum(panel area) * thickness up to the twist of its side faces
+    if solid.volume < 0:             # sewn inside out: turn it round
+        solid = Solid(solid.wrapped.Reversed())
+    # a closed, valid shell can still be garbage (e.g. a bow-tie panel): the solid must have the
+    # volume of the polyhedron it was built from, and that the volume sum(panel area) *
+    # thickness up to the twist of its side faces (which grows on narrow panels that meet the
+    # node lines obliquely, mitred: a few percent at most)
     expected = float(part.panel_areas.sum()) * thickness
-    if not abs(abs(solid.volume) - expected) <= 0.01 * expected:
+    if not abs(solid.volume - abs(poly_volume)) <= 1e-3 * abs(poly_volume):
+        raise InvalidSolidError([part.name], f"plate volume {solid.volume:.6g} differs from that of "
+                                f"its faces {abs(poly_volume):.6g}: the faces do not sew into a sound solid")
+    if not abs(solid.volume - expected) <= 0.05 * expected:
         raise InvalidSolidError([part.name], f"plate volume {solid.volume:.6g} differs from panel "
                                 f"area x thickness {expected:.6g}: broken or self-intersecting panels")
     plate_volume = abs(solid.volume)
-    if part.slots:
+    plate = solid
+    if not plate.is_valid:
+        if repair:
+            plate = plate.fix()
+        if not plate.is_valid:
+            raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
+    plate.label = part.name
+    plate.color = Color(*part.color)
+    if not part.slots:
+        return plate
+    nodes = sorted({s.node for s in part.slots})
+    try:
         boxes = slot_boxes(part, thickness)
-        solid = solid.cut(*boxes)
+        solid = plate.cut(*boxes)
+        if solid is None:
+            raise ValueError("the boolean cut returned nothing")
         if not isinstance(solid, Solid):
             sols = solid.solids()
             if len(sols) != 1:
-                raise InvalidSolidError([part.name], f"slots split the plate into {len(sols)} pieces")
-            solid = sols[0]
-    if not solid.is_valid:
-        if repair:
+                solid = _main_piece(part, thickness, plate_volume, sols)
+            else:
+                solid = sols[0]
+        if not solid.is_valid and repair:
             solid = solid.fix()
         if not solid.is_valid:
-            raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
-    if not 0.5 * plate_volume < solid.volume <= plate_volume * (1 + 1e-9):
-        raise InvalidSolidError([part.name], f"volume {solid.volume:.6g} after cutting slots is "
-                                f"implausible for a plate of {plate_volume:.6g}")
+            raise ValueError("BRepCheck failed after ShapeFix")
+        if not 0.5 * plate_volume < solid.volume <= plate_volume * (1 + 1e-9):
+            raise ValueError(f"volume {solid.volume:.6g} after cutting slots is implausible for a "
+                             f"plate of {plate_volume:.6g}")
+        # every slot is open where it should be and the web beyond it is kept (on folds the
+        # boxes in both panel planes take a little more than slot area x thickness)
+        removed = _slot_area(part) * thickness
+        if not 0.3 * removed <= plate_volume - solid.volume <= 3.0 * removed + 1e-6 * plate_volume:
+            raise ValueError(f"the slots removed {plate_volume - solid.volume:.6g} instead of about "
+                             f"{removed:.6g} (slot area x thickness)")
+        _check_slots(solid, part)
+    except InvalidSolidError as e:
+        raise SlotCutError([part.name], str(e), plate=plate, nodes=nodes) from None
+    except Exception as e:     # OpenCascade failures
+        raise SlotCutError([part.name], f"cutting the slots at nodes {nodes} failed: "
+                           f"{type(e).__name__}: {e}", plate=plate, nodes=nodes) from None
     solid.label = part.name
     solid.color = Color(*part.color)
     return solid
+
+
+def _check_slots(solid, part: Part) -> None:
+    """Raise ValueError unless, for every slot, a point in the slot (on the mid-plane, halfway
+    down) is outside the solid and a point of the web beyond it is inside."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_IN, TopAbs_OUT
+
+    q = part.panels
+    k = len(q)
+    for s in part.slots:
+        pos = s.position
+        a, b = (q[0, 0], q[0, 3]) if pos == 0 else (q[pos - 1, 1], q[pos - 1, 2])
+        start, other = (b, a) if SlotSide(s.side) == SlotSide.B else (a, b)
+        u = other - start
+        length = np.linalg.norm(u)
+        u = u / length
+        j = pos if pos < k else pos - 1
+        into = q[j].mean(axis=0) - start
+        into -= (into @ u) * u
+        into /= np.linalg.norm(into)
+        off = 0.25 * s.width * into
+        probes = [(start + 0.5 * s.depth * u + off, TopAbs_OUT, "is not cut")]
+        if s.depth < 0.99 * length:       # a web is left (not a full-depth end slot)
+            probes.append((start + (s.depth + 0.5 * (length - s.depth)) * u + off, TopAbs_IN,
+                           "cut through the web"))
+        for x, want, what in probes:
+            cls = BRepClass3d_SolidClassifier(solid.wrapped, gp_Pnt(*map(float, x)), 1e-6)
+            if cls.State() != want:
+                raise ValueError(f"the slot at node {s.node} {what}")
+
+
+def _slot_area(part: Part) -> float:
+    """Area the slots take out of the unrolled part (``unit``^2)."""
+    from shapely.geometry import Polygon
+
+    from .unroll import unroll
+
+    u = unroll(part)
+    return float(sum(Polygon(f).area for f in u.panels) - u.outline.area)
+
+
+def _main_piece(part: Part, thickness: float, plate_volume: float, pieces: list):
+    """The plate left after cutting the slots when OpenCascade's boolean returned several
+    pieces: on thin, oblique plates it sometimes splits the cut-out off instead of removing it,
+    or leaves slivers. The unrolled outline says what must be left (``plate - slot area x
+    thickness``); the piece of that volume is kept, else the part is reported."""
+    nodes = sorted({s.node for s in part.slots})
+    try:
+        removed = _slot_area(part) * thickness
+    except ValueError as e:
+        raise InvalidSolidError([part.name], f"the slots at nodes {nodes} cut the plate apart ({e})")
+    expected = plate_volume - removed
+    best = min(pieces, key=lambda x: abs(x.volume - expected))
+    if not abs(best.volume - expected) <= 0.05 * removed + 1e-6 * plate_volume:
+        raise InvalidSolidError([part.name], f"the slots at nodes {nodes} split the plate into "
+                                f"{len(pieces)} pieces (volumes {sorted(round(x.volume, 1) for x in pieces)}, "
+                                f"expected one of {expected:.6g})")
+    return best
 
 
 def build_solids(fin_system, *, repair: bool = True) -> dict:
@@ -163,16 +304,29 @@ def build_solids(fin_system, *, repair: bool = True) -> dict:
     All parts are attempted; if any is invalid an :class:`InvalidSolidError` listing every
     invalid part id is raised.
     """
-    out, bad, detail = {}, [], []
+    out, bad, detail, unslotted = {}, [], [], []
     for p in fin_system.parts:
         try:
             out[p.name] = part_solid(p, fin_system.thickness, repair=repair)
+        except SlotCutError as e:
+            out[p.name] = e.plate
+            unslotted.append((p.name, e.nodes, str(e)))
         except InvalidSolidError as e:
             bad.append(p.name)
             detail.append(str(e))
         except Exception as e:  # OpenCascade errors: report by part id
             bad.append(p.name)
             detail.append(f"{p.name}: {type(e).__name__}: {e}")
+    fin_system.unslotted_solids = unslotted
+    if unslotted:
+        import warnings
+
+        warnings.warn(
+            f"{len(unslotted)} parts are modelled without their slots (OpenCascade could not cut "
+            f"them into the thin, oblique plate; the unrolled cutting outlines do have them): "
+            + "; ".join(f"{n} (slots at nodes {v})" for n, v, _ in unslotted[:8])
+            + (" ..." if len(unslotted) > 8 else "") + "; see FinSystem.unslotted_solids",
+            stacklevel=3)
     if bad:
         raise InvalidSolidError(bad, "; ".join(detail))
     return out

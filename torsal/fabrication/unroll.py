@@ -95,6 +95,8 @@ def _plane_frame(quad: np.ndarray) -> np.ndarray:
     """origin, e1 (along p0 -> p1), e2 = n x e1, n for a quad (4, 3)."""
     n = quad_normals(quad[None])[0]
     e1 = quad[1] - quad[0]
+    if np.linalg.norm(e1) <= 1e-9 * np.linalg.norm(quad[2] - quad[3]):   # triangle: a_i == a_j
+        e1 = quad[2] - quad[3]
     e1 = e1 - (e1 @ n) * n
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(n, e1)
@@ -192,7 +194,8 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
     # errors
     l3 = np.linalg.norm(quads[:, _EDGES[:, 0]] - quads[:, _EDGES[:, 1]], axis=2)
     l2 = np.linalg.norm(flat[:, _EDGES[:, 0]] - flat[:, _EDGES[:, 1]], axis=2)
-    err = float(np.max(np.abs(l2 - l3) / l3))
+    pos = l3 > 0                                   # a triangle panel has a zero-length edge
+    err = float(np.max(np.abs(l2 - l3)[pos] / l3[pos], initial=0.0))
     # outline
     polys = [Polygon(f) for f in flat]
     for j, pg in enumerate(polys):
