@@ -30,7 +30,7 @@ demo: $(STAMP)
 	$(VENV)/bin/torsal analyze examples/facade_patch.obj --out out/
 
 test: $(STAMP)
-	$(PY) -m pytest
+	$(PY) -m pytest -n 2
 
 bench: $(STAMP)
 	$(PY) benchmarks/congruence_bench.py

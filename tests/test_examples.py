@@ -32,6 +32,8 @@ def small(design: Design) -> Design:
         "surface": spec.surface.model_copy(update={"params": params}),
         "fins": fins,
         "outputs": spec.outputs.model_copy(update={"light_samples": 300}),
+        # the coarse fin spacing makes single panels longer than a 2.5 m sheet
+        "material": spec.material.model_copy(update={"sheet_mm": (4000.0, 2000.0)}),
         "constraints": spec.constraints.model_copy(update={"max_iter": 400}),
     }))
 
