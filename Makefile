@@ -1,5 +1,6 @@
 # torsal: two commands on a fresh machine.
-#   make demo   create .venv, install torsal, run the example, write out/
+#   make demo   create .venv, install torsal, analyze the example facade (out/) and build
+#               the Fig. 7a design end to end (out/7a/: STEP, DXF, parts list, report.html)
 #   make test   create .venv, install torsal with test extras, run the test suite
 PYTHON ?= python3
 VENV   := .venv
@@ -28,6 +29,7 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(PY) examples/make_facade.py
 	$(VENV)/bin/torsal analyze examples/facade_patch.obj --out out/
+	$(VENV)/bin/torsal design examples/7a_facade_block.toml --out out/7a
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2

@@ -61,7 +61,12 @@ def main():
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
              "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for path in sorted(HERE.glob("*.toml"), key=lambda p: (len(p.stem.split("_")[0]), p.stem)):
+    def figure(p):  # 7a < 7b < ... < 9 < 10 < 11 < 13
+        key = p.stem.split("_")[0]
+        digits = "".join(ch for ch in key if ch.isdigit())
+        return int(digits), key
+
+    for path in sorted(HERE.glob("*.toml"), key=figure):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:
             continue
