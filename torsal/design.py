@@ -23,7 +23,7 @@ import numpy as np
 from ._io import atomic_path, write_json
 from .design_file import DesignFileError, DesignSpec, Region, load_design_file
 from .geometry.congruence import Congruence
-from .geometry.mesh import boundary_edges, load_mesh, validate_mesh
+from .geometry.mesh import area_vector, edge_face_adjacency, load_mesh, validate_mesh
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignError",
            "DesignFileError", "STAGES"]
@@ -371,15 +371,13 @@ class Design:
             faces.append(near)
             dirs.append(d[j[near]])
         if g.boundary_aligned:
-            be = boundary_edges(f)
             # the face on each boundary edge follows the edge
-            has = np.zeros(len(f), bool)
+            edges, edge_faces = edge_face_adjacency(f)
+            on_boundary = edge_faces[:, 1] < 0
             fe_dirs = np.zeros((len(f), 3))
-            for a, b in be:
-                fi = np.flatnonzero((f == a).any(1) & (f == b).any(1))
-                has[fi] = True
-                fe_dirs[fi] = v[b] - v[a]
-            idx = np.flatnonzero(has)
+            fe_dirs[edge_faces[on_boundary, 0]] = (v[edges[on_boundary, 1]]
+                                                   - v[edges[on_boundary, 0]])
+            idx = np.unique(edge_faces[on_boundary, 0])
             faces.append(idx)
             dirs.append(fe_dirs[idx])
         if not faces:
@@ -455,8 +453,7 @@ class Design:
                             spec.site.model_dump(mode="json") if spec.site else None),
                     lambda: dict(zip(("vectors", "weights"), self._sun())))
         # fins stand on the sun side of A: orient A's normals (and so the initial lines) there
-        area_normal = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
-        flipped = bool(area_normal @ (sun["vectors"] * sun["weights"][:, None]).sum(0) < 0)
+        flipped = bool(area_vector(v, f) @ (sun["vectors"] * sun["weights"][:, None]).sum(0) < 0)
         if flipped:
             f = f[:, ::-1].copy()
         res.report["surface"] = {"vertices": int(len(v)), "faces": int(len(f)),

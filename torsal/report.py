@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 
 from ._io import atomic_path
+from .geometry.mesh import area_vector
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
            "design_report_html", "write_design_report"]
@@ -20,6 +21,14 @@ def principal_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     c = p.mean(axis=0)
     _, _, vt = np.linalg.svd(p - c, full_matrices=False)
     return c, vt
+
+
+def _view_frame(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`principal_plane` oriented so the surface's mean normal points at the viewer."""
+    center, axes = principal_plane(v)
+    if area_vector(v, f) @ axes[2] < 0:
+        axes = axes * [[1], [-1], [-1]]
+    return center, axes
 
 
 def plot_torsal_field(congruence, path: str | Path, *, title: str | None = None,
@@ -53,11 +62,7 @@ def plot_torsal_field(congruence, path: str | Path, *, title: str | None = None,
     from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
     v, f = congruence.vertices, congruence.faces
-    center, axes = principal_plane(v)
-    # orient the view so the surface normal points at the viewer
-    n_mean = np.nanmean(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=0)
-    if n_mean @ axes[2] < 0:
-        axes = axes * [[1], [-1], [-1]]
+    center, axes = _view_frame(v, f)
     uv = (v - center) @ axes[:2].T
     tris = uv[f]
     t = congruence.torsal_directions()
@@ -171,7 +176,7 @@ def plot_fins(structure, surface, path: str | Path, *, title: str = "") -> Path:
     ax.set_xlim(mid[0] - rad, mid[0] + rad)
     ax.set_ylim(mid[1] - rad, mid[1] + rad)
     ax.set_zlim(mid[2] - rad, mid[2] + rad)
-    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
+    n = area_vector(v, f)
     n /= np.linalg.norm(n)
     ax.view_init(elev=float(np.clip(np.degrees(np.arcsin(n[2])), 15, 60)),
                  azim=float(np.degrees(np.arctan2(n[1], n[0]))) + 25)
@@ -188,10 +193,7 @@ def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str
     from matplotlib.collections import PolyCollection
 
     v, f = surface
-    c, axes = principal_plane(v)
-    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
-    if n @ axes[2] < 0:
-        axes = axes * [[1], [-1], [-1]]
+    c, axes = _view_frame(v, f)
     uv = (v - c) @ axes[:2].T
     p2 = (np.asarray(points) - c) @ axes[:2].T
     fig = _figure((11, 5.5))

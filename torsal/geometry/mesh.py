@@ -20,6 +20,7 @@ __all__ = [
     "unique_edges",
     "average_edge_length",
     "face_areas",
+    "area_vector",
     "vertex_normals",
     "umbrella_laplacian",
     "boundary_edges",
@@ -181,6 +182,22 @@ def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     v = np.asarray(vertices, dtype=float)
     f = np.asarray(faces)
     return 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+
+
+def area_vector(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Vector area of the mesh, (3,): the sum of face normals times face areas.
+
+    Its direction is the mean outward normal (which side a facade or canopy faces); its
+    length the area of the mesh projected on the plane orthogonal to it.
+
+    Examples
+    --------
+    >>> area_vector(np.array([[0., 0, 0], [2, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    array([0., 0., 1.])
+    """
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces, dtype=np.int64)
+    return 0.5 * np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
 
 
 def average_edge_length(vertices: np.ndarray, faces: np.ndarray) -> float:

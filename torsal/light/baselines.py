@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from torsal.geometry.mesh import vertex_normals
+from torsal.geometry.mesh import area_vector, vertex_normals
 
 __all__ = ["horizontal_louvers", "vertical_fins", "section_fins", "grid_normal_fins", "baselines"]
 
@@ -113,10 +113,7 @@ def section_fins(surface_vertices, surface_faces, plane_normal, depth: float, sp
 
 
 def _mean_normal(v, f) -> np.ndarray:
-    v = np.asarray(v, float)
-    f = np.asarray(f, np.int64)
-    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(axis=0)
-    return _unit3(n, "the mean normal of A")
+    return _unit3(area_vector(v, f), "the mean normal of A")
 
 
 def horizontal_louvers(surface_vertices, surface_faces, depth: float, spacing: float, *,
