@@ -32,6 +32,7 @@ __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignErro
 STAGES = ("surface", "sun", "congruence", "remesh", "support", "light", "substructure",
           "fabrication")
 _CACHE_VERSION = "1"
+JIT_MIN_VERTICES = 1500  # default for constraints.jit
 
 
 # ====================================================================== analyze
@@ -285,7 +286,11 @@ class Design:
         rename = {"norm": "normal", "perp": "perpendicular", "par": "parallel",
                   "plane": "torsal_plane", "dir": "torsal_direction", "through": "through_points"}
         weights = {rename.get(k, k): val for k, val in weights.items()}
-        p = CongruenceProblem(c0)
+        C = spec.constraints
+        # compiled kernels pay back their one-off compile time (about a second each, cached
+        # per machine) on paper-sized surfaces; small studies start faster interpreted
+        jit = C.jit if C.jit is not None else len(v) >= JIT_MIN_VERTICES
+        p = CongruenceProblem(c0, jit=jit)
         wget = weights.get
         if wget("normal", 2.0) > 0:
             p.normal(weight=wget("normal", 2.0))
@@ -329,7 +334,6 @@ class Design:
             p.torsal_plane(fi, normals=n, weight=wget("torsal_plane", 5000.0), name="reflect")
         if wget("closeness"):
             p.closeness(weight=wget("closeness"))
-        C = spec.constraints
         if C.hyperbolic:
             p.hyperbolic(margin=C.hyperbolic_margin)
         if C.min_torsal_angle is not None:
@@ -339,7 +343,7 @@ class Design:
             # their torsal directions coincide (f_extra)
             sub = spec.substructure
             v2 = v - sub.offset * c0.directions
-            q = CongruenceProblem(Congruence.from_normals((v2, f)))
+            q = CongruenceProblem(Congruence.from_normals((v2, f)), jit=jit)
             q.normal(weight=wget("normal", 2.0)).fair(weight=wget("fair", 1.0))
             if C.hyperbolic:
                 q.hyperbolic(margin=C.hyperbolic_margin)

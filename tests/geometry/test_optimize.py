@@ -71,7 +71,9 @@ def test_assembled_gradient_and_hessian_match_finite_differences(facade, normali
 
 @pytest.mark.skipif(__import__("shutil").which("gcc") is None and __import__("shutil").which("cc") is None,
                     reason="needs a C compiler")
-def test_compiled_kernels_give_the_same_derivatives():
+def test_compiled_kernels_give_the_same_derivatives(tmp_path, monkeypatch):
+    monkeypatch.setenv("TORSAL_KERNEL_CACHE", str(tmp_path / "kernels"))
+    monkeypatch.chdir(tmp_path)   # code generation must not write into the working directory
     v, f = facade_patch(nu=5, nv=4)
     c = Congruence.from_normals((v, f))
     e = _noisy(c.directions, 20, np.random.default_rng(4))
@@ -88,6 +90,10 @@ def test_compiled_kernels_give_the_same_derivatives():
                     (*b.grad_f(x0, par), *b.jac_g(x0, par), b.hess_lag(x0, par, 0.7, lam))])
     for a, b_ in zip(*out):
         assert np.allclose(a, b_, rtol=1e-12, atol=1e-14)
+    # the kernels really were compiled (not the silent interpreted fallback), nothing else left
+    assert len(list((tmp_path / "kernels").glob("tk_*.so"))) >= 6
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["kernels"]
+    assert not list((tmp_path / "kernels").glob(".tk_*"))
 
 
 # ----------------------------------------------------------------------- normal congruences

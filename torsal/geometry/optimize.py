@@ -282,29 +282,32 @@ def _jit(fn: ca.Function) -> ca.Function:
         cc = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
         if cc is None:
             return fn
-        tmp = tempfile.mkdtemp(prefix="torsal_jit_")
-        try:
-            base = f"torsal_k_{os.getpid()}_{id(fn)}.c"
-            src = os.path.join(tmp, "k.c")
-            fn.generate(base, {"with_header": False})
-            shutil.move(base, src)
-            code = open(src).read().replace(base[:-2], "K")   # the file name prefixes symbols
+        with tempfile.TemporaryDirectory(prefix="torsal_jit_") as tmp:
+            # generated into a private folder (never the caller's working directory); the
+            # fixed file name keeps the code, and so the hash, independent of the process
+            cg = ca.CodeGenerator("tk.c", {"with_header": False})
+            cg.add(fn)
+            src = cg.generate(tmp + os.sep)
+            code = open(src).read()
             h = hashlib.sha1((ca.__version__ + code).encode()).hexdigest()[:16]
-            name = f"tk_{h}"
             cache = _kernel_cache_dir()
-            lib = cache / f"{name}.so"
+            lib = cache / f"tk_{h}.so"
             if not lib.exists():
                 cache.mkdir(parents=True, exist_ok=True)
-                renamed = ca.Function(name, fn.sx_in(), fn.call(fn.sx_in()))
-                renamed.generate(f"{name}_{os.getpid()}.c", {"with_header": False})
-                shutil.move(f"{name}_{os.getpid()}.c", os.path.join(tmp, f"{name}.c"))
-                out = os.path.join(tmp, f"{name}.so")
-                subprocess.run([cc, "-O2", "-shared", "-fPIC", os.path.join(tmp, f"{name}.c"), "-o", out, "-lm"],
+                out = os.path.join(tmp, "tk.so")
+                subprocess.run([cc, "-O2", "-shared", "-fPIC", src, "-o", out, "-lm"],
                                check=True, capture_output=True, timeout=120)
-                os.replace(out, lib) if os.path.dirname(out) == str(cache) else shutil.move(out, lib)
-            return ca.external(name, str(lib))
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+                # copy under a private name in the cache, then rename: a process that loads
+                # the kernel concurrently never sees a half-written library
+                fd, part = tempfile.mkstemp(prefix=".tk_", suffix=".so.part", dir=cache)
+                os.close(fd)
+                try:
+                    shutil.copyfile(out, part)
+                    os.replace(part, lib)
+                finally:
+                    if os.path.exists(part):
+                        os.unlink(part)
+            return ca.external(fn.name(), str(lib))
     except Exception:   # pragma: no cover - any failure keeps the interpreted kernel
         return fn
 
