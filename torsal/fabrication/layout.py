@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -34,6 +33,8 @@ import shapely
 from shapely import affinity
 from shapely.geometry import LineString, Point, Polygon
 from shapely.prepared import prep
+
+from torsal.geometry._atomic import atomic_path
 
 from .parts import INSUNITS, UNIT_TO_MM
 
@@ -149,15 +150,12 @@ class Layout:
         for s in range(self.n_sheets):
             doc = self.sheet_document(s)
             target = path.with_name(f"{path.stem}_sheet{s + 1:02d}.dxf")
-            tmp = target.with_name(f".{target.name}.tmp")
-            doc.saveas(tmp)
-            os.replace(tmp, target)
+            with atomic_path(target) as tmp:
+                doc.saveas(tmp)
             out.append(target)
             if svg:
-                svg_path = target.with_suffix(".svg")
-                tmp = svg_path.with_name(f".{svg_path.name}.tmp")
-                tmp.write_text(_svg_of(doc, self.sheet, self.unit), encoding="utf-8")
-                os.replace(tmp, svg_path)
+                with atomic_path(target.with_suffix(".svg")) as tmp:
+                    tmp.write_text(_svg_of(doc, self.sheet, self.unit), encoding="utf-8")
         return out
 
 
@@ -467,13 +465,10 @@ def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout:
             "sheet": sheets.get(p.name, ""),
         })
     if path is not None:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         buf = io.StringIO()
         wr = csv.DictWriter(buf, fieldnames=BOM_COLUMNS)
         wr.writeheader()
         wr.writerows(rows)
-        tmp = path.with_name(f".{path.name}.tmp")
-        tmp.write_text(buf.getvalue(), encoding="utf-8")
-        os.replace(tmp, path)
+        with atomic_path(path) as tmp:
+            tmp.write_text(buf.getvalue(), encoding="utf-8")
     return rows

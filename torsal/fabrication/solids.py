@@ -19,10 +19,11 @@ Units: the ``unit`` of the fin system (mm by default); STEP files are written in
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
+
+from torsal.geometry._atomic import atomic_path
 
 from .parts import Part, SlotSide
 
@@ -332,19 +333,6 @@ def build_solids(fin_system, *, repair: bool = True) -> dict:
     return out
 
 
-def _atomic(path: Path, write) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
-
-
 def export_step(fin_system, path) -> Path:
     """Write one STEP assembly (AP214, mm) with a named, coloured solid per part.
 
@@ -358,11 +346,10 @@ def export_step(fin_system, path) -> Path:
     assembly = Compound(label="torsal_fins", children=list(sol.values()))
     unit = {"mm": Unit.MM, "cm": Unit.CM, "m": Unit.M, "in": Unit.IN, "ft": Unit.FT}[fin_system.unit]
 
-    def write(tmp):
+    with atomic_path(path) as tmp:
         if not _bd_export_step(assembly, str(tmp), unit=unit):
             raise RuntimeError(f"STEP writer failed for {path}")
-
-    return _atomic(Path(path), write)
+    return Path(path)
 
 
 def read_step(path) -> list[tuple[str, object]]:
@@ -449,14 +436,13 @@ def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | 
         m.visual.face_colors = np.tile(rgba, (len(f), 1))
         scene.add_geometry(m, node_name=name, geom_name=name)
 
-    def write(tmp):
+    with atomic_path(path) as tmp:
         if file_type == "stl":
             data = trimesh.util.concatenate(list(scene.geometry.values())).export(file_type="stl")
         else:
             data = scene.export(file_type=file_type)
-        Path(tmp).write_bytes(data if isinstance(data, bytes) else data.encode())
-
-    return _atomic(Path(path), write)
+        tmp.write_bytes(data if isinstance(data, bytes) else data.encode())
+    return Path(path)
 
 
 def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
@@ -491,8 +477,7 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
         attr.ColorSource = rhino3dm.ObjectColorSource.ColorFromLayer
         model.Objects.AddMesh(mesh, attr)
 
-    def write(tmp):
+    with atomic_path(path) as tmp:
         if not model.Write(str(tmp), 7):
             raise RuntimeError(f"rhino3dm could not write {path}")
-
-    return _atomic(Path(path), write)
+    return Path(path)

@@ -1,6 +1,12 @@
 """Atomic file output: write to a temporary name beside the target, then rename.
 
 A reader never sees a half-written file, and a failure leaves the previous file intact.
+
+This is the one base helper for every writer in torsal. It is a leaf module (standard
+library only, no torsal imports), so every room may import it: ``geometry/`` keeps
+importing nothing outside itself, ``light/`` may import it beside
+:mod:`torsal.geometry.mesh`, and ``fabrication/``, ``design`` and ``report`` use it too
+(the latter two through :mod:`torsal._io`, which re-exports it).
 """
 from __future__ import annotations
 

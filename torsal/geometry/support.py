@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._atomic import atomic_path
+
 __all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support",
            "SupportOptimizationResult", "SupportWeights", "graph_laplacian", "closest_points"]
 
@@ -230,18 +232,17 @@ class SupportStructure:
 
     # ------------------------------------------------------------------ persistence
     def save(self, path) -> None:
-        """Write to a ``.npz`` file (atomically: temporary name, then rename)."""
-        import os
-        from pathlib import Path
+        """Write to a ``.npz`` file (atomically: temporary name, then rename).
 
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp.npz")
+        The file is written to exactly ``path``, whatever its suffix (no ``.npz`` appended).
+        """
         offsets = np.cumsum([0] + [len(p) for p in self.faces])
-        np.savez(tmp, vertices_a=self.vertices_a, vertices_b=self.vertices_b,
-                 face_indices=np.concatenate([np.asarray(p, np.int64) for p in self.faces])
-                 if self.faces else np.zeros(0, np.int64),
-                 face_offsets=offsets, edges=self.edges, edge_family=self.edge_family)
-        os.replace(tmp, path)
+        # a file object, not a name: np.savez would append ".npz" to a name lacking it
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            np.savez(f, vertices_a=self.vertices_a, vertices_b=self.vertices_b,
+                     face_indices=np.concatenate([np.asarray(p, np.int64) for p in self.faces])
+                     if self.faces else np.zeros(0, np.int64),
+                     face_offsets=offsets, edges=self.edges, edge_family=self.edge_family)
 
     @classmethod
     def load(cls, path) -> "SupportStructure":

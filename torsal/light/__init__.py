@@ -1,6 +1,7 @@
 """Light as a measured part of torsal: sun directions (pvlib) and ray-cast shading measurements.
 
-Imports only :mod:`torsal.geometry.mesh` from torsal; never the optimizer or fabrication.
+Imports only :mod:`torsal.geometry.mesh` from torsal (and the leaf helper
+:mod:`torsal.geometry._atomic` for atomic file output); never the optimizer or fabrication.
 """
 from torsal.light.baselines import (
     baselines,

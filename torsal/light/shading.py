@@ -25,7 +25,6 @@ array([[ True, False],
 """
 from __future__ import annotations
 
-import os
 import weakref
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +32,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from torsal.geometry._atomic import atomic_path
 from torsal.geometry.mesh import average_edge_length, vertex_normals
 
 __all__ = [
@@ -632,10 +632,8 @@ def _write_fisheye(path: Path, cls: np.ndarray, fov: float, share: float, title:
     ax.legend(handles=[Patch(color=_CLASS_COLORS[i], label=lab) for i, lab in
                        ((2, "fin"), (3, "target visible"), (4, "target hidden"))],
               loc="lower center", ncol=3, fontsize=7, frameon=False, bbox_to_anchor=(0.5, -0.08))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{os.getpid()}.png")
-    fig.savefig(tmp, format="png")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
     return path
 
 

@@ -23,12 +23,13 @@ Examples
 from __future__ import annotations
 
 import datetime as _dt
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from torsal.geometry._atomic import atomic_path
 
 __all__ = [
     "SunDirections",
@@ -455,7 +456,6 @@ def write_synthetic_epw(path, latitude: float, longitude: float, *, tz_hours: fl
                180, 2.0, 0, 0, 9999, 77777, 9, 999999999, 0, 0.1, 0, 88, 0.2, 0, 1]
         assert len(row) == _EPW_COLUMNS
         lines.append(",".join(map(str, row)))
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text("\n".join(header + lines) + "\n")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(header + lines) + "\n")
     return path
