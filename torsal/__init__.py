@@ -2,6 +2,8 @@
 
 From a design surface and the path of the sun to buildable planar fins.
 """
+__version__ = "0.1.0"   # before the imports: design.py keys its stage cache with it
+
 from .design import Design, DesignError
 from .geometry import (
     Congruence,
@@ -17,7 +19,6 @@ from .geometry import (
     trace_torsal_curve,
 )
 
-__version__ = "0.1.0"
 
 __all__ = ["Congruence", "CongruenceProblem", "OptimizationResult", "OptimizationError",
            "MeshError", "SupportStructure", "TorsalCurve", "load_mesh", "trace_torsal_curve",

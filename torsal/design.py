@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import __version__
 from ._io import atomic_path, write_json
 from .design_file import DesignFileError, DesignSpec, Region, load_design_file
 from .geometry.congruence import Congruence
@@ -31,7 +32,7 @@ __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignErro
 #: Pipeline stages in order.
 STAGES = ("surface", "sun", "congruence", "remesh", "support", "light", "substructure",
           "fabrication")
-_CACHE_VERSION = "1"
+_CACHE_VERSION = "1"    # bump when a stage's cached value changes shape
 JIT_MIN_VERTICES = 1500  # default for constraints.jit
 
 
@@ -421,7 +422,8 @@ class Design:
         res = DesignResult(report={"name": spec.name, "units": spec.units})
 
         def stage(name: str, key_parts: tuple, fn: Callable[[], dict]) -> dict:
-            key = _hash(_CACHE_VERSION, name, *key_parts)
+            # the package version is part of the key: results of an older torsal are recomputed
+            key = _hash(_CACHE_VERSION, __version__, name, *key_parts)
             path = cache_dir / f"{name}-{key}.pkl"
             if use_cache and path.exists():
                 try:
