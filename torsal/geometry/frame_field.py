@@ -12,7 +12,10 @@ Steps of :func:`torsal_frame_field`:
    directions from a smoothness energy: the PolyVector representation of Diamanti et al.
    2014 (coefficients ``z1^2 + z2^2`` and ``z1^2 z2^2`` of the per-face complex polynomial
    are invariant under the symmetry group) is interpolated harmonically with the Levi-Civita
-   connection of the mesh, the torsal faces held fixed.
+   connection of the mesh, the torsal faces held fixed. With a ``smoothing`` length the
+   torsal faces are not held fixed but pulled towards their data with a weight
+   (:func:`torsal_confidence`), a screened smoothing that removes direction noise below
+   that length (see :func:`torsal_frame_field`).
 2. The field is combed along a breadth-first dual spanning tree: every face picks the
    permutation and signs that best match its parent (libigl ``comb_frame_field`` does the
    same on the bisector cross field; written by hand here so that the permutation group of
@@ -33,7 +36,8 @@ import scipy.sparse.linalg as spla
 
 from .mesh import edge_face_adjacency
 
-__all__ = ["TorsalFrameField", "torsal_frame_field", "face_bases", "FrameFieldError"]
+__all__ = ["TorsalFrameField", "torsal_frame_field", "torsal_confidence", "face_bases",
+           "FrameFieldError"]
 
 
 class FrameFieldError(ValueError):
@@ -92,8 +96,9 @@ class TorsalFrameField:
     directions : (F, 2, 3) float
         Combed unit directions per face (tangent to the face). Row 0 is "family 0".
     from_torsal : (F,) bool
-        True where the directions are the congruence's torsal directions (eq. (1)), False where
-        they were filled in by the smoothness energy.
+        True where the congruence's torsal directions (eq. (1)) are usable data (kept exactly,
+        or with ``smoothing`` the data the field is pulled towards), False where the
+        directions were filled in by the smoothness energy alone.
     edges : (E, 2) int
         Unique mesh edges; ``edge_faces`` (E, 2) their faces (-1 on the boundary).
     matching : (E,) int
@@ -178,51 +183,127 @@ def _best_matching(zf: np.ndarray, zg: np.ndarray) -> np.ndarray:
     return (use_swap.astype(int) * 4 + (s0 < 0).astype(int) * 2 + (s1 < 0).astype(int))
 
 
-def _smooth_fill(z, fixed, edges_inner, r_inner, ef_inner, n_faces):
-    """Harmonic interpolation of the PolyVector coefficients on the non-fixed faces."""
-    c1 = z[:, 0] ** 2 + z[:, 1] ** 2
-    c0 = z[:, 0] ** 2 * z[:, 1] ** 2
-    free = ~fixed
-    if not free.any():
-        return z
-    f0, f1 = ef_inner[:, 0], ef_inner[:, 1]
-    out = z.copy()
-    for coef, power in ((c1, 2), (c0, 4)):
-        rr = r_inner ** power  # coef_in_f0 = rr * coef_in_f1
-        # energy sum |x_f0 - rr x_f1|^2 -> Hermitian Laplacian
-        rows = np.r_[f0, f1, f0, f1]
-        cols = np.r_[f0, f1, f1, f0]
-        vals = np.r_[np.ones(len(f0)), np.ones(len(f0)), -rr, -np.conj(rr)]
-        L = sp.csr_matrix((vals, (rows, cols)), shape=(n_faces, n_faces))
-        fi = np.flatnonzero(free)
-        xi = np.flatnonzero(fixed)
-        Lff = L[fi][:, fi]
-        rhs = -(L[fi][:, xi] @ coef[xi])
-        Lff = Lff + sp.identity(len(fi)) * 1e-10
-        sol = spla.spsolve(Lff.tocsc(), rhs)
-        coef = coef.copy()
-        coef[fi] = sol
-        if power == 2:
-            c1 = coef
-        else:
-            c0 = coef
-    # roots of w^2 - c1 w + c0 = 0 are z1^2, z2^2
-    fi = np.flatnonzero(free)
-    disc = np.sqrt(c1[fi] ** 2 - 4 * c0[fi] + 0j)
-    w1 = 0.5 * (c1[fi] + disc)
-    w2 = 0.5 * (c1[fi] - disc)
-    za = np.sqrt(w1)
-    zb = np.sqrt(w2)
+def _polyvector(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """PolyVector coefficients ``(z1^2 + z2^2, z1^2 z2^2)`` of (F, 2) complex directions."""
+    return z[:, 0] ** 2 + z[:, 1] ** 2, z[:, 0] ** 2 * z[:, 1] ** 2
+
+
+def _polyvector_roots(c1: np.ndarray, c0: np.ndarray) -> np.ndarray:
+    """Unit directions (m, 2) complex whose PolyVector coefficients are ``c1, c0`` (up to scale):
+    ``z1^2, z2^2`` are the roots of ``w^2 - c1 w + c0``."""
+    disc = np.sqrt(c1 ** 2 - 4 * c0 + 0j)
+    za = np.sqrt(0.5 * (c1 + disc))
+    zb = np.sqrt(0.5 * (c1 - disc))
     # degenerate (both zero): pick an orthogonal pair
     za = np.where(np.abs(za) < 1e-300, 1.0 + 0j, za)
     zb = np.where(np.abs(zb) < 1e-300, 1j * za, zb)
-    out[fi, 0] = za / np.abs(za)
-    out[fi, 1] = zb / np.abs(zb)
+    return np.stack([za / np.abs(za), zb / np.abs(zb)], axis=1)
+
+
+def _smooth_fill(z, fixed, edges_inner, r_inner, ef_inner, n_faces, *, data_weight=None,
+                 edge_weight=None):
+    """PolyVector smoothing of a face-based frame field, (F, 2) complex unit directions.
+
+    Minimizes, for each coefficient ``x`` of :func:`_polyvector` (``c1`` transported with
+    ``r^2``, ``c0`` with ``r^4``), the connection Dirichlet energy
+    ``sum_e omega_e |x_f0 - r_e^p x_f1|^2`` plus ``sum_f mu_f |x_f - x_f^data|^2``.
+
+    Without ``data_weight`` the ``fixed`` faces keep their data exactly and the others are
+    interpolated harmonically (``omega = 1``). With ``data_weight`` (F,) (``mu``, zero where
+    there are no data) nothing is held fixed: a screened smoothing whose solution is
+    ``(L + diag(mu)) x = mu x_data``; ``edge_weight`` (m,) gives ``omega`` per inner edge.
+    """
+    c1, c0 = _polyvector(z)
+    f0, f1 = ef_inner[:, 0], ef_inner[:, 1]
+    om = np.ones(len(f0)) if edge_weight is None else np.asarray(edge_weight, float)
+    screened = data_weight is not None
+    free = np.ones(n_faces, bool) if screened else ~fixed
+    if not free.any():
+        return z
+    fi = np.flatnonzero(free)
+    xi = np.flatnonzero(~free)
+    sol = []
+    for coef, power in ((c1, 2), (c0, 4)):
+        rr = r_inner ** power  # coef_in_f0 = rr * coef_in_f1
+        # energy sum omega |x_f0 - rr x_f1|^2 -> Hermitian Laplacian
+        rows = np.r_[f0, f1, f0, f1]
+        cols = np.r_[f0, f1, f1, f0]
+        vals = np.r_[om, om, -om * rr, -om * np.conj(rr)]
+        L = sp.csr_matrix((vals, (rows, cols)), shape=(n_faces, n_faces))
+        if screened:
+            mu = np.asarray(data_weight, float)
+            sol.append(spla.spsolve((L + sp.diags(mu)).tocsc(), mu * coef))
+            continue
+        Lff = L[fi][:, fi] + sp.identity(len(fi)) * 1e-10
+        out = coef.copy()
+        out[fi] = spla.spsolve(Lff.tocsc(), -(L[fi][:, xi] @ coef[xi]))
+        sol.append(out)
+    out = z.copy()
+    out[fi] = _polyvector_roots(sol[0][fi], sol[1][fi])
     return out
 
 
+def torsal_confidence(congruence) -> np.ndarray:
+    """How well each face determines its torsal directions, (F,), in 1/length.
+
+    ``sqrt(c_hyp) / (|a_u x a_v| |e_c|^2)`` with ``c_hyp`` the discriminant of eq. (3)
+    (:meth:`Congruence.hyperbolicity`, section 4.1; it scales like ``|e|^4``): invariant under
+    the choice of the face's corner order and a common scale of the ``e_i``. For a normal
+    congruence it is ``|kappa_1 - kappa_2|``, the anisotropy that defines the principal
+    directions (zero at umbilics). An error ``d`` in the coefficients of eq. (1) turns the
+    torsal directions by about ``d / confidence``: it vanishes where they are ill-defined
+    (parabolic faces, where the two directions coincide, and line bundles) and is 0 on
+    non-hyperbolic faces.
+
+    Parameters
+    ----------
+    congruence : Congruence
+
+    Returns
+    -------
+    (F,) float, 1/length (model units), >= 0
+
+    Examples
+    --------
+    >>> from torsal.geometry.congruence import Congruence
+    >>> from torsal.geometry.surfaces import graph_surface
+    >>> c = Congruence.from_normals(graph_surface(lambda x, y: 0.5 * (x**2 - y**2)))
+    >>> round(float(torsal_confidence(c).max()), 2)  # |kappa_1 - kappa_2| = 2 at the origin
+    2.0
+    """
+    V = np.asarray(congruence.vertices, float)
+    F = np.asarray(congruence.faces)
+    p = V[F]
+    dbl = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    e = np.linalg.norm(congruence.barycenter_directions(), axis=1)
+    hyp = np.nan_to_num(congruence.hyperbolicity(), nan=0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = np.sqrt(np.maximum(hyp, 0.0)) / (dbl * e ** 2)
+    return np.where(np.isfinite(s), s, 0.0)
+
+
+def _screening_weights(V, F, edges, ef_inner, usable, confidence, smoothing):
+    """Edge weights ``omega`` (m,) and data weights ``mu`` (F,) of the screened smoothing.
+
+    ``omega_e = |e| / |c_f0 - c_f1|`` (dual over primal length: the Dirichlet energy of a
+    piecewise constant field), ``mu_f = kappa_f area_f / smoothing^2`` with the confidence
+    ``kappa_f = min(1, (s_f / median s)^2)`` (inverse variance of the direction, capped so that
+    no face is smoothed over less than ``smoothing``), ``kappa = 0`` on unusable faces.
+    """
+    p = V[F]
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    bc = p.mean(axis=1)
+    f0, f1 = ef_inner[:, 0], ef_inner[:, 1]
+    el = np.linalg.norm(V[edges[:, 1]] - V[edges[:, 0]], axis=1)
+    omega = el / np.maximum(np.linalg.norm(bc[f0] - bc[f1], axis=1), 1e-12 * el)
+    s = np.where(usable, confidence, 0.0)
+    ref = np.median(s[usable]) if usable.any() else 0.0
+    kappa = np.where(usable, np.minimum(1.0, (s / ref) ** 2) if ref > 0 else 1.0, 0.0)
+    return omega, kappa * area / smoothing ** 2, kappa
+
+
 def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: float = 10.0,
-                       root: int | None = None) -> TorsalFrameField:
+                       root: int | None = None, smoothing: float | None = None) -> TorsalFrameField:
     """Per face the two torsal directions of a congruence, filled, combed, with singularities.
 
     Wang et al. 2013, section 4.2 (Fig. 8a): the frame field of torsal directions at face
@@ -239,6 +320,19 @@ def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: f
         Faces whose two torsal directions make a smaller angle (degrees) are filled in.
     root : int, optional
         Root face of the combing tree (default: the torsal face with the largest torsal angle).
+    smoothing : float, optional
+        Length in model units below which the field is smoothed. Default (None or 0): the
+        torsal faces keep their directions exactly. Otherwise every face is pulled towards
+        its torsal directions with weight ``kappa_f area_f / smoothing^2`` against the
+        connection Dirichlet energy of the PolyVector coefficients (a screened Poisson
+        problem: variation on scales below ``smoothing`` is damped, by ``1 / (1 + (2 pi
+        smoothing / wavelength)^2)``), ``kappa_f`` in [0, 1] from :func:`torsal_confidence`
+        (faces whose directions are ill-defined, e.g. near-parabolic, are smoothed more).
+        The paper remeshes along the torsal directions (4.2); a quad mesh of fin spacing
+        ``h`` cannot follow them on scales below ``h``, and where the optimized congruence
+        carries face-to-face noise in its torsal directions (strong design terms such as
+        f_plane fighting f_fair, eq. (9)) the raw field has spurious singularities that fold
+        the parametrization. :func:`remesh_torsal` uses ``h / 2``.
 
     Returns
     -------
@@ -297,7 +391,15 @@ def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: f
                 "are not connected to any face with torsal directions; the mesh has a component "
                 "that is a line bundle or non-hyperbolic everywhere"
             )
-    z = _smooth_fill(z, usable, edges[ei], r[ei], ef[ei], nF)
+    kappa = usable.astype(float)
+    if smoothing:
+        if not smoothing > 0:
+            raise ValueError(f"smoothing must be a positive length in model units, got {smoothing}")
+        omega, mu, kappa = _screening_weights(V, F, edges[ei], ef[ei], usable,
+                                              torsal_confidence(congruence), float(smoothing))
+        z = _smooth_fill(z, usable, edges[ei], r[ei], ef[ei], nF, data_weight=mu, edge_weight=omega)
+    else:
+        z = _smooth_fill(z, usable, edges[ei], r[ei], ef[ei], nF)
 
     # ---- combing along a BFS dual spanning tree
     if root is None:
@@ -349,7 +451,9 @@ def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: f
         vertices=V, faces=F, directions=directions, from_torsal=usable, edges=edges, edge_faces=ef,
         matching=matching, tree_edge=tree_edge, singularities=sing, holonomy=hol,
         metadata={"root": root, "filled_faces": int((~usable).sum()),
-                  "mismatched_edges": int((matching > 0).sum())},
+                  "mismatched_edges": int((matching > 0).sum()),
+                  "smoothing": float(smoothing) if smoothing else None,
+                  "confidence_weight": kappa},
     )
 
 

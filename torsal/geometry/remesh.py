@@ -5,7 +5,9 @@ The paper remeshes mesh A along the torsal frame field with mixed-integer quadra
 correspondence A <-> B (Fig. 8a, 8b). No Python package ships MIQ, so this module does it:
 
 * :func:`parametrize` -- a seamless global parametrization ``(u, v)`` per face corner: sparse
-  least squares of the gradients against the dual frame scaled by ``1 / spacing``, on the mesh
+  least squares of the derivatives of ``u, v`` along the two field directions against
+  ``(1, 0)`` and ``(0, 1)`` per spacing (the gradients against the dual frame, measured so that
+  near-parabolic faces stay bounded), on the mesh
   cut open along a cut graph that joins the singularities to the boundary; across the cut the
   two sides are related by the field's matching (a signed permutation) plus an integer
   translation, the translations rounded to integers at once (as MIQ does greedily) and the
@@ -17,7 +19,8 @@ correspondence A <-> B (Fig. 8a, 8b). No Python package ships MIQ, so this modul
   boundary of A they are polygons clipped by straight segments between consecutive hits.
   Every vertex keeps its triangle of A and barycentric coordinates, and b~ is the same
   combination of B's vertices (Fig. 8b).
-* :func:`remesh_torsal` -- the three steps, returning a :class:`SupportStructure`.
+* :func:`remesh_torsal` -- the three steps, returning a :class:`SupportStructure`; the frame
+  field is smoothed below half the fin spacing first (``torsal_frame_field(smoothing=...)``).
 
 Conventions: family 0 edges follow the combed direction ``t0`` and lie on iso-lines of ``v``;
 family 1 edges follow ``t1`` and lie on iso-lines of ``u``. Only iso-line pieces are fins
@@ -62,7 +65,9 @@ class TorsalParametrization:
         Integer translation ``t`` on cut edges: ``uv[f0] = M uv[f1] + t`` with ``M`` =
         ``GROUP[field.matching[e]]`` and ``f0, f1 = field.edge_faces[e]``.
     residual : float
-        Root mean square of ``|grad (u, v) - dual frame / spacing|`` relative to ``1/spacing``.
+        Area-weighted root mean square of the error of the derivatives of ``(u, v)`` along the
+        field directions ``t0, t1`` (targets ``(1, 0)`` and ``(0, 1)`` per spacing),
+        dimensionless; 0 for an exactly integrable field.
     flipped : (k,) int
         Faces where the map ``(u, v)`` reverses orientation (fold-overs); empty when valid.
     """
@@ -140,8 +145,12 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
                 offset: bool = True) -> TorsalParametrization:
     """Global field-aligned parametrization with fin spacing ``spacing`` (model units).
 
-    Minimizes ``sum_f area_f (|grad u - w1/s|^2 + |grad v - w2/s|^2)`` (``w1, w2`` the dual frame
-    of the combed torsal field, ``s`` the spacing) over per-corner values on the mesh cut open
+    Minimizes ``sum_f area_f sum_k ((<grad u, t_k> - delta_k0 / s)^2 + (<grad v, t_k> -
+    delta_k1 / s)^2)`` (``t_0, t_1`` the combed torsal directions, ``s`` the spacing: ``u``
+    grows by one per spacing along ``t_0`` and is constant along ``t_1``, so ``grad u`` is the
+    dual frame vector ``w1 / s``; measured along ``t_k`` the error stays bounded where the two
+    directions nearly coincide, at parabolic faces, instead of growing like
+    ``1 / sin(angle)``) over per-corner values on the mesh cut open
     along :func:`cut_graph`, subject to ``uv[f0] = M uv[f1] + t`` across every cut edge, ``M`` the
     field's matching and ``t`` an integer translation (mixed-integer quadrangulation in the
     spirit of Bommes et al. 2009; here all jumps are rounded at once and the system solved
@@ -192,15 +201,19 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     W = int(wid.max()) + 1
     g, area = _gradient_basis(V, F)
     w = field.dual_frame() / spacing  # (F, 2, 3)
+    t = field.directions  # (F, 2, 3) unit
     sq = np.sqrt(area)
-    # least-squares rows: for each face, 3 components, for u and v
-    rows = np.arange(3 * nF).reshape(nF, 3)  # row per (face, component)
-    R = np.repeat(rows[:, :, None], 3, axis=2)  # (F, comp, corner)
-    C = np.repeat(wid[:, None, :], 3, axis=1)
-    Vals = g.transpose(0, 2, 1) * sq[:, None, None]  # (F, comp, corner)
-    G = sp.csr_matrix((Vals.ravel(), (R.ravel(), C.ravel())), shape=(3 * nF, W))
-    bu = (w[:, 0] * sq[:, None]).ravel()
-    bv = (w[:, 1] * sq[:, None]).ravel()
+    # least-squares rows: per face the derivatives of u (and v) along t0 and t1, targets
+    # (1, 0) / spacing for u and (0, 1) / spacing for v. Same minimizer as |grad - dual frame|^2
+    # where the field is integrable, but bounded where t0, t1 nearly coincide: there the dual
+    # frame grows like 1 / sin(angle) and a few such faces would dominate and fold the map.
+    rows = np.arange(2 * nF).reshape(nF, 2)  # row per (face, direction)
+    R = np.repeat(rows[:, :, None], 3, axis=2)  # (F, dir, corner)
+    C = np.repeat(wid[:, None, :], 2, axis=1)
+    Vals = np.einsum("fkd,fcd->fkc", t, g) * sq[:, None, None]  # (F, dir, corner)
+    G = sp.csr_matrix((Vals.ravel(), (R.ravel(), C.ravel())), shape=(2 * nF, W))
+    bu = (np.array([1.0, 0.0]) / spacing * sq[:, None]).ravel()
+    bv = (np.array([0.0, 1.0]) / spacing * sq[:, None]).ravel()
     GtG = (G.T @ G).tocsc()
     scale = GtG.diagonal().mean()
     reg = 1e-10 * scale
@@ -273,10 +286,11 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     transition = np.zeros((len(edges), 2), int)
     if nC:
         transition[ce] = np.round(t_int).astype(int)
-    # quality
+    # quality: derivatives along the field directions against their targets
     grad = np.einsum("fkd,fkc->fcd", g, uv)  # (F, 2(coord), 3)
-    res = np.linalg.norm(grad - w, axis=2) * spacing
-    residual = float(np.sqrt(np.average((res ** 2).sum(1), weights=area)))
+    dt = np.einsum("fcd,fkd->fck", grad, t) * spacing  # (F, coord, dir): ideally identity
+    res = dt - np.eye(2)[None]
+    residual = float(np.sqrt(np.average((res ** 2).sum((1, 2)), weights=area)))
     _, _, nrm = face_bases(V, F)
     det = np.einsum("ij,ij->i", np.cross(grad[:, 0], grad[:, 1]), nrm)
     ref = np.einsum("ij,ij->i", np.cross(w[:, 0], w[:, 1]), nrm)
@@ -713,13 +727,23 @@ def remesh_torsal(congruence, spacing: float, *, field_kwargs: dict | None = Non
                   param_kwargs: dict | None = None) -> "SupportStructure":
     """Torsal remeshing of a congruence into a support structure (Wang et al. 2013, 4.2, Fig. 8).
 
-    Runs :func:`torsal_frame_field`, :func:`parametrize` and :func:`extract_quads`.
+    Runs :func:`torsal_frame_field`, :func:`parametrize` and :func:`extract_quads`. The frame
+    field is smoothed below half the fin spacing (``smoothing = spacing / 2``, see
+    :func:`torsal_frame_field`): a quad mesh with that spacing cannot follow the torsal
+    directions on finer scales, and face-to-face noise in them (which a strongly weighted
+    design term such as f_plane, eq. (9), leaves in the optimized congruence) would otherwise
+    show up as dozens of spurious singularities and fold the parametrization.
 
     Parameters
     ----------
     congruence : Congruence
     spacing : float
         Fin spacing in model units.
+    field_kwargs : dict, optional
+        Passed to :func:`torsal_frame_field`; ``{"smoothing": None}`` follows the raw torsal
+        directions exactly.
+    param_kwargs : dict, optional
+        Passed to :func:`parametrize`.
 
     Returns
     -------
@@ -737,7 +761,8 @@ def remesh_torsal(congruence, spacing: float, *, field_kwargs: dict | None = Non
     (True, True)
     """
     t0 = time.perf_counter()
-    fld = torsal_frame_field(congruence, **(field_kwargs or {}))
+    fkw = {"smoothing": 0.5 * float(spacing) if float(spacing) > 0 else None, **(field_kwargs or {})}
+    fld = torsal_frame_field(congruence, **fkw)
     t1 = time.perf_counter()
     p = parametrize(fld, spacing, **(param_kwargs or {}))
     t2 = time.perf_counter()
@@ -745,5 +770,6 @@ def remesh_torsal(congruence, spacing: float, *, field_kwargs: dict | None = Non
     t3 = time.perf_counter()
     s.metadata.update({"timings": {"frame_field": t1 - t0, "parametrize": t2 - t1, "extract": t3 - t2},
                        "singularities": fld.singularities.tolist(), "param_residual": p.residual,
+                       "field_smoothing": fld.metadata["smoothing"],
                        "flipped_faces": int(len(p.flipped))})
     return s
