@@ -7,10 +7,10 @@ with the paper's Fig. 12 row (Wang et al. 2013). Times are wall-clock seconds on
 that ran this script.
 """
 import argparse
-import json
 import time
 from pathlib import Path
 
+from torsal._io import atomic_path, write_json
 from torsal.design import Design
 
 HERE = Path(__file__).resolve().parent
@@ -51,6 +51,11 @@ def row(key: str, r: dict | None, err: str | None) -> str:
             f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {paper} |")
 
 
+def _figure_key(key: str):
+    """Figure order: 7a < 7b < ... < 9 < 10 < 11 < 13."""
+    return int("".join(ch for ch in key if ch.isdigit())), key
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out/examples")
@@ -61,12 +66,7 @@ def main():
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
              "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
-    def figure(p):  # 7a < 7b < ... < 9 < 10 < 11 < 13
-        key = p.stem.split("_")[0]
-        digits = "".join(ch for ch in key if ch.isdigit())
-        return int(digits), key
-
-    for path in sorted(HERE.glob("*.toml"), key=figure):
+    for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:
             continue
@@ -77,16 +77,21 @@ def main():
         lines.append(row(key, r, err))
         print(lines[-1], flush=True)
         if r is not None:
-            (out / path.stem / "timings.json").write_text(json.dumps(
-                {"wall_s": r["wall_s"], "stage_s": r["stage_s"]}, indent=2))
-    table = "\n".join(lines)
+            write_json(out / path.stem / "timings.json", {"wall_s": r["wall_s"], "stage_s": r["stage_s"]})
     readme = HERE / "README.md"
     text = readme.read_text()
-    if BEGIN in text and not args.only:
+    if BEGIN in text:
         head, rest = text.split(BEGIN, 1)
-        text = head + BEGIN + "\n" + table + "\n" + END + rest.split(END, 1)[1]
-        readme.write_text(text)
-    print(table)
+        old, tail = rest.split(END, 1)
+        if args.only:  # keep the rows of the examples not re-run
+            new = {ln.split("|")[1].strip(): ln for ln in lines[2:]}
+            kept = [ln for ln in old.strip().splitlines()[2:] if ln.split("|")[1].strip() not in new]
+            rows = sorted(kept + list(new.values()), key=lambda ln: _figure_key(ln.split("|")[1].strip()))
+            lines = lines[:2] + rows
+        table = "\n".join(lines)
+        with atomic_path(readme) as tmp:
+            tmp.write_text(head + BEGIN + "\n" + table + "\n" + END + tail)
+    print("\n".join(lines))
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignErro
 STAGES = ("surface", "sun", "congruence", "remesh", "support", "light", "substructure",
           "fabrication")
 _CACHE_VERSION = "1"    # bump when a stage's cached value changes shape
-JIT_MIN_VERTICES = 1500  # default for constraints.jit
+JIT_MIN_VERTICES = 500  # default for constraints.jit (tests run smaller designs interpreted)
 
 
 # ====================================================================== analyze

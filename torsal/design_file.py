@@ -212,7 +212,7 @@ class ConstraintsSpec(_Spec):
     max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
                           "limit is kept (its status says so)")
     jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "
-                             "(once per machine, cached); default: for surfaces of 1500 vertices or more")
+                             "(once per machine, cached); default: for surfaces of 500 vertices or more")
 
 
 class FinsSpec(_Spec):
