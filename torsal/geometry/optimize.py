@@ -178,23 +178,8 @@ def _as_index(sel, n: int, what: str) -> np.ndarray:
     return arr.astype(np.int64)
 
 
-def _unit_rows(d, m: int, what: str) -> np.ndarray:
-    """(3,) or (m, 3) directions -> (m, 3) unit rows, with a clear error for bad input."""
-    d = np.asarray(d, dtype=float)
-    if d.shape == (3,):
-        d = np.broadcast_to(d, (m, 3))
-    if d.shape != (m, 3):
-        raise ValueError(f"{what} must have shape (3,) or ({m}, 3), got {d.shape}")
-    if not np.isfinite(d).all():
-        raise ValueError(f"{what} contains NaN or infinite values")
-    n = np.linalg.norm(d, axis=1)
-    if np.any(n < 1e-12):
-        raise ValueError(f"{what} rows {np.flatnonzero(n < 1e-12)[:10].tolist()} are zero vectors; "
-                         "a direction needs a length")
-    return d / n[:, None]
-
-
 def _points(p, m: int, what: str) -> np.ndarray:
+    """(3,) or (m, 3) points -> finite (m, 3) array, with a clear error for bad input."""
     p = np.asarray(p, dtype=float)
     if p.shape == (3,):
         p = np.broadcast_to(p, (m, 3))
@@ -203,6 +188,16 @@ def _points(p, m: int, what: str) -> np.ndarray:
     if not np.isfinite(p).all():
         raise ValueError(f"{what} contains NaN or infinite values")
     return np.array(p)
+
+
+def _unit_rows(d, m: int, what: str) -> np.ndarray:
+    """(3,) or (m, 3) directions -> (m, 3) unit rows, with a clear error for bad input."""
+    d = _points(d, m, what)
+    n = np.linalg.norm(d, axis=1)
+    if np.any(n < 1e-12):
+        raise ValueError(f"{what} rows {np.flatnonzero(n < 1e-12)[:10].tolist()} are zero vectors; "
+                         "a direction needs a length")
+    return d / n[:, None]
 
 
 def _var_index(vertices: np.ndarray, offset: int) -> np.ndarray:
