@@ -8,10 +8,12 @@ with the paper's T column. Targets: re-solve < T, build + solve < 2 T, 100k in <
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--max-vertices 100000] [--no-lbfgs] [--no-jit]
 
 Columns: build / solve / it = first build (NLP assembly + IPOPT setup), first solve, its
-iterations; b+s vs 2T; re-solve = wall time of a re-solve after the designer's change (same
-solver, warm start) vs T; E = weighted objective of eq. (9) at the start, after the first solve
-and after the re-solve; worst viol = largest constraint violation; |<e,d>| = mean |<e_i, d>| for
-the moved sun; hyp% = share of faces with c_hyp >= 0. Grids approximate the paper's sizes.
+iterations; b+s vs 2T; all = wall time from an empty problem to the first result (problem
+set-up, build, solve, energy reports; in the 100k row "<2T" checks all < 120 s); re-solve =
+wall time of a re-solve after the designer's change (same solver, warm start) vs T; E =
+weighted objective of eq. (9) at the start, after the first solve and after the re-solve;
+worst viol = largest constraint violation; |<e,d>| = mean |<e_i, d>| for the moved sun;
+hyp% = share of faces with c_hyp >= 0. Grids approximate the paper's sizes.
 """
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ import time
 import numpy as np
 
 from torsal.geometry.congruence import Congruence
-from torsal.geometry.mesh import boundary_edges
+from torsal.geometry.mesh import edge_face_adjacency
 from torsal.geometry.optimize import CongruenceProblem
 from torsal.geometry.surfaces import facade_patch
 
@@ -36,16 +38,11 @@ def _rotated_sun(deg: float) -> np.ndarray:
 
 def _boundary_strokes(c: Congruence):
     """Faces with a boundary edge and the edge's direction (Fig. 7a: align with the boundary)."""
-    be = boundary_edges(c.faces)
-    f = c.faces
-    faces, dirs = [], []
-    for i, j in be:
-        fi = np.flatnonzero((f == i).any(1) & (f == j).any(1))[0]
-        faces.append(fi)
-        dirs.append(c.vertices[j] - c.vertices[i])
-    faces = np.asarray(faces)
-    _, keep = np.unique(faces, return_index=True)
-    return faces[keep], np.asarray(dirs)[keep]
+    edges, edge_faces = edge_face_adjacency(c.faces)
+    bd = edge_faces[:, 1] < 0
+    faces, keep = np.unique(edge_faces[bd, 0], return_index=True)
+    e = edges[bd][keep]
+    return faces, c.vertices[e[:, 1]] - c.vertices[e[:, 0]]
 
 
 def _window(c: Congruence, frac=0.25):
@@ -140,7 +137,7 @@ def main():
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
     head = (f"{'row':>5} {'|V|':>7} {'|F|':>7} {'T':>5} {'solver':>6} | {'build':>6} {'solve':>7} "
-            f"{'it':>4} {'b+s':>7} {'<2T':>4} | {'re-solve':>8} {'it':>4} {'<T':>4} | "
+            f"{'it':>4} {'b+s':>7} {'all':>7} {'<2T':>4} | {'re-solve':>8} {'it':>4} {'<T':>4} | "
             f"{'E start':>9} {'E first':>9} {'E re':>9} {'worst viol':>10} {'|<e,d>|':>8} {'hyp%':>5} ok")
     print(head)
     print("-" * len(head))
@@ -153,9 +150,11 @@ def main():
         for r in run_row(name, grid, T, fn, solvers, args.lbfgs_iter):
             bs = r["build"] + r["solve"]
             t_ok = "" if T is None else ("yes" if bs < 2 * T else "NO")
+            if name == "100k":   # target: 100k vertices in < 120 s in all (problem, build, solve)
+                t_ok = "yes" if r["first"] < 120 else "NO"
             r_ok = "" if T is None else ("yes" if r["resolve"] < T else "NO")
             print(f"{r['row']:>5} {r['V']:>7} {r['F']:>7} {_fmt(T, '5.1f'):>5} {r['solver']:>6} | "
-                  f"{r['build']:6.2f} {r['solve']:7.2f} {r['it1']:>4} {bs:7.2f} {t_ok:>4} | "
+                  f"{r['build']:6.2f} {r['solve']:7.2f} {r['it1']:>4} {bs:7.2f} {r['first']:7.2f} {t_ok:>4} | "
                   f"{r['resolve']:8.2f} {r['it2']:>4} {r_ok:>4} | {r['E0']:9.3e} {r['E1']:9.3e} "
                   f"{r['E2']:9.3e} {r['worst']:10.2e} {r['perp']:8.4f} {100 * r['hyp']:5.1f} "
                   f"{'ok' if r['ok1'] and r['ok2'] else 'FAIL: ' + r['status'][:60]}", flush=True)

@@ -262,6 +262,24 @@ def test_resolve_with_new_parameters_reuses_the_solver(facade):
     assert p.solve().build_seconds > 0
 
 
+@pytest.mark.parametrize("nu, nv", [(10, 10), (30, 20)])   # dense and Lanczos estimate
+def test_first_hessian_regularization_is_the_analytic_curvature(nu, nv):
+    """f = w/|V| sum <e_i, d>^2 on the sphere, in IPOPT's scaling (objective times |V|): the
+    tangent-chart Hessian at e_i has eigenvalues 2w(1 - 2c^2) and -2w c^2 (c = <e_i, d>; the
+    circle around d curves down), so IPOPT's first regularization is 1.25 * 2w c^2."""
+    from torsal.geometry.surfaces import flat_facade
+
+    c = Congruence.from_normals(flat_facade(nu=nu, nv=nv))       # all e_i = (0, -1, 0)
+    w = 3.0
+    p = CongruenceProblem(c).perpendicular(SUN, weight=w)
+    r = p.solve()
+    assert r.success and np.abs(r.congruence.directions @ SUN).max() < 1e-4
+    cos = abs(SUN[1])
+    expected = 1.25 * 2 * w * cos**2
+    rel = 1e-9 if 2 * nu * nv <= 200 else 5e-2
+    assert p._built["tangent"].hessian_shift == pytest.approx(expected, rel=rel)
+
+
 def test_callback_gets_progress_and_can_stop(facade):
     seen = []
     res = CongruenceProblem(facade).normal().fair().perpendicular(SUN).solve(callback=seen.append)

@@ -365,8 +365,11 @@ def _to_casadi(m: sp.spmatrix) -> ca.DM:
 def _scatter(keys: np.ndarray) -> tuple[np.ndarray, ca.DM]:
     """Unique sorted keys and the 0/1 matrix summing entries with equal keys (CCS order)."""
     ukey, pos = np.unique(keys, return_inverse=True)
-    S = sp.csc_matrix((np.ones(len(keys)), (pos.ravel(), np.arange(len(keys)))), shape=(len(ukey), len(keys)))
-    return ukey, _to_casadi(S)
+    # column c of S has its single 1 in row pos[c]: CCS directly, values filled by casadi
+    # (converting a large numpy value array to a DM costs seconds at 100k vertices)
+    spy = ca.Sparsity(len(ukey), len(keys), np.arange(len(keys) + 1, dtype=np.int64).tolist(),
+                      pos.ravel().astype(np.int64).tolist())
+    return ukey, ca.DM(spy, 1.0)
 
 
 def _ccs(ukey: np.ndarray, nrow: int, ncol: int) -> ca.Sparsity:
@@ -608,6 +611,7 @@ class _Built:
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)
         self.solvers: dict = {}
+        self.hessian_shift: float | None = None     # set by the first IPOPT solver
         self.seconds = time.perf_counter() - t0
 
     # conversions between directions e (n, 3) and the NLP's (x, frames)
@@ -1297,27 +1301,42 @@ class CongruenceProblem:
         f = float(arg[ca.nlpsol_out().index("f")])
         return bool(self._callback({"iteration": self._iter, "objective": f, "infeasibility": inf}))
 
-    def _ipopt(self, b: _Built, warm: bool, max_iter: int, tol: float, verbose: bool, options):
-        """The (cached) IPOPT solver; the cold and the warm-start variant are built together."""
+    def _ipopt(self, b: _Built, warm: bool, max_iter: int, tol: float, verbose: bool, options,
+               x0: np.ndarray, p: np.ndarray):
+        """The (cached) IPOPT solver; the cold and the warm-start variant are built together.
+
+        ``x0``, ``p``: the start of the first solve, where IPOPT's first Hessian
+        regularization is estimated (see :func:`_hessian_shift`).
+        """
         key = (warm, max_iter, tol, verbose, tuple(sorted((options or {}).items())))
         if key in b.solvers:
             return b.solvers[key], 0.0
         t0 = time.perf_counter()
         if b.n_g and not warm:
-            self._ipopt(b, True, max_iter, tol, verbose, options)
+            self._ipopt(b, True, max_iter, tol, verbose, options, x0, p)
         cb = _IterationCallback(f"cb{len(b.solvers)}", b.n_var, b.n_g, b.n_par, self)
         ip = {"linear_solver": "mumps", "print_level": 5 if verbose else 0, "sb": "yes",
               "max_iter": int(max_iter), "tol": float(tol), "acceptable_tol": 10 * float(tol),
               "acceptable_iter": 10, "mu_strategy": "adaptive", "mumps_pivot_order": 5,
               "constr_viol_tol": 1e-9, "acceptable_constr_viol_tol": 1e-7,
               # energies are means over elements: scale to sums so the KKT tolerance is per vertex
-              "obj_scaling_factor": float(max(b.n_vertices, 1))}
+              "obj_scaling_factor": float(max(b.n_vertices, 1)),
+              # Hessian regularization: the start is estimated (_hessian_shift); where that
+              # fails or later, the regularization needed is O(weight) with per-vertex
+              # scaling, so search from 1 in steps of 3 (not 1e-4 in steps of 100): fewer
+              # trial factorizations, less over-damped steps
+              "first_hessian_perturbation": 1.0, "perturb_inc_fact_first": 3.0}
         if warm:
             ip.update({"warm_start_init_point": "yes", "mu_init": 1e-6,
                        "warm_start_bound_push": 1e-9, "warm_start_bound_frac": 1e-9,
                        "warm_start_slack_bound_push": 1e-9, "warm_start_slack_bound_frac": 1e-9,
                        "warm_start_mult_bound_push": 1e-9})
         ip.update(options or {})
+        if "first_hessian_perturbation" not in (options or {}):
+            if b.hessian_shift is None:
+                b.hessian_shift = _hessian_shift(b, x0, p, ip)
+            if b.hessian_shift > 0:
+                ip["first_hessian_perturbation"] = b.hessian_shift
         opts = {"ipopt": ip, "print_time": bool(verbose), "grad_f": b.grad_f, "jac_g": b.jac_g,
                 "hess_lag": b.hess_lag, "iteration_callback": cb, "error_on_fail": False,
                 "calc_lam_p": False}
@@ -1387,7 +1406,7 @@ class CongruenceProblem:
         p = b.parameters(self._current(), frames)
         self._callback, self._iter, self._active = callback, 0, b
         if solver == "ipopt":
-            (s, _), extra = self._ipopt(b, warm, max_iter or 200, tol, verbose, ipopt_options)
+            (s, _), extra = self._ipopt(b, warm, max_iter or 200, tol, verbose, ipopt_options, x0, p)
             build_s += extra
             t0 = time.perf_counter()
             args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
@@ -1482,6 +1501,45 @@ class CongruenceProblem:
                 break
             f_prev = f
         return x, status, ok, state["it"]
+
+
+def _hessian_shift(b: _Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
+    """First Hessian regularization for IPOPT: 1.25 times the most negative eigenvalue (internal).
+
+    IPOPT makes the Lagrangian Hessian ``W`` of the scaled problem positive definite on the
+    search space by factoring ``W + delta I`` for ``delta = 0``, then
+    ``first_hessian_perturbation``, then growing by ``perturb_inc_fact_first`` until the
+    inertia is right; each trial is a full factorization. Far from the optimum the sphere
+    makes ``W`` indefinite (``<e, d>^2`` curves down along the circle around ``d``) with a
+    most negative eigenvalue of the order of the weights. A few Lanczos steps (scipy
+    ``eigsh``, about 1 % of a factorization) estimate it at the start, so the first
+    nonzero trial succeeds instead of the third to fifth, and the damping is not
+    overshot. The objective Hessian is scaled as IPOPT scales the objective
+    (``obj_scaling_factor`` times the gradient-based factor). Returns 0 when ``W`` is
+    positive semidefinite at ``x0`` or the estimate fails (IPOPT then searches as usual).
+    """
+    from scipy.sparse.linalg import ArpackError, eigsh
+
+    if b.n_var == 0:
+        return 0.0
+    try:
+        scale = float(ip.get("obj_scaling_factor", 1.0))
+        if ip.get("nlp_scaling_method", "gradient-based") == "gradient-based":
+            g = np.asarray(b.grad_f(x0, p)[1]).ravel()
+            gmax = float(np.max(np.abs(g))) if g.size else 0.0
+            limit = float(ip.get("nlp_scaling_max_gradient", 100.0))
+            if gmax > limit:
+                scale *= max(limit / gmax, float(ip.get("nlp_scaling_min_value", 1e-8)))
+        h = b.hess_lag(x0, p, scale, np.zeros(b.n_g)).sparse()      # upper triangle
+        h = (h + sp.triu(h, 1).T).tocsc()
+        if b.n_var <= 200:
+            lam = float(np.linalg.eigvalsh(h.toarray())[0])
+        else:
+            lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=20 * b.n_var,
+                              return_eigenvectors=False)[0])
+    except (ArpackError, np.linalg.LinAlgError, RuntimeError):
+        return 0.0
+    return 1.25 * -lam if np.isfinite(lam) and lam < 0 else 0.0
 
 
 def _renormalize(x: np.ndarray) -> np.ndarray:
