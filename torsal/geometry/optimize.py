@@ -1535,7 +1535,8 @@ def _hessian_shift(b: _Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
         if b.n_var <= 200:
             lam = float(np.linalg.eigvalsh(h.toarray())[0])
         else:
-            lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=20 * b.n_var,
+            v0 = np.random.default_rng(0).standard_normal(b.n_var)    # same start, same result
+            lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=20 * b.n_var, v0=v0,
                               return_eigenvectors=False)[0])
     except (ArpackError, np.linalg.LinAlgError, RuntimeError):
         return 0.0
