@@ -34,7 +34,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csg
 import scipy.sparse.linalg as spla
 
-from .mesh import edge_face_adjacency
+from .mesh import edge_face_adjacency, face_areas
 
 __all__ = ["TorsalFrameField", "torsal_frame_field", "torsal_confidence", "face_bases",
            "FrameFieldError"]
@@ -271,10 +271,7 @@ def torsal_confidence(congruence) -> np.ndarray:
     >>> round(float(torsal_confidence(c).max()), 2)  # |kappa_1 - kappa_2| = 2 at the origin
     2.0
     """
-    V = np.asarray(congruence.vertices, float)
-    F = np.asarray(congruence.faces)
-    p = V[F]
-    dbl = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    dbl = 2.0 * face_areas(congruence.vertices, congruence.faces)   # |a_u x a_v|
     e = np.linalg.norm(congruence.barycenter_directions(), axis=1)
     hyp = np.nan_to_num(congruence.hyperbolicity(), nan=0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -283,16 +280,16 @@ def torsal_confidence(congruence) -> np.ndarray:
 
 
 def _screening_weights(V, F, edges, ef_inner, usable, confidence, smoothing):
-    """Edge weights ``omega`` (m,) and data weights ``mu`` (F,) of the screened smoothing.
+    """Edge weights ``omega`` (m,), data weights ``mu`` (F,) and confidences ``kappa`` (F,)
+    of the screened smoothing.
 
     ``omega_e = |e| / |c_f0 - c_f1|`` (dual over primal length: the Dirichlet energy of a
     piecewise constant field), ``mu_f = kappa_f area_f / smoothing^2`` with the confidence
     ``kappa_f = min(1, (s_f / median s)^2)`` (inverse variance of the direction, capped so that
     no face is smoothed over less than ``smoothing``), ``kappa = 0`` on unusable faces.
     """
-    p = V[F]
-    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    bc = p.mean(axis=1)
+    area = face_areas(V, F)
+    bc = V[F].mean(axis=1)
     f0, f1 = ef_inner[:, 0], ef_inner[:, 1]
     el = np.linalg.norm(V[edges[:, 1]] - V[edges[:, 0]], axis=1)
     omega = el / np.maximum(np.linalg.norm(bc[f0] - bc[f1], axis=1), 1e-12 * el)
