@@ -8,13 +8,7 @@ from torsal.geometry.frame_field import torsal_frame_field
 from torsal.geometry.remesh import ParametrizationError, extract_quads, parametrize, remesh_torsal
 from torsal.geometry.surfaces import canopy, graph_surface
 
-
-def saddle(x, y):
-    return 0.3 * (x**2 - 0.5 * y**2) + 0.1 * x**3
-
-
-def star(x, y):
-    return 0.5 * (x**2 + y**2) + 0.3 * (x**3 - 3 * x * y**2)
+from graph_cases import noisy_saddle, principal_directions, saddle, star  # tests/geometry/graph_cases.py
 
 
 def distance_to_A(c, points):
@@ -24,23 +18,6 @@ def distance_to_A(c, points):
     d2, _, _ = igl.point_mesh_squared_distance(np.asarray(points, float), np.asarray(c.vertices, float),
                                                np.asarray(c.faces, np.int64))
     return np.sqrt(d2)
-
-
-def principal_directions(f, x, y, h=1e-5):
-    """Analytic principal directions of the graph z = f(x, y), (m, 2, 3) unit."""
-    fx = (f(x + h, y) - f(x - h, y)) / (2 * h)
-    fy = (f(x, y + h) - f(x, y - h)) / (2 * h)
-    fxx = (f(x + h, y) - 2 * f(x, y) + f(x - h, y)) / h**2
-    fyy = (f(x, y + h) - 2 * f(x, y) + f(x, y - h)) / h**2
-    fxy = (f(x + h, y + h) - f(x + h, y - h) - f(x - h, y + h) + f(x - h, y - h)) / (4 * h * h)
-    out = np.empty((len(x), 2, 3))
-    for k in range(len(x)):
-        I = np.array([[1 + fx[k] ** 2, fx[k] * fy[k]], [fx[k] * fy[k], 1 + fy[k] ** 2]])
-        II = np.array([[fxx[k], fxy[k]], [fxy[k], fyy[k]]])
-        _, vec = np.linalg.eig(np.linalg.solve(I, II))
-        X = np.array([[1, 0, fx[k]], [0, 1, fy[k]]])
-        out[k] = vec.T @ X
-    return out / np.linalg.norm(out, axis=2, keepdims=True)
 
 
 @pytest.fixture(scope="module")
@@ -203,19 +180,6 @@ def test_facade_with_window():
     # the window's rim carries boundary nodes on all four sides
     rim = s.metadata["boundary"] & (np.abs(a[:, 0] - 1.0) < 1.7) & (np.abs(a[:, 2] - 3.0) < 1.2)
     assert rim.sum() >= 8
-
-
-def noisy_saddle(noise=0.01, seed=0, n=31):
-    """The saddle's normal congruence with the lines tilted by ~``noise`` rad of random noise
-    per vertex: the torsal (principal) directions are still those of the saddle on every
-    scale above the mesh, but per face they scatter by ~15 degrees and the raw frame field
-    has hundreds of spurious singularities -- like a congruence whose strongly weighted design
-    term left face-to-face noise (example 13, f_plane at 5000)."""
-    from torsal.geometry.mesh import vertex_normals
-
-    V, F = graph_surface(saddle, nu=n, nv=n)
-    rng = np.random.default_rng(seed)
-    return Congruence(V, F, vertex_normals(V, F) + noise * rng.normal(size=V.shape))
 
 
 def test_noisy_torsal_field_remeshes_along_the_smooth_directions():
