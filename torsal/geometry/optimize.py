@@ -1518,7 +1518,7 @@ def _hessian_shift(b: _Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
     (``obj_scaling_factor`` times the gradient-based factor). Returns 0 when ``W`` is
     positive semidefinite at ``x0`` or the estimate fails (IPOPT then searches as usual).
     """
-    from scipy.sparse.linalg import ArpackError, eigsh
+    from scipy.sparse.linalg import eigsh
 
     if b.n_var == 0:
         return 0.0
@@ -1538,7 +1538,7 @@ def _hessian_shift(b: _Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
             v0 = np.random.default_rng(0).standard_normal(b.n_var)    # same start, same result
             lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=20 * b.n_var, v0=v0,
                               return_eigenvectors=False)[0])
-    except (ArpackError, np.linalg.LinAlgError, RuntimeError, ValueError):   # e.g. NaN at x0
+    except (RuntimeError, ValueError):   # ArpackError (no convergence), LinAlgError, NaN at x0
         return 0.0
     return 1.25 * -lam if np.isfinite(lam) and lam < 0 else 0.0
 
