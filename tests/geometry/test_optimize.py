@@ -277,7 +277,12 @@ def test_first_hessian_regularization_is_the_analytic_curvature(nu, nv):
     cos = abs(SUN[1])
     expected = 1.25 * 2 * w * cos**2
     rel = 1e-9 if 2 * nu * nv <= 200 else 5e-2
-    assert p._built["tangent"].hessian_shift == pytest.approx(expected, rel=rel)
+    shifts = p._built["tangent"].hessian_shifts
+    assert list(shifts.values()) == [pytest.approx(expected, rel=rel)]
+    # another objective scaling on the same built problem: its own estimate, in its units
+    r2 = p.solve(initial=c.directions, ipopt_options={"obj_scaling_factor": 2.0 * nu * nv})
+    assert r2.success and list(p._built) == ["tangent"]
+    assert sorted(shifts.values()) == [pytest.approx(expected, rel=rel), pytest.approx(2 * expected, rel=rel)]
 
 
 def test_callback_gets_progress_and_can_stop(facade):

@@ -611,7 +611,8 @@ class _Built:
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)
         self.solvers: dict = {}
-        self.hessian_shift: float | None = None     # set by the first IPOPT solver
+        # first Hessian regularization per IPOPT objective scaling (see _hessian_shift)
+        self.hessian_shifts: dict[tuple, float] = {}
         self.seconds = time.perf_counter() - t0
 
     # conversions between directions e (n, 3) and the NLP's (x, frames)
@@ -1333,10 +1334,12 @@ class CongruenceProblem:
                        "warm_start_mult_bound_push": 1e-9})
         ip.update(options or {})
         if "first_hessian_perturbation" not in (options or {}):
-            if b.hessian_shift is None:
-                b.hessian_shift = _hessian_shift(b, x0, p, ip)
-            if b.hessian_shift > 0:
-                ip["first_hessian_perturbation"] = b.hessian_shift
+            # the estimate is in IPOPT's scaled units: one per objective scaling
+            skey = tuple(ip.get(k) for k in _SCALING_OPTIONS)
+            if skey not in b.hessian_shifts:
+                b.hessian_shifts[skey] = _hessian_shift(b, x0, p, ip)
+            if b.hessian_shifts[skey] > 0:
+                ip["first_hessian_perturbation"] = b.hessian_shifts[skey]
         opts = {"ipopt": ip, "print_time": bool(verbose), "grad_f": b.grad_f, "jac_g": b.jac_g,
                 "hess_lag": b.hess_lag, "iteration_callback": cb, "error_on_fail": False,
                 "calc_lam_p": False}
@@ -1501,6 +1504,10 @@ class CongruenceProblem:
                 break
             f_prev = f
         return x, status, ok, state["it"]
+
+
+_SCALING_OPTIONS = ("obj_scaling_factor", "nlp_scaling_method", "nlp_scaling_max_gradient",
+                    "nlp_scaling_min_value")
 
 
 def _hessian_shift(b: _Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
