@@ -1131,6 +1131,13 @@ class CongruenceProblem:
         ``margin`` is dimensionless (``c_hyp`` in units of ``delta^2``, for unit directions); a
         small positive margin keeps faces away from the parabolic limit.
 
+        ``c_hyp = 4 (g1^2 - g0 g2)`` is quadratic in the torsal coefficients ``g`` of eq. (1),
+        so its gradient vanishes on a face whose lines are parallel (``g = 0``, a line
+        bundle), which satisfies ``c_hyp >= 0``. ``fair`` with ``perpendicular`` or
+        ``parallel`` favours parallel lines; when many faces end near a bundle, IPOPT's
+        multipliers grow and it may need hundreds of iterations. A ``closeness`` term keeps
+        the lines near the start and away from a bundle.
+
         Examples
         --------
         >>> from torsal.geometry.surfaces import facade_patch
