@@ -146,6 +146,44 @@ def test_shading_with_hyperbolicity_constraint(facade):
     assert (out.hyperbolicity() >= 0).all() and out.is_hyperbolic().all()
     assert res.max_violation["hyperbolic"] <= 1e-8
     assert np.allclose(np.linalg.norm(out.directions, axis=1), 1.0, atol=1e-12)
+    assert res.constraints_active is True       # the solve without it broke it: solved with it
+
+
+def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
+    """Near its normals the facade's congruence is hyperbolic (real principal curvatures), so
+    hyperbolic() and a mild angle bound are not active: the first pass (no inequalities) gives
+    the answer, a local minimizer of the constrained problem too; the constrained solve lands
+    on the same lines."""
+    def problem():
+        return CongruenceProblem(facade).normal().fair().closeness(weight=0.1).perpendicular(SUN, weight=0.1)
+
+    free = problem().solve()
+    p = problem().hyperbolic().min_torsal_angle(5)
+    seen = []
+    res = p.solve(callback=seen.append)
+    assert res.success and res.constraints_active is False, res.status
+    assert res.iterations == free.iterations and len(seen) == res.iterations + 1    # one pass
+    assert np.allclose(res.congruence.directions, free.congruence.directions, atol=1e-12)
+    assert max(res.max_violation.values()) <= 1e-9
+    assert "inactive" in res.summary()
+    both = problem().hyperbolic().min_torsal_angle(5).solve(try_unconstrained=False)
+    assert both.success and both.constraints_active is True
+    assert _angles_deg(both.congruence.directions, res.congruence.directions).max() < 0.05
+    assert free.constraints_active is None
+
+
+def test_active_constraints_resolve_in_one_pass_within_max_iter(facade):
+    p = _shading_problem(facade).hyperbolic(margin=1e-6)
+    capped = p.solve(max_iter=12)
+    assert not capped.success and capped.iterations <= 12
+    assert "Maximum_Iterations_Exceeded" in capped.status
+    first = p.solve(initial=facade.directions)
+    assert first.success and first.constraints_active is True
+    seen = []
+    p.perpendicular(SUN @ np.array([[1.0, 0.05, 0], [-0.05, 1.0, 0], [0, 0, 1.0]]), weight=10)
+    again = p.solve(callback=seen.append)       # warm start, constraints were active: no first pass
+    assert again.success and again.constraints_active is True
+    assert len(seen) == again.iterations + 1
 
 
 def test_min_torsal_angle_holds_on_every_face(facade):
