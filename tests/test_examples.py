@@ -10,7 +10,7 @@ from torsal.design import Design
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 REPORT_KEYS = {
     "congruence": {"vertices", "faces", "build_s", "solve_s", "status", "energies",
-                   "min_hyperbolicity", "min_torsal_angle_deg"},
+                   "min_hyperbolicity", "min_torsal_angle_deg", "constraints_active"},
     "support": {"quads", "edges", "delta_pl_extracted", "delta_pl_optimized", "solve_s"},
     "light": {"blocked_share", "transparency", "baseline_louvers"},
     "fabrication": {"parts", "panels", "sheets", "utilization", "step", "dxf"},

@@ -496,6 +496,8 @@ class Design:
                     "energies": {k: float(x) for k, x in r.energies_after.items()},
                     "energies_before": {k: float(x) for k, x in r.energies_before.items()},
                     "max_violation": {k: float(x) for k, x in r.max_violation.items()},
+                    # False: the solve without the inequality constraints already met them
+                    "constraints_active": r.constraints_active,
                     "min_hyperbolicity": float(np.nanmin(c.hyperbolicity())),
                     "min_torsal_angle_deg": float(np.nanmin(c.torsal_angle()))
                     if np.isfinite(c.torsal_angle()).any() else None,

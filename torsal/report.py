@@ -283,6 +283,9 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
                 ("solver status", html.escape(str(c["status"]))),
                 ("build / solve time (s)", f"{c['build_s']:.2f} / {c['solve_s']:.2f}"),
                 ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
+                ("inequality constraints", {True: "active (solved with them)",
+                                            False: "inactive (met without them)"}
+                 .get(c.get("constraints_active"), "none")),
                 ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
                  is not None else "n/a")]
         rows += [(f"energy {k} (before &rarr; after)",
