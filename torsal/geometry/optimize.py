@@ -369,6 +369,11 @@ def _to_casadi(m: sp.spmatrix) -> ca.DM:
     return ca.DM(spy, m.data)
 
 
+def _bound_violation(g: np.ndarray, lower, upper) -> np.ndarray:
+    """Elementwise violation of ``lower <= g <= upper`` (0 where it holds)."""
+    return np.maximum(np.maximum(lower - g, g - upper), 0.0)
+
+
 def _scatter(keys: np.ndarray) -> tuple[np.ndarray, ca.DM]:
     """Unique sorted keys and the 0/1 matrix summing entries with equal keys (CCS order)."""
     ukey, pos = np.unique(keys, return_inverse=True)
@@ -1307,7 +1312,7 @@ class CongruenceProblem:
         out, worst = {}, None
         for ci, t in enumerate(b.cons):
             gi = g[b.g_offsets[ci]:b.g_offsets[ci] + t.size]
-            v = np.maximum(np.maximum(t.lower - gi, gi - t.upper), 0.0)
+            v = _bound_violation(gi, t.lower, t.upper)
             v = np.where(np.isfinite(v), v, np.inf)
             j = int(np.argmax(v)) if v.size else 0
             out[t.name] = float(v[j]) if v.size else 0.0
@@ -1325,7 +1330,7 @@ class CongruenceProblem:
             return False
         b = self._active
         g = np.asarray(arg[ca.nlpsol_out().index("g")]).ravel()
-        inf = float(np.max(np.maximum(np.maximum(b.lbg - g, g - b.ubg), 0.0))) if g.size else 0.0
+        inf = float(np.max(_bound_violation(g, b.lbg, b.ubg))) if g.size else 0.0
         f = float(arg[ca.nlpsol_out().index("f")])
         return bool(self._callback({"iteration": self._iter, "objective": f, "infeasibility": inf}))
 
@@ -1454,8 +1459,7 @@ class CongruenceProblem:
             (s, _), extra = self._ipopt(b, warm, limit, tol, verbose, ipopt_options, x0, p)
             build_s += extra
             ineq = b.lbg < b.ubg
-            first = (try_unconstrained and bool(ineq.any())
-                     and not (self._last is not None and self._last.get("active") and warm))
+            first = try_unconstrained and bool(ineq.any()) and not (warm and self._last.get("active"))
             t0 = time.perf_counter()
             iters, status = 0, ""
             done = False
@@ -1475,11 +1479,11 @@ class CongruenceProblem:
                 status = str(stats.get("return_status", "unknown"))
                 x1 = np.asarray(r["x"]).ravel()
                 g1 = np.asarray(b.evaluate(x1, p)[2]).ravel()
-                viol = float(np.max(np.maximum(np.maximum(b.lbg - g1, g1 - b.ubg), 0.0)))
+                worst1 = float(np.max(_bound_violation(g1, b.lbg, b.ubg)))
                 feas_tol = float((ipopt_options or {}).get("constr_viol_tol", 1e-9))
                 if status == "User_Requested_Stop" and not capped:    # the caller's callback
                     done, ok = True, False
-                elif stats.get("success") and viol <= feas_tol:
+                elif stats.get("success") and worst1 <= feas_tol:
                     done, ok, active = True, True, False
                 if done:
                     x, lam_g = x1, None
