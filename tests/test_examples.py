@@ -10,7 +10,8 @@ from torsal.design import Design
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 REPORT_KEYS = {
     "congruence": {"vertices", "faces", "build_s", "solve_s", "status", "energies",
-                   "min_hyperbolicity", "min_torsal_angle_deg", "constraints_active"},
+                   "min_hyperbolicity", "min_torsal_angle_deg", "constraints_active",
+                   "working_set"},
     "support": {"quads", "edges", "delta_pl_extracted", "delta_pl_optimized", "solve_s"},
     "light": {"blocked_share", "transparency", "baseline_louvers"},
     "fabrication": {"parts", "panels", "sheets", "utilization", "step", "dxf"},
@@ -52,6 +53,9 @@ def test_example_runs_small(path, tmp_path):
         assert keys <= set(report[section]), (section, keys - set(report[section]))
     c, s, li, fa = (report[k] for k in ("congruence", "support", "light", "fabrication"))
     assert c["min_hyperbolicity"] >= -1e-6 or not d.spec.constraints.hyperbolic
+    if c["working_set"]:            # IPOPT imposed the inequalities on a few faces: say so
+        assert sum(c["working_set"].values()) < c["faces"]
+        assert "imposed where needed" in (tmp_path / "report.html").read_text()
     assert s["edges"] > 10 and s["delta_pl_optimized"] <= max(1e-4, s["delta_pl_extracted"])
     assert 0.0 <= li["blocked_share"] <= 1.0 and 0.0 <= li["transparency"] <= 1.0
     assert fa["parts"] > 0 and fa["sheets"] > 0 and 0 < fa["utilization"] <= 1

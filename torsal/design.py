@@ -498,6 +498,10 @@ class Design:
                     "max_violation": {k: float(x) for k, x in r.max_violation.items()},
                     # False: the solve without the inequality constraints already met them
                     "constraints_active": r.constraints_active,
+                    # elements IPOPT imposed the inequalities on (None: all of them, or none
+                    # needed); the others held with slack
+                    "working_set": None if r.working_set is None
+                    else {k: int(len(x)) for k, x in r.working_set.items()},
                     "min_hyperbolicity": float(np.nanmin(c.hyperbolicity())),
                     "min_torsal_angle_deg": float(np.nanmin(c.torsal_angle()))
                     if np.isfinite(c.torsal_angle()).any() else None,

@@ -1,6 +1,7 @@
 """Figures and reports: PNG figures with matplotlib (Agg, no screen needed), JSON summaries."""
 from __future__ import annotations
 
+import html
 from pathlib import Path
 
 import numpy as np
@@ -272,10 +273,19 @@ def _table(rows, header=("quantity", "value")) -> str:
     return "<table><tr>" + "".join(f"<th>{h}</th>" for h in header) + "</tr>" + body + "</table>"
 
 
+def _constraints_state(c: dict) -> str:
+    """How the congruence solve met its inequality constraints, in a few words."""
+    ws = c.get("working_set")
+    if c.get("constraints_active") and ws:
+        n = ", ".join(f"{k} on {v}" for k, v in ws.items())
+        return (f"active, imposed where needed ({html.escape(n)} of {c['faces']} faces); "
+                "the rest hold with slack")
+    return {True: "active (solved with them)", False: "inactive (met without them)"}.get(
+        c.get("constraints_active"), "none")
+
+
 def design_report_html(report: dict, images: dict, title: str) -> str:
     """The HTML report: tables of every figure in ``report`` and the PNGs next to it."""
-    import html
-
     c, s, li, fa = (report.get(k, {}) for k in ("congruence", "support", "light", "fabrication"))
     secs = []
     if c:
@@ -283,9 +293,7 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
                 ("solver status", html.escape(str(c["status"]))),
                 ("build / solve time (s)", f"{c['build_s']:.2f} / {c['solve_s']:.2f}"),
                 ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
-                ("inequality constraints", {True: "active (solved with them)",
-                                            False: "inactive (met without them)"}
-                 .get(c.get("constraints_active"), "none")),
+                ("inequality constraints", _constraints_state(c)),
                 ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
                  is not None else "n/a")]
         rows += [(f"energy {k} (before &rarr; after)",

@@ -186,6 +186,45 @@ def test_active_constraints_resolve_in_one_pass_within_max_iter(facade):
     assert len(seen) == again.iterations + 1
 
 
+def test_working_set_imposes_only_the_constraints_that_matter(facade):
+    """A hyperbolicity margin that 4 of 192 faces miss at the unconstrained optimum: pass 2
+    imposes it on those and the faces near the bound only; the answer is the fully
+    constrained solve's, and the faces left out hold with slack (zero multipliers)."""
+    def problem():
+        return CongruenceProblem(facade).normal().fair().closeness(weight=0.1).perpendicular(SUN, weight=0.1)
+
+    delta2 = facade.delta**2
+    free = problem().solve()
+    h = np.sort(free.congruence.hyperbolicity() / delta2)
+    margin = 0.5 * (h[3] + h[4])
+    missed = np.flatnonzero(free.congruence.hyperbolicity() / delta2 < margin)
+    assert len(missed) == 4
+    p = problem().hyperbolic(margin=margin)
+    res = p.solve()
+    assert res.success and res.constraints_active is True, res.status
+    ws = res.working_set["hyperbolic"]
+    assert set(missed) <= set(ws) and len(ws) <= 0.1 * len(facade.faces)
+    hyp = res.congruence.hyperbolicity() / delta2
+    assert hyp.min() >= margin - 1e-9
+    out = np.setdiff1d(np.arange(len(facade.faces)), ws)
+    assert hyp[out].min() > margin + 1e-6              # left out: met with slack
+    assert "working set" in res.summary()
+    capped = problem().hyperbolic(margin=margin).solve(max_iter=7)
+    assert capped.iterations <= 7 and not capped.success
+    full = problem().hyperbolic(margin=margin).solve(try_unconstrained=False)
+    assert full.success and full.working_set is None
+    assert abs(res.objective - full.objective) <= 1e-6 * full.objective
+    assert _angles_deg(res.congruence.directions, full.congruence.directions).max() < 0.05
+    # the designer moves the sun: the re-solve keeps the working set and still agrees
+    moved = SUN @ np.array([[1.0, 0.05, 0], [-0.05, 1.0, 0], [0, 0, 1.0]])
+    again = p.perpendicular(moved, weight=0.1).solve()
+    ref = problem().hyperbolic(margin=margin).perpendicular(moved, weight=0.1).solve(
+        initial=full.congruence.directions, try_unconstrained=False)
+    assert again.success and again.working_set is not None, again.status
+    assert (again.congruence.hyperbolicity() / delta2).min() >= margin - 1e-8
+    assert _angles_deg(again.congruence.directions, ref.congruence.directions).max() < 0.05
+
+
 def test_min_torsal_angle_holds_on_every_face(facade):
     free = _shading_problem(facade).solve()
     assert np.nanmin(free.congruence.torsal_angle()) < 35
