@@ -1572,7 +1572,9 @@ class CongruenceProblem:
         Returns ``((x, lam_g, iterations, status, ok, constraints_active, working), build
         seconds)``; ``working`` is the working-set mask over ``g`` when pass 2 answered.
         """
-        (s, _), build_s = self._ipopt(b, warm, limit, tol, verbose, options, x0, p)
+        # the cold solver; with constraints its warm-start variant is built (and cached) with it
+        (s, _), build_s = self._ipopt(b, False, limit, tol, verbose, options, x0, p)
+        sw = self._ipopt(b, True, limit, tol, verbose, options, x0, p)[0][0] if warm else None
         ineq = b.lbg < b.ubg
         feas_tol = float((options or {}).get("constr_viol_tol", 1e-9))
         last = self._last or {}
@@ -1580,8 +1582,6 @@ class CongruenceProblem:
         iters, status = 0, ""
         if warm and prev_ws is not None and prev_ws.size == b.n_g:
             # the designer's re-solve after a working-set solve: same set, warm multipliers
-            (sw, _), extra = self._ipopt(b, True, limit, tol, verbose, options, x0, p)
-            build_s += extra
             out = self._working_set(sw, s, b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
             if out[4] or out[3] == "User_Requested_Stop":
                 return out, build_s
@@ -1612,7 +1612,8 @@ class CongruenceProblem:
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
         if warm:
             args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
-        x, lam_g, it, status, ok = self._ipopt_call(s, b, args, (limit - iters) if iters else None)
+        x, lam_g, it, status, ok = self._ipopt_call(sw if warm else s, b, args,
+                                                    (limit - iters) if iters else None)
         return (x, lam_g, iters + it, status, ok, True if ineq.any() else None, None), build_s
 
     def _working_set(self, s_warm, s_cold, b: _Built, x, p, ws: np.ndarray, lam_g, budget: int,
