@@ -395,18 +395,17 @@ def _near_bounds(g: np.ndarray, b: "_Built", share: float = 0.1) -> np.ndarray:
     """Inequalities within ``share`` of their constraint's median slack of a bound, or violated."""
     slack = np.minimum(g - b.lbg, b.ubg - g)
     out = np.zeros(g.size, dtype=bool)
-    for ci, t in enumerate(b.cons):
-        sl = slack[b.g_offsets[ci]:b.g_offsets[ci] + t.size]
+    for rows in b.g_slices:
+        sl = slack[rows]
         fin = np.isfinite(sl)
         scale = float(np.median(np.abs(sl[fin]))) if fin.any() else 0.0
-        out[b.g_offsets[ci]:b.g_offsets[ci] + t.size] = ~fin | (sl <= share * scale)
+        out[rows] = ~fin | (sl <= share * scale)
     return out
 
 
 def _working_ids(b: "_Built", mask: np.ndarray) -> dict:
     """Element ids of the imposed inequality constraints, by constraint name."""
-    return {t.name: t.elements[mask[b.g_offsets[ci]:b.g_offsets[ci] + t.size]]
-            for ci, t in enumerate(b.cons) if t.lower < t.upper}
+    return {t.name: t.elements[mask[rows]] for t, rows in zip(b.cons, b.g_slices) if t.lower < t.upper}
 
 
 def _scatter(keys: np.ndarray) -> tuple[np.ndarray, ca.DM]:
@@ -507,6 +506,7 @@ class _Built:
         cons = [t for t in terms if t.constraint]
         g_sizes = [t.size for t in cons]
         self.g_offsets = np.concatenate([[0], np.cumsum(g_sizes)]).astype(np.int64)
+        self.g_slices = [slice(int(o), int(o) + n) for o, n in zip(self.g_offsets, g_sizes)]
         n_g = int(sum(g_sizes))
         self.n_g = n_g
         lam_g = ca.MX.sym("lam_g", n_g)
@@ -1345,8 +1345,8 @@ class CongruenceProblem:
 
     def _violations(self, b: _Built, g) -> tuple[dict, tuple | None]:
         out, worst = {}, None
-        for ci, t in enumerate(b.cons):
-            gi = g[b.g_offsets[ci]:b.g_offsets[ci] + t.size]
+        for t, rows in zip(b.cons, b.g_slices):
+            gi = g[rows]
             v = _bound_violation(gi, t.lower, t.upper)
             v = np.where(np.isfinite(v), v, np.inf)
             j = int(np.argmax(v)) if v.size else 0
