@@ -25,6 +25,7 @@ from ._io import atomic_path, write_json
 from .design_file import DesignFileError, DesignSpec, Region, load_design_file
 from .geometry.congruence import Congruence
 from .geometry.mesh import area_vector, edge_face_adjacency, load_mesh, validate_mesh
+from torsal.core.errors import TorsalError
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignError",
            "DesignFileError", "STAGES"]
@@ -118,7 +119,7 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
 
 
 # ====================================================================== design
-class DesignError(RuntimeError):
+class DesignError(TorsalError, RuntimeError):
     """A pipeline stage failed; ``stage`` names it and the message says why."""
 
     def __init__(self, stage: str, message: str):

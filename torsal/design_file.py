@@ -41,6 +41,9 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from .core.errors import TorsalError
+from .core.units import UNIT_TO_M
+
 __all__ = [
     "DesignFileError",
     "DesignSpec",
@@ -48,11 +51,10 @@ __all__ = [
     "load_design_file",
 ]
 
-_UNIT_TO_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
 _GENERATORS = ("facade_patch", "canopy", "sphere_patch", "cylinder_patch", "flat_facade")
 
 
-class DesignFileError(ValueError):
+class DesignFileError(TorsalError, ValueError):
     """A design file that cannot be used; the message names the key or stage and the fix."""
 
 
@@ -288,7 +290,7 @@ class DesignSpec(_Spec):
 
     @property
     def metres_per_unit(self) -> float:
-        return _UNIT_TO_M[self.units]
+        return UNIT_TO_M[self.units]
 
 
 def _format_errors(exc: ValidationError, source: str) -> str:

@@ -34,15 +34,16 @@ from shapely import affinity
 from shapely.geometry import LineString, Point, Polygon
 from shapely.prepared import prep
 
-from torsal.geometry._atomic import atomic_path
+from torsal.core.atomic import atomic_path
 
 from .parts import INSUNITS, UNIT_TO_MM
+from torsal.core.errors import TorsalError
 
 __all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "bill_of_materials",
            "read_dxf_parts"]
 
 
-class PartTooLargeError(ValueError):
+class PartTooLargeError(TorsalError, ValueError):
     """A part does not fit the sheet in any allowed rotation."""
 
 

@@ -56,10 +56,8 @@ __all__ = [
     "UNIT_TO_MM", "INSUNITS", "FAMILY_COLORS", "fold_angles", "quad_normals",
 ]
 
-#: millimetres per unit
-UNIT_TO_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4, "ft": 304.8}
-#: DXF ``$INSUNITS`` code per unit
-INSUNITS = {"in": 1, "ft": 2, "mm": 4, "cm": 5, "m": 6}
+from torsal.core.units import INSUNITS, UNIT_TO_MM
+
 #: RGB colours (0..1) by family: family 0 orange, family 1 blue, developables green
 FAMILY_COLORS = {0: (0.93, 0.55, 0.14), 1: (0.16, 0.45, 0.78), -1: (0.30, 0.65, 0.30)}
 

@@ -23,15 +23,16 @@ from pathlib import Path
 
 import numpy as np
 
-from torsal.geometry._atomic import atomic_path
+from torsal.core.atomic import atomic_path
 
 from .parts import Part, SlotSide
+from torsal.core.errors import TorsalError
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "export_step", "export_mesh",
            "export_3dm", "read_step"]
 
 
-class InvalidSolidError(RuntimeError):
+class InvalidSolidError(TorsalError, RuntimeError):
     """A part's solid is not valid OpenCascade geometry even after repair."""
 
     def __init__(self, parts: list[str], detail: str = ""):

@@ -35,12 +35,13 @@ import scipy.sparse.csgraph as csg
 import scipy.sparse.linalg as spla
 
 from .mesh import edge_face_adjacency, face_areas
+from torsal.core.errors import TorsalError
 
 __all__ = ["TorsalFrameField", "torsal_frame_field", "torsal_confidence", "face_bases",
            "FrameFieldError"]
 
 
-class FrameFieldError(ValueError):
+class FrameFieldError(TorsalError, ValueError):
     """The torsal frame field cannot be built (e.g. no face has torsal directions)."""
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 import trimesh
+from torsal.core.errors import TorsalError
 
 __all__ = [
     "MeshError",
@@ -31,7 +32,7 @@ _SUPPORTED = (".obj", ".ply", ".stl", ".off")
 _MAX_LISTED = 10
 
 
-class MeshError(ValueError):
+class MeshError(TorsalError, ValueError):
     """A mesh that torsal cannot work on; the message names the problem and the fix."""
 
 

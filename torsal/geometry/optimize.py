@@ -42,6 +42,7 @@ import scipy.sparse as sp
 from . import terms as T
 from .congruence import Congruence
 from .mesh import edge_face_adjacency, umbrella_laplacian
+from torsal.core.errors import TorsalError
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS"]
 
@@ -62,7 +63,7 @@ DEFAULT_WEIGHTS: dict[str, float] = {
 _KINDS = ("vertices", "faces", "edges")
 
 
-class OptimizationError(RuntimeError):
+class OptimizationError(TorsalError, RuntimeError):
     """A solve failed and ``raise_on_failure=True`` was given; ``.result`` holds the details."""
 
     def __init__(self, message: str, result: "OptimizationResult"):

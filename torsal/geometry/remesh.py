@@ -38,12 +38,13 @@ import scipy.sparse.linalg as spla
 
 from .frame_field import GROUP, TorsalFrameField, face_bases, torsal_frame_field
 from .mesh import unique_edges
+from torsal.core.errors import TorsalError
 
 __all__ = ["TorsalParametrization", "ParametrizationError", "parametrize", "extract_quads",
            "remesh_torsal", "cut_graph"]
 
 
-class ParametrizationError(RuntimeError):
+class ParametrizationError(TorsalError, RuntimeError):
     """The field-aligned parametrization failed; the message says where and why."""
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._atomic import atomic_path
+from torsal.core.atomic import atomic_path
 
 __all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support",
            "SupportOptimizationResult", "SupportWeights", "graph_laplacian", "closest_points"]

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from torsal.geometry._atomic import atomic_path
+from torsal.core.atomic import atomic_path
 from torsal.geometry.mesh import average_edge_length, vertex_normals
 
 __all__ = [

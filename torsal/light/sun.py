@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from torsal.geometry._atomic import atomic_path
+from torsal.core.atomic import atomic_path
 
 __all__ = [
     "SunDirections",
