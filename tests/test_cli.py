@@ -58,7 +58,7 @@ def test_analyze_with_directions_file(facade, tmp_path):
 @pytest.mark.parametrize("problem, match", [
     ("missing", "not found"),
     ("nan", "NaN"),
-    ("rows", "expected 117 rows"),
+    ("rows", "5 rows, but the mesh has 117 vertices"),
 ])
 def test_bad_input_exits_2_with_a_message(facade, tmp_path, capsys, problem, match):
     path, v, f = facade

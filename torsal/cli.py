@@ -1,15 +1,97 @@
 """The ``torsal`` command line: parses, shows progress, calls :mod:`torsal.design`.
 
 No geometry here; this is the only module that prints to the terminal.
-Exit status: 0 on success, 2 on bad input (a message names the problem), 1 on other failures.
+
+Exit status (one place: :func:`_run_command`):
+
+- 0: success.
+- 1: an internal error (a bug): one line naming it; ``--debug`` (or ``TORSAL_DEBUG=1``) shows
+  the traceback.
+- 2: bad input: any :class:`~torsal.core.errors.TorsalError` (mesh, design file, directions,
+  a stage rejecting its input, an output folder that cannot be used) or a missing or
+  unreadable file. The message names the problem and what to change; never a traceback.
+- Other codes: an error that carries its own ``exit_status`` attribute (e.g. 3 for a design
+  that is not buildable), or a subcommand that returns one.
+
+Everything the user typed or a file held is printed literally (no rich markup), messages go
+to stderr, results to stdout; progress streams line by line when stdout is not a terminal.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
+import traceback
+import warnings
 
-__all__ = ["main"]
+__all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT"]
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_BAD_INPUT = 2
+
+
+# ---------------------------------------------------------------------- terminal
+class _Terminal:
+    """The one place that prints: literal text, tables, and progress that streams when piped."""
+
+    def __init__(self):
+        from rich.console import Console
+
+        # soft_wrap: long paths and messages are not broken into lines; markup off: user text
+        # in brackets ("[0, 24]") is printed as it is
+        self.out = Console(soft_wrap=True, markup=False, highlight=False, emoji=False)
+        self.err = Console(stderr=True, soft_wrap=True, markup=False, highlight=False, emoji=False)
+
+    @property
+    def interactive(self) -> bool:
+        return self.out.is_terminal
+
+    def line(self, text: str) -> None:
+        """A line of results on stdout, flushed at once (so ``| tee log`` shows it now)."""
+        self.out.print(text)
+        self.out.file.flush()
+
+    def error(self, text: str) -> None:
+        self.err.print(f"error: {text}")
+        self.err.file.flush()
+
+    def note(self, text: str) -> None:
+        self.err.print(text)
+        self.err.file.flush()
+
+    def table(self, table) -> None:
+        self.out.print(table)  # rich ends a printed table with a newline
+        self.out.file.flush()
+
+
+# ---------------------------------------------------------------------- parser
+def _add_analyze(sub, common) -> None:
+    a = sub.add_parser("analyze", parents=[common],
+                       help="analyze the line congruence of a mesh (torsal directions, "
+                            "focal points, hyperbolicity, normality)")
+    a.add_argument("mesh", help="triangle mesh A (OBJ, PLY, STL or OFF) in model units; vertices "
+                                "at the same position are merged (see README, mesh requirements)")
+    g = a.add_mutually_exclusive_group()
+    g.add_argument("--normals", action="store_true",
+                   help="use the normal congruence of A (the default)")
+    g.add_argument("--directions", metavar="FILE",
+                   help="per-vertex line directions: .npy or text with one 'x y z' row per vertex "
+                        "of the file, or per vertex after merging")
+    a.add_argument("--out", metavar="DIR", default=None,
+                   help="write analysis.json and torsal_field.png here")
+    a.add_argument("--no-plot", action="store_true", help="skip the PNG")
+
+
+def _add_design(sub, common) -> None:
+    d = sub.add_parser("design", parents=[common],
+                       help="run a design file end to end: optimize the congruence, "
+                            "remesh, build the support structure, measure the light, "
+                            "write STEP / 3DM / DXF / parts list and a report")
+    d.add_argument("file", help="TOML design file")
+    d.add_argument("--out", metavar="DIR", required=True, help="output folder")
+    d.add_argument("--no-cache", action="store_true", help="recompute every stage")
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -17,125 +99,218 @@ def _build_parser() -> argparse.ArgumentParser:
         prog="torsal",
         description="Discrete line congruences for shading and lighting: from a design surface "
                     "and the sun to buildable planar fins.",
+        epilog="exit status: 0 ok, 1 internal error (a bug; --debug shows the traceback), "
+               "2 bad input (the message names it)",
     )
+    p.add_argument("--debug", action="store_true", help="show the traceback of internal errors")
+    # accepted after the subcommand too; SUPPRESS keeps the top-level value when absent
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show the traceback of internal errors")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    a = sub.add_parser("analyze", help="analyze the line congruence of a mesh (torsal directions, "
-                                       "focal points, hyperbolicity, normality)")
-    a.add_argument("mesh", help="triangle mesh A (OBJ, PLY, STL or OFF) in model units")
-    g = a.add_mutually_exclusive_group()
-    g.add_argument("--normals", action="store_true",
-                   help="use the normal congruence of A (the default)")
-    g.add_argument("--directions", metavar="FILE",
-                   help="per-vertex line directions: .npy or text with one 'x y z' row per vertex")
-    a.add_argument("--out", metavar="DIR", default=None,
-                   help="write analysis.json and torsal_field.png here")
-    a.add_argument("--no-plot", action="store_true", help="skip the PNG")
-    d = sub.add_parser("design", help="run a design file end to end: optimize the congruence, "
-                                      "remesh, build the support structure, measure the light, "
-                                      "write STEP / 3DM / DXF / parts list and a report")
-    d.add_argument("file", help="TOML design file")
-    d.add_argument("--out", metavar="DIR", required=True, help="output folder")
-    d.add_argument("--no-cache", action="store_true", help="recompute every stage")
+    _add_analyze(sub, common)
+    _add_design(sub, common)
     return p
 
 
-def _design(args, console) -> int:
-    from rich.live import Live
-    from rich.table import Table
-
+# ---------------------------------------------------------------------- commands
+def _design(args, ui: _Terminal) -> int:
+    from .core.outputs import output_folder
     from .design import STAGES, Design
 
     design = Design.from_toml(args.file)
-    status = {s: ("waiting", "") for s in STAGES}
-    if design.spec.substructure is None:
-        status["substructure"] = ("skipped", "no \\[substructure] table in the design")
-    t_start = time.perf_counter()
-
-    def render():
-        t = Table(title=f"{design.spec.name}  ({time.perf_counter() - t_start:.0f} s)")
-        t.add_column("stage")
-        t.add_column("state")
-        t.add_column("detail")
-        for s in STAGES:
-            st, detail = status[s]
-            colour = {"done": "green", "cached": "cyan", "running": "yellow"}.get(st, "dim")
-            t.add_row(s, f"[{colour}]{st}[/]", detail)
-        return t
-
-    with Live(render(), console=console, refresh_per_second=4, transient=False) as live:
-        def progress(stage, event, info):
-            if event == "start":
-                status[stage] = ("running", "")
-            elif event == "iteration":
-                status[stage] = ("running", f"iteration {info.get('iteration')}, energy "
-                                            f"{info.get('objective', float('nan')):.4g}, "
-                                            f"infeasibility {info.get('infeasibility', float('nan')):.2g}")
-            elif event == "done":
-                status[stage] = ("done", f"{info['seconds']:.1f} s")
-            elif event == "cached":
-                status[stage] = ("cached", "inputs unchanged")
-            live.update(render())
-
-        res = design.run(args.out, progress=progress, use_cache=not args.no_cache)
+    out = output_folder(args.out)
+    progress = _DesignProgress(ui, design, STAGES)
+    with progress:
+        res = design.run(out, progress=progress, use_cache=not args.no_cache)
     r = res.report
     s, li, fa = r["support"], r["light"], r["fabrication"]
-    console.print(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
-                  f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
-                  f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
-                  f"{fa['parts']} parts on {fa['sheets']} sheets")
-    console.print(f"wrote {len(res.files)} outputs to {args.out} (report: {args.out}/report.html)")
-    return 0
+    ui.line(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
+            f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
+            f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
+            f"{fa['parts']} parts on {fa['sheets']} sheets")
+    ui.line(f"wrote {len(res.files)} outputs to {out} (report: {out / 'report.html'})")
+    return EXIT_OK
 
 
-def _analyze(args, console) -> int:
+class _DesignProgress:
+    """Stage progress: a live table on a terminal, one line per event when piped.
+
+    Called as ``progress(stage, event, info)`` by :meth:`torsal.design.Design.run`.
+    """
+
+    _ITERATION_EVERY_S = 2.0  # piped: at most one iteration line per this many seconds
+
+    def __init__(self, ui: _Terminal, design, stages):
+        self.ui, self.stages = ui, stages
+        self.name = design.spec.name
+        self.status = {s: ("waiting", "") for s in stages}
+        if design.spec.substructure is None and "substructure" in self.status:
+            self.status["substructure"] = ("skipped", "no [substructure] table in the design")
+        self.t0 = time.perf_counter()
+        self.live = None
+        self._last_line = 0.0
+
+    def __enter__(self):
+        if self.ui.interactive:
+            from rich.live import Live
+
+            self.live = Live(self._render(), console=self.ui.out, refresh_per_second=4,
+                             transient=False)
+            self.live.__enter__()
+        else:
+            self.ui.line(f"{self.name}: {len(self.stages)} stages")
+        return self
+
+    def __exit__(self, *exc):
+        if self.live is not None:
+            self.live.update(self._render())
+            self.live.__exit__(*exc)
+        return False
+
+    def _render(self):
+        from rich.table import Table
+        from rich.text import Text
+
+        t = Table(title=Text(f"{self.name}  ({time.perf_counter() - self.t0:.0f} s)"))
+        for col in ("stage", "state", "detail"):
+            t.add_column(col)
+        for s in self.stages:
+            st, detail = self.status[s]
+            colour = {"done": "green", "cached": "cyan", "running": "yellow"}.get(st, "dim")
+            t.add_row(Text(s), Text(st, style=colour), Text(detail))
+        return t
+
+    def __call__(self, stage: str, event: str, info: dict) -> None:
+        if event == "start":
+            state = ("running", "")
+        elif event == "iteration":
+            state = ("running", f"iteration {info.get('iteration')}, energy "
+                                f"{info.get('objective', float('nan')):.4g}, "
+                                f"infeasibility {info.get('infeasibility', float('nan')):.2g}")
+        elif event == "done":
+            state = ("done", f"{info.get('seconds', float('nan')):.1f} s")
+        elif event == "cached":
+            state = ("cached", "inputs unchanged")
+        else:
+            state = (event, ", ".join(f"{k} {v}" for k, v in info.items()))
+        self.status[stage] = state
+        if self.live is not None:
+            self.live.update(self._render())
+            return
+        now = time.perf_counter()
+        if event == "iteration" and now - self._last_line < self._ITERATION_EVERY_S:
+            return
+        self._last_line = now
+        self.ui.line(f"[{now - self.t0:7.1f} s] {stage}: {state[0]}"
+                     + (f" ({state[1]})" if state[1] else ""))
+
+
+def _analyze(args, ui: _Terminal) -> int:
+    from rich.table import Table
+    from rich.text import Text
+
+    from .core.outputs import output_folder
     from .design import analyze
 
+    out = output_folder(args.out) if args.out is not None else None
     t0 = time.perf_counter()
-    with console.status(f"analyzing {args.mesh} ..."):
-        res = analyze(args.mesh, directions=args.directions, out_dir=args.out,
-                      plot=not args.no_plot)
+    if not ui.interactive:
+        ui.line(f"analyzing {args.mesh} ...")
+    res = analyze(args.mesh, directions=args.directions, out_dir=out, plot=not args.no_plot)
     s = res.summary
-    from rich.table import Table
+    table = Table(title=Text(f"congruence of {args.mesh} ({s['directions']})"), show_header=False)
+    table.add_column()
+    table.add_column()
 
-    table = Table(title=f"congruence of {args.mesh} ({s['directions']})", show_header=False)
-    table.add_row("vertices / faces", f"{s['vertices']} / {s['faces']}")
-    table.add_row("average edge length", f"{s['average_edge_length']:.4g}")
-    table.add_row("hyperbolic faces", f"{s['hyperbolic_faces']} ({100 * s['hyperbolic_share']:.1f}%)")
-    table.add_row("line-bundle faces", str(s["bundle_faces"]))
+    def row(key, value):
+        table.add_row(Text(key), Text(value))
+
+    mf = s.get("mesh_file")
+    row("vertices / faces", f"{s['vertices']} / {s['faces']}")
+    if mf and (mf["file_vertices"] != s["vertices"] or mf["polygons_triangulated"]):
+        row("in the file", f"{mf['file_vertices']} vertices ({mf['merged']} merged, "
+                           f"{mf['unused']} unused), {mf['polygons_triangulated']} polygons "
+                           "triangulated")
+    if "directions_rows" in s:
+        row("directions rows", s["directions_rows"])
+    row("average edge length", f"{s['average_edge_length']:.4g}")
+    row("hyperbolic faces", f"{s['hyperbolic_faces']} ({100 * s['hyperbolic_share']:.1f}%)")
+    row("line-bundle faces", str(s["bundle_faces"]))
     fd = s["focal_distance"]
     if fd:
-        table.add_row("focal distance", f"{fd['min']:.4g} .. {fd['max']:.4g} (median {fd['median']:.4g})")
-    table.add_row("focal points at infinity", str(s["focal_points_at_infinity"]))
+        row("focal distance", f"{fd['min']:.4g} .. {fd['max']:.4g} (median {fd['median']:.4g})")
+    row("focal points at infinity", str(s["focal_points_at_infinity"]))
     nr = s["normality_residual_relative"]
     if nr:
-        table.add_row("normality residual (eq 7) / delta", f"median {nr['median']:.3g}, max {nr['max']:.3g}")
+        row("normality residual (eq 7) / delta", f"median {nr['median']:.3g}, max {nr['max']:.3g}")
     ta = s["torsal_angle_deg"]
     if ta:
-        table.add_row("torsal angle (deg)", f"min {ta['min']:.1f}, median {ta['median']:.1f}")
-    console.print(table)
+        row("torsal angle (deg)", f"min {ta['min']:.1f}, median {ta['median']:.1f}")
+    ui.table(table)
     for kind, path in res.files.items():
-        console.print(f"wrote {kind}: {path}")
-    console.print(f"done in {time.perf_counter() - t0:.2f} s")
-    return 0
+        ui.line(f"wrote {kind}: {path}")
+    ui.line(f"done in {time.perf_counter() - t0:.2f} s")
+    return EXIT_OK
+
+
+#: subcommand name -> handler(args, ui) -> exit status
+_COMMANDS = {"analyze": _analyze, "design": _design}
+
+
+# ---------------------------------------------------------------------- errors
+def _run_command(handler, args, ui: _Terminal, debug: bool) -> int:
+    """Run one subcommand and turn every exception into an exit status and a message.
+
+    The one error policy of the command line (see the module docstring).
+    """
+    from .core.errors import TorsalError
+
+    def show_warning(message, category, filename, lineno, file=None, line=None):
+        ui.note(f"warning: {message}")  # the message, not the library's source line
+
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = show_warning
+            return int(handler(args, ui) or EXIT_OK)
+    except KeyboardInterrupt:
+        ui.error("interrupted")
+        return 130
+    except TorsalError as exc:
+        ui.error(str(exc))
+        return int(getattr(exc, "exit_status", EXIT_BAD_INPUT))
+    except OSError as exc:
+        # a file the user named that vanished or cannot be read or written
+        where = f" {exc.filename}" if exc.filename else ""
+        ui.error(f"{exc.strerror or exc}:{where}" if exc.strerror else str(exc))
+        if debug:
+            ui.note(traceback.format_exc().rstrip())
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # a bug: one line and how to see more
+        first = (str(exc).strip().splitlines() or [""])[0]
+        ui.error(f"internal error: {type(exc).__name__}: {first}")
+        if debug:
+            ui.note(traceback.format_exc().rstrip())
+        else:
+            ui.note("this is a bug in torsal, not in your input; run again with --debug for the "
+                    "traceback and report it")
+        return EXIT_INTERNAL
 
 
 def main(argv: list[str] | None = None) -> int:
-    from rich.console import Console
+    """Run the command line; returns the exit status (see the module docstring).
 
-    args = _build_parser().parse_args(argv)
-    console = Console(stderr=False)
-    err = Console(stderr=True)
-    from .design import DesignError
-
+    Examples
+    --------
+    >>> main(["analyze", "no-such-mesh.obj"])  # doctest: +SKIP
+    2
+    """
     try:
-        if args.command == "analyze":
-            return _analyze(args, console)
-        if args.command == "design":
-            return _design(args, console)
-    except (FileNotFoundError, ValueError, DesignError) as exc:
-        err.print(f"[bold red]error:[/] {exc}")
-        return 2
-    return 1
+        args = _build_parser().parse_args(argv)
+    except SystemExit as exc:  # argparse printed usage and the problem
+        return int(exc.code) if isinstance(exc.code, int) else EXIT_BAD_INPUT
+    debug = bool(getattr(args, "debug", False)) or os.environ.get("TORSAL_DEBUG") == "1"
+    return _run_command(_COMMANDS[args.command], args, _Terminal(), debug)
 
 
 if __name__ == "__main__":

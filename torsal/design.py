@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import pickle
 import time
@@ -26,8 +27,9 @@ from .design_file import DesignFileError, DesignSpec, Region, load_design_file
 from .geometry.congruence import Congruence
 from .geometry.mesh import area_vector, edge_face_adjacency, load_mesh, validate_mesh
 from torsal.core.errors import TorsalError
+from torsal.core.inputs import check_input, read_input
 
-__all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignError",
+__all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError", "Design", "DesignError",
            "DesignFileError", "STAGES"]
 
 #: Pipeline stages in order.
@@ -38,23 +40,46 @@ JIT_MIN_VERTICES = 500  # default for constraints.jit (tests run smaller designs
 
 
 # ====================================================================== analyze
+class DirectionsError(TorsalError, ValueError):
+    """A directions file that cannot be used; the message names the file and the rows."""
+
+
+def read_directions(path: str | Path) -> np.ndarray:
+    """Read line directions, (k, 3), from ``.npy`` or a text/CSV file (one row per vertex, three
+    numbers separated by spaces or commas; ``#`` starts a comment). Rows are not yet matched to
+    a mesh: see :meth:`torsal.geometry.mesh.MeshMerge.to_merged`."""
+    path = check_input(path, "directions file")
+    try:
+        if path.suffix.lower() == ".npy":
+            d = np.load(path, allow_pickle=False)
+        else:
+            text = read_input(path, "directions file", text=True)
+            delim = "," if "," in text else None
+            d = np.loadtxt(io.StringIO(text), delimiter=delim, ndmin=2)
+    except (ValueError, EOFError, OSError) as exc:
+        raise DirectionsError(f"{path}: could not read directions ({exc}); expected rows 'x y z'"
+                              ) from None
+    d = np.asarray(d)
+    if d.ndim != 2 or d.shape[1] != 3 or not np.issubdtype(d.dtype, np.number):
+        raise DirectionsError(f"{path}: expected rows of 3 numbers 'x y z', got an array of shape "
+                              f"{d.shape}")
+    d = d.astype(float)
+    bad = np.flatnonzero(~np.isfinite(d).all(axis=1))
+    if bad.size:
+        raise DirectionsError(f"{path}: rows {bad[:10].tolist()} have NaN or infinite values")
+    zero = np.flatnonzero(np.linalg.norm(d, axis=1) == 0)
+    if zero.size:
+        raise DirectionsError(f"{path}: rows {zero[:10].tolist()} have zero length; every vertex "
+                              "needs a line direction")
+    return d
+
+
 def load_directions(path: str | Path, n_vertices: int) -> np.ndarray:
     """Read per-vertex line directions, (n, 3), from ``.npy`` or a text/CSV file (one row
     per vertex, three numbers separated by spaces or commas; ``#`` starts a comment)."""
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"directions file not found: {path}")
-    try:
-        if path.suffix.lower() == ".npy":
-            d = np.load(path)
-        else:
-            delim = "," if "," in path.read_text() else None
-            d = np.loadtxt(path, delimiter=delim, ndmin=2)
-    except ValueError as exc:
-        raise ValueError(f"{path}: could not read directions ({exc}); expected rows 'x y z'") from None
-    d = np.asarray(d, dtype=float)
-    if d.ndim != 2 or d.shape != (n_vertices, 3):
-        raise ValueError(
+    d = read_directions(path)
+    if d.shape != (n_vertices, 3):
+        raise DirectionsError(
             f"{path}: expected {n_vertices} rows of 3 numbers (one direction per mesh vertex), "
             f"got an array of shape {d.shape}"
         )
@@ -80,8 +105,10 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
     mesh : path
         OBJ/PLY/STL/OFF triangle mesh A in model units.
     directions : path, optional
-        Per-vertex line directions (see :func:`load_directions`); default the normal
-        congruence of A (area-weighted vertex normals).
+        Per-vertex line directions (see :func:`read_directions`), one row per vertex of the
+        file or per vertex after merging (see :func:`~torsal.geometry.mesh.load_mesh`; the
+        summary's ``directions_rows`` says which); default the normal congruence of A
+        (area-weighted vertex normals).
     out_dir : path, optional
         Where to write ``analysis.json`` and ``torsal_field.png`` (atomically, replacing
         earlier runs). Nothing is written when omitted.
@@ -96,13 +123,19 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
     """
     mesh_path = Path(mesh)
     m = load_mesh(mesh_path)
+    merge = m.metadata["merge"]
     if directions is None:
         c = Congruence.from_normals(m)
         kind = "normals"
     else:
-        c = Congruence(m.vertices, m.faces, load_directions(directions, len(m.vertices)))
+        d, per = merge.to_merged(read_directions(directions), what=f"directions file {directions}")
+        c = Congruence(m.vertices, m.faces, d)
         kind = str(directions)
-    summary = {"mesh": str(mesh_path), "directions": kind, **c.summary()}
+    summary = {"mesh": str(mesh_path), "directions": kind, **c.summary(),
+               "mesh_file": merge.as_dict()}
+    if directions is not None:
+        # which vertices the rows were read as: the file's (mapped onto merged ones) or the mesh's
+        summary["directions_rows"] = f"one per {per}"
     files = {}
     if out_dir is not None:
         out = Path(out_dir)

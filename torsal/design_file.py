@@ -42,6 +42,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .core.errors import TorsalError
+from .core.inputs import read_input
 from .core.units import UNIT_TO_M
 
 __all__ = [
@@ -314,15 +315,16 @@ def load_design_file(path: str | Path) -> DesignSpec:
     Raises
     ------
     FileNotFoundError
-        The file does not exist.
+        The file does not exist (a :class:`~torsal.core.inputs.MissingInputError`).
+    InputFileError
+        The path is a folder or cannot be read.
     DesignFileError
         Invalid TOML or an invalid key/value; the message names each offending key.
     """
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"design file not found: {path}")
+    text = read_input(path, "design file", text=True)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise DesignFileError(f"{path}: not valid TOML ({exc})") from None
     try:

@@ -1,20 +1,29 @@
 """Mesh loading and validation: bad input gets a clear error naming the problem."""
+import struct
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 import trimesh
 
+from torsal.core.errors import TorsalError
 from torsal.geometry.mesh import (
     MeshError,
     average_edge_length,
     boundary_vertices,
     edge_face_adjacency,
     load_mesh,
+    merge_vertices,
     umbrella_laplacian,
     validate_mesh,
     vertex_normals,
 )
 from torsal.geometry.surfaces import cylinder_patch, grid_faces
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import mesh_cases as mc  # noqa: E402  (tests/mesh_cases.py: independent writers)
 
 
 def _grid(n=4):
@@ -125,3 +134,144 @@ def test_area_weighted_normals():
     small /= np.linalg.norm(small)
     expected = 50 * big + 0.5 * small
     assert np.allclose(n[0], expected / np.linalg.norm(expected))
+
+
+# ---------------------------------------------------------------- the file's vertices
+def test_obj_per_face_normals_keeps_the_8_cube_vertices(tmp_path):
+    path = tmp_path / "cube.obj"
+    path.write_text(mc.obj_text(mc.CUBE_V, mc.CUBE_QUADS, normals="face", uv=True))
+    m = load_mesh(path)
+    merge = m.metadata["merge"]
+    assert len(m.vertices) == 8 and merge.identity and merge.polygons == 6
+    assert np.array_equal(m.vertices, mc.CUBE_V)              # file order, file coordinates
+    assert np.array_equal(m.faces, mc.quads_to_tris(mc.CUBE_QUADS))
+
+
+@pytest.mark.parametrize("fmt", ["obj", "ply", "ply-binary", "off", "stl", "stl-ascii"])
+def test_split_files_merge_back_to_the_shared_vertices(tmp_path, fmt):
+    """A file that gives every face its own vertices (seams everywhere) reads as the shared mesh."""
+    v, f = mc.grid()
+    sv, sf = mc.split_per_face(v, f)
+    write = {"obj": lambda: mc.obj_text(sv, sf), "ply": lambda: mc.ply_ascii(sv, sf),
+             "ply-binary": lambda: mc.ply_binary(sv, sf), "off": lambda: mc.off_text(sv, sf),
+             "stl": lambda: mc.stl_binary(v, f), "stl-ascii": lambda: mc.stl_ascii(v, f)}[fmt]()
+    path = tmp_path / f"split.{fmt.split('-')[0]}"
+    path.write_bytes(write if isinstance(write, bytes) else write.encode())
+    m = load_mesh(path)
+    merge = m.metadata["merge"]
+    assert merge.file_vertices == 3 * len(f) and merge.vertices == len(v)
+    assert merge.merged == 3 * len(f) - len(v) and merge.unused == 0
+    # merged vertices come in order of their first file vertex; faces keep their order
+    order = np.unique(f.ravel(), return_index=True)[1]
+    first_seen = f.ravel()[np.sort(order)]
+    atol = 1e-6 if fmt == "stl" else 1e-12  # binary STL stores float32
+    assert np.allclose(m.vertices, v[first_seen], atol=atol)
+    assert np.allclose(m.vertices[m.faces], v[f], atol=atol)
+    assert np.array_equal(merge.file_to_merged[sf] if fmt not in ("stl", "stl-ascii") else
+                          merge.file_to_merged.reshape(-1, 3), m.faces)
+
+
+def test_unused_vertices_are_dropped_and_reported(tmp_path):
+    v, f = mc.grid()
+    path = tmp_path / "unused.obj"
+    path.write_text(mc.obj_text(v, f, unused=[[9, 9, 9], [8, 8, 8]]))
+    m = load_mesh(path)
+    merge = m.metadata["merge"]
+    assert (merge.file_vertices, merge.vertices, merge.unused) == (len(v) + 2, len(v), 2)
+    assert merge.file_to_merged[-2:].tolist() == [-1, -1]
+    assert np.array_equal(m.vertices, v) and "2 in no face" in merge.describe()
+
+
+def test_merge_tolerance_is_relative_to_the_diagonal():
+    v, f = mc.grid()
+    diag = np.linalg.norm(np.ptp(v, axis=0))
+    sv, sf = mc.split_per_face(v, f)
+    rng = np.random.default_rng(0)
+    jitter = rng.uniform(-1, 1, sv.shape) * 0.2e-6 * diag / np.sqrt(3)  # well within 1e-6
+    mv, mf, merge = merge_vertices(sv + jitter, sf)
+    assert merge.vertices == len(v) and np.isclose(merge.tolerance, 1e-6 * diag)
+    mv, mf, merge = merge_vertices(sv + jitter, sf, tolerance=None)  # nothing merged
+    assert merge.vertices == len(sv)
+    mv, mf, merge = merge_vertices(1000 * sv, sf)  # units do not matter
+    assert merge.vertices == len(v)
+
+
+def test_to_merged_rows_per_file_or_merged_vertex():
+    v, f = mc.grid()
+    sv, sf = mc.split_per_face(v, f)
+    _, _, merge = merge_vertices(sv, sf)
+    d = np.c_[v[:, :2] * 0.1, np.ones(len(v))]
+    per_file = d[f.ravel()]                                   # one row per file vertex
+    out, per = merge.to_merged(per_file, what="d.txt")
+    order = np.sort(np.unique(f.ravel(), return_index=True)[1])
+    assert per == "file vertex" and np.array_equal(out, d[f.ravel()[order]])
+    out2, per2 = merge.to_merged(out)
+    assert per2 == "merged vertex" and out2 is not None
+    bad = per_file.copy()
+    bad[5] += 0.5  # a row that disagrees with the other rows of its merged vertex
+    with pytest.raises(MeshError, match=r"d.txt: rows \d+ and \d+ belong to file vertices at the same"):
+        merge.to_merged(bad, what="d.txt")
+    with pytest.raises(MeshError, match=r"7 rows, but the mesh has 20 vertices \(%d in the file" % len(sv)):
+        merge.to_merged(np.ones((7, 3)))
+
+
+# ---------------------------------------------------------------- headers and truncation
+@pytest.mark.parametrize("fmt", ["ply", "ply-binary", "off"])
+def test_header_counts_must_match_the_content(tmp_path, fmt):
+    v, f = mc.CUBE_V, mc.quads_to_tris(mc.CUBE_QUADS)
+    write = {"ply": lambda **k: mc.ply_ascii(v, f, **k).encode(),
+             "ply-binary": lambda **k: mc.ply_binary(v, f, **k),
+             "off": lambda **k: mc.off_text(v, f, **k).encode()}[fmt]
+    path = tmp_path / f"m.{fmt.split('-')[0]}"
+    path.write_bytes(write(n_face=100_000_000))
+    with pytest.raises(MeshError, match=r"declares (100000000 face|8 vertices and 100000000 faces)"):
+        load_mesh(path)
+    path.write_bytes(write(n_face=5))  # fewer than the file holds
+    with pytest.raises(MeshError, match="more data than the header declares|bytes after the records"):
+        load_mesh(path)
+    path.write_bytes(write(n_vertex=9))
+    with pytest.raises(MeshError, match="header"):
+        load_mesh(path)
+
+
+def test_truncated_files_are_rejected_with_the_line(tmp_path):
+    v, f = mc.grid()
+    text = mc.obj_text(v, f)
+    lines = text.splitlines()
+    path = tmp_path / "t.obj"
+    path.write_text("\n".join(lines[:-1]) + "\n" + lines[-1][:4])  # the last face cut short
+    with pytest.raises(MeshError, match=rf"t.obj: line {len(lines)}: .*truncated"):
+        load_mesh(path)
+    path.write_text(text[: text.index("\nv ", len(text) // 5) + 6])  # cut inside a vertex
+    with pytest.raises(MeshError, match=r"line \d+: a vertex needs x y z.*truncated"):
+        load_mesh(path)
+    stl = mc.stl_ascii(v, f)
+    (tmp_path / "t.stl").write_text(stl[: len(stl) // 2])
+    with pytest.raises(MeshError, match=r"t.stl: line \d+: .*truncated"):
+        load_mesh(tmp_path / "t.stl")
+    (tmp_path / "b.stl").write_bytes(mc.stl_binary(v, f)[:-20])
+    with pytest.raises(MeshError, match=rf"declares {len(f)} triangles .* truncated"):
+        load_mesh(tmp_path / "b.stl")
+    (tmp_path / "b.ply").write_bytes(mc.ply_binary(v, f, cut=7))
+    with pytest.raises(MeshError, match="truncated"):
+        load_mesh(tmp_path / "b.ply")
+    off = mc.off_text(v, f)
+    (tmp_path / "t.off").write_text(off[: len(off) - 9])
+    with pytest.raises(MeshError, match=r"t.off: line \d+:.*truncated"):
+        load_mesh(tmp_path / "t.off")
+
+
+def test_folder_and_garbage_are_named(tmp_path):
+    (tmp_path / "dir.obj").mkdir()
+    with pytest.raises(TorsalError, match="dir.obj is a folder"):
+        load_mesh(tmp_path / "dir.obj")
+    (tmp_path / "g.obj").write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(MeshError, match=r"g.obj: line 1: .* is not an OBJ statement"):
+        load_mesh(tmp_path / "g.obj")
+
+
+def test_big_endian_binary_ply(tmp_path):
+    v, f = mc.grid()
+    (tmp_path / "be.ply").write_bytes(mc.ply_binary(v, f, endian=">"))
+    m = load_mesh(tmp_path / "be.ply")
+    assert np.array_equal(m.vertices, v) and np.array_equal(m.faces, f)

@@ -4,7 +4,10 @@ Imports nothing from the rest of torsal.
 """
 from .atomic import atomic_path, write_json
 from .errors import TorsalError
+from .inputs import InputFileError, MissingInputError, check_input, read_input
+from .outputs import OutputFolderError, output_folder
 from .units import INSUNITS, UNIT_TO_M, UNIT_TO_MM, UNITS, scale
 
-__all__ = ["atomic_path", "write_json", "TorsalError", "UNIT_TO_MM", "UNIT_TO_M", "INSUNITS",
+__all__ = ["atomic_path", "write_json", "TorsalError", "InputFileError", "MissingInputError", "check_input",
+           "read_input", "OutputFolderError", "output_folder", "UNIT_TO_MM", "UNIT_TO_M", "INSUNITS",
            "UNITS", "scale"]

@@ -6,16 +6,24 @@ Lengths are in model units (whatever the mesh file uses).
 """
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 import trimesh
-from torsal.core.errors import TorsalError
+from torsal.core.inputs import check_input
+
+from .mesh_files import SUPPORTED_FORMATS, MeshError, RawMesh, read_mesh_file
 
 __all__ = [
     "MeshError",
+    "MeshMerge",
+    "MERGE_TOLERANCE",
     "load_mesh",
+    "merge_vertices",
+    "read_mesh_file",
     "validate_mesh",
     "edge_face_adjacency",
     "unique_edges",
@@ -28,12 +36,14 @@ __all__ = [
     "boundary_vertices",
 ]
 
-_SUPPORTED = (".obj", ".ply", ".stl", ".off")
+_SUPPORTED = SUPPORTED_FORMATS
 _MAX_LISTED = 10
 
-
-class MeshError(TorsalError, ValueError):
-    """A mesh that torsal cannot work on; the message names the problem and the fix."""
+#: Vertices closer than this times the bounding-box diagonal are one vertex: files split them
+#: at texture seams or per-face normals (PLY), or never share them (STL). A design surface has no
+#: two distinct vertices a millionth of its size apart; single-precision files (binary STL) round
+#: coordinates to about 1e-7 of it.
+MERGE_TOLERANCE = 1e-6
 
 
 def _listed(idx) -> str:
@@ -43,12 +53,208 @@ def _listed(idx) -> str:
     return f"[{shown}{more}]"
 
 
-def load_mesh(path: str | Path, *, validate: bool = True) -> trimesh.Trimesh:
-    """Load a triangle mesh from OBJ, PLY, STL or OFF and validate it.
+@dataclass(frozen=True)
+class MeshMerge:
+    """How a file's vertices became the mesh's vertices (see :func:`merge_vertices`).
 
-    Vertex order is kept as in the file (so per-vertex direction files stay valid),
-    except for STL, which has no shared vertices: there coincident vertices are merged.
-    Nothing is silently repaired: see :func:`validate_mesh` for what is checked.
+    Attributes
+    ----------
+    file_vertices : int
+        Vertex records in the file (STL: three per triangle).
+    vertices : int
+        Vertices of the mesh after merging and dropping unused ones.
+    file_to_merged : (file_vertices,) int
+        The mesh vertex of each file vertex; -1 for a file vertex in no face.
+    tolerance : float
+        Absolute merge distance used, model units (``MERGE_TOLERANCE`` times the diagonal).
+    polygons : int
+        Faces with more than three corners that were fan-triangulated.
+    format : str
+        The file format as read (``"obj"``, ``"stl binary"`` ...).
+    """
+
+    file_vertices: int
+    vertices: int
+    file_to_merged: np.ndarray
+    tolerance: float
+    polygons: int = 0
+    format: str = ""
+
+    @property
+    def unused(self) -> int:
+        """File vertices that are in no face (dropped)."""
+        return int((self.file_to_merged < 0).sum())
+
+    @property
+    def merged(self) -> int:
+        """File vertices that were merged into another one at the same position."""
+        return self.file_vertices - self.unused - self.vertices
+
+    @property
+    def identity(self) -> bool:
+        """True when the mesh's vertices are the file's, one for one, in file order."""
+        return self.vertices == self.file_vertices
+
+    def describe(self) -> str:
+        """One line for people, e.g. ``8 vertices (24 in the file: 16 merged ...)``."""
+        if self.identity:
+            text = f"{self.vertices} vertices as in the file"
+        else:
+            parts = []
+            if self.merged:
+                parts.append(f"{self.merged} merged with a vertex at the same position "
+                             f"(within {self.tolerance:.3g})")
+            if self.unused:
+                parts.append(f"{self.unused} in no face, dropped")
+            text = f"{self.vertices} vertices ({self.file_vertices} in the file: {'; '.join(parts)})"
+        if self.polygons:
+            text += f"; {self.polygons} polygons split into triangles"
+        return text
+
+    def as_dict(self) -> dict:
+        """For report files: counts and the tolerance (no per-vertex map)."""
+        return {"format": self.format, "file_vertices": self.file_vertices,
+                "vertices": self.vertices, "merged": self.merged, "unused": self.unused,
+                "merge_tolerance": self.tolerance, "polygons_triangulated": self.polygons}
+
+    def to_merged(self, values, *, what: str = "values", rtol: float = 1e-6):
+        """Per-vertex rows given per merged vertex or per file vertex -> per merged vertex.
+
+        Parameters
+        ----------
+        values : (k, ...) array
+            ``k`` is either :attr:`vertices` (used as given) or :attr:`file_vertices` (rows of
+            file vertices merged into one must agree to ``rtol`` of the largest value; rows of
+            unused vertices are ignored).
+        what : str
+            What the rows are, for messages (``"directions file d.txt"``).
+
+        Returns
+        -------
+        values : (vertices, ...) array
+        per : str
+            ``"vertex"`` (file and mesh vertices are the same), ``"merged vertex"`` or
+            ``"file vertex"``: which the rows were taken as.
+
+        Examples
+        --------
+        >>> m = MeshMerge(4, 3, np.array([0, 1, 0, 2]), 0.0)
+        >>> rows, per = m.to_merged(np.array([[1.], [2.], [1.], [3.]]))
+        >>> rows.ravel().tolist(), per
+        ([1.0, 2.0, 3.0], 'file vertex')
+        """
+        values = np.asarray(values)
+        k = len(values)
+        if self.identity and k == self.vertices:
+            return values, "vertex"
+        if k == self.vertices:
+            return values, "merged vertex"
+        if k != self.file_vertices:
+            raise MeshError(
+                f"{what}: {k} rows, but the mesh has {self.vertices} vertices"
+                + (f" ({self.file_vertices} in the file before merging); give one row per vertex "
+                   "of either" if not self.identity else "; give one row per vertex"))
+        used = np.flatnonzero(self.file_to_merged >= 0)
+        target = self.file_to_merged[used]
+        out = np.empty((self.vertices,) + values.shape[1:], dtype=values.dtype)
+        out[target[::-1]] = values[used[::-1]]  # the first file vertex of each group wins
+        scale = float(np.nanmax(np.abs(values[used]))) if used.size else 0.0
+        diff = np.abs(values[used] - out[target]).reshape(len(used), -1).max(axis=1)
+        bad = np.flatnonzero(~(diff <= rtol * max(scale, 1e-300)))
+        if bad.size:
+            f = used[bad[0]]
+            first = int(np.flatnonzero(self.file_to_merged == self.file_to_merged[f])[0])
+            raise MeshError(
+                f"{what}: rows {first} and {f} belong to file vertices at the same position "
+                f"(mesh vertex {self.file_to_merged[f]}) but differ ({_listed(used[bad])} "
+                "disagree); give the same row to vertices at one position, or one row per "
+                f"merged vertex ({self.vertices})")
+        return out, "file vertex"
+
+
+def merge_vertices(vertices: np.ndarray, faces: np.ndarray, *,
+                   tolerance: float | None = MERGE_TOLERANCE):
+    """Merge vertices at the same position and drop vertices in no face.
+
+    Vertices closer than ``tolerance`` times the bounding-box diagonal of the used vertices
+    (pairs found with a k-d tree, merged transitively) become one vertex at the position of the
+    first of them in the file. Merged vertices keep the file's order (by their first file
+    vertex), so a file without duplicates and unused vertices comes back unchanged.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float
+        The file's vertices.
+    faces : (F, 3) int
+        Indices into ``vertices``.
+    tolerance : float or None
+        Relative merge distance; ``None`` merges nothing (unused vertices are still dropped).
+
+    Returns
+    -------
+    vertices : (m, 3) float
+    faces : (F, 3) int
+        Same faces, same order, indices into the merged vertices.
+    merge : MeshMerge
+
+    Examples
+    --------
+    >>> v = np.array([[0., 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [5, 5, 5]])
+    >>> mv, mf, m = merge_vertices(v, np.array([[0, 1, 2], [3, 5, 4]]))
+    >>> mf.tolist(), m.vertices, m.merged, m.unused
+    ([[0, 1, 2], [1, 3, 2]], 4, 2, 1)
+    """
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces, dtype=np.int64)
+    n = len(v)
+    used = np.zeros(n, bool)
+    used[f.ravel()] = True
+    used_idx = np.flatnonzero(used)
+    label = np.arange(n)  # the group of each file vertex: the smallest file index in it
+    tol_abs = 0.0
+    pts = v[used_idx]
+    if tolerance is not None and used_idx.size and np.isfinite(pts).all():
+        diag = float(np.linalg.norm(np.ptp(pts, axis=0)))
+        tol_abs = float(tolerance) * diag
+        # exact duplicates first (STL has each vertex ~6 times), then near ones between those
+        uniq, first, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+        inverse = inverse.ravel()
+        group = np.arange(len(uniq))
+        if tol_abs > 0 and len(uniq) > 1:
+            from scipy.sparse.csgraph import connected_components
+            from scipy.spatial import cKDTree
+
+            pairs = cKDTree(uniq).query_pairs(tol_abs, output_type="ndarray")
+            if len(pairs):
+                graph = sp.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                                      shape=(len(uniq), len(uniq)))
+                group = connected_components(graph, directed=False)[1]
+        # representative of each group: its smallest file index
+        rep = np.full(group.max() + 1, n, dtype=np.int64)
+        np.minimum.at(rep, group[inverse], used_idx)
+        label[used_idx] = rep[group[inverse]]
+    reps = np.unique(label[used_idx])  # sorted: file order
+    new_index = np.full(n, -1, dtype=np.int64)
+    new_index[reps] = np.arange(len(reps))
+    file_to_merged = np.full(n, -1, dtype=np.int64)
+    file_to_merged[used_idx] = new_index[label[used_idx]]
+    merge = MeshMerge(file_vertices=n, vertices=len(reps), file_to_merged=file_to_merged,
+                      tolerance=tol_abs)
+    return v[reps], file_to_merged[f], merge
+
+
+def load_mesh(path: str | Path, *, validate: bool = True,
+              merge_tolerance: float | None = MERGE_TOLERANCE) -> trimesh.Trimesh:
+    """Load a triangle mesh from OBJ, PLY, STL or OFF, keeping the file's vertices, and validate it.
+
+    The file is read as it is (:func:`~torsal.geometry.mesh_files.read_mesh_file`: OBJ corners
+    index the file's ``v`` records whatever their texture or normal indices; headers are checked
+    against the content; a truncated file is an error naming the line). Then vertices at the same
+    position (within ``merge_tolerance`` times the bounding-box diagonal: STL, and files split at
+    seams or normals) are merged and vertices in no face dropped, by :func:`merge_vertices`; the
+    merge is reported in ``mesh.metadata["merge"]`` (a :class:`MeshMerge`). A file without
+    duplicates or unused vertices keeps its vertices one for one, in file order. Nothing else is
+    repaired: see :func:`validate_mesh` for what is checked.
 
     Parameters
     ----------
@@ -56,42 +262,39 @@ def load_mesh(path: str | Path, *, validate: bool = True) -> trimesh.Trimesh:
         Mesh file in model units.
     validate : bool, default True
         Run :func:`validate_mesh` and raise :class:`MeshError` on a bad mesh.
+    merge_tolerance : float or None, default ``MERGE_TOLERANCE`` (1e-6)
+        Relative merge distance; ``None``: keep coincident vertices apart.
 
     Returns
     -------
     trimesh.Trimesh
-        With ``process=False``: vertices and faces exactly as read.
+        With ``process=False``: the merged vertices and faces; ``metadata["merge"]`` says how.
 
     Examples
     --------
-    >>> mesh = load_mesh("examples/facade_7a.obj")  # doctest: +SKIP
-    >>> mesh.faces.shape  # doctest: +SKIP
-    (2048, 3)
+    >>> mesh = load_mesh("examples/facade_patch.obj")  # doctest: +SKIP
+    >>> mesh.metadata["merge"].describe()  # doctest: +SKIP
+    '1089 vertices as in the file'
     """
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"mesh file not found: {path}")
-    if path.suffix.lower() not in _SUPPORTED:
-        raise MeshError(
-            f"{path}: unsupported mesh format {path.suffix!r}; use one of {', '.join(_SUPPORTED)}"
-        )
-    if path.stat().st_size == 0:
-        raise MeshError(f"{path}: the file is empty; export the surface again")
-    try:
-        loaded = trimesh.load(path, force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types for broken files
-        raise MeshError(f"{path}: could not be read as a mesh ({exc})") from exc
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(f"{path}: contains no triangle faces; export the surface as a triangle mesh")
-    mesh = loaded
-    if path.suffix.lower() == ".stl":
-        mesh.merge_vertices()
+    path = check_input(path, "mesh file")
+    raw: RawMesh = read_mesh_file(path)
+    if len(raw.faces) == 0:
+        raise MeshError(f"{path}: contains no triangle faces ({len(raw.vertices)} vertices only); "
+                        "export the surface as a triangle mesh")
+    bad_v = np.flatnonzero(~np.isfinite(raw.vertices).all(axis=1))
+    if bad_v.size:
+        raise MeshError(f"{path}: vertices {_listed(bad_v)} have NaN or infinite coordinates; "
+                        "fix or remove them")
+    v, f, merge = merge_vertices(raw.vertices, raw.faces, tolerance=merge_tolerance)
+    merge = dataclasses.replace(merge, polygons=raw.polygons, format=raw.format)
     if validate:
         try:
-            validate_mesh(mesh.vertices, mesh.faces)
+            validate_mesh(v, f)
         except MeshError as exc:
-            raise MeshError(f"{path}: {exc}") from None
-    return mesh
+            note = (f" (after merging {merge.merged} file vertices within {merge.tolerance:.3g} "
+                    "of another)") if merge.merged else ""
+            raise MeshError(f"{path}: {exc}{note}") from None
+    return trimesh.Trimesh(v, f, process=False, metadata={"merge": merge, "file": str(path)})
 
 
 def _edge_keys(pairs: np.ndarray, n: int) -> np.ndarray:

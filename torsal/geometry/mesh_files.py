@@ -1,0 +1,499 @@
+"""Reading mesh files as the file has them: OBJ, PLY (ASCII and binary), OFF and STL.
+
+Each reader returns the file's own vertex records, in file order, and its faces as indices
+into them (polygons fan-triangulated). Nothing is merged, dropped or repaired here; that is
+:func:`torsal.geometry.mesh.merge_vertices`' job, and it reports what it did.
+
+Every reader checks the file against itself: counts a PLY or OFF header declares must match
+the records that follow (in both directions), a binary STL's triangle count must match its
+size, and a record cut short (a truncated file) is an error naming its line. Errors are
+:class:`MeshError` with the file name and,
+where there is one, the line number.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> p = pathlib.Path(tempfile.mkdtemp()) / "t.obj"
+>>> _ = p.write_text("v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nv 1 1 0\\nf 1 2 4 3\\n")
+>>> raw = read_mesh_file(p)
+>>> raw.vertices.shape, raw.faces.tolist(), raw.polygons
+((4, 3), [[0, 1, 3], [0, 3, 2]], 1)
+"""
+from __future__ import annotations
+
+import re
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from torsal.core.errors import TorsalError
+from torsal.core.inputs import read_input
+
+__all__ = ["MeshError", "RawMesh", "read_mesh_file", "SUPPORTED_FORMATS"]
+
+SUPPORTED_FORMATS = (".obj", ".ply", ".off", ".stl")
+
+
+class MeshError(TorsalError, ValueError):
+    """A mesh that torsal cannot work on; the message names the problem and the fix.
+
+    Defined here, the lowest mesh module, and re-exported by :mod:`torsal.geometry.mesh`.
+    """
+
+
+@dataclass(frozen=True)
+class RawMesh:
+    """A mesh exactly as the file has it.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float
+        Every vertex record of the file, in file order (STL: three per triangle).
+    faces : (F, 3) int
+        Triangles as indices into ``vertices``; polygons are fan-triangulated.
+    polygons : int
+        Number of faces with more than three corners that were fan-triangulated.
+    format : str
+        ``"obj"``, ``"ply"`` (``"ply binary"``), ``"off"``, ``"stl"`` or ``"stl binary"``.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    polygons: int
+    format: str
+
+
+def read_mesh_file(path: str | Path) -> RawMesh:
+    """Read OBJ, PLY, OFF or STL into a :class:`RawMesh` (the file's vertices and faces).
+
+    Raises :class:`~torsal.core.inputs.MissingInputError` (a ``FileNotFoundError``) for a
+    missing file, :class:`~torsal.core.inputs.InputFileError` for a folder
+    or an unreadable file and :class:`MeshError` for a file whose content is broken
+    (the message names the line).
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in SUPPORTED_FORMATS:
+        raise MeshError(f"{path}: unsupported mesh format {path.suffix!r}; "
+                            f"use one of {', '.join(SUPPORTED_FORMATS)}")
+    data = read_input(path, "mesh file")
+    if not data.strip():
+        raise MeshError(f"{path}: the file is empty; export the surface again")
+    reader = {".obj": _read_obj, ".ply": _read_ply, ".off": _read_off, ".stl": _read_stl}[suffix]
+    try:
+        return reader(data)
+    except _LineError as exc:
+        raise MeshError(f"{path}: {exc}") from None
+
+
+class _LineError(Exception):
+    """Internal: a message the public reader prefixes with the file name."""
+
+
+def _text_lines(data: bytes) -> list[str]:
+    return data.decode("utf-8", errors="replace").splitlines()
+
+
+def _floats(tokens, line_no: int, what: str, last: bool) -> list[float]:
+    try:
+        return [float(t) for t in tokens]
+    except ValueError:
+        raise _LineError(f"line {line_no}: {what} {' '.join(tokens)!r} is not numbers"
+                         + _truncated_hint(last)) from None
+
+
+def _truncated_hint(last: bool) -> str:
+    return " (the file ends here: is it truncated?)" if last else ""
+
+
+def _fan(polys: list[list[int]]) -> tuple[np.ndarray, int]:
+    """Fan-triangulate polygons (lists of >= 3 indices) -> (F, 3) int64, number of polygons."""
+    tris, n_poly = [], 0
+    for p in polys:
+        if len(p) == 3:
+            tris.append(p)
+        else:
+            n_poly += 1
+            tris.extend([p[0], p[k], p[k + 1]] for k in range(1, len(p) - 1))
+    return np.asarray(tris, dtype=np.int64).reshape(-1, 3), n_poly
+
+
+# ----------------------------------------------------------------------------- OBJ
+# statements that carry no triangle geometry; they are read past (free-form curves included)
+_OBJ_IGNORED = {"vt", "vn", "vp", "g", "o", "s", "mg", "usemtl", "mtllib", "l", "p", "cstype",
+                "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv",
+                "sp", "end", "con", "bevel", "c_interp", "d_interp", "lod", "maplib", "usemap",
+                "shadow_obj", "trace_obj", "ctech", "stech", "call", "csh"}
+
+
+def _read_obj(data: bytes) -> RawMesh:
+    text = data.decode("utf-8", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
+    lines = text.splitlines()
+    n_lines = len(lines)
+    verts: list[list[float]] = []
+    polys: list[list[int]] = []
+    poly_lines: list[int] = []
+    for k, line in enumerate(lines):
+        line_no, last = k + 1, k + 1 == n_lines
+        tokens = line.split("#", 1)[0].split()
+        if not tokens:
+            continue
+        key = tokens[0]
+        if key == "v":
+            if len(tokens) < 4:
+                raise _LineError(f"line {line_no}: a vertex needs x y z, got {line.strip()!r}"
+                                 + _truncated_hint(last))
+            verts.append(_floats(tokens[1:4], line_no, "vertex", last))
+        elif key == "f":
+            if len(tokens) < 4:
+                raise _LineError(f"line {line_no}: a face needs at least three corners, got "
+                                 f"{line.strip()!r}" + _truncated_hint(last))
+            corners = []
+            for t in tokens[1:]:
+                try:
+                    i = int(t.split("/", 1)[0])
+                except ValueError:
+                    raise _LineError(f"line {line_no}: face corner {t!r} is not a vertex index"
+                                     + _truncated_hint(last)) from None
+                if i == 0:
+                    raise _LineError(f"line {line_no}: vertex index 0 (OBJ indices start at 1)")
+                corners.append(i - 1 if i > 0 else len(verts) + i)  # negative: relative
+            polys.append(corners)
+            poly_lines.append(line_no)
+        elif key not in _OBJ_IGNORED:
+            raise _LineError(f"line {line_no}: {key[:20]!r} is not an OBJ statement "
+                             "(is this a text OBJ file?)" + _truncated_hint(last))
+    faces, n_poly = _fan(polys)
+    n = len(verts)
+    for corners, line_no in zip(polys, poly_lines):
+        if min(corners) < 0 or max(corners) >= n:
+            raise _LineError(f"line {line_no}: face refers to a vertex that does not exist "
+                             f"(the file has {n} vertices)")
+    return RawMesh(np.asarray(verts, dtype=float).reshape(-1, 3), faces, n_poly, "obj")
+
+
+# ----------------------------------------------------------------------------- PLY
+_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2",
+              "int16": "i2", "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4",
+              "uint": "u4", "uint32": "u4", "float": "f4", "float32": "f4", "double": "f8",
+              "float64": "f8"}
+_FACE_LISTS = ("vertex_indices", "vertex_index")
+
+
+@dataclass
+class _PlyElement:
+    name: str
+    count: int
+    line: int
+    props: list  # (name, dtype) or (name, count_dtype, item_dtype) for lists
+
+
+def _ply_header(data: bytes) -> tuple[list[_PlyElement], str, int, int]:
+    """Parse the header -> elements, format, byte offset of the data, header line count."""
+    m = re.search(rb"end_header[ \t]*\r?\n", data)
+    if not data.startswith(b"ply") or m is None:
+        if not data.startswith(b"ply"):
+            raise _LineError("line 1: not a PLY file (the first line must be 'ply')")
+        raise _LineError("the header has no 'end_header' line (is the file truncated?)")
+    header = data[:m.start()].decode("ascii", errors="replace").splitlines()
+    fmt, elements = None, []
+    for k, line in enumerate(header[1:], start=2):
+        t = line.split()
+        if not t or t[0] in ("comment", "obj_info"):
+            continue
+        if t[0] == "format":
+            if len(t) < 2 or t[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+                raise _LineError(f"line {k}: unknown PLY format {line.strip()!r}")
+            fmt = t[1]
+        elif t[0] == "element":
+            if len(t) != 3 or not t[2].isdigit():
+                raise _LineError(f"line {k}: expected 'element NAME COUNT', got {line.strip()!r}")
+            elements.append(_PlyElement(t[1], int(t[2]), k, []))
+        elif t[0] == "property":
+            if not elements:
+                raise _LineError(f"line {k}: property before any element")
+            if len(t) == 5 and t[1] == "list" and t[2] in _PLY_TYPES and t[3] in _PLY_TYPES:
+                elements[-1].props.append((t[4], _PLY_TYPES[t[2]], _PLY_TYPES[t[3]]))
+            elif len(t) == 3 and t[1] in _PLY_TYPES:
+                elements[-1].props.append((t[2], _PLY_TYPES[t[1]]))
+            else:
+                raise _LineError(f"line {k}: cannot read property {line.strip()!r}")
+        else:
+            raise _LineError(f"line {k}: unknown header line {line.strip()!r}")
+    if fmt is None:
+        raise _LineError("the header has no 'format' line")
+    return elements, fmt, m.end(), len(header) + 1
+
+
+def _ply_check_elements(elements: list[_PlyElement]) -> tuple[_PlyElement, _PlyElement | None]:
+    by_name = {e.name: e for e in elements}
+    vertex = by_name.get("vertex")
+    if vertex is None:
+        raise _LineError("the header declares no 'element vertex'")
+    names = [p[0] for p in vertex.props]
+    if not {"x", "y", "z"} <= set(names):
+        raise _LineError(f"line {vertex.line}: the vertex element has no x, y, z properties "
+                         f"(has {', '.join(names) or 'none'})")
+    face = by_name.get("face")
+    if face is not None and not any(len(p) == 3 and p[0] in _FACE_LISTS for p in face.props):
+        raise _LineError(f"line {face.line}: the face element has no 'vertex_indices' list")
+    return vertex, face
+
+
+def _read_ply(data: bytes) -> RawMesh:
+    elements, fmt, offset, n_header = _ply_header(data)
+    vertex, face = _ply_check_elements(elements)
+    if fmt == "ascii":
+        records = _ply_ascii(data[offset:], elements, n_header)
+    else:
+        records = _ply_binary(data, offset, elements, "<" if fmt.endswith("little_endian") else ">")
+    names = [p[0] for p in vertex.props]
+    vv = records["vertex"]
+    verts = np.stack([vv[names.index(a)] for a in "xyz"], axis=1).astype(float)
+    if face is None:
+        return RawMesh(verts, np.zeros((0, 3), np.int64), 0, "ply")
+    k = next(i for i, p in enumerate(face.props) if len(p) == 3 and p[0] in _FACE_LISTS)
+    lists = records["face"][k]
+    bad = [i for i, p in enumerate(lists) if len(p) < 3]
+    if bad:
+        raise _LineError(f"face {bad[0]} has {len(lists[bad[0]])} corners; faces need at least three")
+    polys = [list(map(int, p)) for p in lists]
+    faces, n_poly = _fan(polys)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(verts)):
+        bad_f = next(i for i, p in enumerate(polys) if min(p) < 0 or max(p) >= len(verts))
+        raise _LineError(f"face {bad_f} refers to a vertex that does not exist "
+                         f"(the header declares {len(verts)} vertices)")
+    return RawMesh(verts, faces, n_poly, "ply" if fmt == "ascii" else "ply binary")
+
+
+def _declared(e: _PlyElement) -> str:
+    return f"the header (line {e.line}) declares {e.count} {e.name} records"
+
+
+def _ply_ascii(body: bytes, elements: list[_PlyElement], n_header: int) -> dict:
+    """ASCII PLY: one record per line; returns {element: [column per property]}."""
+    lines = _text_lines(body)
+    pos, out = 0, {}
+    for e in elements:
+        cols: list[list] = [[] for _ in e.props]
+        for r in range(e.count):
+            while pos < len(lines) and not lines[pos].strip():
+                pos += 1
+            if pos >= len(lines):
+                raise _LineError(f"{_declared(e)} but the file ends after {r} of them "
+                                 f"(line {n_header + len(lines)}): truncated file or wrong header")
+            tokens, line_no = lines[pos].split(), n_header + pos + 1
+            pos += 1
+            at = 0
+            try:
+                for c, p in enumerate(e.props):
+                    if len(p) == 3:
+                        n = int(tokens[at])
+                        if n < 0 or at + 1 + n > len(tokens):
+                            raise IndexError
+                        cols[c].append([int(x) for x in tokens[at + 1:at + 1 + n]])
+                        at += 1 + n
+                    else:
+                        cols[c].append(float(tokens[at]))
+                        at += 1
+            except (IndexError, ValueError):
+                raise _LineError(f"line {line_no}: {e.name} record {r} is cut short or not numbers "
+                                 f"({lines[pos - 1].strip()[:60]!r})"
+                                 + _truncated_hint(pos == len(lines))) from None
+            if at != len(tokens):
+                raise _LineError(f"line {line_no}: {e.name} record {r} has {len(tokens)} values, "
+                                 f"the header's properties take {at}")
+        out[e.name] = [np.asarray(c) if len(p) == 2 else c for c, p in zip(cols, e.props)]
+    rest = [k for k in range(pos, len(lines)) if lines[k].strip()]
+    if rest:
+        total = ", ".join(f"{e.count} {e.name}" for e in elements)
+        raise _LineError(f"line {n_header + rest[0] + 1}: more data than the header declares "
+                         f"({total} records); the header's counts are wrong")
+    return out
+
+
+def _ply_binary(data: bytes, offset: int, elements: list[_PlyElement], endian: str) -> dict:
+    """Binary PLY; sizes are checked against the file before anything is allocated."""
+    out = {}
+    for e in elements:
+        remaining = len(data) - offset
+        if all(len(p) == 2 for p in e.props):
+            dt = np.dtype([(f"p{i}", endian + p[1]) for i, p in enumerate(e.props)])
+            need = e.count * dt.itemsize
+            if need > remaining:
+                raise _LineError(f"{_declared(e)} ({need} bytes) but only {remaining} bytes follow: "
+                                 "truncated file or wrong header")
+            arr = np.frombuffer(data, dt, count=e.count, offset=offset)
+            offset += need
+            out[e.name] = [arr[f"p{i}"] for i in range(len(e.props))]
+        else:
+            out[e.name], offset = _ply_binary_lists(data, offset, e, endian)
+    rest = data[offset:]
+    if rest.strip():
+        total = ", ".join(f"{e.count} {e.name}" for e in elements)
+        raise _LineError(f"{len(rest)} bytes after the records the header declares ({total}); "
+                         "the header's counts are wrong")
+    return out
+
+
+def _ply_binary_lists(data: bytes, offset: int, e: _PlyElement, endian: str):
+    """Records with list properties, read one by one (a fast path for all-triangle faces)."""
+    if len(e.props) == 1:
+        _, ct, it = e.props[0]
+        dt = np.dtype([("n", endian + ct), ("i", endian + it, 3)])
+        if offset + e.count * dt.itemsize <= len(data):
+            arr = np.frombuffer(data, dt, count=e.count, offset=offset)
+            if np.all(arr["n"] == 3):
+                return [arr["i"].astype(np.int64)], offset + e.count * dt.itemsize
+    cols: list[list] = [[] for _ in e.props]
+    for r in range(e.count):
+        for c, p in enumerate(e.props):
+            try:
+                if len(p) == 3:
+                    size_c, size_i = np.dtype(p[1]).itemsize, np.dtype(p[2]).itemsize
+                    n = int(np.frombuffer(data, endian + p[1], count=1, offset=offset)[0])
+                    offset += size_c
+                    if offset + n * size_i > len(data):
+                        raise ValueError
+                    cols[c].append(np.frombuffer(data, endian + p[2], count=n, offset=offset))
+                    offset += n * size_i
+                else:
+                    cols[c].append(np.frombuffer(data, endian + p[1], count=1, offset=offset)[0])
+                    offset += np.dtype(p[1]).itemsize
+            except ValueError:
+                raise _LineError(f"{_declared(e)} but the file ends inside record {r}: "
+                                 "truncated file or wrong header") from None
+    return cols, offset
+
+
+# ----------------------------------------------------------------------------- OFF
+_OFF_KEY = re.compile(r"^(ST)?C?N?OFF$")
+
+
+def _read_off(data: bytes) -> RawMesh:
+    lines = _text_lines(data)
+    content = [(k + 1, line.split("#", 1)[0].split()) for k, line in enumerate(lines)]
+    content = [(n, t) for n, t in content if t]
+    if not content:
+        raise _LineError("no header: the file holds only comments")
+    pos = 0
+    n0, t0 = content[0]
+    if _OFF_KEY.match(t0[0]):
+        if len(t0) > 1 and t0[1].upper() == "BINARY":
+            raise _LineError(f"line {n0}: binary OFF is not supported; export ASCII OFF, OBJ or PLY")
+        counts, count_line = t0[1:], n0
+        pos = 1
+        if not counts:
+            if len(content) < 2:
+                raise _LineError(f"line {n0}: the file ends before the counts line (is it truncated?)")
+            count_line, counts = content[1]
+            pos = 2
+    elif t0[0][0].isdigit():
+        counts, count_line, pos = t0, n0, 1  # the OFF keyword is optional
+    else:
+        raise _LineError(f"line {n0}: not an OFF file (the first line must be OFF, got {t0[0][:20]!r})")
+    try:
+        nv, nf = int(counts[0]), int(counts[1])
+        if nv < 0 or nf < 0:
+            raise ValueError
+    except (ValueError, IndexError):
+        raise _LineError(f"line {count_line}: expected 'vertices faces edges' counts, got "
+                         f"{' '.join(counts)!r}") from None
+    declared = f"the header (line {count_line}) declares {nv} vertices and {nf} faces"
+    if len(content) - pos < nv + nf:
+        have = len(content) - pos
+        raise _LineError(f"{declared} but the file holds {have} records after it "
+                         f"({min(have, nv)} vertices, {max(0, have - nv)} faces; last line "
+                         f"{content[-1][0]}): truncated file or wrong header")
+    last_line = content[-1][0]
+    verts = []
+    for n, t in content[pos:pos + nv]:
+        if len(t) < 3:
+            raise _LineError(f"line {n}: a vertex needs x y z, got {' '.join(t)!r}"
+                             + _truncated_hint(n == last_line))
+        verts.append(_floats(t[:3], n, "vertex", n == last_line))
+    polys = []
+    for n, t in content[pos + nv:pos + nv + nf]:
+        try:
+            k = int(t[0])
+            corners = [int(x) for x in t[1:1 + k]]
+        except ValueError:
+            raise _LineError(f"line {n}: face {' '.join(t)!r} is not 'count i j k ...'") from None
+        if k < 3 or len(corners) != k:
+            raise _LineError(f"line {n}: a face needs a corner count >= 3 and that many indices, got "
+                             f"{' '.join(t)!r}" + _truncated_hint(n == last_line))
+        if min(corners) < 0 or max(corners) >= nv:
+            raise _LineError(f"line {n}: face refers to a vertex that does not exist "
+                             f"(the header declares {nv} vertices; OFF indices start at 0)")
+        polys.append(corners)
+    if len(content) - pos > nv + nf:
+        raise _LineError(f"line {content[pos + nv + nf][0]}: more data than the header declares "
+                         f"({declared}); the header's counts are wrong")
+    faces, n_poly = _fan(polys)
+    return RawMesh(np.asarray(verts, dtype=float).reshape(-1, 3), faces, n_poly, "off")
+
+
+# ----------------------------------------------------------------------------- STL
+def _read_stl(data: bytes) -> RawMesh:
+    if len(data) >= 84:
+        (count,) = struct.unpack("<I", data[80:84])
+        if len(data) == 84 + 50 * count:
+            return _stl_binary(data, count)
+    if data.lstrip()[:5].lower() == b"solid":
+        return _stl_ascii(data)
+    if len(data) < 84:
+        raise _LineError(f"only {len(data)} bytes: too short for a binary STL (84-byte header) "
+                         "and not an ASCII STL (no 'solid'): truncated file?")
+    raise _LineError(f"the binary STL header declares {count} triangles ({84 + 50 * count} bytes) "
+                     f"but the file has {len(data)} bytes: truncated file or wrong header")
+
+
+def _stl_binary(data: bytes, count: int) -> RawMesh:
+    dt = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
+    tri = np.frombuffer(data, dt, count=count, offset=84)
+    verts = tri["v"].reshape(-1, 3).astype(float)
+    return RawMesh(verts, np.arange(len(verts), dtype=np.int64).reshape(-1, 3), 0, "stl binary")
+
+
+def _stl_ascii(data: bytes) -> RawMesh:
+    lines = _text_lines(data)
+    verts: list[list[float]] = []
+    polys: list[list[int]] = []
+    loop: list[int] | None = None
+    in_solid = False
+    for k, line in enumerate(lines):
+        t, n, last = line.split(), k + 1, k + 1 == len(lines)
+        if not t:
+            continue
+        key = t[0].lower()
+        if key == "solid":
+            in_solid = True
+        elif key == "endsolid":
+            if loop is not None:
+                raise _LineError(f"line {n}: 'endsolid' inside an unfinished facet")
+            in_solid = False
+        elif key == "facet" or key == "endfacet":
+            pass
+        elif key == "outer":
+            loop = []
+        elif key == "vertex":
+            if loop is None or len(t) != 4:
+                raise _LineError(f"line {n}: expected 'vertex x y z' inside 'outer loop', got "
+                                 f"{line.strip()!r}" + _truncated_hint(last))
+            loop.append(len(verts))
+            verts.append(_floats(t[1:], n, "vertex", last))
+        elif key == "endloop":
+            if loop is None or len(loop) < 3:
+                raise _LineError(f"line {n}: a facet needs at least three vertices")
+            polys.append(loop)
+            loop = None
+        else:
+            raise _LineError(f"line {n}: {t[0][:20]!r} is not an ASCII STL keyword"
+                             + _truncated_hint(last))
+    if in_solid or loop is not None:
+        raise _LineError(f"line {len(lines)}: the file ends inside a "
+                         f"{'facet' if loop is not None else 'solid'} (no 'endsolid'): truncated file")
+    faces, n_poly = _fan(polys)
+    return RawMesh(np.asarray(verts, dtype=float).reshape(-1, 3), faces, n_poly, "stl")
