@@ -28,15 +28,15 @@ def _depth(spec, depth):
 
 def test_default_stage_order_and_public_names():
     assert STAGES == DEFAULT_PIPELINE.names
-    assert STAGES[:4] == ("surface", "sun", "orient", "congruence")
+    assert STAGES[:5] == ("surface", "estimate", "sun", "orient", "congruence")
     assert STAGES.index("fabrication") < STAGES.index("report") == len(STAGES) - 1
 
 
 def test_keys_follow_the_inputs_only():
     a, b = stage_keys(DEFAULT_PIPELINE, SPEC), stage_keys(DEFAULT_PIPELINE, _depth(SPEC, 0.6))
     # a change of fin depth keeps every key upstream of the remeshing
-    assert [s for s in STAGES if s in a and a[s] == b[s]] == ["surface", "sun", "orient",
-                                                              "congruence"]
+    assert [s for s in STAGES if s in a and a[s] == b[s]] == ["surface", "estimate", "sun",
+                                                              "orient", "congruence"]
     assert "substructure" not in a          # does not apply without a [substructure] table
     thicker = SPEC.model_copy(update={"material": SPEC.material.model_copy(
         update={"thickness_mm": 5.0})})

@@ -92,6 +92,9 @@ def _add_design(sub, common) -> None:
     d.add_argument("file", help="TOML design file")
     d.add_argument("--out", metavar="DIR", required=True, help="output folder")
     d.add_argument("--no-cache", action="store_true", help="recompute every stage")
+    d.add_argument("--no-size-limit", action="store_true",
+                   help="run even when the size estimate (fins, optimizer variables, rays, parts, "
+                        "disk) is above the limits in the README")
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -122,7 +125,8 @@ def _design(args, ui: _Terminal) -> int:
     out = output_folder(args.out)
     progress = _DesignProgress(ui, design, STAGES)
     with progress:
-        res = design.run(out, progress=progress, use_cache=not args.no_cache)
+        res = design.run(out, progress=progress, use_cache=not args.no_cache,
+                         size_limit=not args.no_size_limit)
     r = res.report
     s, li, fa = r["support"], r["light"], r["fabrication"]
     ui.line(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
@@ -278,6 +282,7 @@ def _run_command(handler, args, ui: _Terminal, debug: bool) -> int:
         return 130
     except TorsalError as exc:
         ui.error(str(exc))
+        _notes(ui, exc)
         return int(getattr(exc, "exit_status", EXIT_BAD_INPUT))
     except OSError as exc:
         # a file the user named that vanished or cannot be read or written
@@ -289,12 +294,19 @@ def _run_command(handler, args, ui: _Terminal, debug: bool) -> int:
     except Exception as exc:  # a bug: one line and how to see more
         first = (str(exc).strip().splitlines() or [""])[0]
         ui.error(f"internal error: {type(exc).__name__}: {first}")
+        _notes(ui, exc)
         if debug:
             ui.note(traceback.format_exc().rstrip())
         else:
             ui.note("this is a bug in torsal, not in your input; run again with --debug for the "
                     "traceback and report it")
         return EXIT_INTERNAL
+
+
+def _notes(ui: _Terminal, exc: BaseException) -> None:
+    """Print what an error's notes add (which stage, what the output folder holds)."""
+    for note in getattr(exc, "__notes__", ()):
+        ui.note(f"  {note}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -60,7 +60,8 @@ class DesignFileError(TorsalError, ValueError):
 
 
 class _Spec(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # nan and inf (valid TOML floats) are never a sensible length, angle or weight
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 Vec3 = tuple[float, float, float]
@@ -98,6 +99,28 @@ class SurfaceSpec(_Spec):
     params: dict[str, float | int] = Field(default_factory=dict)
 
     @model_validator(mode="after")
+    def _generator_params(self):
+        if self.generator is None:
+            return self
+        import inspect
+
+        from .geometry.surfaces import GENERATORS
+
+        allowed = [n for n, p in inspect.signature(GENERATORS[self.generator]).parameters.items()
+                   if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        unknown = sorted(set(self.params) - set(allowed))
+        if unknown:
+            raise ValueError(f"surface.params {unknown} do not fit generator '{self.generator}'; "
+                             f"it takes {', '.join(allowed)}")
+        for name in ("nu", "nv"):
+            if name in self.params:
+                val = self.params[name]
+                if val != int(val) or val < 3:
+                    raise ValueError(f"surface.params.{name} = {val} must be a whole number of grid "
+                                     "vertices, at least 3")
+        return self
+
+    @model_validator(mode="after")
     def _one_source(self):
         if (self.mesh is None) == (self.generator is None):
             raise ValueError("give exactly one of surface.mesh (a file) or surface.generator "
@@ -126,6 +149,38 @@ class SiteSpec(_Spec):
         return v
 
 
+#: the shortest sun.step: a minute already gives 525 600 sun positions a year
+MIN_SUN_STEP = "1min"
+
+
+def _check_step(v: str) -> str:
+    """A positive pandas time step of at least :data:`MIN_SUN_STEP` ("1h", "30min", "15min")."""
+    import pandas as pd
+
+    try:
+        td = pd.Timedelta(pd.tseries.frequencies.to_offset(v))
+    except (ValueError, TypeError):
+        raise ValueError(f"sun.step = {v!r} is not a time step; write e.g. '1h', '30min' or "
+                         "'15min'") from None
+    if td < pd.Timedelta(MIN_SUN_STEP):
+        raise ValueError(f"sun.step = {v!r} must be at least {MIN_SUN_STEP} (and not zero or "
+                         "negative); '1h' is plenty for a sun path")
+    return v
+
+
+def _check_directions(v):
+    """Sun directions: at least one, each of non-zero length."""
+    if v is None:
+        return v
+    if len(v) == 0:
+        raise ValueError("the list of sun vectors is empty; give at least one [x, y, z]")
+    zero = [k for k, d in enumerate(v) if sum(x * x for x in d) == 0]
+    if zero:
+        raise ValueError(f"sun vectors {zero[:10]} have zero length; a direction needs a "
+                         "non-zero [x, y, z] (site -> sun)")
+    return v
+
+
 class SunSpec(_Spec):
     """When the sun matters: a date range with a daily window of local hours, an EPW weather
     file with a hot-hour rule, or explicit sun vectors (site -> sun, model frame)."""
@@ -138,7 +193,18 @@ class SunSpec(_Spec):
     epw: Path | None = None
     min_temperature: float = 26.0
     min_dni: float = 300.0
-    vectors: list[Vec3] | None = None
+    vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame; any "
+                                        "length but zero")
+
+    @field_validator("step")
+    @classmethod
+    def _step(cls, v):
+        return _check_step(v)
+
+    @field_validator("vectors")
+    @classmethod
+    def _vectors(cls, v):
+        return _check_directions(v)
 
     @model_validator(mode="after")
     def _one_source(self):
@@ -182,6 +248,11 @@ class SunRegion(_Spec):
 
     region: Region
     vectors: list[Vec3]
+
+    @field_validator("vectors")
+    @classmethod
+    def _vectors(cls, v):
+        return _check_directions(v)
 
 
 class GoalsSpec(_Spec):
@@ -298,13 +369,15 @@ def _format_errors(exc: ValidationError, source: str) -> str:
     lines = [f"{source}: {exc.error_count()} problem(s) in the design file"]
     for err in exc.errors():
         key = ".".join(str(p) for p in err["loc"]) or "(top level)"
-        msg = err["msg"]
+        msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
-            msg = "unknown key (check the spelling; see torsal/design_file.py for the allowed keys)"
-        elif err["type"] == "literal_error":
-            msg = f"{msg}"
-        lines.append(f"  {key}: {msg} (got {err.get('input')!r})" if err["type"] != "missing"
-                     else f"  {key}: missing (required)")
+            msg = "unknown key (check the spelling; the README lists every key)"
+        if err["type"] == "missing":
+            lines.append(f"  {key}: missing (required)")
+        elif isinstance(err.get("input"), dict):  # a table-level rule: the message names the keys
+            lines.append(f"  {key}: {msg}")
+        else:
+            lines.append(f"  {key}: {msg} (got {err.get('input')!r})")
     return "\n".join(lines)
 
 

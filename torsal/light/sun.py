@@ -30,12 +30,16 @@ import numpy as np
 import pandas as pd
 
 from torsal.core.atomic import atomic_path
+from torsal.core.errors import TorsalError
+from torsal.core.inputs import read_input
 
 __all__ = [
     "SunDirections",
     "sun_directions",
     "sun_path",
     "hot_hours",
+    "read_epw",
+    "EPWError",
     "light_directions",
     "write_synthetic_epw",
 ]
@@ -364,12 +368,8 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
     SunDirections
         Above-horizon directions with ``weights`` = DNI in W/m^2, times at mid-interval.
     """
-    import pvlib
-
     path = Path(epw_path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no EPW weather file at {path}")
-    data, meta = pvlib.iotools.read_epw(str(path), coerce_year=coerce_year)
+    data, meta = read_epw(path, coerce_year=coerce_year)
     mid = data.index + pd.Timedelta(minutes=30)
     temp = data["temp_air"].to_numpy(float)
     dni = data["dni"].to_numpy(float)
@@ -390,6 +390,78 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
 
 
 _EPW_COLUMNS = 35
+_EPW_HEADER_LINES = 8
+
+
+class EPWError(TorsalError, ValueError):
+    """A weather file that is not a usable EPW; the message names the file and the line."""
+
+
+def read_epw(path, *, coerce_year: int | None = None):
+    """Read an EPW weather file with ``pvlib.iotools.read_epw`` after checking its content.
+
+    pvlib reads an empty or foreign file as a table without columns (a ``KeyError`` later);
+    here the LOCATION line (latitude, longitude, time zone, elevation as numbers), the eight
+    header lines and every data row (35 fields, numeric temperature and DNI) are checked, and
+    :class:`EPWError` names the file and the first bad line.
+
+    Returns
+    -------
+    data : pandas.DataFrame
+        pvlib's columns (``temp_air`` degC, ``dni`` W/m^2, ...), one row per hour.
+    meta : dict
+        ``latitude``, ``longitude`` (degrees), ``TZ`` (hours), ``altitude`` (m), ...
+    """
+    import io
+
+    import pvlib
+
+    path = Path(path)
+    raw = read_input(path, "EPW weather file")
+    text = raw.decode("utf-8") if _is_utf8(raw) else raw.decode("latin-1")
+    lines = text.splitlines()
+    loc = lines[0].split(",") if lines else []
+    if len(loc) < 10 or loc[0].strip().upper() != "LOCATION":
+        first = repr(lines[0][:40]) if lines else "an empty file"
+        raise EPWError(f"{path}: not an EPW weather file (the first line must be "
+                       f"'LOCATION,city,...,latitude,longitude,timezone,elevation'; got {first})")
+    try:
+        lat, lon, tz, elev = (float(x) for x in loc[6:10])
+    except ValueError:
+        raise EPWError(f"{path}: line 1: latitude, longitude, time zone and elevation (fields "
+                       f"7-10) must be numbers, got {','.join(loc[6:10])!r}") from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180 and -12 <= tz <= 14):
+        raise EPWError(f"{path}: line 1: latitude {lat}, longitude {lon}, time zone {tz} out of "
+                       "range")
+    rows = lines[_EPW_HEADER_LINES:]
+    if not any(r.strip() for r in rows):
+        raise EPWError(f"{path}: no hourly data rows after the {_EPW_HEADER_LINES} header lines")
+    for k, row in enumerate(rows):
+        fields = row.split(",")
+        line_no = _EPW_HEADER_LINES + k + 1
+        if not row.strip() and k == len(rows) - 1:
+            continue
+        if len(fields) < _EPW_COLUMNS:
+            raise EPWError(f"{path}: line {line_no}: {len(fields)} fields, an EPW data row has "
+                           f"{_EPW_COLUMNS} (truncated or damaged file?)")
+        try:
+            float(fields[6]), float(fields[14])  # dry-bulb temperature, direct normal irradiance
+        except ValueError:
+            raise EPWError(f"{path}: line {line_no}: temperature {fields[6]!r} or DNI "
+                           f"{fields[14]!r} is not a number") from None
+    try:
+        return pvlib.iotools.read_epw(io.StringIO(text), coerce_year=coerce_year)
+    except (ValueError, KeyError, IndexError) as exc:
+        raise EPWError(f"{path}: pvlib could not read it as EPW ({type(exc).__name__}: {exc})"
+                       ) from None
+
+
+def _is_utf8(raw: bytes) -> bool:
+    try:
+        raw.decode("utf-8")
+        return True
+    except UnicodeDecodeError:
+        return False
 
 
 def write_synthetic_epw(path, latitude: float, longitude: float, *, tz_hours: float,

@@ -2,15 +2,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
+from ..core.outputs import output_folder
 from ..design_file import DesignSpec, load_design_file
 from .cache import StageCache
 from .errors import Progress, quiet
-from .stage import Pipeline, StageRun, run_stages
-from .stages import DEFAULT_PIPELINE, sun_directions, surface_mesh
+from .stage import Pipeline, Stage, StageRun, run_stages
+from .stages import DEFAULT_PIPELINE, run_estimate, sun_directions, surface_mesh
+from .staging import Staging
 
 __all__ = ["Design", "DesignResult"]
 
@@ -32,8 +35,8 @@ class Design:
     optional developable refinement (Fig. 10), light measurement and fabrication, one
     :class:`~torsal.pipeline.Stage` each (:data:`~torsal.pipeline.DEFAULT_PIPELINE`). Each
     stage's result is cached by a hash of its inputs, so a changed material re-runs only
-    fabrication. Outputs are written atomically; a failing stage raises
-    :class:`~torsal.pipeline.DesignError` naming the stage and leaves earlier outputs intact.
+    fabrication. Result files appear together when the run succeeds; a failing stage raises
+    :class:`~torsal.pipeline.DesignError` naming the stage, and leaves no result files.
 
     Examples
     --------
@@ -61,7 +64,7 @@ class Design:
 
     def run(self, out_dir: str | Path, *, progress: Progress | None = None,
             use_cache: bool = True, cache: StageCache | None = None,
-            pipeline: Pipeline = DEFAULT_PIPELINE) -> DesignResult:
+            pipeline: Pipeline = DEFAULT_PIPELINE, size_limit: bool = True) -> DesignResult:
         """Run every stage and write all outputs into ``out_dir``.
 
         Parameters
@@ -77,20 +80,41 @@ class Design:
             stage). A study passes one cache shared by its variants.
         pipeline : Pipeline
             The stages to run; default :data:`~torsal.pipeline.DEFAULT_PIPELINE`.
+        size_limit : bool
+            Stop before the expensive stages when the estimated size is above
+            :data:`~torsal.pipeline.checks.SIZE_LIMITS` (the ``estimate`` stage); False runs
+            anyway (the estimate is still in the report).
+
+        Result files appear in ``out_dir`` together, when every stage succeeded
+        (:class:`~torsal.pipeline.staging.Staging`); a failed run leaves none, not even the
+        earlier run's, and keeps the stage cache.
 
         Raises
         ------
         DesignError
-            Naming the stage that failed.
+            Naming the stage that failed (and the design key, when a value is the cause); a
+            note says what the output folder holds.
+        OutputFolderError
+            ``out_dir`` is empty, a file, under a file or not writable.
         """
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        out = output_folder(out_dir, option="output folder")
         if cache is None:
             cache = StageCache(out / ".torsal-cache", enabled=use_cache)
         elif not use_cache:
             cache = StageCache(cache.folder, enabled=False, prune=cache.prune)
+        if not size_limit and "estimate" in pipeline.names:
+            pipeline = pipeline.replace(Stage("estimate", partial(run_estimate, enforce=False),
+                                              inputs=pipeline["estimate"].inputs,
+                                              key=pipeline["estimate"].key, cache=False))
         spec = self.spec
-        run = run_stages(pipeline, spec, out, cache, progress=progress or quiet,
-                         run=StageRun(report={"name": spec.name, "units": spec.units}))
+        staging = Staging(out)
+        try:
+            with staging:
+                run = run_stages(pipeline, spec, staging.folder, cache,
+                                 progress=progress or quiet,
+                                 run=StageRun(report={"name": spec.name, "units": spec.units}))
+        except Exception as exc:
+            exc.add_note(staging.failure_note())
+            raise
         return DesignResult(report=run.report, files=run.files,
                             stage_seconds=run.stage_seconds, cached=run.cached)

@@ -12,11 +12,18 @@ Progress = Callable[[str, str, dict], None]
 
 
 class DesignError(TorsalError, RuntimeError):
-    """A pipeline stage failed; ``stage`` names it and the message says why."""
+    """A pipeline stage failed; ``stage`` names it and the message says why.
 
-    def __init__(self, stage: str, message: str):
-        super().__init__(f"stage '{stage}' failed: {message}")
+    When a design-file value is the cause, ``key`` names it (``"sun.vectors"``) and ``value``
+    holds it; both appear in the message.
+    """
+
+    def __init__(self, stage: str, message: str, *, key: str | None = None, value=None):
+        where = f"{key} = {value!r}: " if key is not None else ""
+        super().__init__(f"stage '{stage}' failed: {where}{message}")
         self.stage = stage
+        self.key = key
+        self.value = value
 
 
 def quiet(stage: str, event: str, info: dict) -> None:

@@ -28,6 +28,7 @@ from typing import Callable, Iterator
 
 from ..design_file import DesignSpec
 from .cache import MISSING, StageCache, stage_key
+from ..core.errors import TorsalError
 from .errors import DesignError, Progress, quiet
 
 __all__ = ["Stage", "StageInputs", "Pipeline", "StageRun", "run_stages", "stage_keys"]
@@ -91,8 +92,9 @@ class StageInputs(Mapping):
         try:
             return self.results[name]
         except KeyError:
-            raise KeyError(f"stage '{self.stage}' reads '{name}', which is not among its declared "
-                           f"inputs {sorted(self.results)}") from None
+            # a pipeline built wrong (a custom stage's declaration): named like bad input
+            raise DesignError(self.stage, f"reads '{name}', which is not among its declared "
+                              f"inputs {sorted(self.results)}") from None
 
     def __iter__(self) -> Iterator[str]:
         return iter(self.results)
@@ -201,7 +203,9 @@ def _files_present(value: dict, out: Path) -> bool:
 def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache, *,
                progress: Progress = quiet, run: StageRun | None = None) -> StageRun:
     """Run the stages that apply to ``spec`` in order; raises :class:`DesignError` naming
-    the stage that failed (results of earlier stages stay cached)."""
+    the stage that failed when its input is the cause (a :class:`TorsalError` or
+    ``ValueError`` in the stage); any other exception is a bug and propagates with a note
+    naming the stage. Results of earlier stages stay cached."""
     run = run if run is not None else StageRun()
     keys = stage_keys(pipeline, spec)
     for s in pipeline:
@@ -221,8 +225,13 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
                 value = s.run(inputs)
             except DesignError:
                 raise
+            except (TorsalError, ValueError) as exc:
+                # the input is the cause (stages raise these for what they reject)
+                raise DesignError(s.name, str(exc)) from exc
             except Exception as exc:
-                raise DesignError(s.name, f"{type(exc).__name__}: {exc}") from exc
+                # a bug, not the input: not a DesignError, so the command line says "internal"
+                exc.add_note(f"in stage '{s.name}'")
+                raise
             run.stage_seconds[s.name] = time.perf_counter() - t0
             if s.cache:
                 cache.store(s.name, key, value)

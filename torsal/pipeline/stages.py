@@ -15,9 +15,10 @@ from ..design_file import DesignSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .outputs import target_patch, write_geometry, write_structure_obj
+from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
 
-__all__ = ["surface_mesh", "sun_directions", "run_surface", "run_sun", "run_orient",
+__all__ = ["surface_mesh", "sun_directions", "run_surface", "run_estimate", "run_sun", "run_orient",
            "run_congruence", "run_remesh", "run_support", "run_light", "run_substructure",
            "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES"]
 
@@ -27,12 +28,14 @@ CONSTRAINT_TOL = 1e-4
 
 
 # ------------------------------------------------------------------ surface and sun
-def surface_mesh(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
-    """Mesh A of a design: vertices (n, 3) in model units and triangles (m, 3)."""
+def surface_mesh(spec: DesignSpec, *, report: bool = False):
+    """Mesh A of a design: vertices (n, 3) in model units and triangles (m, 3); with
+    ``report``, also how a mesh file's vertices were merged (a dict, None for a generator)."""
     s = spec.surface
     if s.mesh is not None:
         m = load_mesh(s.mesh)
-        return np.asarray(m.vertices, float), np.asarray(m.faces, np.int64)
+        v, f = np.asarray(m.vertices, float), np.asarray(m.faces, np.int64)
+        return (v, f, m.metadata["merge"].as_dict()) if report else (v, f)
     from ..geometry import surfaces
 
     try:
@@ -40,7 +43,7 @@ def surface_mesh(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
     except TypeError as exc:
         raise ValueError(f"surface.params do not fit generator '{s.generator}': {exc}") from None
     validate_mesh(v, f)
-    return v, f
+    return (v, f, None) if report else (v, f)
 
 
 def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -51,12 +54,18 @@ def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
 
     if s.vectors is not None:
         vec = np.asarray(s.vectors, float)
-        vec /= np.linalg.norm(vec, axis=1, keepdims=True)
-        return vec, np.ones(len(vec))
+        length = np.linalg.norm(vec, axis=1, keepdims=True)
+        if len(vec) == 0 or not np.all(length > 0):  # the design file rejects these already
+            raise DesignError("sun", "sun vectors must be non-empty and of non-zero length",
+                              key="sun.vectors", value=s.vectors)
+        return vec / length, np.ones(len(vec))
     if s.epw is not None:
         north = site.north_angle if site else 0.0
-        res = sunmod.hot_hours(s.epw, s.min_temperature, s.min_dni, north_angle=north,
-                               months=s.months, hours=tuple(s.hours))
+        try:
+            res = sunmod.hot_hours(s.epw, s.min_temperature, s.min_dni, north_angle=north,
+                                   months=s.months, hours=tuple(s.hours))
+        except sunmod.EPWError as exc:
+            raise DesignError("sun", str(exc), key="sun.epw", value=str(s.epw)) from None
     else:
         res = sunmod.sun_path(site.latitude, site.longitude, str(s.start), str(s.end),
                               timezone=site.timezone, hours=tuple(s.hours), freq=s.step,
@@ -72,9 +81,33 @@ def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_surface(inp: StageInputs) -> dict:
-    """Mesh A as given. Returns ``vertices`` (n, 3), ``faces`` (m, 3)."""
-    v, f = surface_mesh(inp.spec)
-    return {"vertices": v, "faces": f}
+    """Mesh A as given, checked for the optimizer (:func:`~torsal.pipeline.checks.check_surface`).
+    Returns ``vertices`` (n, 3), ``faces`` (m, 3) and, for a mesh file, ``mesh_file`` (how the
+    file's vertices were merged, :meth:`~torsal.geometry.mesh.MeshMerge.as_dict`)."""
+    from ..geometry.mesh import MeshError
+    from .checks import check_surface
+
+    s = inp.spec.surface
+    key, value = ("surface.mesh", str(s.mesh)) if s.mesh is not None else \
+        ("surface.params", dict(s.params))
+    try:
+        v, f, merge = surface_mesh(inp.spec, report=True)
+    except MeshError as exc:
+        raise DesignError("surface", str(exc), key=key, value=value) from None
+    check_surface(v, f, key=key, value=value)
+    return {"vertices": v, "faces": f, "mesh_file": merge}
+
+
+def run_estimate(inp: StageInputs, *, enforce: bool = True) -> dict:
+    """The run's size from the design file and mesh A (:func:`~torsal.pipeline.checks.estimate_size`);
+    above :data:`~torsal.pipeline.checks.SIZE_LIMITS` it stops the run (``enforce``). Returns
+    the ``report`` section."""
+    from .checks import check_size, estimate_size
+
+    est = estimate_size(inp.spec, inp["surface"]["vertices"], inp["surface"]["faces"])
+    if enforce:
+        check_size(est)
+    return {"report": est.as_dict()}
 
 
 def run_sun(inp: StageInputs) -> dict:
@@ -92,8 +125,10 @@ def run_orient(inp: StageInputs) -> dict:
     flipped = bool(area_vector(v, f) @ (sun["vectors"] * sun["weights"][:, None]).sum(0) < 0)
     if flipped:
         f = f[:, ::-1].copy()
+    mesh_file = inp["surface"].get("mesh_file")
     return {"vertices": v, "faces": f, "report": {
-        "vertices": int(len(v)), "faces": int(len(f)), "flipped_to_face_the_sun": flipped}}
+        "vertices": int(len(v)), "faces": int(len(f)), "flipped_to_face_the_sun": flipped,
+        **({"mesh_file": mesh_file} if mesh_file else {})}}
 
 
 # ------------------------------------------------------------------ congruence (4.1)
@@ -316,13 +351,31 @@ def run_report(inp: StageInputs) -> dict:
     return {"files": files}
 
 
+def _file_digest(path) -> str | None:
+    """The content hash of an input file: an edited mesh or EPW under the same name is new input."""
+    import hashlib
+
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    except OSError:
+        return None  # the stage itself reports the file
+
+
+def _estimate_key(spec):
+    return (spec.fins.spacing, spec.sun.model_dump(mode="json"), spec.outputs.model_dump(),
+            spec.substructure is not None)
+
+
 def _surface_key(spec):
-    return (spec.surface.model_dump(mode="json"),)
+    s = spec.surface
+    return (s.model_dump(mode="json"), _file_digest(s.mesh) if s.mesh is not None else None)
 
 
 def _sun_key(spec):
-    return (spec.sun.model_dump(mode="json"),
-            spec.site.model_dump(mode="json") if spec.site else None)
+    s = spec.sun
+    return (s.model_dump(mode="json"),
+            spec.site.model_dump(mode="json") if spec.site else None,
+            _file_digest(s.epw) if s.epw is not None else None)
 
 
 def _congruence_key(spec):
@@ -357,6 +410,7 @@ def _fabrication_key(spec):
 #: The stages of a design run, in order. Insert more with ``DEFAULT_PIPELINE.insert``.
 DEFAULT_PIPELINE = Pipeline((
     Stage("surface", run_surface, key=_surface_key),
+    Stage("estimate", run_estimate, inputs=("surface",), key=_estimate_key, cache=False),
     Stage("sun", run_sun, key=_sun_key),
     Stage("orient", run_orient, inputs=("surface", "sun"), cache=False, section="surface"),
     Stage("congruence", run_congruence, inputs=("orient", "sun"), key=_congruence_key),

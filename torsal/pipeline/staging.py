@@ -1,0 +1,107 @@
+"""Result files of a design run appear together or not at all.
+
+A run writes into a staging folder inside the output folder (``OUT/.torsal-staging``) and
+moves the files into ``OUT`` only when every stage succeeded; ``OUT/.torsal-results.json``
+then lists them. The previous run's results (the files that list names) are moved into the
+staging folder at the start, so stages whose cached result refers to them still find them.
+
+If the run fails, the staging folder is removed with everything in it, the earlier run's
+results included: afterwards ``OUT`` holds no result file that could be mistaken for the
+failed run's. The stage cache (``OUT/.torsal-cache``) stays, so the next run resumes.
+:meth:`Staging.failure_note` says what was left.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> out = pathlib.Path(tempfile.mkdtemp())
+>>> with Staging(out) as st:
+...     _ = (st.folder / "report.json").write_text("{}")
+>>> sorted(p.name for p in out.iterdir())
+['.torsal-results.json', 'report.json']
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import shutil
+from pathlib import Path
+
+from .._io import write_json
+
+__all__ = ["Staging", "RESULTS_LIST", "STAGING_FOLDER"]
+
+STAGING_FOLDER = ".torsal-staging"
+RESULTS_LIST = ".torsal-results.json"
+# results of runs from before the list existed: these names are torsal's own
+_KNOWN_RESULTS = ("report.json", "report.html", "parts.csv", "fins.step", "fins.3dm",
+                  "congruence.ply", "support.obj", "substructure.obj", "sheets")
+
+
+class Staging:
+    """Context manager: a fresh staging folder for a run's results, swapped in on success.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder (exists, writable).
+    """
+
+    def __init__(self, out: Path):
+        self.out = Path(out)
+        self.folder = self.out / STAGING_FOLDER
+        self.earlier: list[str] = []   # top-level names of the previous run's results
+        self.removed: list[str] = []   # set on failure: what of them is gone
+
+    def _previous_results(self) -> list[str]:
+        listed = self.out / RESULTS_LIST
+        names: list[str] = []
+        if listed.exists():
+            try:
+                names = [str(n) for n in json.loads(listed.read_text()).get("files", [])]
+            except (ValueError, AttributeError, OSError):
+                names = []
+        elif (self.out / "report.json").exists():
+            names = list(_KNOWN_RESULTS)
+        # top-level entries only, never outside OUT, never our own bookkeeping
+        top = {Path(n).parts[0] for n in names if n and not Path(n).is_absolute()
+               and ".." not in Path(n).parts}
+        return sorted(n for n in top if n not in (STAGING_FOLDER, RESULTS_LIST, ".torsal-cache")
+                      and (self.out / n).exists())
+
+    def __enter__(self) -> "Staging":
+        if self.folder.exists():  # left by a run that was killed
+            shutil.rmtree(self.folder)
+        self.folder.mkdir()
+        self.earlier = self._previous_results()
+        for name in self.earlier:
+            os.replace(self.out / name, self.folder / name)
+        (self.out / RESULTS_LIST).unlink(missing_ok=True)
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is None:
+            self._publish()
+        else:
+            self.removed = list(self.earlier)
+            shutil.rmtree(self.folder, ignore_errors=True)
+        return False
+
+    def _publish(self) -> None:
+        names = sorted(p.name for p in self.folder.iterdir())
+        for name in names:
+            target = self.out / name
+            if target.is_dir() and not target.is_symlink():
+                shutil.rmtree(target)
+            os.replace(self.folder / name, target)
+        self.folder.rmdir()
+        write_json(self.out / RESULTS_LIST, {
+            "files": names, "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")})
+
+    def failure_note(self) -> str:
+        """What a failed run left in the output folder, for the error message."""
+        earlier = (f"the earlier run's results ({', '.join(self.removed[:6])}"
+                   f"{' ...' if len(self.removed) > 6 else ''}) were removed so they cannot be "
+                   "taken for this run's; " if self.removed else "")
+        return (f"{self.out} holds no results of this run: {earlier}the stage cache "
+                f"({self.out / '.torsal-cache'}) is kept, so the next run resumes")
