@@ -37,7 +37,8 @@ def test_analyze_writes_json_and_png(facade, tmp_path, capsys):
     assert "hyperbolic faces" in capsys.readouterr().out
     # a second run replaces the files and leaves no temporary files behind
     assert main(["analyze", str(path), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["analysis.json", "torsal_field.png"]
+    assert sorted(p.name for p in out.iterdir()) == [".torsal-results.json", "analysis.json",
+                                                     "torsal_field.png"]
 
 
 def test_analyze_with_directions_file(facade, tmp_path):
@@ -93,3 +94,106 @@ def test_readme_python_example_runs():
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     assert len(code.strip().splitlines()) <= 12
     exec(compile(code, "README.md", "exec"), {})
+
+
+# ---------------------------------------------------------------- the command line as a user meets it
+TINY_DESIGN = """
+name = "tiny [draft]"
+[surface]
+generator = "facade_patch"
+params = {{ nu = 7, nv = 5 }}
+[sun]
+vectors = [[0.3, -0.8, 0.5], [0.5, -0.7, 0.4]]
+[fins]
+spacing = {spacing}
+depth = 0.5
+[outputs]
+step = false
+rhino_3dm = false
+renders = false
+dxf = false
+light_samples = 100
+"""
+
+
+def test_messages_are_printed_literally(tmp_path, capsys):
+    bad = tmp_path / "d.toml"
+    bad.write_text(TINY_DESIGN.format(spacing=1.0).replace("[sun]\n", "[sun]\nhours = [25, 3]\n"))
+    assert main(["design", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    # rich markup used to eat "[h0, h1]" and "[25.0, 3.0]"
+    assert "sun.hours = [25.0, 3.0] must be [h0, h1] with 0 <= h0 <= h1 <= 24" in err
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("case", ["empty", "file", "under-file", "unwritable"])
+def test_output_folder_problems_exit_2_naming_the_path(facade, tmp_path, capsys, case):
+    (tmp_path / "afile").write_text("x")
+    out = {"empty": "", "file": str(tmp_path / "afile"), "under-file": str(tmp_path / "afile" / "o"),
+           "unwritable": "/proc/torsal-out"}[case]
+    assert main(["analyze", str(facade[0]), "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --out") and "Traceback" not in err
+    assert {"empty": "the path is empty", "file": "is a file, not a folder",
+            "under-file": "afile is a file, so there can be no folder under it",
+            "unwritable": "/proc/torsal-out: cannot write there"}[case] in err
+    assert not Path("report.html").exists()
+
+
+def test_internal_errors_exit_1_with_one_line_and_debug_shows_the_traceback(facade, capsys,
+                                                                            monkeypatch):
+    import importlib
+
+    an = importlib.import_module("torsal.pipeline.analyze")  # the module, not the function
+
+    def broken(*a, **k):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(an, "load_mesh", broken)
+    assert main(["analyze", str(facade[0])]) == 1
+    err = capsys.readouterr().err
+    assert err.splitlines()[0] == "error: internal error: ZeroDivisionError: float division by zero"
+    assert "--debug" in err and "Traceback" not in err
+    assert main(["analyze", str(facade[0]), "--debug"]) == 1
+    assert "Traceback (most recent call last)" in capsys.readouterr().err
+
+
+def test_design_progress_streams_line_by_line_when_piped(tmp_path):
+    """A real `torsal design ... | cat`: progress lines arrive while the run goes on, and the
+    output ends with a newline."""
+    design = tmp_path / "d.toml"
+    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    exe = Path(sys.executable).with_name("torsal")
+    proc = subprocess.Popen([str(exe), "design", str(design), "--out", str(tmp_path / "o")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = proc.stdout.readline()
+    still_running = proc.poll() is None  # the first line came before the run ended
+    rest, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    assert first.startswith("tiny [draft]: ") and still_running
+    out = first + rest
+    assert re.search(r"^\[ *\d+\.\d s\] congruence: running$", out, re.M)
+    assert re.search(r"^\[ *\d+\.\d s\] fabrication: done \(\d+\.\d s\)$", out, re.M)
+    assert out.endswith("report.html)\n") and "Traceback" not in err
+
+
+def test_failed_design_leaves_no_results_of_an_earlier_run(tmp_path, capsys):
+    design = tmp_path / "d.toml"
+    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    out = tmp_path / "o"
+    assert main(["design", str(design), "--out", str(out)]) == 0
+    assert (out / "report.json").exists() and (out / "parts.csv").exists()
+    capsys.readouterr()
+    design.write_text(TINY_DESIGN.format(spacing=0.001))  # metres typed as if millimetres
+    assert main(["design", str(design), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "stage 'estimate' failed" in err and "fins about" in err and "fins.spacing" in err
+    assert "--no-size-limit" in err
+    assert "the earlier run's results" in err and "removed" in err
+    left = sorted(p.name for p in out.iterdir())
+    assert left == [".torsal-cache"]
+    # the cache stays: the good design again reuses every stage up to the results
+    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    assert main(["design", str(design), "--out", str(out)]) == 0
+    assert "congruence: cached" in capsys.readouterr().out
+    assert (out / "report.json").exists()

@@ -10,8 +10,10 @@ import numpy as np
 from .._io import write_json
 from ..core.errors import TorsalError
 from ..core.inputs import check_input, read_input
+from ..core.outputs import output_folder
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import load_mesh
+from .staging import Staging
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError"]
 
@@ -85,8 +87,9 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
         summary's ``directions_rows`` says which); default the normal congruence of A
         (area-weighted vertex normals).
     out_dir : path, optional
-        Where to write ``analysis.json`` and ``torsal_field.png`` (atomically, replacing
-        earlier runs). Nothing is written when omitted.
+        Where to write ``analysis.json`` and ``torsal_field.png`` (together, replacing
+        earlier runs; a failed analysis leaves neither, see
+        :class:`~torsal.pipeline.staging.Staging`). Nothing is written when omitted.
     plot : bool
         Also draw the PNG.
 
@@ -96,7 +99,23 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
     >>> res.summary["hyperbolic_share"]  # doctest: +SKIP
     1.0
     """
-    mesh_path = Path(mesh)
+    if out_dir is None:
+        return _analyze(Path(mesh), directions, None, plot)
+    out = output_folder(out_dir, option="output folder")
+    staging = Staging(out)
+    try:
+        with staging:
+            res = _analyze(Path(mesh), directions, staging.folder, plot)
+            staging.keep_only([Path(p).name for p in res.files.values()])
+    except Exception as exc:
+        exc.add_note(staging.failure_note())
+        raise
+    res.files = {k: str(out / Path(p).name) for k, p in res.files.items()}
+    return res
+
+
+def _analyze(mesh_path: Path, directions, out: Path | None, plot: bool) -> AnalysisResult:
+    """The analysis, writing into ``out`` (the staging folder) when given."""
     m = load_mesh(mesh_path)
     merge = m.metadata["merge"]
     if directions is None:
@@ -112,9 +131,7 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
         # which vertices the rows were read as: the file's (mapped onto merged ones) or the mesh's
         summary["directions_rows"] = f"one per {per}"
     files = {}
-    if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+    if out is not None:
         files["json"] = str(write_json(out / "analysis.json", summary))
         if plot:
             from ..report import plot_torsal_field

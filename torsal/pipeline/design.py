@@ -113,6 +113,7 @@ class Design:
                 run = run_stages(pipeline, spec, staging.folder, cache,
                                  progress=progress or quiet,
                                  run=StageRun(report={"name": spec.name, "units": spec.units}))
+                staging.keep_only(run.files)
         except Exception as exc:
             exc.add_note(staging.failure_note())
             raise

@@ -96,6 +96,9 @@ class StageInputs(Mapping):
             raise DesignError(self.stage, f"reads '{name}', which is not among its declared "
                               f"inputs {sorted(self.results)}") from None
 
+    def __contains__(self, name) -> bool:  # not via __getitem__, which raises for a missing one
+        return name in self.results
+
     def __iter__(self) -> Iterator[str]:
         return iter(self.results)
 

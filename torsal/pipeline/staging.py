@@ -1,8 +1,9 @@
 """Result files of a design run appear together or not at all.
 
 A run writes into a staging folder inside the output folder (``OUT/.torsal-staging``) and
-moves the files into ``OUT`` only when every stage succeeded; ``OUT/.torsal-results.json``
-then lists them. The previous run's results (the files that list names) are moved into the
+moves the files into ``OUT`` only when every stage succeeded (earlier results the run did not
+produce again are dropped, :meth:`Staging.keep_only`); ``OUT/.torsal-results.json`` then
+lists them. The previous run's results (the files that list names) are moved into the
 staging folder at the start, so stages whose cached result refers to them still find them.
 
 If the run fails, the staging folder is removed with everything in it, the earlier run's
@@ -35,7 +36,19 @@ STAGING_FOLDER = ".torsal-staging"
 RESULTS_LIST = ".torsal-results.json"
 # results of runs from before the list existed: these names are torsal's own
 _KNOWN_RESULTS = ("report.json", "report.html", "parts.csv", "fins.step", "fins.3dm",
-                  "congruence.ply", "support.obj", "substructure.obj", "sheets")
+                  "congruence.ply", "support.obj", "substructure.obj", "sheets",
+                  "analysis.json", "torsal_field.png")
+
+
+def _flat(x):
+    if isinstance(x, (list, tuple)):
+        for y in x:
+            yield from _flat(y)
+    elif isinstance(x, dict):
+        for y in x.values():
+            yield from _flat(y)
+    elif x:
+        yield x
 
 
 class Staging:
@@ -52,6 +65,7 @@ class Staging:
         self.folder = self.out / STAGING_FOLDER
         self.earlier: list[str] = []   # top-level names of the previous run's results
         self.removed: list[str] = []   # set on failure: what of them is gone
+        self.keep: set[str] | None = None
 
     def _previous_results(self) -> list[str]:
         listed = self.out / RESULTS_LIST
@@ -61,7 +75,7 @@ class Staging:
                 names = [str(n) for n in json.loads(listed.read_text()).get("files", [])]
             except (ValueError, AttributeError, OSError):
                 names = []
-        elif (self.out / "report.json").exists():
+        elif (self.out / "report.json").exists() or (self.out / "analysis.json").exists():
             names = list(_KNOWN_RESULTS)
         # top-level entries only, never outside OUT, never our own bookkeeping
         top = {Path(n).parts[0] for n in names if n and not Path(n).is_absolute()
@@ -79,6 +93,11 @@ class Staging:
         (self.out / RESULTS_LIST).unlink(missing_ok=True)
         return self
 
+    def keep_only(self, files) -> None:
+        """Name this run's result files (relative paths, nested lists/dicts allowed): on success,
+        earlier results not among them are removed instead of published again."""
+        self.keep = {Path(p).parts[0] for p in _flat(files)}
+
     def __exit__(self, exc_type, exc, tb) -> bool:
         if exc_type is None:
             self._publish()
@@ -88,6 +107,11 @@ class Staging:
         return False
 
     def _publish(self) -> None:
+        if self.keep is not None:
+            for name in self.earlier:
+                stale = self.folder / name
+                if name not in self.keep and stale.exists():
+                    shutil.rmtree(stale) if stale.is_dir() else stale.unlink()
         names = sorted(p.name for p in self.folder.iterdir())
         for name in names:
             target = self.out / name
