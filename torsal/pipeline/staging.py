@@ -29,6 +29,7 @@ import shutil
 from pathlib import Path
 
 from .._io import write_json
+from .stage import _flat  # the file paths in a stage's nested "files"
 
 __all__ = ["Staging", "RESULTS_LIST", "STAGING_FOLDER"]
 
@@ -38,17 +39,6 @@ RESULTS_LIST = ".torsal-results.json"
 _KNOWN_RESULTS = ("report.json", "report.html", "parts.csv", "fins.step", "fins.3dm",
                   "congruence.ply", "support.obj", "substructure.obj", "sheets",
                   "analysis.json", "torsal_field.png")
-
-
-def _flat(x):
-    if isinstance(x, (list, tuple)):
-        for y in x:
-            yield from _flat(y)
-    elif isinstance(x, dict):
-        for y in x.values():
-            yield from _flat(y)
-    elif x:
-        yield x
 
 
 class Staging:
