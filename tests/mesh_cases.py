@@ -36,6 +36,11 @@ def grid(nu: int = 5, nv: int = 4, *, bend: float = 0.3):
     return v, np.array(f)
 
 
+def _unit(n: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(n)
+    return n / length if length > 0 else n  # a degenerate facet gets a zero normal
+
+
 def _num(x: float) -> str:
     return repr(float(x))
 
@@ -71,8 +76,12 @@ def split_per_face(v, f):
     return v[f].reshape(-1, 3), np.arange(f.size).reshape(f.shape)
 
 
+def _polys(f) -> list[list[int]]:
+    return [[int(i) for i in p] for p in f]  # polygons may differ in length
+
+
 def ply_ascii(v, f, *, n_vertex=None, n_face=None, extra_lines=()) -> str:
-    v, f = np.asarray(v, float), np.asarray(f)
+    v, f = np.asarray(v, float), _polys(f)
     head = ["ply", "format ascii 1.0", "comment tests/mesh_cases.py",
             f"element vertex {len(v) if n_vertex is None else n_vertex}",
             "property float x", "property float y", "property float z",
@@ -84,7 +93,7 @@ def ply_ascii(v, f, *, n_vertex=None, n_face=None, extra_lines=()) -> str:
 
 
 def ply_binary(v, f, *, n_vertex=None, n_face=None, endian="<", cut: int = 0) -> bytes:
-    v, f = np.asarray(v, float), np.asarray(f)
+    v, f = np.asarray(v, float), _polys(f)
     fmt = "binary_little_endian" if endian == "<" else "binary_big_endian"
     head = ("ply\nformat " + fmt + " 1.0\n"
             f"element vertex {len(v) if n_vertex is None else n_vertex}\n"
@@ -93,13 +102,13 @@ def ply_binary(v, f, *, n_vertex=None, n_face=None, endian="<", cut: int = 0) ->
             "property list uchar int vertex_indices\nend_header\n").encode()
     body = b"".join(struct.pack(endian + "3d", *row) for row in v)
     body += b"".join(struct.pack(endian + "B", len(p)) + struct.pack(endian + f"{len(p)}i", *p)
-                     for p in f.tolist())
+                     for p in f)
     data = head + body
     return data[:len(data) - cut] if cut else data
 
 
 def off_text(v, f, *, n_vertex=None, n_face=None) -> str:
-    v, f = np.asarray(v, float), np.asarray(f)
+    v, f = np.asarray(v, float), _polys(f)
     lines = ["OFF", "# tests/mesh_cases.py",
              f"{len(v) if n_vertex is None else n_vertex} {len(f) if n_face is None else n_face} 0"]
     lines += [f"{_num(a)} {_num(b)} {_num(c)}" for a, b, c in v]
@@ -112,8 +121,7 @@ def stl_ascii(v, f) -> str:
     lines = ["solid patch"]
     for tri in f:
         p = v[tri]
-        n = np.cross(p[1] - p[0], p[2] - p[0])
-        n /= np.linalg.norm(n)
+        n = _unit(np.cross(p[1] - p[0], p[2] - p[0]))
         lines += [f"  facet normal {n[0]:e} {n[1]:e} {n[2]:e}", "    outer loop"]
         lines += [f"      vertex {a:.9e} {b:.9e} {c:.9e}" for a, b, c in p]
         lines += ["    endloop", "  endfacet"]
@@ -127,8 +135,7 @@ def stl_binary(v, f, *, count=None) -> bytes:
            struct.pack("<I", len(f) if count is None else count)]
     for tri in f:
         p = v[tri]
-        n = np.cross(p[1] - p[0], p[2] - p[0])
-        n /= np.linalg.norm(n)
+        n = _unit(np.cross(p[1] - p[0], p[2] - p[0]))
         out.append(struct.pack("<12fH", *n, *p.ravel(), 0))
     return b"".join(out)
 

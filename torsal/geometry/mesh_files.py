@@ -88,12 +88,20 @@ def read_mesh_file(path: str | Path) -> RawMesh:
         raise MeshError(f"{path}: {exc}") from None
 
 
+_BOM = b"\xef\xbb\xbf"
+
+
 class _LineError(Exception):
     """Internal: a message the public reader prefixes with the file name."""
 
 
+def _text(data: bytes) -> str:
+    """UTF-8 text (undecodable bytes replaced) without a byte-order mark (Windows exporters)."""
+    return data.decode("utf-8", errors="replace").removeprefix("\ufeff")
+
+
 def _text_lines(data: bytes) -> list[str]:
-    return data.decode("utf-8", errors="replace").splitlines()
+    return _text(data).splitlines()
 
 
 def _floats(tokens, line_no: int, what: str, last: bool) -> list[float]:
@@ -129,7 +137,7 @@ _OBJ_IGNORED = {"vt", "vn", "vp", "g", "o", "s", "mg", "usemtl", "mtllib", "l", 
 
 
 def _read_obj(data: bytes) -> RawMesh:
-    text = data.decode("utf-8", errors="replace").replace("\\\r\n", " ").replace("\\\n", " ")
+    text = _text(data).replace("\\\r\n", " ").replace("\\\n", " ")
     lines = text.splitlines()
     n_lines = len(lines)
     verts: list[list[float]] = []
@@ -164,7 +172,7 @@ def _read_obj(data: bytes) -> RawMesh:
             poly_lines.append(line_no)
         elif key not in _OBJ_IGNORED:
             raise _LineError(f"line {line_no}: {key[:20]!r} is not an OBJ statement "
-                             "(is this a text OBJ file?)" + _truncated_hint(last))
+                             "(is this a text OBJ file?)")
     faces, n_poly = _fan(polys)
     n = len(verts)
     for corners, line_no in zip(polys, poly_lines):
@@ -243,6 +251,7 @@ def _ply_check_elements(elements: list[_PlyElement]) -> tuple[_PlyElement, _PlyE
 
 
 def _read_ply(data: bytes) -> RawMesh:
+    data = data.removeprefix(_BOM)
     elements, fmt, offset, n_header = _ply_header(data)
     vertex, face = _ply_check_elements(elements)
     if fmt == "ascii":
@@ -301,7 +310,8 @@ def _ply_ascii(body: bytes, elements: list[_PlyElement], n_header: int) -> dict:
             except (IndexError, ValueError):
                 raise _LineError(f"line {line_no}: {e.name} record {r} is cut short or not numbers "
                                  f"({lines[pos - 1].strip()[:60]!r})"
-                                 + _truncated_hint(pos == len(lines))) from None
+                                 + (_truncated_hint(True) if pos == len(lines) else
+                                    "; do the header's counts match the content?")) from None
             if at != len(tokens):
                 raise _LineError(f"line {line_no}: {e.name} record {r} has {len(tokens)} values, "
                                  f"the header's properties take {at}")
@@ -420,7 +430,8 @@ def _read_off(data: bytes) -> RawMesh:
             k = int(t[0])
             corners = [int(x) for x in t[1:1 + k]]
         except ValueError:
-            raise _LineError(f"line {n}: face {' '.join(t)!r} is not 'count i j k ...'") from None
+            raise _LineError(f"line {n}: face {' '.join(t)[:60]!r} is not 'count i j k ...'; do the "
+                             f"header's counts (line {count_line}) match the content?") from None
         if k < 3 or len(corners) != k:
             raise _LineError(f"line {n}: a face needs a corner count >= 3 and that many indices, got "
                              f"{' '.join(t)!r}" + _truncated_hint(n == last_line))
@@ -441,7 +452,7 @@ def _read_stl(data: bytes) -> RawMesh:
         (count,) = struct.unpack("<I", data[80:84])
         if len(data) == 84 + 50 * count:
             return _stl_binary(data, count)
-    if data.lstrip()[:5].lower() == b"solid":
+    if data.removeprefix(_BOM).lstrip()[:5].lower() == b"solid":
         return _stl_ascii(data)
     if len(data) < 84:
         raise _LineError(f"only {len(data)} bytes: too short for a binary STL (84-byte header) "

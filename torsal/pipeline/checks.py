@@ -151,10 +151,11 @@ def check_size(estimate: SizeEstimate, *, stage: str = "estimate") -> None:
         return
     lines = [f"{k.replace('_bytes', '')} about {_amount(k, v)} (limit {_amount(k, lim)}): "
              f"change {_KEY_FOR[k]}" for k, (v, lim) in over.items()]
+    unit_hint = (" A fin spacing typed in the wrong unit is the usual cause." if "fins" in over
+                 else "")
     raise SizeLimitError(stage, "this design is too big to run by default: " + "; ".join(lines)
-                         + f" (surface area {estimate.surface_area:.4g} model units^2). A fin "
-                         "spacing typed in the wrong unit is the usual cause; pass "
-                         "--no-size-limit (Design.run(size_limit=False)) to run it anyway")
+                         + f" (surface area {estimate.surface_area:.4g} model units^2).{unit_hint}"
+                         " Pass --no-size-limit (Design.run(size_limit=False)) to run it anyway")
 
 
 def _amount(key: str, value: float) -> str:

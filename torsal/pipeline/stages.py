@@ -65,7 +65,8 @@ def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
             res = sunmod.hot_hours(s.epw, s.min_temperature, s.min_dni, north_angle=north,
                                    months=s.months, hours=tuple(s.hours))
         except sunmod.EPWError as exc:
-            raise DesignError("sun", str(exc), key="sun.epw", value=str(s.epw)) from None
+            raise DesignError("sun", str(exc).removeprefix(f"{s.epw}: "), key="sun.epw",
+                              value=str(s.epw)) from None
     else:
         res = sunmod.sun_path(site.latitude, site.longitude, str(s.start), str(s.end),
                               timezone=site.timezone, hours=tuple(s.hours), freq=s.step,
