@@ -197,3 +197,33 @@ def test_failed_design_leaves_no_results_of_an_earlier_run(tmp_path, capsys):
     assert main(["design", str(design), "--out", str(out)]) == 0
     assert "congruence: cached" in capsys.readouterr().out
     assert (out / "report.json").exists()
+
+
+def test_design_on_an_obj_with_uv_seams_runs_on_the_merged_mesh(tmp_path, capsys):
+    """Used to fail after a minute with "13 face-connected components"."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import mesh_cases as mc
+
+    v, f = facade_patch(nu=7, nv=5)
+    (tmp_path / "seams.obj").write_text(mc.obj_text(*mc.split_per_face(v, f), uv=True))
+    design = tmp_path / "d.toml"
+    design.write_text(TINY_DESIGN.format(spacing=1.0).replace(
+        'generator = "facade_patch"\nparams = { nu = 7, nv = 5 }', 'mesh = "seams.obj"'))
+    assert main(["design", str(design), "--out", str(tmp_path / "o")]) == 0, capsys.readouterr().err
+    surface = json.loads((tmp_path / "o" / "report.json").read_text())["surface"]
+    assert surface["vertices"] == len(v) and surface["faces"] == len(f)
+    assert surface["mesh_file"]["file_vertices"] == 3 * len(f)
+    assert surface["mesh_file"]["merged"] == 3 * len(f) - len(v)
+
+
+def test_analyze_reports_the_merge_and_ends_with_a_newline(tmp_path, capsys):
+    sys.path.insert(0, str(ROOT / "tests"))
+    import mesh_cases as mc
+
+    (tmp_path / "cube.obj").write_text(mc.obj_text(mc.CUBE_V, mc.CUBE_QUADS, normals="face"))
+    np.savetxt(tmp_path / "d.txt", np.repeat(mc.CUBE_V - 0.5, 1, axis=0))
+    assert main(["analyze", str(tmp_path / "cube.obj"), "--directions", str(tmp_path / "d.txt")]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"vertices / faces\s+│ 8 / 12", out)
+    assert re.search(r"directions rows\s+│ one per vertex", out)
+    assert out.endswith("s\n")  # "done in 0.01 s" and a newline: nothing glued to the next line

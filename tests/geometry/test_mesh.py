@@ -275,3 +275,39 @@ def test_big_endian_binary_ply(tmp_path):
     (tmp_path / "be.ply").write_bytes(mc.ply_binary(v, f, endian=">"))
     m = load_mesh(tmp_path / "be.ply")
     assert np.array_equal(m.vertices, v) and np.array_equal(m.faces, f)
+
+
+# ---------------------------------------------------------------- same analysis as the merged mesh
+def _summary_numbers(s: dict) -> dict:
+    """The analysis numbers of a summary (not the file names or the merge report)."""
+    return {k: v for k, v in s.items() if k not in ("mesh", "directions", "mesh_file")}
+
+
+@pytest.mark.parametrize("layout", ["uv-seams", "per-face-normals", "unused-vertices",
+                                    "split-ply", "split-stl-ascii", "split-off"])
+def test_seams_normals_and_unused_vertices_give_the_merged_analysis(tmp_path, layout):
+    from torsal.pipeline.analyze import analyze
+
+    v, f = mc.grid(7, 6)
+    sv, sf = mc.split_per_face(v, f)
+    text = {"uv-seams": lambda: mc.obj_text(v, f, uv=True),
+            "per-face-normals": lambda: mc.obj_text(v, f, normals="face"),
+            "unused-vertices": lambda: mc.obj_text(v, f, unused=[[5, 5, 5], [6, 6, 6]]),
+            "split-ply": lambda: mc.ply_ascii(sv, sf), "split-stl-ascii": lambda: mc.stl_ascii(v, f),
+            "split-off": lambda: mc.off_text(sv, sf)}[layout]()
+    ext = {"split-ply": ".ply", "split-stl-ascii": ".stl", "split-off": ".off"}.get(layout, ".obj")
+    path = tmp_path / f"m{ext}"
+    path.write_text(text)
+    (tmp_path / "merged.obj").write_text(mc.obj_text(v, f))
+    got = analyze(path).summary
+    ref = analyze(tmp_path / "merged.obj").summary
+    assert got["vertices"] == len(v) and got["mesh_file"]["file_vertices"] >= len(v)
+    a, b = _summary_numbers(got), _summary_numbers(ref)
+    rtol = 1e-6 if "stl" in layout else 1e-9  # ASCII STL holds 10 significant digits
+    assert a.keys() == b.keys()
+    for k in a:
+        if isinstance(a[k], dict):
+            for kk in a[k]:
+                assert np.isclose(a[k][kk], b[k][kk], rtol=rtol, atol=1e-12), (k, kk)
+        else:
+            assert np.isclose(a[k], b[k], rtol=rtol, atol=1e-12), k
