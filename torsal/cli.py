@@ -61,6 +61,12 @@ class _Terminal:
         self.err.print(text)
         self.err.file.flush()
 
+    def print(self, *objects, **kwargs) -> None:
+        """rich ``Console.print`` on stdout, literal unless ``markup=True`` is passed (for a
+        subcommand written against a rich Console)."""
+        self.out.print(*objects, **kwargs)
+        self.out.file.flush()
+
     def table(self, table) -> None:
         self.out.print(table)  # rich ends a printed table with a newline
         self.out.file.flush()

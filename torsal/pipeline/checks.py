@@ -30,8 +30,9 @@ from .errors import DesignError
 __all__ = ["SizeEstimate", "SIZE_LIMITS", "estimate_size", "check_size", "check_surface",
            "SizeLimitError", "sun_position_count"]
 
-#: Above these the run stops (unless asked to go on). About 20 times the largest example
-#: (Fig. 11: ~1,000 fins, 15,000 variables); a run at the limits takes tens of minutes.
+#: Above these the run stops (unless asked to go on). About ten times the largest example
+#: (11_aligned_substructure: ~2,100 fins, 30,000 variables, 1.1 M rays estimated); a run at
+#: the limits takes tens of minutes.
 SIZE_LIMITS = {
     "fins": 20_000,                 # fin panels (support-structure edges)
     "variables": 300_000,           # optimizer unknowns (3 per vertex and congruence)
