@@ -555,6 +555,9 @@ SUN_CASES = {
     "vectors-zero": ({"vectors": [[0, 0, 0]]}, r"sun.vectors: sun vectors \[0\] have zero length"),
     "vectors-one-zero": ({"vectors": [[0, -1, 1], [0.0, 0.0, 0.0]]}, r"sun vectors \[1\] have zero length"),
     "vectors-short": ({"vectors": [[0, 1]]}, "sun.vectors.0"),
+    "vectors-below-horizon": ({"vectors": [[0, 0, -1]]}, r"sun vectors \[0\] point below the horizon"),
+    "vectors-light-direction": ({"vectors": [[0, 0.5, 1], [-0.3, 0.8, -0.5]]},
+                                r"sun vectors \[1\] point below the horizon"),
     "step-0h": ({**DATES, "step": "0h"}, "sun.step = '0h' must be at least 1min"),
     "step-negative": ({**DATES, "step": "-1h"}, "sun.step = '-1h' must be at least 1min"),
     "step-seconds": ({**DATES, "step": "1s"}, "sun.step = '1s' must be at least 1min"),
@@ -573,6 +576,18 @@ for id, (sun, msg) in SUN_CASES.items():
     data = copy.deepcopy(FULL)
     data["sun"] = sun
     design_case(f"sun-{id}", data, msg)
+_sr_below = copy.deepcopy(FULL)
+_sr_below["goals"]["sun_regions"][0]["vectors"] = [[0.0, 1.0, -1.0]]
+design_case("sun-regions-vectors-below-horizon", _sr_below,
+            r"goals.sun_regions.0.vectors: sun vectors \[0\] point below the horizon")
+for goal, region, msg in (("let_through", {"x": [100.0, 200.0]}, "goals.let_through = .* contains no vertex"),
+                          ("reflect", {"target": [0.0, -5.0, 3.0], "region": {"z": [50.0, 60.0]}},
+                           "goals.reflect.region contains no face"),
+                          ("see_through", [{"target": [0.0, -5.0, 1.0], "region": {"y": [50.0, 60.0]}}],
+                           r"goals.see_through\[0\].region contains no vertex")):
+    data = copy.deepcopy(FULL)
+    data["goals"] = {goal: region}
+    design_case(f"goal-{goal}-matches-nothing", data, "stage 'congruence' failed: " + msg)
 _nosite = copy.deepcopy(_dates)
 del _nosite["site"]
 design_case("dates-without-site", _nosite, r"a \[site\] .* is needed")

@@ -169,7 +169,8 @@ def _check_step(v: str) -> str:
 
 
 def _check_directions(v):
-    """Sun directions: at least one, each of non-zero length."""
+    """Sun directions (site -> sun, z up): at least one, each of non-zero length, none below
+    the horizon."""
     if v is None:
         return v
     if len(v) == 0:
@@ -178,6 +179,11 @@ def _check_directions(v):
     if zero:
         raise ValueError(f"sun vectors {zero[:10]} have zero length; a direction needs a "
                          "non-zero [x, y, z] (site -> sun)")
+    below = [k for k, d in enumerate(v) if d[2] < 0]
+    if below:
+        # the model frame has z up: such a sun never shines; usually light directions were given
+        raise ValueError(f"sun vectors {below[:10]} point below the horizon (z < 0); give "
+                         "directions from the site towards the sun (the light travels the other way)")
     return v
 
 
@@ -193,8 +199,8 @@ class SunSpec(_Spec):
     epw: Path | None = None
     min_temperature: float = 26.0
     min_dni: float = 300.0
-    vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame; any "
-                                        "length but zero")
+    vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame (z up); "
+                                        "any length but zero, z >= 0")
 
     @field_validator("step")
     @classmethod
@@ -325,7 +331,8 @@ class OutputsSpec(_Spec):
     dxf: bool = True
     bom: bool = True
     renders: bool = True
-    light_samples: int = Field(1500, gt=0)
+    light_samples: int = Field(1500, ge=2, description="sample points of the light measurement "
+                               "(half of them for the view)")
 
 
 class SubstructureSpec(_Spec):

@@ -99,7 +99,6 @@ KEY_NOTES: dict[str, tuple[str, str]] = {
     "outputs.dxf": ("", "sheets/*.dxf cutting sheets"),
     "outputs.bom": ("", "parts.csv"),
     "outputs.renders": ("", "PNG figures and report.html"),
-    "outputs.light_samples": ("", "sample points of the light measurement"),
     "substructure": ("", "a second, aligned congruence behind A (Fig. 11)"),
 }
 _REGION_NOTES = {

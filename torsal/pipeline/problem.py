@@ -99,6 +99,9 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
     g = spec.goals
     light = -sun  # light travels from the sun
     through = select_vertices(g.let_through, v) if g.let_through is not None else np.zeros(0, int)
+    if g.let_through is not None and through.size == 0:
+        raise ValueError(f"goals.let_through = {g.let_through.model_dump(exclude_none=True)} "
+                         "contains no vertex of the surface; check its ranges against the mesh")
     blocked_v = np.setdiff1d(np.arange(len(v)), through)
     d_main = dominant_light_direction(light, w_sun)
     if g.block and blocked_v.size and not g.sun_regions:
@@ -124,6 +127,9 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
                        name=f"torsal_plane_{k}")
     if g.reflect is not None:
         fi = select_faces(g.reflect.region, v, f)
+        if fi.size == 0:
+            raise ValueError("goals.reflect.region contains no face of the surface; check its "
+                             "ranges against the mesh")
         bc = v[f[fi]].mean(axis=1)
         out = np.asarray(g.reflect.target, float) - bc
         n = mirror_normals(np.tile(d_main, (len(fi), 1)), out / np.linalg.norm(out, axis=1, keepdims=True))
