@@ -332,6 +332,9 @@ directions_case("per-merged-vertex", SPLIT_OBJ, _txt("d.txt", D20_SPLIT_ORDER), 
                 check=_analysis_check(20, 24, HYP_D, rows="one per merged vertex"))
 directions_case("per-vertex-plain", PLAIN_OBJ, _txt("d.txt", D20), 0,
                 check=_analysis_check(20, 24, _dir_hyp(GRID_V, GRID_F, D20), rows="one per vertex"))
+SPLIT_STL = _write("split.stl", mc.stl_ascii(GRID_V, GRID_F))
+directions_case("stl-per-corner", SPLIT_STL, _txt("d.txt", D72), 0,
+                check=_analysis_check(20, 24, HYP_D, rows="one per file vertex"))
 directions_case("csv", PLAIN_OBJ, _txt("d.csv", D20, delimiter=","), 0,
                 check=_analysis_check(20, 24, _dir_hyp(GRID_V, GRID_F, D20), rows="one per vertex"))
 directions_case("npy-per-file-vertex", SPLIT_OBJ, _npy("d.npy", D72), 0,

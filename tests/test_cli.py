@@ -227,3 +227,20 @@ def test_analyze_reports_the_merge_and_ends_with_a_newline(tmp_path, capsys):
     assert re.search(r"vertices / faces\s+│ 8 / 12", out)
     assert re.search(r"directions rows\s+│ one per vertex", out)
     assert out.endswith("s\n")  # "done in 0.01 s" and a newline: nothing glued to the next line
+
+
+def test_no_size_limit_runs_a_design_above_the_limits(tmp_path, capsys, monkeypatch):
+    import importlib
+
+    checks = importlib.import_module("torsal.pipeline.checks")
+    monkeypatch.setitem(checks.SIZE_LIMITS, "fins", 50)  # the tiny design has about 130 fins
+    design = tmp_path / "d.toml"
+    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    assert main(["design", str(design), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert re.search(r"fins about \d+ \(limit 50\): change fins.spacing", err)
+    assert main(["design", str(design), "--out", str(tmp_path / "o"), "--no-size-limit"]) == 0
+    est = json.loads((tmp_path / "o" / "report.json").read_text())["estimate"]
+    fins = json.loads((tmp_path / "o" / "report.json").read_text())["support"]["edges"]
+    assert est["fins"] > 50 and est["limits"]["fins"] == 50
+    assert 0.5 < est["fins"] / fins < 2  # the estimate is the right size
