@@ -244,3 +244,26 @@ def test_no_size_limit_runs_a_design_above_the_limits(tmp_path, capsys, monkeypa
     fins = json.loads((tmp_path / "o" / "report.json").read_text())["support"]["edges"]
     assert est["fins"] > 50 and est["limits"]["fins"] == 50
     assert 0.5 < est["fins"] / fins < 2  # the estimate is the right size
+
+
+@pytest.mark.parametrize("which", ["design", "directions", "mesh"])
+def test_unreadable_input_files_exit_2(facade, tmp_path, capsys, monkeypatch, which):
+    """A file without read permission (simulated: the tests may run as root, who reads anyway)."""
+    design = tmp_path / "d.toml"
+    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    np.savetxt(tmp_path / "d.txt", np.ones((len(facade[1]), 3)))
+    target = {"design": design, "directions": tmp_path / "d.txt", "mesh": facade[0]}[which]
+    real = Path.read_bytes
+
+    def read_bytes(self):
+        if self == target:
+            raise PermissionError(13, "Permission denied", str(self))
+        return real(self)
+
+    monkeypatch.setattr(Path, "read_bytes", read_bytes)
+    argv = (["design", str(design), "--out", str(tmp_path / "o")] if which == "design" else
+            ["analyze", str(facade[0]), "--directions", str(tmp_path / "d.txt")])
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"{which} file {target} cannot be read (permission denied)" in err
+    assert "Traceback" not in err

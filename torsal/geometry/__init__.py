@@ -2,11 +2,15 @@
 from .congruence import Congruence, FaceFrame
 from .optimize import CongruenceProblem, OptimizationError, OptimizationResult
 from .mesh import (
+    MERGE_TOLERANCE,
     MeshError,
+    MeshMerge,
     average_edge_length,
     boundary_vertices,
     edge_face_adjacency,
     load_mesh,
+    merge_vertices,
+    read_mesh_file,
     umbrella_laplacian,
     validate_mesh,
     vertex_normals,
@@ -25,7 +29,8 @@ from .support import (
 from .torsal_curves import TorsalCurve, trace_torsal_curve
 
 __all__ = [
-    "Congruence", "FaceFrame", "MeshError", "load_mesh", "validate_mesh", "average_edge_length",
+    "Congruence", "FaceFrame", "MeshError", "MeshMerge", "MERGE_TOLERANCE", "merge_vertices",
+    "read_mesh_file", "load_mesh", "validate_mesh", "average_edge_length",
     "vertex_normals", "umbrella_laplacian", "boundary_vertices", "edge_face_adjacency",
     "SupportStructure", "FinStrip", "fin_planarity", "TorsalCurve", "trace_torsal_curve",
     "CongruenceProblem", "OptimizationResult", "OptimizationError",

@@ -411,6 +411,16 @@ def read_epw(path, *, coerce_year: int | None = None):
         pvlib's columns (``temp_air`` degC, ``dni`` W/m^2, ...), one row per hour.
     meta : dict
         ``latitude``, ``longitude`` (degrees), ``TZ`` (hours), ``altitude`` (m), ...
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "w.epw"
+    >>> _ = p.write_text("hello,world")
+    >>> read_epw(p)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    torsal.light.sun.EPWError: ...w.epw: not an EPW weather file (the first line must be 'LOCATION,...
     """
     import io
 
