@@ -782,3 +782,68 @@ def test_no_traceback_reaches_stderr_of_the_real_command(id, tmp_path):
     assert res.returncode == 2
     assert "Traceback" not in res.stderr and res.stderr.startswith("error: ")
     assert re.search(c.message, res.stderr, re.S)
+
+
+# ============================================================== mutated files (fuzzing)
+def _mutate(data: bytes, rng) -> bytes:
+    """Flip, delete, insert or duplicate a few spans of bytes."""
+    data = bytearray(data)
+    kind = rng.integers(0, 4)
+    for _ in range(rng.integers(1, 6)):
+        if kind == 0 and data:
+            data[rng.integers(0, len(data))] = rng.integers(0, 256)
+        elif kind == 1 and len(data) > 2:
+            a = rng.integers(0, len(data))
+            data[a:a + rng.integers(1, 40)] = b""
+        elif kind == 2:
+            a = rng.integers(0, len(data) + 1)
+            data[a:a] = bytes(rng.choice(list(b"0123456789 -.eE\nvf/#[]=\"'"), rng.integers(1, 10)))
+        else:
+            a = rng.integers(0, len(data))
+            data[a:a] = data[a:a + rng.integers(1, 60)]
+    return bytes(data)
+
+
+def test_mutated_mesh_files_load_or_fail_cleanly(tmp_path):
+    """1,200 random mutations of valid files in every format: each loads or raises a
+    TorsalError (a MeshError naming the file); never another exception."""
+    from torsal.core.errors import TorsalError
+    from torsal.geometry.mesh import load_mesh
+
+    v, f = mc.grid(4, 3)
+    bases = [("obj", mc.obj_text(v, f, normals="face", uv=True).encode()),
+             ("ply", mc.ply_ascii(v, f).encode()), ("ply", mc.ply_binary(v, f)),
+             ("off", mc.off_text(v, f).encode()), ("stl", mc.stl_binary(v, f)),
+             ("stl", mc.stl_ascii(v, f).encode())]
+    rng = np.random.default_rng(2026)
+    outcomes = {"loaded": 0, "rejected": 0}
+    for k in range(1200):
+        ext, data = bases[k % len(bases)]
+        path = tmp_path / f"m{k}.{ext}"
+        path.write_bytes(_mutate(data, rng))
+        try:
+            m = load_mesh(path)
+            assert np.isfinite(m.vertices).all() and len(m.faces) > 0
+            outcomes["loaded"] += 1
+        except TorsalError as exc:
+            assert str(path) in str(exc)
+            outcomes["rejected"] += 1
+    assert outcomes["rejected"] > 600 and outcomes["loaded"] > 50, outcomes
+
+
+def test_mutated_design_files_load_or_fail_cleanly(tmp_path):
+    """400 random mutations of a valid design file: each loads or raises a TorsalError."""
+    from torsal.core.errors import TorsalError
+    from torsal.design_file import load_design_file
+
+    base = design_text(FULL).encode()
+    rng = np.random.default_rng(18)
+    rejected = 0
+    for k in range(400):
+        path = tmp_path / f"d{k}.toml"
+        path.write_bytes(_mutate(base, rng))
+        try:
+            load_design_file(path)
+        except TorsalError:
+            rejected += 1
+    assert rejected > 200

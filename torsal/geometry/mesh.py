@@ -172,6 +172,21 @@ class MeshMerge:
         return out, "file vertex"
 
 
+#: Coordinates beyond this (any unit) are a broken file, not a building: squared, they overflow.
+MAX_COORDINATE = 1e30
+
+
+def _check_coordinates(v: np.ndarray) -> None:
+    """Raise :class:`MeshError` for NaN, infinite or absurdly large coordinates, (n, 3) float."""
+    bad_v = np.flatnonzero(~np.isfinite(v).all(axis=1))
+    if bad_v.size:
+        raise MeshError(f"vertices {_listed(bad_v)} have NaN or infinite coordinates; fix or remove them")
+    huge = np.flatnonzero((np.abs(v) > MAX_COORDINATE).any(axis=1))
+    if huge.size:
+        raise MeshError(f"vertices {_listed(huge)} have coordinates beyond {MAX_COORDINATE:g}; "
+                        "the file is damaged or in the wrong units")
+
+
 def merge_vertices(vertices: np.ndarray, faces: np.ndarray, *,
                    tolerance: float | None = MERGE_TOLERANCE):
     """Merge vertices at the same position and drop vertices in no face.
@@ -281,10 +296,10 @@ def load_mesh(path: str | Path, *, validate: bool = True,
     if len(raw.faces) == 0:
         raise MeshError(f"{path}: contains no triangle faces ({len(raw.vertices)} vertices only); "
                         "export the surface as a triangle mesh")
-    bad_v = np.flatnonzero(~np.isfinite(raw.vertices).all(axis=1))
-    if bad_v.size:
-        raise MeshError(f"{path}: vertices {_listed(bad_v)} have NaN or infinite coordinates; "
-                        "fix or remove them")
+    try:
+        _check_coordinates(raw.vertices)
+    except MeshError as exc:
+        raise MeshError(f"{path}: {exc}") from None
     v, f, merge = merge_vertices(raw.vertices, raw.faces, tolerance=merge_tolerance)
     merge = dataclasses.replace(merge, polygons=raw.polygons, format=raw.format)
     if validate:
@@ -414,7 +429,8 @@ def average_edge_length(vertices: np.ndarray, faces: np.ndarray) -> float:
 def validate_mesh(vertices: np.ndarray, faces: np.ndarray) -> None:
     """Raise :class:`MeshError` naming the problem if the mesh cannot carry a congruence.
 
-    Checks, in order: at least one face; vertices finite (no NaN/inf); face indices in
+    Checks, in order: at least one face; vertices finite (no NaN/inf, none beyond
+    ``MAX_COORDINATE``); face indices in
     range; no face that repeats a vertex or has (relative) zero area; every edge shared
     by at most two faces (manifold); neighbouring faces consistently oriented.
 
@@ -431,9 +447,7 @@ def validate_mesh(vertices: np.ndarray, faces: np.ndarray) -> None:
         raise MeshError(f"faces must be triangles, got {f.shape[1]} vertices per face; triangulate the mesh")
     if v.ndim != 2 or v.shape[1] != 3:
         raise MeshError(f"vertices must be an (n, 3) array, got shape {v.shape}")
-    bad_v = np.flatnonzero(~np.isfinite(v).all(axis=1))
-    if bad_v.size:
-        raise MeshError(f"vertices {_listed(bad_v)} have NaN or infinite coordinates; fix or remove them")
+    _check_coordinates(v)
     if f.min() < 0 or f.max() >= len(v):
         bad = np.flatnonzero(((f < 0) | (f >= len(v))).any(axis=1))
         raise MeshError(f"faces {_listed(bad)} refer to vertices that do not exist (mesh has {len(v)})")
