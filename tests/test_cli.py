@@ -267,3 +267,22 @@ def test_unreadable_input_files_exit_2(facade, tmp_path, capsys, monkeypatch, wh
     err = capsys.readouterr().err
     assert f"{which} file {target} cannot be read (permission denied)" in err
     assert "Traceback" not in err
+
+
+def test_value_errors_of_torsal_checks_are_bad_input_of_libraries_are_bugs(facade, capsys, monkeypatch):
+    import importlib
+
+    an = importlib.import_module("torsal.pipeline.analyze")
+
+    def library_bug(*a, **k):
+        return np.zeros(3).reshape(2, 2)  # numpy raises: a bug, not the input
+
+    monkeypatch.setattr(an, "load_mesh", library_bug)
+    assert main(["analyze", str(facade[0])]) == 1
+    assert "internal error: ValueError: cannot reshape" in capsys.readouterr().err
+
+
+def test_a_surface_that_folds_back_is_named(tmp_path, capsys):
+    (tmp_path / "fold.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1e-9 1e-9 1e-9\nf 1 2 3\nf 2 4 3\n")
+    assert main(["analyze", str(tmp_path / "fold.obj"), "--no-plot"]) == 2
+    assert "vertices [0, 1, 2] have no normal" in capsys.readouterr().err

@@ -6,10 +6,12 @@ Exit status (one place: :func:`_run_command`):
 
 - 0: success.
 - 1: an internal error (a bug): one line naming it; ``--debug`` (or ``TORSAL_DEBUG=1``) shows
-  the traceback.
+  the traceback. Any exception other than those below, and a ``ValueError`` raised inside a
+  library (numpy, scipy ...) rather than by torsal's own checks.
 - 2: bad input: any :class:`~torsal.core.errors.TorsalError` (mesh, design file, directions,
-  a stage rejecting its input, an output folder that cannot be used) or a missing or
-  unreadable file. The message names the problem and what to change; never a traceback.
+  a stage rejecting its input, an output folder that cannot be used), a ``ValueError`` from
+  torsal's own checks, or a file that cannot be read or written. The message names the problem
+  and what to change; never a traceback.
 - Other codes: an error that carries its own ``exit_status`` attribute (e.g. 3 for a design
   that is not buildable), or a subcommand that returns one.
 
@@ -24,12 +26,14 @@ import sys
 import time
 import traceback
 import warnings
+from pathlib import Path
 
 __all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT"]
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
+_PACKAGE = Path(__file__).resolve().parent
 
 
 # ---------------------------------------------------------------------- terminal
@@ -295,18 +299,41 @@ def _run_command(handler, args, ui: _Terminal, debug: bool) -> int:
         where = f" {exc.filename}" if exc.filename else ""
         ui.error(f"{exc.strerror or exc}:{where}" if exc.strerror else str(exc))
         if debug:
-            ui.note(traceback.format_exc().rstrip())
+            ui.note("".join(traceback.format_exception(exc)).rstrip())
+        return EXIT_BAD_INPUT
+    except ValueError as exc:
+        if not _raised_by_torsal(exc):
+            return _internal(ui, exc, debug)
+        # torsal's own checks of a value it was given (the input, through the library)
+        ui.error(str(exc))
+        _notes(ui, exc)
         return EXIT_BAD_INPUT
     except Exception as exc:  # a bug: one line and how to see more
-        first = (str(exc).strip().splitlines() or [""])[0]
-        ui.error(f"internal error: {type(exc).__name__}: {first}")
-        _notes(ui, exc)
-        if debug:
-            ui.note(traceback.format_exc().rstrip())
-        else:
-            ui.note("this is a bug in torsal, not in your input; run again with --debug for the "
-                    "traceback and report it")
-        return EXIT_INTERNAL
+        return _internal(ui, exc, debug)
+
+
+def _internal(ui: _Terminal, exc: BaseException, debug: bool) -> int:
+    """A bug: one line naming it, and how to see the traceback."""
+    first = (str(exc).strip().splitlines() or [""])[0]
+    ui.error(f"internal error: {type(exc).__name__}: {first}")
+    _notes(ui, exc)
+    if debug:
+        ui.note("".join(traceback.format_exception(exc)).rstrip())
+    else:
+        ui.note("this is a bug in torsal, not in your input; run again with --debug for the "
+                "traceback and report it")
+    return EXIT_INTERNAL
+
+
+def _raised_by_torsal(exc: BaseException) -> bool:
+    """True if the innermost frame of the exception is torsal's code (a deliberate check), not a
+    library's (numpy, scipy ...), where a ValueError means a bug."""
+    tb, last = exc.__traceback__, None
+    while tb is not None:
+        last, tb = tb, tb.tb_next
+    if last is None:
+        return False
+    return Path(last.tb_frame.f_code.co_filename).resolve().is_relative_to(_PACKAGE)
 
 
 def _notes(ui: _Terminal, exc: BaseException) -> None:

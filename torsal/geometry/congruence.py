@@ -339,7 +339,13 @@ class Congruence:
         """
         v, f = _as_arrays(mesh)
         validate_mesh(v, f)
-        return cls(v, f, vertex_normals(v, f), **kwargs)
+        n = vertex_normals(v, f)
+        bad = np.flatnonzero(~np.isfinite(n).all(axis=1))
+        if bad.size:
+            raise MeshError(f"vertices {bad[:10].tolist()} have no normal: the areas of their faces "
+                            "cancel (the surface folds back onto itself there); fix the mesh or "
+                            "give line directions")
+        return cls(v, f, n, **kwargs)
 
     @classmethod
     def from_mesh_pair(cls, mesh_a, mesh_b, **kwargs) -> "Congruence":
