@@ -26,14 +26,12 @@ import sys
 import time
 import traceback
 import warnings
-from pathlib import Path
 
 __all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT"]
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
-_PACKAGE = Path(__file__).resolve().parent
 
 
 # ---------------------------------------------------------------------- terminal
@@ -278,7 +276,7 @@ def _run_command(handler, args, ui: _Terminal, debug: bool) -> int:
 
     The one error policy of the command line (see the module docstring).
     """
-    from .core.errors import TorsalError
+    from .core.errors import TorsalError, raised_in_torsal
 
     def show_warning(message, category, filename, lineno, file=None, line=None):
         ui.note(f"warning: {message}")  # the message, not the library's source line
@@ -302,7 +300,7 @@ def _run_command(handler, args, ui: _Terminal, debug: bool) -> int:
             ui.note("".join(traceback.format_exception(exc)).rstrip())
         return EXIT_BAD_INPUT
     except ValueError as exc:
-        if not _raised_by_torsal(exc):
+        if not raised_in_torsal(exc):
             return _internal(ui, exc, debug)
         # torsal's own checks of a value it was given (the input, through the library)
         ui.error(str(exc))
@@ -323,17 +321,6 @@ def _internal(ui: _Terminal, exc: BaseException, debug: bool) -> int:
         ui.note("this is a bug in torsal, not in your input; run again with --debug for the "
                 "traceback and report it")
     return EXIT_INTERNAL
-
-
-def _raised_by_torsal(exc: BaseException) -> bool:
-    """True if the innermost frame of the exception is torsal's code (a deliberate check), not a
-    library's (numpy, scipy ...), where a ValueError means a bug."""
-    tb, last = exc.__traceback__, None
-    while tb is not None:
-        last, tb = tb, tb.tb_next
-    if last is None:
-        return False
-    return Path(last.tb_frame.f_code.co_filename).resolve().is_relative_to(_PACKAGE)
 
 
 def _notes(ui: _Terminal, exc: BaseException) -> None:

@@ -28,7 +28,7 @@ from typing import Callable, Iterator
 
 from ..design_file import DesignSpec
 from .cache import MISSING, StageCache, stage_key
-from ..core.errors import TorsalError
+from ..core.errors import TorsalError, raised_in_torsal
 from .errors import DesignError, Progress, quiet
 
 __all__ = ["Stage", "StageInputs", "Pipeline", "StageRun", "run_stages", "stage_keys"]
@@ -206,9 +206,9 @@ def _files_present(value: dict, out: Path) -> bool:
 def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache, *,
                progress: Progress = quiet, run: StageRun | None = None) -> StageRun:
     """Run the stages that apply to ``spec`` in order; raises :class:`DesignError` naming
-    the stage that failed when its input is the cause (a :class:`TorsalError` or
-    ``ValueError`` in the stage); any other exception is a bug and propagates with a note
-    naming the stage. Results of earlier stages stay cached."""
+    the stage that failed when its input is the cause (a :class:`TorsalError`, or a
+    ``ValueError`` raised by torsal's own checks); any other exception is a bug and
+    propagates with a note naming the stage. Results of earlier stages stay cached."""
     run = run if run is not None else StageRun()
     keys = stage_keys(pipeline, spec)
     for s in pipeline:
@@ -229,6 +229,9 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
             except DesignError:
                 raise
             except (TorsalError, ValueError) as exc:
+                if not isinstance(exc, TorsalError) and not raised_in_torsal(exc):
+                    exc.add_note(f"in stage '{s.name}'")
+                    raise                       # a ValueError inside numpy/scipy: a bug
                 # the input is the cause (stages raise these for what they reject)
                 raise DesignError(s.name, str(exc)) from exc
             except Exception as exc:
