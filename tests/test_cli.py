@@ -189,7 +189,7 @@ def test_failed_design_leaves_no_results_of_an_earlier_run(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "stage 'estimate' failed" in err and "fins about" in err and "fins.spacing" in err
     assert "--no-size-limit" in err
-    assert "the earlier run's results" in err and "removed" in err
+    assert "the earlier design results" in err and "removed" in err
     left = sorted(p.name for p in out.iterdir())
     assert left == [".torsal-cache"]
     # the cache stays: the good design again reuses every stage up to the results
@@ -286,3 +286,38 @@ def test_a_surface_that_folds_back_is_named(tmp_path, capsys):
     (tmp_path / "fold.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1e-9 1e-9 1e-9\nf 1 2 3\nf 2 4 3\n")
     assert main(["analyze", str(tmp_path / "fold.obj"), "--no-plot"]) == 2
     assert "vertices [0, 1, 2] have no normal" in capsys.readouterr().err
+
+
+def test_staging_replaces_only_the_results_of_its_own_kind(tmp_path):
+    from torsal.pipeline.staging import RESULTS_LIST, Staging
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "notes.txt").write_text("the user's own file")
+    with Staging(out, kind="design") as st:
+        (st.folder / "report.json").write_text("design 1")
+        (st.folder / "sheets").mkdir()
+        (st.folder / "sheets" / "a.dxf").write_text("dxf")
+        st.keep_only(["report.json", ["sheets/a.dxf"]])
+    with Staging(out, kind="analyze") as st:
+        (st.folder / "analysis.json").write_text("analysis 1")
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [RESULTS_LIST, "analysis.json", "notes.txt", "report.json", "sheets"]
+    # a design run that fails removes the design results only
+    with pytest.raises(RuntimeError):
+        with Staging(out, kind="design") as st:
+            (st.folder / "report.json").write_text("half of design 2")
+            raise RuntimeError("stage failed")
+    assert sorted(p.name for p in out.iterdir()) == [RESULTS_LIST, "analysis.json", "notes.txt"]
+    assert "the earlier design results (report.json, sheets) were removed" in st.failure_note()
+    assert json.loads((out / RESULTS_LIST).read_text())["runs"].keys() == {"analyze"}
+    # a design run that no longer writes sheets/ leaves no stale sheets behind
+    with Staging(out, kind="design") as st:
+        (st.folder / "report.json").write_text("design 3")
+        (st.folder / "sheets").mkdir()
+        st.keep_only(["report.json", "sheets"])
+    with Staging(out, kind="design") as st:
+        (st.folder / "report.json").write_text("design 4")
+        st.keep_only(["report.json"])
+    assert not (out / "sheets").exists() and (out / "report.json").read_text() == "design 4"
+    assert (out / "notes.txt").exists() and (out / "analysis.json").read_text() == "analysis 1"

@@ -102,7 +102,7 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
     if out_dir is None:
         return _analyze(Path(mesh), directions, None, plot)
     out = output_folder(out_dir, option="output folder")
-    staging = Staging(out)
+    staging = Staging(out, kind="analyze")
     try:
         with staging:
             res = _analyze(Path(mesh), directions, staging.folder, plot)

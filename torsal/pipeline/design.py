@@ -107,7 +107,7 @@ class Design:
                                               inputs=pipeline["estimate"].inputs,
                                               key=pipeline["estimate"].key, cache=False))
         spec = self.spec
-        staging = Staging(out)
+        staging = Staging(out, kind="design")
         try:
             with staging:
                 run = run_stages(pipeline, spec, staging.folder, cache,

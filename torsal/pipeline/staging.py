@@ -1,9 +1,9 @@
-"""Result files of a design run appear together or not at all.
+"""Result files of a run (``torsal design``, ``torsal analyze``) appear together or not at all.
 
 A run writes into a staging folder inside the output folder (``OUT/.torsal-staging``) and
 moves the files into ``OUT`` only when every stage succeeded (earlier results the run did not
 produce again are dropped, :meth:`Staging.keep_only`); ``OUT/.torsal-results.json`` then
-lists them. The previous run's results (the files that list names) are moved into the
+lists them, per kind of run. The previous run's results (the files that list names) are moved into the
 staging folder at the start, so stages whose cached result refers to them still find them.
 
 If the run fails, the staging folder is removed with everything in it, the earlier run's
@@ -15,7 +15,7 @@ Examples
 --------
 >>> import tempfile, pathlib
 >>> out = pathlib.Path(tempfile.mkdtemp())
->>> with Staging(out) as st:
+>>> with Staging(out, kind="design") as st:
 ...     _ = (st.folder / "report.json").write_text("{}")
 >>> sorted(p.name for p in out.iterdir())
 ['.torsal-results.json', 'report.json']
@@ -36,9 +36,12 @@ __all__ = ["Staging", "RESULTS_LIST", "STAGING_FOLDER"]
 STAGING_FOLDER = ".torsal-staging"
 RESULTS_LIST = ".torsal-results.json"
 # results of runs from before the list existed: these names are torsal's own
-_KNOWN_RESULTS = ("report.json", "report.html", "parts.csv", "fins.step", "fins.3dm",
-                  "congruence.ply", "support.obj", "substructure.obj", "sheets",
-                  "analysis.json", "torsal_field.png")
+_KNOWN_RESULTS = {
+    "design": ("report.json", "report.html", "parts.csv", "fins.step", "fins.3dm",
+               "congruence.ply", "support.obj", "substructure.obj", "sheets"),
+    "analyze": ("analysis.json", "torsal_field.png"),
+}
+_MARKER = {"design": "report.json", "analyze": "analysis.json"}
 
 
 class Staging:
@@ -48,25 +51,41 @@ class Staging:
     ----------
     out : Path
         The output folder (exists, writable).
+    kind : str
+        Which command's results (``"design"``, ``"analyze"``): a run replaces the earlier
+        results of its own kind only; the results list keeps one entry per kind.
     """
 
-    def __init__(self, out: Path):
+    def __init__(self, out: Path, kind: str = "design"):
         self.out = Path(out)
+        self.kind = kind
         self.folder = self.out / STAGING_FOLDER
         self.earlier: list[str] = []   # top-level names of the previous run's results
         self.removed: list[str] = []   # set on failure: what of them is gone
         self.keep: set[str] | None = None
 
+    def _runs(self) -> dict:
+        """The results list: ``{kind: {"files": [...], "finished": iso time}}``."""
+        try:
+            runs = json.loads((self.out / RESULTS_LIST).read_text()).get("runs", {})
+            return runs if isinstance(runs, dict) else {}
+        except (ValueError, AttributeError, OSError):
+            return {}
+
+    def _write_runs(self, runs: dict) -> None:
+        if runs:
+            write_json(self.out / RESULTS_LIST, {"runs": runs})
+        else:
+            (self.out / RESULTS_LIST).unlink(missing_ok=True)
+
     def _previous_results(self) -> list[str]:
-        listed = self.out / RESULTS_LIST
-        names: list[str] = []
-        if listed.exists():
-            try:
-                names = [str(n) for n in json.loads(listed.read_text()).get("files", [])]
-            except (ValueError, AttributeError, OSError):
-                names = []
-        elif (self.out / "report.json").exists() or (self.out / "analysis.json").exists():
-            names = list(_KNOWN_RESULTS)
+        runs = self._runs()
+        if self.kind in runs:
+            names = [str(n) for n in runs[self.kind].get("files", [])]
+        elif not (self.out / RESULTS_LIST).exists() and (self.out / _MARKER.get(self.kind, "-")).exists():
+            names = list(_KNOWN_RESULTS.get(self.kind, ()))
+        else:
+            names = []
         # top-level entries only, never outside OUT, never our own bookkeeping
         top = {Path(n).parts[0] for n in names if n and not Path(n).is_absolute()
                and ".." not in Path(n).parts}
@@ -80,7 +99,9 @@ class Staging:
         self.earlier = self._previous_results()
         for name in self.earlier:
             os.replace(self.out / name, self.folder / name)
-        (self.out / RESULTS_LIST).unlink(missing_ok=True)
+        runs = self._runs()
+        runs.pop(self.kind, None)
+        self._write_runs(runs)
         return self
 
     def keep_only(self, files) -> None:
@@ -109,12 +130,16 @@ class Staging:
                 shutil.rmtree(target)
             os.replace(self.folder / name, target)
         self.folder.rmdir()
-        write_json(self.out / RESULTS_LIST, {
-            "files": names, "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")})
+        runs = self._runs()
+        for other in runs.values():  # a file this run wrote again is this run's now
+            other["files"] = [n for n in other.get("files", []) if Path(n).parts[0] not in names]
+        runs[self.kind] = {"files": names, "finished": _dt.datetime.now(
+            _dt.timezone.utc).isoformat(timespec="seconds")}
+        self._write_runs(runs)
 
     def failure_note(self) -> str:
         """What a failed run left in the output folder, for the error message."""
-        earlier = (f"the earlier run's results ({', '.join(self.removed[:6])}"
+        earlier = (f"the earlier {self.kind} results ({', '.join(self.removed[:6])}"
                    f"{' ...' if len(self.removed) > 6 else ''}) were removed so they cannot be "
                    "taken for this run's; " if self.removed else "")
         return (f"{self.out} holds no results of this run: {earlier}the stage cache "
