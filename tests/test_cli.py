@@ -214,6 +214,8 @@ def test_design_on_an_obj_with_uv_seams_runs_on_the_merged_mesh(tmp_path, capsys
     assert surface["vertices"] == len(v) and surface["faces"] == len(f)
     assert surface["mesh_file"]["file_vertices"] == 3 * len(f)
     assert surface["mesh_file"]["merged"] == 3 * len(f) - len(v)
+    assert (f"surface: {len(v)} vertices from {3 * len(f)} in the file "
+            f"({3 * len(f) - len(v)} merged at the same position" in capsys.readouterr().out)
 
 
 def test_analyze_reports_the_merge_and_ends_with_a_newline(tmp_path, capsys):

@@ -136,6 +136,11 @@ def _design(args, ui: _Terminal) -> int:
         res = design.run(out, progress=progress, use_cache=not args.no_cache,
                          size_limit=not args.no_size_limit)
     r = res.report
+    mf = r.get("surface", {}).get("mesh_file")
+    if mf and (mf["merged"] or mf["unused"] or mf["polygons_triangulated"]):
+        ui.line(f"surface: {mf['vertices']} vertices from {mf['file_vertices']} in the file "
+                f"({mf['merged']} merged at the same position, {mf['unused']} unused, "
+                f"{mf['polygons_triangulated']} polygons triangulated)")
     s, li, fa = r["support"], r["light"], r["fabrication"]
     ui.line(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
             f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
