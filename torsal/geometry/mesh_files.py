@@ -118,6 +118,8 @@ def _truncated_hint(last: bool) -> str:
 
 def _fan(polys: list[list[int]]) -> tuple[np.ndarray, int]:
     """Fan-triangulate polygons (lists of >= 3 indices) -> (F, 3) int64, number of polygons."""
+    if all(len(p) == 3 for p in polys):  # the common case, without a Python loop of lists
+        return np.asarray(polys, dtype=np.int64).reshape(-1, 3), 0
     tris, n_poly = [], 0
     for p in polys:
         if len(p) == 3:
@@ -265,11 +267,16 @@ def _read_ply(data: bytes) -> RawMesh:
         return RawMesh(verts, np.zeros((0, 3), np.int64), 0, "ply")
     k = next(i for i, p in enumerate(face.props) if len(p) == 3 and p[0] in _FACE_LISTS)
     lists = records["face"][k]
-    bad = [i for i, p in enumerate(lists) if len(p) < 3]
-    if bad:
-        raise _LineError(f"face {bad[0]} has {len(lists[bad[0]])} corners; faces need at least three")
-    polys = [list(map(int, p)) for p in lists]
-    faces, n_poly = _fan(polys)
+    if isinstance(lists, np.ndarray):  # binary, all triangles: read as one (F, 3) block
+        faces, n_poly = lists.astype(np.int64).reshape(-1, 3), 0
+        polys = lists
+    else:
+        bad = [i for i, p in enumerate(lists) if len(p) < 3]
+        if bad:
+            raise _LineError(f"face {bad[0]} has {len(lists[bad[0]])} corners; faces need at least "
+                             "three")
+        polys = [list(map(int, p)) for p in lists]
+        faces, n_poly = _fan(polys)
     if faces.size and (faces.min() < 0 or faces.max() >= len(verts)):
         bad_f = next(i for i, p in enumerate(polys) if min(p) < 0 or max(p) >= len(verts))
         raise _LineError(f"face {bad_f} refers to a vertex that does not exist "
