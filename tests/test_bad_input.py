@@ -335,6 +335,8 @@ directions_case("per-vertex-plain", PLAIN_OBJ, _txt("d.txt", D20), 0,
 SPLIT_STL = _write("split.stl", mc.stl_ascii(GRID_V, GRID_F))
 directions_case("stl-per-corner", SPLIT_STL, _txt("d.txt", D72), 0,
                 check=_analysis_check(20, 24, HYP_D, rows="one per file vertex"))
+directions_case("utf8-bom", PLAIN_OBJ, _write("d.txt", "\ufeff" + "\n".join(" ".join(repr(float(x)) for x in r) for r in D20)),
+                0, check=_analysis_check(20, 24, _dir_hyp(GRID_V, GRID_F, D20), rows="one per vertex"))
 directions_case("csv", PLAIN_OBJ, _txt("d.csv", D20, delimiter=","), 0,
                 check=_analysis_check(20, 24, _dir_hyp(GRID_V, GRID_F, D20), rows="one per vertex"))
 directions_case("npy-per-file-vertex", SPLIT_OBJ, _npy("d.npy", D72), 0,
@@ -694,6 +696,9 @@ TOML_TEXT = {"unclosed-table": "[fins\nspacing = 1\n", "duplicate-key": "name = 
 for id, text in TOML_TEXT.items():
     design_case(f"toml-{id}", text, "not valid TOML")
 design_case("empty-file", "", "missing")
+_bom = copy.deepcopy(FULL)
+_bom["fins"]["spacing"] = -1.0
+design_case("utf8-bom-is-read", "\ufeff" + design_text(_bom), "fins.spacing: Input should be greater than 0")
 case("design-is-a-folder", lambda tmp: (tmp / "d.toml").mkdir() or
      ["design", str(tmp / "d.toml"), "--out", str(tmp / "out")], 2, "design file .*d.toml is a folder")
 case("design-missing", lambda tmp: ["design", str(tmp / "none.toml"), "--out", str(tmp / "out")], 2,

@@ -49,7 +49,7 @@ def read_input(path: str | Path, what: str, *, text: bool = False) -> bytes | st
     what : str
         What the file is, for messages: ``"mesh file"``, ``"design file"``.
     text : bool
-        Decode as UTF-8.
+        Decode as UTF-8 (undecodable bytes replaced, a leading byte-order mark dropped).
     """
     p = check_input(path, what)
     try:
@@ -59,4 +59,7 @@ def read_input(path: str | Path, what: str, *, text: bool = False) -> bytes | st
                              "check its permissions") from None
     except OSError as exc:
         raise InputFileError(f"{what} {p} cannot be read ({exc.strerror or exc})") from None
-    return data.decode("utf-8", errors="replace") if text else data
+    if not text:
+        return data
+    # a byte-order mark (Windows editors) is not part of the text
+    return data.decode("utf-8", errors="replace").removeprefix("\ufeff")

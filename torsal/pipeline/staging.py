@@ -142,5 +142,7 @@ class Staging:
         earlier = (f"the earlier {self.kind} results ({', '.join(self.removed[:6])}"
                    f"{' ...' if len(self.removed) > 6 else ''}) were removed so they cannot be "
                    "taken for this run's; " if self.removed else "")
-        return (f"{self.out} holds no results of this run: {earlier}the stage cache "
-                f"({self.out / '.torsal-cache'}) is kept, so the next run resumes")
+        cache = self.out / ".torsal-cache"
+        kept = (f"the stage cache ({cache}) is kept, so the next run resumes" if cache.exists()
+                else "nothing else was changed")
+        return f"{self.out} holds no results of this run: {earlier}{kept}"
