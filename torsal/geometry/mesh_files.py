@@ -138,8 +138,38 @@ _OBJ_IGNORED = {"vt", "vn", "vp", "g", "o", "s", "mg", "usemtl", "mtllib", "l", 
                 "shadow_obj", "trace_obj", "ctech", "stech", "call", "csh"}
 
 
+_OBJ_KEY = re.compile(r"^[ \t]*([^\s#]+)", re.M)
+_OBJ_V = re.compile(r"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.M)
+_OBJ_TRI = re.compile(r"^[ \t]*f[ \t]+(\d+)\S*[ \t]+(\d+)\S*[ \t]+(\d+)\S*[ \t]*(?:#.*)?\r?$", re.M)
+
+
 def _read_obj(data: bytes) -> RawMesh:
     text = _text(data).replace("\\\r\n", " ").replace("\\\n", " ")
+    fast = _obj_fast(text)
+    return fast if fast is not None else _obj_lines(text)
+
+
+def _obj_fast(text: str) -> RawMesh | None:
+    """The common OBJ (v records, triangles with positive indices, known statements) read with
+    regular expressions; None whenever anything differs, and the line reader decides."""
+    keys = _OBJ_KEY.findall(text)
+    if not set(keys) <= _OBJ_IGNORED | {"v", "f"}:
+        return None
+    v_rows, tris = _OBJ_V.findall(text), _OBJ_TRI.findall(text)
+    if len(v_rows) != keys.count("v") or len(tris) != keys.count("f"):
+        return None  # polygons, short records, negative indices ...
+    try:
+        verts = np.array(v_rows, dtype=float).reshape(-1, 3)
+    except ValueError:
+        return None
+    faces = np.array(tris, dtype=np.int64).reshape(-1, 3) - 1
+    if faces.size and (faces.min() < 0 or faces.max() >= len(verts)):
+        return None
+    return RawMesh(verts, faces, 0, "obj")
+
+
+def _obj_lines(text: str) -> RawMesh:
+    """OBJ read line by line: every statement checked, errors name the line."""
     lines = text.splitlines()
     n_lines = len(lines)
     verts: list[list[float]] = []
