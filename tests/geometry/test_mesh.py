@@ -311,3 +311,19 @@ def test_seams_normals_and_unused_vertices_give_the_merged_analysis(tmp_path, la
                 assert np.isclose(a[k][kk], b[k][kk], rtol=rtol, atol=1e-12), (k, kk)
         else:
             assert np.isclose(a[k], b[k], rtol=rtol, atol=1e-12), k
+
+
+def test_obj_fast_reader_agrees_with_the_line_reader():
+    from torsal.geometry.mesh_files import _obj_fast, _obj_lines
+
+    v, f = mc.grid(9, 7)
+    for text in (mc.obj_text(v, f), mc.obj_text(v, f, normals="face", uv=True),
+                 mc.obj_text(v, f).replace("\n", "\r\n"), mc.obj_text(v, f, unused=[[1, 2, 3]])):
+        fast, slow = _obj_fast(text), _obj_lines(text)
+        assert fast is not None
+        assert np.array_equal(fast.vertices, slow.vertices) and np.array_equal(fast.faces, slow.faces)
+    # anything unusual goes to the line reader
+    assert _obj_fast(mc.obj_text(v, f).replace("f 1 ", "f -1 ", 1)) is None   # a relative index
+    assert _obj_fast(mc.obj_text(v, f) + "f 1 2\n") is None                    # a short face
+    assert _obj_fast(mc.obj_text(mc.CUBE_V, mc.CUBE_QUADS)) is None                     # polygons
+    assert _obj_fast("v 0 0 0\nvx 1 2 3\nf 1 1 1\n") is None
