@@ -62,6 +62,8 @@ __all__ = [
     "hyperbolicity_element",
     "torsal_angle_element",
     "torsal_angle_sx",
+    "torsal_form_invariants_sx",
+    "torsal_angle_cone_element",
     "max_angle_element",
     "unit_length_element",
     "custom_element",
@@ -480,6 +482,65 @@ def torsal_angle_element(delta: float) -> ElementTerm:
     a_u, a_v, e_u, e_v, e_c = _frame(_split(x, 3), _split(data, 3))
     c = torsal_angle_sx(a_u, a_v, e_u, e_v, e_c, par[0], par[1]) / delta**6
     return ElementTerm("min_torsal_angle", ca.Function("c_ang", [x, data, par], [c]), 3)
+
+
+def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
+    """``(p, rho^2)`` of the torsal form in coordinates orthonormal for the face metric.
+
+    With ``S = [[g0, g1], [g1, g2]]`` (eq. (1)) and the metric ``M`` of :func:`torsal_angle_sx`,
+    ``S' = M^-1/2 S M^-1/2`` has eigenvalues ``m1 >= m2``; ``p = (m1 + m2) / 2 = T / (2 det M)``
+    is its isotropic part and ``rho = (m1 - m2) / 2``, ``rho^2 = (T^2 + 4 (g1^2 - g0 g2) det M)
+    / (4 det M^2)``, its strength: the torsal directions make angles ``+-phi`` with the first
+    eigenvector where ``cos 2 phi = -p / rho``, so they are real iff ``rho >= |p|`` and enclose
+    the acute angle ``theta`` with ``cos theta = |p| / rho``. A line bundle has ``p = rho = 0``.
+    """
+    g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
+    E, G12, G = ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+    det_m = E * G - G12 * G12
+    t = g0 * G - 2.0 * g1 * G12 + g2 * E
+    p = t / (2.0 * det_m)
+    rho2 = (t * t + 4.0 * (g1 * g1 - g0 * g2) * det_m) / (4.0 * det_m * det_m)
+    return p, rho2
+
+
+def torsal_angle_cone_element(delta: float) -> ElementTerm:
+    """c_ang as a cone with a strength floor: ``cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0``.
+
+    The regular form of "torsal directions at least ``alpha`` apart" (Wang et al. 2013, 4.1)
+    that :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` imposes;
+    ``p``, ``rho`` from :func:`torsal_form_invariants_sx` with ``a`` in units of ``delta`` (so
+    ``rho`` is the difference of the torsal form's eigenvalues per edge length, radians per
+    ``delta``). ``par = [cos alpha, s]``.
+
+    Why. The polynomial :func:`torsal_angle_sx` is quartic in ``e`` and vanishes with its
+    gradient at a line bundle (``g = 0``), which it admits as feasible: an energy that
+    prefers parallel lines drives faces to that apex, IPOPT loses LICQ there and crawls,
+    and the answer has no torsal directions at all. This form is positively homogeneous of
+    degree 1 in ``g`` away from the apex (``cos(alpha) rho - |p|``, gradient of order 1),
+    and ``s > 0`` makes the apex infeasible (value ``(cos(alpha) - 1) s < 0``): a feasible
+    face has ``cos(alpha)^2 rho^2 - p^2 >= s^2 sin(alpha)^2``, so its torsal directions are
+    real, at least ``alpha`` apart, and the form has strength ``rho >= s tan(alpha)``: the
+    documented design choice "a face with a torsal-angle bound must have torsal
+    directions". Near the bound the value is ``rho (cos alpha - cos theta)``, so a value
+    error ``tau`` is an angle error of at most ``tau / (s tan(alpha) sin(alpha))`` radians.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
+    >>> e = np.array([0, 0, 1, 0.1, 0, 1, 0, -0.1, 1.0])   # torsal directions at 90 deg
+    >>> fn = torsal_angle_cone_element(1.0).fn
+    >>> float(fn(e, a, [np.cos(np.radians(40)), 1e-3])) > 0
+    True
+    >>> float(fn(np.tile([0, 0, 1.0], 3), a, [np.cos(np.radians(40)), 1e-3])) < 0   # parallel lines
+    True
+    """
+    x, data, par = face_symbols(3, n_par=2)
+    a_u, a_v, e_u, e_v, e_c = _frame(_split(x, 3), _split(data, 3))
+    p, rho2 = torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c)
+    s2 = par[1] * par[1]
+    c = par[0] * ca.sqrt(rho2 + s2) - ca.sqrt(p * p + s2)
+    return ElementTerm("min_torsal_angle", ca.Function("c_ang_cone", [x, data, par], [c]), 3)
 
 
 def max_angle_element() -> ElementTerm:
