@@ -1,0 +1,114 @@
+"""Constraints that mean what they say: every check measures the geometry a constraint names
+with numpy code independent of the NLP (torsal angles from eq. (1), c_hyp from eq. (2), angles
+between vectors), never the optimizer's own constraint values (issue 16)."""
+import numpy as np
+import pytest
+
+from torsal.geometry.congruence import Congruence
+from torsal.geometry.optimize import CongruenceProblem, IterationRecord
+from torsal.geometry.surfaces import facade_patch, sphere_patch
+
+SUN = np.array([0.3, -0.8, -0.5]) / np.linalg.norm([0.3, -0.8, -0.5])
+
+
+@pytest.fixture(scope="module")
+def patch():
+    """A doubly curved patch (the facade: bulged in both directions), 9 x 7 vertices."""
+    return Congruence.from_normals(facade_patch(nu=9, nv=7))
+
+
+def _measured_angles(c: Congruence) -> np.ndarray:
+    """Torsal angle per face in degrees, 0 where there are none (elliptic face or bundle)."""
+    ang = c.torsal_angle()
+    return np.where(np.isfinite(ang), ang, 0.0)
+
+
+def _shading(c):
+    # perpendicular lines on a shading facade pull the torsal directions together
+    return CongruenceProblem(c).normal().fair().perpendicular(SUN, weight=10)
+
+
+@pytest.mark.parametrize("alpha", [20.0, 40.0, 60.0, 80.0])
+def test_min_torsal_angle_holds_as_measured_or_the_result_says_where_not(patch, alpha):
+    free = _shading(patch).solve()
+    if alpha >= 40:
+        assert _measured_angles(free.congruence).min() < alpha      # the bound is active
+    res = _shading(patch).min_torsal_angle(alpha).solve(max_iter=300)
+    ang = _measured_angles(res.congruence)
+    below = np.flatnonzero(ang < alpha - 0.1)
+    # the reported violation is the measured one, in degrees
+    assert res.max_violation["min_torsal_angle"] == pytest.approx(max(alpha - ang.min(), 0.0), abs=1e-9)
+    assert np.array_equal(np.sort(res.violated["min_torsal_angle"]), below)
+    if res.success:
+        assert below.size == 0
+    else:
+        assert below.size > 0 or "time" in res.status or "Iterations" in res.status
+    assert res.success, res.status      # on this patch every bound is reachable
+    assert res.min_torsal_angle_deg == pytest.approx(ang.min())
+
+
+def test_an_unreachable_angle_is_not_success_and_names_the_faces(patch):
+    """Three iterations cannot open the torsal angles to 85 degrees: the result must say so
+    in degrees, measured, and list exactly the faces that miss the bound."""
+    p = _shading(patch).min_torsal_angle(85)
+    res = p.solve(max_iter=3, try_unconstrained=False, keep_best=False)
+    ang = _measured_angles(res.congruence)
+    assert not res.success
+    assert res.max_violation["min_torsal_angle"] == pytest.approx(85 - ang.min(), abs=1e-9)
+    assert res.max_violation["min_torsal_angle"] > 0.1
+    assert set(res.violated["min_torsal_angle"]) == set(np.flatnonzero(ang < 85 - 0.1))
+    name, face, v = res.worst_constraint
+    assert name == "min_torsal_angle" and v == pytest.approx(85 - ang[face])
+
+
+def test_hyperbolic_is_measured_by_eq2_in_units_of_delta2(patch):
+    margin = 2e-3
+    res = _shading(patch).hyperbolic(margin=margin).solve()
+    h = res.congruence.hyperbolicity() / patch.delta**2       # eq. (2), numpy
+    assert res.max_violation["hyperbolic"] == pytest.approx(max(margin - h.min(), 0.0), abs=1e-12)
+    assert res.success == bool(h.min() >= margin - 1e-6)
+    assert res.success, res.status
+
+
+def test_max_angle_to_is_measured_in_degrees(patch):
+    d = np.array([0.0, -1.0, 0.2])
+    d /= np.linalg.norm(d)
+    theta = 12.0
+    for w in (1.0, 10.0):
+        res = CongruenceProblem(patch).normal().fair().perpendicular(SUN, weight=w).max_angle_to(d, theta).solve()
+        e = res.congruence.directions / np.linalg.norm(res.congruence.directions, axis=1, keepdims=True)
+        ang = np.degrees(np.arccos(np.clip(e @ d, -1, 1)))
+        assert res.max_violation["max_angle_to"] == pytest.approx(max(ang.max() - theta, 0.0), abs=1e-9)
+        assert set(res.violated["max_angle_to"]) == set(np.flatnonzero(ang > theta + 0.1))
+        assert res.success == bool(ang.max() <= theta + 0.1)
+        if w == 1.0:
+            assert res.success, res.status
+
+
+def test_history_and_the_best_feasible_iterate(patch):
+    """Stopped early, a solve returns its best measured-feasible iterate, and the history has
+    one record per iteration with wall time, objective and measured violation."""
+    p = _shading(patch).min_torsal_angle(40)
+    res = p.solve(max_iter=12, try_unconstrained=False)
+    assert res.history and all(isinstance(r, IterationRecord) for r in res.history)
+    t = [r.seconds for r in res.history]
+    assert t == sorted(t)
+    feas = [r for r in res.history if r.feasible]
+    assert feas, "the start (normals of the facade) is feasible"
+    best = min(feas, key=lambda r: r.objective)
+    if res.from_iteration is not None:
+        assert res.from_iteration == best.iteration
+        assert res.objective == pytest.approx(best.objective, rel=1e-9)
+    ang = _measured_angles(res.congruence)
+    assert ang.min() >= 40 - 0.1
+    assert res.time_to(best.objective) <= t[-1]
+
+
+def test_a_bundle_has_no_torsal_angle():
+    """A sphere's normals through its centre form a line bundle: no torsal directions, so a
+    torsal-angle bound is missed everywhere (measured angle 0), never 'held'."""
+    v, f = sphere_patch(nu=5, nv=5)
+    c = Congruence(v, f, v)
+    m = CongruenceProblem(c).fair().min_torsal_angle(30).measure()["min_torsal_angle"]
+    assert m.unit == "deg" and m.values.max() == 0.0 and m.worst == pytest.approx(30.0)
+    assert len(m.missed) == len(f)
