@@ -214,6 +214,11 @@ class IpoptStrategy:
                 if out.converged or self._stopped(out.status):
                     return out._replace(iterations=iters)
                 status = out.status
+            if r1.converged and _violated_count(b, r1.x, p) < _violated_count(b, x0, p):
+                # pass 3 starts where fewer constraints are violated: a flat facade's normals
+                # are a line bundle (the apex g = 0 of every torsal-angle cone, where each
+                # constraint is stationary), the energies' answer usually is not
+                x0 = r1.x
             warm = False
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
         if warm:
@@ -253,6 +258,12 @@ class IpoptStrategy:
             ws |= _near_bounds(g, b) | new
             lam_g, ok = None, False          # cold: the new elements have no multipliers yet
         return PassOutcome(x, lam_g, iters, status, ok, True, ws)
+
+
+def _violated_count(b: Built, x: np.ndarray, p: np.ndarray, feas_tol: float = 1e-9) -> int:
+    """How many constraint rows of ``b`` the point ``x`` violates."""
+    g = np.asarray(b.evaluate(x, p)[2]).ravel()
+    return int((_bound_violation(g, b.lbg, b.ubg) > feas_tol).sum())
 
 
 _SCALING_OPTIONS = ("obj_scaling_factor", "nlp_scaling_method", "nlp_scaling_max_gradient",

@@ -743,6 +743,34 @@ class CongruenceProblem:
         return {t.name: measure(t, congs[t.block], self.delta, g_by.get(t.name), angle_tol_deg=angle_tol_deg,
                                 value_tol=constraint_tol) for t in cons}
 
+    def _off_the_apex(self, e: np.ndarray) -> np.ndarray:
+        """The start moved off the line-bundle apex where a torsal-angle bound needs it.
+
+        A flat facade's normals (or any parallel lines) are a line bundle on every face: the
+        apex ``g = 0`` of every torsal-angle cone, where each constraint is stationary, so an
+        interior-point method cannot find a direction out. When most faces of a
+        ``min_torsal_angle`` constraint start weaker than 4 times its strength floor ``s``,
+        the start gets a saddle twist ``e_i + 4 s (x_i t1 - y_i t2)`` (``t1``, ``t2`` the
+        principal axes of mesh A, ``x, y`` in units of ``delta``): the normal congruence of
+        a saddle, torsal directions 90 degrees apart, strength about ``4 s`` per edge.
+        """
+        terms = [t for t in self._terms.values() if t.kind == "torsal_angle" and t.block == 0]
+        if not terms:
+            return e
+        s = max(float(t.par[0, 1]) for t in terms)
+        c = self._blocks[0]
+        n = len(c.vertices)
+        cong = Congruence(c.vertices, c.faces, e[:n])
+        faces = np.unique(np.concatenate([t.elements for t in terms]))
+        if np.mean(cong.bundle_deviation()[faces] < 4 * s) < 0.5:
+            return e
+        v = c.vertices - c.vertices.mean(axis=0)
+        axes = np.linalg.svd(v, full_matrices=False)[2]
+        x, y = (v @ axes[0]) / self.delta, (v @ axes[1]) / self.delta
+        twisted = e[:n] + 4 * s * (x[:, None] * axes[0] - y[:, None] * axes[1])
+        twisted /= np.linalg.norm(twisted, axis=1, keepdims=True)
+        return np.concatenate([twisted, e[n:]])
+
     # ------------------------------------------------------------------ solving
     def _report_iteration(self, arg) -> bool:
         """IPOPT's iteration callback (cached with the solver) -> the solve in progress."""
@@ -842,6 +870,8 @@ class CongruenceProblem:
             e0 = self._last["e"]
             lam_g0 = self._last.get("lam_g") if solver == "ipopt" else None
             warm = lam_g0 is not None and lam_g0.size == b.n_g and b.n_g > 0
+        if not warm and initial is None:
+            e0 = self._off_the_apex(e0)
         before = self._evaluate(e0)[0]
         x0, frames = b.pack(e0)
         p = b.parameters(self._current(), frames)

@@ -121,6 +121,12 @@ class OptimizationResult:
     from_iteration: int | None = None
 
     @property
+    def feasible(self) -> bool:
+        """Every constraint holds as measured on the result (whether or not the solver converged)."""
+        return bool(self.max_violation is not None and all(m.holds for m in self.measured.values())
+                    and "NaN" not in (self.worst_constraint or ("",))[0])
+
+    @property
     def min_torsal_angle_deg(self) -> float | None:
         """Measured smallest torsal angle over the faces of every ``min_torsal_angle``
         constraint (degrees), None without one."""
