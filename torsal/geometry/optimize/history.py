@@ -28,11 +28,11 @@ class SolveMonitor:
     """
 
     def __init__(self, measure: Callable[[np.ndarray], float], callback: Callable | None = None,
-                 max_seconds: float | None = None):
+                 max_seconds: float | None = None, t0: float | None = None):
         self.measure = measure
         self.callback = callback
         self.max_seconds = max_seconds
-        self.t0 = time.perf_counter()
+        self.t0 = time.perf_counter() if t0 is None else t0     # the solve() call's start
         self.iteration = 0
         self.phase_iteration = 0
         self.cap: int | None = None

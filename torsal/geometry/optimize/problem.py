@@ -856,6 +856,7 @@ class CongruenceProblem:
         OptimizationResult
             ``success`` needs a converged solver *and* every constraint holding as measured.
         """
+        t_call = time.perf_counter()
         build_s = self.build(solver)
         build_s += self.build("ipopt")    # the main NLP also evaluates energies and constraints
         mode = self._mode(solver)
@@ -881,7 +882,7 @@ class CongruenceProblem:
             m = self.measure(e, **tols).values()
             return max((x.worst / x.tolerance if x.tolerance > 0 else x.worst for x in m), default=0.0)
 
-        monitor = SolveMonitor(worst, callback, max_seconds)
+        monitor = SolveMonitor(worst, callback, max_seconds, t0=t_call)
         t0 = time.perf_counter()
         active = working = lam_g = None
         if solver == "ipopt":

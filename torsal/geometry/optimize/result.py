@@ -17,7 +17,8 @@ class IterationRecord(NamedTuple):
     iteration : int
         Running count over all passes of the solve (IPOPT's iteration 0 of each pass counts).
     seconds : float
-        Wall time since :meth:`~torsal.geometry.optimize.CongruenceProblem.solve` started.
+        Wall time since :meth:`~torsal.geometry.optimize.CongruenceProblem.solve` was called
+        (building the NLP included).
     objective : float
         Weighted objective of eq. (9) at the iterate.
     violation : float
