@@ -82,11 +82,22 @@ class ElementTerm:
         ``fn(x (3k,), data (q,), par (r,)) -> scalar``.
     k : int
         Number of line directions per element (1 vertex, 3 face, 4 edge, 6 aligned faces).
+    residual : casadi.Function or None
+        For a sum-of-squares energy, ``residual(x, data, par) -> r`` with ``fn = ||r||^2``: the
+        assembler can then use the Gauss-Newton Hessian ``2 J_r^T J_r`` (positive
+        semidefinite) instead of the exact one.
     """
 
     name: str
     fn: ca.Function
     k: int
+    residual: ca.Function | None = None
+
+    @classmethod
+    def sum_of_squares(cls, name: str, fn_name: str, x, data, par, r, k: int) -> "ElementTerm":
+        """An energy ``||r||^2`` that keeps its residual ``r`` (for a Gauss-Newton Hessian)."""
+        return cls(name, ca.Function(fn_name, [x, data, par], [ca.dot(r, r)]), k,
+                   ca.Function(fn_name + "_res", [x, data, par], [r]))
 
     @property
     def n_data(self) -> int:
@@ -174,7 +185,7 @@ def normality_element() -> ElementTerm:
     """
     x, data, par = face_symbols()
     r = normality_residual_sx(_split(x, 3), _split(data, 3))
-    return ElementTerm("normal", ca.Function("f_norm", [x, data, par], [r * r]), 3)
+    return ElementTerm.sum_of_squares("normal", "f_norm", x, data, par, r, 3)
 
 
 def laplacian_pair_element() -> ElementTerm:
@@ -207,7 +218,7 @@ def perpendicular_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3, n_data=0)
     v = ca.dot(x, par)
-    return ElementTerm("perpendicular", ca.Function("f_perp", [x, data, par], [v * v]), 1)
+    return ElementTerm.sum_of_squares("perpendicular", "f_perp", x, data, par, v, 1)
 
 
 def parallel_element() -> ElementTerm:
@@ -220,7 +231,7 @@ def parallel_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3, n_data=0)
     c = ca.cross(x, par)
-    return ElementTerm("parallel", ca.Function("f_par", [x, data, par], [ca.dot(c, c)]), 1)
+    return ElementTerm.sum_of_squares("parallel", "f_par", x, data, par, c, 1)
 
 
 def through_point_element() -> ElementTerm:
@@ -237,7 +248,7 @@ def through_point_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3)
     c = ca.cross(par - data, x)
-    return ElementTerm("through_points", ca.Function("f_thru", [x, data, par], [ca.dot(c, c)]), 1)
+    return ElementTerm.sum_of_squares("through_points", "f_thru", x, data, par, c, 1)
 
 
 def closeness_element() -> ElementTerm:
@@ -250,7 +261,7 @@ def closeness_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3, n_data=0)
     d = x - par
-    return ElementTerm("closeness", ca.Function("f_close", [x, data, par], [ca.dot(d, d)]), 1)
+    return ElementTerm.sum_of_squares("closeness", "f_close", x, data, par, d, 1)
 
 
 def _interpolate(e, w):
@@ -299,7 +310,7 @@ def torsal_direction_element(delta: float) -> ElementTerm:
     """
     x, data, par = face_symbols(3, n_par=6)
     v = torsal_direction_residual_sx(_split(x, 3), _split(data, 3), par[0:3], par[3:6], delta)
-    return ElementTerm("torsal_direction", ca.Function("f_dir", [x, data, par], [v * v]), 3)
+    return ElementTerm.sum_of_squares("torsal_direction", "f_dir", x, data, par, v, 3)
 
 
 def torsal_plane_element(delta: float) -> ElementTerm:
@@ -321,7 +332,7 @@ def torsal_plane_element(delta: float) -> ElementTerm:
     v = torsal_direction_residual_sx(e, _split(data, 3), par[0:3], par[3:6], delta)
     e_c = (e[0] + e[1] + e[2]) / 3.0
     m = ca.dot(e_c, par[6:9])
-    return ElementTerm("torsal_plane", ca.Function("f_plane", [x, data, par], [v * v + m * m]), 3)
+    return ElementTerm.sum_of_squares("torsal_plane", "f_plane", x, data, par, ca.vertcat(v, m), 3)
 
 
 def fair_torsal_residual_sx(e, a, delta: float):
@@ -382,7 +393,7 @@ def fair_torsal_element(delta: float) -> ElementTerm:
     """
     x, data, par = face_symbols(4)
     r = fair_torsal_residual_sx(_split(x, 4), _split(data, 4), delta)
-    return ElementTerm("fair_torsal", ca.Function("f_fairt", [x, data, par], [ca.dot(r, r)]), 4)
+    return ElementTerm.sum_of_squares("fair_torsal", "f_fairt", x, data, par, r, 4)
 
 
 def torsal_alignment_element(delta: float) -> ElementTerm:
@@ -406,7 +417,7 @@ def torsal_alignment_element(delta: float) -> ElementTerm:
         g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e_c)
         g.append(ca.vertcat(g0, 2.0 * g1, g2))
     c = ca.cross(g[0], g[1]) / delta**2
-    return ElementTerm("align", ca.Function("f_extra", [x, data, par], [ca.dot(c, c)]), 6)
+    return ElementTerm.sum_of_squares("align", "f_extra", x, data, par, c, 6)
 
 
 # ------------------------------------------------------------------------------- constraints

@@ -107,7 +107,7 @@ def run_congruence(inp: StageInputs) -> dict:
     v, f = inp["orient"]["vertices"], inp["orient"]["faces"]
     sun = inp["sun"]
     p = congruence_problem(spec, v, f, sun["vectors"], sun["weights"])
-    r = p.solve(max_iter=spec.constraints.max_iter,
+    r = p.solve(max_iter=spec.constraints.max_iter, max_seconds=spec.constraints.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
                 constraint_tol=CONSTRAINT_TOL)
     c = r.congruence

@@ -90,7 +90,8 @@ class Local:
     curvature, which the assembler adds per vertex), ``jac = g_e^T J``, ``lag_e = coef * g_e``.
     """
 
-    def __init__(self, fn: ca.Function, k: int, tangent: bool, jit: bool = False, constraint: bool = False):
+    def __init__(self, fn: ca.Function, k: int, tangent: bool, jit: bool = False, constraint: bool = False,
+                 residual: ca.Function | None = None):
         x = ca.SX.sym("x", 3 * k)
         d = ca.SX.sym("d", fn.size1_in(1))
         p = ca.SX.sym("p", fn.size1_in(2))
@@ -98,7 +99,14 @@ class Local:
         coef = ca.SX.sym("coef")
         v = fn(x, d, p)
         ge = ca.gradient(v, x)
-        he = ca.hessian(v, x)[0]
+        #: Gauss-Newton: 2 J_r^T J_r for a sum of squares ||r||^2 (positive semidefinite);
+        #: the assembler then also leaves out this term's share of the chart curvature
+        self.gauss_newton = residual is not None
+        if residual is not None:
+            jr = ca.jacobian(residual(x, d, p), x)
+            he = 2.0 * ca.mtimes(jr.T, jr)
+        else:
+            he = ca.hessian(v, x)[0]
         if tangent:
             jb = ca.diagcat(*[ca.reshape(jl[6 * c:6 * c + 6], 3, 2) for c in range(k)])
             g, h, j = ca.mtimes(jb.T, ge), ca.mtimes([jb.T, he, jb]), ca.mtimes(ge.T, jb)
@@ -123,6 +131,6 @@ class Local:
             self.grad, self.hess = _jit(self.grad), _jit(self.hess)
             if constraint:
                 self.jac = _jit(self.jac)
-            if tangent:
+            if tangent and not self.gauss_newton:
                 self.lag_e = _jit(self.lag_e)
 

@@ -71,7 +71,8 @@ class Built:
     frames that are NLP parameters, see :func:`_chart_functions`).
     """
 
-    def __init__(self, terms: list[Term], n_vertices: int, mode: str, jit: bool = False):
+    def __init__(self, terms: list[Term], n_vertices: int, mode: str, jit: bool = False,
+                 hessian: str = "exact"):
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
         tangent = mode == "tangent"
@@ -135,7 +136,8 @@ class Built:
                     quad_h.append((coef, sp.triu(Qg).tocsc()))
                     continue
                 dense_grad.append(ca.vec(chart_jtg.map(n_vertices)(JV, ca.reshape(ge, 3, n_vertices))))
-                dense_lag.append(lam_f * ge)
+                if hessian == "exact":   # Gauss-Newton: J^T Q J only, no chart curvature
+                    dense_lag.append(lam_f * ge)
                 # J^T Q J: Q = Q1 (x) I3 couples vertices i, j by q_ij I3 -> q_ij J_i^T J_j
                 Q1 = sp.coo_matrix(t.matrix[0::3, 0::3])
                 vo = t.offset // 3
@@ -157,10 +159,11 @@ class Built:
                 continue
             el = t.element
             m, r = t.size, el.n_par
-            key = (id(el.fn), tangent)
+            gn = hessian == "gauss-newton" and not t.constraint and el.residual is not None
+            key = (id(el.fn), tangent, gn)
             if key not in local:
                 local[key] = Local(el.fn, el.k, tangent, jit and not el.fn.name().startswith("custom_"),
-                                    t.constraint)
+                                   t.constraint, residual=el.residual if gn else None)
             L = local[key]
             verts = t.idx[:, ::3] // 3
             xidx = (dof * verts[:, :, None] + np.arange(dof)).reshape(m, -1)
@@ -194,7 +197,7 @@ class Built:
                 hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
                 h_rows.append(np.minimum(hr, hc))
                 h_cols.append(np.maximum(hr, hc))
-            if tangent:
+            if tangent and not L.gauss_newton:
                 lag_parts.append(ca.vec(L.lag_e.map(m)(*args, coef)))
                 lag_rows.append(t.idx.ravel())
 

@@ -51,6 +51,14 @@ class CongruenceProblem:
         ``"renormalize"``: the paper's way: no unit constraint; a penalty
         ``mean((||e_i||^2 - 1)^2)`` (weight 1) keeps lengths near 1 during a solve, and the
         directions are renormalized afterwards (and after every round of ``lbfgs``).
+    hessian : {"exact", "gauss-newton"}
+        Hessian of the energies' part of the Lagrangian. ``"exact"`` (default). ``"gauss-newton"``:
+        ``2 J_r^T J_r`` for every energy that is a sum of squares (all built-in ones but
+        ``fair``, which is quadratic and exact either way), no chart curvature for them;
+        positive semidefinite, so IPOPT's inertia correction only meets the constraints'
+        curvature. Measured (benchmarks/optimize_bench.py, row 9 at 693 vertices, 500
+        iterations): objective 0.0235 against 0.0271 exact, neither converged; it can also
+        reach a different local minimum (e.g. all lines parallel where the energies allow).
     jit : bool, default False
         Compile the per-element kernels to C with the system compiler (casadi codegen; cached
         on disk in ``~/.cache/torsal/kernels`` or ``$TORSAL_KERNEL_CACHE``, so only the first
@@ -77,7 +85,7 @@ class CongruenceProblem:
     """
 
     def __init__(self, congruence: Congruence, weights: dict | None = None,
-                 normalize: str = "tangent", jit: bool = False):
+                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact"):
         if not isinstance(congruence, Congruence):
             raise TypeError("CongruenceProblem needs a torsal Congruence (e.g. Congruence.from_normals(mesh))")
         if normalize not in ("tangent", "constraint", "renormalize"):
@@ -92,6 +100,9 @@ class CongruenceProblem:
         self.congruence = congruence
         self.normalize = normalize
         self.jit = bool(jit)
+        if hessian not in ("gauss-newton", "exact"):
+            raise ValueError(f"hessian must be 'gauss-newton' or 'exact', got {hessian!r}")
+        self.hessian = hessian
         self.weights = {**DEFAULT_WEIGHTS, **weights}
         self.delta = congruence.delta
         self._blocks: list[Congruence] = [congruence]
@@ -663,7 +674,7 @@ class CongruenceProblem:
             return 0.0
         if not self._terms:
             raise ValueError("the problem has no terms; add energies (e.g. .normal().fair()) before solving")
-        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit)
+        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit, self.hessian)
         return self._built[mode].seconds
 
     def _free_built(self, mode: str) -> tuple[Built, float]:
@@ -672,7 +683,7 @@ class CongruenceProblem:
         if key in self._built:
             return self._built[key], 0.0
         terms = [t for t in self._term_list(mode) if not (t.constraint and t.lower < t.upper)]
-        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit)
+        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self.hessian)
         return self._built[key], self._built[key].seconds
 
     def _directions(self) -> np.ndarray:
