@@ -136,3 +136,22 @@ def test_gauss_newton_hessian_is_psd_and_exact_for_linear_residuals(patch):
     full = lambda p: p.normal().fair().fair_torsal().perpendicular(SUN)
     assert np.linalg.eigvalsh(hess("gauss-newton", full)).min() > -1e-9
     assert np.linalg.eigvalsh(hess("exact", full)).min() < -1e-6      # what it replaces
+
+
+def test_a_flat_facade_leaves_the_bundle_apex():
+    """Fig. 7d: a flat facade's normals are parallel lines, a line bundle on every face (no
+    torsal directions, every angle constraint stationary). The solve starts off that apex
+    and ends with torsal directions at least 40 degrees apart on every face, measured."""
+    from torsal.geometry.surfaces import flat_facade
+
+    c = Congruence.from_normals(flat_facade(nu=9, nv=5))
+    assert c.is_bundle().all()
+    p = (CongruenceProblem(c).fair().fair_torsal(weight=10)
+         .torsal_plane(None, normals=[0.55, -0.6, -0.58], weight=20).min_torsal_angle(40))
+    start = Congruence(c.vertices, c.faces, p._off_the_apex(c.directions))
+    assert not start.is_bundle().any()
+    assert np.allclose(start.torsal_angle(), 90.0, atol=1.0)      # a saddle's normals
+    assert np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", start.directions, c.directions), -1, 1))).max() < 5
+    res = p.solve(max_iter=300)
+    ang = _measured_angles(res.congruence)
+    assert res.feasible and ang.min() >= 40 - 0.1, res.status
