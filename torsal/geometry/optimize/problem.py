@@ -603,7 +603,10 @@ class CongruenceProblem:
     def max_angle_to(self, d, theta_deg: float, vertices=None) -> "CongruenceProblem":
         """<e_i, d_i> - cos(theta) >= 0: lines within ``theta_deg`` of ``d`` (Wang et al. 2013, 4.1).
 
-        Needs unit directions (``normalize="constraint"``).
+        Directions are unit vectors in the default ``normalize="tangent"`` (and with
+        ``"constraint"``). Measured on the result as the angle between ``e_i`` and ``d_i`` in
+        degrees; a constraint value error ``tau`` (IPOPT's 1e-9) is an angle error of
+        ``tau / sin(theta)`` radians.
 
         Examples
         --------
@@ -948,7 +951,11 @@ class CongruenceProblem:
         ok = bool(ok and holds and finite)
         if finite:
             congs = self._congruences(e)
-            self._last = {"e": e, "lam_g": lam_g, "active": active, "working": working}
+            # multipliers only from a converged solve: a warm start (mu_init 1e-6) from an
+            # unconverged iterate's multipliers was slower than a cold one (bench row 7c:
+            # re-solve 152 s after a 90 s first solve)
+            self._last = {"e": e, "lam_g": lam_g if ok else None, "active": active,
+                          "working": working if ok else None}
         else:
             congs = list(self._blocks)
         res = OptimizationResult(congruence=congs[0], success=ok, status=status, iterations=iters,
