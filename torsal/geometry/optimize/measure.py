@@ -113,3 +113,17 @@ def measure(term, c: Congruence, delta: float, g: np.ndarray | None, *, angle_to
     viol = np.where(np.isfinite(viol), viol, math.inf)
     return Measurement(term.name, term.kind, KINDS[term.kind][1], float(term.bound), el, vals, viol,
                        float(tol))
+
+
+def worst_missed(measured: dict[str, Measurement]) -> tuple | None:
+    """``(name, element id, violation)`` of the worst miss (largest violation relative to its
+    tolerance) over all measured constraints, None if every one holds."""
+    worst, rel = None, 0.0
+    for name, m in measured.items():
+        if m.holds:
+            continue
+        j = int(np.argmax(m.violation))
+        r = m.violation[j] / m.tolerance if m.tolerance > 0 else math.inf
+        if worst is None or r > rel:
+            worst, rel = (name, int(m.elements[j]), float(m.violation[j])), r
+    return worst

@@ -26,7 +26,7 @@ from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term,
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
 from .lbfgs import lbfgs
-from .measure import Measurement, measure
+from .measure import Measurement, measure, worst_missed
 from .nlp import Built, _renormalize
 from .result import OptimizationError, OptimizationResult
 from .working_set import _working_ids
@@ -936,12 +936,7 @@ class CongruenceProblem:
             status += "; the solution contains NaN"
         viol = {k: m.worst for k, m in meas.items()}
         violated = {k: m.missed for k, m in meas.items()}
-        worst_c = None
-        for k, m in meas.items():
-            if not m.holds:
-                j = int(np.argmax(m.violation))
-                if worst_c is None or m.violation[j] / m.tolerance > worst_c[2] / meas[worst_c[0]].tolerance:
-                    worst_c = (k, int(m.elements[j]), float(m.violation[j]))
+        worst_c = worst_missed(meas)
         if not finite:
             worst_c = ("NaN", -1, math.inf)
         elif worst_c is not None:
