@@ -16,6 +16,26 @@ Two tables.
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--rows 7c 9 11 13 7a 20k 100k] [--no-lbfgs]
 
 Note the machine load (``uptime``) next to the numbers: timings on a shared machine vary.
+
+Measured 2026-11-23 (2 cores shared with six other jobs, load average 5 to 11)::
+
+     row    |V|    |F|     T solver |   total    it to qual.  <=T | re-solve <=T/5 |          E     E best min ang     viol feasible
+      7c   1089   2048   3.7  ipopt |    90.5   500     87.5   NO |    151.8    NO | 5.0036e-01 5.0039e-01   40.01        0 yes
+      7c   1089   2048   3.7  lbfgs |    14.1   500        -   NO |     17.8    NO | 4.6068e-01 5.0039e-01    0.00       40 NO: hyperbolic missed
+       9   2601   5000  29.0  ipopt |   879.6  1220    521.0   NO |    213.9    NO | 1.6491e-02 1.6490e-02   60.01        0 yes
+       9   2601   5000  29.0  lbfgs |    43.7   350        -   NO |     66.4    NO | 2.5546e-02 1.6490e-02    0.00       60 NO: min_torsal_angle missed
+      11   5041   9800  11.0  ipopt |    80.2    21     80.2   NO |      9.8    NO | 9.4827e-09 9.4827e-09       -        0 yes
+      11   5041   9800  11.0  lbfgs |   179.5   500        -   NO |     92.9    NO | 2.6026e-05 9.4827e-09       -        0 yes
+      13   2145   4096  17.0  ipopt |     2.7    22      2.0  yes |      0.3   yes | 7.0693e-02 7.0693e-02       -  8.2e-10 yes
+      13   2145   4096  17.0  lbfgs |    28.4   500        -   NO |     12.7    NO | 7.3005e-02 7.0693e-02       -    3e-07 yes
+
+Causes of the misses, measured: 7c and 9 spend hundreds of IPOPT iterations with a Hessian
+regularization of 1e2 to 1e3 (the torsal-angle constraints' curvature times their
+multipliers; a Gauss-Newton energy Hessian does not remove it); the 7c re-solve warm-started
+from the unconverged multipliers (now cold from an unconverged solve). 11 is the NLP build of two
+aligned 5k-vertex congruences (21 iterations; the re-solve, same build, 9.8 s). The paper's
+L-BFGS with penalties ends infeasible as measured on 7c and 9 (faces without torsal
+directions), at lower energy.
 """
 from __future__ import annotations
 
