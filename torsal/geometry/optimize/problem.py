@@ -857,7 +857,8 @@ class CongruenceProblem:
                zero and the answer is a KKT point of the whole problem; IPOPT carries barrier
                terms for a few elements instead of all (Fig. 13's mirror fins: 22 iterations
                instead of 500 without converging).
-            3. Otherwise, or if pass 2 does not converge: all constraints, from the start.
+            3. Otherwise, or if pass 2 does not converge: all constraints, from the start (or
+               from pass 1's answer where that violates fewer of them, e.g. a flat facade).
 
             ``max_iter`` bounds the iterations of all passes together (pass 1 gets at most
             half, pass 2 half of the rest; in a re-solve, half). A re-solve (warm start) starts at the pass that
