@@ -29,6 +29,11 @@ Measured 2026-11-23 (2 cores shared with six other jobs, load average 5 to 11)::
       13   2145   4096  17.0  ipopt |     2.7    22      2.0  yes |      0.3   yes | 7.0693e-02 7.0693e-02       -  8.2e-10 yes
       13   2145   4096  17.0  lbfgs |    28.4   500        -   NO |     12.7    NO | 7.3005e-02 7.0693e-02       -    3e-07 yes
 
+After cold re-solves from unconverged answers (load 6): 7c ipopt total 47.2 s, 500 it, to
+quality 44.8 s, re-solve 83.1 s. Synthetic rows (load 2 to 6): 7a build + solve 0.37 s,
+re-solve 0.09 s; 100k vertices build 21.6 s + solve 69.1 s (7 iterations), all 92.3 s, re-solve
+71.3 s (the code before this change, same load: all 104.6 s, re-solve 40.6 s).
+
 Causes of the misses, measured: 7c and 9 spend hundreds of IPOPT iterations with a Hessian
 regularization of 1e2 to 1e3 (the torsal-angle constraints' curvature times their
 multipliers; a Gauss-Newton energy Hessian does not remove it); the 7c re-solve warm-started
