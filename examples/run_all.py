@@ -41,14 +41,28 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} | | | | | | | {paper} |"
+        return f"| {key} | failed: {err} | | | | | | | | {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
             f"{r['wall_s']:.0f} | {s['delta_pl_extracted']:.1e} | {s['delta_pl_optimized']:.1e} | "
             f"{100 * li['blocked_share']:.0f}% ({100 * li['baseline_louvers']['blocked_share']:.0f}%) | "
             f"{100 * li['transparency']:.0f}% ({100 * li['baseline_louvers']['transparency']:.0f}%) | "
-            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {paper} |")
+            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {min_torsal_angle(c)} | {paper} |")
+
+
+def min_torsal_angle(c: dict) -> str:
+    """Measured minimum torsal angle (degrees) of the optimized congruence, with the bound of
+    a ``min_torsal_angle`` constraint and the faces that have no torsal directions."""
+    m = (c.get("constraints") or {}).get("min_torsal_angle")
+    ang = m["measured"] if m else c.get("min_torsal_angle_deg")
+    text = "-" if ang is None else f"{ang:.1f}"
+    if m:
+        text += f" (>= {m['bound']:g}{', ' + str(m['n_missing']) + ' faces miss it' if m['n_missing'] else ''})"
+    none = c.get("faces_without_torsal_directions")
+    if none:
+        text += f"; {none} faces without"
+    return text
 
 
 def _figure_key(key: str):
@@ -64,8 +78,8 @@ def main():
     out = Path(args.out)
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
-             "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "min torsal angle, measured (deg) | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from torsal.design import Design
+from torsal.geometry.congruence import Congruence
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 REPORT_KEYS = {
@@ -53,6 +54,19 @@ def test_example_runs_small(path, tmp_path):
         assert keys <= set(report[section]), (section, keys - set(report[section]))
     c, s, li, fa = (report[k] for k in ("congruence", "support", "light", "fabrication"))
     assert c["min_hyperbolicity"] >= -1e-6 or not d.spec.constraints.hyperbolic
+    # a torsal-angle bound holds as measured on the written congruence (issue 16)
+    alpha = d.spec.constraints.min_torsal_angle
+    if alpha is not None:
+        m = c["constraints"]["min_torsal_angle"]
+        assert m["n_missing"] == 0 and m["measured"] >= alpha - 0.1, m
+        # re-read the written lines with plain numpy and measure the angle of eq. (1)
+        text = (tmp_path / "congruence.ply").read_text().split("end_header\n", 1)[1].split("\n")
+        nv = c["vertices"]
+        ve = np.array([[float(x) for x in ln.split()] for ln in text[:nv]])
+        faces = np.array([[int(x) for x in ln.split()[1:]] for ln in text[nv:nv + c["faces"]]])
+        ang = Congruence(ve[:, :3], faces, ve[:, 3:]).torsal_angle()
+        assert np.isfinite(ang).all() and ang.min() >= alpha - 0.1
+        assert "min_torsal_angle (measured; bound" in (tmp_path / "report.html").read_text()
     if c["working_set"]:            # IPOPT imposed the inequalities on a few faces: say so
         assert sum(c["working_set"].values()) < c["faces"]
         assert "imposed where needed" in (tmp_path / "report.html").read_text()

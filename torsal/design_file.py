@@ -293,6 +293,9 @@ class ConstraintsSpec(_Spec):
                           "limit is kept (its status says so)")
     jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "
                              "(once per machine, cached); default: for surfaces of 500 vertices or more")
+    max_seconds: float | None = Field(None, gt=0, description="wall-time budget of the congruence "
+                                      "solve; at the limit the best iterate whose constraints hold "
+                                      "as measured is kept (its status says so)")
 
 
 class FinsSpec(_Spec):

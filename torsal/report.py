@@ -284,6 +284,20 @@ def _constraints_state(c: dict) -> str:
         c.get("constraints_active"), "none")
 
 
+def _measured_constraint_rows(c: dict) -> list:
+    """One row per constraint as measured on the optimized congruence (issue 16): bound,
+    measured worst value, and the faces that miss the bound beyond its tolerance."""
+    rows = []
+    for name, m in (c.get("constraints") or {}).items():
+        unit = " deg" if m["unit"] == "deg" else ""
+        ok = m["n_missing"] == 0
+        worst = "n/a" if m["measured"] is None else f"{m['measured']:.4g}{unit}"
+        state = "holds" if ok else f"missed on {m['n_missing']} elements (e.g. {m['elements_missing'][:5]})"
+        rows.append((f"{html.escape(name)} (measured; bound {m['bound']:g}{unit})",
+                     f'<span class="{"ok" if ok else "bad"}">{html.escape(worst)}: {html.escape(state)}</span>'))
+    return rows
+
+
 def design_report_html(report: dict, images: dict, title: str) -> str:
     """The HTML report: tables of every figure in ``report`` and the PNGs next to it."""
     c, s, li, fa = (report.get(k, {}) for k in ("congruence", "support", "light", "fabrication"))
@@ -296,6 +310,7 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
                 ("inequality constraints", _constraints_state(c)),
                 ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
                  is not None else "n/a")]
+        rows += _measured_constraint_rows(c)
         rows += [(f"energy {k} (before &rarr; after)",
                   f"{c['energies_before'].get(k, float('nan')):.4g} &rarr; {v:.4g}")
                  for k, v in c["energies"].items()]

@@ -300,3 +300,23 @@ def test_alignment_is_cross_product_of_torsal_forms():
 def test_custom_element_rejects_non_scalar():
     with pytest.raises(ValueError, match="scalar"):
         T.custom_element("bad", lambda e, a: e[0, :], k=3)
+
+
+@pytest.mark.parametrize("alpha", [20.0, 40.0, 60.0, 80.0])
+def test_torsal_angle_cone_sign_matches_the_actual_angle(alpha):
+    """The regular c_ang form: feasible iff the measured angle is >= alpha and the form is
+    stronger than the floor; parallel lines (a bundle) are infeasible."""
+    a, e = _random_faces(200)
+    delta = 1.1
+    ca_ = np.cos(np.radians(alpha))
+    got = _eval(T.torsal_angle_cone_element(delta), e.reshape(200, 9), a.reshape(200, 9),
+                np.tile([ca_, 1e-9], (200, 1)))
+    ang = _torsal_angle_numpy(a, e)
+    hyper = np.isfinite(ang)
+    assert np.all(got[~hyper] < 0)
+    clear = hyper & (np.abs(ang - alpha) > 1e-4)
+    assert np.array_equal(got[clear] >= 0, ang[clear] >= alpha)
+    parallel = _eval(T.torsal_angle_cone_element(delta), np.tile([0, 0, 1.0], (1, 3)), a[:1].reshape(1, 9),
+                     np.array([[ca_, 1e-3]]))
+    assert parallel[0] == pytest.approx((ca_ - 1.0) * 1e-3)
+    _fd_check(T.torsal_angle_cone_element(delta), e[0].ravel(), a[0].ravel(), [ca_, 1e-3])

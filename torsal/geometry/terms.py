@@ -62,6 +62,8 @@ __all__ = [
     "hyperbolicity_element",
     "torsal_angle_element",
     "torsal_angle_sx",
+    "torsal_form_invariants_sx",
+    "torsal_angle_cone_element",
     "max_angle_element",
     "unit_length_element",
     "custom_element",
@@ -80,11 +82,22 @@ class ElementTerm:
         ``fn(x (3k,), data (q,), par (r,)) -> scalar``.
     k : int
         Number of line directions per element (1 vertex, 3 face, 4 edge, 6 aligned faces).
+    residual : casadi.Function or None
+        For a sum-of-squares energy, ``residual(x, data, par) -> r`` with ``fn = ||r||^2``: the
+        assembler can then use the Gauss-Newton Hessian ``2 J_r^T J_r`` (positive
+        semidefinite) instead of the exact one.
     """
 
     name: str
     fn: ca.Function
     k: int
+    residual: ca.Function | None = None
+
+    @classmethod
+    def sum_of_squares(cls, name: str, fn_name: str, x, data, par, r, k: int) -> "ElementTerm":
+        """An energy ``||r||^2`` that keeps its residual ``r`` (for a Gauss-Newton Hessian)."""
+        return cls(name, ca.Function(fn_name, [x, data, par], [ca.dot(r, r)]), k,
+                   ca.Function(fn_name + "_res", [x, data, par], [r]))
 
     @property
     def n_data(self) -> int:
@@ -172,7 +185,7 @@ def normality_element() -> ElementTerm:
     """
     x, data, par = face_symbols()
     r = normality_residual_sx(_split(x, 3), _split(data, 3))
-    return ElementTerm("normal", ca.Function("f_norm", [x, data, par], [r * r]), 3)
+    return ElementTerm.sum_of_squares("normal", "f_norm", x, data, par, r, 3)
 
 
 def laplacian_pair_element() -> ElementTerm:
@@ -205,7 +218,7 @@ def perpendicular_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3, n_data=0)
     v = ca.dot(x, par)
-    return ElementTerm("perpendicular", ca.Function("f_perp", [x, data, par], [v * v]), 1)
+    return ElementTerm.sum_of_squares("perpendicular", "f_perp", x, data, par, v, 1)
 
 
 def parallel_element() -> ElementTerm:
@@ -218,7 +231,7 @@ def parallel_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3, n_data=0)
     c = ca.cross(x, par)
-    return ElementTerm("parallel", ca.Function("f_par", [x, data, par], [ca.dot(c, c)]), 1)
+    return ElementTerm.sum_of_squares("parallel", "f_par", x, data, par, c, 1)
 
 
 def through_point_element() -> ElementTerm:
@@ -235,7 +248,7 @@ def through_point_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3)
     c = ca.cross(par - data, x)
-    return ElementTerm("through_points", ca.Function("f_thru", [x, data, par], [ca.dot(c, c)]), 1)
+    return ElementTerm.sum_of_squares("through_points", "f_thru", x, data, par, c, 1)
 
 
 def closeness_element() -> ElementTerm:
@@ -248,7 +261,7 @@ def closeness_element() -> ElementTerm:
     """
     x, data, par = face_symbols(1, n_par=3, n_data=0)
     d = x - par
-    return ElementTerm("closeness", ca.Function("f_close", [x, data, par], [ca.dot(d, d)]), 1)
+    return ElementTerm.sum_of_squares("closeness", "f_close", x, data, par, d, 1)
 
 
 def _interpolate(e, w):
@@ -297,7 +310,7 @@ def torsal_direction_element(delta: float) -> ElementTerm:
     """
     x, data, par = face_symbols(3, n_par=6)
     v = torsal_direction_residual_sx(_split(x, 3), _split(data, 3), par[0:3], par[3:6], delta)
-    return ElementTerm("torsal_direction", ca.Function("f_dir", [x, data, par], [v * v]), 3)
+    return ElementTerm.sum_of_squares("torsal_direction", "f_dir", x, data, par, v, 3)
 
 
 def torsal_plane_element(delta: float) -> ElementTerm:
@@ -319,7 +332,7 @@ def torsal_plane_element(delta: float) -> ElementTerm:
     v = torsal_direction_residual_sx(e, _split(data, 3), par[0:3], par[3:6], delta)
     e_c = (e[0] + e[1] + e[2]) / 3.0
     m = ca.dot(e_c, par[6:9])
-    return ElementTerm("torsal_plane", ca.Function("f_plane", [x, data, par], [v * v + m * m]), 3)
+    return ElementTerm.sum_of_squares("torsal_plane", "f_plane", x, data, par, ca.vertcat(v, m), 3)
 
 
 def fair_torsal_residual_sx(e, a, delta: float):
@@ -380,7 +393,7 @@ def fair_torsal_element(delta: float) -> ElementTerm:
     """
     x, data, par = face_symbols(4)
     r = fair_torsal_residual_sx(_split(x, 4), _split(data, 4), delta)
-    return ElementTerm("fair_torsal", ca.Function("f_fairt", [x, data, par], [ca.dot(r, r)]), 4)
+    return ElementTerm.sum_of_squares("fair_torsal", "f_fairt", x, data, par, r, 4)
 
 
 def torsal_alignment_element(delta: float) -> ElementTerm:
@@ -404,7 +417,7 @@ def torsal_alignment_element(delta: float) -> ElementTerm:
         g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e_c)
         g.append(ca.vertcat(g0, 2.0 * g1, g2))
     c = ca.cross(g[0], g[1]) / delta**2
-    return ElementTerm("align", ca.Function("f_extra", [x, data, par], [ca.dot(c, c)]), 6)
+    return ElementTerm.sum_of_squares("align", "f_extra", x, data, par, c, 6)
 
 
 # ------------------------------------------------------------------------------- constraints
@@ -480,6 +493,65 @@ def torsal_angle_element(delta: float) -> ElementTerm:
     a_u, a_v, e_u, e_v, e_c = _frame(_split(x, 3), _split(data, 3))
     c = torsal_angle_sx(a_u, a_v, e_u, e_v, e_c, par[0], par[1]) / delta**6
     return ElementTerm("min_torsal_angle", ca.Function("c_ang", [x, data, par], [c]), 3)
+
+
+def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
+    """``(p, rho^2)`` of the torsal form in coordinates orthonormal for the face metric.
+
+    With ``S = [[g0, g1], [g1, g2]]`` (eq. (1)) and the metric ``M`` of :func:`torsal_angle_sx`,
+    ``S' = M^-1/2 S M^-1/2`` has eigenvalues ``m1 >= m2``; ``p = (m1 + m2) / 2 = T / (2 det M)``
+    is its isotropic part and ``rho = (m1 - m2) / 2``, ``rho^2 = (T^2 + 4 (g1^2 - g0 g2) det M)
+    / (4 det M^2)``, its strength: the torsal directions make angles ``+-phi`` with the first
+    eigenvector where ``cos 2 phi = -p / rho``, so they are real iff ``rho >= |p|`` and enclose
+    the acute angle ``theta`` with ``cos theta = |p| / rho``. A line bundle has ``p = rho = 0``.
+    """
+    g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
+    E, G12, G = ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+    det_m = E * G - G12 * G12
+    t = g0 * G - 2.0 * g1 * G12 + g2 * E
+    p = t / (2.0 * det_m)
+    rho2 = (t * t + 4.0 * (g1 * g1 - g0 * g2) * det_m) / (4.0 * det_m * det_m)
+    return p, rho2
+
+
+def torsal_angle_cone_element(delta: float) -> ElementTerm:
+    """c_ang as a cone with a strength floor: ``cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0``.
+
+    The regular form of "torsal directions at least ``alpha`` apart" (Wang et al. 2013, 4.1)
+    that :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` imposes;
+    ``p``, ``rho`` from :func:`torsal_form_invariants_sx` with ``a`` in units of ``delta`` (so
+    ``rho`` is the difference of the torsal form's eigenvalues per edge length, radians per
+    ``delta``). ``par = [cos alpha, s]``.
+
+    Why. The polynomial :func:`torsal_angle_sx` is quartic in ``e`` and vanishes with its
+    gradient at a line bundle (``g = 0``), which it admits as feasible: an energy that
+    prefers parallel lines drives faces to that apex, IPOPT loses LICQ there and crawls,
+    and the answer has no torsal directions at all. This form is positively homogeneous of
+    degree 1 in ``g`` away from the apex (``cos(alpha) rho - |p|``, gradient of order 1),
+    and ``s > 0`` makes the apex infeasible (value ``(cos(alpha) - 1) s < 0``): a feasible
+    face has ``cos(alpha)^2 rho^2 - p^2 >= s^2 sin(alpha)^2``, so its torsal directions are
+    real, at least ``alpha`` apart, and the form has strength ``rho >= s tan(alpha)``: the
+    documented design choice "a face with a torsal-angle bound must have torsal
+    directions". Near the bound the value is ``rho (cos alpha - cos theta)``, so a value
+    error ``tau`` is an angle error of at most ``tau / (s tan(alpha) sin(alpha))`` radians.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
+    >>> e = np.array([0, 0, 1, 0.1, 0, 1, 0, -0.1, 1.0])   # torsal directions at 90 deg
+    >>> fn = torsal_angle_cone_element(1.0).fn
+    >>> float(fn(e, a, [np.cos(np.radians(40)), 1e-3])) > 0
+    True
+    >>> float(fn(np.tile([0, 0, 1.0], 3), a, [np.cos(np.radians(40)), 1e-3])) < 0   # parallel lines
+    True
+    """
+    x, data, par = face_symbols(3, n_par=2)
+    a_u, a_v, e_u, e_v, e_c = _frame(_split(x, 3), _split(data, 3))
+    p, rho2 = torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c)
+    s2 = par[1] * par[1]
+    c = par[0] * ca.sqrt(rho2 + s2) - ca.sqrt(p * p + s2)
+    return ElementTerm("min_torsal_angle", ca.Function("c_ang_cone", [x, data, par], [c]), 3)
 
 
 def max_angle_element() -> ElementTerm:

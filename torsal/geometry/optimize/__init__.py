@@ -1,0 +1,55 @@
+"""Congruence optimization as a casadi NLP solved by IPOPT (Wang et al. 2013, 4.1, eq. (9)).
+
+The mesh A is fixed; the variables are the line directions ``e_i`` (3 per vertex), so the
+lines are ``a_i + lambda e_i`` and mesh B has vertices ``b_i = a_i + e_i``. A
+:class:`CongruenceProblem` collects energies (eq. (9) and section 4.1) and constraints,
+each over a vertex, face or edge subset, and :meth:`CongruenceProblem.solve` minimizes::
+
+    f = sum_t w_t f_t(e)    subject to   c_j(e) >= 0,   ||e_i|| = 1
+
+Assembly. Every term is one casadi ``SX`` function of one element
+(:mod:`torsal.geometry.terms`) mapped over its elements with ``Function.map``. Value,
+gradient, constraint Jacobian and the exact Hessian of the Lagrangian are assembled from
+the mapped per-element derivatives (gradient, Jacobian rows, upper triangle of the local
+Hessian) by constant sparse scatter matrices, and handed to IPOPT through ``nlpsol``'s
+``grad_f`` / ``jac_g`` / ``hess_lag`` options. This keeps building and every Hessian
+evaluation linear in the mesh size (casadi's automatic Hessian of a mapped graph colours
+the whole problem and was ~100x slower on a 1k-vertex mesh). MUMPS is the linear solver.
+
+Weights, light directions, target points, strokes and constraint margins are NLP
+parameters: calling a term method again with the same element subset only changes
+parameters, and the next :meth:`~CongruenceProblem.solve` re-uses the built solver,
+warm-started from the last solution (the paper's interactive design loop).
+
+Default weights are the paper's Fig. 12 values (the column alignment of that table is
+ambiguous; these are the values the rows agree on most): ``normal 2``, ``fair 1``,
+``fair_torsal 10``, ``perpendicular 1`` (rows 7b, 9, 11; 7a/7c use 10), ``parallel 0.1``
+(row 9; 7c uses .2, 11 uses .01), ``torsal_plane 20`` (7d; 13 uses 5000),
+``torsal_direction 0.1`` (7a, 7d), ``align 200`` (11). Terms the paper has no weight for:
+``through_points 1``, ``closeness 1``.
+Constraints are measured, not trusted: after every iterate and at the end, torsal angles,
+hyperbolicity and angles to a direction are measured on the resulting congruence
+(:mod:`.measure`), ``OptimizationResult.max_violation`` is in each constraint's own units
+(degrees for angles), and a solve whose measured value misses a bound by more than 0.1
+degree is not ``success``. ``min_torsal_angle`` is imposed in a regular cone form with a
+documented lower bound on the torsal form's strength (:meth:`CongruenceProblem.min_torsal_angle`).
+
+Package layout (one responsibility per module):
+
+- :mod:`.problem`: :class:`CongruenceProblem`, the builder API and ``solve``;
+- :mod:`.catalogue`: default weights, one term's data (:class:`~.catalogue.Term`), input checks;
+- :mod:`.kernels`: per-element derivative kernels, the gnomonic chart, C compilation;
+- :mod:`.nlp`: assembly of the NLP (:class:`~.nlp.Built`);
+- :mod:`.ipopt`: IPOPT options and the three-pass strategy; :mod:`.working_set`: pass 2;
+- :mod:`.lbfgs`: the paper's L-BFGS baseline;
+- :mod:`.measure`: constraints measured on the geometry;
+- :mod:`.history`, :mod:`.result`: per-iteration history, best feasible iterate, the result.
+"""
+from .catalogue import DEFAULT_WEIGHTS
+from .measure import Measurement
+from .nlp import tangent_frames
+from .problem import CongruenceProblem
+from .result import IterationRecord, OptimizationError, OptimizationResult
+
+__all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
+           "IterationRecord", "Measurement", "tangent_frames"]

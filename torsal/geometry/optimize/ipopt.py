@@ -1,0 +1,311 @@
+"""IPOPT for the congruence NLP: solver options, the three-pass strategy, iteration reports.
+
+:class:`IpoptStrategy` runs one solve of a :class:`~torsal.geometry.optimize.nlp.Built` NLP in
+up to three passes (see ``try_unconstrained`` of
+:meth:`~torsal.geometry.optimize.CongruenceProblem.solve`): without the inequalities; with a
+working set of them (:mod:`~torsal.geometry.optimize.working_set`); with all of them.
+"""
+from __future__ import annotations
+
+import time
+from typing import NamedTuple
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from .history import SolveMonitor
+from .nlp import Built, _bound_violation
+from .working_set import _WORKING_SET_MAX_SHARE, _near_bounds
+
+
+class IpoptRun(NamedTuple):
+    """One IPOPT run: its answer and how it ended."""
+
+    x: np.ndarray
+    lam_g: np.ndarray | None
+    iterations: int
+    status: str
+    converged: bool
+
+
+class PassOutcome(NamedTuple):
+    """The answer of the pass that ended a solve.
+
+    ``constraints_active``: False when pass 1 (no inequalities) met them all, True when
+    inequalities were imposed, None without inequalities. ``working``: the working-set mask
+    over ``g`` when pass 2 answered, else None.
+    """
+
+    x: np.ndarray
+    lam_g: np.ndarray | None
+    iterations: int
+    status: str
+    converged: bool
+    constraints_active: bool | None
+    working: np.ndarray | None
+
+
+class _IterationCallback(ca.Callback):
+    """casadi iteration callback: forwards every iterate to ``owner._report_iteration(arg)`` (True stops IPOPT)."""
+
+    def __init__(self, name: str, nx: int, ng: int, np_: int, owner):
+        ca.Callback.__init__(self)
+        self.nx, self.ng, self.np_ = nx, ng, np_
+        self.owner = owner
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n == "f":
+            return ca.Sparsity.dense(1)
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.ng)
+        if n == "lam_p":
+            return ca.Sparsity.dense(self.np_)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        return [ca.DM(1 if self.owner._report_iteration(arg) else 0)]
+
+
+
+class IpoptStrategy:
+    """IPOPT solves of one problem's NLPs, reporting every iterate to a :class:`SolveMonitor`.
+
+    ``problem`` supplies the NLP without inequalities (``_free_built``), the current term
+    parameters (``_current``) and the last solution (``_last``, for warm starts).
+    """
+
+    def __init__(self, problem, monitor: SolveMonitor, frames: np.ndarray, *, limit: int, tol: float,
+                 verbose: bool, options: dict | None):
+        self.problem, self.monitor, self.frames = problem, monitor, frames
+        self.limit, self.tol, self.verbose, self.options = limit, tol, verbose, options
+        self.active: Built | None = None
+        self.build_seconds = 0.0
+
+    # ------------------------------------------------------------------ iteration reports
+    def report(self, arg) -> bool:
+        b = self.active
+        x = np.asarray(arg[ca.nlpsol_out().index("x")]).ravel()
+        g = np.asarray(arg[ca.nlpsol_out().index("g")]).ravel()
+        inf = float(np.max(_bound_violation(g, b.lbg, b.ubg))) if g.size else 0.0
+        f = float(arg[ca.nlpsol_out().index("f")])
+        return self.monitor.iterate(b.unpack(x, self.frames), f, inf)
+
+    # ------------------------------------------------------------------ solvers
+    def solver(self, b: Built, warm: bool, x0: np.ndarray, p: np.ndarray):
+        """The (cached) IPOPT solver of ``b``; the cold and the warm-start variant are built together.
+
+        ``x0``, ``p``: the start of the first solve, where IPOPT's first Hessian
+        regularization is estimated (see :func:`_hessian_shift`).
+        """
+        max_iter, tol, verbose, options = self.limit, self.tol, self.verbose, self.options
+        key = (warm, max_iter, tol, verbose, tuple(sorted((options or {}).items())))
+        if key in b.solvers:
+            return b.solvers[key][0]
+        t0 = time.perf_counter()
+        if b.n_g and not warm:
+            self.solver(b, True, x0, p)
+        # the callback outlives this solve (the solver is cached): it reports to the problem,
+        # which forwards to the strategy of the solve in progress
+        cb = _IterationCallback(f"cb{len(b.solvers)}", b.n_var, b.n_g, b.n_par, self.problem)
+        ip = {"linear_solver": "mumps", "print_level": 5 if verbose else 0, "sb": "yes",
+              "max_iter": int(max_iter), "tol": float(tol), "acceptable_tol": 10 * float(tol),
+              "acceptable_iter": 10, "mu_strategy": "adaptive", "mumps_pivot_order": 5,
+              "constr_viol_tol": 1e-9, "acceptable_constr_viol_tol": 1e-7,
+              # energies are means over elements: scale to sums so the KKT tolerance is per vertex
+              "obj_scaling_factor": float(max(b.n_vertices, 1)),
+              # Hessian regularization: the start is estimated (_hessian_shift); where that
+              # fails or later, the regularization needed is O(weight) with per-vertex
+              # scaling, so search from 1 in steps of 3 (not 1e-4 in steps of 100): fewer
+              # trial factorizations, less over-damped steps
+              "first_hessian_perturbation": 1.0, "perturb_inc_fact_first": 3.0}
+        if warm:
+            ip.update({"warm_start_init_point": "yes", "mu_init": 1e-6,
+                       "warm_start_bound_push": 1e-9, "warm_start_bound_frac": 1e-9,
+                       "warm_start_slack_bound_push": 1e-9, "warm_start_slack_bound_frac": 1e-9,
+                       "warm_start_mult_bound_push": 1e-9})
+        ip.update(options or {})
+        if "first_hessian_perturbation" not in (options or {}):
+            # the estimate is in IPOPT's scaled units: one per objective scaling
+            skey = tuple(ip.get(k) for k in _SCALING_OPTIONS)
+            if skey not in b.hessian_shifts:
+                b.hessian_shifts[skey] = _hessian_shift(b, x0, p, ip)
+            if b.hessian_shifts[skey] > 0:
+                ip["first_hessian_perturbation"] = b.hessian_shifts[skey]
+        opts = {"ipopt": ip, "print_time": bool(verbose), "grad_f": b.grad_f, "jac_g": b.jac_g,
+                "hess_lag": b.hess_lag, "iteration_callback": cb, "error_on_fail": False,
+                "calc_lam_p": False}
+        s = ca.nlpsol("congruence", "ipopt", {"x": b.x, "p": b.p, "f": b.f_expr, "g": b.g_expr}, opts)
+        b.solvers[key] = (s, cb)
+        self.build_seconds += time.perf_counter() - t0
+        return s
+
+    def call(self, s, b: Built, args: dict, cap: int | None) -> IpoptRun:
+        """One IPOPT run with at most ``cap`` iterations."""
+        self.active = b
+        self.monitor.start_pass(cap)
+        r = s(**args)
+        stats = s.stats()
+        capped = self.monitor.capped
+        self.monitor.cap = None
+        status = "Maximum_Iterations_Exceeded" if capped else str(stats.get("return_status", "unknown"))
+        return IpoptRun(np.asarray(r["x"]).ravel(), np.asarray(r["lam_g"]).ravel(),
+                        int(stats.get("iter_count", 0)), status,
+                        bool(stats.get("success", False)) and not capped)
+
+
+    def solve(self, b: Built, mode: str, warm: bool, lam_g0, x0, p, try_unconstrained: bool) -> PassOutcome:
+        """IPOPT in up to three passes (see ``try_unconstrained`` of ``CongruenceProblem.solve``).
+
+        1. without the inequality constraints; kept if it meets them;
+        2. with only the inequalities that pass 1 violates or nearly meets (the working set),
+           from pass 1's answer, growing the set while the answer violates others;
+        3. with all of them, from the start.
+        """
+        limit, problem = self.limit, self.problem
+        # the cold solver; with constraints its warm-start variant is built (and cached) with it
+        s = self.solver(b, False, x0, p)
+        sw = self.solver(b, True, x0, p) if warm else None
+        ineq = b.lbg < b.ubg
+        feas_tol = float((self.options or {}).get("constr_viol_tol", 1e-9))
+        last = problem._last or {}
+        prev_ws = last.get("working") if warm else None
+        iters, status = 0, ""
+        if warm and prev_ws is not None and prev_ws.size == b.n_g:
+            # the designer's re-solve after a working-set solve: same set, warm multipliers
+            out = self.working_set(sw, s, b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
+            if out.converged or self._stopped(out.status):
+                return out
+            iters, status = out.iterations, out.status
+            warm = False     # fall back to all constraints, cold, from the same start
+        elif try_unconstrained and ineq.any() and not (warm and last.get("active")):
+            bf, extra = problem._free_built(mode)
+            pf = bf.parameters(problem._current(), self.frames)
+            self.build_seconds += extra
+            s1 = self.solver(bf, False, x0, pf)
+            r1 = self.call(s1, bf, dict(x0=x0, p=pf, lbg=bf.lbg, ubg=bf.ubg), max(limit // 2, 1))
+            iters, status = r1.iterations, r1.status
+            if self._stopped(status):
+                return PassOutcome(r1.x, None, iters, status, False, None, None)
+            g1 = np.asarray(b.evaluate(r1.x, p)[2]).ravel()
+            viol = _bound_violation(g1, b.lbg, b.ubg) > feas_tol
+            if r1.converged and not viol.any():
+                return PassOutcome(r1.x, None, iters, status, True, False, None)
+            if r1.converged and viol[ineq].mean() <= _WORKING_SET_MAX_SHARE:
+                ws = _near_bounds(g1, b) | viol | ~ineq
+                out = self.working_set(s, s, b, r1.x, p, ws, None, (limit - iters) // 2, feas_tol)
+                iters += out.iterations
+                if out.converged or self._stopped(out.status):
+                    return out._replace(iterations=iters)
+                status = out.status
+            if r1.converged and _violated_count(b, r1.x, p) < _violated_count(b, x0, p):
+                # pass 3 starts where fewer constraints are violated: a flat facade's normals
+                # are a line bundle (the apex g = 0 of every torsal-angle cone, where each
+                # constraint is stationary), the energies' answer usually is not
+                x0 = r1.x
+            warm = False
+        args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
+        if warm:
+            args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
+        r = self.call(sw if warm else s, b, args, (limit - iters) if iters else None)
+        return PassOutcome(r.x, r.lam_g, iters + r.iterations, r.status, r.converged,
+                           True if ineq.any() else None, None)
+
+    def _stopped(self, status: str) -> bool:
+        """The monitor stopped IPOPT (the user's callback or the time limit), not a cap."""
+        return status == "User_Requested_Stop" and (self.monitor.stopped_by_user or self.monitor.timed_out)
+
+    def working_set(self, s_warm, s_cold, b: Built, x, p, ws: np.ndarray, lam_g, budget: int,
+                    feas_tol: float) -> PassOutcome:
+        """Pass 2: IPOPT with the inequalities outside ``ws`` unbounded, adding those the answer
+        violates (and their near-active companions) until it violates none.
+
+        An inequality left out and met with slack has a zero multiplier, so the answer is a
+        KKT point of the whole problem; IPOPT meanwhile carries barrier terms (and their
+        indefinite curvature) only for the few elements that matter.
+        """
+        iters, status, ok = 0, "", False
+        ws = ws.copy()
+        while budget - iters > 0:
+            args = dict(x0=x, p=p, lbg=np.where(ws, b.lbg, -np.inf), ubg=np.where(ws, b.ubg, np.inf))
+            if lam_g is not None:
+                args.update(lam_g0=np.where(ws, lam_g, 0.0), lam_x0=np.zeros(b.n_var))
+            r = self.call(s_warm if lam_g is not None else s_cold, b, args, budget - iters)
+            x, lam_g, status, ok = r.x, r.lam_g, r.status, r.converged
+            iters += r.iterations
+            if not ok:
+                break
+            g = np.asarray(b.evaluate(x, p)[2]).ravel()
+            new = (_bound_violation(g, b.lbg, b.ubg) > feas_tol) & ~ws
+            if not new.any():
+                break
+            ws |= _near_bounds(g, b) | new
+            lam_g, ok = None, False          # cold: the new elements have no multipliers yet
+        return PassOutcome(x, lam_g, iters, status, ok, True, ws)
+
+
+def _violated_count(b: Built, x: np.ndarray, p: np.ndarray, feas_tol: float = 1e-9) -> int:
+    """How many constraint rows of ``b`` the point ``x`` violates."""
+    g = np.asarray(b.evaluate(x, p)[2]).ravel()
+    return int((_bound_violation(g, b.lbg, b.ubg) > feas_tol).sum())
+
+
+_SCALING_OPTIONS = ("obj_scaling_factor", "nlp_scaling_method", "nlp_scaling_max_gradient",
+                    "nlp_scaling_min_value")
+
+
+def _hessian_shift(b: Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
+    """First Hessian regularization for IPOPT: 1.25 times the most negative eigenvalue (internal).
+
+    IPOPT makes the Lagrangian Hessian ``W`` of the scaled problem positive definite on the
+    search space by factoring ``W + delta I`` for ``delta = 0``, then
+    ``first_hessian_perturbation``, then growing by ``perturb_inc_fact_first`` until the
+    inertia is right; each trial is a full factorization. Far from the optimum the sphere
+    makes ``W`` indefinite (``<e, d>^2`` curves down along the circle around ``d``) with a
+    most negative eigenvalue of the order of the weights. A few Lanczos steps (scipy
+    ``eigsh``, about 1 % of a factorization) estimate it at the start, so the first
+    nonzero trial succeeds instead of the third to fifth, and the damping is not
+    overshot. The objective Hessian is scaled as IPOPT scales the objective
+    (``obj_scaling_factor`` times the gradient-based factor). Returns 0 when ``W`` is
+    positive semidefinite at ``x0`` or the estimate fails (IPOPT then searches as usual).
+    """
+    from scipy.sparse.linalg import eigsh
+
+    if b.n_var == 0:
+        return 0.0
+    try:
+        scale = float(ip.get("obj_scaling_factor", 1.0))
+        if ip.get("nlp_scaling_method", "gradient-based") == "gradient-based":
+            g = np.asarray(b.grad_f(x0, p)[1]).ravel()
+            gmax = float(np.max(np.abs(g))) if g.size else 0.0
+            limit = float(ip.get("nlp_scaling_max_gradient", 100.0))
+            if gmax > limit:
+                scale *= max(limit / gmax, float(ip.get("nlp_scaling_min_value", 1e-8)))
+        h = b.hess_lag(x0, p, scale, np.zeros(b.n_g)).sparse()      # upper triangle
+        h = (h + sp.triu(h, 1).T).tocsc()
+        if b.n_var <= 200:
+            lam = float(np.linalg.eigvalsh(h.toarray())[0])
+        else:
+            v0 = np.random.default_rng(0).standard_normal(b.n_var)    # same start, same result
+            lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=20 * b.n_var, v0=v0,
+                              return_eigenvectors=False)[0])
+    except (RuntimeError, ValueError):   # ArpackError (no convergence), LinAlgError, NaN at x0
+        return 0.0
+    return 1.25 * -lam if np.isfinite(lam) and lam < 0 else 0.0
+

@@ -1,0 +1,967 @@
+"""The problem builder: :class:`CongruenceProblem` (Wang et al. 2013, 4.1, eq. (9)).
+
+Energies and constraints are added by chaining methods (the term catalogue of
+:mod:`~torsal.geometry.optimize.catalogue` and :mod:`torsal.geometry.terms`); :meth:`solve`
+assembles the NLP (:mod:`~torsal.geometry.optimize.nlp`), runs IPOPT
+(:mod:`~torsal.geometry.optimize.ipopt`) or the L-BFGS baseline
+(:mod:`~torsal.geometry.optimize.lbfgs`), and measures the constraints on the answer
+(:mod:`~torsal.geometry.optimize.measure`).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from .. import terms as T
+from ..congruence import Congruence
+from ..mesh import edge_face_adjacency, umbrella_laplacian
+from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
+                        _stroke_barycentric, _unit_rows, _var_index)
+from .history import SolveMonitor
+from .ipopt import IpoptStrategy
+from .lbfgs import lbfgs
+from .measure import Measurement, measure, worst_missed
+from .nlp import Built, _renormalize
+from .result import OptimizationError, OptimizationResult
+from .working_set import _working_ids
+
+class CongruenceProblem:
+    """An optimization problem over the line directions of a congruence (Wang et al. 2013, 4.1).
+
+    Build it by chaining term and constraint methods, then call :meth:`solve`.
+
+    Parameters
+    ----------
+    congruence : Congruence
+        Mesh A and the initial directions (e.g. ``Congruence.from_normals``).
+    weights : dict, optional
+        Overrides of :data:`DEFAULT_WEIGHTS` by term name, used when a method gets no ``weight``.
+    normalize : {"tangent", "constraint", "renormalize"}
+        How ``||e_i|| = 1`` is kept. ``"tangent"`` (default, fastest): every ``e_i`` is a unit
+        vector by construction, ``e = (f0 + z1 f1 + z2 f2) / sqrt(1 + z1^2 + z2^2)`` with 2
+        variables per vertex around a frame re-centred at the start of every solve (a
+        gnomonic chart; halves the KKT system compared to ``"constraint"``).
+        ``"constraint"``: ``||e_i||^2 = 1`` as IPOPT equality constraints.
+        ``"renormalize"``: the paper's way: no unit constraint; a penalty
+        ``mean((||e_i||^2 - 1)^2)`` (weight 1) keeps lengths near 1 during a solve, and the
+        directions are renormalized afterwards (and after every round of ``lbfgs``).
+    hessian : {"exact", "gauss-newton"}
+        Hessian of the energies' part of the Lagrangian. ``"exact"`` (default). ``"gauss-newton"``:
+        ``2 J_r^T J_r`` for every energy that is a sum of squares (all built-in ones but
+        ``fair``, which is quadratic and exact either way), no chart curvature for them;
+        positive semidefinite, so IPOPT's inertia correction only meets the constraints'
+        curvature. Measured (benchmarks/optimize_bench.py, row 9 at 693 vertices, 500
+        iterations): objective 0.0235 against 0.0271 exact, neither converged; it can also
+        reach a different local minimum (e.g. all lines parallel where the energies allow).
+    jit : bool, default False
+        Compile the per-element kernels to C with the system compiler (casadi codegen; cached
+        on disk in ``~/.cache/torsal/kernels`` or ``$TORSAL_KERNEL_CACHE``, so only the first
+        build on a machine pays ~1 s per kernel). Evaluations get several times faster:
+        use it for large meshes and the interactive loop.
+
+    Notes
+    -----
+    Every element term sees mesh A in units of ``delta`` (``a / delta``, with unit line
+    directions), so the paper's normalizations (``1/delta^2`` in f_norm, ``c_hyp / delta^2``,
+    ...) are exact and every kernel is independent of the mesh (compiled once with
+    ``jit=True``). For f_fair/t this means ``B = A/delta + e`` in the projection condition
+    (its zero set does not depend on the distance of B; see
+    :func:`torsal.geometry.terms.fair_torsal_residual_sx`).
+
+    Examples
+    --------
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> c = Congruence.from_normals(facade_patch(nu=9, nv=7))
+    >>> res = (CongruenceProblem(c).normal().fair().perpendicular([0.3, -0.8, -0.5])
+    ...        .hyperbolic().solve())
+    >>> res.success, bool((res.congruence.hyperbolicity() >= 0).all())
+    (True, True)
+    """
+
+    def __init__(self, congruence: Congruence, weights: dict | None = None,
+                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact"):
+        if not isinstance(congruence, Congruence):
+            raise TypeError("CongruenceProblem needs a torsal Congruence (e.g. Congruence.from_normals(mesh))")
+        if normalize not in ("tangent", "constraint", "renormalize"):
+            raise ValueError(f"normalize must be 'tangent', 'constraint' or 'renormalize', got {normalize!r}")
+        weights = dict(weights or {})
+        unknown = set(weights) - set(DEFAULT_WEIGHTS)
+        if unknown:
+            raise ValueError(f"unknown weight names {sorted(unknown)}; known: {sorted(DEFAULT_WEIGHTS)}")
+        for k, w in weights.items():
+            if not (np.isfinite(w) and w >= 0):
+                raise ValueError(f"weight {k!r} must be a finite number >= 0, got {w}")
+        self.congruence = congruence
+        self.normalize = normalize
+        self.jit = bool(jit)
+        if hessian not in ("gauss-newton", "exact"):
+            raise ValueError(f"hessian must be 'gauss-newton' or 'exact', got {hessian!r}")
+        self.hessian = hessian
+        self.weights = {**DEFAULT_WEIGHTS, **weights}
+        self.delta = congruence.delta
+        self._blocks: list[Congruence] = [congruence]
+        self._offsets: list[int] = [0]
+        self._terms: dict[str, Term] = {}
+        self._built: dict[str, Built] = {}
+        self._last: dict | None = None
+        self._strategy: IpoptStrategy | None = None    # the IPOPT solve in progress
+        self._edges_cache = None
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def n_var(self) -> int:
+        return int(sum(3 * len(b.vertices) for b in self._blocks))
+
+    @property
+    def terms(self) -> dict:
+        """Registered terms and constraints by name: ``{name: (kind, weight or None, n_elements)}``."""
+        return {k: ("constraint" if t.constraint else "energy", None if t.constraint else t.weight, t.size)
+                for k, t in self._terms.items()}
+
+    def _weight(self, name: str, weight) -> float:
+        w = self.weights[name] if weight is None else float(weight)
+        if not (np.isfinite(w) and w >= 0):
+            raise ValueError(f"weight of {name!r} must be a finite number >= 0, got {weight}")
+        return w
+
+    def _add(self, term: Term) -> "CongruenceProblem":
+        old = self._terms.get(term.name)
+        self._terms[term.name] = term
+        if old is not None and old.signature() == term.signature():
+            return self   # only parameters / weight changed: keep the built solver
+        self._built.clear()
+        self._last = None
+        return self
+
+    def _face_data(self, faces: np.ndarray, block: int = 0):
+        """Corner ids and corner points of A in units of delta (see the class notes)."""
+        c = self._blocks[block]
+        fv = c.faces[faces]
+        return fv, c.vertices[fv].reshape(len(faces), 9) / self.delta
+
+    def _interior_edges(self):
+        if self._edges_cache is None:
+            f = self.congruence.faces
+            edges, ef = edge_face_adjacency(f)
+            inner = np.flatnonzero(ef[:, 1] >= 0)
+            e, f0, f1 = edges[inner], ef[inner, 0], ef[inner, 1]
+
+            def rotate(face_ids):
+                fv = f[face_ids]
+                other = (fv != e[:, :1]) & (fv != e[:, 1:])
+                c = np.argmax(other, axis=1)
+                r = np.arange(len(fv))
+                return fv[r, (c + 1) % 3], fv[r, (c + 2) % 3], fv[r, c]
+
+            i, j, k = rotate(f0)
+            _, _, l = rotate(f1)
+            self._edges_cache = (inner, np.stack([i, j, k, l], axis=1))
+        return self._edges_cache
+
+    # ------------------------------------------------------------------ energies
+    def fair(self, weight: float | None = None) -> "CongruenceProblem":
+        """f_fair = 1/|V| sum ||Delta e_i||^2, umbrella Laplacian (Wang et al. 2013, 4.1).
+
+        Quadratic: ``1/|V| e^T (L^T L (x) I_3) e``; evaluated as a sparse matrix product, its
+        Hessian is the constant ``2/|V| L^T L (x) I_3``.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import sphere_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(sphere_patch(nu=5, nv=5))).fair()
+        >>> p.terms["fair"]
+        ('energy', 1.0, 25)
+        """
+        c = self.congruence
+        n = len(c.vertices)
+        L = umbrella_laplacian(c.faces, n)
+        Q = sp.kron((L.T @ L).tocsr(), sp.identity(3), format="csr")
+        t = Term("fair", False, None, np.zeros((n, 0), np.int64), np.zeros((n, 0)), np.zeros((n, 0)),
+                  np.arange(n), scale=1.0 / n, weight=self._weight("fair", weight), matrix=Q)
+        return self._add(t)
+
+    def normal(self, weight: float | None = None, faces=None) -> "CongruenceProblem":
+        """f_norm = 1/(delta^2 |F'|) sum r^2 with r the eq. (7) residual (Wang et al. 2013, 4.1).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import sphere_patch
+        >>> v, f = sphere_patch(nu=5, nv=5)      # unit sphere: the exact normals are v
+        >>> CongruenceProblem(Congruence(v, f, v)).normal().energies()["normal"] < 1e-20
+        True
+        """
+        fi = _as_index(faces, len(self.congruence.faces), "faces")
+        fv, a = self._face_data(fi)
+        t = Term("normal", False, T.normality_element(), _var_index(fv, 0), a, np.zeros((len(fi), 0)),
+                  fi, scale=1.0 / len(fi), weight=self._weight("normal", weight))
+        return self._add(t)
+
+    def fair_torsal(self, weight: float | None = None) -> "CongruenceProblem":
+        """f_fair/t: no jump of torsal planes across interior edges (Wang et al. 2013, 4.1).
+
+        ``1/|E_int| sum ||r||^2`` with the residual of
+        :func:`torsal.geometry.terms.fair_torsal_residual_sx` (barycentric-coordinate condition,
+        denominators cleared, divided by ``delta^4``).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import sphere_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(sphere_patch(nu=5, nv=5)))
+        >>> p.fair_torsal().terms["fair_torsal"][0]
+        'energy'
+        """
+        inner, quad = self._interior_edges()
+        if len(inner) == 0:
+            raise ValueError("fair_torsal needs interior edges; the mesh has none")
+        a = self.congruence.vertices[quad].reshape(len(quad), 12) / self.delta
+        t = Term("fair_torsal", False, T.fair_torsal_element(1.0), _var_index(quad, 0), a,
+                  np.zeros((len(quad), 0)), inner, scale=1.0 / len(quad),
+                  weight=self._weight("fair_torsal", weight))
+        return self._add(t)
+
+    def perpendicular(self, d, vertices=None, weight: float | None = None,
+                      name: str = "perpendicular") -> "CongruenceProblem":
+        """f_perp: lines orthogonal to the light, 1/|V'| sum <e_i, d_i>^2 (eq. (9)).
+
+        Parameters
+        ----------
+        d : (3,) or (|V'|, 3) float
+            Light (sun) direction(s), any length (normalized here). An NLP parameter.
+        vertices : int array or bool mask, optional
+            The subset V' (default all vertices).
+        name : str
+            Use distinct names for several perpendicular terms (e.g. per sun position).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> round(p.perpendicular([0, 1, 0]).energies()["perpendicular"], 2)
+        0.95
+        """
+        vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
+        dd = _unit_rows(d, len(vi), "light direction d")
+        t = Term(name, False, T.perpendicular_element(), _var_index(vi, 0), np.zeros((len(vi), 0)), dd,
+                  vi, scale=1.0 / len(vi), weight=self._weight("perpendicular", weight))
+        return self._add(t)
+
+    def parallel(self, d, vertices=None, weight: float | None = None,
+                 name: str = "parallel") -> "CongruenceProblem":
+        """f_par: lines parallel to ``d``, 1/|V'| sum ||e_i x d_i||^2 (eq. (9), Fig. 9).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> round(p.parallel([0, -1, 0], vertices=[0, 1]).energies()["parallel"], 2)
+        0.08
+        """
+        vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
+        dd = _unit_rows(d, len(vi), "direction d")
+        t = Term(name, False, T.parallel_element(), _var_index(vi, 0), np.zeros((len(vi), 0)), dd,
+                  vi, scale=1.0 / len(vi), weight=self._weight("parallel", weight))
+        return self._add(t)
+
+    def through_points(self, points, vertices, weight: float | None = None,
+                       name: str = "through_points") -> "CongruenceProblem":
+        """Lines through target points O_i (Fig. 7c see-through areas).
+
+        ``1/(delta^2 |V'|) sum ||(O_i - a_i) x e_i||^2``: for unit ``e_i`` the mean squared
+        distance of ``O_i`` from the line ``L_i``, in units of ``delta``.
+
+        Parameters
+        ----------
+        points : (3,) or (|V'|, 3) float
+            Target points O_i (model units). An NLP parameter.
+        vertices : int array or bool mask
+            The subset V'.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p = p.through_points([0.0, -10.0, 3.0], vertices=[12])
+        >>> p.terms["through_points"]
+        ('energy', 1.0, 1)
+        """
+        vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
+        pts = _points(points, len(vi), "target points")
+        if np.any(np.linalg.norm(pts - self.congruence.vertices[vi], axis=1) < 1e-9 * self.delta):
+            raise ValueError("a target point coincides with its vertex; every line passes through it")
+        t = Term(name, False, T.through_point_element(), _var_index(vi, 0),
+                  self.congruence.vertices[vi] / self.delta, pts / self.delta, vi, scale=1.0 / len(vi),
+                  weight=self._weight("through_points", weight))
+        return self._add(t)
+
+    def closeness(self, initial=None, weight: float | None = None) -> "CongruenceProblem":
+        """Regularizer 1/|V| sum ||e_i - e_i,0||^2 to stay near ``initial`` (default: the start).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p.closeness().energies()["closeness"] < 1e-20
+        True
+        """
+        n = len(self.congruence.vertices)
+        e0 = self.congruence.directions if initial is None else np.asarray(initial, dtype=float)
+        if e0.shape != (n, 3) or not np.isfinite(e0).all():
+            raise ValueError(f"initial directions must be a finite ({n}, 3) array, got shape {e0.shape}")
+        t = Term("closeness", False, T.closeness_element(), _var_index(np.arange(n), 0), np.zeros((n, 0)),
+                  np.array(e0), np.arange(n), scale=1.0 / n, weight=self._weight("closeness", weight))
+        return self._add(t)
+
+    def _strokes(self, fi, segments, normals=None):
+        fv, a = self._face_data(fi)
+        corners = a.reshape(-1, 3, 3)
+        if segments is None:
+            if normals is None:
+                raise ValueError("give stroke segments, or plane normals to derive them from")
+            fn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+            tdir = np.cross(normals, fn)
+        else:
+            s = np.asarray(segments, dtype=float)
+            if s.shape == (len(fi), 2, 3):
+                tdir = s[:, 1] - s[:, 0]
+            elif s.shape in ((len(fi), 3), (3,)):
+                tdir = np.broadcast_to(s, (len(fi), 3))
+            else:
+                raise ValueError(f"segments must have shape ({len(fi)}, 2, 3) (endpoints) or "
+                                 f"({len(fi)}, 3) (directions), got {s.shape}")
+            if not np.isfinite(tdir).all():
+                raise ValueError("segments contain NaN or infinite values")
+        return fv, _stroke_barycentric(corners, np.asarray(tdir, float))
+
+    def torsal_direction(self, faces, segments, weight: float | None = None,
+                         name: str = "torsal_direction") -> "CongruenceProblem":
+        """f_dir: prescribed torsal directions (design strokes), Wang et al. 2013, 4.1 and eq. (9).
+
+        ``1/|F'| sum ([a_p2 - a_p1, e_p1, e_p2] / delta)^2``: the lines through the stroke's
+        endpoints are coplanar (see :func:`torsal.geometry.terms.torsal_direction_residual_sx`
+        for why this replaces the printed ``[e_p1, e_p2, e_c]``). Each stroke only gives a
+        direction: it is re-centred at the face barycenter (the paper requires ``c`` on
+        ``p1 p2``) and extended to the triangle's boundary; ``e_p`` is interpolated linearly.
+
+        Parameters
+        ----------
+        faces : int array or bool mask
+            The subset F'.
+        segments : (|F'|, 2, 3) or (|F'|, 3) float
+            Stroke segments (endpoints) or stroke directions, one per face. NLP parameters.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p.torsal_direction([0, 1], [1.0, 0, 0]).terms["torsal_direction"]
+        ('energy', 0.1, 2)
+        """
+        fi = _as_index(faces, len(self.congruence.faces), "faces")
+        fv, w = self._strokes(fi, segments)
+        t = Term(name, False, T.torsal_direction_element(1.0), _var_index(fv, 0),
+                  self.congruence.vertices[fv].reshape(len(fi), 9) / self.delta, w,
+                  fi, scale=1.0 / len(fi), weight=self._weight("torsal_direction", weight))
+        return self._add(t)
+
+    def torsal_plane(self, faces, segments=None, normals=None, weight: float | None = None,
+                     name: str = "torsal_plane") -> "CongruenceProblem":
+        """f_plane = f_dir + <e_c, n>^2: prescribed torsal planes (Wang et al. 2013, 4.1, Fig. 7d).
+
+        Parameters
+        ----------
+        faces : int array or bool mask
+        segments : optional
+            As in :meth:`torsal_direction`; default the line where the plane meets the face
+            (``n x`` face normal).
+        normals : (3,) or (|F'|, 3) float
+            Unit normals of the wanted torsal planes (e.g. the light direction).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p.torsal_plane(None, normals=[0.0, 0.6, 0.8]).terms["torsal_plane"]
+        ('energy', 20.0, 32)
+        """
+        fi = _as_index(faces, len(self.congruence.faces), "faces")
+        if normals is None:
+            raise ValueError("torsal_plane needs the plane normals n")
+        nn = _unit_rows(normals, len(fi), "plane normals")
+        fv, w = self._strokes(fi, segments, nn)
+        t = Term(name, False, T.torsal_plane_element(1.0), _var_index(fv, 0),
+                  self.congruence.vertices[fv].reshape(len(fi), 9) / self.delta,
+                  np.concatenate([w, nn], axis=1), fi, scale=1.0 / len(fi),
+                  weight=self._weight("torsal_plane", weight))
+        return self._add(t)
+
+    def align_with(self, other: "CongruenceProblem", weight: float | None = None,
+                   label: str = "aligned") -> "CongruenceProblem":
+        """f_extra: optimize ``other`` together with this problem so torsal directions coincide.
+
+        Wang et al. 2013, 4.3 (Fig. 11): ``1/|F| sum (||g_L x g_L'|| / delta^2)^2`` with
+        ``g = (gamma_0, 2 gamma_1, gamma_2)`` (see
+        :func:`torsal.geometry.terms.torsal_alignment_element` for the typesetting choice).
+        ``other`` must have the same faces (its vertices may differ, e.g. an offset). Its terms
+        and constraints at the time of this call are copied in under ``"<label>.<name>"``;
+        the result's ``congruences[1]`` is the optimized ``other``.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> v, f = facade_patch(nu=5, nv=5)
+        >>> p, q = (CongruenceProblem(Congruence.from_normals((v + s, f))).fair() for s in (0, 0.5))
+        >>> sorted(p.align_with(q).terms)
+        ['align', 'aligned.fair', 'fair']
+        """
+        if not isinstance(other, CongruenceProblem) or other is self:
+            raise TypeError("align_with needs another CongruenceProblem")
+        oc = other.congruence
+        if oc.faces.shape != self.congruence.faces.shape or not np.array_equal(oc.faces, self.congruence.faces):
+            raise ValueError("align_with needs a congruence over the same faces (combinatorially equal meshes)")
+        if len(other._blocks) > 1:
+            raise ValueError("the other problem is already aligned with a third one; align pairwise from one problem")
+        if any(b is oc for b in self._blocks):
+            raise ValueError("this congruence is already aligned")
+        off = self.n_var
+        self._blocks.append(oc)
+        self._offsets.append(off)
+        for name, t in other._terms.items():
+            nt = replace(t, name=f"{label}.{name}", idx=t.idx + off, par=t.par.copy(), offset=t.offset + off,
+                         block=len(self._blocks) - 1)
+            self._terms[nt.name] = nt
+        fv = self.congruence.faces
+        idx = np.concatenate([_var_index(fv, 0), _var_index(fv, off)], axis=1)
+        data = np.concatenate([self.congruence.vertices[fv].reshape(len(fv), 9),
+                               oc.vertices[fv].reshape(len(fv), 9)], axis=1) / self.delta
+        t = Term("align", False, T.torsal_alignment_element(1.0), idx, data,
+                  np.zeros((len(fv), 0)), np.arange(len(fv)), scale=1.0 / len(fv),
+                  weight=self._weight("align", weight))
+        self._built.clear()
+        self._last = None
+        return self._add(t)
+
+    def add_term(self, name: str, weight: float, fn: Callable, over: str = "faces", elements=None,
+                 params=None) -> "CongruenceProblem":
+        """A user's own energy: ``weight * mean over elements of fn(e, a[, p])``.
+
+        Parameters
+        ----------
+        name : str
+        weight : float
+        fn : callable
+            ``fn(e, a)`` or, with ``params``, ``fn(e, a, p)``: casadi ``SX`` matrices ``e``, ``a``
+            of shape (k, 3) (line directions and points of the element's vertices: k = 1 for
+            vertices, 3 for faces in corner order, 2 for edges) and ``p`` (r,). Returns a
+            scalar expression, evaluated once symbolically and mapped over all elements.
+        over : {"faces", "vertices", "edges"}
+        elements : int array or bool mask, optional
+            Subset of the elements (default all).
+        params : (r,) or (m, r) float, optional
+            Per-element NLP parameters (changeable without rebuilding).
+
+        Examples
+        --------
+        >>> import casadi as ca
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p = p.add_term("vertical", 1.0, lambda e, a: e[0, 2] ** 2, over="vertices")
+        >>> p.energies()["vertical"] < 0.2
+        True
+        """
+        return self._add_custom(name, fn, over, elements, params, weight=weight)
+
+    def add_constraint(self, name: str, fn: Callable, over: str = "faces", elements=None,
+                       params=None, lower: float = 0.0, upper: float = math.inf) -> "CongruenceProblem":
+        """A user's own constraint ``lower <= fn(e, a[, p]) <= upper`` on every element.
+
+        Arguments as in :meth:`add_term`. IPOPT enforces it; ``lbfgs`` penalizes violations.
+        Scale ``fn`` to be dimensionless and of order 1 for good convergence.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p = p.add_constraint("outward", lambda e, a: -e[0, 1], over="vertices", lower=0.1)
+        >>> p.terms["outward"][0]
+        'constraint'
+        """
+        if not (lower <= upper):
+            raise ValueError(f"constraint {name!r}: lower bound {lower} exceeds upper bound {upper}")
+        return self._add_custom(name, fn, over, elements, params, lower=lower, upper=upper)
+
+    def _add_custom(self, name, fn, over, elements, params, weight=None, lower=0.0, upper=math.inf):
+        if over not in _KINDS:
+            raise ValueError(f"over must be one of {_KINDS}, got {over!r}")
+        if not callable(fn):
+            raise TypeError("fn must be a callable returning a casadi expression")
+        c = self.congruence
+        if over == "vertices":
+            ids = _as_index(elements, len(c.vertices), "vertices")
+            verts = ids[:, None]
+        elif over == "faces":
+            ids = _as_index(elements, len(c.faces), "faces")
+            verts = c.faces[ids]
+        else:
+            edges, _ = edge_face_adjacency(c.faces)
+            ids = _as_index(elements, len(edges), "edges")
+            verts = edges[ids]
+        m, k = verts.shape
+        if params is None:
+            par = np.zeros((m, 0))
+        else:
+            par = np.asarray(params, dtype=float)
+            par = np.broadcast_to(par, (m, par.size)) if par.ndim <= 1 else par
+            if par.shape[0] != m or not np.isfinite(par).all():
+                raise ValueError(f"params must be finite, shape (r,) or ({m}, r); got {np.shape(params)}")
+        el = T.custom_element(name, fn, k, par.shape[1])
+        t = Term(name, weight is None, el, _var_index(verts, 0), c.vertices[verts].reshape(m, 3 * k),
+                  np.array(par), ids, scale=1.0 / m, weight=1.0 if weight is None else float(weight),
+                  lower=float(lower), upper=float(upper))
+        return self._add(t)
+
+    # ------------------------------------------------------------------ constraints
+    def hyperbolic(self, faces=None, margin: float = 0.0) -> "CongruenceProblem":
+        """c_hyp(face) / delta^2 >= margin: two real torsal directions (Wang et al. 2013, 4.1, eq. (2)).
+
+        ``margin`` is dimensionless (``c_hyp`` in units of ``delta^2``, for unit directions); a
+        small positive margin keeps faces away from the parabolic limit.
+
+        ``c_hyp = 4 (g1^2 - g0 g2)`` is quadratic in the torsal coefficients ``g`` of eq. (1),
+        so its gradient vanishes on a face whose lines are parallel (``g = 0``, a line
+        bundle), which satisfies ``c_hyp >= 0``. ``fair`` with ``perpendicular`` or
+        ``parallel`` favours parallel lines; when many faces end near a bundle, IPOPT's
+        multipliers grow and it may need hundreds of iterations. A ``closeness`` term keeps
+        the lines near the start and away from a bundle.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p.hyperbolic().terms["hyperbolic"]
+        ('constraint', None, 32)
+        """
+        if not np.isfinite(margin):
+            raise ValueError("margin must be finite")
+        fi = _as_index(faces, len(self.congruence.faces), "faces")
+        fv, a = self._face_data(fi)
+        t = Term("hyperbolic", True, T.hyperbolicity_element(1.0), _var_index(fv, 0), a,
+                  np.full((len(fi), 1), float(margin)), fi, kind="hyperbolicity", bound=float(margin))
+        return self._add(t)
+
+    def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
+                         min_strength: float = 1e-3) -> "CongruenceProblem":
+        """Torsal directions at least ``alpha_deg`` apart on every face (c_ang, Wang et al. 2013, 4.1).
+
+        Imposed in the regular cone form of :func:`torsal.geometry.terms.torsal_angle_cone_element`::
+
+            cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0
+
+        (``p``, ``rho``: isotropic part and strength of the torsal form, eq. (1), per edge
+        length; ``s = min_strength``). It implies hyperbolicity, keeps its gradient where
+        the printed polynomial c_ang loses it, and makes a line bundle infeasible:
+
+        *Design choice*: a face that must have torsal directions at least ``alpha`` apart
+        must have torsal directions, so the torsal form's strength is bounded below,
+        ``rho >= s tan(alpha)`` (radians of line rotation per edge length ``delta``; the
+        default ``1e-3`` is about a thousandth of a degree per edge: a fin pattern you
+        cannot see, but a face that is not a bundle). Set ``min_strength`` larger to keep
+        fins away from the parallel-line limit.
+
+        The result is measured, not trusted: ``OptimizationResult.max_violation`` gives how
+        far the smallest measured torsal angle is below ``alpha_deg`` (degrees; a face without
+        torsal directions counts as 0 degrees) and ``success`` is False beyond 0.1 degrees.
+        The bound is imposed at ``alpha_deg + safety_deg``; IPOPT's constraint tolerance
+        (1e-9) is worth at most ``1e-9 / (s tan(alpha) sin(alpha))`` radians (< 1e-4 degrees
+        for ``alpha >= 5``).
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p.min_torsal_angle(40).terms["min_torsal_angle"][0]
+        'constraint'
+        """
+        if not (0.0 < alpha_deg < 90.0):
+            raise ValueError(f"alpha_deg must be in (0, 90) degrees, got {alpha_deg}; "
+                             "torsal directions are at most 90 degrees apart")
+        if not (np.isfinite(min_strength) and min_strength > 0):
+            raise ValueError(f"min_strength must be a finite number > 0, got {min_strength}")
+        fi = _as_index(faces, len(self.congruence.faces), "faces")
+        fv, a = self._face_data(fi)
+        c = math.cos(math.radians(min(alpha_deg + safety_deg, 89.999)))
+        t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
+                 np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
+                 bound=float(alpha_deg))
+        return self._add(t)
+
+    def max_angle_to(self, d, theta_deg: float, vertices=None) -> "CongruenceProblem":
+        """<e_i, d_i> - cos(theta) >= 0: lines within ``theta_deg`` of ``d`` (Wang et al. 2013, 4.1).
+
+        Directions are unit vectors in the default ``normalize="tangent"`` (and with
+        ``"constraint"``). Measured on the result as the angle between ``e_i`` and ``d_i`` in
+        degrees; a constraint value error ``tau`` (IPOPT's 1e-9) is an angle error of
+        ``tau / sin(theta)`` radians.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
+        >>> p.max_angle_to([0, -1, 0], 30).terms["max_angle_to"][0]
+        'constraint'
+        """
+        if not (0.0 < theta_deg < 180.0):
+            raise ValueError(f"theta_deg must be in (0, 180) degrees, got {theta_deg}")
+        vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
+        dd = _unit_rows(d, len(vi), "direction d")
+        par = np.concatenate([dd, np.full((len(vi), 1), math.cos(math.radians(theta_deg)))], axis=1)
+        t = Term("max_angle_to", True, T.max_angle_element(), _var_index(vi, 0), np.zeros((len(vi), 0)),
+                 par, vi, kind="angle_to", bound=float(theta_deg))
+        return self._add(t)
+
+    def set_weight(self, name: str, weight: float) -> "CongruenceProblem":
+        """Change one energy's weight (an NLP parameter: no rebuild)."""
+        if name not in self._terms or self._terms[name].constraint:
+            raise KeyError(f"no energy named {name!r}; energies: "
+                           f"{sorted(k for k, t in self._terms.items() if not t.constraint)}")
+        if not (np.isfinite(weight) and weight >= 0):
+            raise ValueError(f"weight of {name!r} must be a finite number >= 0, got {weight}")
+        self._terms[name].weight = float(weight)
+        return self
+
+    def remove(self, name: str) -> "CongruenceProblem":
+        """Remove a term or constraint (the solver is rebuilt at the next solve)."""
+        if name not in self._terms:
+            raise KeyError(f"no term named {name!r}; terms: {sorted(self._terms)}")
+        del self._terms[name]
+        self._built.clear()
+        self._last = None
+        return self
+
+    # ------------------------------------------------------------------ assembly
+    def _mode(self, solver: str) -> str:
+        return "penalty" if solver == "lbfgs" else self.normalize
+
+    def _term_list(self, mode: str) -> list[Term]:
+        out = [(_penalty_term(t) if (mode == "penalty" and t.constraint) else t)
+               for t in self._terms.values()]
+        nv = self.n_var // 3
+        allv = np.arange(nv)
+        idx = 3 * allv[:, None] + np.arange(3)
+        if mode == "constraint":
+            out.append(Term("unit_length", True, T.unit_length_element(), idx, np.zeros((nv, 0)),
+                             np.zeros((nv, 0)), allv, lower=0.0, upper=0.0))
+        elif mode == "renormalize":
+            x, d, p = T.face_symbols(1, n_data=0)
+            q = ca.dot(x, x) - 1.0
+            el = T.ElementTerm("unit_penalty", ca.Function("f_unit", [x, d, p], [q * q]), 1)
+            out.append(Term("unit_penalty", False, el, idx, np.zeros((nv, 0)), np.zeros((nv, 0)), allv,
+                             scale=1.0 / nv, weight=1.0))
+        return out
+
+    def build(self, solver: str = "ipopt") -> float:
+        """Assemble the NLP (done by :meth:`solve` when needed); returns the seconds it took.
+
+        The built NLP is kept until a term's element subset changes (parameters and weights
+        can change freely).
+        """
+        if solver not in ("ipopt", "lbfgs"):
+            raise ValueError(f"solver must be 'ipopt' or 'lbfgs', got {solver!r}")
+        mode = self._mode(solver)
+        if mode in self._built:
+            return 0.0
+        if not self._terms:
+            raise ValueError("the problem has no terms; add energies (e.g. .normal().fair()) before solving")
+        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit, self.hessian)
+        return self._built[mode].seconds
+
+    def _free_built(self, mode: str) -> tuple[Built, float]:
+        """The NLP of ``mode`` without its inequality constraints (built once, as needed)."""
+        key = mode + "/without-inequalities"
+        if key in self._built:
+            return self._built[key], 0.0
+        terms = [t for t in self._term_list(mode) if not (t.constraint and t.lower < t.upper)]
+        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self.hessian)
+        return self._built[key], self._built[key].seconds
+
+    def _directions(self) -> np.ndarray:
+        return np.concatenate([b.directions for b in self._blocks])
+
+    def _current(self) -> dict:
+        cur = dict(self._terms)
+        for k, t in self._terms.items():
+            if t.constraint:
+                cur["penalty:" + k] = t
+        return cur
+
+    def _evaluate(self, e: np.ndarray):
+        """(energies dict, objective, g, built) at stacked directions ``e`` with the main NLP."""
+        self.build("ipopt")
+        b = self._built[self.normalize]
+        x, fr = b.pack(e)
+        ev, f, g = b.evaluate(x, b.parameters(self._current(), fr))
+        out = {k: float(v) for k, v in zip(b.energy_names, np.asarray(ev).ravel())}
+        out["total"] = float(f)
+        return out, float(f), np.asarray(g).ravel(), b
+
+    def energies(self, directions=None) -> dict:
+        """Unweighted energies and ``"total"`` (weighted, eq. (9)) at ``directions`` (default current).
+
+        ``directions`` is (n, 3) for this congruence or the stacked (N, 3) of all aligned ones.
+        """
+        e = self._directions() if directions is None else np.asarray(directions, float).reshape(-1, 3)
+        if e.size != self.n_var:
+            raise ValueError(f"directions must have {self.n_var // 3} rows, got {e.size // 3}")
+        return self._evaluate(e)[0]
+
+
+    def _congruences(self, e: np.ndarray) -> list[Congruence]:
+        """The aligned congruences with stacked directions ``e`` (N, 3)."""
+        out, start = [], 0
+        for c in self._blocks:
+            n = len(c.vertices)
+            out.append(Congruence(c.vertices, c.faces, e[start:start + n]))
+            start += n
+        return out
+
+    def measure(self, directions=None, *, angle_tol_deg: float = 0.1,
+                constraint_tol: float = 1e-6) -> dict[str, Measurement]:
+        """Every constraint measured on the geometry at ``directions`` (default: current).
+
+        Torsal angles, hyperbolicity and angles to ``d`` come from
+        :class:`~torsal.geometry.congruence.Congruence` (not from the NLP); see
+        :mod:`torsal.geometry.optimize.measure`.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5))).min_torsal_angle(30)
+        >>> m = p.measure()["min_torsal_angle"]
+        >>> m.unit, m.bound, bool(m.values.min() > 30)
+        ('deg', 30.0, True)
+        """
+        e = self._directions() if directions is None else np.asarray(directions, float).reshape(-1, 3)
+        if e.size != self.n_var:
+            raise ValueError(f"directions must have {self.n_var // 3} rows, got {e.size // 3}")
+        cons = [t for t in self._term_list(self.normalize) if t.constraint]
+        g_by = {}
+        if any(t.kind == "value" for t in cons):
+            _, _, g, b = self._evaluate(e)
+            g_by = {t.name: g[rows] for t, rows in zip(b.cons, b.g_slices)}
+        congs = self._congruences(e) if cons else []
+        return {t.name: measure(t, congs[t.block], self.delta, g_by.get(t.name), angle_tol_deg=angle_tol_deg,
+                                value_tol=constraint_tol) for t in cons}
+
+    def _off_the_apex(self, e: np.ndarray) -> np.ndarray:
+        """The start moved off the line-bundle apex where a torsal-angle bound needs it.
+
+        A flat facade's normals (or any parallel lines) are a line bundle on every face: the
+        apex ``g = 0`` of every torsal-angle cone, where each constraint is stationary, so an
+        interior-point method cannot find a direction out. When most faces of a
+        ``min_torsal_angle`` constraint start weaker than 4 times its strength floor ``s``,
+        the start gets a saddle twist ``e_i + 4 s (x_i t1 - y_i t2)`` (``t1``, ``t2`` the
+        principal axes of mesh A, ``x, y`` in units of ``delta``): the normal congruence of
+        a saddle, torsal directions 90 degrees apart, strength about ``4 s`` per edge.
+        """
+        terms = [t for t in self._terms.values() if t.kind == "torsal_angle" and t.block == 0]
+        if not terms:
+            return e
+        s = max(float(t.par[0, 1]) for t in terms)
+        c = self._blocks[0]
+        n = len(c.vertices)
+        cong = Congruence(c.vertices, c.faces, e[:n])
+        faces = np.unique(np.concatenate([t.elements for t in terms]))
+        if np.mean(cong.bundle_deviation()[faces] < 4 * s) < 0.5:
+            return e
+        v = c.vertices - c.vertices.mean(axis=0)
+        axes = np.linalg.svd(v, full_matrices=False)[2]
+        x, y = (v @ axes[0]) / self.delta, (v @ axes[1]) / self.delta
+        twisted = e[:n] + 4 * s * (x[:, None] * axes[0] - y[:, None] * axes[1])
+        twisted /= np.linalg.norm(twisted, axis=1, keepdims=True)
+        return np.concatenate([twisted, e[n:]])
+
+    # ------------------------------------------------------------------ solving
+    def _report_iteration(self, arg) -> bool:
+        """IPOPT's iteration callback (cached with the solver) -> the solve in progress."""
+        return self._strategy.report(arg) if self._strategy is not None else False
+
+    def solve(self, solver: str = "ipopt", max_iter: int | None = None, tol: float = 1e-4,
+              callback: Callable | None = None, *, warm_start: bool = True, initial=None,
+              raise_on_failure: bool = False, verbose: bool = False, constraint_tol: float = 1e-6,
+              angle_tol_deg: float = 0.1, penalty: float = 1e3, ipopt_options: dict | None = None,
+              try_unconstrained: bool = True, max_seconds: float | None = None,
+              keep_best: bool = True) -> OptimizationResult:
+        """Minimize the energies subject to the constraints.
+
+        Parameters
+        ----------
+        solver : {"ipopt", "lbfgs"}
+            ``"ipopt"``: interior point, exact Hessian, MUMPS, real inequality constraints.
+            ``"lbfgs"``: the paper's baseline: scipy L-BFGS-B in rounds of 10 iterations with
+            renormalization of the ``e_i`` after each round; constraints become penalties
+            ``penalty * mean(min(c, 0)^2)``.
+        max_iter : int, optional
+            Iteration limit (default 200 for IPOPT, 1000 for L-BFGS).
+        tol : float
+            IPOPT's KKT tolerance, with the objective scaled by the number of vertices (the
+            energies are means, so this makes the criterion per vertex and independent of the
+            mesh size). L-BFGS: stop when a round decreases the objective by less than ``tol``
+            times the starting objective.
+        callback : callable, optional
+            Called each iteration with ``{"iteration", "objective", "infeasibility",
+            "measured_violation"}`` (the last: worst measured violation as a multiple of its
+            tolerance, see :class:`IterationRecord`); returning True stops the solve.
+        warm_start : bool
+            Start from the last solution (with IPOPT's constraint multipliers) when the
+            problem structure is unchanged; otherwise from the congruence's directions.
+        initial : (n, 3) float, optional
+            Explicit start directions (overrides the warm start).
+        raise_on_failure : bool
+            Raise :class:`OptimizationError` instead of returning an unsuccessful result.
+        verbose : bool
+            Let IPOPT print its log.
+        constraint_tol : float
+            Measured violation above which ``hyperbolic`` (in ``c_hyp / delta^2``) and a user's
+            own constraint count as not met.
+        angle_tol_deg : float
+            Measured violation (degrees) above which ``min_torsal_angle`` and ``max_angle_to``
+            count as not met (default 0.1).
+        penalty : float
+            Penalty weight of constraints for ``lbfgs``.
+        ipopt_options : dict, optional
+            Extra IPOPT options (e.g. ``{"mumps_pivot_order": 7}``).
+        max_seconds : float, optional
+            Wall-time limit of the solve; at the limit the best feasible iterate is returned.
+        keep_best : bool
+            When the solver stops early (iteration or time limit, callback) or ends on an
+            iterate that misses a constraint as measured, return the lowest-objective iterate
+            that was feasible as measured, if any (``from_iteration`` says which).
+        try_unconstrained : bool
+            IPOPT with inequality constraints: solve in up to three passes.
+
+            1. Without the inequalities (equalities stay). If that answer meets every
+               inequality to IPOPT's ``constr_viol_tol`` (1e-9) it is kept: a feasible local
+               minimizer of the energy is a local minimizer of the constrained problem. This
+               pays off where the constraints are not active but slow IPOPT down, e.g.
+               ``hyperbolic`` when the energies favour near-parallel lines (``c_hyp`` is
+               degenerate there, see :meth:`hyperbolic`): the bench's row 7a with
+               ``hyperbolic()`` needs 14 iterations instead of 200.
+            2. If at most 5% of the inequalities are violated: from pass 1's answer, with only
+               those and the ones near their bound (the working set) imposed, adding any that
+               the answer then violates. The others hold with slack, so their multipliers are
+               zero and the answer is a KKT point of the whole problem; IPOPT carries barrier
+               terms for a few elements instead of all (Fig. 13's mirror fins: 22 iterations
+               instead of 500 without converging).
+            3. Otherwise, or if pass 2 does not converge: all constraints, from the start (or
+               from pass 1's answer where that violates fewer of them, e.g. a flat facade).
+
+            ``max_iter`` bounds the iterations of all passes together (pass 1 gets at most
+            half, pass 2 half of the rest; in a re-solve, half). A re-solve (warm start) starts at the pass that
+            answered last: pass 2 keeps its working set (and multipliers) and grows it as
+            needed; pass 3 keeps all constraints. ``OptimizationResult.constraints_active`` and
+            ``.working_set`` say which pass gave the result.
+
+        Returns
+        -------
+        OptimizationResult
+            ``success`` needs a converged solver *and* every constraint holding as measured.
+        """
+        t_call = time.perf_counter()
+        build_s = self.build(solver)
+        build_s += self.build("ipopt")    # the main NLP also evaluates energies and constraints
+        mode = self._mode(solver)
+        b = self._built[mode]
+        e0, lam_g0, warm = self._directions(), None, False
+        if initial is not None:
+            init = np.asarray(initial, dtype=float)
+            if init.size != self.n_var or not np.isfinite(init).all():
+                raise ValueError(f"initial must be a finite ({self.n_var // 3}, 3) array")
+            e0 = init.reshape(-1, 3)
+        elif warm_start and self._last is not None:
+            e0 = self._last["e"]
+            lam_g0 = self._last.get("lam_g") if solver == "ipopt" else None
+            warm = lam_g0 is not None and lam_g0.size == b.n_g and b.n_g > 0
+        if not warm and initial is None:
+            e0 = self._off_the_apex(e0)
+        before = self._evaluate(e0)[0]
+        x0, frames = b.pack(e0)
+        p = b.parameters(self._current(), frames)
+        tols = dict(angle_tol_deg=float(angle_tol_deg), constraint_tol=float(constraint_tol))
+
+        def worst(e):
+            m = self.measure(e, **tols).values()
+            return max((x.worst / x.tolerance if x.tolerance > 0 else x.worst for x in m), default=0.0)
+
+        monitor = SolveMonitor(worst, callback, max_seconds, t0=t_call)
+        t0 = time.perf_counter()
+        active = working = lam_g = None
+        if solver == "ipopt":
+            strategy = IpoptStrategy(self, monitor, frames, limit=max_iter or 200, tol=tol, verbose=verbose,
+                                     options=ipopt_options)
+            self._strategy = strategy
+            try:
+                out = strategy.solve(b, mode, warm, lam_g0, x0, p, try_unconstrained)
+            finally:
+                self._strategy = None
+            build_s += strategy.build_seconds
+            solve_s = time.perf_counter() - t0 - strategy.build_seconds
+            x, lam_g, iters, status, ok, active, working = out
+        else:
+            r = lbfgs(b, x0, p, monitor, max_iter=max_iter or 1000, tol=tol, penalty=penalty)
+            solve_s = time.perf_counter() - t0
+            x, status, ok, iters = r
+        if monitor.timed_out:
+            status, ok = f"time limit of {max_seconds:g} s reached", False
+        e = b.unpack(x, frames)
+        if self.normalize == "renormalize" or solver == "lbfgs":
+            e = _renormalize(e.ravel()).reshape(-1, 3)
+        finite = bool(np.isfinite(e).all())
+        meas = self.measure(e, **tols) if finite else {}
+        holds = finite and all(m.holds for m in meas.values())
+        from_iteration = None
+        best = monitor.best
+        if keep_best and best is not None and (not holds or (not ok and best.objective < self._evaluate(e)[1])):
+            # stopped early or ended infeasible: the best iterate that held every constraint
+            e, from_iteration, lam_g, working = best.directions, best.iteration, None, None
+            meas, holds, finite = self.measure(e, **tols), True, True
+            status += f"; returned the best feasible iterate (iteration {best.iteration})"
+        if finite:
+            after, fval = self._evaluate(e)[:2]
+        else:
+            after, fval = {}, math.nan
+            status += "; the solution contains NaN"
+        viol = {k: m.worst for k, m in meas.items()}
+        violated = {k: m.missed for k, m in meas.items()}
+        worst_c = worst_missed(meas)
+        if not finite:
+            worst_c = ("NaN", -1, math.inf)
+        elif worst_c is not None:
+            m = meas[worst_c[0]]
+            status += (f"; constraint {worst_c[0]!r} missed by {worst_c[2]:.3g} {m.unit} (measured) "
+                       f"on {len(m.missed)} elements, worst {worst_c[1]}")
+        ok = bool(ok and holds and finite)
+        if finite:
+            congs = self._congruences(e)
+            # multipliers only from a converged solve: a warm start (mu_init 1e-6) from an
+            # unconverged iterate's multipliers was slower than a cold one (bench row 7c:
+            # re-solve 152 s after a 90 s first solve)
+            self._last = {"e": e, "lam_g": lam_g if ok else None, "active": active,
+                          "working": working if ok else None}
+        else:
+            congs = list(self._blocks)
+        res = OptimizationResult(congruence=congs[0], success=ok, status=status, iterations=iters,
+                                 build_seconds=build_s, solve_seconds=solve_s, energies_before=before,
+                                 energies_after=after, max_violation=viol, worst_constraint=worst_c,
+                                 congruences=tuple(congs), solver=solver, objective=float(fval),
+                                 constraints_active=active,
+                                 working_set=None if working is None else _working_ids(b, working),
+                                 violated=violated, measured=meas, history=monitor.history,
+                                 from_iteration=from_iteration)
+        if raise_on_failure and not ok:
+            raise OptimizationError(f"congruence optimization failed: {status}", res)
+        return res

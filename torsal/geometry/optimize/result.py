@@ -1,0 +1,166 @@
+"""What a solve returns: :class:`OptimizationResult`, its per-iteration history and errors."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+from torsal.core.errors import TorsalError
+
+from ..congruence import Congruence
+
+
+class IterationRecord(NamedTuple):
+    """One solver iteration, as recorded in ``OptimizationResult.history``.
+
+    Attributes
+    ----------
+    iteration : int
+        Running count over all passes of the solve (IPOPT's iteration 0 of each pass counts).
+    seconds : float
+        Wall time since :meth:`~torsal.geometry.optimize.CongruenceProblem.solve` was called
+        (building the NLP included).
+    objective : float
+        Weighted objective of eq. (9) at the iterate.
+    violation : float
+        Measured worst violation at the iterate, as a multiple of its tolerance (a value <= 1
+        means every constraint holds as measured; 0 without constraints).
+    feasible : bool
+        ``violation <= 1``.
+    """
+
+    iteration: int
+    seconds: float
+    objective: float
+    violation: float
+    feasible: bool
+
+
+class OptimizationError(TorsalError, RuntimeError):
+    """A solve failed and ``raise_on_failure=True`` was given; ``.result`` holds the details."""
+
+    def __init__(self, message: str, result: "OptimizationResult"):
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass
+class OptimizationResult:
+    """Outcome of :meth:`CongruenceProblem.solve`.
+
+    Attributes
+    ----------
+    congruence : Congruence
+        The optimized congruence (same mesh A, new directions).
+    success : bool
+        Solver converged (or a feasible iterate was kept, see ``from_iteration``), no NaN, and
+        every constraint holds as *measured* on the result: angles within ``angle_tol_deg``
+        (0.1 degree) of their bound, other constraints within ``constraint_tol``.
+    status : str
+        The solver's own words (IPOPT return status, scipy message) plus our diagnosis.
+    iterations : int
+    build_seconds : float
+        Time spent building the NLP and solver in this call (0 when the built solver was re-used).
+    solve_seconds : float
+    energies_before, energies_after : dict[str, float]
+        Unweighted, normalized value of every energy (as printed in the paper), plus
+        ``"total"``: the weighted objective of eq. (9).
+    max_violation : dict[str, float]
+        Largest *measured* violation of each constraint, in the constraint's own units (see
+        :mod:`torsal.geometry.optimize.measure`): degrees for ``min_torsal_angle`` (how far the
+        smallest torsal angle is below the bound; a face without torsal directions counts as
+        0 degrees) and ``max_angle_to``, ``c_hyp / delta^2`` for ``hyperbolic``, the function
+        value for a user's own constraint; ``unit_length`` is ``max | ||e_i||^2 - 1 |``.
+        0 where the constraint holds.
+    worst_constraint : tuple or None
+        ``(name, element index, violation)`` of the worst measured violation beyond its
+        tolerance, None if all hold.
+    congruences : tuple of Congruence
+        All optimized congruences: this problem's first, then those joined by ``align_with``.
+    solver : str
+    objective : float
+    constraints_active : bool or None
+        IPOPT with inequality constraints: False when the solve without them already met
+        them (see ``try_unconstrained`` of :meth:`CongruenceProblem.solve`), True when the
+        constrained problem was solved; None otherwise.
+    working_set : dict[str, ndarray] or None
+        When IPOPT imposed only some inequality constraints (the working set, see
+        ``try_unconstrained`` of :meth:`CongruenceProblem.solve`): the element ids (faces,
+        vertices, ...) it imposed, by constraint name; all others hold with slack. None when
+        every inequality was imposed or none was needed.
+    violated : dict[str, ndarray]
+        Per constraint, the element ids (faces, vertices) that miss the bound by more than
+        the tolerance, measured; empty arrays where it holds.
+    measured : dict[str, Measurement]
+        The full measurement per constraint (values per element, bound, unit, tolerance).
+    history : list of IterationRecord
+        One record per solver iteration (all passes): wall time since the solve started,
+        objective (eq. (9)) and measured worst violation; see :class:`IterationRecord`.
+    from_iteration : int or None
+        When the solver stopped early or ended infeasible and an earlier iterate was
+        feasible (measured) with lower energy, the result is that iterate and this is its
+        iteration number; None when the result is the solver's last iterate.
+    """
+
+    congruence: Congruence
+    success: bool
+    status: str
+    iterations: int
+    build_seconds: float
+    solve_seconds: float
+    energies_before: dict
+    energies_after: dict
+    max_violation: dict
+    worst_constraint: tuple | None = None
+    congruences: tuple = ()
+    solver: str = "ipopt"
+    objective: float = float("nan")
+    constraints_active: bool | None = None
+    working_set: dict | None = None
+    violated: dict = field(default_factory=dict)
+    measured: dict = field(default_factory=dict)
+    history: list = field(default_factory=list)
+    from_iteration: int | None = None
+
+    @property
+    def feasible(self) -> bool:
+        """Every constraint holds as measured on the result (whether or not the solver converged)."""
+        return bool(self.max_violation is not None and all(m.holds for m in self.measured.values())
+                    and "NaN" not in (self.worst_constraint or ("",))[0])
+
+    @property
+    def min_torsal_angle_deg(self) -> float | None:
+        """Measured smallest torsal angle over the faces of every ``min_torsal_angle``
+        constraint (degrees), None without one."""
+        vals = [m.values.min() for m in self.measured.values() if m.kind == "torsal_angle" and m.values.size]
+        return float(min(vals)) if vals else None
+
+    def time_to(self, energy: float) -> float | None:
+        """Wall time (s) until the first measured-feasible iterate with objective <= ``energy``."""
+        for r in self.history:
+            if r.feasible and r.objective <= energy:
+                return r.seconds
+        return None
+
+    def summary(self) -> str:
+        """One line per fact, for logs and the CLI."""
+        lines = [f"{self.solver}: {'ok' if self.success else 'FAILED'} ({self.status}), "
+                 f"{self.iterations} iterations, build {self.build_seconds:.2f} s, "
+                 f"solve {self.solve_seconds:.2f} s"]
+        if self.constraints_active is False:
+            lines.append("  inequality constraints inactive: met by the solve without them")
+        if self.working_set is not None:
+            n = sum(len(v) for v in self.working_set.values())
+            lines.append(f"  inequality constraints imposed on {n} elements (the working set); "
+                         "the others hold with slack")
+        for k in self.energies_after:
+            lines.append(f"  {k:>18}: {self.energies_before.get(k, float('nan')):.4g} -> "
+                         f"{self.energies_after[k]:.4g}")
+        if self.from_iteration is not None:
+            lines.append(f"  result: the best feasible iterate, iteration {self.from_iteration}")
+        for k, v in self.max_violation.items():
+            m = self.measured.get(k)
+            unit = f" {m.unit}" if m is not None and m.unit != "value" else ""
+            missed = f", {len(self.violated[k])} elements miss it" if len(self.violated.get(k, ())) else ""
+            lines.append(f"  violation {k:>8}: {v:.3g}{unit} (measured){missed}")
+        return "\n".join(lines)
+
