@@ -36,7 +36,56 @@ def _build_parser() -> argparse.ArgumentParser:
     d.add_argument("file", help="TOML design file")
     d.add_argument("--out", metavar="DIR", required=True, help="output folder")
     d.add_argument("--no-cache", action="store_true", help="recompute every stage")
+    _add_study_parser(sub)
     return p
+
+
+def _add_study_parser(sub) -> None:
+    s = sub.add_parser("study", help="run a design study: variants of a design over axes (a grid, "
+                                     "or an optuna [search]) as Dask tasks, compared with standard "
+                                     "shading devices; writes results.parquet/.csv and study.html")
+    s.add_argument("file", help="TOML study file (name, base, [axes], [run], [search])")
+    s.add_argument("--out", metavar="DIR", required=True, help="output folder (a study resumes here)")
+    s.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="a running Dask scheduler, e.g. tcp://host:8786 (default: a local cluster)")
+    s.add_argument("--workers", metavar="N", type=int, default=None,
+                   help="worker processes of the local cluster (default: the file's [run] workers)")
+    s.add_argument("--retry-failed", action="store_true",
+                   help="run variants again that failed in an earlier run of this folder")
+
+
+def _study(args, console) -> int:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from .pipeline import Study
+
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    study = Study.from_toml(args.file)       # every key and axis checked before anything runs
+    n = len(study.variants) or study.spec.search.trials
+    where = args.scheduler or study.spec.run.scheduler or \
+        f"a local cluster of {args.workers or study.spec.run.workers} workers"
+    console.print(f"{study.spec.name}: {n} variants on {where}")
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TextColumn("[green]{task.fields[done]} done[/] [red]{task.fields[failed]} failed[/] "
+                          "[yellow]{task.fields[running]} running[/]"), TimeElapsedColumn())
+    with Progress(*columns, console=console) as bar:
+        task = bar.add_task("variants", total=n, done=0, failed=0, running=0)
+
+        def progress(p):
+            bar.update(task, completed=p.done + p.failed, done=p.done, failed=p.failed,
+                       running=p.running)
+
+        res = study.run(args.out, workers=args.workers, scheduler=args.scheduler,
+                        progress=progress, retry_failed=args.retry_failed)
+    console.print(res.verdict)
+    console.print(f"congruence solves: {res.solves} run, {res.solves_saved} saved by the shared "
+                  f"cache; {res.resumed} variants finished earlier")
+    failed = res.table[(res.table["kind"] == "torsal") & (res.table["status"] == "failed")]
+    for _, r in failed.iterrows():
+        console.print(f"[red]variant {r['id']} failed[/] at stage {r['failed_stage']}: {r['error']}")
+    console.print(f"wrote {args.out}/results.parquet, results.csv, study.html")
+    return 1 if len(failed) else 0
 
 
 def _design(args, console) -> int:
@@ -132,6 +181,8 @@ def main(argv: list[str] | None = None) -> int:
             return _analyze(args, console)
         if args.command == "design":
             return _design(args, console)
+        if args.command == "study":
+            return _study(args, console)
     except (FileNotFoundError, ValueError, DesignError) as exc:
         err.print(f"[bold red]error:[/] {exc}")
         return 2
