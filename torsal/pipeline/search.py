@@ -60,6 +60,7 @@ def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
     sampler = (optuna.samplers.NSGAIISampler(seed=s.seed) if s.sampler == "nsga2"
                else optuna.samplers.TPESampler(seed=s.seed))
     opt = optuna.create_study(directions=directions, sampler=sampler)
+    study.variants = []          # the trials of this run, in order (a Study may run again)
     counts = StudyProgress(total=s.trials)
     outcomes: dict[str, dict] = {}
     base_dir = study.base_dir

@@ -12,7 +12,8 @@ a run in the same folder skips every finished variant, so an interrupted study r
 
 Outputs in ``OUT``: ``results.parquet`` and ``results.csv`` (one row per variant and per
 standard device of each depth and spacing), ``variants/<id>/`` (each design's full outputs),
-``baselines/`` (the devices' measurements) and ``study.html``.
+``baselines/`` (the devices' measurements) and ``study.html``. With a remote scheduler the
+workers write there too: ``OUT`` must be a folder they all see (a shared file system).
 """
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ from .devices import DEVICES_PIPELINE
 from .search import run_search
 from .stage import stage_keys
 from .stages import DEFAULT_PIPELINE
-from .study_file import StudySpec, Variant, grid_variants, load_study_file
+from .study_file import StudyFileError, StudySpec, Variant, grid_variants, load_study_file
 from .study_report import results_table, write_study_html
 from .study_tasks import (DaskExecutor, SerialExecutor, StudyProgress, measure_devices,
                           run_variant)
@@ -96,7 +97,10 @@ class Study:
     def from_toml(cls, path: str | Path) -> "Study":
         """Read and validate a study file; raises StudyFileError naming the key."""
         spec, base, base_dir = load_study_file(path)
-        return cls(spec, base, base_dir, source=path)
+        try:
+            return cls(spec, base, base_dir, source=path)
+        except StudyFileError as exc:       # a grid point the design file rejects
+            raise StudyFileError(f"{path}: {exc}") from None
 
     # -------------------------------------------------------------- run
     def run(self, out_dir: str | Path, *, workers: int | None = None,
@@ -135,10 +139,13 @@ class Study:
         ex = SerialExecutor() if serial else DaskExecutor(workers, scheduler, client)
         try:
             if self.spec.search is None:
+                # a grid's devices are known now: measure them alongside the variants
+                pending = self._submit_devices(ex, out, cache_dir, self.variants)
                 outcomes, counts = self._run_grid(ex, out, cache_dir, tell, retry_failed)
             else:
                 outcomes, counts = self._run_search(ex, out, cache_dir, tell, retry_failed)
-            devices = self._run_devices(ex, out, cache_dir, outcomes, counts)
+                pending = self._submit_devices(ex, out, cache_dir, self.variants)
+            devices = self._collect_devices(ex, *pending)
         finally:
             ex.close()
         table = results_table(self, out, outcomes, devices)
@@ -234,12 +241,12 @@ class Study:
     def _run_search(self, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
         return run_search(self, ex, out, cache_dir, tell, retry_failed)
 
-    def _run_devices(self, ex, out: Path, cache_dir: str, outcomes: dict, counts) -> dict:
-        """Measure the standard devices once per distinct (surface, sun, depth, spacing)."""
+    def _submit_devices(self, ex, out: Path, cache_dir: str, variants) -> tuple:
+        """Measure the standard devices once per distinct (surface, sun, depth, spacing) of
+        ``variants``: submit the ones not measured in an earlier run."""
         specs = {}
-        for v in self.variants:
-            if v.id in outcomes:
-                specs.setdefault(stage_keys(DEVICES_PIPELINE, v.spec)["devices"], v.spec)
+        for v in variants:
+            specs.setdefault(stage_keys(DEVICES_PIPELINE, v.spec)["devices"], v.spec)
         records, jobs = {}, {}
         for k, spec in specs.items():
             try:
@@ -250,6 +257,10 @@ class Study:
             except (OSError, ValueError):
                 pass
             jobs[ex.submit(measure_devices, spec, str(out), cache_dir, k)] = k
+        return specs, records, jobs
+
+    @staticmethod
+    def _collect_devices(ex, specs: dict, records: dict, jobs: dict) -> dict:
         pending = dict(jobs)
         while pending:
             for h in ex.wait(list(pending)):

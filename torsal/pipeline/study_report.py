@@ -51,7 +51,8 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
                **{k: v.axes[k] for k in axes},
                "fins.depth": v.spec.fins.depth, "fins.spacing": v.spec.fins.spacing,
                "failed_stage": o.get("stage"), "error": o.get("error"),
-               "wall_s": float(o.get("wall_s", np.nan)), "report": f"variants/{v.id}/report.html"}
+               "wall_s": float(o.get("wall_s", np.nan)), "report": f"variants/{v.id}/report.html",
+               "warnings": "; ".join(o.get("warnings") or []) or None}
         if o["status"] == "done":
             report = json.loads((folder / "report.json").read_text())   # the variant's own file
             row.update(flatten(report))
@@ -135,29 +136,40 @@ def verdict(table, axes) -> tuple[str, dict]:
     bx, by = b[X_KEY].to_numpy(), b[Y_KEY].to_numpy()
     leads = [lead_over(r[X_KEY], r[Y_KEY], bx, by) for _, r in t.iterrows()]
     eps = np.array([e for e, _ in leads])
-    best = int(np.argmax(eps))
-    r, nb = t.iloc[best], b.iloc[leads[best][1]]
+    best, worst = int(np.argmax(eps)), int(np.argmin(eps))
     n_beyond = int((eps > 0).sum())
-    where = (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% of the sun blocked, "
-             f"{100 * r[X_KEY]:.1f}% of the view clear)")
-    near = (f"{nb['device']} at depth {nb['fins.depth']:g}, spacing {nb['fins.spacing']:g} "
-            f"({100 * nb[Y_KEY]:.1f}% blocked, {100 * nb[X_KEY]:.1f}% clear)")
-    material = (f"; it takes {r['material_kg']:.0f} kg of sheet against the device's "
-                f"{nb['material_kg']:.0f} kg")
+
+    def point(k):
+        r = t.iloc[k]
+        return (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% of the sun blocked, "
+                f"{100 * r[X_KEY]:.1f}% of the view clear, {r['material_kg']:.0f} kg)")
+
+    def device(k):
+        d = b.iloc[leads[k][1]]
+        return (f"{d['device']} at depth {d['fins.depth']:g}, spacing {d['fins.spacing']:g}: "
+                f"{100 * d[Y_KEY]:.1f}% blocked, {100 * d[X_KEY]:.1f}% clear, "
+                f"{d['material_kg']:.0f} kg")
+
+    devices = ("the standard devices (horizontal louvers, vertical fins and egg-crates of the "
+               "same depths and spacings)")
+    behind = ""
+    if len(t) - n_beyond:
+        behind = (f"{len(t) - n_beyond} lie behind it, the furthest behind, {point(worst)}, by "
+                  f"{100 * -eps[worst]:.1f} points (nearest device: {device(worst)})")
     if n_beyond:
-        text = (f"{n_beyond} of {len(t)} torsal variants lie beyond the front of the standard "
-                f"devices (horizontal louvers, vertical fins, egg-crate at the same depths and "
-                f"spacings); the furthest, {where}, lies {100 * eps[best]:.1f} percentage points "
-                f"beyond it: every device blocks at least that much less sun or leaves at least "
-                f"that much less view clear (nearest: {near}){material}.")
+        text = (f"{n_beyond} of {len(t)} torsal variants lie beyond the front of {devices}: "
+                f"the furthest, {point(best)}, by {100 * eps[best]:.1f} percentage points "
+                f"(every device blocks at least that much less sun or leaves at least that much "
+                f"less view clear; nearest: {device(best)}; no device blocks more than "
+                f"{100 * by.max():.1f}%)" + (f"; {behind}." if behind else "."))
     else:
-        text = (f"No torsal variant lies beyond the front of the standard devices (horizontal "
-                f"louvers, vertical fins, egg-crate at the same depths and spacings); the "
-                f"closest, {where}, is {100 * -eps[best]:.1f} percentage points behind it: "
-                f"{near} blocks at least that much more sun and leaves at least that much more "
-                f"view clear{material}.")
+        text = (f"No torsal variant lies beyond the front of {devices}: all {behind}, and even "
+                f"the closest, {point(best)}, is {100 * -eps[best]:.1f} percentage points behind "
+                f"(a device blocks at least that much more sun and leaves at least that much more "
+                f"view clear: {device(best)}).")
     return text, {"beyond": n_beyond, "torsal": int(len(t)), "lead": float(eps[best]),
-                  "best": str(r["id"]), "nearest": str(nb["id"])}
+                  "lag": float(eps[worst]), "best": str(t.iloc[best]["id"]),
+                  "nearest": str(b.iloc[leads[best][1]]["id"])}
 
 
 _PAGE = """<!DOCTYPE html>

@@ -6,6 +6,7 @@ import json
 import logging
 import time
 import uuid
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,7 +79,7 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
     first); if that failed at a stage whose inputs this variant shares, the same failure is
     recorded without running it again. Never raises: returns the outcome (``id``,
     ``status`` "done" | "failed", ``stage``, ``error``, ``wall_s``, ``cached``, ``computed``,
-    ``keys``), also written to ``variant.json``.
+    ``keys``, ``warnings``), also written to ``variant.json``.
     """
     _tell(queue, ("start", variant.id))
     t0 = time.perf_counter()
@@ -102,8 +103,15 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
                 outcome["cached" if event == "cached" else "computed"].append(stage)
 
         try:
-            Design(variant.spec, source=out / "design.toml").run(
-                out, cache=StageCache(cache_dir, prune=False), progress=record)
+            # a worker has no terminal: its warnings go into the variant's record
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    Design(variant.spec, source=out / "design.toml").run(
+                        out, cache=StageCache(cache_dir, prune=False), progress=record)
+                finally:
+                    outcome["warnings"] = sorted({f"{w.category.__name__}: {w.message}"
+                                                  for w in caught})
         except DesignError as exc:
             outcome.update(status="failed", stage=exc.stage, error=str(exc))
         except Exception as exc:            # noqa: BLE001 - one variant must not stop a study
