@@ -127,6 +127,25 @@ def test_a_resumed_study_recomputes_nothing(grid):
                                   first.table.drop(columns="wall_s"))
 
 
+def test_an_interrupted_study_resumes_where_it_stopped(grid, tmp_path):
+    out, first, _ = grid
+    # a copy of the finished study, with variant 005 cut off before it finished
+    import shutil
+
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    (copy / "variants" / "005" / "variant.json").unlink()
+    (copy / "variants" / "005" / "report.json").unlink()
+    before = _mtimes(copy / "variants" / "004")
+    res = Study.from_toml(out.parent / "study.toml").run(copy, serial=True)
+    assert res.resumed == 7 and (res.solves, res.solves_saved) == (0, 1)
+    assert (copy / "variants" / "005" / "report.json").exists()
+    assert _mtimes(copy / "variants" / "004") == before
+    row = res.table.set_index("id").loc["005"]
+    assert row["status"] == "done" and row["light.blocked_share"] == first.table.set_index(
+        "id").loc["005", "light.blocked_share"]
+
+
 def test_a_failing_variant_is_recorded_and_the_others_go_on(tmp_path):
     # fins 40 m apart on a 12 m facade: no fin to build
     path = _study(tmp_path, {"fins.spacing": [1.5, 40.0], "fins.depth": [0.3]}, renders=False,
