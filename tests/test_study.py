@@ -207,3 +207,18 @@ def test_missing_base_design(tmp_path, capsys):
     path.write_text('base = "nowhere.toml"\n[axes]\n"fins.depth" = [0.2]\n')
     assert main(["study", str(path), "--out", str(tmp_path / "out")]) == 2
     assert "nowhere.toml" in capsys.readouterr().err
+
+
+def test_a_study_runs_on_an_existing_scheduler(tmp_path):
+    """--scheduler ADDRESS: the study uses a running cluster and leaves it running."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    path = _study(tmp_path, {"fins.depth": [0.3]}, renders=False, dxf=False, bom=False)
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None,
+                      silence_logs=logging.ERROR) as cluster:
+        res = Study.from_toml(path).run(tmp_path / "out", scheduler=cluster.scheduler_address)
+        assert list(res.table.loc[res.table["kind"] == "torsal", "status"]) == ["done"]
+        with Client(cluster.scheduler_address) as client:       # still up
+            assert len(client.scheduler_info()["workers"]) == 1
