@@ -222,3 +222,28 @@ def test_a_study_runs_on_an_existing_scheduler(tmp_path):
         assert list(res.table.loc[res.table["kind"] == "torsal", "status"]) == ["done"]
         with Client(cluster.scheduler_address) as client:       # still up
             assert len(client.scheduler_info()["workers"]) == 1
+
+
+def test_a_lost_task_is_a_failed_variant(tmp_path):
+    """A task that does not come back (its worker died) is recorded as failed, not fatal."""
+    from torsal.pipeline import study_tasks
+
+    class Crashing(study_tasks.SerialExecutor):
+        def result(self, job):
+            if getattr(job.args[0], "id", None) == "001":
+                raise RuntimeError("worker killed (out of memory)")
+            return super().result(job)
+
+    path = _study(tmp_path, {"fins.depth": [0.3, 0.5]}, renders=False, dxf=False, bom=False)
+    study = Study.from_toml(path)
+    orig = study_tasks.SerialExecutor
+    import torsal.pipeline.study as study_module
+
+    study_module.SerialExecutor = Crashing
+    try:
+        res = study.run(tmp_path / "out", serial=True)
+    finally:
+        study_module.SerialExecutor = orig
+    t = res.table[res.table["kind"] == "torsal"].set_index("id")
+    assert t.loc["000", "status"] == "done" and t.loc["001", "status"] == "failed"
+    assert "worker killed" in t.loc["001", "error"]

@@ -76,8 +76,13 @@ def _study(args, console) -> int:
             bar.update(task, completed=p.done + p.failed, done=p.done, failed=p.failed,
                        running=p.running)
 
-        res = study.run(args.out, workers=args.workers, scheduler=args.scheduler,
-                        progress=progress, retry_failed=args.retry_failed)
+        try:
+            res = study.run(args.out, workers=args.workers, scheduler=args.scheduler,
+                            progress=progress, retry_failed=args.retry_failed)
+        except KeyboardInterrupt:
+            console.print(f"interrupted: finished variants are kept in {args.out}/variants; run "
+                          "the same command again to resume")
+            return 130
     console.print(res.verdict)
     console.print(f"congruence solves: {res.solves} run, {res.solves_saved} saved by the shared "
                   f"cache; {res.resumed} variants finished earlier")

@@ -8,7 +8,10 @@ import json
 from pathlib import Path
 
 
-from .study_tasks import StudyProgress, flatten, material_kg, run_variant
+from .._io import write_json
+from .stage import stage_keys
+from .stages import DEFAULT_PIPELINE
+from .study_tasks import SHARED_STAGE, StudyProgress, flatten, material_kg, run_variant
 from .study_file import AxisRange, Variant, design_with
 
 __all__ = ["run_search", "objective_values"]
@@ -108,12 +111,16 @@ def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
     # one batch of trials per round, as many as the cluster runs at once
     workers = max(1, len(ex.client.scheduler_info()["workers"])) if hasattr(ex, "client") else 1
     while i < s.trials:
-        batch = {}
+        batch, leaders = {}, {}
         for _ in range(min(workers, s.trials - i)):
             trial = opt.ask(dists)
             v = variant(i, trial.params)
-            batch[ex.submit(_run_trial, v, str(out), cache_dir, trial.params,
-                            getattr(ex, "queue_name", None))] = (v, trial)
+            # a trial whose congruence another trial of the batch solves waits for it
+            k = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
+            h = ex.submit(_run_trial, v, str(out), cache_dir, trial.params,
+                          getattr(ex, "queue_name", None), leaders.get(k))
+            leaders.setdefault(k, h)
+            batch[h] = (v, trial)
             i += 1
         pending = dict(batch)
 
@@ -124,7 +131,7 @@ def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
         while pending:
             for h in ex.wait(list(pending), started):
                 v, trial = pending.pop(h)
-                o = ex.result(h)
+                o = ex.outcome(h, v)
                 finish(v, trial.params, o, trial)
                 ex.running.discard(v.id)
                 counts.done += o["status"] == "done"
@@ -135,11 +142,10 @@ def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
     return outcomes, counts
 
 
-def _run_trial(v: Variant, out_dir: str, cache_dir: str, params: dict, queue) -> dict:
+def _run_trial(v: Variant, out_dir: str, cache_dir: str, params: dict, queue,
+               leader: dict | None = None) -> dict:
     """A grid variant's task, with the trial's optuna parameters kept in variant.json."""
-    from .._io import write_json
-
-    o = run_variant(v, out_dir, cache_dir, None, queue)
+    o = run_variant(v, out_dir, cache_dir, leader, queue)
     o["params"] = params
     write_json(Path(out_dir) / "variants" / v.id / "variant.json", o)
     return o

@@ -31,13 +31,10 @@ from .stage import stage_keys
 from .stages import DEFAULT_PIPELINE
 from .study_file import StudyFileError, StudySpec, Variant, grid_variants, load_study_file
 from .study_report import results_table, write_study_html
-from .study_tasks import (DaskExecutor, SerialExecutor, StudyProgress, measure_devices,
-                          run_variant)
+from .study_tasks import (SHARED_STAGE, DaskExecutor, SerialExecutor, StudyProgress,
+                          measure_devices, run_variant)
 
 __all__ = ["Study", "StudyProgress", "StudyResult", "SHARED_STAGE"]
-
-#: the stage whose result variants share: its solve is what the cache saves
-SHARED_STAGE = "congruence"
 
 
 @dataclass
@@ -184,7 +181,7 @@ class Study:
         return None
 
     def _collect(self, ex, jobs: dict, outcomes: dict, counts: StudyProgress, tell) -> None:
-        """Wait for ``jobs`` ({handle: variant id}) and record each outcome as it comes."""
+        """Wait for ``jobs`` ({handle: variant}) and record each outcome as it comes."""
         pending = dict(jobs)
 
         def started():
@@ -194,8 +191,9 @@ class Study:
 
         while pending:
             for h in ex.wait(list(pending), started):
-                vid = pending.pop(h)
-                o = ex.result(h)
+                v = pending.pop(h)
+                vid = v.id
+                o = ex.outcome(h, v)
                 outcomes[vid] = o
                 ex.running.discard(vid)
                 if o["status"] == "done":
@@ -234,7 +232,7 @@ class Study:
                 leaders[k] = h
             else:
                 h = ex.submit(run_variant, v, str(out), cache_dir, leader, _queue(ex))
-            jobs[h] = v.id
+            jobs[h] = v
         self._collect(ex, jobs, outcomes, counts, tell)
         return outcomes, counts
 

@@ -20,8 +20,11 @@ from .stage import StageRun, run_stages, stage_keys
 from .stages import DEFAULT_PIPELINE
 from .study_file import Variant
 
-__all__ = ["StudyProgress", "flatten", "material_kg", "run_variant", "measure_devices",
+__all__ = ["SHARED_STAGE", "StudyProgress", "flatten", "material_kg", "run_variant", "lost_outcome", "measure_devices",
            "SerialExecutor", "DaskExecutor"]
+#: the stage whose result variants share: its solve is what the cache saves
+SHARED_STAGE = "congruence"
+
 
 @dataclass
 class StudyProgress:
@@ -122,6 +125,14 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
     return outcome
 
 
+def lost_outcome(variant: Variant, exc: BaseException) -> dict:
+    """The outcome of a variant whose task did not return (its worker died)."""
+    return {"id": variant.id, "digest": variant.digest, "version": __version__,
+            "axes": variant.axes, "status": "failed", "stage": None,
+            "error": f"the task was lost: {type(exc).__name__}: {exc}", "cached": [],
+            "computed": [], "keys": {}, "warnings": [], "wall_s": float("nan")}
+
+
 def measure_devices(spec, out_dir: str, cache_dir: str, key: str) -> dict:
     """Measure the standard devices of ``spec``'s depth and spacing (the devices stage);
     writes ``out_dir/baselines/<key>.json`` and returns its content."""
@@ -142,7 +153,20 @@ class _Job:
         self.fn, self.args, self.result = fn, args, None
 
 
-class SerialExecutor:
+class _Executor:
+    def result(self, handle):
+        raise NotImplementedError
+
+    def outcome(self, handle, variant) -> dict:
+        """A variant task's outcome; a task that died with its worker (killed, out of
+        memory) is a failed variant, recorded like one, and the study goes on."""
+        try:
+            return self.result(handle)
+        except Exception as exc:        # noqa: BLE001
+            return lost_outcome(variant, exc)
+
+
+class SerialExecutor(_Executor):
     """Runs tasks one after another in this process (the reference for speed-ups)."""
 
     def __init__(self):
@@ -175,7 +199,7 @@ class SerialExecutor:
         pass
 
 
-class DaskExecutor:
+class DaskExecutor(_Executor):
     """Tasks on a Dask cluster: an embedded LocalCluster or a scheduler at an address."""
 
     def __init__(self, workers: int, scheduler: str | None, client=None):
