@@ -52,93 +52,96 @@ def objective_values(report: dict, spec, objectives: dict) -> list[float]:
     return out
 
 
-def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
-    import optuna
+class _Search:
+    """One run of a study's [search]: optuna asks, variants run as tasks, optuna is told."""
 
-    optuna.logging.set_verbosity(optuna.logging.WARNING)     # library calls stay quiet
-    s = study.spec.search
-    axes = study.spec.axes
-    dists = _distributions(axes)
-    directions = ["maximize" if d == "max" else "minimize" for d in s.objectives.values()]
-    sampler = (optuna.samplers.NSGAIISampler(seed=s.seed) if s.sampler == "nsga2"
-               else optuna.samplers.TPESampler(seed=s.seed))
-    opt = optuna.create_study(directions=directions, sampler=sampler)
-    study.variants = []          # the trials of this run, in order (a Study may run again)
-    counts = StudyProgress(total=s.trials)
-    outcomes: dict[str, dict] = {}
-    base_dir = study.base_dir
+    def __init__(self, study, out: Path):
+        import optuna
 
-    def variant(i: int, params: dict) -> Variant:
-        values = _axis_values(axes, params)
-        spec, text = design_with(study.base, base_dir, values)
+        optuna.logging.set_verbosity(optuna.logging.WARNING)     # library calls stay quiet
+        self.optuna, self.study, self.out = optuna, study, out
+        self.search = s = study.spec.search
+        self.dists = _distributions(study.spec.axes)
+        directions = ["maximize" if d == "max" else "minimize" for d in s.objectives.values()]
+        sampler = (optuna.samplers.NSGAIISampler(seed=s.seed) if s.sampler == "nsga2"
+                   else optuna.samplers.TPESampler(seed=s.seed))
+        self.opt = optuna.create_study(directions=directions, sampler=sampler)
+        self.trials: dict[str, object] = {}          # variant id -> optuna trial being run
+
+    def variant(self, i: int, params: dict) -> Variant:
+        values = _axis_values(self.study.spec.axes, params)
+        spec, text = design_with(self.study.base, self.study.base_dir, values)
         return Variant(f"t{i:03d}", values, spec, text)
 
-    def finish(v: Variant, params: dict, o: dict, trial=None):
-        outcomes[v.id] = o
-        study.variants.append(v)
-        state, values = optuna.trial.TrialState.FAIL, None
+    def tell(self, v: Variant, o: dict, params: dict | None = None) -> None:
+        """Tell optuna a trial's result (a resumed one as a new finished trial)."""
+        self.study.variants.append(v)
+        T = self.optuna.trial
+        state, values = T.TrialState.FAIL, None
         if o["status"] == "done":
-            report = json.loads((out / "variants" / v.id / "report.json").read_text())
+            report = json.loads((self.out / "variants" / v.id / "report.json").read_text())
             try:
-                values = objective_values(report, v.spec, s.objectives)
-                state = optuna.trial.TrialState.COMPLETE
+                values = objective_values(report, v.spec, self.search.objectives)
+                state = T.TrialState.COMPLETE
             except (KeyError, TypeError, ValueError):
                 pass
+        trial = self.trials.pop(v.id, None)
         if trial is None:
-            opt.add_trial(optuna.trial.create_trial(params=params, distributions=dists,
-                                                    values=values, state=state))
+            self.opt.add_trial(T.create_trial(params=params, distributions=self.dists,
+                                              values=values, state=state))
         else:
-            opt.tell(trial, values, state=state)
+            self.opt.tell(trial, values, state=state)
 
-    # trials finished in an earlier run, in order
-    i = 0
-    while i < s.trials:
-        rec_path = out / "variants" / f"t{i:03d}" / "variant.json"
-        try:
-            rec = json.loads(rec_path.read_text())
-            params = rec["params"]
-            v = variant(i, params)
-        except (OSError, ValueError, KeyError):
-            break
-        if study._finished(out, v, retry_failed) is None:
-            break
-        finish(v, params, rec | {"resumed": True})
-        counts.resumed += 1
-        counts.done += rec["status"] == "done"
-        counts.failed += rec["status"] == "failed"
-        i += 1
+    def resume(self, outcomes: dict, counts: StudyProgress, retry_failed: bool) -> int:
+        """Tell optuna the trials finished in an earlier run, in order; returns how many."""
+        i = 0
+        while i < self.search.trials:
+            try:
+                rec = json.loads((self.out / "variants" / f"t{i:03d}" / "variant.json").read_text())
+                v = self.variant(i, rec["params"])
+            except (OSError, ValueError, KeyError):
+                break
+            if self.study._finished(self.out, v, retry_failed) is None:
+                break
+            outcomes[v.id] = rec | {"resumed": True}
+            self.tell(v, rec, rec["params"])
+            counts.resumed += 1
+            counts.done += rec["status"] == "done"
+            counts.failed += rec["status"] == "failed"
+            i += 1
+        return i
+
+    def submit(self, ex, i: int, n: int, cache_dir: str) -> dict:
+        """Ask optuna for ``n`` trials and submit them; a trial whose congruence another
+        of the batch solves waits for it, like a grid's variants."""
+        jobs, leaders = {}, {}
+        for k in range(i, i + n):
+            trial = self.opt.ask(self.dists)
+            v = self.variant(k, trial.params)
+            self.trials[v.id] = trial
+            key = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
+            h = ex.submit(_run_trial, v, str(self.out), cache_dir, trial.params,
+                          getattr(ex, "queue_name", None), leaders.get(key))
+            leaders.setdefault(key, h)
+            jobs[h] = v
+        return jobs
+
+
+def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
+    """Run a study's [search] on executor ``ex``; returns the outcomes and the counts."""
+    search = _Search(study, out)
+    study.variants = []          # the trials of this run, in order (a Study may run again)
+    counts = StudyProgress(total=search.search.trials)
+    outcomes: dict[str, dict] = {}
+    i = search.resume(outcomes, counts, retry_failed)
     tell(counts)
     # one batch of trials per round, as many as the cluster runs at once
     workers = max(1, len(ex.client.scheduler_info()["workers"])) if hasattr(ex, "client") else 1
-    while i < s.trials:
-        batch, leaders = {}, {}
-        for _ in range(min(workers, s.trials - i)):
-            trial = opt.ask(dists)
-            v = variant(i, trial.params)
-            # a trial whose congruence another trial of the batch solves waits for it
-            k = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
-            h = ex.submit(_run_trial, v, str(out), cache_dir, trial.params,
-                          getattr(ex, "queue_name", None), leaders.get(k))
-            leaders.setdefault(k, h)
-            batch[h] = (v, trial)
-            i += 1
-        pending = dict(batch)
-
-        def started():
-            counts.running = len(ex.running)
-            tell(counts)
-
-        while pending:
-            for h in ex.wait(list(pending), started):
-                v, trial = pending.pop(h)
-                o = ex.outcome(h, v)
-                finish(v, trial.params, o, trial)
-                ex.running.discard(v.id)
-                counts.done += o["status"] == "done"
-                counts.failed += o["status"] == "failed"
-                counts.running = len(ex.running)
-                counts.event = f"{v.id} {o['status']}"
-                tell(counts)
+    while i < search.search.trials:
+        n = min(workers, search.search.trials - i)
+        jobs = search.submit(ex, i, n, cache_dir)
+        study._collect(ex, jobs, outcomes, counts, tell, on_outcome=search.tell)
+        i += n
     return outcomes, counts
 
 

@@ -180,8 +180,11 @@ class Study:
             return rec | {"resumed": True}
         return None
 
-    def _collect(self, ex, jobs: dict, outcomes: dict, counts: StudyProgress, tell) -> None:
-        """Wait for ``jobs`` ({handle: variant}) and record each outcome as it comes."""
+    @staticmethod
+    def _collect(ex, jobs: dict, outcomes: dict, counts: StudyProgress, tell,
+                 on_outcome=None) -> None:
+        """Wait for ``jobs`` ({handle: variant}) and record each outcome as it comes
+        (``on_outcome(variant, outcome)`` too, e.g. to tell optuna)."""
         pending = dict(jobs)
 
         def started():
@@ -192,16 +195,17 @@ class Study:
         while pending:
             for h in ex.wait(list(pending), started):
                 v = pending.pop(h)
-                vid = v.id
                 o = ex.outcome(h, v)
-                outcomes[vid] = o
-                ex.running.discard(vid)
+                outcomes[v.id] = o
+                if on_outcome is not None:
+                    on_outcome(v, o)
+                ex.running.discard(v.id)
                 if o["status"] == "done":
                     counts.done += 1
                 else:
                     counts.failed += 1
                 counts.running = len(ex.running)
-                counts.event = f"{vid} {o['status']}" + (f" at {o['stage']}" if o["stage"] else "")
+                counts.event = f"{v.id} {o['status']}" + (f" at {o['stage']}" if o["stage"] else "")
                 tell(counts)
 
     def _run_grid(self, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
