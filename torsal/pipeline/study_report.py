@@ -121,7 +121,7 @@ def lead_over(x: float, y: float, bx: np.ndarray, by: np.ndarray) -> tuple[float
 
 
 def _axes_text(row, axes) -> str:
-    return ", ".join(f"{k} {row[k]:g}" if isinstance(row[k], (int, float)) else f"{k} {row[k]}"
+    return ", ".join(f"{k} {row[k]:.3g}" if isinstance(row[k], (int, float)) else f"{k} {row[k]}"
                      for k in axes if k in row and row[k] is not None)
 
 
@@ -146,7 +146,7 @@ def verdict(table, axes) -> tuple[str, dict]:
 
     def device(k):
         d = b.iloc[leads[k][1]]
-        return (f"{d['device']} at depth {d['fins.depth']:g}, spacing {d['fins.spacing']:g}: "
+        return (f"{d['device']} at depth {d['fins.depth']:.3g}, spacing {d['fins.spacing']:.3g}: "
                 f"{100 * d[Y_KEY]:.1f}% blocked, {100 * d[X_KEY]:.1f}% clear, "
                 f"{d['material_kg']:.0f} kg")
 
@@ -214,7 +214,7 @@ def _figure(table, axes):
             marker={"symbol": symbols.get(name, "circle"), "size": 10, "color": d["material_kg"],
                     "cmin": cmin, "cmax": cmax, "colorscale": "Viridis",
                     "line": {"width": 1, "color": "#444"}},
-            text=[f"{name}<br>depth {r['fins.depth']:g}, spacing {r['fins.spacing']:g}<br>"
+            text=[f"{name}<br>depth {r['fins.depth']:.3g}, spacing {r['fins.spacing']:.3g}<br>"
                   f"{r['material_kg']:.0f} kg" for _, r in d.iterrows()],
             hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
     if not t.empty:
