@@ -63,7 +63,7 @@ def _study(args, console) -> int:
         raise ValueError(f"--workers must be at least 1, got {args.workers}")
     study = Study.from_toml(args.file)       # every key and axis checked before anything runs
     n = len(study.variants) or study.spec.search.trials
-    where = args.scheduler or study.spec.run.scheduler or \
+    where = args.scheduler or (study.spec.run.scheduler if args.workers is None else None) or \
         f"a local cluster of {args.workers or study.spec.run.workers} workers"
     console.print(f"{study.spec.name}: {n} variants on {where}")
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),

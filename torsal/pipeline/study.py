@@ -110,8 +110,9 @@ class Study:
         ----------
         out_dir : path
         workers, scheduler : optional
-            Override the study file's ``[run]``: local Dask worker processes, or the address
-            of a running scheduler.
+            Override the study file's ``[run]``: local Dask worker processes (a local
+            cluster, also when the file names a scheduler), or the address of a running
+            scheduler.
         client : distributed.Client, optional
             Use this client (and its cluster) instead.
         serial : bool
@@ -131,8 +132,9 @@ class Study:
         def tell(p: StudyProgress) -> None:      # a copy: the counts change as we go
             if progress is not None:
                 progress(replace(p))
+        if scheduler is None and workers is None:   # a local worker count overrides the file
+            scheduler = self.spec.run.scheduler
         workers = workers or self.spec.run.workers
-        scheduler = scheduler or self.spec.run.scheduler
         ex = SerialExecutor() if serial else DaskExecutor(workers, scheduler, client)
         try:
             if self.spec.search is None:
