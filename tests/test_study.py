@@ -247,3 +247,31 @@ def test_a_lost_task_is_a_failed_variant(tmp_path):
     t = res.table[res.table["kind"] == "torsal"].set_index("id")
     assert t.loc["000", "status"] == "done" and t.loc["001", "status"] == "failed"
     assert "worker killed" in t.loc["001", "error"]
+
+
+def _table(torsal, devices):
+    rows = [{"id": f"{k:03d}", "kind": "torsal", "device": "torsal", "status": "done",
+             "fins.depth": 0.3, "fins.spacing": 0.6, "light.transparency": x,
+             "light.blocked_share": y, "material_kg": 100.0} for k, (x, y) in enumerate(torsal)]
+    rows += [{"id": f"b{k}", "kind": "baseline", "device": "horizontal louvers", "status": "done",
+              "fins.depth": 0.3, "fins.spacing": 0.6, "light.transparency": x,
+              "light.blocked_share": y, "material_kg": 80.0} for k, (x, y) in enumerate(devices)]
+    return pd.DataFrame(rows)
+
+
+def test_verdict_beyond_and_behind_by_hand():
+    from torsal.pipeline.study_report import verdict
+
+    # devices (0.9, 0.5), (0.6, 0.8); torsal (0.7, 0.9): beyond by min(max(-0.2, 0.4),
+    # max(0.1, 0.1)) = 0.1; torsal (0.5, 0.4): behind (0.9, 0.5) by max(-0.4, -0.1) = -0.1 ...
+    # and (0.6, 0.8) by max(-0.1, -0.4) = -0.1: 10 points behind
+    text, n = verdict(_table([(0.7, 0.9), (0.5, 0.4)], [(0.9, 0.5), (0.6, 0.8)]), [])
+    assert text.startswith("1 of 2 torsal variants lie beyond")
+    assert "by 10.0 percentage points" in text and "no device blocks more than 80.0%" in text
+    assert "1 lie behind it, the furthest behind, 001" in text and "by 10.0 points" in text
+    assert n["lead"] == pytest.approx(0.1) and n["lag"] == pytest.approx(-0.1)
+    text, n = verdict(_table([(0.5, 0.4)], [(0.9, 0.5), (0.6, 0.8)]), [])
+    assert text.startswith("No torsal variant lies beyond") and "is 10.0 percentage points behind" in text
+    # failed variants and missing devices: said, not guessed
+    t = _table([(0.7, 0.9)], [])
+    assert verdict(t, [])[0] == "No comparison: no standard device was measured."
