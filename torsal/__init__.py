@@ -5,6 +5,7 @@ From a design surface and the path of the sun to buildable planar fins.
 __version__ = "0.1.0"   # before the imports: design.py keys its stage cache with it
 
 from .design import Design, DesignError
+from .pipeline import Study, StudyFileError
 from .geometry import (
     Congruence,
     CongruenceProblem,
@@ -22,4 +23,4 @@ from .geometry import (
 
 __all__ = ["Congruence", "CongruenceProblem", "OptimizationResult", "OptimizationError",
            "MeshError", "SupportStructure", "TorsalCurve", "load_mesh", "trace_torsal_curve",
-           "remesh_torsal", "optimize_support", "Design", "DesignError", "__version__"]
+           "remesh_torsal", "optimize_support", "Design", "DesignError", "Study", "StudyFileError", "__version__"]

@@ -13,7 +13,8 @@ Exit status (one place: :func:`_run_command`):
   torsal's own checks, or a file that cannot be read or written. The message names the problem
   and what to change; never a traceback.
 - Other codes: an error that carries its own ``exit_status`` attribute (e.g. 3 for a design
-  that is not buildable), or a subcommand that returns one.
+  that is not buildable), or a subcommand that returns one: 4 for a study that finished with
+  failed variants (they are listed, the others' results are written), 130 for an interrupt.
 
 Everything the user typed or a file held is printed literally (no rich markup), messages go
 to stderr, results to stdout; progress streams line by line when stdout is not a terminal.
@@ -27,11 +28,13 @@ import time
 import traceback
 import warnings
 
-__all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT"]
+__all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_VARIANTS_FAILED"]
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
+EXIT_VARIANTS_FAILED = 4
+EXIT_INTERRUPTED = 130
 
 
 # ---------------------------------------------------------------------- terminal
@@ -121,7 +124,23 @@ def _build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     _add_analyze(sub, common)
     _add_design(sub, common)
+    _add_study(sub, common)
     return p
+
+
+def _add_study(sub, common) -> None:
+    s = sub.add_parser("study", parents=[common],
+                       help="run a design study: variants of a design over axes (a grid, "
+                            "or an optuna [search]) as Dask tasks, compared with standard "
+                            "shading devices; writes results.parquet/.csv and study.html")
+    s.add_argument("file", help="TOML study file (name, base, [axes], [run], [search])")
+    s.add_argument("--out", metavar="DIR", required=True, help="output folder (a study resumes here)")
+    s.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="a running Dask scheduler, e.g. tcp://host:8786 (default: a local cluster)")
+    s.add_argument("--workers", metavar="N", type=int, default=None,
+                   help="worker processes of the local cluster (default: the file's [run] workers)")
+    s.add_argument("--retry-failed", action="store_true",
+                   help="run variants again that failed in an earlier run of this folder")
 
 
 # ---------------------------------------------------------------------- commands
@@ -271,8 +290,72 @@ def _analyze(args, ui: _Terminal) -> int:
     return EXIT_OK
 
 
+def _study(args, ui: _Terminal) -> int:
+    from .pipeline import Study
+
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    study = Study.from_toml(args.file)       # every key and axis checked before anything runs
+    n = len(study.variants) or study.spec.search.trials
+    where = args.scheduler or (study.spec.run.scheduler if args.workers is None else None) or \
+        f"a local cluster of {args.workers or study.spec.run.workers} workers"
+    ui.line(f"{study.spec.name}: {n} variants on {where}")
+    with _StudyProgress(ui, n) as progress:
+        try:
+            res = study.run(args.out, workers=args.workers, scheduler=args.scheduler,
+                            progress=progress, retry_failed=args.retry_failed)
+        except KeyboardInterrupt:
+            ui.error(f"interrupted: finished variants are kept in {args.out}/variants; run "
+                     "the same command again to resume")
+            return EXIT_INTERRUPTED
+    ui.line(res.verdict)
+    ui.line(f"congruence solves: {res.solves} run, {res.solves_saved} saved by the shared "
+            f"cache; {res.resumed} variants finished earlier")
+    failed = res.table[(res.table["kind"] == "torsal") & (res.table["status"] == "failed")]
+    for _, r in failed.iterrows():
+        ui.error(f"variant {r['id']} failed at stage {r['failed_stage']}: {r['error']}")
+    ui.line(f"wrote {args.out}/results.parquet, results.csv, study.html")
+    return EXIT_VARIANTS_FAILED if len(failed) else EXIT_OK
+
+
+class _StudyProgress:
+    """Variants done / failed / running: a live bar on a terminal, one line per change when piped."""
+
+    def __init__(self, ui: _Terminal, total: int):
+        self.ui, self.total, self._bar, self._last = ui, total, None, None
+
+    def __enter__(self):
+        if self.ui.interactive:
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                       TextColumn("{task.fields[done]} done, {task.fields[failed]} failed, "
+                                  "{task.fields[running]} running", markup=False),
+                       TimeElapsedColumn())
+            self._bar = Progress(*columns, console=self.ui.out)
+            self._bar.__enter__()
+            self._task = self._bar.add_task("variants", total=self.total, done=0, failed=0, running=0)
+        return self
+
+    def __exit__(self, *exc):
+        if self._bar is not None:
+            self._bar.__exit__(*exc)
+        return False
+
+    def __call__(self, p) -> None:
+        if self._bar is not None:
+            self._bar.update(self._task, completed=p.done + p.failed, done=p.done, failed=p.failed,
+                             running=p.running)
+            return
+        state = (p.done, p.failed, p.running)
+        if state != self._last:
+            self._last = state
+            self.ui.line(f"variants: {p.done + p.failed}/{self.total} ({p.done} done, {p.failed} "
+                         f"failed, {p.running} running)")
+
+
 #: subcommand name -> handler(args, ui) -> exit status
-_COMMANDS = {"analyze": _analyze, "design": _design}
+_COMMANDS = {"analyze": _analyze, "design": _design, "study": _study}
 
 
 # ---------------------------------------------------------------------- errors

@@ -343,7 +343,8 @@ class SubstructureSpec(_Spec):
     behind A whose torsal directions coincide with the fins' (f_extra)."""
 
     offset: float = Field(0.3, gt=0, description="distance behind A along -normal, model units")
-    weight: float = Field(200.0, ge=0, description="w_extra")
+    weight: float | None = Field(None, ge=0, description="w_extra; unset: the optimizer's "
+                                 "default (torsal.geometry.optimize.DEFAULT_WEIGHTS['align'])")
     depth: float = Field(0.15, gt=0, description="beam depth along its lines, model units")
 
 

@@ -5,6 +5,7 @@ Imports only :mod:`torsal.geometry.mesh` from torsal (and the leaf helper
 """
 from torsal.light.baselines import (
     baselines,
+    egg_crate,
     grid_normal_fins,
     horizontal_louvers,
     section_fins,
@@ -40,5 +41,5 @@ __all__ = [
     "rays_blocked", "ray_hits", "direct_sun_blocked", "transparency", "see_through",
     "mirror_normals", "reflect", "reflected_hits", "compare",
     "ShadingResult", "TransparencyResult", "SeeThroughResult", "ReflectionResult",
-    "horizontal_louvers", "vertical_fins", "section_fins", "grid_normal_fins", "baselines",
+    "horizontal_louvers", "vertical_fins", "egg_crate", "section_fins", "grid_normal_fins", "baselines",
 ]

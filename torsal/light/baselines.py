@@ -23,7 +23,8 @@ import trimesh
 
 from torsal.geometry.mesh import area_vector, vertex_normals
 
-__all__ = ["horizontal_louvers", "vertical_fins", "section_fins", "grid_normal_fins", "baselines"]
+__all__ = ["horizontal_louvers", "vertical_fins", "egg_crate", "section_fins", "grid_normal_fins",
+           "baselines"]
 
 
 def _unit3(v, name) -> np.ndarray:
@@ -142,6 +143,23 @@ def vertical_fins(surface_vertices, surface_faces, depth: float, spacing: float,
     return section_fins(surface_vertices, surface_faces, along, depth, spacing, origin=origin)
 
 
+def egg_crate(surface_vertices, surface_faces, depth: float, spacing: float, *,
+              up=(0.0, 0.0, 1.0), along=None) -> trimesh.Trimesh:
+    """The orthogonal egg-crate: horizontal louvers and vertical fins of the same ``depth``
+    and ``spacing`` together (cells ``spacing`` x ``spacing`` in plan of A).
+
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> v, f = facade_patch(bulge=0.0, twist=0.0)
+    >>> crate = egg_crate(v, f, depth=0.4, spacing=0.5)
+    >>> len(crate.faces) == len(horizontal_louvers(v, f, 0.4, 0.5).faces) + len(
+    ...     vertical_fins(v, f, 0.4, 0.5).faces)
+    True
+    """
+    return trimesh.util.concatenate([
+        horizontal_louvers(surface_vertices, surface_faces, depth, spacing, up=up),
+        vertical_fins(surface_vertices, surface_faces, depth, spacing, up=up, along=along)])
+
+
 def grid_normal_fins(surface_vertices, surface_faces, grid_shape: tuple[int, int], depth: float,
                      *, families=(0, 1), every: int = 1) -> trimesh.Trimesh:
     """Fins of the *unoptimized normal congruence* along the grid lines of a grid surface.
@@ -209,6 +227,7 @@ def baselines(surface_vertices, surface_faces, depth: float, spacing: float, *,
         "horizontal louvers": horizontal_louvers(surface_vertices, surface_faces, depth, spacing, up=up),
         "vertical fins": vertical_fins(surface_vertices, surface_faces, depth, spacing, up=up),
     }
+    # the egg-crate of both (what :func:`egg_crate` builds), without cutting A twice
     out["egg-crate"] = trimesh.util.concatenate([out["horizontal louvers"], out["vertical fins"]])
     if grid_shape is not None:
         if every is None:

@@ -14,9 +14,12 @@ from .problem import JIT_MIN_VERTICES, congruence_problem, term_weights
 from .regions import dominant_light_direction, select_faces, select_vertices
 from .stage import Pipeline, Stage, StageInputs, StageRun, run_stages, stage_keys
 from .stages import DEFAULT_PIPELINE, STAGES
+from .study import Study, StudyProgress, StudyResult
+from .study_file import StudyFileError
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError", "Design", "DesignResult",
            "DesignError", "Progress", "StageCache", "stage_key", "Pipeline", "Stage",
            "StageInputs", "StageRun", "run_stages", "stage_keys", "DEFAULT_PIPELINE", "STAGES",
            "select_vertices", "select_faces", "dominant_light_direction", "congruence_problem",
-           "term_weights", "JIT_MIN_VERTICES"]
+           "term_weights", "JIT_MIN_VERTICES", "Study", "StudyProgress", "StudyResult",
+           "StudyFileError"]

@@ -149,5 +149,6 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
         q.normal(weight=W["normal"]).fair(weight=W["fair"])
         if C.hyperbolic:
             q.hyperbolic(margin=C.hyperbolic_margin)
-        p.align_with(q, weight=sub.weight, label="substructure")
+        p.align_with(q, weight=W["align"] if sub.weight is None else sub.weight,
+                     label="substructure")
     return p

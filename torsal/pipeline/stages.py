@@ -19,7 +19,7 @@ from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
 
 __all__ = ["surface_mesh", "sun_directions", "run_surface", "run_estimate", "run_sun", "run_orient",
-           "run_congruence", "run_remesh", "run_support", "run_light", "run_substructure",
+           "run_congruence", "run_remesh", "run_support", "measure_fins", "run_light", "run_substructure",
            "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES"]
 
 # constraints met to 1e-4 are met for a building (unit length to 0.01%, c_hyp to rounding of
@@ -258,22 +258,56 @@ def run_support(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ light
+def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float) -> tuple[dict, object]:
+    """Sun blocked and view clear of a fin set over mesh A: the one measurement every fin
+    set of a design or a study gets (the same ``samples`` seeded points on A, the same sun
+    directions and weights, the same view rays).
+
+    Parameters
+    ----------
+    fins : trimesh.Trimesh
+        Thin-surface fins.
+    surface : (vertices (n, 3), faces (m, 3))
+        Mesh A, normals towards the sun.
+    sun : dict
+        The sun stage's result: ``vectors`` (k, 3), ``weights`` (k,).
+    samples : int
+        Points for the sun rays; half as many for the view rays.
+    metres_per_unit : float
+
+    Returns
+    -------
+    report : dict
+        ``blocked_share`` (weighted share of direct sun rays blocked), ``transparency``
+        (share of points with a free view along the normal), ``transparency_cone`` (free
+        share over a 60 degree cone), ``fin_area_m2`` (one side).
+    blocked : ShadingResult
+        Per point, for the figure.
+    """
+    from ..light import direct_sun_blocked, transparency
+
+    blocked = direct_sun_blocked(fins, surface, sun["vectors"], samples=samples,
+                                 weights=sun["weights"])
+    clear = transparency(fins, surface, samples=samples // 2)
+    return {"blocked_share": float(blocked.share), "transparency": float(clear.along_normal),
+            "transparency_cone": float(clear.cone),
+            "fin_area_m2": float(fins.area) * metres_per_unit ** 2}, blocked
+
+
 def run_light(inp: StageInputs) -> dict:
     """Sun blocked over the sun hours and view clear, for the fins and for horizontal
-    louvers of the same depth and spacing. Returns the ``report`` section and ``map``
-    (``points`` (p, 3), ``per_point`` (p,) blocked share) for the figure."""
-    from ..light import direct_sun_blocked, horizontal_louvers, transparency
+    louvers of the same depth and spacing (:func:`measure_fins`). Returns the ``report``
+    section and ``map`` (``points`` (p, 3), ``per_point`` (p,) blocked share) for the figure."""
+    from ..light import horizontal_louvers
 
     spec = inp.spec
     o, sun = inp["orient"], inp["sun"]
     v, f = o["vertices"], o["faces"]
     fins = inp["support"]["structure"].fin_mesh()
-    n = spec.outputs.light_samples
-    blocked = direct_sun_blocked(fins, (v, f), sun["vectors"], samples=n, weights=sun["weights"])
-    clear = transparency(fins, (v, f), samples=n // 2)
+    n, m_per_unit = spec.outputs.light_samples, spec.metres_per_unit
+    report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit)
     louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
-    lb = direct_sun_blocked(louvers, (v, f), sun["vectors"], samples=n, weights=sun["weights"])
-    lt = transparency(louvers, (v, f), samples=n // 2)
+    lr, _ = measure_fins(louvers, (v, f), sun, n, m_per_unit)
     extra = {}
     if spec.goals.reflect is not None:
         from ..light import reflected_hits
@@ -284,12 +318,9 @@ def run_light(inp: StageInputs) -> dict:
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
-        "blocked_share": float(blocked.share),
-        "transparency": float(clear.along_normal),
-        "transparency_cone": float(clear.cone),
-        "baseline_louvers": {"blocked_share": float(lb.share),
-                             "transparency": float(lt.along_normal),
-                             "transparency_cone": float(lt.cone)}},
+        **report,
+        "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
+                                                 "transparency_cone")}},
         "map": {"points": blocked.points, "per_point": blocked.per_point}}
 
 
@@ -349,7 +380,7 @@ def run_fabrication(inp: StageInputs) -> dict:
 def run_report(inp: StageInputs) -> dict:
     """Geometry files (congruence PLY, support OBJ), ``report.json`` and, with
     ``outputs.renders``, the figures and ``report.html``; cheap, so always written fresh.
-    Returns ``files``."""
+    Returns ``files`` and, as the report's ``design`` section, the design as run."""
     from ..report import write_design_report
 
     spec, out = inp.spec, inp.out
@@ -361,14 +392,17 @@ def run_report(inp: StageInputs) -> dict:
         files["substructure"] = "substructure.obj"
     from .._io import write_json
 
-    write_json(out / "report.json", dict(inp.report))
+    # the design as run (validated, defaults filled in): a report says what it measured
+    design = spec.model_dump(mode="json")
+    report = {**inp.report, "design": design}
+    write_json(out / "report.json", report)
     files["report_json"] = "report.json"
     if spec.outputs.renders:
         o = inp["orient"]
-        files.update(write_design_report(out, spec, dict(inp.report), congruence, structure,
+        files.update(write_design_report(out, spec, report, congruence, structure,
                                          inp["light"]["map"], (o["vertices"], o["faces"]),
                                          inp["fabrication"].get("layout")))
-    return {"files": files}
+    return {"report": design, "files": files}
 
 
 def _file_digest(path) -> str | None:
@@ -441,7 +475,8 @@ DEFAULT_PIPELINE = Pipeline((
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
     Stage("report", run_report, inputs=("orient", "congruence", "support", "light",
-                                        "substructure", "fabrication"), cache=False),
+                                        "substructure", "fabrication"), cache=False,
+          section="design"),
 ))
 
 #: Stage names in order.

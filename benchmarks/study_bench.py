@@ -1,0 +1,136 @@
+"""A 16-variant design study of Fig. 7a, serial (one process, no Dask) against 2 Dask
+workers (an embedded LocalCluster), and the congruence solves the shared stage cache saves.
+
+The study: 7a at the test size of tests/test_examples.py (15 x 11 vertices, 300 light
+samples, no STEP/3DM) over fins.spacing [1.5, 1.75, 2.0, 2.25] x fins.depth [0.3, 0.5] x
+weights.perp [1, 10]: 16 variants, 2 distinct congruences. ``--size full`` uses the
+paper-size facade (33 x 33) and spacings [0.5, 0.6, 0.7, 0.8] instead (about 45 s per
+variant; minutes). Each run starts in a fresh folder (nothing resumed). The Dask run is
+timed without and with starting the cluster. Other programs on the machine change the
+timings: the load average (``uptime``) and the CPU seconds each run got are printed next to
+them (cores used = CPU seconds / wall seconds).
+
+Run: ``.venv/bin/python benchmarks/study_bench.py [--size test|full] [--workers 2]``.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import resource
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+
+import tomli_w
+
+from torsal import Study
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def write_study(folder: Path, size: str) -> Path:
+    d = tomllib.loads((ROOT / "examples" / "7a_facade_block.toml").read_text())
+    if size == "test":
+        d["surface"]["params"] = {"nu": 15, "nv": 11}
+        d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False}
+        d["material"]["sheet_mm"] = [4000, 2000]
+        d["constraints"]["max_iter"] = 400
+        spacing = [1.5, 1.75, 2.0, 2.25]
+    else:
+        spacing = [0.5, 0.6, 0.7, 0.8]
+    (folder / "base.toml").write_text(tomli_w.dumps(d))
+    study = {"name": f"7a bench ({size})", "base": "base.toml",
+             "axes": {"fins.spacing": spacing, "fins.depth": [0.3, 0.5], "weights.perp": [1, 10]},
+             "run": {"workers": 2}}
+    path = folder / "study.toml"
+    path.write_text(tomli_w.dumps(study))
+    return path
+
+
+def load() -> str:
+    return "load average " + ", ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def _cpu_seconds() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def warm_up() -> None:
+    """Import what a variant uses, as a process does once (about 4 CPU-seconds): both runs
+    are timed on warm processes, the Dask workers' start is timed on its own."""
+    import build123d  # noqa: F401
+    import ezdxf  # noqa: F401
+    import matplotlib.pyplot  # noqa: F401
+    import pvlib  # noqa: F401
+
+    import torsal.fabrication  # noqa: F401
+    import torsal.light  # noqa: F401
+    import torsal.report  # noqa: F401
+
+
+def serial_run(study: Study, out: Path):
+    warm_up()
+    c0, t0 = _cpu_seconds(), time.perf_counter()
+    res = study.run(out, serial=True)
+    return time.perf_counter() - t0, _cpu_seconds() - c0, res
+
+
+def dask_run(study: Study, out: Path, workers: int):
+    """The study on a LocalCluster like the one Study.run starts, timed with and without
+    the cluster's start; CPU seconds of the worker processes from the workers themselves."""
+    from distributed import Client, LocalCluster
+
+    t0 = time.perf_counter()
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    client = Client(cluster)
+    client.run(warm_up)
+    t_start = time.perf_counter() - t0
+    cpu0 = sum(client.run(_cpu_seconds).values())
+    t1 = time.perf_counter()
+    res = study.run(out, client=client)
+    t_run = time.perf_counter() - t1
+    cpu = sum(client.run(_cpu_seconds).values()) - cpu0
+    client.close()
+    cluster.close()
+    return t_start, t_run, cpu, res
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--size", choices=("test", "full"), default="test")
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        study = Study.from_toml(write_study(tmp, args.size))
+        n = len(study.variants)
+        print(f"7a study, {args.size} size: {n} variants, {os.cpu_count()} cores; before: {load()}")
+        t_serial, cpu_serial, r_serial = serial_run(study, tmp / "serial")
+        ld_serial = load()
+        t_start, t_dask, cpu_dask, r_dask = dask_run(study, tmp / "dask", args.workers)
+        ld_dask = load()
+        print(f"\n{'run':32s} {'wall s':>7s} {'cpu s':>7s} {'cores used':>10s} {'done':>5s} "
+              f"{'solves':>6s} {'saved':>6s}  load after")
+        for name, t, cpu, r, ld in (
+                ("serial (1 process, no Dask)", t_serial, cpu_serial, r_serial, ld_serial),
+                (f"Dask, {args.workers} workers", t_dask, cpu_dask, r_dask, ld_dask)):
+            done = int(((r.table["kind"] == "torsal") & (r.table["status"] == "done")).sum())
+            print(f"{name:32s} {t:7.1f} {cpu:7.1f} {cpu / t:10.2f} {done:5d} {r.solves:6d} "
+                  f"{r.solves_saved:6d}  {ld}")
+        print(f"\nstarting the cluster and importing on its workers (warm_up): {t_start:.1f} s")
+        print(f"speed-up, {args.workers} workers over serial: {t_serial / t_dask:.2f}x "
+              f"({t_serial / (t_dask + t_start):.2f}x with the cluster's start)")
+        print(f"CPU the machine gave: serial {cpu_serial / t_serial:.2f} cores, Dask "
+              f"{cpu_dask / t_dask:.2f} cores (other jobs share the {os.cpu_count()} cores)")
+        print(f"congruence solves: {r_dask.solves} for {n} variants; the shared cache saved "
+              f"{r_dask.solves_saved} (without it every variant solves its own)")
+        secs = r_serial.table.loc[r_serial.table["kind"] == "torsal", "congruence.solve_s"]
+        print(f"one congruence solve here: {secs.dropna().mean():.2f} s (IPOPT, from the reports)")
+
+
+if __name__ == "__main__":
+    main()

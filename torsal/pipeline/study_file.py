@@ -1,0 +1,252 @@
+"""The study file: a base design and the axes to vary, validated before anything runs.
+
+Example (``examples/studies/7a_depth_spacing.toml``)::
+
+    name = "7a: depth and spacing"
+    base = "../7a_facade_block.toml"     # relative to the study file
+    [axes]                               # full grid over these lists
+    "fins.spacing" = [0.4, 0.6, 0.8]
+    "fins.depth" = [0.2, 0.4]
+    "weights.perp" = [1, 10]
+    [run]
+    workers = 2                          # a local Dask cluster; or scheduler = "tcp://host:8786"
+
+With a ``[search]`` table the axes are a search space instead of a grid (lists: choices;
+``{ low = 0.2, high = 0.6 }``: a range) and optuna proposes ``trials`` designs, minimizing
+or maximizing the named report figures::
+
+    [search]
+    trials = 24
+    objectives = { "light.blocked_share" = "max", "light.transparency" = "max" }
+
+Axes are the design file's own dotted keys (``fins.depth``, ``weights.perp``,
+``surface.params.nu``). An unknown key, a value of the wrong type or an axis that is not a
+key of the design file is a :class:`StudyFileError` naming the key, raised before anything runs.
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import tomllib
+import types
+import typing
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ..design_file import DesignFileError, DesignSpec, _format_errors, load_design_file
+
+__all__ = ["StudyFileError", "StudySpec", "AxisRange", "RunSpec", "SearchSpec", "Variant",
+           "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS"]
+
+
+class StudyFileError(DesignFileError):
+    """A study file that cannot be used; the message names the key and the fix."""
+
+
+class _Spec(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class AxisRange(_Spec):
+    """A continuous axis for a search: ``low`` .. ``high`` (``log``: sampled on a log
+    scale; ``step``: a grid step). Integers at both ends give an integer axis."""
+
+    low: float | int
+    high: float | int
+    log: bool = False
+    step: float | int | None = Field(None, gt=0)
+
+
+class RunSpec(_Spec):
+    workers: int = Field(2, ge=1, description="processes of the local Dask cluster")
+    scheduler: str | None = Field(None, description="address of a running Dask scheduler, "
+                                  "e.g. tcp://host:8786; default: a local cluster")
+
+
+#: report figures a search may optimize (flattened report.json keys), and the study's own
+OBJECTIVE_KEYS = (
+    "light.blocked_share", "light.transparency", "light.transparency_cone", "light.fin_area_m2",
+    "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
+    "fabrication.utilization", "support.delta_pl_optimized", "support.edges",
+    "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "material_kg", "wall_s",
+)
+
+
+class SearchSpec(_Spec):
+    trials: int = Field(gt=0, description="designs to try")
+    objectives: dict[str, Literal["max", "min"]] = Field(min_length=1)
+    seed: int = 0
+    sampler: Literal["nsga2", "tpe"] = "nsga2"
+
+
+class StudySpec(_Spec):
+    name: str = "torsal study"
+    base: Path
+    axes: dict[str, list[Any] | AxisRange] = Field(min_length=1)
+    run: RunSpec = Field(default_factory=RunSpec)
+    search: SearchSpec | None = None
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One design of a study: its id, its axis values and the validated design."""
+
+    id: str
+    axes: dict
+    spec: DesignSpec
+    toml: str               # the variant's design file (absolute paths), as written
+
+    @property
+    def digest(self) -> str:
+        """Identity of the variant's design (its file text), for resuming."""
+        return hashlib.sha256(self.toml.encode()).hexdigest()[:16]
+
+
+def _model_in(annotation) -> type[BaseModel] | str | None:
+    """The pydantic model (or "dict") a field holds, looking through Optional/Union."""
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        for arg in typing.get_args(annotation):
+            found = _model_in(arg)
+            if found is not None:
+                return found
+        return None
+    if origin is dict:
+        return "dict"
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    return None
+
+
+def check_axis(key: str) -> None:
+    """Raise :class:`StudyFileError` unless ``key`` names a value in the design schema.
+
+    >>> check_axis("fins.depth")
+    >>> check_axis("fins.dpeth")
+    Traceback (most recent call last):
+    ...
+    torsal.pipeline.study_file.StudyFileError: axes."fins.dpeth": 'dpeth' is not a key of [fins] (keys: depth, developable_levels, optimize, planarity_tol, spacing)
+    """
+    model: Any = DesignSpec
+    parts = key.split(".")
+    for k, part in enumerate(parts):
+        where = "the design file" if k == 0 else f"[{'.'.join(parts[:k])}]"
+        if model == "dict":
+            return                       # e.g. surface.params.nu: any key of a free table
+        if part not in model.model_fields:
+            raise StudyFileError(f'axes."{key}": {part!r} is not a key of {where} '
+                                 f"(keys: {', '.join(sorted(model.model_fields))})")
+        model = _model_in(model.model_fields[part].annotation)
+        if model is None and k < len(parts) - 1:
+            raise StudyFileError(f'axes."{key}": {".".join(parts[:k + 1])} is a value, not a table')
+    if isinstance(model, type):
+        raise StudyFileError(f'axes."{key}" names the table [{key}]; give a key inside it '
+                             f"(one of {', '.join(sorted(model.model_fields))})")
+
+
+def _set(data: dict, key: str, value) -> None:
+    *path, last = key.split(".")
+    for p in path:
+        data = data.setdefault(p, {})
+    data[last] = value
+
+
+def _absolute_paths(data: dict, base_dir: Path) -> dict:
+    """File paths in a design dict made absolute against the base design's folder, so a
+    variant's design file works from its own folder."""
+    for table, key in (("surface", "mesh"), ("sun", "epw")):
+        p = data.get(table, {}).get(key)
+        if isinstance(p, str) and not Path(p).is_absolute():
+            data[table][key] = str((base_dir / p).resolve())
+    return data
+
+
+def design_with(base: dict, base_dir: Path, axes: dict, *, label: str = "") -> tuple[DesignSpec, str]:
+    """The base design (a TOML dict) with ``axes`` set, validated; and its TOML text.
+
+    Raises :class:`StudyFileError` naming the axis whose value the design file rejects."""
+    import tomli_w
+
+    data = _absolute_paths(json.loads(json.dumps(base)), base_dir)
+    for key, value in axes.items():
+        _set(data, key, value)
+    try:
+        spec = DesignSpec.model_validate(data)
+    except ValidationError as exc:
+        setting = ", ".join(f"{k} = {json.dumps(v)}" for k, v in axes.items())
+        raise StudyFileError(_format_errors(exc, f"axes{label} ({setting})")) from None
+    return spec, tomli_w.dumps(data)
+
+
+def grid_variants(spec: StudySpec, base: dict, base_dir: Path) -> list[Variant]:
+    """Every combination of the axes' lists, in order (the last axis varies fastest)."""
+    keys = list(spec.axes)
+    out = []
+    for i, values in enumerate(itertools.product(*(spec.axes[k] for k in keys))):
+        axes = dict(zip(keys, values))
+        design, text = design_with(base, base_dir, axes)
+        out.append(Variant(f"{i:03d}", axes, design, text))
+    return out
+
+
+def _read_toml(path: Path, what: str) -> dict:
+    if not path.exists():
+        raise FileNotFoundError(f"{what} not found: {path}")
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise StudyFileError(f"{path}: not valid TOML ({exc})") from None
+
+
+def load_study_file(path: str | Path) -> tuple[StudySpec, dict, Path]:
+    """Read and validate a study file: its own keys, the base design, every axis name and
+    (for a grid) every axis value. Returns the spec, the base design as a TOML dict and the
+    base design's folder.
+
+    Raises
+    ------
+    FileNotFoundError
+        The study file or its base design does not exist.
+    StudyFileError
+        A key, type or value that cannot be used; the message names it.
+    """
+    path = Path(path)
+    data = _read_toml(path, "study file")
+    try:
+        spec = StudySpec.model_validate(data)
+    except ValidationError as exc:
+        raise StudyFileError(_format_errors(exc, str(path)).replace(
+            "the design file", "the study file").replace(
+            "torsal/design_file.py", "torsal/pipeline/study_file.py")) from None
+    base_path = spec.base if spec.base.is_absolute() else path.resolve().parent / spec.base
+    try:
+        load_design_file(base_path)      # the base alone must be a good design
+    except DesignFileError as exc:
+        raise StudyFileError(f"{path}: base = {str(spec.base)!r}: {exc}") from None
+    spec = spec.model_copy(update={"base": base_path})
+    base = _read_toml(base_path, "base design")
+    for key, values in spec.axes.items():
+        check_axis(key)
+        if isinstance(values, list) and not values:
+            raise StudyFileError(f'{path}: axes."{key}": an empty list; give at least one value')
+        if isinstance(values, AxisRange):
+            if spec.search is None:
+                raise StudyFileError(f'{path}: axes."{key}": a range needs a [search] table; '
+                                     "give a list of values for a grid")
+            if not values.low < values.high:
+                raise StudyFileError(f'{path}: axes."{key}": low must be below high')
+            for end in (values.low, values.high):   # both ends must make a good design
+                design_with(base, base_path.parent, {key: end}, label=f' "{key}"')
+        elif spec.search is not None:
+            for value in values:
+                design_with(base, base_path.parent, {key: value}, label=f' "{key}"')
+    if spec.search is not None:
+        unknown = [k for k in spec.search.objectives if k not in OBJECTIVE_KEYS]
+        if unknown:
+            raise StudyFileError(f"{path}: search.objectives: unknown report key(s) {unknown}; "
+                                 f"known: {', '.join(OBJECTIVE_KEYS)}")
+    return spec, base, base_path.parent

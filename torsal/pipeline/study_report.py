@@ -1,0 +1,281 @@
+"""A study's table and its page: the Pareto front of sun blocked against view clear, torsal
+variants against the standard devices of the same depths and spacings, and one measured
+sentence saying which is ahead and by how much."""
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_path
+from .study_tasks import flatten, material_kg
+
+__all__ = ["results_table", "pareto_front", "lead_over", "verdict", "write_study_html",
+           "X_KEY", "Y_KEY"]
+
+X_KEY = "light.transparency"      # view clear (share of points with a free view out)
+Y_KEY = "light.blocked_share"     # sun blocked (weighted share of direct sun rays)
+_FIRST = ["id", "kind", "device", "status"]
+
+
+def _buildable(report: dict):
+    a = report.get("fabrication", {}).get("assembly")
+    return a.get("buildable") if isinstance(a, dict) else None
+
+
+def _bom_mass(folder: Path) -> float | None:
+    """Sum of mass_kg in a variant's parts list, read back from the file."""
+    import pandas as pd
+
+    try:
+        return float(pd.read_csv(folder / "parts.csv")["mass_kg"].sum())
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def results_table(study, out: Path, outcomes: dict, devices: dict):
+    """One row per torsal variant (axis values, every figure of its report.json, buildable,
+    material, wall time) and per standard device of each depth and spacing."""
+    import pandas as pd
+
+    axes = list(study.spec.axes)
+    rows = []
+    for v in study.variants:
+        o = outcomes.get(v.id)
+        if o is None:
+            continue
+        folder = out / "variants" / v.id
+        row = {"id": v.id, "kind": "torsal", "device": "torsal", "status": o["status"],
+               **{k: v.axes[k] for k in axes},
+               "fins.depth": v.spec.fins.depth, "fins.spacing": v.spec.fins.spacing,
+               "failed_stage": o.get("stage"), "error": o.get("error"),
+               "wall_s": float(o.get("wall_s", np.nan)), "report": f"variants/{v.id}/report.html",
+               "warnings": "; ".join(o.get("warnings") or []) or None}
+        if o["status"] == "done":
+            report = json.loads((folder / "report.json").read_text())   # the variant's own file
+            row.update(flatten(report))
+            row["buildable"] = _buildable(report)
+            row["material_kg"] = material_kg(report["light"]["fin_area_m2"], v.spec)
+            row["bom_mass_kg"] = _bom_mass(folder)
+        rows.append(row)
+    for key, (spec, rec) in devices.items():
+        # the axis values the devices depend on: those shared by every variant they stand for
+        same = [v for v in study.variants if v.id in outcomes
+                and _device_key(v.spec) == key]
+        for name, m in rec["devices"].items():
+            row = {"id": f"baseline-{key[:8]}-{name.replace(' ', '-')}", "kind": "baseline",
+                   "device": name, "status": "done",
+                   "fins.depth": spec.fins.depth, "fins.spacing": spec.fins.spacing,
+                   "wall_s": float(rec["wall_s"]), "buildable": None,
+                   "material_kg": material_kg(m["fin_area_m2"], spec)}
+            for k in axes:
+                values = {json.dumps(v.axes[k]) for v in same}
+                row[k] = same[0].axes[k] if len(values) == 1 else None
+            row.update(flatten({"light": m}))
+            rows.append(row)
+    table = pd.DataFrame(rows)
+    first = _FIRST + [c for c in axes if c not in _FIRST] + [
+        c for c in ("fins.depth", "fins.spacing", Y_KEY, X_KEY, "material_kg", "buildable",
+                    "wall_s", "failed_stage", "error", "report") if c not in axes]
+    table = table[[c for c in first if c in table] + sorted(c for c in table if c not in first)]
+    for c in table.columns:      # parquet wants one type per column
+        kinds = {type(x) for x in table[c] if x is not None and not (isinstance(x, float) and np.isnan(x))}
+        if len(kinds) > 1 and not kinds <= {int, float, bool, np.float64, np.int64, np.bool_}:
+            table[c] = [None if x is None else str(x) for x in table[c]]
+    return table
+
+
+def _device_key(spec) -> str:
+    from .devices import DEVICES_PIPELINE
+    from .stage import stage_keys
+
+    return stage_keys(DEVICES_PIPELINE, spec)["devices"]
+
+
+def pareto_front(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Indices of the points not dominated when both x and y are maximized, by x ascending.
+
+    >>> pareto_front(np.array([0.1, 0.5, 0.4, 0.9]), np.array([0.9, 0.6, 0.5, 0.2])).tolist()
+    [0, 1, 3]
+    """
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    keep = [i for i in range(len(x))
+            if not np.any((x >= x[i]) & (y >= y[i]) & ((x > x[i]) | (y > y[i])))]
+    return np.array(sorted(keep, key=lambda i: (x[i], -y[i])), dtype=int)
+
+
+def lead_over(x: float, y: float, bx: np.ndarray, by: np.ndarray) -> tuple[float, int]:
+    """How far the point (x, y) lies beyond the points (bx, by) (both maximized): the
+    additive epsilon indicator ``min_j max(x - bx_j, y - by_j)``, i.e. the smallest amount
+    every baseline point lacks, in both shares at once, to reach (x, y); positive: beyond the
+    baselines' front, negative: behind it. Returns it and the nearest baseline's index.
+
+    >>> lead_over(0.6, 0.8, np.array([0.5, 0.7]), np.array([0.7, 0.5]))
+    (0.1, 0)
+    """
+    gaps = np.maximum(x - np.asarray(bx, float), y - np.asarray(by, float))
+    j = int(np.argmin(gaps))
+    return round(float(gaps[j]), 12), j
+
+
+def _axes_text(row, axes) -> str:
+    return ", ".join(f"{k} {row[k]:.3g}" if isinstance(row[k], (int, float)) else f"{k} {row[k]}"
+                     for k in axes if k in row and row[k] is not None)
+
+
+def verdict(table, axes) -> tuple[str, dict]:
+    """The sentence at the top of study.html, computed from the table, and its numbers."""
+    ok = table[(table["status"] == "done")].dropna(subset=[X_KEY, Y_KEY])
+    t = ok[ok["kind"] == "torsal"]
+    b = ok[ok["kind"] == "baseline"]
+    if t.empty or b.empty:
+        return ("No comparison: " + ("no torsal variant finished." if t.empty
+                                     else "no standard device was measured."), {})
+    bx, by = b[X_KEY].to_numpy(), b[Y_KEY].to_numpy()
+    leads = [lead_over(r[X_KEY], r[Y_KEY], bx, by) for _, r in t.iterrows()]
+    eps = np.array([e for e, _ in leads])
+    best, worst = int(np.argmax(eps)), int(np.argmin(eps))
+    n_beyond = int((eps > 0).sum())
+
+    def point(k):
+        r = t.iloc[k]
+        return (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% of the sun blocked, "
+                f"{100 * r[X_KEY]:.1f}% of the view clear, {r['material_kg']:.0f} kg)")
+
+    def device(k):
+        d = b.iloc[leads[k][1]]
+        return (f"{d['device']} at depth {d['fins.depth']:.3g}, spacing {d['fins.spacing']:.3g}: "
+                f"{100 * d[Y_KEY]:.1f}% blocked, {100 * d[X_KEY]:.1f}% clear, "
+                f"{d['material_kg']:.0f} kg")
+
+    devices = ("the standard devices (horizontal louvers, vertical fins and egg-crates of the "
+               "same depths and spacings)")
+    behind = ""
+    if len(t) - n_beyond:
+        behind = (f"{len(t) - n_beyond} lie behind it, the furthest behind, {point(worst)}, by "
+                  f"{100 * -eps[worst]:.1f} points (nearest device: {device(worst)})")
+    if n_beyond:
+        text = (f"{n_beyond} of {len(t)} torsal variants lie beyond the front of {devices}: "
+                f"the furthest, {point(best)}, by {100 * eps[best]:.1f} percentage points "
+                f"(every device blocks at least that much less sun or leaves at least that much "
+                f"less view clear; nearest: {device(best)}; no device blocks more than "
+                f"{100 * by.max():.1f}%)" + (f"; {behind}." if behind else "."))
+    else:
+        text = (f"No torsal variant lies beyond the front of {devices}: all {behind}, and even "
+                f"the closest, {point(best)}, is {100 * -eps[best]:.1f} percentage points behind "
+                f"(a device blocks at least that much more sun and leaves at least that much more "
+                f"view clear: {device(best)}).")
+    return text, {"beyond": n_beyond, "torsal": int(len(t)), "lead": float(eps[best]),
+                  "lag": float(eps[worst]), "best": str(t.iloc[best]["id"]),
+                  "nearest": str(b.iloc[leads[best][1]]["id"])}
+
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<style>body{{font-family:system-ui,sans-serif;margin:2em;max-width:1100px}}
+p.verdict{{font-size:1.15em;background:#f3f6fa;padding:.8em;border-left:4px solid #2a6}}
+table{{border-collapse:collapse;font-size:.85em}}td,th{{border:1px solid #ccc;padding:2px 6px}}
+</style></head><body>
+<h1>{title}</h1>
+<p class="verdict">{verdict}</p>
+<p>Each point is one design, measured with the same seeded sample points on the surface, the
+same sun hours and the same view rays. Up: more of the design-hour sun blocked; right: more of
+the view clear. Colour: sheet material (kg). Click a torsal point to open its report.</p>
+{plot}
+<h2>Variants</h2>
+{table}
+</body></html>
+"""
+
+
+def _figure(table, axes):
+    import plotly.graph_objects as go
+
+    fig = go.Figure()
+    ok = table[table["status"] == "done"].dropna(subset=[X_KEY, Y_KEY])
+    t = ok[ok["kind"] == "torsal"]
+    cmin, cmax = float(ok["material_kg"].min()), float(ok["material_kg"].max())
+    from .devices import DEVICES
+
+    symbols = {"horizontal louvers": "triangle-up", "vertical fins": "triangle-right",
+               "egg-crate": "square"}
+    for name in DEVICES:
+        d = ok[ok["device"] == name]
+        if d.empty:
+            continue
+        front = d.iloc[pareto_front(d[X_KEY], d[Y_KEY])]
+        fig.add_trace(go.Scatter(
+            x=front[X_KEY], y=front[Y_KEY], mode="lines", line={"dash": "dot", "width": 1.5},
+            name=f"{name}: front", legendgroup=name, hoverinfo="skip"))
+        fig.add_trace(go.Scatter(
+            x=d[X_KEY], y=d[Y_KEY], mode="markers", name=name, legendgroup=name,
+            marker={"symbol": symbols.get(name, "circle"), "size": 10, "color": d["material_kg"],
+                    "cmin": cmin, "cmax": cmax, "colorscale": "Viridis",
+                    "line": {"width": 1, "color": "#444"}},
+            text=[f"{name}<br>depth {r['fins.depth']:.3g}, spacing {r['fins.spacing']:.3g}<br>"
+                  f"{r['material_kg']:.0f} kg" for _, r in d.iterrows()],
+            hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
+    if not t.empty:
+        front = t.iloc[pareto_front(t[X_KEY], t[Y_KEY])]
+        fig.add_trace(go.Scatter(x=front[X_KEY], y=front[Y_KEY], mode="lines",
+                                 line={"width": 2.5, "color": "#c0392b"}, name="torsal: front",
+                                 hoverinfo="skip"))
+        fig.add_trace(go.Scatter(
+            x=t[X_KEY], y=t[Y_KEY], mode="markers", name="torsal variants",
+            customdata=t["report"],
+            marker={"symbol": "circle", "size": 14, "color": t["material_kg"], "cmin": cmin,
+                    "cmax": cmax, "colorscale": "Viridis", "line": {"width": 2, "color": "#c0392b"},
+                    "colorbar": {"title": "material (kg)"}},
+            text=[f"torsal {r['id']}<br>{_axes_text(r, axes)}<br>{r['material_kg']:.0f} kg, "
+                  f"{r.get('fabrication.parts', float('nan')):.0f} parts" for _, r in t.iterrows()],
+            hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
+    fig.update_layout(xaxis_title="view clear (share of points, along the normal)",
+                      yaxis_title="sun blocked (weighted share of design-hour sun rays)",
+                      xaxis_tickformat=".0%", yaxis_tickformat=".0%", height=620,
+                      legend={"orientation": "h", "y": -0.15}, margin={"t": 20})
+    return fig
+
+
+_CLICK = """var plot = document.getElementById('{plot_id}');
+plot.on('plotly_click', function (ev) {
+  var p = ev.points[0];
+  if (p && p.customdata) { window.location.href = p.customdata; }
+});"""
+
+
+def _html_table(table, axes) -> str:
+    cols = ["id", "kind", "device", "status", *axes]
+    cols += [c for c in ("fins.depth", "fins.spacing") if c not in cols]
+    cols += [Y_KEY, X_KEY, "material_kg", "fabrication.parts", "buildable", "wall_s",
+             "failed_stage", "error"]
+    cols = [c for c in cols if c in table]
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
+    body = []
+    for _, r in table.iterrows():
+        cells = []
+        for c in cols:
+            x = r[c]
+            if c == "id" and r["kind"] == "torsal" and r["status"] == "done":
+                cells.append(f'<td><a href="{html.escape(r["report"])}">{html.escape(str(x))}</a></td>')
+                continue
+            if isinstance(x, float):
+                x = "" if np.isnan(x) else (f"{100 * x:.1f}%" if c in (X_KEY, Y_KEY) else f"{x:.4g}")
+            cells.append(f"<td>{html.escape('' if x is None else str(x))}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+
+
+def write_study_html(path: Path, study, table) -> str:
+    """Write study.html (plotly inlined: works offline); returns the verdict sentence."""
+    axes = list(study.spec.axes)
+    text, _ = verdict(table, axes)
+    fig = _figure(table, axes)
+    plot = fig.to_html(full_html=False, include_plotlyjs=True, div_id="pareto",
+                       post_script=_CLICK.replace("{plot_id}", "pareto"))
+    page = _PAGE.format(title=html.escape(study.spec.name), verdict=html.escape(text),
+                        plot=plot, table=_html_table(table, axes))
+    with atomic_path(path) as tmp:
+        tmp.write_text(page)
+    return text
