@@ -165,21 +165,31 @@ def browser(tmp_path_factory):
 def design_out(tmp_path_factory):
     """Example 7a at test size, run through the whole pipeline (report.html included)."""
     import torsal.report
+    from torsal.pipeline.stages import sun_directions
 
     out = tmp_path_factory.mktemp("7a-small")
     d = small(Design.from_toml(next(p for p in EXAMPLES if p.name.startswith("7a"))))
     write = torsal.report.write_design_report
+    passed = {}
 
     def with_sun(out, spec, *args, **kw):
-        # the pipeline does not yet hand its sun stage to the report (one keyword at the call
-        # site in Design.run: sun=(vectors, weights)); until it does, give it the same directions
-        kw.setdefault("sun", Design(spec)._sun())
+        passed["sun"] = kw.get("sun") is not None
+        # the pipeline does not yet hand its sun stage to the report (run_report: "sun" among
+        # its inputs, sun=(vectors, weights) at the call); until it does, give it the same ones
+        kw.setdefault("sun", sun_directions(spec))
         return write(out, spec, *args, **kw)
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(torsal.report, "write_design_report", with_sun)
         d.run(out)
-    return out, d
+    return out, d, passed
+
+
+@pytest.mark.xfail(strict=True, reason="the pipeline's report stage does not pass its sun stage to "
+                   "write_design_report yet (torsal/pipeline/stages.py, run_report); the fixture "
+                   "above stands in. When it does, remove this mark and the stand-in.")
+def test_the_pipeline_hands_its_sun_directions_to_the_report(design_out):
+    assert design_out[2]["sun"]
 
 
 def test_the_collector_catches_console_errors(browser, tmp_path):
@@ -210,7 +220,7 @@ def _hue_share(png: bytes, hex_colour: str, tol: int = 6) -> float:
 def test_report_renders_the_3d_view_with_no_errors(browser, design_out):
     from torsal.report_3d import FAMILY_COLOURS, SUN_COLOUR
 
-    out, d = design_out
+    out = design_out[0]
     browser.errors.clear()
     browser.requests.clear()
     ready = ("(() => { const g = document.getElementById('torsal-3d');"
