@@ -195,7 +195,8 @@ def test_the_pipeline_hands_its_sun_directions_to_the_report(design_out):
 def test_the_collector_catches_console_errors(browser, tmp_path):
     """A page with a deliberate error: the test would see one in report.html too."""
     bad = tmp_path / "bad.html"
-    bad.write_text("<!doctype html><meta charset='utf-8'><body><p>bad page</p><script>"
+    bad.write_text("<!doctype html><meta charset='utf-8'><body><p>bad page</p>"
+                   "<img src='no-such-figure.png' alt='missing'><script>"
                    "console.error('deliberate console.error');"
                    "setTimeout(() => { undefinedFunctionOfTheTest(); }, 0);"
                    "</script></body>")
@@ -204,6 +205,7 @@ def test_the_collector_catches_console_errors(browser, tmp_path):
     browser.settle(0.3)
     assert any("deliberate console.error" in e for e in browser.errors), browser.errors
     assert any("undefinedFunctionOfTheTest" in e for e in browser.errors), browser.errors
+    assert any(e.startswith("log (network)") for e in browser.errors), browser.errors  # the <img>
 
 
 def _hue_share(png: bytes, hex_colour: str, tol: int = 6) -> float:
