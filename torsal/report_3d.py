@@ -107,6 +107,10 @@ def representative_sun(vectors, weights=None, *, max_rays: int = 24,
     return SunRays(mean, share, count[keep], len(v), float(share.sum()))
 
 
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 def _fin_triangles(structure, max_fins: int):
     """Nodes (2n, 3) and per family the triangles (2 per fin) of the fins to draw."""
     edges, fam = structure.edges, structure.edge_family
@@ -170,6 +174,20 @@ def _sun_traces(rays: SunRays, anchor: np.ndarray, length: float) -> list:
     return traces
 
 
+def _camera_eye(look, *, distance: float = 1.9, turn_deg: float = 25.0,
+                elevation_deg: tuple[float, float] = (15.0, 50.0)) -> np.ndarray:
+    """Camera position (plotly scene units, (3,)) on the side ``look`` (3,) points to, turned
+    about z by ``turn_deg`` and with its elevation kept in ``elevation_deg``: a facade seen
+    exactly head-on or a roof seen from straight above would hide the depth of the fins."""
+    look = np.asarray(look, float)
+    horizontal = float(np.hypot(look[0], look[1]))
+    bearing = np.arctan2(look[1], look[0]) if horizontal > 1e-9 else -np.pi / 2  # else from -y
+    elev = np.radians(np.clip(np.degrees(np.arctan2(look[2], horizontal)), *elevation_deg))
+    bearing += np.radians(turn_deg)
+    return distance * np.array([np.cos(elev) * np.cos(bearing), np.cos(elev) * np.sin(bearing),
+                                np.sin(elev)])
+
+
 def design_view_figure(surface, structure, sun=None, *, title: str = "", max_fins: int = 20000,
                        max_rays: int = 24):
     """The plotly figure of a design: mesh A, the fins by torsal family, the sun rays.
@@ -208,7 +226,7 @@ def design_view_figure(surface, structure, sun=None, *, title: str = "", max_fin
         if len(tris[family]):
             traces.append(_mesh_trace(nodes, tris[family], colour=FAMILY_COLOURS[family],
                                       name=f"fins, torsal family {family} ({k}{shown})",
-                                      lighting=dict(ambient=0.55, diffuse=0.6, specular=0.1)))
+                                      lighting=dict(ambient=0.7, diffuse=0.45, specular=0.1)))
     pts = np.concatenate([v, structure.vertices_b])
     extent = float(np.ptp(pts, axis=0).max())
     normal = area_vector(v, f)
@@ -218,24 +236,19 @@ def design_view_figure(surface, structure, sun=None, *, title: str = "", max_fin
         rays = sun if isinstance(sun, SunRays) else representative_sun(*sun, max_rays=max_rays)
         depth = float(np.linalg.norm(structure.directions, axis=1).max(initial=0.0))
         traces += _sun_traces(rays, v.mean(axis=0) + depth * normal, 0.6 * extent)
-    # seen from the sun side (where the fins stand), turned and raised a little so that the
-    # fins do not hide each other; lit from the heaviest sun direction
+    # seen from the sun side (where the fins stand); lit from the heaviest sun direction
     look = normal if rays is None else normal + rays.directions.T @ rays.weights
-    look = look / max(np.linalg.norm(look), 1e-300)
-    side = np.cross([0.0, 0.0, 1.0], look)
-    side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-6 else np.array([1.0, 0, 0])
-    eye = look + 0.5 * side + [0.0, 0.0, 0.2]
-    eye = 1.9 * eye / np.linalg.norm(eye)
-    lamp = rays.directions[0] if rays is not None else look + [0.0, 0.0, 0.5]
+    eye = _camera_eye(look)
+    lamp = rays.directions[0] if rays is not None else eye
     lamp = 1e5 * lamp / np.linalg.norm(lamp)  # plotly wants |x|, |y|, |z| <= 1e5
     for t in traces:
         if isinstance(t, go.Mesh3d):
             t.lightposition = dict(x=lamp[0], y=lamp[1], z=lamp[2])
     fig = go.Figure(traces)
-    sub = (f"{rays.total} sun directions as {len(rays.weights)} rays"
+    sub = (f"{_plural(rays.total, 'sun direction')} as {_plural(len(rays.weights), 'ray')}"
            f" ({100 * rays.coverage:.0f}% of the weight)" if rays is not None else "sun directions not given")
     fig.update_layout(
-        title=dict(text=f"{title + ': ' if title else ''}{n_fins} fins over the surface; {sub}",
+        title=dict(text=f"{title + ': ' if title else ''}{_plural(n_fins, 'fin')} over the surface; {sub}",
                    font=dict(size=14)),
         scene=dict(aspectmode="data", xaxis_title="x (east)", yaxis_title="y (north)",
                    zaxis_title="z (up)", camera=dict(eye=dict(x=eye[0], y=eye[1], z=eye[2]),
