@@ -7,7 +7,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.torsal-installed
 
-.PHONY: demo test bench clean install
+.PHONY: demo test bench clean install chromium
 
 install: $(STAMP)
 
@@ -31,8 +31,21 @@ demo: $(STAMP)
 	$(VENV)/bin/torsal analyze examples/facade_patch.obj --out out/
 	$(VENV)/bin/torsal design examples/7a_facade_block.toml --out out/7a
 
-test: $(STAMP)
+test: $(STAMP) chromium
 	$(PY) -m pytest -n 2
+
+# the report's 3D view is checked in a real headless browser: Debian's chromium, installed
+# if missing and we can (root + apt-get); else the browser test is skipped and says why
+chromium:
+	@if ! command -v chromium >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "the browser test needs chromium: installing it with apt-get"; \
+	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
+	      || echo "could not install chromium with apt-get: the report's browser test will be skipped"; \
+	  else \
+	    echo "chromium is missing, so the report's browser test will be skipped. Install it with:  sudo apt-get install -y chromium"; \
+	  fi; \
+	fi
 
 bench: $(STAMP)
 	$(PY) benchmarks/congruence_bench.py

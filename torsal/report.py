@@ -8,6 +8,7 @@ import numpy as np
 
 from ._io import atomic_path
 from .geometry.mesh import area_vector
+from .report_3d import design_view_html
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
            "design_report_html", "write_design_report"]
@@ -298,8 +299,9 @@ def _measured_constraint_rows(c: dict) -> list:
     return rows
 
 
-def design_report_html(report: dict, images: dict, title: str) -> str:
-    """The HTML report: tables of every figure in ``report`` and the PNGs next to it."""
+def design_report_html(report: dict, images: dict, title: str, *, view3d: str | None = None) -> str:
+    """The HTML report: tables of every figure in ``report`` and the PNGs next to it, and the
+    interactive 3D view ``view3d`` (an HTML fragment, see :mod:`torsal.report_3d`) if given."""
     c, s, li, fa = (report.get(k, {}) for k in ("congruence", "support", "light", "fabrication"))
     secs = []
     if c:
@@ -327,6 +329,10 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
         secs.append("<h2>2. Torsion-free support structure (paper 4.2, eq. 8)</h2>" + _table(rows))
         if "fins" in images:
             secs.append(f'<img src="{images["fins"]}" alt="fins coloured by planarity">')
+    if view3d:
+        secs.append("<h2>The design in 3D</h2><p>Drag to rotate, scroll to zoom, click a legend "
+                    "entry to hide or show it. Sun rays come in from the sky towards the surface; "
+                    "the heavier directions are drawn thicker.</p>" + view3d)
     if li:
         b = li["baseline_louvers"]
         rows = [("fins of this design", li["blocked_share"], li["transparency"], li["transparency_cone"]),
@@ -351,8 +357,12 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
 
 
 def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,
-                        surface, layout) -> dict:
-    """Write the PNG renders and ``report.html`` for a design run; returns {kind: file name}."""
+                        surface, layout, *, sun=None) -> dict:
+    """Write the PNG renders and ``report.html`` for a design run; returns {kind: file name}.
+
+    ``sun`` (vectors (S, 3) site -> sun, weights (S,)): the design's sun directions, drawn in
+    the report's interactive 3D view (without them the view shows the surface and fins only).
+    """
     out = Path(out)
     images = {
         "torsal_field": plot_torsal_field(congruence, out / "torsal_field.png",
@@ -364,5 +374,7 @@ def write_design_report(out: Path, spec, report: dict, congruence, structure, li
     if layout is not None and layout.n_sheets:
         images["sheets"] = plot_sheets(layout, out / "sheets.png").name
     with atomic_path(out / "report.html") as tmp:
-        tmp.write_text(design_report_html(report, images, spec.name))
+        tmp.write_text(design_report_html(report, images, spec.name,
+                                          view3d=design_view_html(surface, structure, sun,
+                                                                  title=spec.name)))
     return {**images, "report_html": "report.html"}

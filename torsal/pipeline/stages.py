@@ -401,7 +401,8 @@ def run_report(inp: StageInputs) -> dict:
         o = inp["orient"]
         files.update(write_design_report(out, spec, report, congruence, structure,
                                          inp["light"]["map"], (o["vertices"], o["faces"]),
-                                         inp["fabrication"].get("layout")))
+                                         inp["fabrication"].get("layout"),
+                                         sun=(inp["sun"]["vectors"], inp["sun"]["weights"])))
     return {"report": design, "files": files}
 
 
@@ -474,7 +475,7 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
-    Stage("report", run_report, inputs=("orient", "congruence", "support", "light",
+    Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",
                                         "substructure", "fabrication"), cache=False,
           section="design"),
 ))
