@@ -182,10 +182,8 @@ def run_support(inp: StageInputs) -> dict:
     if spec.fins.optimize:
         from ..geometry.support import optimize_support
 
-        r = optimize_support(s, reference=reference)
-        if r.structure.delta_pl > spec.fins.planarity_tol:
-            # the soft energy was not enough: make planarity a hard constraint
-            r = optimize_support(r.structure, reference=reference, hard_tol=spec.fins.planarity_tol)
+        # soft eq. (8), then planarity as a hard constraint if the soft energy was not enough
+        r = optimize_support(s, reference=reference, planarity_tol=spec.fins.planarity_tol)
         s, status, ok = r.structure, str(r.status), bool(r.success)
     else:
         status, ok = "not optimized (fins.optimize = false)", True
