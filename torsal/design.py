@@ -13,6 +13,7 @@ from .pipeline import (
     Progress,
     Stage,
     StageCache,
+    UnbuildableDesignError,
     analyze,
     dominant_light_direction,
     load_directions,
@@ -23,4 +24,4 @@ from .pipeline import (
 __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignError",
            "DesignFileError", "DesignResult", "STAGES", "DEFAULT_PIPELINE", "Pipeline", "Stage",
            "StageCache", "Progress", "JIT_MIN_VERTICES", "select_vertices", "select_faces",
-           "dominant_light_direction"]
+           "dominant_light_direction", "UnbuildableDesignError"]

@@ -6,8 +6,10 @@ re-read with :func:`~torsal.fabrication.solids.read_step`) and the joint records
 insertion axes); it shares no code with the joint builder, so a mistake there shows up here.
 
 1. **Touching pairs.** Axis-aligned bounding boxes grown by ``tolerance`` select candidate
-   pairs; the exact distance between the two solids (``BRepExtrema_DistShapeShape``, 0 when
-   one solid lies inside the other) keeps the pairs that come within ``tolerance``: these are
+   pairs, a proximity test on the solids' triangulations (``BRepExtrema_ShapeProximity``,
+   conservative) drops the pairs that are clearly apart, and the exact common volume or, when
+   they do not overlap, the exact distance (``BRepExtrema_DistShapeShape``; 0 when one solid
+   lies inside the other) keeps the pairs that come within ``tolerance``: these are
    ``pairs_checked``.
 2. **Interference.** For every touching pair the common volume is computed with an exact
    OpenCascade boolean (``BRepAlgoAPI_Common``); a common volume above ``min_volume``
@@ -18,8 +20,9 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    slotted from its ``b`` edge, then the family-1 plate, slotted from its ``a`` edge). Each
    part is inserted along a straight line: the axis of its joints with parts already placed
    (the node axis ``L_i`` for egg-crate pairs; the mean axis when it has several, then each
-   axis on its own, both senses). The path starts where the part lies entirely beyond the
-   placed parts it touches, measured along the direction (``travel``), and ends in place. A
+   axis on its own, both senses). The path starts one depth of the part back (``travel``,
+   the part's extent along the direction, so it is disengaged from its slots) and ends in
+   place; every placed part near the path is checked, joined or not. A
    path is clear when the volume swept by the part meets no placed part by more than
    ``min_volume``: the swept volume is the union of the prisms that every face of the solid
    sweeps (``BRepPrimAPI_MakePrism``), each intersected exactly with the placed parts near the
@@ -58,7 +61,8 @@ import numpy as np
 from torsal.core.atomic import atomic_path
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
-           "verify_assembly", "joints_of", "MIN_INTERFERENCE_VOLUME"]
+           "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
+           "swept_overlap", "MIN_INTERFERENCE_VOLUME"]
 
 #: unit^3 (mm^3): a common volume above this is an interference (below it: round-off of the
 #: booleans on plates that touch)
@@ -69,13 +73,16 @@ class AssemblyJoint(NamedTuple):
     """What the check needs of a joint (``torsal.fabrication`` ``Joint`` records have these
     fields too): ``kind`` (e.g. ``"egg-crate"``), structure ``node``, the ``parts`` it joins
     (names; earlier names are placed first), ``insert_direction`` ((3,) unit vector, model
-    coordinates; an axis, both senses are tried) and the ``connector`` part, if any."""
+    coordinates, the sense the later parts move in; the other sense is tried too) and the
+    ``connector`` part, if any."""
 
     kind: str
     node: int
     parts: tuple
     insert_direction: np.ndarray
     connector: str | None = None
+    #: (3,) direction the connector is put on along (None: ``insert_direction``)
+    connector_direction: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -185,6 +192,11 @@ class AssemblyCheck:
             "failed_pairs": [list(x) for x in self.failed_pairs],
             "blocked_parts": [s.part for s in self.blocked],
             "steps": len(self.order),
+            "sequence": [{"step": st.step, "part": st.part,
+                          "insert_direction": None if st.insert_direction is None
+                          else [round(float(x), 6) for x in st.insert_direction],
+                          "partners": list(st.partners), "joints": list(st.joint_kinds),
+                          "clear": st.clear} for st in self.order],
             "min_volume_mm3": float(self.min_volume),
             "seconds": float(self.seconds),
         }
@@ -214,6 +226,15 @@ class AssemblyCheck:
 def _shape(x):
     """TopoDS_Shape of a build123d shape or an OCP shape."""
     return getattr(x, "wrapped", x)
+
+
+def _mesh(shapes, tolerance: float) -> None:
+    """Triangulate the shapes (in place, once, before any fork) for the proximity prefilter."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+
+    for s in shapes:
+        # serial: worker threads left behind would deadlock the forked processes
+        BRepMesh_IncrementalMesh(s, 0.1 * tolerance, False, 0.5, False)
 
 
 def _signed_volume(shape) -> float:
@@ -266,6 +287,24 @@ def _faces(shape) -> list:
     while ex.More():
         out.append(TopoDS.Face(ex.Current()))
         ex.Next()
+    return out
+
+
+def face_polygons(solid) -> list[np.ndarray]:
+    """Outer loops of the faces of a polyhedral solid, each (k, 3) in order (for pictures)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools, BRepTools_WireExplorer
+
+    out = []
+    for f in _faces(_shape(solid)):
+        ex = BRepTools_WireExplorer(BRepTools.OuterWire_s(f))
+        pts = []
+        while ex.More():
+            p = BRep_Tool.Pnt_s(ex.CurrentVertex())
+            pts.append((p.X(), p.Y(), p.Z()))
+            ex.Next()
+        if len(pts) >= 3:
+            out.append(np.asarray(pts))
     return out
 
 
@@ -368,10 +407,15 @@ def swept_overlap(moving, vector, others: Sequence) -> list[float]:
         # its complement: orient it
         BRepLib.OrientClosedSolid_s(pr)
         prisms.append(pr)
+    pboxes = [_bbox(pr) for pr in prisms]
+    _mesh(prisms, 1.0)
     out = []
     for o in others:
+        ob = _bbox(_shape(o))
         total = 0.0
-        for pr in prisms:
+        for pr, pb in zip(prisms, pboxes):
+            if (pb[0] > ob[1]).any() or (ob[0] > pb[1]).any() or not _near(pr, _shape(o), 1e-3):
+                continue                      # apart: nothing in common
             try:
                 total += common_volume(pr, o)
             except RuntimeError:
@@ -385,13 +429,26 @@ def swept_overlap(moving, vector, others: Sequence) -> list[float]:
 _SHAPES: list = []
 
 
+def _near(s1, s2, tol: float) -> bool:
+    """Whether two meshed shapes come within about ``tol`` (BVH on their triangulations, fast;
+    exact triangles for planar faces, a conservative test of the gap): a prefilter only."""
+    from OCP.BRepExtrema import BRepExtrema_ShapeProximity
+
+    p = BRepExtrema_ShapeProximity(s1, s2, tol)
+    p.Perform()
+    return not p.IsDone() or p.OverlapSubShapes1().Size() > 0
+
+
 def _pair_job(job):
     i, j, tol = job
     try:
-        d = solid_distance(_SHAPES[i], _SHAPES[j])
-        if d > tol:
-            return i, j, d, 0.0, ""
-        return i, j, d, common_volume(_SHAPES[i], _SHAPES[j]), ""
+        a, b = _SHAPES[i], _SHAPES[j]
+        if not _near(a, b, tol) and not (_inside(a, b) or _inside(b, a)):
+            return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside the other
+        vol = common_volume(_SHAPES[i], _SHAPES[j])
+        # overlapping solids touch; for the others the exact distance decides
+        d = 0.0 if vol > 0.0 else solid_distance(_SHAPES[i], _SHAPES[j])
+        return i, j, d, vol, ""
     except Exception as e:       # OpenCascade failures: reported per pair, never assumed clear
         return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
 
@@ -422,18 +479,28 @@ def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> 
 # ---------------------------------------------------------------------------- joints
 def joints_of(fin_system) -> list[AssemblyJoint]:
     """Joint records of a fin system: ``fin_system.joints`` when it has them, else its egg-crate
-    crossings (family-0 parts first, insertion along the node axis ``b_i - a_i``)."""
+    crossings (family-0 parts first; the family-1 plate, slotted from its ``a`` edge, moves
+    along the node axis ``a_i - b_i`` onto them)."""
     joints = getattr(fin_system, "joints", None)
     if joints is not None:
-        return [AssemblyJoint(str(getattr(j.kind, "value", j.kind)), int(j.node), tuple(j.parts),
-                              np.asarray(j.insert_direction, float), j.connector) for j in joints]
+        return [_as_joint(j) for j in joints]
     st = fin_system.structure
     out = []
     for x in fin_system.crossings:
-        axis = np.asarray(st.vertices_b[x.node] - st.vertices_a[x.node], float)
+        axis = np.asarray(st.vertices_a[x.node] - st.vertices_b[x.node], float)
         out.append(AssemblyJoint("egg-crate", int(x.node), tuple(x.parts0) + tuple(x.parts1),
                                  axis / np.linalg.norm(axis), None))
     return out
+
+
+def _as_joint(j) -> AssemblyJoint:
+    """An :class:`AssemblyJoint` from any record with the same fields."""
+    if isinstance(j, AssemblyJoint):
+        return j
+    cd = getattr(j, "connector_direction", None)
+    return AssemblyJoint(str(getattr(j.kind, "value", j.kind)), int(j.node), tuple(j.parts),
+                         np.asarray(j.insert_direction, float), getattr(j, "connector", None),
+                         None if cd is None else np.asarray(cd, float))
 
 
 def _placement_order(names: list[str], joints: list[AssemblyJoint]) -> list[str]:
@@ -469,8 +536,8 @@ def _candidate_directions(axes: list[np.ndarray]) -> list[np.ndarray]:
     mean = np.sum(signed, axis=0)
     if np.linalg.norm(mean) > 1e-9:
         cands.append(mean / np.linalg.norm(mean))
-    for a in signed:
-        if all(abs(a @ c) < np.cos(np.radians(0.5)) for c in cands):
+    for a in signed:           # each joint's own axis, exactly: the path a slot allows
+        if all(abs(a @ c) < 1.0 - 1e-12 for c in cands):
             cands.append(a)
     return [s * c for c in cands for s in (1.0, -1.0)]
 
@@ -510,19 +577,17 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
     if dup:
         raise ValueError(f"solids with the same name {dup[:8]}: every part needs one solid of its own")
     shapes = [_shape(s) for _, s in items]
-    joints = [j if isinstance(j, AssemblyJoint) else AssemblyJoint(
-        str(getattr(j.kind, "value", j.kind)), int(j.node), tuple(j.parts),
-        np.asarray(j.insert_direction, float), getattr(j, "connector", None)) for j in joints]
+    joints = [_as_joint(j) for j in joints]
     if workers is None:
         workers = min(2, os.cpu_count() or 1)
     global _SHAPES
     _SHAPES = shapes
+    _mesh(shapes, tolerance)
     try:
         boxes = np.array([_bbox(s) for s in shapes]).reshape(-1, 2, 3)
         touching, interfering, failed = _touching_pairs(names, boxes, tolerance, min_volume,
                                                         workers, progress)
-        order = _assembly_order(names, boxes, joints, touching, tolerance, min_volume, workers,
-                                progress)
+        order = _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progress)
     finally:
         _SHAPES = []
     kinds = Counter(j.kind for j in joints)
@@ -562,15 +627,11 @@ def _touching_pairs(names, boxes, tolerance, min_volume, workers, progress):
     return touching, interfering, failed
 
 
-def _assembly_order(names, boxes, joints, touching, tolerance, min_volume, workers, progress):
+def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progress):
     """Steps with the first clear insertion direction of every part (see the module text)."""
     index = {n: i for i, n in enumerate(names)}
     order = [index[n] for n in _placement_order(names, joints)]
     rank = {k: r for r, k in enumerate(order)}
-    neighbours: dict[int, set] = {k: set() for k in range(len(names))}
-    for i, j in touching:
-        neighbours[i].add(j)
-        neighbours[j].add(i)
     joint_of: dict[int, list[AssemblyJoint]] = {k: [] for k in range(len(names))}
     for jt in joints:
         for p in jt.parts:
@@ -585,13 +646,15 @@ def _assembly_order(names, boxes, joints, touching, tolerance, min_volume, worke
             if placed:
                 partners.update(placed)
                 kinds.append(jt.kind)
-                axes.append(np.asarray(jt.insert_direction, float))
+                own = (jt.connector_direction if names[k] == jt.connector
+                       and jt.connector_direction is not None else jt.insert_direction)
+                axes.append(np.asarray(own, float))
         cands = []
         for d in _candidate_directions(axes):
-            near = [o for o in neighbours[k] if rank[o] < rank[k]]
-            # start where the part lies wholly behind (along -d) the placed parts it touches
-            ext = np.r_[verts[k], *(verts[o] for o in near)] @ d
-            travel = float((verts[k] @ d).max() - ext.min()) + tolerance
+            # start one depth of the part (its extent along d) back: disengaged from its
+            # joints (a slot is at most as long as the part is deep along its axis)
+            ext = verts[k] @ d
+            travel = float(ext.max() - ext.min()) + tolerance
             lo = np.minimum(boxes[k, 0], boxes[k, 0] - travel * d) - tolerance
             hi = np.maximum(boxes[k, 1], boxes[k, 1] - travel * d) + tolerance
             others = [o for o in order[:rank[k]]

@@ -16,6 +16,7 @@ import numpy as np
 from torsal.core.atomic import atomic_path
 
 __all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support", "PLANARITY_TOL",
+           "crossing_folds",
            "SupportOptimizationResult", "SupportWeights", "graph_laplacian", "closest_points"]
 
 
@@ -42,6 +43,51 @@ def fin_planarity(quads: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         dist = np.abs(np.einsum("ij,ij->i", q[:, 1] - q[:, 0], n)) / np.where(parallel, 1.0, nn)
         return np.where(parallel, 0.0, dist) / mean_len
+
+
+def crossing_folds(structure: "SupportStructure") -> tuple[np.ndarray, np.ndarray]:
+    """Fold of each family's strip at every crossing, degrees.
+
+    A crossing is a node that a strip of family 0 and a strip of family 1 both pass through
+    (the node is interior to both). The fold of a strip at a node is the angle between the
+    normals of its two fins there (0: the strip is flat across the node line).
+
+    Returns
+    -------
+    nodes : (c,) int
+        Crossing nodes, ascending.
+    folds : (c, 2) float
+        Fold of the family-0 and the family-1 strip at each, degrees in [0, 180].
+
+    Examples
+    --------
+    >>> a = np.array([[x, y, 0.0] for y in (0, 1, 2) for x in (0, 1, 2)])
+    >>> a[4] += [0.5, 0, 0]          # the column strip bends at the middle node, the row stays flat
+    >>> b = a + [0, 0, 1]
+    >>> s = SupportStructure(a, b, [[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]],
+    ...                      np.array([[0, 1], [1, 2], [3, 4], [4, 5], [6, 7], [7, 8],
+    ...                                [0, 3], [3, 6], [1, 4], [4, 7], [2, 5], [5, 8]]),
+    ...                      np.array([0] * 6 + [1] * 6))
+    >>> nodes, folds = crossing_folds(s)
+    >>> nodes.tolist(), np.round(folds, 1).tolist()
+    ([4], [[0.0, 53.1]])
+    """
+    fold: dict[tuple[int, int], float] = {}
+    for st in structure.fins():
+        q = st.quads
+        n = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        k = len(q)
+        pairs = [(j - 1, j, int(st.vertices[j])) for j in range(1, k)]
+        if st.closed and k >= 2:
+            pairs.append((k - 1, 0, int(st.vertices[0])))
+        for i0, i1, node in pairs:
+            c = float(np.clip(n[i0] @ n[i1], -1.0, 1.0))
+            fold[(st.family, node)] = float(np.degrees(np.arccos(c))) if np.isfinite(c) else 180.0
+    nodes = sorted({v for f, v in fold if f == 0} & {v for f, v in fold if f == 1})
+    return (np.asarray(nodes, dtype=np.int64),
+            np.array([[fold[(0, v)], fold[(1, v)]] for v in nodes]).reshape(-1, 2))
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@
   inputs (:mod:`torsal.pipeline.cache`).
 """
 from .analyze import AnalysisResult, analyze, load_directions
+from .assembly import UnbuildableDesignError
 from .cache import StageCache, stage_key
 from .design import Design, DesignResult
 from .errors import DesignError, Progress
@@ -19,4 +20,4 @@ __all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignResu
            "DesignError", "Progress", "StageCache", "stage_key", "Pipeline", "Stage",
            "StageInputs", "StageRun", "run_stages", "stage_keys", "DEFAULT_PIPELINE", "STAGES",
            "select_vertices", "select_faces", "dominant_light_direction", "congruence_problem",
-           "term_weights", "JIT_MIN_VERTICES"]
+           "term_weights", "JIT_MIN_VERTICES", "UnbuildableDesignError"]

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..design_file import DesignSpec, load_design_file
+from .assembly import UnbuildableDesignError, unbuildable_message
 from .cache import StageCache
 from .errors import Progress, quiet
 from .stage import Pipeline, StageRun, run_stages
@@ -61,7 +62,8 @@ class Design:
 
     def run(self, out_dir: str | Path, *, progress: Progress | None = None,
             use_cache: bool = True, cache: StageCache | None = None,
-            pipeline: Pipeline = DEFAULT_PIPELINE) -> DesignResult:
+            pipeline: Pipeline = DEFAULT_PIPELINE,
+            accept_unbuildable: bool = False) -> DesignResult:
         """Run every stage and write all outputs into ``out_dir``.
 
         Parameters
@@ -77,11 +79,18 @@ class Design:
             stage). A study passes one cache shared by its variants.
         pipeline : Pipeline
             The stages to run; default :data:`~torsal.pipeline.DEFAULT_PIPELINE`.
+        accept_unbuildable : bool
+            Return normally although the assembly check found interfering parts (the report
+            says so: ``report["fabrication"]["assembly"]["buildable"]`` is False).
 
         Raises
         ------
         DesignError
             Naming the stage that failed.
+        UnbuildableDesignError
+            After every output is written, when the parts interfere or cannot be inserted
+            (its message names them; ``.result`` is the finished run), unless
+            ``accept_unbuildable``.
         """
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -92,5 +101,11 @@ class Design:
         spec = self.spec
         run = run_stages(pipeline, spec, out, cache, progress=progress or quiet,
                          run=StageRun(report={"name": spec.name, "units": spec.units}))
-        return DesignResult(report=run.report, files=run.files,
-                            stage_seconds=run.stage_seconds, cached=run.cached)
+        result = DesignResult(report=run.report, files=run.files,
+                              stage_seconds=run.stage_seconds, cached=run.cached)
+        assembly = run.report.get("fabrication", {}).get("assembly")
+        if assembly is not None and not assembly["buildable"] and not accept_unbuildable:
+            raise UnbuildableDesignError(
+                unbuildable_message(assembly), result,
+                parts=sorted(set(assembly["interfering_parts"]) | set(assembly["blocked_parts"])))
+        return result
