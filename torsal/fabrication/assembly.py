@@ -100,7 +100,8 @@ class AssemblyStep:
     ``insert_direction`` is the unit direction the part moves in (None: it has no joint to a
     part placed before it and is set down in place); ``travel`` the length of its path
     (unit); ``partners`` the parts placed before it that it joins; ``collisions`` what the
-    swept part meets on the best path tried (empty: the path is clear).
+    swept part meets on the best path tried (empty: the path is clear; volumes of a blocked
+    path are lower bounds: the sum stops once it exceeds ``min_volume``).
     """
 
     step: int
@@ -375,10 +376,11 @@ def solid_distance(s1, s2) -> float:
     return dist
 
 
-def swept_overlap(moving, vector, others: Sequence) -> list[float]:
+def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf) -> list[float]:
     """Volume that ``moving`` sweeps on its way from ``position - vector`` to its place and that
     lies inside each of ``others`` (unit^3, one per other; an upper bound: the sum over the
-    prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly).
+    prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly). With
+    ``stop_above`` the sum for one other stops once it exceeds that (a collision is known).
 
     >>> from build123d import Box, Pos
     >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
@@ -420,6 +422,7 @@ def swept_overlap(moving, vector, others: Sequence) -> list[float]:
                 total += common_volume(pr, o)
             except RuntimeError:
                 total = float("inf")
+            if total > stop_above:
                 break
         out.append(total)
     return out
@@ -454,8 +457,8 @@ def _pair_job(job):
 
 
 def _sweep_job(job):
-    k, vector, others = job
-    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others])
+    k, vector, others, stop_above = job
+    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others], stop_above=stop_above)
 
 
 def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> list:
@@ -539,7 +542,9 @@ def _candidate_directions(axes: list[np.ndarray]) -> list[np.ndarray]:
     for a in signed:           # each joint's own axis, exactly: the path a slot allows
         if all(abs(a @ c) < 1.0 - 1e-12 for c in cands):
             cands.append(a)
-    return [s * c for c in cands for s in (1.0, -1.0)]
+    # the mean and at most three joints' axes, both senses: a part that none of these lets in
+    # is blocked (more axes rarely help and each costs a sweep)
+    return [s * c for c in cands[:4] for s in (1.0, -1.0)]
 
 
 # ---------------------------------------------------------------------------- the check
@@ -670,7 +675,7 @@ def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progre
     attempt = 0
     while pending:
         jobs = [(plans[n][0], plans[n][3][attempt][1] * plans[n][3][attempt][0],
-                 plans[n][3][attempt][2]) for n in pending]
+                 plans[n][3][attempt][2], min_volume) for n in pending]
         results = _map(_sweep_job, jobs, workers, progress, f"paths (try {attempt + 1})")
         still = []
         for n, (_, vols) in zip(pending, results):

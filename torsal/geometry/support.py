@@ -83,8 +83,9 @@ def crossing_folds(structure: "SupportStructure") -> tuple[np.ndarray, np.ndarra
         if st.closed and k >= 2:
             pairs.append((k - 1, 0, int(st.vertices[0])))
         for i0, i1, node in pairs:
-            c = float(np.clip(n[i0] @ n[i1], -1.0, 1.0))
-            fold[(st.family, node)] = float(np.degrees(np.arccos(c))) if np.isfinite(c) else 180.0
+            # atan2 of sine and cosine: accurate for small folds too (arccos is not)
+            ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(n[i0], n[i1])), n[i0] @ n[i1]))
+            fold[(st.family, node)] = float(ang) if np.isfinite(ang) else 180.0
     nodes = sorted({v for f, v in fold if f == 0} & {v for f, v in fold if f == 1})
     return (np.asarray(nodes, dtype=np.int64),
             np.array([[fold[(0, v)], fold[(1, v)]] for v in nodes]).reshape(-1, 2))

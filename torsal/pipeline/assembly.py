@@ -153,9 +153,10 @@ def support_gate(structure, max_fold: float) -> dict:
         msg = (f"{above.size} of {len(nodes)} crossings have a strip folding more than "
                f"{max_fold:g} deg (up to {worst[above[0]]:.1f} deg; nodes "
                f"{nodes[above[:_NAMED]].tolist()}{' ...' if above.size > _NAMED else ''}): "
-               "the folded plate cannot slide through a slot there and is split with a "
-               "connector; a finer fin spacing or a smoother congruence (weights.fair) "
-               "lowers the folds")
+               "the folded plate cannot slide through a slot there, so it must be split "
+               "(butt joint with a connector) or the parts interfere; a finer fin spacing or "
+               "a smoother congruence (weights.fair) lowers the folds, "
+               "fins.max_fold_at_crossing sets the limit")
     return {"max_fold_at_crossing_deg": float(max_fold), "crossings": int(len(nodes)),
             "nodes_above": int(above.size), "nodes": nodes[above[:_NAMED]].tolist(),
             "worst_fold_deg": float(worst.max()) if len(worst) else 0.0, "message": msg}
