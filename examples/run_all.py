@@ -66,6 +66,15 @@ def interfering_cell(a: dict | None) -> str:
     return cell
 
 
+def _pad(line: str, bars: int) -> str:
+    """A kept row of an older table with fewer columns: "not run" cells before the paper's."""
+    cells = line.strip().strip("|").split("|")
+    missing = bars - 1 - len(cells)
+    if missing > 0:
+        cells = cells[:-1] + [" not run "] * missing + cells[-1:]
+    return "|" + "|".join(cells) + "|"
+
+
 def _figure_key(key: str):
     """Figure order: 7a < 7b < ... < 9 < 10 < 11 < 13."""
     return int("".join(ch for ch in key if ch.isdigit())), key
@@ -100,7 +109,8 @@ def main():
         old, tail = rest.split(END, 1)
         if args.only:  # keep the rows of the examples not re-run
             new = {ln.split("|")[1].strip(): ln for ln in lines[2:]}
-            kept = [ln for ln in old.strip().splitlines()[2:] if ln.split("|")[1].strip() not in new]
+            kept = [_pad(ln, lines[0].count("|")) for ln in old.strip().splitlines()[2:]
+                    if ln.split("|")[1].strip() not in new]
             rows = sorted(kept + list(new.values()), key=lambda ln: _figure_key(ln.split("|")[1].strip()))
             lines = lines[:2] + rows
         table = "\n".join(lines)

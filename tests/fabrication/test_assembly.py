@@ -164,3 +164,21 @@ def test_processes_give_the_same_result_as_one():
 def test_duplicate_names_are_refused():
     with pytest.raises(ValueError, match="same name"):
         check_assembly([("a", _box(1, 1, 1)), ("a", _box(1, 1, 1, at=(5, 0, 0)))])
+
+
+def test_joint_records_with_connectors_are_counted_and_ordered():
+    # two plates butting at right angles with a bracket in the corner, as the per-node joinery
+    # records them: continuous plate, butted part, connector; the bracket goes on last
+    plate = _box(100, 3, 50)                                 # y 0..3
+    butted = _box(3, 60, 50, at=(40, 3.5, 0))                # ends 0.5 mm from the plate
+    bracket = _box(20, 2, 50, at=(43.5, 3.5, 0))             # a leg beside it, 0.5 mm off both
+    joint = AssemblyJoint("butt-bracket", 7, ("plate", "butted", "bracket"),
+                          np.array([0.0, -1.0, 0.0]), "bracket", np.array([0.0, 0.0, -1.0]))
+    r = check_assembly({"plate": plate, "butted": butted, "bracket": bracket}, joints=[joint],
+                       workers=1)
+    assert r.joints == {"butt-bracket": 1} and r.connectors == {"butt-bracket": 1}
+    assert [s.part for s in r.order] == ["plate", "butted", "bracket"]
+    assert r.buildable, r.problems()
+    steps = {s.part: s for s in r.order}
+    assert steps["butted"].insert_direction == pytest.approx((0.0, -1.0, 0.0))
+    assert steps["bracket"].insert_direction == pytest.approx((0.0, 0.0, -1.0))

@@ -123,7 +123,8 @@ class AssemblyCheck:
 
     ``interfering`` lists the pairs whose common volume exceeds ``min_volume``, worst first;
     ``order`` the assembly steps; ``failed_pairs`` the pairs whose boolean failed
-    ``(part, part, reason)``.
+    ``(part, part, reason)``; ``joints`` the number of joints by kind and ``connectors`` the
+    number of connector parts by the kind of joint they fasten.
     """
 
     parts: list[str]
@@ -595,7 +596,8 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
     finally:
         _SHAPES = []
     kinds = Counter(j.kind for j in joints)
-    connectors = Counter(j.connector for j in joints if j.connector)
+    # connector parts (brackets, splice plates) by the kind of joint they fasten
+    connectors = Counter(j.kind for j in {j.connector: j for j in joints if j.connector}.values())
     return AssemblyCheck(parts=names, pairs_checked=len(touching), interfering=interfering,
                          order=order, failed_pairs=failed, joints=dict(sorted(kinds.items())),
                          connectors=dict(sorted(connectors.items())), min_volume=min_volume,
