@@ -102,6 +102,9 @@ def _design(args, console) -> int:
                   f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
                   f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
                   f"{fa['parts']} parts on {fa['sheets']} sheets")
+    for gate in (r["congruence"].get("joinery"), s.get("joinery")):
+        if gate and gate.get("message"):
+            console.print(f"[yellow]joinery:[/] {gate['message']}")
     asm = fa.get("assembly")
     if asm is not None and not asm["buildable"]:
         from .pipeline.assembly import unbuildable_message

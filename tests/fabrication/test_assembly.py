@@ -182,3 +182,14 @@ def test_joint_records_with_connectors_are_counted_and_ordered():
     steps = {s.part: s for s in r.order}
     assert steps["butted"].insert_direction == pytest.approx((0.0, -1.0, 0.0))
     assert steps["bracket"].insert_direction == pytest.approx((0.0, 0.0, -1.0))
+
+
+def test_parts_of_one_strip_at_a_crossing_are_not_each_others_partners():
+    from torsal.fabrication.assembly import joint_groups
+
+    j = AssemblyJoint("egg-crate", 3, ("F0-S001-P00", "F0-S001-P01", "F1-S004-P00"),
+                      np.array([0.0, 0.0, -1.0]))
+    assert joint_groups(j) == [("F0-S001-P00", "F0-S001-P01"), ("F1-S004-P00",)]
+    b = AssemblyJoint("butt-bracket", 3, ("F0-S001-P00", "F0-S001-P01", "C-N3-0"),
+                      np.array([1.0, 0.0, 0.0]), "C-N3-0")
+    assert joint_groups(b) == [("F0-S001-P00",), ("F0-S001-P01",), ("C-N3-0",)]

@@ -62,7 +62,7 @@ from torsal.core.atomic import atomic_path
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
            "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
-           "swept_overlap", "MIN_INTERFERENCE_VOLUME"]
+           "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME"]
 
 #: unit^3 (mm^3): a common volume above this is an interference (below it: round-off of the
 #: booleans on plates that touch)
@@ -506,16 +506,29 @@ def _as_joint(j) -> AssemblyJoint:
                          None if cd is None else np.asarray(cd, float))
 
 
+def joint_groups(joint: AssemblyJoint) -> list[tuple[str, ...]]:
+    """The parts of a joint in the groups that go in one after the other: for an egg-crate the
+    plates of one family, then those of the other (named ``F<family>-...``: two parts of one
+    strip split at the crossing are not each other's partners); otherwise one part at a time
+    (a butt joint: the continuous plate, the butted part, the connector)."""
+    if joint.kind == "egg-crate":
+        groups: dict[str, list] = {}
+        for p in joint.parts:
+            groups.setdefault(p.split("-", 1)[0], []).append(p)
+        return [tuple(g) for g in groups.values()]
+    return [(p,) for p in joint.parts]
+
+
 def _placement_order(names: list[str], joints: list[AssemblyJoint]) -> list[str]:
-    """Parts in an order where, for every joint, the parts it lists first come first (as far
+    """Parts in an order where, for every joint, the groups it lists first come first (as far
     as the joints agree; a conflicting precedence is dropped), ties by name."""
     index = {n: i for i, n in enumerate(names)}
     before: dict[str, set] = {n: set() for n in names}
     for j in joints:
-        ps = [p for p in j.parts if p in index]
-        for a, b in zip(ps[:-1], ps[1:]):
-            if a != b:
-                before[b].add(a)
+        groups = [[p for p in g if p in index] for g in joint_groups(j)]
+        for ga, gb in zip(groups[:-1], groups[1:]):
+            for b in gb:
+                before[b].update(a for a in ga if a != b)
     order, placed = [], set()
     remaining = sorted(names)
     while remaining:
@@ -648,7 +661,10 @@ def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progre
     for k in order:
         partners, kinds, axes = set(), [], []
         for jt in joint_of[k]:
-            placed = [index[p] for p in jt.parts if p in index and rank[index[p]] < rank[k]]
+            groups = joint_groups(jt)
+            mine = next(g for g, ps in enumerate(groups) if names[k] in ps)
+            placed = [index[p] for g in groups[:mine] for p in g
+                      if p in index and rank[index[p]] < rank[k]]
             if placed:
                 partners.update(placed)
                 kinds.append(jt.kind)
