@@ -483,16 +483,29 @@ def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> 
 def joints_of(fin_system) -> list[AssemblyJoint]:
     """Joint records of a fin system: ``fin_system.joints`` when it has them, else its egg-crate
     crossings (family-0 parts first; the family-1 plate, slotted from its ``a`` edge, moves
-    along the node axis ``a_i - b_i`` onto them)."""
+    along the node axis ``a_i - b_i`` onto them) and the mitred splits inside a strip (the
+    later part slides along the node line of the split)."""
     joints = getattr(fin_system, "joints", None)
     if joints is not None:
         return [_as_joint(j) for j in joints]
     st = fin_system.structure
     out = []
+
+    def axis(node):
+        d = np.asarray(st.vertices_a[node] - st.vertices_b[node], float)
+        return d / np.linalg.norm(d)
+
     for x in fin_system.crossings:
-        axis = np.asarray(st.vertices_a[x.node] - st.vertices_b[x.node], float)
         out.append(AssemblyJoint("egg-crate", int(x.node), tuple(x.parts0) + tuple(x.parts1),
-                                 axis / np.linalg.norm(axis), None))
+                                 axis(x.node), None))
+    # parts of one strip split inside it meet mitred on the bisector plane of the fold, which
+    # holds the node line: the later part slides along it
+    parts = list(fin_system.parts)
+    for prev, nxt in zip(parts[:-1], parts[1:]):
+        if (prev.id.family, prev.id.strip) == (nxt.id.family, nxt.id.strip) and \
+                nxt.ends[0] == "miter" and int(nxt.nodes[0]) >= 0:
+            out.append(AssemblyJoint("mitre", int(nxt.nodes[0]), (prev.name, nxt.name),
+                                     axis(int(nxt.nodes[0])), None))
     return out
 
 
@@ -555,9 +568,9 @@ def _candidate_directions(axes: list[np.ndarray]) -> list[np.ndarray]:
     for a in signed:           # each joint's own axis, exactly: the path a slot allows
         if all(abs(a @ c) < 1.0 - 1e-12 for c in cands):
             cands.append(a)
-    # the mean and at most three joints' axes, both senses: a part that none of these lets in
-    # is blocked (more axes rarely help and each costs a sweep)
-    return [s * c for c in cands[:4] for s in (1.0, -1.0)]
+    # the mean and at most eight joints' axes, both senses: a part that none of these lets in
+    # is blocked (only blocked parts pay for the further tries)
+    return [s * c for c in cands[:9] for s in (1.0, -1.0)]
 
 
 # ---------------------------------------------------------------------------- the check
