@@ -17,10 +17,12 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    design is not called buildable (nothing is assumed).
 3. **Assembly order.** Parts are placed one by one in an order that follows the joints (the
    parts a joint lists first are placed first: for an egg-crate crossing the family-0 plate,
-   slotted from its ``b`` edge, then the family-1 plate, slotted from its ``a`` edge). Each
-   part is inserted along a straight line: the axis of its joints with parts already placed
-   (the node axis ``L_i`` for egg-crate pairs; the mean axis when it has several, then each
-   axis on its own, both senses). The path starts one depth of the part back (``travel``,
+   slotted from its ``b`` edge, then the family-1 plate, slotted from its ``a`` edge;
+   connectors go on after the plates around them). Each part is inserted along a straight
+   line: the axis of its joints with parts already placed (the node axis ``L_i`` for
+   egg-crate pairs; the mean axis of its slots first, then the mean of all its joints' axes,
+   then each axis on its own, then the lines where two plates it butts against meet; both
+   senses). The path starts one depth of the part back (``travel``,
    the part's extent along the direction, so it is disengaged from its slots) and ends in
    place; every placed part near the path is checked, joined or not. A
    path is clear when the volume swept by the part meets no placed part by more than
@@ -48,6 +50,7 @@ Example
 from __future__ import annotations
 
 import csv
+import itertools
 import multiprocessing
 import os
 import time
@@ -542,35 +545,54 @@ def _placement_order(names: list[str], joints: list[AssemblyJoint]) -> list[str]
         for ga, gb in zip(groups[:-1], groups[1:]):
             for b in gb:
                 before[b].update(a for a in ga if a != b)
+    connectors = {j.connector for j in joints if j.connector}
     order, placed = [], set()
     remaining = sorted(names)
     while remaining:
         ready = [n for n in remaining if before[n] <= placed]
-        if not ready:                      # a cycle: take the part with fewest missing
-            ready = [min(remaining, key=lambda n: (len(before[n] - placed), n))]
-        nxt = ready[0]
+        if not any(n not in connectors for n in ready):
+            # plates wait only for connectors, or for each other (a cycle): take the plate with
+            # the fewest plates missing before it
+            plates = [n for n in remaining if n not in connectors]
+            if plates:
+                ready = [min(plates, key=lambda n: (len(before[n] - placed - connectors), n))]
+            elif not ready:
+                ready = [min(remaining, key=lambda n: (len(before[n] - placed), n))]
+        # connectors (brackets, splice plates) go on once the plates around them are in
+        nxt = next((n for n in ready if n not in connectors), ready[0])
         order.append(nxt)
         placed.add(nxt)
         remaining.remove(nxt)
     return order
 
 
-def _candidate_directions(axes: list[np.ndarray]) -> list[np.ndarray]:
-    """Directions to try: the mean axis (axes signed alike) and each distinct axis, both senses."""
+def _candidate_directions(axes: list[np.ndarray], slotted: list[bool] | None = None) -> list[np.ndarray]:
+    """Directions to try: the mean axis of the slotted joints (a slot allows one direction; a
+    butt end slides along the plate it meets), the mean of all axes (signed alike), then each
+    distinct axis; both senses."""
     if not axes:
         return []
     ref = axes[0]
     signed = [a if a @ ref >= 0 else -a for a in axes]
     cands = []
-    mean = np.sum(signed, axis=0)
-    if np.linalg.norm(mean) > 1e-9:
-        cands.append(mean / np.linalg.norm(mean))
+    slotted = slotted or [False] * len(axes)
+    for group in ([a for a, sl in zip(signed, slotted) if sl], signed):
+        mean = np.sum(group, axis=0) if group else np.zeros(3)
+        if np.linalg.norm(mean) > 1e-9 and all(abs(mean @ c) < (1.0 - 1e-12) * np.linalg.norm(mean)
+                                              for c in cands):
+            cands.append(mean / np.linalg.norm(mean))
     for a in signed:           # each joint's own axis, exactly: the path a slot allows
         if all(abs(a @ c) < 1.0 - 1e-12 for c in cands):
             cands.append(a)
-    # the mean and at most eight joints' axes, both senses: a part that none of these lets in
-    # is blocked (only blocked parts pay for the further tries)
-    return [s * c for c in cands[:9] for s in (1.0, -1.0)]
+    # a part held between plates it butts against slides along the line where their faces
+    # meet: the cross product of two butt directions (plate normals)
+    for a, b in itertools.combinations([a for a, sl in zip(signed, slotted) if not sl][:4], 2):
+        c = np.cross(a, b)
+        if np.linalg.norm(c) > 1e-6:
+            cands.append(c / np.linalg.norm(c))
+    # at most ten directions, both senses: a part that none of these lets in is blocked (only
+    # blocked parts pay for the further tries)
+    return [s * c for c in cands[:10] for s in (1.0, -1.0)]
 
 
 # ---------------------------------------------------------------------------- the check
@@ -672,7 +694,7 @@ def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progre
     verts = {k: _vertices(_SHAPES[k]) for k in range(len(names))}
     plans = []                       # per step: (part, partners, kinds, [(direction, travel, others)])
     for k in order:
-        partners, kinds, axes = set(), [], []
+        partners, kinds, axes, slotted = set(), [], [], []
         for jt in joint_of[k]:
             groups = joint_groups(jt)
             mine = next(g for g, ps in enumerate(groups) if names[k] in ps)
@@ -684,8 +706,9 @@ def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progre
                 own = (jt.connector_direction if names[k] == jt.connector
                        and jt.connector_direction is not None else jt.insert_direction)
                 axes.append(np.asarray(own, float))
+                slotted.append(jt.kind == "egg-crate")
         cands = []
-        for d in _candidate_directions(axes):
+        for d in _candidate_directions(axes, slotted):
             # start one depth of the part (its extent along d) back: disengaged from its
             # joints (a slot is at most as long as the part is deep along its axis)
             ext = verts[k] @ d
