@@ -41,7 +41,7 @@ def test_keys_follow_the_inputs_only():
     thicker = SPEC.model_copy(update={"material": SPEC.material.model_copy(
         update={"thickness_mm": 5.0})})
     c = stage_keys(DEFAULT_PIPELINE, thicker)
-    assert {s for s in a if a[s] != c[s]} == {"fabrication", "report"}
+    assert {s for s in a if a[s] != c[s]} == {"fabrication", "assembly", "report"}
 
 
 def test_unset_weights_come_from_the_optimizer_defaults():
@@ -100,8 +100,8 @@ def test_undeclared_inputs_and_bad_pipelines_are_errors(tmp_path):
         Pipeline((Stage("a", sneaky, inputs=("nope",)),))
     with pytest.raises(ValueError, match="unique"):
         DEFAULT_PIPELINE.insert(Stage("light", sneaky), after="fabrication")
-    with pytest.raises(KeyError, match="no stage 'assembly'"):
-        DEFAULT_PIPELINE.insert(Stage("x", sneaky), after="assembly")
+    with pytest.raises(KeyError, match="no stage 'nope'"):
+        DEFAULT_PIPELINE.insert(Stage("x", sneaky), after="nope")
 
 
 def test_design_run_takes_a_pipeline(tmp_path):

@@ -12,9 +12,13 @@ Exit status (one place: :func:`_run_command`):
   a stage rejecting its input, an output folder that cannot be used), a ``ValueError`` from
   torsal's own checks, or a file that cannot be read or written. The message names the problem
   and what to change; never a traceback.
-- Other codes: an error that carries its own ``exit_status`` attribute (e.g. 3 for a design
-  that is not buildable), or a subcommand that returns one: 4 for a study that finished with
-  failed variants (they are listed, the others' results are written), 130 for an interrupt.
+- 3: ``torsal design`` finished but the design is not buildable: the assembly check found
+  parts that interfere or cannot be inserted (the message names them; every output, report
+  included, is written). ``--accept-unbuildable`` accepts such a design: exit 0, and the
+  summary still says NOT BUILDABLE.
+- 4: ``torsal study`` finished with failed variants (they are listed, the others' results are
+  written).
+- 130: interrupted.
 
 Everything the user typed or a file held is printed literally (no rich markup), messages go
 to stderr, results to stdout; progress streams line by line when stdout is not a terminal.
@@ -28,11 +32,13 @@ import time
 import traceback
 import warnings
 
-__all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_VARIANTS_FAILED"]
+__all__ = ["main", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_BUILDABLE",
+           "EXIT_VARIANTS_FAILED"]
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
+EXIT_NOT_BUILDABLE = 3
 EXIT_VARIANTS_FAILED = 4
 EXIT_INTERRUPTED = 130
 
@@ -103,6 +109,9 @@ def _add_design(sub, common) -> None:
     d.add_argument("file", help="TOML design file")
     d.add_argument("--out", metavar="DIR", required=True, help="output folder")
     d.add_argument("--no-cache", action="store_true", help="recompute every stage")
+    d.add_argument("--accept-unbuildable", action="store_true",
+                   help="finish with exit status 0 even if the assembly check finds interfering "
+                        "parts (default: exit status 3, naming them)")
     d.add_argument("--no-size-limit", action="store_true",
                    help="run even when the size estimate (fins, optimizer variables, rays, parts, "
                         "disk) is above the limits in the README")
@@ -114,7 +123,8 @@ def _build_parser() -> argparse.ArgumentParser:
         description="Discrete line congruences for shading and lighting: from a design surface "
                     "and the sun to buildable planar fins.",
         epilog="exit status: 0 ok, 1 internal error (a bug; --debug shows the traceback), "
-               "2 bad input (the message names it)",
+               "2 bad input (the message names it), 3 design not buildable, 4 study variants "
+               "failed, 130 interrupted",
     )
     p.add_argument("--debug", action="store_true", help="show the traceback of internal errors")
     # accepted after the subcommand too; SUPPRESS keeps the top-level value when absent
@@ -146,14 +156,21 @@ def _add_study(sub, common) -> None:
 # ---------------------------------------------------------------------- commands
 def _design(args, ui: _Terminal) -> int:
     from .core.outputs import output_folder
-    from .design import STAGES, Design
+    from .design import STAGES, Design, UnbuildableDesignError
 
     design = Design.from_toml(args.file)
     out = output_folder(args.out)
     progress = _DesignProgress(ui, design, STAGES)
-    with progress:
-        res = design.run(out, progress=progress, use_cache=not args.no_cache,
-                         size_limit=not args.no_size_limit)
+    try:
+        with progress:
+            res = design.run(out, progress=progress, use_cache=not args.no_cache,
+                             size_limit=not args.no_size_limit,
+                             accept_unbuildable=args.accept_unbuildable)
+    except UnbuildableDesignError as exc:
+        ui.error(f"not buildable: {exc}")
+        ui.note(f"outputs and report written to {out} (report: {out / 'report.html'}, steps: "
+                f"{out / 'assembly.csv'}); pass --accept-unbuildable to accept")
+        return EXIT_NOT_BUILDABLE
     r = res.report
     mf = r.get("surface", {}).get("mesh_file")
     if mf and (mf["merged"] or mf["unused"] or mf["polygons_triangulated"]):
@@ -165,6 +182,14 @@ def _design(args, ui: _Terminal) -> int:
             f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
             f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
             f"{fa['parts']} parts on {fa['sheets']} sheets")
+    for gate in (r["congruence"].get("joinery"), s.get("joinery")):
+        if gate and gate.get("message"):
+            ui.note(f"joinery: {gate['message']}")
+    asm = fa.get("assembly")
+    if asm is not None and not asm["buildable"]:
+        from .pipeline.assembly import unbuildable_message
+
+        ui.note(f"NOT BUILDABLE (accepted with --accept-unbuildable): {unbuildable_message(asm)}")
     ui.line(f"wrote {len(res.files)} outputs to {out} (report: {out / 'report.html'})")
     return EXIT_OK
 
@@ -228,6 +253,8 @@ class _DesignProgress:
             state = ("done", f"{info.get('seconds', float('nan')):.1f} s")
         elif event == "cached":
             state = ("cached", "inputs unchanged")
+        elif event == "progress":
+            state = ("running", f"{info.get('phase')} {info.get('done')}/{info.get('total')}")
         else:
             state = (event, ", ".join(f"{k} {v}" for k, v in info.items()))
         self.status[stage] = state

@@ -14,6 +14,7 @@ from .pipeline import (
     Stage,
     StageCache,
     DirectionsError,
+    UnbuildableDesignError,
     analyze,
     dominant_light_direction,
     load_directions,
@@ -25,4 +26,4 @@ from .pipeline import (
 __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError", "Design", "DesignError",
            "DesignFileError", "DesignResult", "STAGES", "DEFAULT_PIPELINE", "Pipeline", "Stage",
            "StageCache", "Progress", "JIT_MIN_VERTICES", "select_vertices", "select_faces",
-           "dominant_light_direction"]
+           "dominant_light_direction", "UnbuildableDesignError"]

@@ -7,6 +7,7 @@
   inputs (:mod:`torsal.pipeline.cache`).
 """
 from .analyze import AnalysisResult, DirectionsError, analyze, load_directions, read_directions
+from .assembly import UnbuildableDesignError
 from .cache import StageCache, stage_key
 from .design import Design, DesignResult
 from .errors import DesignError, Progress
@@ -22,4 +23,4 @@ __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "D
            "StageInputs", "StageRun", "run_stages", "stage_keys", "DEFAULT_PIPELINE", "STAGES",
            "select_vertices", "select_faces", "dominant_light_direction", "congruence_problem",
            "term_weights", "JIT_MIN_VERTICES", "Study", "StudyProgress", "StudyResult",
-           "StudyFileError"]
+           "StudyFileError", "UnbuildableDesignError"]

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..core.outputs import output_folder
 from ..design_file import DesignSpec, load_design_file
+from .assembly import UnbuildableDesignError, unbuildable_message
 from .cache import StageCache
 from .errors import Progress, quiet
 from .stage import Pipeline, Stage, StageRun, run_stages
@@ -64,7 +65,8 @@ class Design:
 
     def run(self, out_dir: str | Path, *, progress: Progress | None = None,
             use_cache: bool = True, cache: StageCache | None = None,
-            pipeline: Pipeline = DEFAULT_PIPELINE, size_limit: bool = True) -> DesignResult:
+            pipeline: Pipeline = DEFAULT_PIPELINE, size_limit: bool = True,
+            accept_unbuildable: bool = False) -> DesignResult:
         """Run every stage and write all outputs into ``out_dir``.
 
         Parameters
@@ -84,6 +86,9 @@ class Design:
             Stop before the expensive stages when the estimated size is above
             :data:`~torsal.pipeline.checks.SIZE_LIMITS` (the ``estimate`` stage); False runs
             anyway (the estimate is still in the report).
+        accept_unbuildable : bool
+            Return normally although the assembly check found interfering parts (the report
+            says so: ``report["fabrication"]["assembly"]["buildable"]`` is False).
 
         Result files appear in ``out_dir`` together, when every stage succeeded
         (:class:`~torsal.pipeline.staging.Staging`); a failed run leaves none, not even the
@@ -96,6 +101,10 @@ class Design:
             note says what the output folder holds.
         OutputFolderError
             ``out_dir`` is empty, a file, under a file or not writable.
+        UnbuildableDesignError
+            After every output is written, when the parts interfere or cannot be inserted
+            (its message names them; ``.result`` is the finished run), unless
+            ``accept_unbuildable``.
         """
         out = output_folder(out_dir, option="output folder")
         if cache is None:
@@ -117,5 +126,13 @@ class Design:
         except Exception as exc:
             exc.add_note(staging.failure_note())
             raise
-        return DesignResult(report=run.report, files=run.files,
-                            stage_seconds=run.stage_seconds, cached=run.cached)
+        result = DesignResult(report=run.report, files=run.files,
+                              stage_seconds=run.stage_seconds, cached=run.cached)
+        # an unbuildable design's outputs are published (the report shows why), but the run
+        # does not end as done unless the user accepts it
+        assembly = run.report.get("fabrication", {}).get("assembly")
+        if assembly is not None and not assembly["buildable"] and not accept_unbuildable:
+            raise UnbuildableDesignError(
+                unbuildable_message(assembly), result,
+                parts=sorted(set(assembly["interfering_parts"]) | set(assembly["blocked_parts"])))
+        return result

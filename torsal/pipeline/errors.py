@@ -7,7 +7,8 @@ from torsal.core.errors import TorsalError
 
 __all__ = ["DesignError", "Progress", "quiet"]
 
-#: ``progress(stage, event, info)``: event is "start", "iteration", "done" or "cached".
+#: ``progress(stage, event, info)``: event is "start", "iteration", "done" or "cached"; long
+#: stages without iterations send "progress" with ``{"phase", "done", "total"}``.
 Progress = Callable[[str, str, dict], None]
 
 

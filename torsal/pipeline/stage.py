@@ -63,7 +63,8 @@ class Stage:
         Store the result. Cheap stages, and stages that must run every time (the report),
         say False; their key is still computed, so later stages cache normally.
     section : str, optional
-        The report section for the result's ``"report"``; default ``name``.
+        The report section for the result's ``"report"``; default ``name``. A dotted name
+        (``"fabrication.assembly"``) nests the section inside another stage's.
     """
 
     name: str
@@ -203,6 +204,17 @@ def _files_present(value: dict, out: Path) -> bool:
     return all((out / p).exists() for p in _flat(value.get("files", {})))
 
 
+def _put_section(report: dict, section: str, value) -> None:
+    """``report[section] = value``; a dotted section (``fabrication.assembly``) nests inside
+    a copy of the parent section, so the parent stage's own result is left as it was."""
+    *parents, last = section.split(".")
+    node = report
+    for name in parents:
+        node[name] = dict(node.get(name, {}))
+        node = node[name]
+    node[last] = value
+
+
 def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache, *,
                progress: Progress = quiet, run: StageRun | None = None) -> StageRun:
     """Run the stages that apply to ``spec`` in order; raises :class:`DesignError` naming
@@ -247,6 +259,6 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
             run.cached.append(s.name)
         run.values[s.name], run.keys[s.name] = value, key
         if "report" in value:
-            run.report[s.section or s.name] = value["report"]
+            _put_section(run.report, s.section or s.name, value["report"])
         run.files.update(value.get("files", {}))
     return run

@@ -14,13 +14,16 @@ import numpy as np
 from ..design_file import DesignSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
+from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
+from .fins import fin_system
 from .outputs import target_patch, write_geometry, write_structure_obj
 from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
 
 __all__ = ["surface_mesh", "sun_directions", "run_surface", "run_estimate", "run_sun", "run_orient",
            "run_congruence", "run_remesh", "run_support", "measure_fins", "run_light", "run_substructure",
-           "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES"]
+           "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES", "fin_system",
+           "run_assembly"]
 
 # constraints met to 1e-4 are met for a building (unit length to 0.01%, c_hyp to rounding of
 # the design's scale); IPOPT's "acceptable level" often lands at ~1e-6
@@ -184,6 +187,8 @@ def run_congruence(inp: StageInputs) -> dict:
             "constraints": _measured_constraints(r),
             "converged": bool(r.success),
             "faces_without_torsal_directions": int((~np.isfinite(c.torsal_angle())).sum()),
+            # faces where the fins of the two families cross too obliquely to be slotted
+            "joinery": congruence_gate(c),
         },
     }
 
@@ -237,10 +242,8 @@ def run_support(inp: StageInputs) -> dict:
     if spec.fins.optimize:
         from ..geometry.support import optimize_support
 
-        r = optimize_support(s, reference=reference)
-        if r.structure.delta_pl > spec.fins.planarity_tol:
-            # the soft energy was not enough: make planarity a hard constraint
-            r = optimize_support(r.structure, reference=reference, hard_tol=spec.fins.planarity_tol)
+        # soft eq. (8), then planarity as a hard constraint if the soft energy was not enough
+        r = optimize_support(s, reference=reference, planarity_tol=spec.fins.planarity_tol)
         s, status, ok = r.structure, str(r.status), bool(r.success)
     else:
         status, ok = "not optimized (fins.optimize = false)", True
@@ -254,7 +257,11 @@ def run_support(inp: StageInputs) -> dict:
         "edges": int(len(s.edges)), "nodes": int(len(s.vertices_a)),
         "delta_pl_extracted": float(inp["remesh"]["delta_pl"]),
         "delta_pl_optimized": float(s.delta_pl), "solve_s": float(solve_s),
-        "status": status, "success": ok}}
+        "status": status, "success": ok,
+        # crossings where a strip folds too much to slide through a slot
+        "joinery": support_gate(s, spec.fins.max_fold_at_crossing
+                                if spec.fins.max_fold_at_crossing is not None
+                                else MAX_CROSSING_FOLD)}}
 
 
 # ------------------------------------------------------------------ light
@@ -347,13 +354,11 @@ def run_substructure(inp: StageInputs) -> dict:
 def run_fabrication(inp: StageInputs) -> dict:
     """Parts, joints and solids; STEP / 3DM / nested DXF sheets / parts list as the design's
     [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
-    from ..fabrication import FinSystem
+    from ..fabrication import joints_of
 
     spec, out = inp.spec, inp.out
     m = spec.material
-    fs = FinSystem(inp["support"]["structure"], m.thickness_mm, family_split=m.family_split.value,
-                   clearance=m.clearance_mm, fit_sheet=tuple(m.sheet_mm),
-                   model_unit=spec.units, unit="mm")
+    fs = fin_system(spec, inp["support"]["structure"])
     written = {}
     if spec.outputs.step:
         fs.export_step(out / "fins.step")
@@ -373,7 +378,9 @@ def run_fabrication(inp: StageInputs) -> dict:
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
         "step": written.get("step"), "dxf": written.get("dxf")},
-        "files": written, "layout": layout}
+        "files": written, "layout": layout,
+        # for the assembly stage: which parts each joint joins, and along which axis
+        "joints": joints_of(fs)}
 
 
 # ------------------------------------------------------------------ report
@@ -462,6 +469,10 @@ def _fabrication_key(spec):
     return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units)
 
 
+def _assembly_key(spec):
+    return (spec.outputs.renders,)
+
+
 #: The stages of a design run, in order. Insert more with ``DEFAULT_PIPELINE.insert``.
 DEFAULT_PIPELINE = Pipeline((
     Stage("surface", run_surface, key=_surface_key),
@@ -475,8 +486,10 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
+    Stage("assembly", run_assembly, inputs=("support", "fabrication"),
+          key=_assembly_key, section="fabrication.assembly"),
     Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",
-                                        "substructure", "fabrication"), cache=False,
+                                        "substructure", "fabrication", "assembly"), cache=False,
           section="design"),
 ))
 
