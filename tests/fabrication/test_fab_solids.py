@@ -72,7 +72,7 @@ def test_step_reread_with_ocp_has_valid_named_solids_and_volume(sphere_fs, tmp_p
         assert rgb == pytest.approx(fs.part(c.label).color, abs=1e-3)
     # 3. the raw file names every part in a PRODUCT entity
     text = path.read_text(errors="ignore")
-    assert sorted(set(re.findall(r"PRODUCT\('(F\d-S\d+-P\d+)'", text))) == names
+    assert sorted(set(re.findall(r"PRODUCT\('((?:F\d-S\d+-P\d+)|(?:C-N\d+-\d+))'", text))) == names
     assert set(fam.values()) == {0, 1}
 
 

@@ -59,7 +59,7 @@ from .model import JointKind, _fold_deg, _miter, quad_normals
 
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
-           "place_connector", "JointKind"]
+           "place_connector", "corners", "JointKind"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -218,14 +218,13 @@ def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarr
     return None
 
 
-def corner(v_cont: list, v_butt: np.ndarray, line: np.ndarray):
-    """The panel of the continuous plate whose corner with the butted part takes the bracket.
+def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray) -> list[tuple[int, float]]:
+    """The panels of the continuous plate whose corners with the butted part can take a bracket.
 
     ``v_cont`` are the in-plane directions (from the node line) of the continuous plate's
     panels at the node, ``v_butt`` that of the butted part, ``line`` the node line direction.
-    Returns ``(index, angle in degrees)`` of the most open corner between
-    :data:`MIN_BRACKET_ANGLE` and :data:`MAX_BRACKET_ANGLE` that no other panel of the plate
-    lies in, or ``None``.
+    Returns ``[(index, angle in degrees)]`` of the corners between :data:`MIN_BRACKET_ANGLE`
+    and :data:`MAX_BRACKET_ANGLE` that no other panel of the plate lies in, most open first.
     """
     u = line / np.linalg.norm(line)
 
@@ -233,7 +232,7 @@ def corner(v_cont: list, v_butt: np.ndarray, line: np.ndarray):
         return float(np.degrees(np.arctan2(np.cross(v_butt, v) @ u, v_butt @ v)))
 
     angles = [ang(v) for v in v_cont]
-    best = None
+    out = []
     for i, a in enumerate(angles):
         phi = abs(a)
         if not MIN_BRACKET_ANGLE <= phi <= MAX_BRACKET_ANGLE:
@@ -241,9 +240,8 @@ def corner(v_cont: list, v_butt: np.ndarray, line: np.ndarray):
         # another panel of the plate inside this corner would be in the bracket's way
         if any(j != i and np.sign(b) == np.sign(a) and abs(b) < phi for j, b in enumerate(angles)):
             continue
-        if best is None or phi > best[1]:
-            best = (i, phi)
-    return best
+        out.append((i, phi))
+    return sorted(out, key=lambda x: -x[1])
 
 
 def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h) -> np.ndarray:

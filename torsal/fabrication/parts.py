@@ -62,7 +62,7 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 from . import layout as _layout
 from . import solids as _solids
 from .joints import (MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
-                     corner, place_connector, slot_width, trim_corner)
+                     corners, place_connector, slot_width, trim_corner)
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
                     JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
                     _oriented_size, _safe_normals, fold_angles, panel_widths, quad_normals)
@@ -610,6 +610,12 @@ class FinSystem:
         part at a sharp fold, or mitred with a splice plate."""
         gap, h = 0.5 * self.thickness + 0.5 * self.clearance, 0.5 * self.thickness
         present = st.passes | st.ends
+        # where several strips of one family end at a node (and none passes), the first is the
+        # base the others butt against
+        base: dict[tuple[int, int], tuple] = {}
+        for (fam, v), lst in plate.items():
+            if not st.passes[fam, v] and len({ref[0] for _, _, ref in lst}) >= 2:
+                base[(fam, v)] = lst[0]
         for si, parts in enumerate(part_of_strip):
             fam = st.fins[si].family
             for p in parts:
@@ -618,16 +624,24 @@ class FinSystem:
                     node = int(p.nodes[-end])
                     kind = p.ends[end]
                     other = 1 - fam
-                    if cont[other, node] or (fam == 1 and present[other, node]):
-                        trimmed[end] = self._butt(p, end, node, plate.get((other, node), []), st,
-                                                  gap, h)
+                    g = plate.get((other, node), []) if fam in (0, 1) else []
+                    # both plates split at this node: family 1's halves are bracketed to both
+                    # halves of family 0, which bridges family 0's seam
+                    bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
+                    b = base.get((fam, node))
+                    if fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node])):
+                        trimmed[end] = self._butt(p, end, node, g, st, gap, h,
+                                                  bridge=fam == 1 and bridged)
+                    elif b is not None and b[2][0] != si and kind in ("end", "dropped"):
+                        trimmed[end] = self._butt(p, end, node, [b], st, gap, h)
                     elif kind == "fold" and end == 0:
                         prev = self._previous(parts, p, st.quads[si])
-                        trimmed[0] = self._fold_butt(p, prev, st.quads[si], node, gap, h)
-                    elif kind == "miter" and end == 0:
+                        trimmed[0] = self._fold_butt(p, prev, st.quads[si], node, gap, h,
+                                                     bracket=not bridged)
+                    elif kind == "miter" and end == 0 and not bridged:
                         prev = self._previous(parts, p, st.quads[si])
                         if prev is not None:
-                            self._splice(prev, p, node, plate.get((other, node), []))
+                            self._splice(prev, p, node, g)
                 p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=5)
         if self.unconnected_joints:
@@ -645,9 +659,11 @@ class FinSystem:
         i_prev = p.span[0] - 1 if p.span[0] > 0 else k - 1
         return next((o for o in parts if o.span[1] == i_prev + 1 and o is not p), None)
 
-    def _butt(self, p: Part, end: int, node: int, panels, st: "_Strips", gap, h) -> bool:
+    def _butt(self, p: Part, end: int, node: int, panels, st: "_Strips", gap, h, *,
+              bridge: bool = False) -> bool:
         """Trim an end of ``p`` against the other family's plate ``panels`` at ``node`` and put
-        a bracket in the corner; False (listed in ``untrimmed_joints``) if it cannot be trimmed."""
+        a bracket in the corner (in both corners with ``bridge``: the plate is two parts there);
+        False (listed in ``untrimmed_joints``) if it cannot be trimmed."""
         j = 0 if end == 0 else len(p.panels) - 1
         quad = p.panels[j]
         try:
@@ -661,14 +677,16 @@ class FinSystem:
         p.miters[0 if end == 0 else -1] = m_end
         cont = [(n, v, self._panel_quad(ref)) for n, v, ref in panels]
         names = tuple(sorted({self._where[ref][0].name for _, _, ref in panels}))
-        self._bracket(p, j, node, cont, names, st.a[node], st.b[node], insert=-nbar)
+        self._bracket(p, j, node, cont, names, st.a[node], st.b[node], insert=-nbar,
+                      n_corners=2 if bridge else 1)
         return True
 
     def _panel_quad(self, ref) -> np.ndarray:
         part, i = self._where[ref]
         return part.panels[i]
 
-    def _fold_butt(self, p: Part, prev: Part | None, quads, node: int, gap, h) -> bool:
+    def _fold_butt(self, p: Part, prev: Part | None, quads, node: int, gap, h, *,
+                   bracket: bool = True) -> bool:
         """Butt joint at a split on a sharp fold: the start of part ``p`` is trimmed back until it
         clears the (square) end of the previous part ``prev``; a bracket joins them."""
         k = len(quads)
@@ -692,24 +710,25 @@ class FinSystem:
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0] = m_end
-        if prev is not None and node >= 0:
+        if prev is not None and node >= 0 and bracket:
             self._bracket(p, 0, node, [(nprev, into, prev.panels[-1])], (prev.name,), pa, pb,
                           insert=-nbar)
         return True
 
-    def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert) -> None:
-        """A bent bracket in the most open corner between panel ``j`` of the butted part ``p``
-        and a panel ``(n, v, quad)`` of the continuous plate ``cont``; records the joint."""
+    def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert,
+                 n_corners: int = 1) -> None:
+        """Bent brackets in the most open corner(s) between panel ``j`` of the butted part ``p``
+        and a panel ``(n, v, quad)`` of the continuous plate ``cont``; records the joint(s)."""
         quad = p.panels[j]
         line = pb - pa
         u = line / np.linalg.norm(line)
         vb = quad.mean(axis=0) - pa
         vb = vb - (vb @ u) * u
         vb = vb / np.linalg.norm(vb)
-        pick = corner([v for _, v, _ in cont], vb, line)
-        q, angle, why = None, 90.0, "no corner between 25 and 172 deg for a bracket"
-        if pick is not None:
-            i, angle = pick
+        picks = corners([v for _, v, _ in cont], vb, line)[:n_corners]
+        placed = 0
+        why = "no corner between 25 and 172 deg for a bracket"
+        for i, angle in picks:
             nc, vc, qc = cont[i]
             nb = quad_normals(quad[None])[0]
             nc = nc if nc @ vb > 0 else -nc
@@ -717,9 +736,13 @@ class FinSystem:
             q = place_connector(pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=self.thickness,
                                 gap=CONNECTOR_GAP * self.thickness)
             why = "the panels are too small for a bracket"
-            cdir = -(vc + vb)
-        self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, q,
-                     None if q is None else cdir, angle, p.name, why)
+            if q is not None:
+                self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, q,
+                             -(vc + vb), angle, p.name, why)
+                placed += 1
+        if not placed:
+            self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, None, None,
+                         picks[0][1] if picks else 90.0, p.name, why)
 
     def _splice(self, e: Part, p: Part, node: int, other) -> None:
         """A bent splice plate across the mitred seam between ``e`` (ending at ``node``) and
