@@ -218,13 +218,15 @@ def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarr
     return None
 
 
-def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray) -> list[tuple[int, float]]:
+def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray,
+            obstacles=()) -> list[tuple[int, float]]:
     """The panels of the continuous plate whose corners with the butted part can take a bracket.
 
     ``v_cont`` are the in-plane directions (from the node line) of the continuous plate's
     panels at the node, ``v_butt`` that of the butted part, ``line`` the node line direction.
     Returns ``[(index, angle in degrees)]`` of the corners between :data:`MIN_BRACKET_ANGLE`
-    and :data:`MAX_BRACKET_ANGLE` that no other panel of the plate lies in, most open first.
+    and :data:`MAX_BRACKET_ANGLE` that no other panel of the plate, nor any direction in
+    ``obstacles`` (other parts' panels and brackets at the node), lies in, most open first.
     """
     u = line / np.linalg.norm(line)
 
@@ -240,11 +242,14 @@ def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray) -> list[tuple[in
         # another panel of the plate inside this corner would be in the bracket's way
         if any(j != i and np.sign(b) == np.sign(a) and abs(b) < phi for j, b in enumerate(angles)):
             continue
+        inside = [ang(o) for o in obstacles]
+        if any(np.sign(b) == np.sign(a) and 0.5 < abs(b) < phi - 0.5 for b in inside):
+            continue
         out.append((i, phi))
     return sorted(out, key=lambda x: -x[1])
 
 
-def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h) -> np.ndarray:
+def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2) -> np.ndarray:
     """Corner ``cc`` of an end panel moved along its edge towards ``oc`` until the end face
     (``+-h m_end``) clears every panel ``(n, v)`` of the crossing plate by ``gap`` from its
     mid-plane (``pa`` a point of the node line). Raises :class:`_Untrimmable`."""
@@ -259,7 +264,7 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h) -> np.ndarray:
         s_new = -np.inf
         for nk, vk in panels:
             cos = u @ nk
-            if cos < 0.2:
+            if cos < min_cos:
                 raise _Untrimmable(f"its edge meets the plate at "
                                    f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
             pm, pp = base - h * m_end - pa, base + h * m_end - pa
@@ -297,10 +302,13 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     npan = quad_normals(quad[None])[0]
     d = npan @ nbar
     if 1.0 - d * d < 0.04:
-        raise _Untrimmable(f"meets the plate at {np.degrees(np.arccos(min(1.0, abs(d)))):.1f} deg")
-    # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
-    m_end = (npan - d * nbar) / (1.0 - d * d)
-    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
+        # nearly parallel plates (< 11.5 deg): an end cap along the plate would be a long
+        # sliver; cut the end square to the part instead and pull it back until it clears
+        m_end, min_cos = npan, 0.05
+    else:
+        # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
+        m_end, min_cos = (npan - d * nbar) / (1.0 - d * d), 0.2
+    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_cos)
              for cc, oc in ((ia, ja), (ib, jb))}
     if not all(np.isfinite(x).all() for x in moved.values()):
         raise _Untrimmable("trim failed (non-finite)")

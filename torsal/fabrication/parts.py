@@ -611,11 +611,15 @@ class FinSystem:
         gap, h = 0.5 * self.thickness + 0.5 * self.clearance, 0.5 * self.thickness
         present = st.passes | st.ends
         # where several strips of one family end at a node (and none passes), the first is the
-        # base the others butt against
-        base: dict[tuple[int, int], tuple] = {}
+        # base; each other butts against the base and those butted before it
+        base: dict[tuple[int, int], list] = {}
         for (fam, v), lst in plate.items():
             if not st.passes[fam, v] and len({ref[0] for _, _, ref in lst}) >= 2:
-                base[(fam, v)] = lst[0]
+                base[(fam, v)] = [e for e in lst if e[2][0] == lst[0][2][0]]
+        self._dirs: dict[int, list] = {}
+        for (fam, v), lst in plate.items():
+            self._dirs.setdefault(v, []).extend(d for _, d, _ in lst)
+        self._bracket_dirs: dict[int, list] = {}
         for si, parts in enumerate(part_of_strip):
             fam = st.fins[si].family
             for p in parts:
@@ -632,8 +636,9 @@ class FinSystem:
                     if fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node])):
                         trimmed[end] = self._butt(p, end, node, g, st, gap, h,
                                                   bridge=fam == 1 and bridged)
-                    elif b is not None and b[2][0] != si and kind in ("end", "dropped"):
-                        trimmed[end] = self._butt(p, end, node, [b], st, gap, h)
+                    elif b is not None and b[0][2][0] != si and kind in ("end", "dropped"):
+                        trimmed[end] = self._butt(p, end, node, list(b), st, gap, h)
+                        b += [e for e in plate.get((fam, node), []) if e[2][0] == si]
                     elif kind == "fold" and end == 0:
                         prev = self._previous(parts, p, st.quads[si])
                         trimmed[0] = self._fold_butt(p, prev, st.quads[si], node, gap, h,
@@ -725,7 +730,9 @@ class FinSystem:
         vb = quad.mean(axis=0) - pa
         vb = vb - (vb @ u) * u
         vb = vb / np.linalg.norm(vb)
-        picks = corners([v for _, v, _ in cont], vb, line)[:n_corners]
+        # other parts' panels and the brackets already there must not be in the corner
+        obstacles = [v for v in self._dirs.get(node, [])] + self._bracket_dirs.get(node, [])
+        picks = corners([v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
         placed = 0
         why = "no corner between 25 and 172 deg for a bracket"
         for i, angle in picks:
@@ -739,6 +746,7 @@ class FinSystem:
             if q is not None:
                 self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, q,
                              -(vc + vb), angle, p.name, why)
+                self._bracket_dirs.setdefault(node, []).append((vc + vb) / np.linalg.norm(vc + vb))
                 placed += 1
         if not placed:
             self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, None, None,
