@@ -212,8 +212,13 @@ def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarr
         if (1 - 2 * lo) * depth < 2.0 * t:
             break
         q = bracket_panels(a + lo * depth * u, a + (1 - lo) * depth * u, side1, side2, offset, ell)
-        # on the convex side of a fold the bend lies (up to ~t) beyond the fold line
-        if _inside(q[0], panel1, t) and _inside(q[1], panel2, t):
+        # the outer 60 % of each leg must lie on its panel; nearer the bend a leg may pass the
+        # trimmed end of a butted part (the clearance) or a convex fold line
+        outer0 = np.array([q[0, 0], q[0, 0] + 0.6 * (q[0, 1] - q[0, 0]),
+                           q[0, 3] + 0.6 * (q[0, 2] - q[0, 3]), q[0, 3]])
+        outer1 = np.array([q[1, 1] + 0.6 * (q[1, 0] - q[1, 1]), q[1, 1], q[1, 2],
+                           q[1, 2] + 0.6 * (q[1, 3] - q[1, 2])])
+        if _inside(outer0, panel1, 1e-6 * depth) and _inside(outer1, panel2, 1e-6 * depth):
             return q
     return None
 
@@ -249,10 +254,13 @@ def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray,
     return sorted(out, key=lambda x: -x[1])
 
 
-def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2) -> np.ndarray:
+def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2,
+                line: np.ndarray | None = None) -> np.ndarray:
     """Corner ``cc`` of an end panel moved along its edge towards ``oc`` until the end face
     (``+-h m_end``) clears every panel ``(n, v)`` of the crossing plate by ``gap`` from its
-    mid-plane (``pa`` a point of the node line). Raises :class:`_Untrimmable`."""
+    mid-plane (``pa`` a point of the node line). With ``line`` (unit direction of the node
+    line) the edge where the plate's faces meet at a fold (``pa + h m``, mitre ``m``) is kept
+    ``gap - h`` clear of the end face too. Raises :class:`_Untrimmable`."""
     u = quad[oc] - quad[cc]
     L = np.linalg.norm(u)
     if not L > 0:
@@ -262,18 +270,35 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2
     for _ in range(4):      # laterals move a little with the trim: iterate
         base = quad[cc] + s_req * u
         s_new = -np.inf
+        pm, pp = base - h * m_end - pa, base + h * m_end - pa
+        behind = []                # end-face points beyond the fold line of every panel
         for nk, vk in panels:
             cos = u @ nk
             if cos < min_cos:
                 raise _Untrimmable(f"its edge meets the plate at "
                                    f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
-            pm, pp = base - h * m_end - pa, base + h * m_end - pa
             lm, lp = pm @ vk, pp @ vk
             pts = [x for x, l in ((pm, lm), (pp, lp)) if l >= 0 or len(panels) == 1]
             if (lm < 0) != (lp < 0):   # the end face crosses the fold line
                 pts.append(pm + (lm / (lm - lp)) * (pp - pm))
             for x in pts:
                 s_new = max(s_new, s_req + (gap - x @ nk) / cos)
+        if len(panels) > 1:
+            # a point behind every panel's fold line is next to the mitred (convex) corner of
+            # the plate: it clears the plate once it clears the face plane of any panel
+            for x in (pm, pp):
+                if all(x @ vk < 0 for _, vk in panels):
+                    s_new = max(s_new, min(s_req + (gap - x @ nk) / (u @ nk) for nk, _ in panels))
+            if line is not None and abs(panels[0][0] @ panels[1][0]) < 0.9999:
+                # the plate's fold edge on this side must stay behind the end face
+                edge = h * _miter(panels[0][0], panels[1][0])
+                rel = base - pa
+                pc = edge + ((rel - edge) @ line) * line           # at the height of this corner
+                w = np.cross(m_end, line)
+                w = w / np.linalg.norm(w) * (1.0 if np.cross(m_end, line) @ u >= 0 else -1.0)
+                npan = m_end / np.linalg.norm(m_end)
+                if abs((pc - rel) @ npan) <= h + (gap - h) and u @ w > 0.05:
+                    s_new = max(s_new, s_req + ((gap - h) - (rel - pc) @ w) / (u @ w))
         if not np.isfinite(s_new):
             raise _Untrimmable("its end does not lie over the other plate's panels")
         done = abs(s_new - s_req) <= 1e-12 * L
@@ -308,7 +333,9 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     else:
         # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
         m_end, min_cos = (npan - d * nbar) / (1.0 - d * d), 0.2
-    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_cos)
+    line = quad[ib] - quad[ia]
+    line = line / np.linalg.norm(line)
+    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_cos, line=line)
              for cc, oc in ((ia, ja), (ib, jb))}
     if not all(np.isfinite(x).all() for x in moved.values()):
         raise _Untrimmable("trim failed (non-finite)")
