@@ -25,7 +25,7 @@ import numpy as np
 
 from torsal.core.atomic import atomic_path
 
-from .model import Part, SlotSide
+from .model import CONNECTOR_FAMILY, Part, SlotSide
 from .unroll import unroll
 from torsal.core.errors import TorsalError
 
@@ -515,7 +515,7 @@ def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | 
 
 def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     """Rhino 3DM (through rhino3dm): one named mesh object per part on a layer per family
-    (``family 0``, ``family 1``), coloured by family, model units set to ``unit``."""
+    (``family 0``, ``family 1``, ``connectors``), coloured by family, model units set to ``unit``."""
     import rhino3dm
 
     model = rhino3dm.File3dm()
@@ -527,7 +527,8 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     for p in fin_system.parts:
         if p.family not in layers:
             lay = rhino3dm.Layer()
-            lay.Name = f"family {p.family}" if p.family >= 0 else "developable"
+            lay.Name = (f"family {p.family}" if p.family >= 0 else
+                        "connectors" if p.family == CONNECTOR_FAMILY else "developable")
             lay.Color = tuple(int(255 * c) for c in p.color) + (255,)
             layers[p.family] = model.Layers.Add(lay)
     meshes = _tessellate(fin_system, tolerance)
