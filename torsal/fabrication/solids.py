@@ -327,11 +327,12 @@ def _build_chunk(args):
 
 def default_workers(n_parts: int) -> int:
     """Processes for building ``n_parts`` solids: one per available core, 1 for small jobs
-    (starting a worker costs about as much as building 20 parts)."""
+    (starting the workers, which import OpenCascade, costs about as much as building 200
+    parts)."""
     import os
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, min(cores, n_parts // 40))
+    return max(1, min(cores, n_parts // 200))
 
 
 def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
@@ -345,7 +346,13 @@ def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
     # interleaved chunks of about equal work; a few per worker so that none waits long
     n_chunks = min(len(parts), 4 * workers)
     chunks = [parts[i::n_chunks] for i in range(n_chunks)]
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
+    # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can deadlock
+    # in the child: workers are forked from a clean server that has imported this module
+    if "forkserver" in mp.get_all_start_methods():
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(["torsal.fabrication.solids", "build123d"])
+    else:
+        ctx = mp.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         done = list(pool.map(_build_chunk, [(c, thickness, repair) for c in chunks]))
     by_name = {p.name: p for p in parts}
@@ -366,7 +373,8 @@ def build_solids(fin_system, *, repair: bool = True, workers: int | None = None)
     connectors).
 
     Solids are independent per part: with ``workers > 1`` (default :func:`default_workers`)
-    they are built in forked processes and sent back as OpenCascade binary BReps. All parts
+    they are built in worker processes (forked from a clean server process) and sent back as
+    OpenCascade binary BReps. All parts
     are attempted; if any is invalid an :class:`InvalidSolidError` listing every invalid part
     id is raised.
     """
