@@ -2,6 +2,7 @@
 5,100 panels; prints a table with the times and the sheet utilization. Solids are built twice:
 serially (``solids_1_s``) and by one process per core (``solids_par_s``, issue 15); the load
 average (``uptime``) is printed next to the table, since other jobs may share the cores.
+The assembly check (interference and assembly order, one process and two) is timed too.
 
 The structure is a lat/long grid on a sphere of radius 10 m with node lines through the centre
 (exactly planar fins), ~300 mm panels, 150 mm fins, 3 mm plate, parts of at most 8 panels (2.4 m),
@@ -39,7 +40,7 @@ def sphere_grid(n_panels: int, radius: float = 10.0, panel: float = 0.3, depth: 
                             np.r_[np.zeros(len(e0), int), np.ones(len(e1), int)])
 
 
-def run(n: int, out: Path, solids: bool = True, max_panels: int = 8) -> dict:
+def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: bool = True) -> dict:
     s = sphere_grid(n)
     row = {"panels": len(s.edges)}
     t0 = time.perf_counter()
@@ -51,6 +52,8 @@ def run(n: int, out: Path, solids: bool = True, max_panels: int = 8) -> dict:
     row["connectors"] = len(fs.connectors)
     if solids:
         row.update(time_solids(fs, out / f"fins_{n}.step"))
+        if verify:
+            row.update(verification_times(fs, out / f"fins_{n}.step"))
     t0 = time.perf_counter()
     fs.unrolled()
     row["unroll_s"] = time.perf_counter() - t0
@@ -94,21 +97,39 @@ def load_average() -> str:
     return f"{os.getloadavg()[0]:.2f}"
 
 
+def verification_times(fs, step_file: Path, workers=(1, 2)) -> dict:
+    """Seconds of the assembly check (``verify_assembly`` on the solids re-read from
+    ``step_file``) with one process and with two, and what it found."""
+    from torsal.fabrication import verify_assembly
+
+    row = {}
+    for w in workers:
+        t0 = time.perf_counter()
+        check = verify_assembly(fs, step_file=step_file, workers=w)
+        row[f"verify_{w}p_s"] = time.perf_counter() - t0
+    row["touching"] = check.pairs_checked
+    row["interfering"] = check.interfering_pairs
+    return row
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 5100])
     ap.add_argument("--no-solids-above", type=int, default=10**9,
                     help="skip the OpenCascade solids/STEP above this many panels")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--no-verify-above", type=int, default=10**9,
+                    help="skip the assembly check above this many panels")
     args = ap.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="torsal_fab_bench_"))
     out.mkdir(parents=True, exist_ok=True)
     cols = ["panels", "parts", "connectors", "parts_s", "solids_1_s", "solids_par_s", "step_s",
-            "unroll_s", "nest_s", "dxf_s", "sheets", "util", "load"]
+            "unroll_s", "nest_s", "dxf_s", "sheets", "util", "verify_1p_s", "verify_2p_s",
+            "touching", "interfering", "load"]
     print("| " + " | ".join(cols) + " |")
     print("|" + "---|" * len(cols))
     for n in args.sizes:
-        r = run(n, out, solids=n <= args.no_solids_above)
+        r = run(n, out, solids=n <= args.no_solids_above, verify=n <= args.no_verify_above)
         r["load"] = load_average()
         cells = []
         for c in cols:

@@ -30,7 +30,8 @@ BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 
 def run(path: Path, out: Path) -> dict:
     t0 = time.perf_counter()
-    res = Design.from_toml(path).run(out / path.stem, use_cache=False)
+    # an unbuildable example is measured and reported (interfering pairs column), not aborted
+    res = Design.from_toml(path).run(out / path.stem, use_cache=False, accept_unbuildable=True)
     r = res.report
     r["wall_s"] = time.perf_counter() - t0
     r["stage_s"] = res.stage_seconds
@@ -41,14 +42,37 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} | | | | | | | {paper} |"
+        return f"| {key} | failed: {err} | | | | | | | | {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
             f"{r['wall_s']:.0f} | {s['delta_pl_extracted']:.1e} | {s['delta_pl_optimized']:.1e} | "
             f"{100 * li['blocked_share']:.0f}% ({100 * li['baseline_louvers']['blocked_share']:.0f}%) | "
             f"{100 * li['transparency']:.0f}% ({100 * li['baseline_louvers']['transparency']:.0f}%) | "
-            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {paper} |")
+            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | "
+            f"{interfering_cell(fa.get('assembly'))} | {paper} |")
+
+
+def interfering_cell(a: dict | None) -> str:
+    """Interfering pairs found by the assembly stage (exact booleans on fins.step), the worst
+    overlap, and parts that cannot be inserted."""
+    if a is None:
+        return "-"
+    cell = str(a["interfering_pairs"])
+    if a["interfering_pairs"]:
+        cell += f" (worst {a['worst_overlap_mm3']:,.0f} mm³, {len(a['interfering_parts'])} parts)"
+    if a["blocked_parts"]:
+        cell += f", {len(a['blocked_parts'])} blocked"
+    return cell
+
+
+def _pad(line: str, bars: int) -> str:
+    """A kept row of an older table with fewer columns: "not run" cells before the paper's."""
+    cells = line.strip().strip("|").split("|")
+    missing = bars - 1 - len(cells)
+    if missing > 0:
+        cells = cells[:-1] + [" not run "] * missing + cells[-1:]
+    return "|" + "|".join(cells) + "|"
 
 
 def _figure_key(key: str):
@@ -64,8 +88,8 @@ def main():
     out = Path(args.out)
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
-             "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "interfering pairs | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:
@@ -85,7 +109,8 @@ def main():
         old, tail = rest.split(END, 1)
         if args.only:  # keep the rows of the examples not re-run
             new = {ln.split("|")[1].strip(): ln for ln in lines[2:]}
-            kept = [ln for ln in old.strip().splitlines()[2:] if ln.split("|")[1].strip() not in new]
+            kept = [_pad(ln, lines[0].count("|")) for ln in old.strip().splitlines()[2:]
+                    if ln.split("|")[1].strip() not in new]
             rows = sorted(kept + list(new.values()), key=lambda ln: _figure_key(ln.split("|")[1].strip()))
             lines = lines[:2] + rows
         table = "\n".join(lines)

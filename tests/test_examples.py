@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import torsal.fabrication
 from torsal.design import Design
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
@@ -14,8 +15,52 @@ REPORT_KEYS = {
                    "working_set"},
     "support": {"quads", "edges", "delta_pl_extracted", "delta_pl_optimized", "solve_s"},
     "light": {"blocked_share", "transparency", "baseline_louvers"},
-    "fabrication": {"parts", "panels", "sheets", "utilization", "step", "dxf"},
+    "fabrication": {"parts", "panels", "sheets", "utilization", "step", "dxf", "assembly"},
 }
+ASSEMBLY_KEYS = {"pairs_checked", "interfering_pairs", "worst_overlap_mm3", "buildable", "joints",
+                 "connectors"}
+#: the per-node joinery (issue 15, part 1) has landed: every example must assemble
+JOINERY = hasattr(torsal.fabrication, "JointKind")
+
+
+def recount_interference(step_file) -> list[float]:
+    """Common volumes (mm^3) above 1 mm^3 of every pair of solids in a STEP file, worst first,
+    counted independently of torsal.fabrication.assembly: every pair whose vertex boxes
+    overlap, intersected with BRepAlgoAPI_Common."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    from torsal.fabrication import read_step
+
+    solids = read_step(step_file)
+
+    def box(shape):
+        from OCP.BRep import BRep_Tool
+        from OCP.TopAbs import TopAbs_VERTEX
+        from OCP.TopExp import TopExp_Explorer
+        from OCP.TopoDS import TopoDS
+
+        pts, ex = [], TopExp_Explorer(shape, TopAbs_VERTEX)
+        while ex.More():
+            p = BRep_Tool.Pnt_s(TopoDS.Vertex(ex.Current()))
+            pts.append((p.X(), p.Y(), p.Z()))
+            ex.Next()
+        pts = np.asarray(pts)
+        return pts.min(0) - 1.0, pts.max(0) + 1.0
+
+    boxes = [box(s) for _, s in solids]
+    volumes = []
+    for i in range(len(solids)):
+        for j in range(i + 1, len(solids)):
+            (lo1, hi1), (lo2, hi2) = boxes[i], boxes[j]
+            if (lo1 > hi2).any() or (lo2 > hi1).any():
+                continue
+            props = GProp_GProps()
+            BRepGProp.VolumeProperties_s(BRepAlgoAPI_Common(solids[i][1], solids[j][1]).Shape(), props)
+            if abs(props.Mass()) > 1.0:
+                volumes.append(abs(props.Mass()))
+    return sorted(volumes, reverse=True)
 
 
 def small(design: Design) -> Design:
@@ -47,7 +92,7 @@ def test_every_figure_has_an_example():
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_example_runs_small(path, tmp_path):
     d = small(Design.from_toml(path))
-    res = d.run(tmp_path)
+    res = d.run(tmp_path, accept_unbuildable=not JOINERY)
     report = json.loads((tmp_path / "report.json").read_text())
     for section, keys in REPORT_KEYS.items():
         assert keys <= set(report[section]), (section, keys - set(report[section]))
@@ -59,9 +104,21 @@ def test_example_runs_small(path, tmp_path):
     assert s["edges"] > 10 and s["delta_pl_optimized"] <= max(1e-4, s["delta_pl_extracted"])
     assert 0.0 <= li["blocked_share"] <= 1.0 and 0.0 <= li["transparency"] <= 1.0
     assert fa["parts"] > 0 and fa["sheets"] > 0 and 0 < fa["utilization"] <= 1
+    # the assembly check, and an independent recount of its interference from fins.step
+    a = fa["assembly"]
+    assert ASSEMBLY_KEYS <= set(a)
+    assert a["pairs_checked"] >= a["interfering_pairs"] and a["parts"] == fa["parts"]
+    recount = recount_interference(tmp_path / "fins.step")
+    assert a["interfering_pairs"] == len(recount)
+    assert a["worst_overlap_mm3"] == pytest.approx(recount[0] if recount else 0.0, rel=1e-6)
+    assert a["buildable"] == (not recount and not a["blocked_parts"] and not a["failed_pairs"])
+    if JOINERY:
+        assert a["interfering_pairs"] == 0 and a["buildable"], a["interfering"]
+    assert sum(1 for _ in open(tmp_path / "assembly.csv")) == fa["parts"] + 1
+    assert "Assembly check" in (tmp_path / "report.html").read_text()
     for name in ["report.json", "report.html", "congruence.ply", "support.obj", "fins.step",
                  "fins.3dm", "parts.csv", "fins.png", "torsal_field.png", "blocked_sun.png",
-                 "sheets.png", *fa["dxf"]]:
+                 "sheets.png", "assembly.csv", "assembly.png", *fa["dxf"]]:
         assert (tmp_path / name).stat().st_size > 0, name
     if d.spec.substructure is not None:
         assert report["substructure"]["edges"] > 10
@@ -74,13 +131,13 @@ def test_example_runs_small(path, tmp_path):
 
 def test_changing_only_the_material_reruns_only_fabrication(tmp_path):
     d = small(Design.from_toml(EXAMPLES[0]))
-    first = d.run(tmp_path)
+    first = d.run(tmp_path, accept_unbuildable=True)
     assert first.cached == []
-    again = d.run(tmp_path)
+    again = d.run(tmp_path, accept_unbuildable=True)
     assert set(again.cached) == {"surface", "sun", "congruence", "remesh", "support", "light",
-                                 "fabrication"}
+                                 "fabrication", "assembly"}
     thicker = Design(d.spec.model_copy(update={"material": d.spec.material.model_copy(
         update={"thickness_mm": 5.0})}))
-    third = thicker.run(tmp_path)
-    assert "fabrication" not in third.cached
+    third = thicker.run(tmp_path, accept_unbuildable=True)
+    assert "fabrication" not in third.cached and "assembly" not in third.cached
     assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support", "light"}

@@ -1,7 +1,11 @@
 """The ``torsal`` command line: parses, shows progress, calls :mod:`torsal.design`.
 
 No geometry here; this is the only module that prints to the terminal.
-Exit status: 0 on success, 2 on bad input (a message names the problem), 1 on other failures.
+Exit status: 0 on success, 2 on bad input (a message names the problem), 1 on other failures,
+3 when ``torsal design`` finished but the design is not buildable: the assembly check found
+parts that interfere or cannot be inserted (the message names them; every output, report
+included, is written). ``--accept-unbuildable`` accepts such a design: exit 0, and the
+summary still says NOT BUILDABLE.
 """
 from __future__ import annotations
 
@@ -36,6 +40,9 @@ def _build_parser() -> argparse.ArgumentParser:
     d.add_argument("file", help="TOML design file")
     d.add_argument("--out", metavar="DIR", required=True, help="output folder")
     d.add_argument("--no-cache", action="store_true", help="recompute every stage")
+    d.add_argument("--accept-unbuildable", action="store_true",
+                   help="finish with exit status 0 even if the assembly check finds interfering "
+                        "parts (default: exit status 3, naming them)")
     return p
 
 
@@ -43,7 +50,7 @@ def _design(args, console) -> int:
     from rich.live import Live
     from rich.table import Table
 
-    from .design import STAGES, Design
+    from .design import STAGES, Design, UnbuildableDesignError
 
     design = Design.from_toml(args.file)
     status = {s: ("waiting", "") for s in STAGES}
@@ -58,7 +65,8 @@ def _design(args, console) -> int:
         t.add_column("detail")
         for s in STAGES:
             st, detail = status[s]
-            colour = {"done": "green", "cached": "cyan", "running": "yellow"}.get(st, "dim")
+            colour = {"done": "green", "cached": "cyan", "running": "yellow",
+                      "NOT BUILDABLE": "bold red"}.get(st, "dim")
             t.add_row(s, f"[{colour}]{st}[/]", detail)
         return t
 
@@ -74,15 +82,35 @@ def _design(args, console) -> int:
                 status[stage] = ("done", f"{info['seconds']:.1f} s")
             elif event == "cached":
                 status[stage] = ("cached", "inputs unchanged")
+            elif event == "progress":
+                status[stage] = ("running", f"{info.get('phase')} {info.get('done')}/{info.get('total')}")
             live.update(render())
 
-        res = design.run(args.out, progress=progress, use_cache=not args.no_cache)
+        try:
+            res = design.run(args.out, progress=progress, use_cache=not args.no_cache,
+                             accept_unbuildable=args.accept_unbuildable)
+        except UnbuildableDesignError as exc:
+            status["assembly"] = ("NOT BUILDABLE", ", ".join(exc.parts[:4]))
+            live.update(render())
+            console.print(f"[bold red]not buildable:[/] {exc}")
+            console.print(f"outputs and report written to {args.out} (report: {args.out}/report.html, "
+                          f"steps: {args.out}/assembly.csv); pass --accept-unbuildable to accept")
+            return 3
     r = res.report
     s, li, fa = r["support"], r["light"], r["fabrication"]
     console.print(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
                   f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
                   f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
                   f"{fa['parts']} parts on {fa['sheets']} sheets")
+    for gate in (r["congruence"].get("joinery"), s.get("joinery")):
+        if gate and gate.get("message"):
+            console.print(f"[yellow]joinery:[/] {gate['message']}")
+    asm = fa.get("assembly")
+    if asm is not None and not asm["buildable"]:
+        from .pipeline.assembly import unbuildable_message
+
+        console.print(f"[bold red]NOT BUILDABLE (accepted with --accept-unbuildable):[/] "
+                      f"{unbuildable_message(asm)}")
     console.print(f"wrote {len(res.files)} outputs to {args.out} (report: {args.out}/report.html)")
     return 0
 

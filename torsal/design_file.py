@@ -43,6 +43,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from .core.errors import TorsalError
 from .core.units import UNIT_TO_M
+from .geometry.support import PLANARITY_TOL
 
 __all__ = [
     "DesignFileError",
@@ -221,7 +222,12 @@ class FinsSpec(_Spec):
     spacing: float = Field(gt=0, description="fin spacing, model units")
     depth: float = Field(gt=0, description="fin depth along the lines, model units")
     optimize: bool = True
-    planarity_tol: float = Field(1e-4, gt=0)
+    planarity_tol: float = Field(PLANARITY_TOL, gt=0)
+    max_fold_at_crossing: float | None = Field(
+        None, gt=0, lt=180, description="degrees: a strip folding more than this where a strip "
+        "of the other family crosses it is named in report.json (support.joinery) and split "
+        "there with a connector instead of slotted; default: the joinery's limit "
+        "(MAX_CROSSING_FOLD, 10 degrees)")
     developable_levels: int = Field(0, ge=0, le=3)
 
 

@@ -10,7 +10,7 @@ from ._io import atomic_path
 from .geometry.mesh import area_vector
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
-           "design_report_html", "write_design_report"]
+           "design_report_html", "write_design_report", "plot_assembly"]
 
 
 def principal_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -245,6 +245,55 @@ def plot_sheets(layout, path: str | Path, *, max_sheets: int = 6) -> Path:
     return Path(path).parent / _save(fig, Path(path))
 
 
+def plot_assembly(solids, check, path, *, title: str | None = None) -> Path:
+    """3D view of every part (family 0 orange, family 1 blue, connectors green, grey
+    otherwise) with interfering parts red and parts that cannot be inserted magenta."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from .fabrication import face_polygons
+
+    items = list(solids.items()) if hasattr(solids, "items") else list(solids)
+    bad = set(check.interfering_parts)
+    blocked = {s.part for s in check.blocked}
+    fig = _figure((9, 7))
+    ax = fig.add_subplot(projection="3d")
+    polys, colors, pts = [], [], []
+    for name, solid in items:
+        if name in bad:
+            col = (0.85, 0.05, 0.05, 1.0)
+        elif name in blocked:
+            col = (0.8, 0.0, 0.8, 1.0)
+        elif name.startswith("F0"):
+            col = (0.93, 0.55, 0.14, 0.35)
+        elif name.startswith("F1"):
+            col = (0.16, 0.45, 0.78, 0.35)
+        elif name.startswith("C"):
+            col = (0.30, 0.65, 0.30, 0.6)
+        else:
+            col = (0.5, 0.5, 0.5, 0.35)
+        for poly in face_polygons(solid):
+            polys.append(poly)
+            colors.append(col)
+            pts.append(poly)
+    if pts:
+        p = np.concatenate(pts)
+        lo, hi = p.min(0), p.max(0)
+        c, r = 0.5 * (lo + hi), 0.5 * float((hi - lo).max())
+        ax.add_collection3d(Poly3DCollection(polys, facecolors=colors, edgecolors="none"))
+        ax.set_xlim(c[0] - r, c[0] + r)
+        ax.set_ylim(c[1] - r, c[1] + r)
+        ax.set_zlim(c[2] - r, c[2] + r)
+    ax.set_xlabel(f"x ({check.unit})")
+    ax.set_ylabel(f"y ({check.unit})")
+    ax.set_zlabel(f"z ({check.unit})")
+    verdict = ("buildable" if check.buildable else
+               f"NOT buildable: {check.interfering_pairs} interfering pairs (red, "
+               f"{len(bad)} parts), {len(blocked)} parts blocked (magenta)")
+    ax.set_title(title or f"{len(items)} parts, {check.pairs_checked} touching pairs checked; "
+                 f"{verdict}", fontsize=9)
+    return Path(path).parent / _save(fig, Path(path))
+
+
 _HTML = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title>
 <style>
@@ -284,6 +333,51 @@ def _constraints_state(c: dict) -> str:
         c.get("constraints_active"), "none")
 
 
+def _gate_rows(gate: dict | None, what: str, count_key: str) -> list:
+    """Table rows of a joinery quality gate (see :mod:`torsal.pipeline.assembly`)."""
+    if not gate:
+        return []
+    label = what.format(**gate)
+    if not gate[count_key]:
+        return [(label, '<span class="ok">none</span>')]
+    return [(label, f'<span class="bad">{gate[count_key]}</span>: {html.escape(gate["message"])}')]
+
+
+def _assembly_html(a: dict, max_steps: int = 300) -> str:
+    """Section 5: the assembly check (verdict, numbers, picture) and the assembly sequence."""
+    verdict = ('<span class="ok">buildable</span>' if a["buildable"] else
+               '<span class="bad">NOT BUILDABLE</span>')
+    inter = "; ".join(f"{html.escape(x['parts'][0])} / {html.escape(x['parts'][1])} "
+                      f"({x['volume_mm3']:.3g} mm&sup3;)" for x in a.get("interfering", [])[:30])
+    rows = [("verdict", verdict), ("touching pairs checked (exact boolean)", a["pairs_checked"]),
+            ("interfering pairs (common volume &gt; 1 mm&sup3;)", a["interfering_pairs"]),
+            ("worst overlap (mm&sup3;)", float(a["worst_overlap_mm3"])),
+            ("parts that cannot be inserted", ", ".join(map(html.escape, a.get("blocked_parts", [])))
+             or "none"),
+            ("joints", ", ".join(f"{k}: {v}" for k, v in a["joints"].items()) or "none"),
+            ("connectors", ", ".join(f"{k}: {v}" for k, v in a["connectors"].items()) or "none")]
+    if inter:
+        rows.append(("interfering parts", inter + (" ..." if len(a["interfering"]) > 30 else "")))
+    out = ["<h2>5. Assembly check</h2>", _table(rows)]
+    if a.get("picture"):
+        out.append(f'<img src="{a["picture"]}" alt="parts, interfering ones in red">')
+    seq = a.get("sequence", [])
+    if seq:
+        def direction(d):
+            return "set in place" if d is None else "(" + ", ".join(f"{x:+.2f}" for x in d) + ")"
+
+        srows = [(st["step"], html.escape(st["part"]), direction(st["insert_direction"]),
+                  html.escape(" ".join(st["joints"])), html.escape(" ".join(st["partners"])),
+                  '<span class="ok">clear</span>' if st["clear"] else '<span class="bad">collides</span>')
+                 for st in seq[:max_steps]]
+        csv = a.get("csv", "assembly.csv")
+        out.append(f'<h3>Assembly sequence ({len(seq)} steps, <a href="{csv}">{csv}</a>)</h3>'
+                   + _table(srows, ("step", "part", "insert along", "joints", "joins", "path")))
+        if len(seq) > max_steps:
+            out.append(f"<p>... {len(seq) - max_steps} more steps in {csv}</p>")
+    return "\n".join(out)
+
+
 def design_report_html(report: dict, images: dict, title: str) -> str:
     """The HTML report: tables of every figure in ``report`` and the PNGs next to it."""
     c, s, li, fa = (report.get(k, {}) for k in ("congruence", "support", "light", "fabrication"))
@@ -299,6 +393,8 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
         rows += [(f"energy {k} (before &rarr; after)",
                   f"{c['energies_before'].get(k, float('nan')):.4g} &rarr; {v:.4g}")
                  for k, v in c["energies"].items()]
+        rows += _gate_rows(c.get("joinery"), "torsal planes crossing at less than "
+                           "{min_crossing_angle_deg:g}&deg; (joinery limit)", "faces_below")
         secs.append("<h2>1. Optimized line congruence (paper 4.1)</h2>" + _table(rows))
         if "torsal_field" in images:
             secs.append(f'<img src="{images["torsal_field"]}" alt="torsal direction fields">')
@@ -309,6 +405,8 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
                 ("delta_pl after optimization",
                  f'<span class="{"ok" if ok else "bad"}">{s["delta_pl_optimized"]:.2e}</span>'),
                 ("support optimization (s)", s["solve_s"]), ("status", html.escape(s["status"]))]
+        rows += _gate_rows(s.get("joinery"), "crossings where a strip folds more than "
+                           "{max_fold_at_crossing_deg:g}&deg;", "nodes_above")
         secs.append("<h2>2. Torsion-free support structure (paper 4.2, eq. 8)</h2>" + _table(rows))
         if "fins" in images:
             secs.append(f'<img src="{images["fins"]}" alt="fins coloured by planarity">')
@@ -331,6 +429,8 @@ def design_report_html(report: dict, images: dict, title: str) -> str:
         secs.append("<h2>4. Fabrication</h2>" + _table(rows))
         if "sheets" in images:
             secs.append(f'<img src="{images["sheets"]}" alt="nested cutting sheets">')
+        if fa.get("assembly"):
+            secs.append(_assembly_html(fa["assembly"]))
     return _HTML.format(title=html.escape(title), units=html.escape(str(report.get("units", ""))),
                         sections="\n".join(secs))
 

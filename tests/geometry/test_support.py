@@ -126,3 +126,28 @@ def test_refine_developable_gives_planar_smooth_strips(saddle_structure):
         return np.max(out)
     assert turning(strips1) < turning(strips0)
     assert distance_to_A(V, F, r.vertices_a).max() <= 0.01 * c.delta
+
+
+def test_default_reaches_the_planarity_a_sheet_part_needs(saddle_structure):
+    # a weak planarity weight (as a user may set to favour proximity) leaves the fins warped;
+    # the default goes on with planarity as a hard constraint until delta_pl <= 1e-4
+    from torsal.geometry.support import PLANARITY_TOL
+
+    V, F, c, s = saddle_structure
+    short = dict(rounds=1, weights={"plnr": 1e-4})
+    soft = optimize_support(s, (V, F), planarity_tol=None, **short)
+    assert soft.structure.delta_pl > PLANARITY_TOL          # the paper's soft eq. (8) alone
+    r = optimize_support(s, (V, F), **short)
+    assert r.success, r.status
+    assert r.structure.delta_pl <= PLANARITY_TOL == 1e-4
+    assert np.abs(r.structure.planarity()).max() == r.delta_pl_after
+    assert "hard constraint" in r.status and r.delta_pl_before == s.delta_pl
+    assert distance_to_A(V, F, r.structure.vertices_a).max() <= 0.01 * c.delta
+
+
+def test_default_says_why_when_planarity_is_not_reached(saddle_structure):
+    V, F, c, s = saddle_structure
+    r = optimize_support(s, (V, F), rounds=1, max_iter=2, planarity_tol=1e-12)
+    assert not r.success
+    assert r.structure.delta_pl > 1e-12
+    assert "not planar enough" in r.status and "1e-12" in r.status

@@ -10,6 +10,8 @@ from .parts import (Crossing, FamilySplit, FinSystem, Part, PartId, Slot, SlotSi
                     quad_normals)
 from .solids import InvalidSolidError, export_step, part_solid, read_step
 from .unroll import Unrolled, fold_back, unroll
+from .assembly import (AssemblyCheck, AssemblyJoint, AssemblyStep, Interference, check_assembly,
+                       face_polygons, joints_of, verify_assembly)
 
 __all__ = [
     "FinSystem", "FamilySplit", "Part", "PartId", "Slot", "SlotSide", "Crossing",
@@ -17,4 +19,6 @@ __all__ = [
     "Placement", "PartTooLargeError", "bill_of_materials", "read_dxf_parts",
     "InvalidSolidError", "part_solid", "export_step", "read_step", "Joint", "JointKind",
     "slot_width", "MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD",
+    "AssemblyCheck", "AssemblyJoint", "AssemblyStep", "Interference", "check_assembly",
+    "joints_of", "verify_assembly", "face_polygons",
 ]

@@ -8,13 +8,15 @@ the edges of one family chain into strips: the discrete developables of Fig. 5.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from torsal.core.atomic import atomic_path
 
-__all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support",
+__all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support", "PLANARITY_TOL",
+           "crossing_folds",
            "SupportOptimizationResult", "SupportWeights", "graph_laplacian", "closest_points"]
 
 
@@ -41,6 +43,52 @@ def fin_planarity(quads: np.ndarray) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         dist = np.abs(np.einsum("ij,ij->i", q[:, 1] - q[:, 0], n)) / np.where(parallel, 1.0, nn)
         return np.where(parallel, 0.0, dist) / mean_len
+
+
+def crossing_folds(structure: "SupportStructure") -> tuple[np.ndarray, np.ndarray]:
+    """Fold of each family's strip at every crossing, degrees.
+
+    A crossing is a node that a strip of family 0 and a strip of family 1 both pass through
+    (the node is interior to both). The fold of a strip at a node is the angle between the
+    normals of its two fins there (0: the strip is flat across the node line).
+
+    Returns
+    -------
+    nodes : (c,) int
+        Crossing nodes, ascending.
+    folds : (c, 2) float
+        Fold of the family-0 and the family-1 strip at each, degrees in [0, 180].
+
+    Examples
+    --------
+    >>> a = np.array([[x, y, 0.0] for y in (0, 1, 2) for x in (0, 1, 2)])
+    >>> a[4] += [0.5, 0, 0]          # the column strip bends at the middle node, the row stays flat
+    >>> b = a + [0, 0, 1]
+    >>> s = SupportStructure(a, b, [[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]],
+    ...                      np.array([[0, 1], [1, 2], [3, 4], [4, 5], [6, 7], [7, 8],
+    ...                                [0, 3], [3, 6], [1, 4], [4, 7], [2, 5], [5, 8]]),
+    ...                      np.array([0] * 6 + [1] * 6))
+    >>> nodes, folds = crossing_folds(s)
+    >>> nodes.tolist(), np.round(folds, 1).tolist()
+    ([4], [[0.0, 53.1]])
+    """
+    fold: dict[tuple[int, int], float] = {}
+    for st in structure.fins():
+        q = st.quads
+        n = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        k = len(q)
+        pairs = [(j - 1, j, int(st.vertices[j])) for j in range(1, k)]
+        if st.closed and k >= 2:
+            pairs.append((k - 1, 0, int(st.vertices[0])))
+        for i0, i1, node in pairs:
+            # atan2 of sine and cosine: accurate for small folds too (arccos is not)
+            ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(n[i0], n[i1])), n[i0] @ n[i1]))
+            fold[(st.family, node)] = float(ang) if np.isfinite(ang) else 180.0
+    nodes = sorted({v for f, v in fold if f == 0} & {v for f, v in fold if f == 1})
+    return (np.asarray(nodes, dtype=np.int64),
+            np.array([[fold[(0, v)], fold[(1, v)]] for v in nodes]).reshape(-1, 2))
 
 
 @dataclass(frozen=True)
@@ -254,6 +302,11 @@ class SupportStructure:
 
 
 # ============================================================================ eq. (8)
+#: The planarity a flat sheet part needs (the paper's delta_pl, Fig. 12): the default target
+#: of :func:`optimize_support` and of a design file's ``fins.planarity_tol``
+PLANARITY_TOL = 1e-4
+
+
 @dataclass
 class SupportWeights:
     """Weights of eq. (8) (Wang et al. 2013, Fig. 12 uses plnr 20, prox 1, fair 1 for 7c).
@@ -390,7 +443,8 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
                      *, hard_tol: float | None = None, rounds: int = 2, max_iter: int = 200,
                      fixed_e: bool = False, ipopt_options: dict | None = None,
                      method: str = "ipopt", exact_hessian: str = "assembled",
-                     start: str = "input") -> SupportOptimizationResult:
+                     start: str = "input",
+                     planarity_tol: float | None = PLANARITY_TOL) -> SupportOptimizationResult:
     """Optimize a support structure towards planar fins, eq. (8) of Wang et al. 2013.
 
     Minimizes, over ``a~`` and ``e~ = b~ - a~``::
@@ -423,6 +477,12 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
         Keep the node directions e~ fixed (only a~ moves).
     ipopt_options : dict, optional
         Extra IPOPT options (``{"tol": 1e-10}``, ...).
+    planarity_tol : float or None, default :data:`PLANARITY_TOL` (1e-4)
+        The planarity a flat sheet part needs. Without ``hard_tol``, the soft eq. (8) is
+        solved first; if its ``delta_pl`` is above ``planarity_tol`` the result is solved
+        again with planarity as a hard constraint (``hard_tol=planarity_tol``). ``success``
+        is False, and ``status`` says why, unless ``delta_pl <= planarity_tol`` in the end.
+        ``None``: the paper's soft formulation only (``success`` is IPOPT's verdict).
     start : {"input", "projection"}, default "input"
         Starting point of IPOPT when ``hard_tol`` is given: the (feasible, planar) result of the
         projection method, or the input structure. Proximity is always measured from the input.
@@ -462,6 +522,10 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
                                 rounds=rounds, max_iter=max_iter, fixed_e=fixed_e)
     if method != "ipopt":
         raise ValueError(f"method must be 'ipopt' or 'projection', got {method!r}")
+    if hard_tol is None and planarity_tol is not None:
+        return _soft_then_hard(structure, reference, weights, planarity_tol, rounds=rounds,
+                               max_iter=max_iter, fixed_e=fixed_e, ipopt_options=ipopt_options,
+                               exact_hessian=exact_hessian)
     if weights is None:
         weights = SupportWeights()
     elif isinstance(weights, dict):
@@ -494,8 +558,16 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
     cr = ca.cross(d1, d2)
     det = ca.dot(sb_ - sa, cr)
     dist_k = det / ca.sqrt(ca.dot(cr, cr) + 1e-300)
-    plan_k = dist_k / (0.5 * (ca.norm_2(d1) + ca.norm_2(d2)))
-    fin = ca.Function("fin", [sa, sb_, sc, sd], [dist_k, plan_k])
+    # the hard constraint: fin_planarity = dist / mean diagonal = vol / sin(angle of the
+    # diagonals), with vol = det / (|d1| |d2| mean diagonal). On sliver fins the diagonals are
+    # nearly parallel (sin ~ 1e-3) and dist / mean diagonal swings wildly under tiny moves:
+    # IPOPT's linearized steps then overshoot, its line search stalls and the restoration
+    # phase ends in "Infeasible_Problem_Detected" at a feasible point. vol is a smooth,
+    # bounded function of the nodes; |vol| <= tol * sin, with sin frozen at the start of each
+    # round (updated between rounds), is the same constraint, well conditioned.
+    n1, n2 = ca.norm_2(d1), ca.norm_2(d2)
+    vol_k = det / (n1 * n2 * 0.5 * (n1 + n2))
+    fin = ca.Function("fin", [sa, sb_, sc, sd], [dist_k, vol_k])
     fin_map = fin.map(E, "serial")
     nx = 3 * n if fixed_e else 6 * n
     x = ca.MX.sym("x", nx)
@@ -540,7 +612,7 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
     if hard_tol is not None:
         nlp["g"] = plan.T
         tol_eff = 0.9 * float(hard_tol)
-        lbg, ubg = -tol_eff * np.ones(E), tol_eff * np.ones(E)
+        lbg = ubg = True          # set per round from the diagonals' angles (see vol_k)
     opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.linear_solver": "mumps",
             "ipopt.max_iter": int(max_iter), "ipopt.tol": 1e-9, "ipopt.sb": "yes",
             "ipopt.mumps_pivot_order": 5}
@@ -570,19 +642,28 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
             pn = fn[tri]
         else:
             cp, pn = a0, np.zeros_like(a0)
-        x0 = a_cur.ravel() if fixed_e else np.r_[a_cur.ravel(), e_cur.ravel()]
-        args = {"x0": x0, "p": np.r_[np.asarray(cp).ravel(), np.asarray(pn).ravel()]}
-        if lbg is not None:
-            args.update(lbg=lbg, ubg=ubg)
-        sol = solver(**args)
-        st = solver.stats()
-        status = st.get("return_status", "unknown")
-        ok = bool(st.get("success", False))
-        iters += int(st.get("iter_count", 0))
-        xs = np.asarray(sol["x"]).ravel()
-        a_cur = xs[:3 * n].reshape(n, 3).copy()
-        if not fixed_e:
-            e_cur = xs[3 * n:].reshape(n, 3).copy()
+        p_round = np.r_[np.asarray(cp).ravel(), np.asarray(pn).ravel()]
+        # with a hard constraint the diagonals' sines that bound vol_k are refreshed and the
+        # round re-solved (warm) until the planarity itself holds: sliver fins turn their
+        # diagonals as they move
+        for _ in range(4 if lbg is not None else 1):
+            x0 = a_cur.ravel() if fixed_e else np.r_[a_cur.ravel(), e_cur.ravel()]
+            args = {"x0": x0, "p": p_round}
+            if lbg is not None:
+                bound = tol_eff * _diagonal_sine(a_cur, e_cur, s0.edges)
+                args.update(lbg=-bound, ubg=bound)
+            sol = solver(**args)
+            st = solver.stats()
+            status = st.get("return_status", "unknown")
+            ok = bool(st.get("success", False))
+            iters += int(st.get("iter_count", 0))
+            xs = np.asarray(sol["x"]).ravel()
+            a_cur = xs[:3 * n].reshape(n, 3).copy()
+            if not fixed_e:
+                e_cur = xs[3 * n:].reshape(n, 3).copy()
+            if lbg is None or not ok or np.abs(fin_planarity(np.stack(
+                    [a_cur[i], a_cur[j], a_cur[j] + e_cur[j], a_cur[i] + e_cur[i]], axis=1))).max() <= hard_tol:
+                break
         cur = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
                                metadata=dict(s0.metadata))
         history.append({"round": rnd, "objective": float(sol["f"]), "delta_pl": cur.delta_pl,
@@ -600,6 +681,47 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
         status = f"{status}; delta_pl {after:.3g} above hard_tol {hard_tol:.3g}"
     return SupportOptimizationResult(out, success, status, time.perf_counter() - t_start, iters,
                                      before, after, dist_ref, history)
+
+
+#: IPOPT stops whose last iterate is a usable answer (the others are failures)
+_USABLE_STATUS = ("Solve_Succeeded", "Solved_To_Acceptable_Level", "Maximum_Iterations_Exceeded",
+                  "Search_Direction_Becomes_Too_Small", "Maximum_CpuTime_Exceeded")
+
+
+def _soft_then_hard(structure, reference, weights, planarity_tol: float,
+                    **options) -> SupportOptimizationResult:
+    """Eq. (8) with soft planarity, then (if ``delta_pl`` is still above ``planarity_tol``)
+    with planarity as a hard constraint from that result; one result for both."""
+    if not planarity_tol > 0:
+        raise ValueError(f"planarity_tol must be > 0, got {planarity_tol}")
+    soft = optimize_support(structure, reference, weights, planarity_tol=None, **options)
+    if soft.delta_pl_after <= planarity_tol and soft.status in _USABLE_STATUS:
+        # planar enough: an IPOPT stop at its iteration limit only leaves fairness and
+        # proximity short of their optimum
+        return dataclasses.replace(soft, success=True, status=(
+            soft.status if soft.success else f"delta_pl {soft.delta_pl_after:.3g} <= "
+            f"{planarity_tol:.3g}; IPOPT stopped: {soft.status}"))
+    hard = optimize_support(soft.structure, reference, weights, hard_tol=planarity_tol,
+                            planarity_tol=None, **options)
+    status = (f"soft planarity left delta_pl {soft.delta_pl_after:.3g} (> {planarity_tol:.3g}); "
+              f"with planarity as a hard constraint: {hard.status}")
+    if not hard.success:
+        status += (f". The fins are not planar enough for flat sheet parts (delta_pl "
+                   f"{hard.delta_pl_after:.3g}); try a finer fin spacing, more rounds, or "
+                   "method='projection'")
+    return SupportOptimizationResult(
+        hard.structure, hard.success, status, soft.solve_seconds + hard.solve_seconds,
+        soft.iterations + hard.iterations, soft.delta_pl_before, hard.delta_pl_after,
+        hard.distance_to_reference, soft.history + [dict(h, stage="hard") for h in hard.history])
+
+
+def _diagonal_sine(a, e, edges) -> np.ndarray:
+    """Sine of the angle between the diagonals ``b_j - a_i`` and ``b_i - a_j`` of every fin, (E,)."""
+    i, j = edges[:, 0], edges[:, 1]
+    d1 = a[j] + e[j] - a[i]
+    d2 = a[i] + e[i] - a[j]
+    den = np.linalg.norm(d1, axis=1) * np.linalg.norm(d2, axis=1)
+    return np.linalg.norm(np.cross(d1, d2), axis=1) / np.where(den > 0, den, 1.0)
 
 
 def _fin_residual_jacobian(a, e, edges):

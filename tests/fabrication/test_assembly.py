@@ -1,0 +1,195 @@
+"""Assembly verification (issue 15): interference of touching solids by exact booleans, the
+assembly order with insertion paths, on constructed cases with known answers."""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import itertools
+import warnings
+
+import numpy as np
+import pytest
+
+from fab_structures import cylinder_structure, sphere_structure
+from torsal.fabrication import (AssemblyJoint, FinSystem, check_assembly, read_step,
+                                verify_assembly)
+from torsal.fabrication.assembly import common_volume, solid_distance, swept_overlap
+
+pytest.importorskip("build123d")
+
+
+def _box(x, y, z, *, at=(0.0, 0.0, 0.0)):
+    """Axis-aligned box with its minimum corner at ``at``."""
+    from build123d import Align, Box, Pos
+
+    return Pos(*at) * Box(x, y, z, align=(Align.MIN, Align.MIN, Align.MIN))
+
+
+@pytest.fixture(scope="module")
+def sphere_fs():
+    return FinSystem(sphere_structure(nu=4, nv=3, step=0.12), thickness=3.0, clearance=0.5)
+
+
+def test_boxes_known_overlap_touching_and_apart():
+    solids = {"a": _box(10, 10, 10), "b": _box(10, 10, 10, at=(8, 0, 0)),   # 2 x 10 x 10 = 200
+              "c": _box(5, 5, 5, at=(0, 10, 0)),                             # touches a face to face
+              "d": _box(5, 5, 5, at=(0, 30, 0)),                             # far from all
+              "e": _box(2, 2, 2, at=(4, 4, 4))}                              # wholly inside a
+    r = check_assembly(solids, workers=1)
+    got = {tuple(sorted(x.parts)): x.volume for x in r.interfering}
+    assert set(got) == {("a", "b"), ("a", "e")}
+    assert got[("a", "b")] == pytest.approx(200.0, rel=1e-9)
+    assert got[("a", "e")] == pytest.approx(8.0, rel=1e-9)
+    # within 1 mm: a-b (overlap), a-c (face to face), a-e (inside); b, c and e are 3 mm apart
+    assert r.pairs_checked == 3
+    assert r.worst_overlap_mm3 == pytest.approx(200.0)
+    assert not r.buildable and set(r.interfering_parts) == {"a", "b", "e"}
+    assert "a / b" in r.problems()
+
+
+def test_small_overlap_below_one_cubic_mm_is_not_interference():
+    r = check_assembly({"a": _box(10, 10, 10), "b": _box(10, 10, 10, at=(9.995, 0, 0))}, workers=1)
+    assert r.pairs_checked == 1 and r.interfering_pairs == 0 and r.buildable     # 0.5 mm^3
+
+
+def test_exact_kernels_on_analytic_cases():
+    assert solid_distance(_box(1, 1, 1), _box(1, 1, 1, at=(3, 0, 0))) == pytest.approx(2.0)
+    assert solid_distance(_box(3, 3, 3), _box(1, 1, 1, at=(1, 1, 1))) == 0.0
+    assert common_volume(_box(2, 2, 2), _box(2, 2, 2, at=(1, 1, 1))) == pytest.approx(1.0)
+    # a unit cube comes down 3 along -z to rest on a slab: it sweeps through the slab's top
+    slab = _box(5, 5, 1, at=(-2, -2, -1.5))           # z from -1.5 to -0.5
+    moving = _box(1, 1, 1)                            # rests at z 0..1
+    assert swept_overlap(moving, (0, 0, -3), [slab]) == [0.0]      # came from above: clear
+    v = swept_overlap(moving, (0, 0, 3), [slab])[0]                 # came from below: through it
+    assert v >= 1.0 - 1e-9       # the swept column meets the slab in 1 x 1 x 1; faces add up
+
+
+def test_egg_crate_sphere_is_buildable_and_family_1_goes_in_along_the_node_axis(sphere_fs):
+    fs = sphere_fs
+    r = verify_assembly(fs, workers=1)
+    assert r.buildable and r.interfering_pairs == 0 and r.failed_pairs == []
+    assert r.joints == {"egg-crate": len(fs.crossings)}
+    # independent recount of the touching pairs: every pair, exact distance
+    sol = fs.solids()
+    touching = sum(solid_distance(sol[m], sol[n]) <= 1.0 for m, n in itertools.combinations(sol, 2))
+    assert r.pairs_checked == touching > 0
+    steps = {s.part: s for s in r.order}
+    assert [s.step for s in r.order] == list(range(1, len(fs.parts) + 1))
+    for x in fs.crossings:
+        axis = fs.structure.vertices_b[x.node] - fs.structure.vertices_a[x.node]
+        axis /= np.linalg.norm(axis)
+        (p0,), (p1,) = x.parts0, x.parts1
+        assert steps[p0].step < steps[p1].step
+        # family 1, slotted from its a edge, moves towards the surface along -L_i
+        assert np.allclose(steps[p1].insert_direction, -axis)
+        assert p0 in steps[p1].partners and steps[p1].clear
+
+
+def test_part_without_its_slots_interferes_and_is_named(sphere_fs):
+    from torsal.fabrication import part_solid
+
+    fs = sphere_fs
+    x = fs.crossings[0]
+    name = x.parts0[0]
+    sol = dict(fs.solids())
+    sol[name] = part_solid(dataclasses.replace(fs.part(name), slots=[]), fs.thickness)
+    r = check_assembly(sol, joints=[AssemblyJoint("egg-crate", x.node, x.parts0 + x.parts1,
+                                                  np.array([1.0, 0, 0]))], workers=1)
+    assert not r.buildable
+    pair = next(i for i in r.interfering if set(i.parts) == {name, x.parts1[0]})
+    # the unslotted plate fills the partner's slot: t x t x (depth of the partner's slot), less
+    # the clearance; about t^2 * depth1
+    assert pair.volume == pytest.approx(fs.thickness ** 2 * x.depth1, rel=0.2)
+    assert name in r.problems() and x.parts1[0] in r.problems()
+
+
+def test_insertion_across_the_slot_is_blocked(sphere_fs):
+    fs = sphere_fs
+    x = fs.crossings[0]
+    axis = fs.structure.vertices_b[x.node] - fs.structure.vertices_a[x.node]
+    n0 = fs.part(x.parts0[0]).normals[0]
+    across = np.cross(axis, n0)           # in the family-0 plate, across the node line
+    across /= np.linalg.norm(across)
+    r = check_assembly(fs.solids(), joints=[AssemblyJoint("egg-crate", x.node, x.parts0 + x.parts1,
+                                                          across)], workers=1)
+    assert r.interfering_pairs == 0 and not r.buildable
+    (blocked,) = r.blocked
+    assert blocked.part == x.parts1[0]
+    assert x.parts0[0] in {c.parts[1] for c in blocked.collisions}
+
+
+def test_folded_crossing_needs_its_clearance():
+    s = cylinder_structure(nu=6, nv=3, closed=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tight = FinSystem(s, thickness=3.0, clearance=0.5)
+    need = max(c.required_clearance for c in tight.crossings)
+    assert need > 0.5
+    r = verify_assembly(tight, workers=1)
+    crossing_pairs = {tuple(sorted((a, b))) for c in tight.crossings
+                      for a in c.parts0 for b in c.parts1}
+    assert r.interfering_pairs > 0
+    assert {tuple(sorted(i.parts)) for i in r.interfering} <= crossing_pairs
+    ok = verify_assembly(FinSystem(s, thickness=3.0, clearance=need + 1e-6), workers=1)
+    assert ok.buildable and ok.pairs_checked >= len(crossing_pairs)
+
+
+def test_step_reread_gives_the_same_answer_and_csv_lists_every_step(sphere_fs, tmp_path):
+    fs = sphere_fs
+    fs.export_step(tmp_path / "fins.step")
+    direct = verify_assembly(fs, workers=1)
+    reread = verify_assembly(fs, step_file=tmp_path / "fins.step", workers=1)
+    assert sorted(reread.parts) == sorted(p.name for p in fs.parts)
+    assert reread.report()["pairs_checked"] == direct.report()["pairs_checked"]
+    assert reread.buildable == direct.buildable
+    path = direct.write_csv(tmp_path / "assembly.csv")
+    rows = list(csv.DictReader(path.open()))
+    assert [r["part"] for r in rows] == [s.part for s in direct.order]
+    assert all(r["clear"] == "yes" for r in rows)
+    moved = [r for r in rows if r["insert_dx"]]
+    assert moved and all(np.isclose(np.linalg.norm([float(r[k]) for k in ("insert_dx", "insert_dy",
+                                                                              "insert_dz")]), 1.0)
+                         for r in moved)
+
+
+def test_processes_give_the_same_result_as_one():
+    s = cylinder_structure(nu=6, nv=3, closed=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fs = FinSystem(s, thickness=3.0, clearance=0.5)
+    one, two = verify_assembly(fs, workers=1), verify_assembly(fs, workers=2)
+    assert one.report() | {"seconds": 0} == two.report() | {"seconds": 0}
+
+
+def test_duplicate_names_are_refused():
+    with pytest.raises(ValueError, match="same name"):
+        check_assembly([("a", _box(1, 1, 1)), ("a", _box(1, 1, 1, at=(5, 0, 0)))])
+
+
+def test_joint_records_with_connectors_are_counted_and_ordered():
+    # two plates butting at right angles with a bracket in the corner, as the per-node joinery
+    # records them: continuous plate, butted part, connector; the bracket goes on last
+    plate = _box(100, 3, 50)                                 # y 0..3
+    butted = _box(3, 60, 50, at=(40, 3.5, 0))                # ends 0.5 mm from the plate
+    bracket = _box(20, 2, 50, at=(43.5, 3.5, 0))             # a leg beside it, 0.5 mm off both
+    joint = AssemblyJoint("butt-bracket", 7, ("plate", "butted", "bracket"),
+                          np.array([0.0, -1.0, 0.0]), "bracket", np.array([0.0, 0.0, -1.0]))
+    r = check_assembly({"plate": plate, "butted": butted, "bracket": bracket}, joints=[joint],
+                       workers=1)
+    assert r.joints == {"butt-bracket": 1} and r.connectors == {"butt-bracket": 1}
+    assert [s.part for s in r.order] == ["plate", "butted", "bracket"]
+    assert r.buildable, r.problems()
+    steps = {s.part: s for s in r.order}
+    assert steps["butted"].insert_direction == pytest.approx((0.0, -1.0, 0.0))
+    assert steps["bracket"].insert_direction == pytest.approx((0.0, 0.0, -1.0))
+
+
+def test_parts_of_one_strip_at_a_crossing_are_not_each_others_partners():
+    from torsal.fabrication.assembly import joint_groups
+
+    j = AssemblyJoint("egg-crate", 3, ("F0-S001-P00", "F0-S001-P01", "F1-S004-P00"),
+                      np.array([0.0, 0.0, -1.0]))
+    assert joint_groups(j) == [("F0-S001-P00", "F0-S001-P01"), ("F1-S004-P00",)]
+    b = AssemblyJoint("butt-bracket", 3, ("F0-S001-P00", "F0-S001-P01", "C-N3-0"),
+                      np.array([1.0, 0.0, 0.0]), "C-N3-0")
+    assert joint_groups(b) == [("F0-S001-P00",), ("F0-S001-P01",), ("C-N3-0",)]

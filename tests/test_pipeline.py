@@ -1,0 +1,117 @@
+"""The pipeline as stages: declared inputs, cache keys from the design file alone, inserting
+a stage, one source of default weights."""
+import tomllib
+
+import pytest
+
+from torsal.design import STAGES, Design, DesignError
+from torsal.design_file import DesignSpec, WeightsSpec
+from torsal.geometry.optimize import DEFAULT_WEIGHTS
+from torsal.pipeline import (DEFAULT_PIPELINE, Pipeline, Stage, StageCache, run_stages,
+                             stage_keys, term_weights)
+
+SPEC = DesignSpec.model_validate(tomllib.loads("""
+[surface]
+generator = "facade_patch"
+params = { nu = 9, nv = 5 }
+[sun]
+vectors = [[0.0, -1.0, 0.5]]
+[fins]
+spacing = 1.5
+depth = 0.4
+"""))
+
+
+def _depth(spec, depth):
+    return spec.model_copy(update={"fins": spec.fins.model_copy(update={"depth": depth})})
+
+
+def test_default_stage_order_and_public_names():
+    assert STAGES == DEFAULT_PIPELINE.names
+    assert STAGES[:4] == ("surface", "sun", "orient", "congruence")
+    assert STAGES.index("fabrication") < STAGES.index("report") == len(STAGES) - 1
+
+
+def test_keys_follow_the_inputs_only():
+    a, b = stage_keys(DEFAULT_PIPELINE, SPEC), stage_keys(DEFAULT_PIPELINE, _depth(SPEC, 0.6))
+    # a change of fin depth keeps every key upstream of the remeshing
+    assert [s for s in STAGES if s in a and a[s] == b[s]] == ["surface", "sun", "orient",
+                                                              "congruence"]
+    assert "substructure" not in a          # does not apply without a [substructure] table
+    thicker = SPEC.model_copy(update={"material": SPEC.material.model_copy(
+        update={"thickness_mm": 5.0})})
+    c = stage_keys(DEFAULT_PIPELINE, thicker)
+    assert {s for s in a if a[s] != c[s]} == {"fabrication", "report"}
+
+
+def test_unset_weights_come_from_the_optimizer_defaults():
+    w, given = term_weights(WeightsSpec())
+    assert w == DEFAULT_WEIGHTS and given == set()
+    w, given = term_weights(WeightsSpec(perp=10, dir=0.4))
+    assert w["perpendicular"] == 10 and w["torsal_direction"] == 0.4 and w["fair"] == DEFAULT_WEIGHTS["fair"]
+    assert given == {"perpendicular", "torsal_direction"}
+
+
+def _toy_pipeline(calls):
+    def src(inp):
+        calls.append("src")
+        return {"x": inp.spec.fins.spacing, "report": {"x": inp.spec.fins.spacing}}
+
+    def double(inp):
+        calls.append("double")
+        return {"y": 2 * inp["src"]["x"]}
+
+    return Pipeline((Stage("src", src, key=lambda s: (s.fins.spacing,)),
+                     Stage("double", double, inputs=("src",))))
+
+
+def test_a_stage_inserted_after_another_reads_its_inputs_and_caches(tmp_path):
+    calls = []
+
+    def triple(inp):
+        calls.append("triple")
+        return {"report": {"z": 3 * inp["double"]["y"]}}
+
+    p = _toy_pipeline(calls).insert(Stage("triple", triple, inputs=("double",),
+                                          key=lambda s: (s.fins.depth,)), after="double")
+    assert p.names == ("src", "double", "triple")
+    cache = StageCache(tmp_path / "cache")
+    run = run_stages(p, SPEC, tmp_path, cache)
+    assert run.report == {"src": {"x": 1.5}, "triple": {"z": 9.0}} and run.cached == []
+    # a change of depth: only the stage whose key names it runs again
+    calls.clear()
+    run = run_stages(p, _depth(SPEC, 0.9), tmp_path, cache)
+    assert calls == ["triple"] and run.cached == ["src", "double"]
+    assert len(list((tmp_path / "cache").glob("triple-*.pkl"))) == 1   # pruned: one per stage
+    shared = StageCache(tmp_path / "shared", prune=False)
+    run_stages(p, SPEC, tmp_path, shared)
+    run_stages(p, _depth(SPEC, 0.9), tmp_path, shared)
+    assert len(list((tmp_path / "shared").glob("triple-*.pkl"))) == 2
+
+
+def test_undeclared_inputs_and_bad_pipelines_are_errors(tmp_path):
+    def sneaky(inp):
+        return {"y": inp["src"]["x"]}
+
+    p = Pipeline((Stage("src", lambda inp: {"x": 1}), Stage("sneaky", sneaky)))
+    with pytest.raises(DesignError, match="stage 'sneaky'.*reads 'src'.*not among its declared"):
+        run_stages(p, SPEC, tmp_path, StageCache(tmp_path / "c"))
+    with pytest.raises(ValueError, match="reads \\['nope'\\]"):
+        Pipeline((Stage("a", sneaky, inputs=("nope",)),))
+    with pytest.raises(ValueError, match="unique"):
+        DEFAULT_PIPELINE.insert(Stage("light", sneaky), after="fabrication")
+    with pytest.raises(KeyError, match="no stage 'assembly'"):
+        DEFAULT_PIPELINE.insert(Stage("x", sneaky), after="assembly")
+
+
+def test_design_run_takes_a_pipeline(tmp_path):
+    seen = {}
+
+    def stop(inp):
+        seen["faces"] = len(inp["orient"]["faces"])
+        return {"report": {"faces": seen["faces"]}}
+
+    p = DEFAULT_PIPELINE.until("orient").insert(Stage("count", stop, inputs=("orient",)),
+                                                after="orient")
+    res = Design(SPEC).run(tmp_path, pipeline=p)
+    assert res.report["count"]["faces"] == res.report["surface"]["faces"] == seen["faces"] > 0

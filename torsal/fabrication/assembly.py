@@ -1,0 +1,733 @@
+"""Assembly verification: do the solids of a fin system interfere, and in which order can they
+be put together? (issue 15)
+
+The check reads only the finished solids (``FinSystem.solids()`` or the solids of ``fins.step``
+re-read with :func:`~torsal.fabrication.solids.read_step`) and the joint records (part names and
+insertion axes); it shares no code with the joint builder, so a mistake there shows up here.
+
+1. **Touching pairs.** Axis-aligned bounding boxes grown by ``tolerance`` select candidate
+   pairs; a proximity test on the solids' triangulations (``BRepExtrema_ShapeProximity``, a
+   BVH of triangles; the triangulation of a planar face is exact) keeps the pairs whose
+   boundaries come within ``tolerance``, and a point classification those where one solid
+   lies inside the other: these are ``pairs_checked`` (:func:`solid_distance` gives the exact
+   distance of a pair, ten times slower).
+2. **Interference.** For every touching pair the common volume is computed with an exact
+   OpenCascade boolean (``BRepAlgoAPI_Common``); a common volume above ``min_volume``
+   (1 mm^3) is an interference. A boolean that fails is listed in ``failed_pairs`` and the
+   design is not called buildable (nothing is assumed).
+3. **Assembly order.** Parts are placed one by one in an order that follows the joints (the
+   parts a joint lists first are placed first: for an egg-crate crossing the family-0 plate,
+   slotted from its ``b`` edge, then the family-1 plate, slotted from its ``a`` edge). Each
+   part is inserted along a straight line: the axis of its joints with parts already placed
+   (the node axis ``L_i`` for egg-crate pairs; the mean axis when it has several, then each
+   axis on its own, both senses). The path starts one depth of the part back (``travel``,
+   the part's extent along the direction, so it is disengaged from its slots) and ends in
+   place; every placed part near the path is checked, joined or not. A
+   path is clear when the volume swept by the part meets no placed part by more than
+   ``min_volume``: the swept volume is the union of the prisms that every face of the solid
+   sweeps (``BRepPrimAPI_MakePrism``), each intersected exactly with the placed parts near the
+   path; the sum of those common volumes (an upper bound of the swept overlap) is the
+   collision volume. A part with no clear path is *blocked*.
+
+A design is ``buildable`` when no pair interferes, no boolean failed and no part is blocked.
+
+Pairs and paths are independent of one another; with ``workers > 1`` they are computed in
+forked processes (each inherits the solids, nothing is pickled).
+
+Units: those of the solids (``unit`` of the fin system, mm by default): volumes in unit^3.
+
+Example
+-------
+>>> from torsal.fabrication import FinSystem, verify_assembly
+>>> fs = FinSystem(structure, thickness=3.0, clearance=0.5)              # doctest: +SKIP
+>>> check = verify_assembly(fs)                                          # doctest: +SKIP
+>>> check.buildable, check.pairs_checked, check.worst_overlap_mm3        # doctest: +SKIP
+(True, 12, 0.0)
+>>> check.write_csv("out/assembly.csv")                                  # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import csv
+import multiprocessing
+import os
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
+
+import numpy as np
+
+from torsal.core.atomic import atomic_path
+
+__all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
+           "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
+           "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME"]
+
+#: unit^3 (mm^3): a common volume above this is an interference (below it: round-off of the
+#: booleans on plates that touch)
+MIN_INTERFERENCE_VOLUME = 1.0
+
+
+class AssemblyJoint(NamedTuple):
+    """What the check needs of a joint (``torsal.fabrication`` ``Joint`` records have these
+    fields too): ``kind`` (e.g. ``"egg-crate"``), structure ``node``, the ``parts`` it joins
+    (names; earlier names are placed first), ``insert_direction`` ((3,) unit vector, model
+    coordinates, the sense the later parts move in; the other sense is tried too) and the
+    ``connector`` part, if any."""
+
+    kind: str
+    node: int
+    parts: tuple
+    insert_direction: np.ndarray
+    connector: str | None = None
+    #: (3,) direction the connector is put on along (None: ``insert_direction``)
+    connector_direction: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Interference:
+    """Two parts whose solids overlap by ``volume`` (unit^3)."""
+
+    parts: tuple[str, str]
+    volume: float
+
+
+@dataclass(frozen=True)
+class AssemblyStep:
+    """One step of the assembly order.
+
+    ``insert_direction`` is the unit direction the part moves in (None: it has no joint to a
+    part placed before it and is set down in place); ``travel`` the length of its path
+    (unit); ``partners`` the parts placed before it that it joins; ``collisions`` what the
+    swept part meets on the best path tried (empty: the path is clear; volumes of a blocked
+    path are lower bounds: the sum stops once it exceeds ``min_volume``).
+    """
+
+    step: int
+    part: str
+    insert_direction: tuple | None
+    travel: float
+    partners: tuple[str, ...]
+    joint_kinds: tuple[str, ...]
+    collisions: tuple[Interference, ...] = ()
+
+    @property
+    def clear(self) -> bool:
+        return not self.collisions
+
+
+@dataclass
+class AssemblyCheck:
+    """Result of :func:`check_assembly`.
+
+    ``interfering`` lists the pairs whose common volume exceeds ``min_volume``, worst first;
+    ``order`` the assembly steps; ``failed_pairs`` the pairs whose boolean failed
+    ``(part, part, reason)``; ``joints`` the number of joints by kind and ``connectors`` the
+    number of connector parts by the kind of joint they fasten.
+    """
+
+    parts: list[str]
+    pairs_checked: int
+    interfering: list[Interference]
+    order: list[AssemblyStep]
+    failed_pairs: list[tuple[str, str, str]] = field(default_factory=list)
+    joints: dict = field(default_factory=dict)
+    connectors: dict = field(default_factory=dict)
+    min_volume: float = MIN_INTERFERENCE_VOLUME
+    unit: str = "mm"
+    seconds: float = 0.0
+
+    @property
+    def interfering_pairs(self) -> int:
+        return len(self.interfering)
+
+    @property
+    def worst_overlap_mm3(self) -> float:
+        """Largest common volume of two parts (unit^3; 0 when none interfere)."""
+        return max((x.volume for x in self.interfering), default=0.0)
+
+    @property
+    def interfering_parts(self) -> list[str]:
+        return sorted({n for x in self.interfering for n in x.parts})
+
+    @property
+    def blocked(self) -> list[AssemblyStep]:
+        """Steps whose part cannot be inserted along any direction tried without collision."""
+        return [s for s in self.order if not s.clear]
+
+    @property
+    def buildable(self) -> bool:
+        return not self.interfering and not self.failed_pairs and not self.blocked
+
+    def problems(self, limit: int = 8) -> str:
+        """One sentence naming what makes the design unbuildable ('' when it is buildable)."""
+        out = []
+        if self.interfering:
+            out.append(f"{len(self.interfering)} pairs of parts interfere (worst "
+                       f"{self.worst_overlap_mm3:.4g} {self.unit}^3): " + ", ".join(
+                           f"{a} / {b} ({v:.3g})" for (a, b), v in
+                           ((x.parts, x.volume) for x in self.interfering[:limit]))
+                       + (" ..." if len(self.interfering) > limit else ""))
+        if self.failed_pairs:
+            out.append(f"{len(self.failed_pairs)} pairs could not be checked: " + ", ".join(
+                f"{a} / {b}" for a, b, _ in self.failed_pairs[:limit]))
+        if self.blocked:
+            out.append(f"{len(self.blocked)} parts cannot be inserted without collision: " + ", ".join(
+                f"{s.part} (hits {', '.join(c.parts[1] for c in s.collisions[:3])})"
+                for s in self.blocked[:limit]) + (" ..." if len(self.blocked) > limit else ""))
+        return "; ".join(out)
+
+    def report(self) -> dict:
+        """The ``fabrication.assembly`` section of report.json."""
+        return {
+            "pairs_checked": int(self.pairs_checked),
+            "interfering_pairs": int(self.interfering_pairs),
+            "worst_overlap_mm3": float(self.worst_overlap_mm3),
+            "buildable": bool(self.buildable),
+            "joints": {str(k): int(v) for k, v in self.joints.items()},
+            "connectors": {str(k): int(v) for k, v in self.connectors.items()},
+            "parts": len(self.parts),
+            "interfering": [{"parts": list(x.parts), "volume_mm3": float(x.volume)}
+                            for x in self.interfering],
+            "interfering_parts": self.interfering_parts,
+            "failed_pairs": [list(x) for x in self.failed_pairs],
+            "blocked_parts": [s.part for s in self.blocked],
+            "steps": len(self.order),
+            "sequence": [{"step": st.step, "part": st.part,
+                          "insert_direction": None if st.insert_direction is None
+                          else [round(float(x), 6) for x in st.insert_direction],
+                          "partners": list(st.partners), "joints": list(st.joint_kinds),
+                          "clear": st.clear} for st in self.order],
+            "min_volume_mm3": float(self.min_volume),
+            "seconds": float(self.seconds),
+        }
+
+    def write_csv(self, path) -> Path:
+        """``assembly.csv``: one row per step (step, part, insert direction, travel, joint kinds,
+        partners placed before, clear, collision volume and parts hit)."""
+        path = Path(path)
+        with atomic_path(path) as tmp:
+            with open(tmp, "w", newline="") as fh:
+                w = csv.writer(fh)
+                w.writerow(["step", "part", "insert_dx", "insert_dy", "insert_dz",
+                            f"travel_{self.unit}", "joint_kinds", "joint_partners", "clear",
+                            f"collision_{self.unit}3", "collides_with"])
+                for s in self.order:
+                    d = s.insert_direction
+                    w.writerow([s.step, s.part, *(("", "", "") if d is None else
+                                                   (f"{x:.6f}" for x in d)),
+                                f"{s.travel:.3f}", " ".join(s.joint_kinds), " ".join(s.partners),
+                                "yes" if s.clear else "no",
+                                f"{sum(c.volume for c in s.collisions):.3f}",
+                                " ".join(c.parts[1] for c in s.collisions)])
+        return path
+
+
+# ---------------------------------------------------------------------------- OCC kernels
+def _shape(x):
+    """TopoDS_Shape of a build123d shape or an OCP shape."""
+    return getattr(x, "wrapped", x)
+
+
+def _mesh(shapes, tolerance: float) -> None:
+    """Triangulate the shapes (in place, once, before any fork) for the proximity prefilter."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+
+    for s in shapes:
+        # serial: worker threads left behind would deadlock the forked processes
+        BRepMesh_IncrementalMesh(s, 0.1 * tolerance, False, 0.5, False)
+
+
+def _signed_volume(shape) -> float:
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(shape, props)
+    return float(props.Mass())
+
+
+def _volume(shape) -> float:
+    return abs(_signed_volume(shape))
+
+
+def _vertices(shape) -> np.ndarray:
+    """(k, 3) coordinates of the vertices of a shape (exact extents of a polyhedral solid)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    ex = TopExp_Explorer(shape, TopAbs_VERTEX)
+    while ex.More():
+        p = BRep_Tool.Pnt_s(TopoDS.Vertex(ex.Current()))
+        out.append((p.X(), p.Y(), p.Z()))
+        ex.Next()
+    return np.asarray(out, float).reshape(-1, 3)
+
+
+def _bbox(shape) -> np.ndarray:
+    """(2, 3) axis-aligned bounding box (min, max) of a shape."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    BRepBndLib.Add_s(shape, box, False)
+    lo, hi = box.CornerMin(), box.CornerMax()
+    return np.array([[lo.X(), lo.Y(), lo.Z()], [hi.X(), hi.Y(), hi.Z()]])
+
+
+def _faces(shape) -> list:
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    ex = TopExp_Explorer(shape, TopAbs_FACE)
+    while ex.More():
+        out.append(TopoDS.Face(ex.Current()))
+        ex.Next()
+    return out
+
+
+def face_polygons(solid) -> list[np.ndarray]:
+    """Outer loops of the faces of a polyhedral solid, each (k, 3) in order (for pictures)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools, BRepTools_WireExplorer
+
+    out = []
+    for f in _faces(_shape(solid)):
+        ex = BRepTools_WireExplorer(BRepTools.OuterWire_s(f))
+        pts = []
+        while ex.More():
+            p = BRep_Tool.Pnt_s(ex.CurrentVertex())
+            pts.append((p.X(), p.Y(), p.Z()))
+            ex.Next()
+        if len(pts) >= 3:
+            out.append(np.asarray(pts))
+    return out
+
+
+def common_volume(s1, s2) -> float:
+    """Volume of the intersection of two solids (exact OpenCascade boolean), unit^3.
+
+    Raises RuntimeError when the boolean fails even with a fuzzy tolerance.
+
+    >>> from build123d import Box, Pos
+    >>> round(common_volume(Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2)), 6)
+    4.0
+    """
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
+
+    a, b = _shape(s1), _shape(s2)
+    for fuzzy in (0.0, 1e-6):
+        op = BRepAlgoAPI_Common(a, b) if fuzzy == 0.0 else _fuzzy_common(a, b, fuzzy)
+        if op.IsDone():
+            return _volume(op.Shape())
+    raise RuntimeError("BRepAlgoAPI_Common failed")
+
+
+def _fuzzy_common(a, b, fuzzy: float):
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
+    from OCP.TopTools import TopTools_ListOfShape
+
+    op = BRepAlgoAPI_Common()
+    la, lb = TopTools_ListOfShape(), TopTools_ListOfShape()
+    la.Append(a)
+    lb.Append(b)
+    op.SetArguments(la)
+    op.SetTools(lb)
+    op.SetFuzzyValue(fuzzy)
+    op.Build()
+    return op
+
+
+def _inside(shape, solid) -> bool:
+    """A vertex of ``shape`` lies strictly inside ``solid``."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_IN
+
+    v = _vertices(shape)
+    if not len(v):
+        return False
+    cls = BRepClass3d_SolidClassifier(solid, gp_Pnt(*map(float, v[0])), 1e-7)
+    return cls.State() == TopAbs_IN
+
+
+def solid_distance(s1, s2) -> float:
+    """Exact distance between two solids (0 when they touch, overlap or one holds the other).
+
+    >>> from build123d import Box, Pos
+    >>> solid_distance(Box(1, 1, 1), Pos(3, 0, 0) * Box(1, 1, 1)), solid_distance(Box(3, 3, 3), Box(1, 1, 1))
+    (2.0, 0.0)
+    """
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+
+    a, b = _shape(s1), _shape(s2)
+    d = BRepExtrema_DistShapeShape(a, b)
+    if not d.IsDone():
+        raise RuntimeError("BRepExtrema_DistShapeShape failed")
+    dist = float(d.Value())
+    # the distance of the boundaries: a solid wholly inside the other is at distance 0
+    if dist > 0 and (_inside(a, b) or _inside(b, a)):
+        return 0.0
+    return dist
+
+
+def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf) -> list[float]:
+    """Volume that ``moving`` sweeps on its way from ``position - vector`` to its place and that
+    lies inside each of ``others`` (unit^3, one per other; an upper bound: the sum over the
+    prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly). With
+    ``stop_above`` the sum for one other stops once it exceeds that (a collision is known).
+
+    >>> from build123d import Box, Pos
+    >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
+    [2.0]
+    """
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.gp import gp_Vec
+
+    from OCP.BRepGProp import BRepGProp
+    from OCP.BRepLib import BRepLib
+    from OCP.GProp import GProp_GProps
+    from OCP.TopoDS import TopoDS
+
+    v = np.asarray(vector, float)
+    length = float(np.linalg.norm(v))
+    back = gp_Vec(*map(float, -v))
+    prisms = []
+    for f in _faces(_shape(moving)):
+        props = GProp_GProps()
+        BRepGProp.SurfaceProperties_s(f, props)
+        pr = TopoDS.Solid(BRepPrimAPI_MakePrism(f, back, True).Shape())
+        # faces along the path sweep no volume (numerically a sliver of either sign: skip it)
+        if abs(_signed_volume(pr)) <= 1e-9 * props.Mass() * length:
+            continue
+        # a face swept against its normal gives an inside-out solid; the boolean would take
+        # its complement: orient it
+        BRepLib.OrientClosedSolid_s(pr)
+        prisms.append(pr)
+    pboxes = [_bbox(pr) for pr in prisms]
+    _mesh(prisms, 1.0)
+    out = []
+    for o in others:
+        ob = _bbox(_shape(o))
+        total = 0.0
+        for pr, pb in zip(prisms, pboxes):
+            if (pb[0] > ob[1]).any() or (ob[0] > pb[1]).any() or not _near(pr, _shape(o), 1e-3):
+                continue                      # apart: nothing in common
+            try:
+                total += common_volume(pr, o)
+            except RuntimeError:
+                total = float("inf")
+            if total > stop_above:
+                break
+        out.append(total)
+    return out
+
+
+# ---------------------------------------------------------------------------- parallel map
+_SHAPES: list = []
+
+
+def _near(s1, s2, tol: float) -> bool:
+    """Whether two meshed shapes come within about ``tol`` (BVH on their triangulations, fast;
+    exact triangles for planar faces, a conservative test of the gap): a prefilter only."""
+    from OCP.BRepExtrema import BRepExtrema_ShapeProximity
+
+    p = BRepExtrema_ShapeProximity(s1, s2, tol)
+    p.Perform()
+    return not p.IsDone() or p.OverlapSubShapes1().Size() > 0
+
+
+def _pair_job(job):
+    i, j, tol = job
+    try:
+        a, b = _SHAPES[i], _SHAPES[j]
+        if not _near(a, b, tol) and not (_inside(a, b) or _inside(b, a)):
+            return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside the other
+        # within the tolerance on the triangulations (exact for planar faces): touching;
+        # the exact distance (solid_distance) would cost ten booleans a pair
+        return i, j, 0.0, common_volume(a, b), ""
+    except Exception as e:       # OpenCascade failures: reported per pair, never assumed clear
+        return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
+
+
+def _sweep_job(job):
+    k, vector, others, stop_above = job
+    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others], stop_above=stop_above)
+
+
+def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> list:
+    """``[fn(job)]`` in order, over forked processes when ``workers > 1`` (the solids in
+    ``_SHAPES`` are inherited, not pickled)."""
+    out = []
+    if workers <= 1 or len(jobs) < 8 or "fork" not in multiprocessing.get_all_start_methods():
+        for n, job in enumerate(jobs):
+            out.append(fn(job))
+            if progress:
+                progress(what, n + 1, len(jobs))
+        return out
+    with multiprocessing.get_context("fork").Pool(workers) as pool:
+        for n, r in enumerate(pool.imap(fn, jobs, chunksize=max(1, len(jobs) // (8 * workers)))):
+            out.append(r)
+            if progress:
+                progress(what, n + 1, len(jobs))
+    return out
+
+
+# ---------------------------------------------------------------------------- joints
+def joints_of(fin_system) -> list[AssemblyJoint]:
+    """Joint records of a fin system: ``fin_system.joints`` when it has them, else its egg-crate
+    crossings (family-0 parts first; the family-1 plate, slotted from its ``a`` edge, moves
+    along the node axis ``a_i - b_i`` onto them)."""
+    joints = getattr(fin_system, "joints", None)
+    if joints is not None:
+        return [_as_joint(j) for j in joints]
+    st = fin_system.structure
+    out = []
+    for x in fin_system.crossings:
+        axis = np.asarray(st.vertices_a[x.node] - st.vertices_b[x.node], float)
+        out.append(AssemblyJoint("egg-crate", int(x.node), tuple(x.parts0) + tuple(x.parts1),
+                                 axis / np.linalg.norm(axis), None))
+    return out
+
+
+def _as_joint(j) -> AssemblyJoint:
+    """An :class:`AssemblyJoint` from any record with the same fields."""
+    if isinstance(j, AssemblyJoint):
+        return j
+    cd = getattr(j, "connector_direction", None)
+    return AssemblyJoint(str(getattr(j.kind, "value", j.kind)), int(j.node), tuple(j.parts),
+                         np.asarray(j.insert_direction, float), getattr(j, "connector", None),
+                         None if cd is None else np.asarray(cd, float))
+
+
+def joint_groups(joint: AssemblyJoint) -> list[tuple[str, ...]]:
+    """The parts of a joint in the groups that go in one after the other: for an egg-crate the
+    plates of one family, then those of the other (named ``F<family>-...``: two parts of one
+    strip split at the crossing are not each other's partners); otherwise one part at a time
+    (a butt joint: the continuous plate, the butted part, the connector)."""
+    if joint.kind == "egg-crate":
+        groups: dict[str, list] = {}
+        for p in joint.parts:
+            groups.setdefault(p.split("-", 1)[0], []).append(p)
+        return [tuple(g) for g in groups.values()]
+    return [(p,) for p in joint.parts]
+
+
+def _placement_order(names: list[str], joints: list[AssemblyJoint]) -> list[str]:
+    """Parts in an order where, for every joint, the groups it lists first come first (as far
+    as the joints agree; a conflicting precedence is dropped), ties by name."""
+    index = {n: i for i, n in enumerate(names)}
+    before: dict[str, set] = {n: set() for n in names}
+    for j in joints:
+        groups = [[p for p in g if p in index] for g in joint_groups(j)]
+        for ga, gb in zip(groups[:-1], groups[1:]):
+            for b in gb:
+                before[b].update(a for a in ga if a != b)
+    order, placed = [], set()
+    remaining = sorted(names)
+    while remaining:
+        ready = [n for n in remaining if before[n] <= placed]
+        if not ready:                      # a cycle: take the part with fewest missing
+            ready = [min(remaining, key=lambda n: (len(before[n] - placed), n))]
+        nxt = ready[0]
+        order.append(nxt)
+        placed.add(nxt)
+        remaining.remove(nxt)
+    return order
+
+
+def _candidate_directions(axes: list[np.ndarray]) -> list[np.ndarray]:
+    """Directions to try: the mean axis (axes signed alike) and each distinct axis, both senses."""
+    if not axes:
+        return []
+    ref = axes[0]
+    signed = [a if a @ ref >= 0 else -a for a in axes]
+    cands = []
+    mean = np.sum(signed, axis=0)
+    if np.linalg.norm(mean) > 1e-9:
+        cands.append(mean / np.linalg.norm(mean))
+    for a in signed:           # each joint's own axis, exactly: the path a slot allows
+        if all(abs(a @ c) < 1.0 - 1e-12 for c in cands):
+            cands.append(a)
+    # the mean and at most three joints' axes, both senses: a part that none of these lets in
+    # is blocked (more axes rarely help and each costs a sweep)
+    return [s * c for c in cands[:4] for s in (1.0, -1.0)]
+
+
+# ---------------------------------------------------------------------------- the check
+def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
+                   tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
+                   workers: int | None = None, unit: str = "mm",
+                   progress: Callable[[str, int, int], None] | None = None) -> AssemblyCheck:
+    """Check named solids for interference and find an assembly order (see the module text).
+
+    Parameters
+    ----------
+    solids : mapping name -> solid, or iterable of (name, solid)
+        build123d or OCP solids, e.g. ``FinSystem.solids()`` or ``read_step("fins.step")``.
+        Names must be unique.
+    joints : iterable of joint records
+        Objects with ``kind, node, parts, insert_direction, connector`` (see
+        :class:`AssemblyJoint` and :func:`joints_of`). Parts without joints are set down in
+        place (no path is checked).
+    tolerance : float
+        Pairs closer than this (unit) are touching and get the exact boolean.
+    min_volume : float
+        Common volume (unit^3) above which two parts interfere or a path collides.
+    workers : int, optional
+        Processes for the pair and path checks; default ``min(2, cpu count)``.
+    progress : callable(phase, done, total), optional
+
+    Returns
+    -------
+    AssemblyCheck
+    """
+    t0 = time.perf_counter()
+    items = list(solids.items()) if isinstance(solids, Mapping) else list(solids)
+    names = [str(n) for n, _ in items]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"solids with the same name {dup[:8]}: every part needs one solid of its own")
+    shapes = [_shape(s) for _, s in items]
+    joints = [_as_joint(j) for j in joints]
+    if workers is None:
+        workers = min(2, os.cpu_count() or 1)
+    global _SHAPES
+    _SHAPES = shapes
+    _mesh(shapes, tolerance)
+    try:
+        boxes = np.array([_bbox(s) for s in shapes]).reshape(-1, 2, 3)
+        touching, interfering, failed = _touching_pairs(names, boxes, tolerance, min_volume,
+                                                        workers, progress)
+        order = _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progress)
+    finally:
+        _SHAPES = []
+    kinds = Counter(j.kind for j in joints)
+    # connector parts (brackets, splice plates) by the kind of joint they fasten
+    connectors = Counter(j.kind for j in {j.connector: j for j in joints if j.connector}.values())
+    return AssemblyCheck(parts=names, pairs_checked=len(touching), interfering=interfering,
+                         order=order, failed_pairs=failed, joints=dict(sorted(kinds.items())),
+                         connectors=dict(sorted(connectors.items())), min_volume=min_volume,
+                         unit=unit, seconds=time.perf_counter() - t0)
+
+
+def _box_pairs(boxes: np.ndarray, grow: float) -> list[tuple[int, int]]:
+    """Index pairs (i < j) whose boxes, grown by ``grow``, overlap (sort and sweep on x)."""
+    lo, hi = boxes[:, 0] - grow, boxes[:, 1] + grow
+    order = np.argsort(lo[:, 0])
+    pairs = []
+    for n, i in enumerate(order):
+        for j in order[n + 1:]:
+            if lo[j, 0] > hi[i, 0]:
+                break
+            if (lo[i] <= hi[j]).all() and (lo[j] <= hi[i]).all():
+                pairs.append((int(min(i, j)), int(max(i, j))))
+    return sorted(pairs)
+
+
+def _touching_pairs(names, boxes, tolerance, min_volume, workers, progress):
+    jobs = [(i, j, tolerance) for i, j in _box_pairs(boxes, 0.5 * tolerance)]
+    touching, interfering, failed = set(), [], []
+    for i, j, dist, vol, err in _map(_pair_job, jobs, workers, progress, "pairs"):
+        if err:
+            failed.append((names[i], names[j], err))
+            touching.add((i, j))
+        elif dist <= tolerance:
+            touching.add((i, j))
+            if vol > min_volume:
+                interfering.append(Interference((names[i], names[j]), float(vol)))
+    interfering.sort(key=lambda x: -x.volume)
+    return touching, interfering, failed
+
+
+def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progress):
+    """Steps with the first clear insertion direction of every part (see the module text)."""
+    index = {n: i for i, n in enumerate(names)}
+    order = [index[n] for n in _placement_order(names, joints)]
+    rank = {k: r for r, k in enumerate(order)}
+    joint_of: dict[int, list[AssemblyJoint]] = {k: [] for k in range(len(names))}
+    for jt in joints:
+        for p in jt.parts:
+            if p in index:
+                joint_of[index[p]].append(jt)
+    verts = {k: _vertices(_SHAPES[k]) for k in range(len(names))}
+    plans = []                       # per step: (part, partners, kinds, [(direction, travel, others)])
+    for k in order:
+        partners, kinds, axes = set(), [], []
+        for jt in joint_of[k]:
+            groups = joint_groups(jt)
+            mine = next(g for g, ps in enumerate(groups) if names[k] in ps)
+            placed = [index[p] for g in groups[:mine] for p in g
+                      if p in index and rank[index[p]] < rank[k]]
+            if placed:
+                partners.update(placed)
+                kinds.append(jt.kind)
+                own = (jt.connector_direction if names[k] == jt.connector
+                       and jt.connector_direction is not None else jt.insert_direction)
+                axes.append(np.asarray(own, float))
+        cands = []
+        for d in _candidate_directions(axes):
+            # start one depth of the part (its extent along d) back: disengaged from its
+            # joints (a slot is at most as long as the part is deep along its axis)
+            ext = verts[k] @ d
+            travel = float(ext.max() - ext.min()) + tolerance
+            lo = np.minimum(boxes[k, 0], boxes[k, 0] - travel * d) - tolerance
+            hi = np.maximum(boxes[k, 1], boxes[k, 1] - travel * d) + tolerance
+            others = [o for o in order[:rank[k]]
+                      if (boxes[o, 0] <= hi).all() and (lo <= boxes[o, 1]).all()]
+            cands.append((d, travel, others))
+        plans.append((k, sorted(partners, key=rank.get), tuple(sorted(set(kinds))), cands))
+    # try the first direction of every part at once, then the next for those still blocked
+    best: dict[int, tuple] = {}
+    pending = [n for n, p in enumerate(plans) if p[3]]
+    for n, p in enumerate(plans):
+        if not p[3]:
+            best[n] = (None, 0.0, ())
+    attempt = 0
+    while pending:
+        jobs = [(plans[n][0], plans[n][3][attempt][1] * plans[n][3][attempt][0],
+                 plans[n][3][attempt][2], min_volume) for n in pending]
+        results = _map(_sweep_job, jobs, workers, progress, f"paths (try {attempt + 1})")
+        still = []
+        for n, (_, vols) in zip(pending, results):
+            d, travel, others = plans[n][3][attempt]
+            hits = tuple(sorted((Interference((names[plans[n][0]], names[o]), float(v))
+                                 for o, v in zip(others, vols) if not v <= min_volume),
+                                key=lambda x: -x.volume))
+            total = sum(h.volume for h in hits)
+            if n not in best or total < sum(h.volume for h in best[n][2]):
+                best[n] = (d, travel, hits)
+            if hits and attempt + 1 < len(plans[n][3]):
+                still.append(n)
+        pending, attempt = still, attempt + 1
+    steps = []
+    for n, (k, partners, kinds, _) in enumerate(plans):
+        d, travel, hits = best[n]
+        steps.append(AssemblyStep(step=n + 1, part=names[k],
+                                  insert_direction=None if d is None else tuple(float(x) for x in d),
+                                  travel=float(travel), partners=tuple(names[o] for o in partners),
+                                  joint_kinds=kinds, collisions=hits))
+    return steps
+
+
+def verify_assembly(fin_system, *, step_file=None, tolerance: float = 1.0,
+                    min_volume: float = MIN_INTERFERENCE_VOLUME, workers: int | None = None,
+                    progress: Callable[[str, int, int], None] | None = None) -> AssemblyCheck:
+    """:func:`check_assembly` of a :class:`~torsal.fabrication.FinSystem`: its solids (or, with
+    ``step_file``, the solids re-read from that STEP file, as a fabricator would get them) and
+    its joints (:func:`joints_of`)."""
+    if step_file is not None:
+        from .solids import read_step
+
+        solids = read_step(step_file)
+    else:
+        solids = fin_system.solids()
+    return check_assembly(solids, joints=joints_of(fin_system), tolerance=tolerance,
+                          min_volume=min_volume, workers=workers, unit=fin_system.unit,
+                          progress=progress)

@@ -1,0 +1,23 @@
+"""The pipeline: the only room that ties the stages together.
+
+- :func:`analyze`: the analysis of one congruence (``torsal analyze``).
+- :class:`Design`: a design file run end to end (``torsal design``) as a loop over
+  :data:`DEFAULT_PIPELINE`, a :class:`Pipeline` of :class:`Stage` s (plain functions with
+  declared inputs, see :mod:`torsal.pipeline.stage`), each result cached by a hash of its
+  inputs (:mod:`torsal.pipeline.cache`).
+"""
+from .analyze import AnalysisResult, analyze, load_directions
+from .assembly import UnbuildableDesignError
+from .cache import StageCache, stage_key
+from .design import Design, DesignResult
+from .errors import DesignError, Progress
+from .problem import JIT_MIN_VERTICES, congruence_problem, term_weights
+from .regions import dominant_light_direction, select_faces, select_vertices
+from .stage import Pipeline, Stage, StageInputs, StageRun, run_stages, stage_keys
+from .stages import DEFAULT_PIPELINE, STAGES
+
+__all__ = ["AnalysisResult", "analyze", "load_directions", "Design", "DesignResult",
+           "DesignError", "Progress", "StageCache", "stage_key", "Pipeline", "Stage",
+           "StageInputs", "StageRun", "run_stages", "stage_keys", "DEFAULT_PIPELINE", "STAGES",
+           "select_vertices", "select_faces", "dominant_light_direction", "congruence_problem",
+           "term_weights", "JIT_MIN_VERTICES", "UnbuildableDesignError"]

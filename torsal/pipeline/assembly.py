@@ -1,0 +1,162 @@
+"""The assembly stage: after fabrication, check that the parts go together (issue 15).
+
+:func:`run_assembly` re-reads the solids from ``fins.step`` (what the workshop gets; the fin
+system is rebuilt only when no STEP file is written), checks every touching pair for
+interference and finds an assembly order (:func:`torsal.fabrication.check_assembly`), writes
+``assembly.csv`` and, with ``outputs.renders``, ``assembly.png`` (interfering parts in red).
+Its report is ``fabrication.assembly`` in report.json.
+
+A design whose parts interfere is not buildable: :meth:`Design.run` raises
+:class:`UnbuildableDesignError` naming the parts after every output (report included) is
+written, unless ``accept_unbuildable=True`` (``torsal design --accept-unbuildable``).
+
+Quality gates at the stages that cause joinery problems: :func:`congruence_gate` (faces whose
+torsal planes cross more obliquely than the joinery's minimum crossing angle) and
+:func:`support_gate` (nodes where a strip folds more than ``fins.max_fold_at_crossing`` at a
+crossing), each a small report section naming faces or nodes.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import DesignError
+from .stage import StageInputs
+
+__all__ = ["run_assembly", "UnbuildableDesignError", "unbuildable_message",
+           "congruence_gate", "support_gate", "MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD"]
+
+try:        # the joinery's limits (torsal.fabrication.joints, issue 15 part 1)
+    from ..fabrication.joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE
+except ImportError:          # before the per-node joinery: today's egg-crate slots
+    #: degrees: plates crossing more obliquely than this cannot be slotted
+    MIN_CROSSING_ANGLE = 30.0
+    #: degrees: a plate folding more than this at a crossing cannot slide through a slot
+    MAX_CROSSING_FOLD = 10.0
+
+#: how many faces / nodes / parts a report names (all are counted)
+_NAMED = 20
+
+
+class UnbuildableDesignError(DesignError):
+    """The design's parts interfere or cannot be inserted: ``result`` is the finished run
+    (all outputs written), ``parts`` the parts involved. Exit status 3 in the CLI."""
+
+    def __init__(self, message: str, result=None, parts=()):
+        super().__init__("assembly", message)
+        self.result = result
+        self.parts = list(parts)
+
+
+def unbuildable_message(assembly: dict) -> str:
+    """What makes a design unbuildable, naming the parts ('' when it is buildable)."""
+    if assembly.get("buildable", True):
+        return ""
+    out = []
+    inter = assembly.get("interfering", [])
+    if inter:
+        names = ", ".join(f"{a} / {b} ({v:.3g} mm^3)" for (a, b), v in
+                          ((x["parts"], x["volume_mm3"]) for x in inter[:8]))
+        out.append(f"{len(inter)} pairs of parts interfere (worst "
+                   f"{assembly['worst_overlap_mm3']:.4g} mm^3): {names}"
+                   + (" ..." if len(inter) > 8 else ""))
+    blocked = assembly.get("blocked_parts", [])
+    if blocked:
+        out.append(f"{len(blocked)} parts cannot be inserted without collision: "
+                   + ", ".join(blocked[:8]) + (" ..." if len(blocked) > 8 else ""))
+    failed = assembly.get("failed_pairs", [])
+    if failed:
+        out.append(f"{len(failed)} pairs could not be checked: "
+                   + ", ".join(f"{a} / {b}" for a, b, _ in failed[:8]))
+    return "the design is not buildable: " + "; ".join(out)
+
+
+def _solids(inp: StageInputs):
+    fab = inp["fabrication"]
+    step = fab.get("files", {}).get("step")
+    if step and (inp.out / step).exists():
+        from ..fabrication import read_step
+
+        return read_step(inp.out / step)
+    from .fins import fin_system
+
+    return fin_system(inp.spec, inp["support"]["structure"]).solids()
+
+
+def run_assembly(inp: StageInputs) -> dict:
+    """Interference check and assembly order of the fabricated parts. Returns the ``report``
+    section (``fabrication.assembly``) and ``files`` (``assembly.csv``, ``assembly.png``)."""
+    from ..fabrication import check_assembly
+
+    solids = _solids(inp)
+    joints = inp["fabrication"].get("joints", [])
+
+    def progress(phase, done, total):
+        inp.progress("progress", {"phase": phase, "done": done, "total": total})
+
+    check = check_assembly(solids, joints=joints, progress=progress)
+    files = {"assembly": check.write_csv(inp.out / "assembly.csv").name}
+    report = check.report()
+    if inp.spec.outputs.renders:
+        from ..report import plot_assembly
+
+        files["assembly_png"] = plot_assembly(solids, check, inp.out / "assembly.png").name
+        report["picture"] = files["assembly_png"]
+    report["csv"] = files["assembly"]
+    return {"report": report, "files": files}
+
+
+# ---------------------------------------------------------------------------- quality gates
+def congruence_gate(congruence, min_angle: float = MIN_CROSSING_ANGLE) -> dict:
+    """Faces whose two torsal planes (the planes the fins of the two families lie in) cross
+    at less than ``min_angle`` degrees: there the joinery cannot slot the plates (the slot
+    grows as ``t (1 + cos a) / sin a``). Raise ``constraints.min_torsal_angle`` to prevent it.
+
+    Returns the ``joinery`` report section: ``min_crossing_angle_deg`` (the limit),
+    ``faces_below`` (count), ``faces`` (the first indices, smallest angle first),
+    ``min_plane_angle_deg`` and a ``message`` ('' when every face is fine).
+    """
+    n = congruence.torsal_planes()
+    ang = np.degrees(np.arcsin(np.clip(np.linalg.norm(np.cross(n[:, 0], n[:, 1]), axis=1), 0, 1)))
+    ok = np.isfinite(ang)
+    below = np.flatnonzero(ok & (ang < min_angle))
+    below = below[np.argsort(ang[below])]
+    msg = ""
+    if below.size:
+        msg = (f"{below.size} faces have torsal planes crossing at less than {min_angle:g} deg "
+               f"(down to {ang[below[0]]:.1f} deg; faces {below[:_NAMED].tolist()}"
+               f"{' ...' if below.size > _NAMED else ''}): fins crossing there cannot be "
+               "slotted together; raise constraints.min_torsal_angle to keep the torsal "
+               "directions apart")
+    return {"min_crossing_angle_deg": float(min_angle), "faces_below": int(below.size),
+            "faces": below[:_NAMED].tolist(),
+            "min_plane_angle_deg": float(ang[ok].min()) if ok.any() else None, "message": msg}
+
+
+def support_gate(structure, max_fold: float) -> dict:
+    """Nodes where a strip of one family folds by more than ``max_fold`` degrees while a strip
+    of the other family passes through (a crossing): the folded plate cannot slide through an
+    egg-crate slot there, so the joinery splits it (butt joint and connector). Lower the fin
+    spacing or smooth the congruence to prevent it; ``fins.max_fold_at_crossing`` sets the limit.
+
+    Returns the ``joinery`` report section: ``max_fold_at_crossing_deg`` (the limit),
+    ``crossings``, ``nodes_above`` (count), ``nodes`` (the first, sharpest fold first),
+    ``worst_fold_deg`` and a ``message``.
+    """
+    from ..geometry.support import crossing_folds
+
+    nodes, folds = crossing_folds(structure)
+    worst = folds.max(axis=1) if len(folds) else np.zeros(0)
+    above = np.flatnonzero(worst > max_fold)
+    above = above[np.argsort(-worst[above])]
+    msg = ""
+    if above.size:
+        msg = (f"{above.size} of {len(nodes)} crossings have a strip folding more than "
+               f"{max_fold:g} deg (up to {worst[above[0]]:.1f} deg; nodes "
+               f"{nodes[above[:_NAMED]].tolist()}{' ...' if above.size > _NAMED else ''}): "
+               "the folded plate cannot slide through a slot there, so it must be split "
+               "(butt joint with a connector) or the parts interfere; a finer fin spacing or "
+               "a smoother congruence (weights.fair) lowers the folds, "
+               "fins.max_fold_at_crossing sets the limit")
+    return {"max_fold_at_crossing_deg": float(max_fold), "crossings": int(len(nodes)),
+            "nodes_above": int(above.size), "nodes": nodes[above[:_NAMED]].tolist(),
+            "worst_fold_deg": float(worst.max()) if len(worst) else 0.0, "message": msg}

@@ -1,0 +1,57 @@
+"""Geometry files of a design run: the congruence as PLY, support structures as OBJ."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .._io import atomic_path
+from ..geometry.congruence import Congruence
+
+__all__ = ["write_geometry", "write_structure_obj", "target_patch"]
+
+
+def target_patch(target, vertices, size: float | None = None):
+    """A horizontal square around a reflection target (a patch of ceiling), as a trimesh;
+    its side is a third of the surface's extent unless given."""
+    import trimesh
+
+    t = np.asarray(target, float)
+    h = 0.5 * (size or np.ptp(vertices, axis=0).max() / 3.0)
+    corners = t + np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, h, 0]])
+    return trimesh.Trimesh(corners, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
+def write_geometry(out: Path, congruence: Congruence, structure) -> dict:
+    """The optimized congruence as PLY (vertex directions as properties ex, ey, ez) and the
+    support structure as OBJ (groups A, B and fins)."""
+    v, f, e = congruence.vertices, congruence.faces, congruence.directions
+    lines = ["ply", "format ascii 1.0", "comment torsal line congruence: lines a_i + t e_i",
+             f"element vertex {len(v)}", "property double x", "property double y", "property double z",
+             "property double ex", "property double ey", "property double ez",
+             f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
+    lines += [" ".join(f"{x:.12g}" for x in row) for row in np.c_[v, e]]
+    lines += [f"3 {a} {b} {c}" for a, b, c in f]
+    with atomic_path(out / "congruence.ply") as tmp:
+        tmp.write_text("\n".join(lines) + "\n")
+    write_structure_obj(out / "support.obj", structure)
+    return {"congruence": "congruence.ply", "support": "support.obj"}
+
+
+def write_structure_obj(path: Path, s) -> None:
+    """A support structure as OBJ: groups A (nodes on the surface), B, and the fins of
+    each family (one quad per edge)."""
+    n = len(s.vertices_a)
+    obj = ["# torsal support structure: A~ (nodes on the surface), B~, one fin quad per edge"]
+    obj += [f"v {x:.12g} {y:.12g} {z:.12g}" for x, y, z in s.vertices_a]
+    obj += [f"v {x:.12g} {y:.12g} {z:.12g}" for x, y, z in s.vertices_b]
+    obj.append("g A")
+    obj += ["f " + " ".join(str(i + 1) for i in poly) for poly in s.faces]
+    obj.append("g B")
+    obj += ["f " + " ".join(str(i + 1 + n) for i in poly) for poly in s.faces]
+    for fam in (0, 1):
+        obj.append(f"g fins_family_{fam}")
+        for i, j in s.edges[s.edge_family == fam]:
+            obj.append(f"f {i + 1} {j + 1} {j + 1 + n} {i + 1 + n}")
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(obj) + "\n")

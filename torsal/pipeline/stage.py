@@ -1,0 +1,249 @@
+"""A stage: a plain function with declared inputs and outputs, and the loop that runs them.
+
+A :class:`Stage` names the results of earlier stages it reads (``inputs``) and the parts of
+the design file its result depends on (``key``); its function takes a :class:`StageInputs`
+and returns a dict. Documented keys of that dict:
+
+- ``"report"``: the stage's section of ``report.json`` (stored under ``Stage.section``);
+- ``"files"``: ``{kind: path relative to the output folder}`` of files the stage wrote; a
+  cached result whose files are gone is recomputed;
+- anything else: values for later stages (arrays, structures, ...).
+
+:func:`run_stages` runs a list of stages in order, reusing cached results whose key did not
+change. A :class:`Pipeline` is an ordered list of stages with ways to insert one::
+
+    from torsal.pipeline import DEFAULT_PIPELINE, Stage
+    pipeline = DEFAULT_PIPELINE.insert(Stage("assembly", run_assembly,
+                                             inputs=("support", "fabrication")),
+                                       after="fabrication")
+    Design.from_toml("d.toml").run("out", pipeline=pipeline)
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator
+
+from ..design_file import DesignSpec
+from .cache import MISSING, StageCache, stage_key
+from .errors import DesignError, Progress, quiet
+
+__all__ = ["Stage", "StageInputs", "Pipeline", "StageRun", "run_stages", "stage_keys"]
+
+
+def _always(spec: DesignSpec) -> bool:
+    return True
+
+
+def _no_key(spec: DesignSpec) -> tuple:
+    return ()
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One step of the pipeline.
+
+    Parameters
+    ----------
+    name : str
+        Unique; the cache file and the progress events use it.
+    run : callable(StageInputs) -> dict
+        The work; see the module docstring for the keys of its result.
+    inputs : tuple of str
+        Names of earlier stages whose results ``run`` reads (``inputs["congruence"]``).
+    key : callable(DesignSpec) -> tuple
+        The parts of the design file the result depends on (JSON-able values). With the
+        inputs' keys and the torsal version they make the cache key.
+    applies : callable(DesignSpec) -> bool
+        False: the stage is skipped for this design (e.g. no ``[substructure]`` table).
+    cache : bool
+        Store the result. Cheap stages, and stages that must run every time (the report),
+        say False; their key is still computed, so later stages cache normally.
+    section : str, optional
+        The report section for the result's ``"report"``; default ``name``. A dotted name
+        (``"fabrication.assembly"``) nests the section inside another stage's.
+    """
+
+    name: str
+    run: Callable[["StageInputs"], dict]
+    inputs: tuple[str, ...] = ()
+    key: Callable[[DesignSpec], tuple] = _no_key
+    applies: Callable[[DesignSpec], bool] = _always
+    cache: bool = True
+    section: str | None = None
+
+
+@dataclass
+class StageInputs(Mapping):
+    """What a stage's function sees: the design, the output folder, its declared inputs
+    (``inputs["sun"]["vectors"]``), the report so far, and a progress callback for its own
+    events (``inputs.progress("iteration", {...})``)."""
+
+    spec: DesignSpec
+    out: Path
+    stage: str
+    results: dict
+    report: Mapping
+    _progress: Progress = quiet
+
+    def __getitem__(self, name: str) -> dict:
+        try:
+            return self.results[name]
+        except KeyError:
+            raise KeyError(f"stage '{self.stage}' reads '{name}', which is not among its declared "
+                           f"inputs {sorted(self.results)}") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.results)
+
+    def __len__(self) -> int:
+        return len(self.results)
+
+    def progress(self, event: str, info: dict) -> None:
+        self._progress(self.stage, event, info)
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """An ordered list of stages; immutable, so inserting returns a new pipeline.
+
+    >>> p = DEFAULT_PIPELINE.insert(Stage("check", check, inputs=("surface",)),
+    ...                             before="congruence")  # doctest: +SKIP
+    >>> p.names  # doctest: +SKIP
+    ('surface', 'sun', 'orient', 'check', 'congruence', ...)
+    """
+
+    stages: tuple[Stage, ...]
+
+    def __post_init__(self):
+        names = [s.name for s in self.stages]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"stage names must be unique; repeated: {sorted(dup)}")
+        for k, s in enumerate(self.stages):
+            unknown = set(s.inputs) - set(names[:k])
+            if unknown:
+                raise ValueError(f"stage '{s.name}' reads {sorted(unknown)}, which no earlier "
+                                 "stage produces")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.stages)
+
+    def __iter__(self) -> Iterator[Stage]:
+        return iter(self.stages)
+
+    def __getitem__(self, name: str) -> Stage:
+        for s in self.stages:
+            if s.name == name:
+                return s
+        raise KeyError(f"no stage '{name}'; stages: {', '.join(self.names)}")
+
+    def _index(self, name: str) -> int:
+        return self.names.index(self[name].name)
+
+    def insert(self, stage: Stage, *, after: str | None = None,
+               before: str | None = None) -> "Pipeline":
+        """A pipeline with ``stage`` placed after or before the named stage (exactly one)."""
+        if (after is None) == (before is None):
+            raise ValueError("give exactly one of after= or before=")
+        k = self._index(after) + 1 if after is not None else self._index(before)
+        return Pipeline(self.stages[:k] + (stage,) + self.stages[k:])
+
+    def replace(self, stage: Stage) -> "Pipeline":
+        """A pipeline with the stage of the same name swapped for ``stage``."""
+        k = self._index(stage.name)
+        return Pipeline(self.stages[:k] + (stage,) + self.stages[k + 1:])
+
+    def until(self, name: str) -> "Pipeline":
+        """The stages up to and including ``name`` (to warm a shared cache)."""
+        return Pipeline(self.stages[: self._index(name) + 1])
+
+
+def stage_keys(pipeline: Pipeline, spec: DesignSpec) -> dict[str, str]:
+    """The cache key of every stage that applies to ``spec``, without running anything."""
+    keys: dict[str, str] = {}
+    for s in pipeline:
+        if s.applies(spec):
+            keys[s.name] = stage_key(s.name, *(keys[i] for i in s.inputs if i in keys), *s.key(spec))
+    return keys
+
+
+@dataclass
+class StageRun:
+    """What :func:`run_stages` produced: each stage's result and key, the report sections,
+    the files written, the seconds of each computed stage and the stages found in the cache."""
+
+    values: dict = field(default_factory=dict)
+    keys: dict = field(default_factory=dict)
+    report: dict = field(default_factory=dict)
+    files: dict = field(default_factory=dict)
+    stage_seconds: dict = field(default_factory=dict)
+    cached: list = field(default_factory=list)
+
+
+def _flat(x):
+    if isinstance(x, (list, tuple)):
+        for y in x:
+            yield from _flat(y)
+    elif isinstance(x, dict):
+        for y in x.values():
+            yield from _flat(y)
+    elif x:
+        yield x
+
+
+def _files_present(value: dict, out: Path) -> bool:
+    return all((out / p).exists() for p in _flat(value.get("files", {})))
+
+
+def _put_section(report: dict, section: str, value) -> None:
+    """``report[section] = value``; a dotted section (``fabrication.assembly``) nests inside
+    a copy of the parent section, so the parent stage's own result is left as it was."""
+    *parents, last = section.split(".")
+    node = report
+    for name in parents:
+        node[name] = dict(node.get(name, {}))
+        node = node[name]
+    node[last] = value
+
+
+def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache, *,
+               progress: Progress = quiet, run: StageRun | None = None) -> StageRun:
+    """Run the stages that apply to ``spec`` in order; raises :class:`DesignError` naming
+    the stage that failed (results of earlier stages stay cached)."""
+    run = run if run is not None else StageRun()
+    keys = stage_keys(pipeline, spec)
+    for s in pipeline:
+        if not s.applies(spec):
+            continue
+        key = keys[s.name]
+        value = cache.load(s.name, key) if s.cache else MISSING
+        if value is not MISSING and not _files_present(value, out):
+            value = MISSING             # outputs deleted since the cached run: make them again
+        if value is MISSING:
+            progress(s.name, "start", {})
+            t0 = time.perf_counter()
+            inputs = StageInputs(spec=spec, out=out, stage=s.name,
+                                 results={i: run.values[i] for i in s.inputs if i in run.values},
+                                 report=run.report, _progress=progress)
+            try:
+                value = s.run(inputs)
+            except DesignError:
+                raise
+            except Exception as exc:
+                raise DesignError(s.name, f"{type(exc).__name__}: {exc}") from exc
+            run.stage_seconds[s.name] = time.perf_counter() - t0
+            if s.cache:
+                cache.store(s.name, key, value)
+            progress(s.name, "done", {"seconds": run.stage_seconds[s.name]})
+        else:
+            progress(s.name, "cached", {})
+            run.cached.append(s.name)
+        run.values[s.name], run.keys[s.name] = value, key
+        if "report" in value:
+            _put_section(run.report, s.section or s.name, value["report"])
+        run.files.update(value.get("files", {}))
+    return run

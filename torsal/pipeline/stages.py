@@ -1,0 +1,387 @@
+"""The stages of a design run, in order, as plain functions of their declared inputs.
+
+Each function takes a :class:`~torsal.pipeline.stage.StageInputs` and returns a dict; the
+keys each one returns are listed in its docstring. :data:`DEFAULT_PIPELINE` strings them
+together; insert a stage with ``DEFAULT_PIPELINE.insert(stage, after="fabrication")``.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..design_file import DesignSpec
+from ..geometry.congruence import Congruence
+from ..geometry.mesh import area_vector, load_mesh, validate_mesh
+from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
+from .fins import fin_system
+from .outputs import target_patch, write_geometry, write_structure_obj
+from .stage import Pipeline, Stage, StageInputs
+
+__all__ = ["surface_mesh", "sun_directions", "run_surface", "run_sun", "run_orient",
+           "run_congruence", "run_remesh", "run_support", "run_light", "run_substructure",
+           "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES", "fin_system",
+           "run_assembly"]
+
+# constraints met to 1e-4 are met for a building (unit length to 0.01%, c_hyp to rounding of
+# the design's scale); IPOPT's "acceptable level" often lands at ~1e-6
+CONSTRAINT_TOL = 1e-4
+
+
+# ------------------------------------------------------------------ surface and sun
+def surface_mesh(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Mesh A of a design: vertices (n, 3) in model units and triangles (m, 3)."""
+    s = spec.surface
+    if s.mesh is not None:
+        m = load_mesh(s.mesh)
+        return np.asarray(m.vertices, float), np.asarray(m.faces, np.int64)
+    from ..geometry import surfaces
+
+    try:
+        v, f = surfaces.GENERATORS[s.generator](**s.params)
+    except TypeError as exc:
+        raise ValueError(f"surface.params do not fit generator '{s.generator}': {exc}") from None
+    validate_mesh(v, f)
+    return v, f
+
+
+def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Unit sun vectors (k, 3), site -> sun in the model frame, and their weights (k,):
+    explicit vectors, the hot hours of an EPW file, or a pvlib sun path."""
+    s, site = spec.sun, spec.site
+    from ..light import sun as sunmod
+
+    if s.vectors is not None:
+        vec = np.asarray(s.vectors, float)
+        vec /= np.linalg.norm(vec, axis=1, keepdims=True)
+        return vec, np.ones(len(vec))
+    if s.epw is not None:
+        north = site.north_angle if site else 0.0
+        res = sunmod.hot_hours(s.epw, s.min_temperature, s.min_dni, north_angle=north,
+                               months=s.months, hours=tuple(s.hours))
+    else:
+        res = sunmod.sun_path(site.latitude, site.longitude, str(s.start), str(s.end),
+                              timezone=site.timezone, hours=tuple(s.hours), freq=s.step,
+                              months=s.months, elevation=site.elevation,
+                              north_angle=site.north_angle)
+    keep = np.asarray(res.above_horizon, bool)
+    vec = np.asarray(res.vectors)[keep]
+    w = np.asarray(res.weights)[keep] if res.weights is not None else np.ones(keep.sum())
+    if len(vec) == 0:
+        raise ValueError("no sun above the horizon in the given dates and hours; widen sun.hours "
+                         "or the date range")
+    return vec, w
+
+
+def run_surface(inp: StageInputs) -> dict:
+    """Mesh A as given. Returns ``vertices`` (n, 3), ``faces`` (m, 3)."""
+    v, f = surface_mesh(inp.spec)
+    return {"vertices": v, "faces": f}
+
+
+def run_sun(inp: StageInputs) -> dict:
+    """Returns ``vectors`` (k, 3) site -> sun, ``weights`` (k,)."""
+    vec, w = sun_directions(inp.spec)
+    return {"vectors": vec, "weights": w}
+
+
+def run_orient(inp: StageInputs) -> dict:
+    """Mesh A oriented so its normals (and so the initial lines) face the sun: the fins
+    stand on the sun side. Returns ``vertices``, ``faces`` (flipped if needed) and the
+    ``surface`` report section."""
+    v, f = inp["surface"]["vertices"], inp["surface"]["faces"]
+    sun = inp["sun"]
+    flipped = bool(area_vector(v, f) @ (sun["vectors"] * sun["weights"][:, None]).sum(0) < 0)
+    if flipped:
+        f = f[:, ::-1].copy()
+    return {"vertices": v, "faces": f, "report": {
+        "vertices": int(len(v)), "faces": int(len(f)), "flipped_to_face_the_sun": flipped}}
+
+
+# ------------------------------------------------------------------ congruence (4.1)
+def run_congruence(inp: StageInputs) -> dict:
+    """Optimize the congruence (eq. 9, IPOPT). Returns ``directions`` (n, 3), the
+    ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
+    ``substructure_directions`` (n, 3)."""
+    from .problem import congruence_problem
+
+    spec = inp.spec
+    v, f = inp["orient"]["vertices"], inp["orient"]["faces"]
+    sun = inp["sun"]
+    p = congruence_problem(spec, v, f, sun["vectors"], sun["weights"])
+    r = p.solve(max_iter=spec.constraints.max_iter,
+                callback=lambda info: inp.progress("iteration", info),
+                constraint_tol=CONSTRAINT_TOL)
+    c = r.congruence
+    feasible = c is not None and all(x <= CONSTRAINT_TOL for x in r.max_violation.values())
+    if not r.success and not (feasible and "Maximum_Iterations" in r.status):
+        raise ValueError(
+            f"the congruence optimization did not converge ({r.status}); worst constraint: "
+            f"{max(r.max_violation, key=r.max_violation.get) if r.max_violation else 'none'}. "
+            "Relax [constraints] (e.g. min_torsal_angle) or raise constraints.max_iter")
+    extra = {}
+    if len(r.congruences) > 1:
+        c2 = r.congruences[1]
+        extra = {"substructure_vertices": np.asarray(c2.vertices),
+                 "substructure_directions": np.asarray(c2.directions)}
+    return {
+        **extra,
+        "directions": np.asarray(c.directions),
+        "report": {
+            "vertices": int(len(v)), "faces": int(len(f)),
+            "build_s": float(r.build_seconds), "solve_s": float(r.solve_seconds),
+            "status": str(r.status), "iterations": int(r.iterations),
+            "energies": {k: float(x) for k, x in r.energies_after.items()},
+            "energies_before": {k: float(x) for k, x in r.energies_before.items()},
+            "max_violation": {k: float(x) for k, x in r.max_violation.items()},
+            # False: the solve without the inequality constraints already met them
+            "constraints_active": r.constraints_active,
+            # elements IPOPT imposed the inequalities on (None: all of them, or none
+            # needed); the others held with slack
+            "working_set": None if r.working_set is None
+            else {k: int(len(x)) for k, x in r.working_set.items()},
+            "min_hyperbolicity": float(np.nanmin(c.hyperbolicity())),
+            "min_torsal_angle_deg": float(np.nanmin(c.torsal_angle()))
+            if np.isfinite(c.torsal_angle()).any() else None,
+            "hyperbolic_share": float(c.is_hyperbolic().mean()),
+            # faces where the fins of the two families cross too obliquely to be slotted
+            "joinery": congruence_gate(c),
+        },
+    }
+
+
+def optimized_congruence(inp: StageInputs) -> Congruence:
+    """The optimized congruence over the oriented mesh A (needs inputs orient, congruence)."""
+    o = inp["orient"]
+    return Congruence(o["vertices"], o["faces"], inp["congruence"]["directions"])
+
+
+# ------------------------------------------------------------------ support structure (4.2, eq. 8)
+def _remesh(congruence: Congruence, spacing: float, depth: float):
+    """Torsal remeshing (4.2) with fins cut to ``depth`` along their lines."""
+    from ..geometry.remesh import remesh_torsal
+
+    s = remesh_torsal(congruence, spacing)
+    e = s.vertices_b - s.vertices_a
+    s.vertices_b = s.vertices_a + depth * e / np.linalg.norm(e, axis=1, keepdims=True)
+    return s
+
+
+def run_remesh(inp: StageInputs) -> dict:
+    """Torsal remeshing at the fin spacing and depth. Returns ``structure``
+    (SupportStructure) and ``delta_pl`` of the extracted structure."""
+    fins = inp.spec.fins
+    s = _remesh(optimized_congruence(inp), fins.spacing, fins.depth)
+    return {"structure": s, "delta_pl": s.delta_pl}
+
+
+def run_support(inp: StageInputs) -> dict:
+    """Planarize the fins (eq. 8), soft then hard if needed, and refine to developable
+    strips (Fig. 10) if asked. Returns ``structure`` and the ``report`` section."""
+    spec = inp.spec
+    o = inp["orient"]
+    reference = (o["vertices"], o["faces"])
+    s = inp["remesh"]["structure"]
+    t0 = time.perf_counter()
+    if spec.fins.optimize:
+        from ..geometry.support import optimize_support
+
+        # soft eq. (8), then planarity as a hard constraint if the soft energy was not enough
+        r = optimize_support(s, reference=reference, planarity_tol=spec.fins.planarity_tol)
+        s, status, ok = r.structure, str(r.status), bool(r.success)
+    else:
+        status, ok = "not optimized (fins.optimize = false)", True
+    solve_s = time.perf_counter() - t0
+    if spec.fins.developable_levels:
+        from ..geometry.developable import refine_developable
+
+        s = refine_developable(s, spec.fins.developable_levels)
+    return {"structure": s, "report": {
+        "quads": int(sum(len(p) == 4 for p in s.faces)), "faces": int(len(s.faces)),
+        "edges": int(len(s.edges)), "nodes": int(len(s.vertices_a)),
+        "delta_pl_extracted": float(inp["remesh"]["delta_pl"]),
+        "delta_pl_optimized": float(s.delta_pl), "solve_s": float(solve_s),
+        "status": status, "success": ok,
+        # crossings where a strip folds too much to slide through a slot
+        "joinery": support_gate(s, spec.fins.max_fold_at_crossing
+                                if spec.fins.max_fold_at_crossing is not None
+                                else MAX_CROSSING_FOLD)}}
+
+
+# ------------------------------------------------------------------ light
+def run_light(inp: StageInputs) -> dict:
+    """Sun blocked over the sun hours and view clear, for the fins and for horizontal
+    louvers of the same depth and spacing. Returns the ``report`` section and ``map``
+    (``points`` (p, 3), ``per_point`` (p,) blocked share) for the figure."""
+    from ..light import direct_sun_blocked, horizontal_louvers, transparency
+
+    spec = inp.spec
+    o, sun = inp["orient"], inp["sun"]
+    v, f = o["vertices"], o["faces"]
+    fins = inp["support"]["structure"].fin_mesh()
+    n = spec.outputs.light_samples
+    blocked = direct_sun_blocked(fins, (v, f), sun["vectors"], samples=n, weights=sun["weights"])
+    clear = transparency(fins, (v, f), samples=n // 2)
+    louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
+    lb = direct_sun_blocked(louvers, (v, f), sun["vectors"], samples=n, weights=sun["weights"])
+    lt = transparency(louvers, (v, f), samples=n // 2)
+    extra = {}
+    if spec.goals.reflect is not None:
+        from ..light import reflected_hits
+
+        extra["reflected_to_target"] = float(reflected_hits(
+            fins, sun["vectors"], target_patch(spec.goals.reflect.target, v),
+            weights=sun["weights"], resolution=128).share)
+    return {"report": {
+        **extra,
+        "sun_directions": int(len(sun["vectors"])),
+        "blocked_share": float(blocked.share),
+        "transparency": float(clear.along_normal),
+        "transparency_cone": float(clear.cone),
+        "baseline_louvers": {"blocked_share": float(lb.share),
+                             "transparency": float(lt.along_normal),
+                             "transparency_cone": float(lt.cone)}},
+        "map": {"points": blocked.points, "per_point": blocked.per_point}}
+
+
+# ------------------------------------------------------------------ substructure (Fig. 11)
+def run_substructure(inp: StageInputs) -> dict:
+    """The aligned substructure's support structure. Returns ``structure`` and the
+    ``report`` section."""
+    from ..geometry.support import optimize_support
+
+    spec, cong = inp.spec, inp["congruence"]
+    f = inp["orient"]["faces"]
+    v2 = cong["substructure_vertices"]
+    s2 = _remesh(Congruence(v2, f, cong["substructure_directions"]), spec.fins.spacing,
+                 spec.substructure.depth)
+    extracted = s2.delta_pl
+    r2 = optimize_support(s2, reference=(v2, f))
+    return {"structure": r2.structure, "report": {
+        "edges": int(len(r2.structure.edges)),
+        "delta_pl_extracted": float(extracted),
+        "delta_pl_optimized": float(r2.structure.delta_pl)}}
+
+
+# ------------------------------------------------------------------ fabrication
+def run_fabrication(inp: StageInputs) -> dict:
+    """Parts, joints and solids; STEP / 3DM / nested DXF sheets / parts list as the design's
+    [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
+    from ..fabrication import joints_of
+
+    spec, out = inp.spec, inp.out
+    m = spec.material
+    fs = fin_system(spec, inp["support"]["structure"])
+    written = {}
+    if spec.outputs.step:
+        fs.export_step(out / "fins.step")
+        written["step"] = "fins.step"
+    if spec.outputs.rhino_3dm:
+        fs.export_3dm(out / "fins.3dm")
+        written["3dm"] = "fins.3dm"
+    layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
+    if spec.outputs.dxf:
+        paths = layout.export_dxf(out / "sheets" / "fins.dxf")
+        written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
+    if spec.outputs.bom:
+        fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
+        written["bom"] = "parts.csv"
+    return {"report": {
+        "parts": int(len(fs.parts)), "panels": int(fs.n_panels),
+        "sheets": int(layout.n_sheets),
+        "utilization": float(layout.utilization),
+        "step": written.get("step"), "dxf": written.get("dxf")},
+        "files": written, "layout": layout,
+        # for the assembly stage: which parts each joint joins, and along which axis
+        "joints": joints_of(fs)}
+
+
+# ------------------------------------------------------------------ report
+def run_report(inp: StageInputs) -> dict:
+    """Geometry files (congruence PLY, support OBJ), ``report.json`` and, with
+    ``outputs.renders``, the figures and ``report.html``; cheap, so always written fresh.
+    Returns ``files``."""
+    from ..report import write_design_report
+
+    spec, out = inp.spec, inp.out
+    congruence = optimized_congruence(inp)
+    structure = inp["support"]["structure"]
+    files = write_geometry(out, congruence, structure)
+    if "substructure" in inp:
+        write_structure_obj(out / "substructure.obj", inp["substructure"]["structure"])
+        files["substructure"] = "substructure.obj"
+    from .._io import write_json
+
+    write_json(out / "report.json", dict(inp.report))
+    files["report_json"] = "report.json"
+    if spec.outputs.renders:
+        o = inp["orient"]
+        files.update(write_design_report(out, spec, dict(inp.report), congruence, structure,
+                                         inp["light"]["map"], (o["vertices"], o["faces"]),
+                                         inp["fabrication"].get("layout")))
+    return {"files": files}
+
+
+def _surface_key(spec):
+    return (spec.surface.model_dump(mode="json"),)
+
+
+def _sun_key(spec):
+    return (spec.sun.model_dump(mode="json"),
+            spec.site.model_dump(mode="json") if spec.site else None)
+
+
+def _congruence_key(spec):
+    return (spec.goals.model_dump(mode="json"), spec.weights.model_dump(),
+            spec.constraints.model_dump())
+
+
+def _remesh_key(spec):
+    return (spec.fins.spacing, spec.fins.depth)
+
+
+def _fins_key(spec):
+    return (spec.fins.model_dump(),)
+
+
+def _light_key(spec):
+    return (spec.outputs.light_samples,)
+
+
+def _substructure_key(spec):
+    return (spec.fins.model_dump(), spec.substructure.model_dump())
+
+
+def _has_substructure(spec):
+    return spec.substructure is not None
+
+
+def _fabrication_key(spec):
+    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units)
+
+
+def _assembly_key(spec):
+    return (spec.outputs.renders,)
+
+
+#: The stages of a design run, in order. Insert more with ``DEFAULT_PIPELINE.insert``.
+DEFAULT_PIPELINE = Pipeline((
+    Stage("surface", run_surface, key=_surface_key),
+    Stage("sun", run_sun, key=_sun_key),
+    Stage("orient", run_orient, inputs=("surface", "sun"), cache=False, section="surface"),
+    Stage("congruence", run_congruence, inputs=("orient", "sun"), key=_congruence_key),
+    Stage("remesh", run_remesh, inputs=("orient", "congruence"), key=_remesh_key),
+    Stage("support", run_support, inputs=("orient", "remesh"), key=_fins_key),
+    Stage("light", run_light, inputs=("orient", "sun", "support"), key=_light_key),
+    Stage("substructure", run_substructure, inputs=("orient", "congruence"),
+          key=_substructure_key, applies=_has_substructure),
+    Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
+    Stage("assembly", run_assembly, inputs=("support", "fabrication"),
+          key=_assembly_key, section="fabrication.assembly"),
+    Stage("report", run_report, inputs=("orient", "congruence", "support", "light",
+                                        "substructure", "fabrication", "assembly"), cache=False),
+))
+
+#: Stage names in order.
+STAGES = DEFAULT_PIPELINE.names
