@@ -51,6 +51,7 @@ Example
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import replace
 from typing import Iterable, NamedTuple, Sequence
@@ -95,9 +96,26 @@ class _Strips(NamedTuple):
     ends: np.ndarray
 
 
+def _merge_coincident_nodes(structure):
+    """The structure with nodes of identical node lines (``a`` and ``b`` equal to 1e-9 of its
+    size) merged into one index, e.g. the two families of refined developable strips, which
+    duplicate the nodes they share: the plates cross there and need a joint."""
+    a, b = np.asarray(structure.vertices_a, float), np.asarray(structure.vertices_b, float)
+    if not len(a):
+        return structure
+    tol = 1e-9 * max(1.0, float(np.abs(np.r_[a, b]).max()))
+    key = np.round(np.c_[a, b] / tol).astype(np.int64)
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    canon = first[inv.ravel()]
+    if (canon == np.arange(len(a))).all():
+        return structure
+    return dataclasses.replace(structure, edges=canon[np.asarray(structure.edges)],
+                               faces=[[int(canon[v]) for v in f] for f in structure.faces])
+
+
 def _read_strips(structure, scale: float, drop_mask) -> _Strips:
     """Strips of a support structure scaled to ``unit``, degenerate panels marked."""
-    strips = structure.fins()
+    strips = _merge_coincident_nodes(structure).fins()
     a = structure.vertices_a * scale
     b = structure.vertices_b * scale
     depth = np.linalg.norm(b - a, axis=1)
@@ -304,12 +322,19 @@ class FinSystem:
         self.min_panel_width = float(min_panel_width)
 
     def _drop_mask(self, quads: np.ndarray) -> np.ndarray:
-        """Panels too narrow, of zero area or self-intersecting (bow-tie: the node lines cross
-        inside the fin) to be fabricated."""
+        """Panels too narrow, of zero area, self-intersecting (bow-tie: the node lines cross
+        inside the fin) or folded back onto the previous panel, to be fabricated."""
         w = panel_widths(quads)
         tol = 1e-9 * max(1.0, float(np.abs(quads).max()))
-        return ((w <= tol) | (w < self.min_panel_width) | _bowtie(quads)
-                | ~np.isfinite(_safe_normals(quads)).all(axis=1))
+        n = _safe_normals(quads)
+        drop = ((w <= tol) | (w < self.min_panel_width) | _bowtie(quads)
+                | ~np.isfinite(n).all(axis=1))
+        # a panel folded back (more than MITER_LIMIT) onto its kept neighbour lies on top of it:
+        # it duplicates that fin and cannot be built; drop it
+        for j in range(1, len(quads)):
+            if not drop[j] and not drop[j - 1] and _fold_deg(n[j - 1], n[j]) > MITER_LIMIT:
+                drop[j] = True
+        return drop
 
     def _miter_ok(self, n1, n2, w1, w2) -> bool:
         """A fold can be mitred: at most MITER_LIMIT, and the bevel ``t/2 tan(fold/2)`` (how far
@@ -326,7 +351,7 @@ class FinSystem:
             d = self.dropped_panels
             warnings.warn(
                 f"{len(d)} degenerate fin panels (narrower than min_panel_width="
-                f"{self.min_panel_width:g} {self.unit}, or self-intersecting) were dropped (their "
+                f"{self.min_panel_width:g} {self.unit}, self-intersecting or folded back onto their neighbour) were dropped (their "
                 f"strips are split there): "
                 + "; ".join(f"{s} edge {e} ({w:.3g} {self.unit} wide)" for s, e, w in d[:8])
                 + (" ..." if len(d) > 8 else "") + "; see FinSystem.dropped_panels. Remesh more "
