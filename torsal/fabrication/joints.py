@@ -30,6 +30,12 @@ every node the joint is chosen from the real geometry of the plates there:
   ends meet on the fold's bisector plane and a bent splice plate covers the seam on the side
   clear of other parts.
 
+Where several strips of one family end at the same node, the first is the base and each other
+butts against it and those before it; where both strips are split at a node, family 1's halves
+get a bracket in both corners, which bridges family 0's seam. Node lines of the two families
+that coincide (refined developable strips duplicate them) are one node. A panel folded back
+onto its neighbour (more than ``MITER_LIMIT``) duplicates that fin and is dropped (named).
+
 Limits: slots need a crossing angle of at least :data:`MIN_CROSSING_ANGLE` (30 degrees: the
 slot is then already 3.7 plate thicknesses wide) and folds of at most
 :data:`MAX_CROSSING_FOLD` (10 degrees) at the crossing; a butt trim needs the part to meet the

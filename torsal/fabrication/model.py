@@ -158,8 +158,9 @@ class Joint:
         Unit vector (model coordinates, i.e. the fin system's frame) along which the later
         part slides into place: for an egg-crate the family-1 plate moves along
         ``a_i - b_i`` (its slots open on the ``a`` edge) onto the family-0 plate; for a butt
-        joint the butted part moves towards the continuous plate (against that plate's
-        normal); for a mitre the later part moves towards the earlier one.
+        joint the butted part slides along the line where its plane meets the continuous
+        plate (its trimmed end face then slides along that plate), in the sense of
+        ``a_i - b_i``; for a mitre the later part moves towards the earlier one.
     connector : str or None
         Name of the connector part (bracket or splice plate), ``None`` for an egg-crate.
     connector_direction : (3,) float or None

@@ -113,6 +113,17 @@ def _merge_coincident_nodes(structure):
                                faces=[[int(canon[v]) for v in f] for f in structure.faces])
 
 
+def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Direction a butted part slides into place along: the line where its plane meets the
+    plate's (so its trimmed end face slides along the plate, ``clearance/2`` off it),
+    oriented like ``axis`` (the node axis, ``a_i - b_i``, as for an egg-crate)."""
+    d = np.cross(n_plate, quad_normals(quad[None])[0])
+    if not np.linalg.norm(d) > 1e-9:
+        return axis / np.linalg.norm(axis)
+    d = d / np.linalg.norm(d)
+    return d if d @ axis >= 0 else -d
+
+
 def _read_strips(structure, scale: float, drop_mask) -> _Strips:
     """Strips of a support structure scaled to ``unit``, degenerate panels marked."""
     strips = _merge_coincident_nodes(structure).fins()
@@ -707,7 +718,8 @@ class FinSystem:
         p.miters[0 if end == 0 else -1] = m_end
         cont = [(n, v, self._panel_quad(ref)) for n, v, ref in panels]
         names = tuple(sorted({self._where[ref][0].name for _, _, ref in panels}))
-        self._bracket(p, j, node, cont, names, st.a[node], st.b[node], insert=-nbar,
+        self._bracket(p, j, node, cont, names, st.a[node], st.b[node],
+                      insert=_slide(nbar, quad, st.a[node] - st.b[node]),
                       n_corners=2 if bridge else 1)
         return True
 
@@ -742,7 +754,7 @@ class FinSystem:
         p.miters[0] = m_end
         if prev is not None and node >= 0 and bracket:
             self._bracket(p, 0, node, [(nprev, into, prev.panels[-1])], (prev.name,), pa, pb,
-                          insert=-nbar)
+                          insert=_slide(nbar, quad, pa - pb))
         return True
 
     def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert,
