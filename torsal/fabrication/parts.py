@@ -990,9 +990,19 @@ class FinSystem:
 
     def layout(self, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
                margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270)):
-        """Nest the unrolled parts on sheets (``unit``); see :func:`torsal.fabrication.layout.nest`."""
-        return _layout.nest(list(self.unrolled().values()), sheet=sheet, gap=gap, margin=margin,
-                    rotations=rotations, unit=self.unit)
+        """Nest the unrolled plates on sheets (``unit``; see :func:`torsal.fabrication.layout.nest`)
+        and pack the connectors in rows on the sheets after them
+        (:func:`~torsal.fabrication.layout.shelf_pack`: hundreds of small brackets would make
+        the nesting quadratic)."""
+        flat = self.unrolled()
+        conn = {p.name for p in self.connectors}
+        plates = _layout.nest([u for n, u in flat.items() if n not in conn], sheet=sheet, gap=gap,
+                              margin=margin, rotations=rotations, unit=self.unit)
+        if not conn:
+            return plates
+        kit = _layout.shelf_pack([u for n, u in flat.items() if n in conn], sheet=sheet, gap=gap,
+                                 margin=margin, unit=self.unit, first_sheet=plates.n_sheets)
+        return _layout.merge_layouts(plates, kit)
 
     def bill_of_materials(self, path, *, density: float = 2700.0, layout=None):
         """CSV parts list; see :func:`torsal.fabrication.layout.bill_of_materials`."""
