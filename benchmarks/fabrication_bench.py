@@ -1,12 +1,14 @@
 """Fabrication benchmark: build and write solids, unroll, nest, write DXF for 100, 1,000 and
-5,000 panels; prints a table with the times and the sheet utilization, and the time of the
-assembly check (interference and assembly order, one process and two).
+5,100 panels; prints a table with the times and the sheet utilization. Solids are built twice:
+serially (``solids_1_s``) and by one process per core (``solids_par_s``, issue 15); the load
+average (``uptime``) is printed next to the table, since other jobs may share the cores.
+The assembly check (interference and assembly order, one process and two) is timed too.
 
 The structure is a lat/long grid on a sphere of radius 10 m with node lines through the centre
 (exactly planar fins), ~300 mm panels, 150 mm fins, 3 mm plate, parts of at most 8 panels (2.4 m),
 sheets 2500 x 1250 mm. Not run by the test suite.
 
-    .venv/bin/python benchmarks/fabrication_bench.py [--sizes 100 1000 5000] [--no-solids-above N]
+    .venv/bin/python benchmarks/fabrication_bench.py [--sizes 100 1000 5100] [--no-solids-above N]
 """
 from __future__ import annotations
 
@@ -47,15 +49,9 @@ def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: boo
         fs = FinSystem(s, thickness=3.0, clearance=0.5, max_panels=max_panels)
     row["parts"] = len(fs.parts)
     row["parts_s"] = time.perf_counter() - t0
+    row["connectors"] = len(fs.connectors)
     if solids:
-        import build123d  # noqa: F401  (import time, ~5 s, is not part of the measurement)
-
-        t0 = time.perf_counter()
-        fs.solids()
-        row["solids_s"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        fs.export_step(out / f"fins_{n}.step")
-        row["step_s"] = time.perf_counter() - t0
+        row.update(time_solids(fs, out / f"fins_{n}.step"))
         if verify:
             row.update(verification_times(fs, out / f"fins_{n}.step"))
     t0 = time.perf_counter()
@@ -71,6 +67,34 @@ def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: boo
     fs.bill_of_materials(out / f"bom_{n}.csv", layout=lay)
     row["dxf_s"] = time.perf_counter() - t0
     return row
+
+
+def time_solids(fs, step_path: Path) -> dict:
+    """Seconds to build the solids serially and in parallel (one process per core), and to
+    write the STEP file once."""
+    import build123d  # noqa: F401  (import time, ~5 s, is not part of the measurement)
+
+    from torsal.fabrication.solids import default_workers
+
+    row = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for key, workers in (("solids_1_s", 1), ("solids_par_s", max(2, default_workers(len(fs.parts))))):
+            fs._solids = None
+            t0 = time.perf_counter()
+            fs.solids(workers=workers)
+            row[key] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    fs.export_step(step_path)
+    row["step_s"] = time.perf_counter() - t0
+    return row
+
+
+def load_average() -> str:
+    """The 1-minute load average, as ``uptime`` shows it."""
+    import os
+
+    return f"{os.getloadavg()[0]:.2f}"
 
 
 def verification_times(fs, step_file: Path, workers=(1, 2)) -> dict:
@@ -90,7 +114,7 @@ def verification_times(fs, step_file: Path, workers=(1, 2)) -> dict:
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 5000])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 1000, 5100])
     ap.add_argument("--no-solids-above", type=int, default=10**9,
                     help="skip the OpenCascade solids/STEP above this many panels")
     ap.add_argument("--out", type=Path, default=None)
@@ -99,12 +123,14 @@ def main():
     args = ap.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="torsal_fab_bench_"))
     out.mkdir(parents=True, exist_ok=True)
-    cols = ["panels", "parts", "parts_s", "solids_s", "step_s", "unroll_s", "nest_s", "dxf_s",
-            "sheets", "util", "verify_1p_s", "verify_2p_s", "touching", "interfering"]
+    cols = ["panels", "parts", "connectors", "parts_s", "solids_1_s", "solids_par_s", "step_s",
+            "unroll_s", "nest_s", "dxf_s", "sheets", "util", "verify_1p_s", "verify_2p_s",
+            "touching", "interfering", "load"]
     print("| " + " | ".join(cols) + " |")
     print("|" + "---|" * len(cols))
     for n in args.sizes:
         r = run(n, out, solids=n <= args.no_solids_above, verify=n <= args.no_verify_above)
+        r["load"] = load_average()
         cells = []
         for c in cols:
             v = r.get(c, "-")

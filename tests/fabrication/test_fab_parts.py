@@ -7,14 +7,18 @@ import numpy as np
 import pytest
 
 from fab_structures import cylinder_structure, developable_strip, flat_structure, sphere_structure
-from torsal.fabrication import FamilySplit, FinSystem, PartId, SlotSide
+from torsal.fabrication import FamilySplit, FinSystem, JointKind, PartId, SlotSide, slot_width
 from torsal.geometry.support import SupportStructure
 
 
 def test_egg_crate_one_part_per_strip_with_stable_ids_and_colours():
     s = sphere_structure(nu=4, nv=3)
     fs = FinSystem(s, thickness=3.0)
-    assert len(fs.parts) == len(s.fins()) == 3 + 4
+    plates = [p for p in fs.parts if p.family >= 0]
+    assert len(plates) == len(s.fins()) == 3 + 4
+    # the 10 boundary T/L junctions are butted with a bracket each, named after their node
+    assert sorted(p.name for p in fs.parts if p.family < 0) == [
+        f"C-N{v:04d}-0" for v in (0, 1, 2, 3, 4, 7, 8, 9, 10, 11)]
     assert fs.n_panels == len(s.edges)
     assert [p.name for p in fs.parts[:2]] == ["F0-S000-P00", "F0-S001-P00"]
     assert fs.parts[3].id == PartId(1, 0, 0)
@@ -25,7 +29,7 @@ def test_egg_crate_one_part_per_strip_with_stable_ids_and_colours():
     cols = {p.family: p.color for p in fs.parts}
     assert cols[0] != cols[1] and all(p.color == cols[p.family] for p in fs.parts)
     # every fin is used exactly once
-    assert sorted(np.concatenate([p.edges for p in fs.parts]).tolist()) == list(range(len(s.edges)))
+    assert sorted(np.concatenate([p.edges for p in plates]).tolist()) == list(range(len(s.edges)))
 
 
 @pytest.mark.parametrize("make", [sphere_structure, cylinder_structure, flat_structure])
@@ -44,7 +48,13 @@ def test_slot_depths_add_up_to_fin_depth_and_widths_match(make, ratio):
         assert s0[0].side == SlotSide.B and s1[0].side == SlotSide.A
         assert s0[0].depth + s1[0].depth == pytest.approx(depth[x.node], rel=1e-12)
         assert s0[0].depth == pytest.approx(ratio * depth[x.node], rel=1e-12)
-        assert s0[0].width == s1[0].width == pytest.approx(t + c)
+        # widths from the crossing angle and folds there: t + c only for flat plates at 90 deg
+        assert s0[0].width == pytest.approx(slot_width(x.angle, thickness=t, clearance=c,
+                                                       fold_self=x.fold if make is cylinder_structure else 0.0,
+                                                       fold_other=0.0), rel=0.05)
+        assert min(s0[0].width, s1[0].width) >= t + c - 1e-9
+        if make is flat_structure:
+            assert s0[0].width == s1[0].width == pytest.approx(t + c, rel=1e-12)
 
 
 def test_boundary_ends_are_trimmed_against_the_crossing_plate():
@@ -92,7 +102,13 @@ def test_closed_strips_become_two_parts():
         warnings.simplefilter("ignore")
         fs = FinSystem(s, thickness=3.0, fit_sheet=None)
     rows = [p for p in fs.parts if p.family == 0]
-    assert len(rows) == 6 and all(len(p.panels) == 4 for p in rows)
+    # the boundary rows (no crossings) are cut in two halves, mitred with a splice plate
+    for strip in (0, 2):
+        assert [len(p.panels) for p in rows if p.id.strip == strip] == [4, 4]
+    splices = [j for j in fs.joints if j.kind == JointKind.MITRE_SPLICE]
+    assert len(splices) == 4 and all(j.connector for j in splices)
+    # the middle row folds 24 deg at every crossing: split there, one panel per part
+    assert [len(p.panels) for p in rows if p.id.strip == 1] == [1] * 8
 
 
 def test_parts_are_halved_until_they_fit_the_sheet():
@@ -115,15 +131,26 @@ def test_parts_are_halved_until_they_fit_the_sheet():
         FinSystem(s, thickness=3.0, fit_sheet=(10.0, 10.0))
 
 
-def test_warns_when_clearance_is_too_small_for_folded_crossings():
+def test_folded_crossings_are_split_and_butted_not_slotted():
     s = cylinder_structure(nu=8, closed=True)
-    with pytest.warns(UserWarning, match="clearance"):
-        fs = FinSystem(s, thickness=3.0, clearance=0.5)
-    need = max(x.required_clearance for x in fs.crossings)
-    assert need > 0.5
     with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        FinSystem(s, thickness=3.0, clearance=need)
+        warnings.simplefilter("error")          # a sound design: nothing to warn about
+        fs = FinSystem(s, thickness=3.0, clearance=0.5, fit_sheet=None)
+    assert not fs.crossings
+    # the 8 crossings of the middle row: it folds there, the columns are flat
+    assert len(fs.joinery) == 8
+    # the dihedral angle of consecutive panels of the middle row, from their normals
+    q = s.fins()[1].quads
+    n = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    fold = np.degrees(np.arccos(n[0] @ n[1]))
+    assert fold > 20.0
+    for x in fs.joinery:
+        assert x.kind == JointKind.BUTT_BRACKET and x.split == 0
+        assert x.folds[0] == pytest.approx(fold, abs=1e-6) and x.folds[1] == pytest.approx(0, abs=1e-6)
+        assert f"folds {fold:.0f} deg" in x.why
+    butts = [j for j in fs.joints if j.kind == JointKind.BUTT_BRACKET and j.node in {x.node for x in fs.joinery}]
+    assert len(butts) == 16 and all(j.connector in {p.name for p in fs.parts} for j in butts)
 
 
 def test_units_scale_the_structure():
@@ -170,7 +197,8 @@ def test_max_part_length_splits_strips_to_fit_sheets():
         assert max(la, lb) <= 1000.0
     rows = [p for p in fs.parts if p.family == 0 and p.id.strip == 1]
     assert [len(p.panels) for p in rows] == [3, 3, 2]
-    assert sorted(np.concatenate([p.edges for p in fs.parts]).tolist()) == list(range(len(s.edges)))
+    plates = [p for p in fs.parts if p.family >= 0]
+    assert sorted(np.concatenate([p.edges for p in plates]).tolist()) == list(range(len(s.edges)))
     with pytest.raises(ValueError, match="max_part_length"):
         FinSystem(s, thickness=3.0, max_part_length=0.0)
 

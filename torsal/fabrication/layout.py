@@ -36,11 +36,11 @@ from shapely.prepared import prep
 
 from torsal.core.atomic import atomic_path
 
-from .parts import INSUNITS, UNIT_TO_MM
+from torsal.core.units import INSUNITS, UNIT_TO_MM
 from torsal.core.errors import TorsalError
 
-__all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "bill_of_materials",
-           "read_dxf_parts"]
+__all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "shelf_pack", "merge_layouts",
+           "bill_of_materials", "read_dxf_parts"]
 
 
 class PartTooLargeError(TorsalError, ValueError):
@@ -407,6 +407,59 @@ def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float 
     return Layout((w, h), placements, len(sheets), unit=unit, gap=gap, margin=margin)
 
 
+def shelf_pack(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
+               margin: float = 10.0, unit: str = "mm", first_sheet: int = 0) -> Layout:
+    """Pack many small flat parts (connectors) in rows: each turned so that its minimum
+    rotated rectangle is axis-aligned (long side along x), tallest first, left to right
+    with ``gap`` between them, a new row above the tallest of the last one, a new sheet when
+    the rows are full. Linear in the number of parts, where :func:`nest` is about quadratic;
+    sheets are numbered from ``first_sheet``.
+
+    Raises :class:`PartTooLargeError` if a part does not fit an empty sheet.
+    """
+    w, h = map(float, sheet)
+    items = _as_items(outlines)
+    shapes = []
+    for it in items:
+        p = affinity.rotate(it.outline, it.base, origin=(0, 0))
+        minx, miny, maxx, maxy = p.bounds
+        if maxx - minx > w - 2 * margin + 1e-9 or maxy - miny > h - 2 * margin + 1e-9:
+            raise PartTooLargeError(f"part {it.name} ({maxx - minx:.0f} x {maxy - miny:.0f} {unit}) "
+                                    f"does not fit a {w:.0f} x {h:.0f} {unit} sheet")
+        shapes.append((it, p, (minx, miny, maxx, maxy)))
+    shapes.sort(key=lambda x: -(x[2][3] - x[2][1]))
+    m0 = margin + 1e-6 * max(w, h)          # strictly inside the margin
+    placements, sheet_no, x, y, row_h = [], first_sheet, m0, m0, 0.0
+    for it, p, (minx, miny, maxx, maxy) in shapes:
+        pw, ph = maxx - minx, maxy - miny
+        if x + pw > w - margin + 1e-9:                  # new row
+            x, y, row_h = m0, y + row_h + gap, 0.0
+        if y + ph > h - margin + 1e-9:                  # new sheet
+            sheet_no, x, y, row_h = sheet_no + 1, m0, m0, 0.0
+        dx, dy = x - minx, y - miny
+        rot = it.base
+
+        def tf(g):
+            return affinity.translate(affinity.rotate(g, rot, origin=(0, 0)), dx, dy)
+
+        lab = tf(Point(it.label))
+        placements.append(Placement(it.name, sheet_no, rot, (dx, dy), tf(it.outline),
+                                    [(tf(f), a) for f, a in it.folds], (lab.x, lab.y),
+                                    it.label_height, (it.label_angle + rot) % 360.0))
+        x += pw + gap
+        row_h = max(row_h, ph)
+    n = (sheet_no - first_sheet + 1) if placements else 0
+    return Layout((w, h), placements, n, unit=unit, gap=gap, margin=margin)
+
+
+def merge_layouts(first: Layout, second: Layout) -> Layout:
+    """One layout of the sheets of ``first`` followed by those of ``second`` (whose sheet
+    numbers start at ``first.n_sheets``)."""
+    places = sorted(first.placements + second.placements, key=lambda p: (p.sheet, p.name))
+    return Layout(first.sheet, places, first.n_sheets + second.n_sheets, unit=first.unit,
+                  gap=first.gap, margin=first.margin)
+
+
 # ---------------------------------------------------------------------------- reading back
 def read_dxf_parts(path) -> tuple[list[Polygon], list[str], "object"]:
     """Re-read a sheet DXF: polygons of the closed CUT polylines (holes assigned to their
@@ -436,7 +489,7 @@ def read_dxf_parts(path) -> tuple[list[Polygon], list[str], "object"]:
 
 # ---------------------------------------------------------------------------- BOM
 BOM_COLUMNS = ["part_id", "family", "strip", "panels", "area_m2", "perimeter_m", "cut_length_m",
-               "fold_count", "mass_kg", "sheet"]
+               "fold_count", "mass_kg", "sheet", "kind"]
 
 
 def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout: Layout | None = None) -> list[dict]:
@@ -445,13 +498,16 @@ def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout:
     ``area_m2`` is the net flat area (slots removed), ``perimeter_m`` the outer boundary of the
     flat part without its slots, ``cut_length_m`` the full cutting path (outline with slots and
     holes), ``mass_kg = area * thickness * density`` with ``density`` in kg/m^3 (default
-    aluminium, 2700), ``sheet`` the 1-based sheet number from ``layout`` (empty if none).
+    aluminium, 2700), ``sheet`` the 1-based sheet number from ``layout`` (empty if none),
+    ``kind`` ``plate`` for a fin plate, else the joint kind of a connector (``butt-bracket``,
+    ``mitre-splice``); a connector's ``family`` is -2 and its ``strip`` the node it sits at.
     Returns the rows; writes ``path`` (atomically) if given.
     """
     if density <= 0:
         raise ValueError(f"density must be > 0 kg/m^3, got {density}")
     to_m = UNIT_TO_MM[fin_system.unit] / 1000.0
     sheets = layout.sheet_of if layout is not None else {}
+    kind_of = {j.connector: j.kind.value for j in getattr(fin_system, "joints", []) if j.connector}
     rows = []
     for p in fin_system.parts:
         u = fin_system.unrolled()[p.name]
@@ -463,7 +519,7 @@ def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout:
             "area_m2": round(area, 8), "perimeter_m": round(gross.exterior.length * to_m, 6),
             "cut_length_m": round(cut * to_m, 6), "fold_count": u.fold_count,
             "mass_kg": round(area * fin_system.thickness * to_m * density, 6),
-            "sheet": sheets.get(p.name, ""),
+            "sheet": sheets.get(p.name, ""), "kind": kind_of.get(p.name, "plate"),
         })
     if path is not None:
         buf = io.StringIO()

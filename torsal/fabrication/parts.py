@@ -1,35 +1,40 @@
-"""Parts of a fin system: strips of planar fins grouped into buildable plates (issue 6).
+"""Parts of a fin system: strips of planar fins grouped into buildable plates (issues 6, 15).
 
 A :class:`FinSystem` reads a :class:`~torsal.geometry.support.SupportStructure` and groups its
-fins (one planar quad ``a_i a_j b_j b_i`` per edge) into *parts*:
+fins (one planar quad ``a_i a_j b_j b_i`` per edge) into *parts*, then joins them. It is the
+facade of :mod:`torsal.fabrication`: the model (:mod:`.model`), the joinery (:mod:`.joints`),
+development (:mod:`.unroll`), solids (:mod:`.solids`) and sheets (:mod:`.layout`) sit below it.
 
-* by default (``family_split="egg-crate"``) every strip of either torsal family is one part, a
-  folded plate of planar panels hinged on the node lines ``L_i = a_i b_i``. Where a strip of
-  family 0 crosses a strip of family 1 (a node that is interior to a strip of both families),
-  the two plates interlock with half-depth slots: the family-0 plate is slotted from its ``b``
-  edge, the family-1 plate from its ``a`` edge, depths adding up to the fin depth
-  ``|b_i - a_i|``, widths ``thickness + clearance``, centred on the node line.
-* with ``family_split="family0-continuous"`` the strips of family 0 are continuous plates and
-  family 1 is cut into single panels between them (no slots; they butt against family 0).
+* By default (``family_split="egg-crate"``) every strip of either torsal family is one part, a
+  folded plate of planar panels hinged on the node lines ``L_i = a_i b_i``. At every node where
+  strips of both families pass, :func:`~.joints.choose_joinery` picks the joint: an egg-crate
+  (half-depth slots, family 0 from its ``b`` edge, family 1 from its ``a`` edge, widths from the
+  crossing angle, see :func:`~.joints.slot_width`) where the plates slide together along
+  ``L_i``, else the strip that folds more is split there and both halves are butted against the
+  continuous plate with a bracket (rules and limits in :mod:`.joints`).
+* With ``family_split="family0-continuous"`` the strips of family 0 are continuous plates and
+  family 1 is cut into single panels between them, butted with brackets.
 
 Where a strip ends against a plate of the other family (a T or L junction on the boundary)
 its end panel is trimmed back until its end face clears the faces of that plate (both panels
-of it, if it folds there) by ``clearance/2``, so solids never overlap. Panels meeting at a fold
-sharper than ``max_fold_angle`` are split into separate parts before anything is mitred: the
-later part is butt-trimmed against the square end of the earlier one (a fold that doubles back,
-or one at an egg-crate crossing, keeps square ends and is listed in ``untrimmed_joints``).
-Strips with more than ``max_panels`` panels, longer than ``max_part_length`` along their ``a``
-and ``b`` edges, or whose unrolled outline does not fit ``fit_sheet`` (halved until it does) are
-split too; closed strips are always cut into at least two parts. Those splits meet on the
-bisector plane of the fold (mitred), with half slots if the split node is a crossing.
+of it, if it folds there) by ``clearance/2`` and a bracket joins them. Panels meeting at a fold
+sharper than ``max_fold_angle`` are split into separate parts: the later part is butt-trimmed
+against the square end of the earlier one, with a bracket. Strips with more than
+``max_panels`` panels, longer than ``max_part_length`` along their ``a`` and ``b`` edges, or
+whose unrolled outline does not fit ``fit_sheet`` (halved until it does) are split too;
+closed strips are always cut into at least two parts. Those splits meet on the bisector plane
+of the fold (mitred) with a splice plate, or, at a crossing, are butted against the crossing
+plate. Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
+:attr:`FinSystem.joints` lists every joint (:class:`~.model.Joint`).
 
 Real structures from the remesher have defects near boundaries and at coarse resolution; they
 are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
 into NaN or invalid solids: degenerate panels (narrower than ``min_panel_width`` or
 self-intersecting) are dropped and their strip split there (``dropped_panels``); butt trims
-without a solution are skipped (``untrimmed_joints``); slots that would cut a part in two are
-made shallower, the partner's slot deeper (``slot_conflicts``); single panels larger than
-``fit_sheet`` are named (``oversize_panels``; :meth:`FinSystem.layout` refuses them).
+without a solution are skipped (``untrimmed_joints``); joints without room for a connector are
+named (``unconnected_joints``); slots that would cut a part in two are made shallower, the
+partner's slot deeper (``slot_conflicts``); single panels larger than ``fit_sheet`` are named
+(``oversize_panels``; :meth:`FinSystem.layout` refuses them).
 
 Units: the structure is in ``model_unit`` (metres by default); every length held by a
 :class:`FinSystem` (``thickness``, ``clearance``, panel coordinates, slots, solids, sheets,
@@ -41,269 +46,141 @@ Example
 >>> fs = FinSystem(structure, thickness=3.0, clearance=0.5)        # doctest: +SKIP
 >>> fs.parts[0].name, len(fs.parts[0].panels)                      # doctest: +SKIP
 ('F0-S000-P00', 3)
+>>> sorted({j.kind.value for j in fs.joints})                      # doctest: +SKIP
+['butt-bracket', 'egg-crate']
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from dataclasses import dataclass, field
-from enum import Enum
-from typing import Iterable, Sequence
+from dataclasses import replace
+from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 
-__all__ = [
-    "FamilySplit", "SlotSide", "PartId", "Slot", "Crossing", "Part", "FinSystem",
-    "UNIT_TO_MM", "INSUNITS", "FAMILY_COLORS", "fold_angles", "quad_normals",
-]
-
 from torsal.core.units import INSUNITS, UNIT_TO_MM
 
-#: RGB colours (0..1) by family: family 0 orange, family 1 blue, developables green
-FAMILY_COLORS = {0: (0.93, 0.55, 0.14), 1: (0.16, 0.45, 0.78), -1: (0.30, 0.65, 0.30)}
+from . import layout as _layout
+from . import solids as _solids
+from .joints import (MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
+                     corners, place_connector, slot_width, trim_corner)
+from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
+                    JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
+                    _oriented_size, _safe_normals, fold_angles, panel_widths, quad_normals)
+from .unroll import unroll
+
+__all__ = [
+    "FamilySplit", "SlotSide", "PartId", "Slot", "Crossing", "Part", "FinSystem", "Joint",
+    "JointKind", "UNIT_TO_MM", "INSUNITS", "FAMILY_COLORS", "fold_angles", "quad_normals",
+    "MITER_LIMIT", "panel_widths",
+]
 
 
-class FamilySplit(str, Enum):
-    """How the two families of fins are grouped into parts."""
-
-    EGG_CRATE = "egg-crate"
-    FAMILY0_CONTINUOUS = "family0-continuous"
+#: gap left between a connector and the plates it lies on, as a fraction of the thickness
+#: (so that touching faces are not coincident for the boolean checks; 0.03 mm at 3 mm)
+CONNECTOR_GAP = 0.01
 
 
-class SlotSide(str, Enum):
-    """The edge of a fin a slot is cut from: ``a`` (design surface side) or ``b``."""
+class _Strips(NamedTuple):
+    """The structure's strips in ``unit``: ``quads`` (k, 4, 3) and ``drops`` (k,) per strip,
+    node line ends ``a``, ``b`` (n, 3) and fin ``depth`` (n,), and per family and node whether
+    a strip passes through it (two kept panels) or ends there (one)."""
 
-    A = "a"
-    B = "b"
-
-
-@dataclass(frozen=True, order=True)
-class PartId:
-    """Stable part identity: ``family`` (0, 1; -1 for free developable strips), ``strip``
-    (number of the strip within its family, in :meth:`SupportStructure.fins` order) and
-    ``index`` (number of the part along the strip)."""
-
-    family: int
-    strip: int
-    index: int
-
-    def __str__(self) -> str:
-        fam = "D" if self.family < 0 else f"F{self.family}"
-        return f"{fam}-S{self.strip:03d}-P{self.index:02d}"
+    fins: list
+    quads: list
+    drops: list
+    a: np.ndarray
+    b: np.ndarray
+    depth: np.ndarray
+    passes: np.ndarray
+    ends: np.ndarray
 
 
-@dataclass(frozen=True)
-class Slot:
-    """An egg-crate slot of a part, centred on the node line at ``position``.
-
-    Attributes
-    ----------
-    node : int
-        Structure node index (-1 for free strips).
-    position : int
-        Index of the node line along the part: 0 is the start edge of panel 0, ``k`` the
-        end edge of panel ``k-1``; in between it is the fold between panels ``k-1`` and ``k``.
-    side : SlotSide
-        The slot is open on the ``a`` or ``b`` edge.
-    depth : float
-        Length of the slot along the node line from its open end (``unit``).
-    width : float
-        ``thickness + clearance`` (``unit``).
-    partner : str
-        Name of the crossing part(s) of the other family.
-    """
-
-    node: int
-    position: int
-    side: SlotSide
-    depth: float
-    width: float
-    partner: str = ""
+def _merge_coincident_nodes(structure):
+    """The structure with nodes of identical node lines (``a`` and ``b`` equal to 1e-9 of its
+    size) merged into one index, e.g. the two families of refined developable strips, which
+    duplicate the nodes they share: the plates cross there and need a joint."""
+    a, b = np.asarray(structure.vertices_a, float), np.asarray(structure.vertices_b, float)
+    if not len(a):
+        return structure
+    tol = 1e-9 * max(1.0, float(np.abs(np.r_[a, b]).max()))
+    key = np.round(np.c_[a, b] / tol).astype(np.int64)
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    canon = first[inv.ravel()]
+    if (canon == np.arange(len(a))).all():
+        return structure
+    return dataclasses.replace(structure, edges=canon[np.asarray(structure.edges)],
+                               faces=[[int(canon[v]) for v in f] for f in structure.faces])
 
 
-@dataclass(frozen=True)
-class Crossing:
-    """A node where a strip of family 0 and one of family 1 interlock (egg-crate).
-
-    ``depth`` is the fin depth ``|b_i - a_i|`` (``unit``); ``depth0`` is the slot depth of the
-    family-0 part(s) (from the ``b`` edge), ``depth1`` that of family 1 (from the ``a`` edge);
-    ``width = thickness + clearance``. ``required_clearance`` is the clearance the two plates
-    need to pass each other: 0 for flat plates crossing at right angles, more where a plate
-    folds at the node (by ``theta``) or the plates cross obliquely (at ``alpha``):
-    ``t (1/cos(theta/2) + tan(theta/2)) / sin(alpha) - t``.
-    """
-
-    node: int
-    parts0: tuple[str, ...]
-    parts1: tuple[str, ...]
-    depth: float
-    depth0: float
-    depth1: float
-    width: float
-    required_clearance: float = 0.0
+def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Direction a butted part slides into place along: the line where its plane meets the
+    plate's (so its trimmed end face slides along the plate, ``clearance/2`` off it),
+    oriented like ``axis`` (the node axis, ``a_i - b_i``, as for an egg-crate)."""
+    d = np.cross(n_plate, quad_normals(quad[None])[0])
+    if not np.linalg.norm(d) > 1e-9:
+        return axis / np.linalg.norm(axis)
+    d = d / np.linalg.norm(d)
+    return d if d @ axis >= 0 else -d
 
 
-def quad_normals(quads: np.ndarray) -> np.ndarray:
-    """Unit Newell normals of quads (k, 4, 3) -> (k, 3)."""
-    q = np.asarray(quads, dtype=float)
-    n = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
-    nn = np.linalg.norm(n, axis=1, keepdims=True)
-    if (nn <= 0).any():
-        raise ValueError("degenerate fin quad (zero area)")
-    return n / nn
+def _read_strips(structure, scale: float, drop_mask) -> _Strips:
+    """Strips of a support structure scaled to ``unit``, degenerate panels marked."""
+    strips = _merge_coincident_nodes(structure).fins()
+    a = structure.vertices_a * scale
+    b = structure.vertices_b * scale
+    depth = np.linalg.norm(b - a, axis=1)
+    used = np.unique(structure.edges)
+    tiny = depth[used] <= 1e-12 * max(1.0, float(np.abs(a).max()))
+    if tiny.any():
+        raise ValueError(f"nodes {used[tiny][:10].tolist()} have zero fin depth (a_i == b_i)")
+    quads = [fs.quads * scale for fs in strips]
+    drops = [drop_mask(q) for q in quads]
+    n = len(a)
+    passes = np.zeros((2, n), dtype=bool)
+    ends = np.zeros((2, n), dtype=bool)
+    for fs, drop in zip(strips, drops):
+        v = np.asarray(fs.vertices)
+        k = len(drop)
+        for j in range(len(v)):
+            if fs.closed and j == k:
+                continue
+            left = j - 1 if j > 0 else (k - 1 if fs.closed else None)
+            right = j if j < k else None
+            cnt = sum(1 for i in (left, right) if i is not None and not drop[i])
+            if cnt == 2:
+                passes[fs.family, v[j]] = True
+            elif cnt == 1:
+                ends[fs.family, v[j]] = True
+    return _Strips(strips, quads, drops, a, b, depth, passes, ends)
 
 
-def fold_angles(quads: np.ndarray) -> np.ndarray:
-    """Signed dihedral (fold) angles between consecutive quads of a strip, radians, (k-1,).
+def _plate_panels(st: _Strips) -> dict:
+    """``{(family, node): [(normal, direction into the panel square to the node line,
+    (strip, panel))]}``: the kept panels of each family's plate around each node."""
+    plate: dict[tuple[int, int], list] = {}
+    for si, (fs, q, drop) in enumerate(zip(st.fins, st.quads, st.drops)):
+        nq = _safe_normals(q)
+        for j, v in enumerate(fs.vertices):
+            if fs.closed and j == len(nq):
+                continue
+            adj = [i for i in (j - 1, j) if 0 <= i < len(nq)]
+            if fs.closed and j == 0:
+                adj = [len(nq) - 1, 0]
+            lst = plate.setdefault((fs.family, int(v)), [])
+            line = st.b[v] - st.a[v]
+            line = line / np.linalg.norm(line)
+            for i in adj:
+                if drop[i]:
+                    continue
+                into = q[i].mean(axis=0) - st.a[v]
+                into = into - (into @ line) * line
+                ni = np.linalg.norm(into)
+                if not ni > 1e-9 * st.depth[v]:
+                    continue           # panel centre on the node line: no direction
+                lst.append((nq[i], into / ni, (si, i)))
+    return plate
 
-    The angle turns the normal of panel ``k`` into that of panel ``k+1`` about the fold axis
-    ``a_j -> b_j`` (right-hand rule); 0 is flat. Viewed from the ``+normal`` side (the top of
-    the unrolled part) a positive angle is a mountain fold, a negative one a valley fold.
-    """
-    q = np.asarray(quads, dtype=float)
-    if len(q) < 2:
-        return np.zeros(0)
-    n = quad_normals(q)
-    axis = q[:-1, 2] - q[:-1, 1]
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    s = np.einsum("ij,ij->i", np.cross(n[:-1], n[1:]), axis)
-    c = np.einsum("ij,ij->i", n[:-1], n[1:])
-    return np.arctan2(s, c)
-
-
-#: degrees: folds sharper than this are never mitred (the mitre vector grows as
-#: ``1/cos(fold/2)``): such folds always split the strip, and the two parts get square ends
-#: there (listed in ``FinSystem.untrimmed_joints``: they overlap near the fold)
-MITER_LIMIT = 170.0
-
-
-def _safe_normals(quads: np.ndarray) -> np.ndarray:
-    """Unit Newell normals (k, 3); NaN rows for zero-area quads (never raises)."""
-    q = np.asarray(quads, dtype=float)
-    n = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
-    nn = np.linalg.norm(n, axis=1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(nn > 0, n / np.where(nn > 0, nn, 1.0), np.nan)
-
-
-def _fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:
-    """Unsigned fold angle between two unit normals, degrees (NaN if either is NaN)."""
-    return float(np.degrees(np.arccos(np.clip(n1 @ n2, -1.0, 1.0))))
-
-
-def panel_widths(quads: np.ndarray) -> np.ndarray:
-    """Narrowest width of every quad (k,): area over its longest edge (``unit``). A sliver
-    panel (its ``a`` edge nearly along the node lines, or all edges tiny) has width ~0."""
-    q = np.asarray(quads, dtype=float)
-    area = 0.5 * np.linalg.norm(np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1]), axis=1)
-    edges = np.linalg.norm(q - np.roll(q, -1, axis=1), axis=2).max(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.where(edges > 0, area / np.where(edges > 0, edges, 1.0), 0.0)
-    return np.where(np.isfinite(w), w, 0.0)
-
-
-def _bowtie(quads: np.ndarray) -> np.ndarray:
-    """Self-intersecting (bow-tie) quads (k,) bool: two corners turn against the normal."""
-    q = np.asarray(quads, dtype=float)
-    n = _safe_normals(q)
-    e = np.roll(q, -1, axis=1) - q                       # edge i: corner i -> i+1
-    turn = np.einsum("kij,kj->ki", np.cross(e, np.roll(e, -1, axis=1)), np.nan_to_num(n))
-    return (turn < 0).sum(axis=1) >= 2
-
-
-class _Untrimmable(Exception):
-    """A part end that cannot be butt-trimmed (too shallow an angle, too short a panel)."""
-
-
-def _oriented_size(poly) -> tuple[float, float]:
-    """Side lengths (long, short) of the minimum rotated rectangle of a shapely polygon."""
-    rect = np.asarray(poly.minimum_rotated_rectangle.exterior.coords)[:4]
-    a = np.linalg.norm(rect[1] - rect[0])
-    b = np.linalg.norm(rect[2] - rect[1])
-    return max(a, b), min(a, b)
-
-
-def _miter(n1: np.ndarray, n2: np.ndarray) -> np.ndarray:
-    """Vector m with m.n1 = m.n2 = 1: offsets along it stay on both offset planes."""
-    c = float(n1 @ n2)
-    if c <= -0.999:
-        raise ValueError("fold of nearly 180 degrees: cannot miter")
-    return (n1 + n2) / (1.0 + c)
-
-
-@dataclass
-class Part:
-    """One buildable plate: a chain of planar panels folded on node lines.
-
-    Attributes
-    ----------
-    id : PartId
-    panels : (k, 4, 3) float
-        Panel quads ``a_i a_j b_j b_i`` in ``unit`` (after end trimming), consecutive
-        panels share the fold line.
-    nodes : (k+1,) int
-        Structure node of every node line along the part (-1 for free strips).
-    edges : (k,) int
-        Structure edge of every panel (-1 for free strips).
-    slots : list of Slot
-    miters : (k+1, 3) float
-        Offset vectors at every node line: the faces of the thickened plate are at
-        ``p +- thickness/2 * miters[j]`` (mitred folds, end caps square or along the plate
-        they butt against).
-    trimmed : (2,) bool
-        Whether the start / end panel was trimmed against a crossing plate.
-    color : (3,) float
-    span : (lo, hi)
-        Panels ``lo..hi-1`` of the strip this part was cut from.
-    """
-
-    id: PartId
-    panels: np.ndarray
-    nodes: np.ndarray
-    edges: np.ndarray
-    slots: list = field(default_factory=list)
-    miters: np.ndarray | None = None
-    trimmed: tuple = (False, False)
-    color: tuple = (0.5, 0.5, 0.5)
-    span: tuple = (0, 0)
-    #: how the start / end of the part is made: ``"end"`` (end of the strip), ``"miter"``
-    #: (split inside the strip, e.g. by ``max_panels``, mitred on the fold's bisector plane),
-    #: ``"fold"`` (split at a fold sharper than ``max_fold_angle``, or one too sharp to mitre:
-    #: never mitred; the start of the later part is butt-trimmed against the earlier one, or
-    #: square and listed in ``untrimmed_joints``) or ``"dropped"`` (next to a dropped
-    #: degenerate panel: square end, trimmed like a strip end)
-    ends: tuple = ("end", "end")
-
-    @property
-    def name(self) -> str:
-        return str(self.id)
-
-    @property
-    def family(self) -> int:
-        return self.id.family
-
-    @property
-    def normals(self) -> np.ndarray:
-        return quad_normals(self.panels)
-
-    @property
-    def fold_angles(self) -> np.ndarray:
-        """Signed fold angles between consecutive panels, radians (see :func:`fold_angles`)."""
-        return fold_angles(self.panels)
-
-    @property
-    def panel_areas(self) -> np.ndarray:
-        """Area of every panel (``unit``^2), from the Newell normal (exact for planar quads)."""
-        q = self.panels
-        return 0.5 * np.linalg.norm(np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1]), axis=1)
-
-    @property
-    def size(self) -> float:
-        """Diagonal of the bounding box of the part (``unit``)."""
-        p = self.panels.reshape(-1, 3)
-        return float(np.linalg.norm(p.max(0) - p.min(0)))
-
-    def __repr__(self) -> str:
-        return f"Part({self.name}, panels={len(self.panels)}, slots={len(self.slots)})"
 
 
 class FinSystem:
@@ -377,7 +254,9 @@ class FinSystem:
                  max_fold_angle: float = 60.0, max_panels: int | None = None,
                  max_part_length: float | None = None,
                  fit_sheet: tuple[float, float] | None = (2500.0, 1250.0), fit_margin: float = 10.0,
-                 model_unit: str = "m", unit: str = "mm", min_panel_width: float | None = None):
+                 model_unit: str = "m", unit: str = "mm", min_panel_width: float | None = None,
+                 min_crossing_angle: float = MIN_CROSSING_ANGLE,
+                 max_crossing_fold: float = MAX_CROSSING_FOLD):
         self._check_common(thickness, clearance, model_unit, unit, max_panels)
         if not 0.0 < slot_ratio < 1.0:
             raise ValueError(f"slot_ratio must be in (0, 1), got {slot_ratio}")
@@ -389,6 +268,12 @@ class FinSystem:
         self.family_split = FamilySplit(family_split)
         self.slot_ratio = float(slot_ratio)
         self.max_fold_angle = float(max_fold_angle)
+        if not 0.0 < min_crossing_angle <= 90.0:
+            raise ValueError(f"min_crossing_angle must be in (0, 90] degrees, got {min_crossing_angle}")
+        if not 0.0 <= max_crossing_fold < 90.0:
+            raise ValueError(f"max_crossing_fold must be in [0, 90) degrees, got {max_crossing_fold}")
+        self.min_crossing_angle = float(min_crossing_angle)
+        self.max_crossing_fold = float(max_crossing_fold)
         self.max_panels = max_panels
         if max_part_length is not None and not max_part_length > 0:
             raise ValueError(f"max_part_length must be > 0, got {max_part_length}")
@@ -409,6 +294,7 @@ class FinSystem:
         self.crossings: list[Crossing] = []
         #: part ends that could not be butt-trimmed: (part name, node, reason)
         self.untrimmed_joints: list[tuple[str, int, str]] = []
+        self._init_joints()
         self.parts: list[Part] = []
         self._solids: dict | None = None
         self._unrolled: dict | None = None
@@ -417,6 +303,16 @@ class FinSystem:
         self._build_from_structure()
 
     # ------------------------------------------------------------------ construction
+    def _init_joints(self) -> None:
+        #: every joint of the assembly (egg-crate, butt + bracket, mitre + splice)
+        self.joints: list[Joint] = []
+        #: joints without a connector (no room for one): (part name, node, reason)
+        self.unconnected_joints: list[tuple[str, int, str]] = []
+        #: the joint chosen at every crossing of two strips (see :func:`~.joints.choose_joinery`)
+        self.joinery: list = []
+        self._connectors: list[Part] = []
+        self._n_conn: dict[int, int] = {}
+
     @staticmethod
     def _check_common(thickness, clearance, model_unit, unit, max_panels):
         if not np.isfinite(thickness) or thickness <= 0:
@@ -437,12 +333,19 @@ class FinSystem:
         self.min_panel_width = float(min_panel_width)
 
     def _drop_mask(self, quads: np.ndarray) -> np.ndarray:
-        """Panels too narrow, of zero area or self-intersecting (bow-tie: the node lines cross
-        inside the fin) to be fabricated."""
+        """Panels too narrow, of zero area, self-intersecting (bow-tie: the node lines cross
+        inside the fin) or folded back onto the previous panel, to be fabricated."""
         w = panel_widths(quads)
         tol = 1e-9 * max(1.0, float(np.abs(quads).max()))
-        return ((w <= tol) | (w < self.min_panel_width) | _bowtie(quads)
-                | ~np.isfinite(_safe_normals(quads)).all(axis=1))
+        n = _safe_normals(quads)
+        drop = ((w <= tol) | (w < self.min_panel_width) | _bowtie(quads)
+                | ~np.isfinite(n).all(axis=1))
+        # a panel folded back (more than MITER_LIMIT) onto its kept neighbour lies on top of it:
+        # it duplicates that fin and cannot be built; drop it
+        for j in range(1, len(quads)):
+            if not drop[j] and not drop[j - 1] and _fold_deg(n[j - 1], n[j]) > MITER_LIMIT:
+                drop[j] = True
+        return drop
 
     def _miter_ok(self, n1, n2, w1, w2) -> bool:
         """A fold can be mitred: at most MITER_LIMIT, and the bevel ``t/2 tan(fold/2)`` (how far
@@ -459,7 +362,7 @@ class FinSystem:
             d = self.dropped_panels
             warnings.warn(
                 f"{len(d)} degenerate fin panels (narrower than min_panel_width="
-                f"{self.min_panel_width:g} {self.unit}, or self-intersecting) were dropped (their "
+                f"{self.min_panel_width:g} {self.unit}, self-intersecting or folded back onto their neighbour) were dropped (their "
                 f"strips are split there): "
                 + "; ".join(f"{s} edge {e} ({w:.3g} {self.unit} wide)" for s, e, w in d[:8])
                 + (" ..." if len(d) > 8 else "") + "; see FinSystem.dropped_panels. Remesh more "
@@ -504,6 +407,8 @@ class FinSystem:
         self._oversize = []
         self.unslotted_solids = []
         self._solids = self._unrolled = None
+        self.min_crossing_angle, self.max_crossing_fold = MIN_CROSSING_ANGLE, MAX_CROSSING_FOLD
+        self._init_joints()
         for s, st in enumerate(strips):
             q = np.asarray(getattr(st, "quads", st), dtype=float) * self.scale
             fam = int(family)
@@ -524,7 +429,6 @@ class FinSystem:
         self._warn_dropped()
         # splits at sharp folds: butt joints (the later part trimmed back), never mitred
         gap, h = 0.5 * self.thickness, 0.5 * self.thickness
-        untrimmed: list[tuple[str, int, str]] = []
         by_strip: dict[int, list[Part]] = {}
         for p in self.parts:
             by_strip.setdefault(p.id.strip, []).append(p)
@@ -533,9 +437,8 @@ class FinSystem:
             for p in parts:
                 if p.ends[0] == "fold":
                     trimmed = list(p.trimmed)
-                    self._trim_fold(p, parts, q, -1, None, gap, h, untrimmed, trimmed)
+                    trimmed[0] = self._fold_butt(p, self._previous(parts, p, q), q, -1, gap, h)
                     p.trimmed = tuple(trimmed)
-        self.untrimmed_joints = untrimmed
         self._warn_untrimmed(stacklevel=3)
         return self
 
@@ -545,11 +448,12 @@ class FinSystem:
         return min(self.max_fold_angle, MITER_LIMIT)
 
     def _split_ranges(self, quads: np.ndarray, closed: bool,
-                      drop: np.ndarray | None = None) -> list[tuple[int, int]]:
-        """Panel ranges [lo, hi) of the parts of one strip (dropped panels left out)."""
+                      drop: np.ndarray | None = None, extra_cuts=()) -> list[tuple[int, int]]:
+        """Panel ranges [lo, hi) of the parts of one strip (dropped panels left out), cut also
+        at the node lines ``extra_cuts`` (crossings joined by butt joints)."""
         k = len(quads)
         drop = np.zeros(k, dtype=bool) if drop is None else np.asarray(drop, dtype=bool)
-        cuts = {0, k}
+        cuts = {0, k} | {int(j) % k if closed else int(j) for j in extra_cuts}
         n = _safe_normals(quads)
         with np.errstate(invalid="ignore"):
             ang = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", n[:-1], n[1:]), -1, 1)))
@@ -602,8 +506,6 @@ class FinSystem:
         return self._fit(quads, lo, mid) + self._fit(quads, mid, hi)
 
     def _fits(self, quads: np.ndarray) -> bool:
-        from .unroll import unroll
-
         try:
             outline = unroll(quads, slots=[]).outline
         except ValueError:          # overlaps itself when unrolled: too long anyway
@@ -660,45 +562,55 @@ class FinSystem:
                 + (" ..." if len(untrimmed) > 6 else "") + "; see FinSystem.untrimmed_joints",
                 stacklevel=stacklevel)
 
+
+    # ------------------------------------------------------------------ construction phases
     def _build_from_structure(self) -> None:
-        st = self.structure
-        t, c = self.thickness, self.clearance
-        strips = st.fins()
-        a = st.vertices_a * self.scale
-        b = st.vertices_b * self.scale
-        depth = np.linalg.norm(b - a, axis=1)
-        used_nodes = np.unique(st.edges)
-        if (depth[used_nodes] <= 1e-12 * max(1.0, float(np.abs(a).max()))).any():
-            bad = used_nodes[depth[used_nodes] <= 1e-12 * max(1.0, float(np.abs(a).max()))]
-            raise ValueError(f"nodes {bad[:10].tolist()} have zero fin depth (a_i == b_i)")
-        strip_quads = [fs.quads * self.scale for fs in strips]
-        drops = [self._drop_mask(q) for q in strip_quads]
-        # how each family is present at each node: passes through (two kept panels of a strip
-        # meet there) or ends there (one kept panel)
-        n = len(a)
-        passes = np.zeros((2, n), dtype=bool)
-        ends = np.zeros((2, n), dtype=bool)
-        for fs, drop in zip(strips, drops):
-            v = np.asarray(fs.vertices)
-            k = len(drop)
-            for j in range(len(v)):
-                if fs.closed and j == k:
-                    continue
-                left = j - 1 if j > 0 else (k - 1 if fs.closed else None)
-                right = j if j < k else None
-                cnt = sum(1 for i in (left, right) if i is not None and not drop[i])
-                if cnt == 2:
-                    passes[fs.family, v[j]] = True
-                elif cnt == 1:
-                    ends[fs.family, v[j]] = True
-        present = passes | ends
-        # parts
+        """Parts from the structure in five phases: read the strips, choose the joint at every
+        crossing (:func:`~.joints.choose_joinery`), cut the strips into parts, join the part
+        ends (butt + bracket, mitre + splice) and slot the egg-crate crossings."""
+        st = _read_strips(self.structure, self.scale, self._drop_mask)
+        plate = _plate_panels(st)
+        joinery = {}
+        if self.family_split == FamilySplit.EGG_CRATE:
+            for v in np.flatnonzero(st.passes[0] & st.passes[1]).tolist():
+                joinery[v] = choose_joinery(v, plate[(0, v)], plate[(1, v)],
+                                            min_angle=self.min_crossing_angle,
+                                            max_fold=self.max_crossing_fold)
+        self.joinery = [joinery[v] for v in sorted(joinery)]
+        part_of_strip = self._strip_parts(st, joinery)
+        self.parts = [p for parts in part_of_strip for p in parts]
+        self._where = {(si, p.span[0] + i): (p, i) for si, parts in enumerate(part_of_strip)
+                       for p in parts for i in range(len(p.panels))}
+        # a family is continuous at a node where one of its parts passes through it
+        cont = st.passes.copy()
+        for si, parts in enumerate(part_of_strip):
+            fam = st.fins[si].family
+            for p in parts:
+                for end in (0, 1):
+                    if p.ends[end] in ("miter", "fold"):
+                        cont[fam, int(p.nodes[-end])] = False
+        self._join_ends(st, part_of_strip, plate, cont)
+        self._slot_crossings(st, part_of_strip, joinery, cont)
+        self.parts = ([p for parts in part_of_strip for p in parts]
+                      + sorted(self._connectors, key=lambda p: p.id))
+        names = [p.name for p in self.parts]
+        assert len(set(names)) == len(names)
+        self._fin_depth = st.depth
+        self._resolve_slot_splits()
+
+    def _strip_parts(self, st: "_Strips", joinery: dict) -> list[list[Part]]:
+        """Cut every strip into parts: at sharp folds, dropped panels, length and sheet limits,
+        and at crossings where its plate is to be butted against the other family's."""
         strip_no = {0: 0, 1: 0}
         part_of_strip: list[list[Part]] = []
         dropped, oversize = [], []
-        for fs, q, drop in zip(strips, strip_quads, drops):
+        present = st.passes | st.ends
+        for fs, q, drop in zip(st.fins, st.quads, st.drops):
             fam = fs.family
-            ranges = self._split_ranges(q, fs.closed, drop)
+            at = {int(v): j for j, v in enumerate(fs.vertices)}
+            split_here = {at[x.node] for x in joinery.values()
+                          if x.split == fam and x.node in at and 0 < at[x.node] < len(q) + fs.closed}
+            ranges = self._split_ranges(q, fs.closed, drop, extra_cuts=split_here)
             if self.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1:
                 # family 1 is cut at every node where a family-0 plate is
                 cuts = sorted({0, len(q)} | {j for j in range(1, len(q))
@@ -725,142 +637,235 @@ class FinSystem:
                 f"{self.fit_sheet[0]:g} x {self.fit_sheet[1]:g} {self.unit} sheet: {oversize[:8]}"
                 + (" ..." if len(oversize) > 8 else "") + "; a single panel cannot be split: use a "
                 "smaller fin spacing (finer remesh) or a larger sheet; see FinSystem.oversize_panels",
-                stacklevel=3)
-        # panels of each family's plate around each node: (normal, in-plane direction from the
-        # node line into the panel), for trimming and slot clearances
-        plate: dict[tuple[int, int], list[tuple[np.ndarray, np.ndarray]]] = {}
-        for fs, q, drop in zip(strips, strip_quads, drops):
-            nq = _safe_normals(q)
-            for j, v in enumerate(fs.vertices):
-                if fs.closed and j == len(nq):
-                    continue
-                adj = [i for i in (j - 1, j) if 0 <= i < len(nq)]
-                if fs.closed and j == 0:
-                    adj = [len(nq) - 1, 0]
-                lst = plate.setdefault((fs.family, int(v)), [])
-                for i in adj:
-                    if drop[i]:
-                        continue
-                    line = b[v] - a[v]
-                    line = line / np.linalg.norm(line)
-                    into = q[i].mean(axis=0) - a[v]
-                    into = into - (into @ line) * line
-                    ni = np.linalg.norm(into)
-                    if not ni > 1e-9 * depth[v]:
-                        continue           # panel centre on the node line: no direction
-                    lst.append((nq[i], into / ni))
-        self._plate = plate
+                stacklevel=4)
+        return part_of_strip
 
-        # trimming of part ends against the dominant plate of the other family
-        def dominant(fam: int, node: int) -> bool:
-            other = 1 - fam
-            if not present[other, node]:
-                return False
-            if self.family_split == FamilySplit.FAMILY0_CONTINUOUS:
-                return fam == 1
-            if passes[fam, node] and passes[other, node]:
-                return False               # X crossing: slotted, not trimmed
-            if passes[other, node]:
-                return True                # T: this one ends against a through plate
-            if passes[fam, node]:
-                return False
-            return fam == 1                # L: family 1 butts against family 0
-
-        gap = 0.5 * t + 0.5 * c
-        h = 0.5 * t
-        untrimmed: list[tuple[str, int, str]] = []
-        for si, (fs, parts) in enumerate(zip(strips, part_of_strip)):
-            fam = fs.family
+    def _join_ends(self, st: "_Strips", part_of_strip, plate, cont) -> None:
+        """Every part end at a node where another plate is: butt-trimmed against it with a
+        bracket (T, L, and crossings where the strip is split), butted against the previous
+        part at a sharp fold, or mitred with a splice plate."""
+        gap, h = 0.5 * self.thickness + 0.5 * self.clearance, 0.5 * self.thickness
+        present = st.passes | st.ends
+        # where several strips of one family end at a node (and none passes), the first is the
+        # base; each other butts against the base and those butted before it
+        base: dict[tuple[int, int], list] = {}
+        for (fam, v), lst in plate.items():
+            if not st.passes[fam, v] and len({ref[0] for _, _, ref in lst}) >= 2:
+                base[(fam, v)] = [e for e in lst if e[2][0] == lst[0][2][0]]
+        self._dirs: dict[int, list] = {}
+        for (fam, v), lst in plate.items():
+            self._dirs.setdefault(v, []).extend(d for _, d, _ in lst)
+        self._bracket_dirs: dict[int, list] = {}
+        for si, parts in enumerate(part_of_strip):
+            fam = st.fins[si].family
             for p in parts:
-                trimmed = [False, False]
-                for end, (j, (ia, ib), (ja, jb)) in enumerate(
-                        ((0, (0, 3), (1, 2)), (len(p.panels) - 1, (1, 2), (0, 3)))):
-                    node = int(p.nodes[0 if end == 0 else -1])
-                    if p.ends[end] == "fold" and end == 0:
-                        self._trim_fold(p, parts, strip_quads[si], node, passes, gap, h,
-                                        untrimmed, trimmed)
-                        continue
-                    strip_end = p.ends[end] in ("end", "dropped")
-                    f0c_cut = (self.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1
-                               and present[0, node])
-                    if not strip_end and not f0c_cut:
-                        continue           # a split inside a strip: mitred joint, no trim
-                    if not dominant(fam, node):
-                        continue
-                    quad = p.panels[j]
-                    pa = a[node]
-                    far = quad[[ja, jb]].mean(axis=0)
-                    # the other plate's panels, normals turned towards this part
-                    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk)
-                              for nk, vk in plate.get((1 - fam, node), [])]
-                    try:
-                        nbar = sum((nk for nk, _ in panels), np.zeros(3))
-                        if not np.linalg.norm(nbar) > 1e-6:
-                            raise _Untrimmable("no usable panel of the other plate there")
-                        nbar = nbar / np.linalg.norm(nbar)
-                        npan = quad_normals(quad[None])[0]
-                        d = npan @ nbar
-                        if 1.0 - d * d < 0.04:
-                            raise _Untrimmable(f"meets the plate at "
-                                               f"{np.degrees(np.arccos(min(1.0, abs(d)))):.1f} deg")
-                        # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
-                        m_end = (npan - d * nbar) / (1.0 - d * d)
-                        moved = {cc: self._trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
-                                 for cc, oc in ((ia, ja), (ib, jb))}
-                    except _Untrimmable as why:
-                        untrimmed.append((p.name, node, str(why)))
-                        continue
-                    if not all(np.isfinite(x).all() for x in moved.values()):
-                        untrimmed.append((p.name, node, "trim failed (non-finite)"))
-                        continue
-                    for cc, x in moved.items():
-                        quad[cc] = x
-                    p.miters[0 if end == 0 else -1] = m_end
-                    trimmed[end] = True
+                trimmed = list(p.trimmed)
+                for end in (0, 1):
+                    node = int(p.nodes[-end])
+                    kind = p.ends[end]
+                    other = 1 - fam
+                    g = plate.get((other, node), []) if fam in (0, 1) else []
+                    # both plates split at this node: family 1's halves are bracketed to both
+                    # halves of family 0, which bridges family 0's seam
+                    bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
+                    b = base.get((fam, node))
+                    if fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node])):
+                        trimmed[end] = self._butt(p, end, node, g, st, gap, h,
+                                                  bridge=fam == 1 and bridged)
+                    elif b is not None and b[0][2][0] != si and kind in ("end", "dropped"):
+                        trimmed[end] = self._butt(p, end, node, list(b), st, gap, h)
+                        b += [e for e in plate.get((fam, node), []) if e[2][0] == si]
+                    elif kind == "fold" and end == 0:
+                        prev = self._previous(parts, p, st.quads[si])
+                        trimmed[0] = self._fold_butt(p, prev, st.quads[si], node, gap, h,
+                                                     bracket=not bridged)
+                    elif kind == "miter" and end == 0 and not bridged:
+                        prev = self._previous(parts, p, st.quads[si])
+                        if prev is not None:
+                            self._splice(prev, p, node, g)
                 p.trimmed = tuple(trimmed)
-        self.parts = [p for parts in part_of_strip for p in parts]
-        self.untrimmed_joints = untrimmed
-        self._warn_untrimmed()
-        # egg-crate slots at X crossings
-        tight: list[tuple[int, float]] = []
-        if self.family_split == FamilySplit.EGG_CRATE:
-            at_node: dict[int, list[list[tuple[Part, int]]]] = {}
-            for fs, parts in zip(strips, part_of_strip):
-                for p in parts:
-                    for pos, node in enumerate(p.nodes):
-                        node = int(node)
-                        if passes[0, node] and passes[1, node]:
-                            at_node.setdefault(node, [[], []])[fs.family].append((p, pos))
-            for node in sorted(at_node):
-                l0, l1 = at_node[node]
-                if not l0 or not l1:
-                    continue
-                d = float(depth[node])
-                d0 = self.slot_ratio * d
-                d1 = d - d0
-                w = t + c
-                need = self._required_width(node)
-                if w < need - 1e-9 * t:
-                    tight.append((node, need - t))
-                names0 = tuple(sorted({p.name for p, _ in l0}))
-                names1 = tuple(sorted({p.name for p, _ in l1}))
-                for p, pos in l0:
-                    p.slots.append(Slot(node, pos, SlotSide.B, d0, w, "+".join(names1)))
-                for p, pos in l1:
-                    p.slots.append(Slot(node, pos, SlotSide.A, d1, w, "+".join(names0)))
-                self.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, need - t))
-            if tight:
-                worst = max(x[1] for x in tight)
-                warnings.warn(
-                    f"{len(tight)} egg-crate crossings (nodes {[x[0] for x in tight[:8]]}...) need a "
-                    f"clearance of up to {worst:.3g} {self.unit} for the folded or oblique plates to "
-                    f"pass each other; with clearance={c:g} the slotted parts interfere there",
-                    stacklevel=3)
-        self.parts = [p for parts in part_of_strip for p in parts]
-        names = [p.name for p in self.parts]
-        assert len(set(names)) == len(names)
-        self._fin_depth = depth
-        self._resolve_slot_splits()
+        self._warn_untrimmed(stacklevel=5)
+        if self.unconnected_joints:
+            u = self.unconnected_joints
+            warnings.warn(
+                f"{len(u)} joints have no connector (no room for a bracket or splice plate): "
+                + "; ".join(f"{n} at node {v} ({w})" for n, v, w in u[:6])
+                + (" ..." if len(u) > 6 else "") + "; fasten them on site; see "
+                "FinSystem.unconnected_joints", stacklevel=5)
+
+    @staticmethod
+    def _previous(parts, p: Part, quads) -> Part | None:
+        """The part of the same strip that ends where ``p`` starts."""
+        k = len(quads)
+        i_prev = p.span[0] - 1 if p.span[0] > 0 else k - 1
+        return next((o for o in parts if o.span[1] == i_prev + 1 and o is not p), None)
+
+    def _butt(self, p: Part, end: int, node: int, panels, st: "_Strips", gap, h, *,
+              bridge: bool = False) -> bool:
+        """Trim an end of ``p`` against the other family's plate ``panels`` at ``node`` and put
+        a bracket in the corner (in both corners with ``bridge``: the plate is two parts there);
+        False (listed in ``untrimmed_joints``) if it cannot be trimmed."""
+        j = 0 if end == 0 else len(p.panels) - 1
+        quad = p.panels[j]
+        try:
+            moved, m_end, nbar = butt_trim(quad, end == 0, [(n, v) for n, v, _ in panels],
+                                           st.a[node], gap, h)
+        except _Untrimmable as why:
+            self.untrimmed_joints.append((p.name, node, str(why)))
+            return False
+        for cc, x in moved.items():
+            quad[cc] = x
+        p.miters[0 if end == 0 else -1] = m_end
+        cont = [(n, v, self._panel_quad(ref)) for n, v, ref in panels]
+        names = tuple(sorted({self._where[ref][0].name for _, _, ref in panels}))
+        self._bracket(p, j, node, cont, names, st.a[node], st.b[node],
+                      insert=_slide(nbar, quad, st.a[node] - st.b[node]),
+                      n_corners=2 if bridge else 1)
+        return True
+
+    def _panel_quad(self, ref) -> np.ndarray:
+        part, i = self._where[ref]
+        return part.panels[i]
+
+    def _fold_butt(self, p: Part, prev: Part | None, quads, node: int, gap, h, *,
+                   bracket: bool = True) -> bool:
+        """Butt joint at a split on a sharp fold: the start of part ``p`` is trimmed back until it
+        clears the (square) end of the previous part ``prev``; a bracket joins them."""
+        k = len(quads)
+        i_prev = p.span[0] - 1 if p.span[0] > 0 else k - 1
+        nprev = quad_normals(quads[i_prev][None])[0]
+        quad = p.panels[0]
+        ang = _fold_deg(nprev, quad_normals(quad[None])[0])
+        what = f"fold of {ang:.1f} deg to {prev.name if prev else 'the previous part'}"
+        pa, pb = quads[p.span[0] % k, 0].copy(), quads[p.span[0] % k, 3].copy()
+        line = (pb - pa) / np.linalg.norm(pb - pa)
+        into = quads[i_prev].mean(axis=0) - pa
+        into = into - (into @ line) * line
+        try:
+            if not np.linalg.norm(into) > 0:
+                raise _Untrimmable("the previous panel has no extent")
+            into = into / np.linalg.norm(into)
+            moved, m_end, nbar = butt_trim(quad, True, [(nprev, into)], pa, gap, h)
+        except _Untrimmable as why:
+            self.untrimmed_joints.append((p.name, node, f"{what}: {why}"))
+            return False
+        for cc, x in moved.items():
+            quad[cc] = x
+        p.miters[0] = m_end
+        if prev is not None and node >= 0 and bracket:
+            self._bracket(p, 0, node, [(nprev, into, prev.panels[-1])], (prev.name,), pa, pb,
+                          insert=_slide(nbar, quad, pa - pb))
+        return True
+
+    def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert,
+                 n_corners: int = 1) -> None:
+        """Bent brackets in the most open corner(s) between panel ``j`` of the butted part ``p``
+        and a panel ``(n, v, quad)`` of the continuous plate ``cont``; records the joint(s)."""
+        quad = p.panels[j]
+        line = pb - pa
+        u = line / np.linalg.norm(line)
+        vb = quad.mean(axis=0) - pa
+        vb = vb - (vb @ u) * u
+        vb = vb / np.linalg.norm(vb)
+        # other parts' panels and the brackets already there must not be in the corner
+        obstacles = [v for v in self._dirs.get(node, [])] + self._bracket_dirs.get(node, [])
+        picks = corners([v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
+        placed = 0
+        why = "no corner between 25 and 172 deg for a bracket"
+        for i, angle in picks:
+            nc, vc, qc = cont[i]
+            nb = quad_normals(quad[None])[0]
+            nc = nc if nc @ vb > 0 else -nc
+            nb = nb if nb @ vc > 0 else -nb
+            q = place_connector(pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=self.thickness,
+                                gap=CONNECTOR_GAP * self.thickness)
+            why = "the panels are too small for a bracket"
+            if q is not None:
+                self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, q,
+                             -(vc + vb), angle, p.name, why)
+                self._bracket_dirs.setdefault(node, []).append((vc + vb) / np.linalg.norm(vc + vb))
+                placed += 1
+        if not placed:
+            self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, None, None,
+                         picks[0][1] if picks else 90.0, p.name, why)
+
+    def _splice(self, e: Part, p: Part, node: int, other) -> None:
+        """A bent splice plate across the mitred seam between ``e`` (ending at ``node``) and
+        ``p`` (starting there), on the side clear of the other family's plate ``other``."""
+        qe, qp = e.panels[-1], p.panels[0]
+        pa, pb = qp[0], qp[3]
+        u = (pb - pa) / np.linalg.norm(pb - pa)
+        v1 = qe.mean(axis=0) - pa
+        v2 = qp.mean(axis=0) - pa
+        v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
+        v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
+        n1, n2 = quad_normals(qe[None])[0], quad_normals(qp[None])[0]
+        fold = _fold_deg(n1, n2)
+        q = None
+        why = "the other family's plate passes on both sides of the seam"
+        if len(other) < 2:
+            side = -(other[0][1] @ (n1 + n2)) if other else (v1 + v2) @ (n1 + n2)
+            s = 1.0 if side >= 0 else -1.0
+            q = place_connector(pa, pb, (s * n1, v1), (s * n2, v2), qe, qp,
+                                thickness=self.thickness, gap=CONNECTOR_GAP * self.thickness)
+            why = "the panels are too small for a splice plate"
+        cdir = -(n1 + n2) * (1.0 if q is None else s)
+        self._record(JointKind.MITRE_SPLICE, node, (e.name, p.name), -v2, q, cdir, fold, p.name, why)
+
+    def _record(self, kind, node, names, insert, q, cdir, angle, part, why) -> None:
+        """Append a :class:`Joint` (and its connector part built from the quads ``q``, or an
+        entry of ``unconnected_joints`` if there is none)."""
+        conn = None
+        if q is not None:
+            idx = self._n_conn.get(node, 0)
+            self._n_conn[node] = idx + 1
+            n = quad_normals(q)
+            c = Part(id=PartId(CONNECTOR_FAMILY, node, idx), panels=q, nodes=np.full(3, node),
+                     edges=np.full(2, -1), miters=np.array([n[0], _miter(n[0], n[1]), n[1]]),
+                     color=FAMILY_COLORS[CONNECTOR_FAMILY], span=(0, 2))
+            self._connectors.append(c)
+            conn = c.name
+            names = names + (conn,)
+        else:
+            self.unconnected_joints.append((part, node, why))
+        unit = lambda x: None if x is None else np.asarray(x, float) / np.linalg.norm(x)  # noqa: E731
+        self.joints.append(Joint(kind, int(node), tuple(names), unit(insert), conn, unit(cdir),
+                                 float(angle)))
+
+    def _slot_crossings(self, st: "_Strips", part_of_strip, joinery, cont) -> None:
+        """Egg-crate slots where both plates pass and the joinery allows it: family 0 from its
+        ``b`` edge, family 1 from its ``a`` edge, each as wide as :func:`~.joints.slot_width`
+        says for the crossing angle and folds there."""
+        t, c = self.thickness, self.clearance
+        at_node: dict[int, list[list[tuple[Part, int]]]] = {}
+        for fs, parts in zip(st.fins, part_of_strip):
+            for p in parts:
+                for pos, node in enumerate(p.nodes):
+                    node = int(node)
+                    x = joinery.get(node)
+                    if x is not None and x.kind == JointKind.EGG_CRATE and cont[0, node] and cont[1, node]:
+                        at_node.setdefault(node, [[], []])[fs.family].append((p, pos))
+        for node in sorted(at_node):
+            l0, l1 = at_node[node]
+            if not l0 or not l1:
+                continue
+            x = joinery[node]
+            d = float(st.depth[node])
+            d0 = self.slot_ratio * d
+            d1 = d - d0
+            w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0], fold_other=x.folds[1])
+            w1 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[1], fold_other=x.folds[0])
+            names0 = tuple(sorted({p.name for p, _ in l0}))
+            names1 = tuple(sorted({p.name for p, _ in l1}))
+            for p, pos in l0:
+                p.slots.append(Slot(node, pos, SlotSide.B, d0, w0, "+".join(names1)))
+            for p, pos in l1:
+                p.slots.append(Slot(node, pos, SlotSide.A, d1, w1, "+".join(names0)))
+            w = max(w0, w1)
+            self.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
+                                           float(x.angle), float(max(x.folds))))
+            self.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
+                                     (st.a[node] - st.b[node]) / d, None, None, float(x.angle)))
 
     def _resolve_slot_splits(self) -> None:
         """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot
@@ -868,9 +873,6 @@ class FinSystem:
         partner's slot is deepened by as much where that keeps it whole, else the two plates
         interfere there. A slot that cuts the part apart at any depth is left out. Each case
         is listed in ``slot_conflicts`` and warned about."""
-        from dataclasses import replace
-
-        from .unroll import unroll
 
         def whole(p: Part, slots) -> bool:
             try:
@@ -905,7 +907,7 @@ class FinSystem:
                 lack = s.depth - new
                 notes = []
                 for o in self.parts:
-                    if o.family == p.family:
+                    if o.family == p.family or o.family not in (0, 1):
                         continue
                     for jo, so in enumerate(o.slots):
                         if so.node != s.node:
@@ -930,97 +932,6 @@ class FinSystem:
                 + (" ..." if len(conflicts) > 6 else "") + "; see FinSystem.slot_conflicts",
                 stacklevel=4)
 
-    def _trim_fold(self, p: Part, parts, q, node, passes, gap, h, untrimmed, trimmed):
-        """Butt joint at a split on a sharp fold: the start of part ``p`` is trimmed back until
-        it clears the (square) end of the previous panel of the strip, or the joint is listed."""
-        k = len(q)
-        i_prev = p.span[0] - 1 if p.span[0] > 0 else k - 1
-        prev = next((o for o in parts if o.span[1] == i_prev + 1), None)
-        nprev = quad_normals(q[i_prev][None])[0]
-        quad = p.panels[0]
-        ang = _fold_deg(nprev, quad_normals(quad[None])[0])
-        what = f"fold of {ang:.1f} deg to {prev.name if prev else 'the previous part'}"
-        if passes is not None and passes[0, node] and passes[1, node]:
-            untrimmed.append((p.name, node, f"{what} at an egg-crate crossing: square ends"))
-            return
-        pa = q[p.span[0] % k, 0]                   # a end of the node line (untrimmed)
-        far = quad[[1, 2]].mean(axis=0)
-        line = quad[3] - quad[0]
-        line = line / np.linalg.norm(line)
-        into = q[i_prev].mean(axis=0) - pa
-        into = into - (into @ line) * line
-        try:
-            if not np.linalg.norm(into) > 0:
-                raise _Untrimmable("the previous panel has no extent")
-            panels = [(nprev if (far - pa) @ nprev >= 0 else -nprev, into / np.linalg.norm(into))]
-            nbar = panels[0][0]
-            npan = quad_normals(quad[None])[0]
-            d = npan @ nbar
-            if 1.0 - d * d < 0.04:
-                raise _Untrimmable("too sharp to butt-trim: square ends overlap near the fold")
-            m_end = (npan - d * nbar) / (1.0 - d * d)
-            moved = {cc: self._trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
-                     for cc, oc in ((0, 1), (3, 2))}
-            if not all(np.isfinite(x).all() for x in moved.values()):
-                raise _Untrimmable("trim failed (non-finite)")
-        except _Untrimmable as why:
-            untrimmed.append((p.name, node, f"{what}: {why}"))
-            return
-        for cc, x in moved.items():
-            quad[cc] = x
-        p.miters[0] = m_end
-        trimmed[0] = True
-
-    @staticmethod
-    def _trim_corner(quad, cc, oc, panels, pa, m_end, gap, h) -> np.ndarray:
-        """Corner ``cc`` of an end panel moved along its edge towards ``oc`` until the end face
-        (``+-h m_end``) clears every panel of the crossing plate by ``gap`` from its mid-plane."""
-        u = quad[oc] - quad[cc]
-        L = np.linalg.norm(u)
-        if not L > 0:
-            raise _Untrimmable("its edge has zero length")
-        u = u / L
-        s_req = 0.0
-        for _ in range(4):      # laterals move a little with the trim: iterate
-            base = quad[cc] + s_req * u
-            s_new = -np.inf
-            for nk, vk in panels:
-                cos = u @ nk
-                if cos < 0.2:
-                    raise _Untrimmable(f"its edge meets the plate at "
-                                       f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
-                pm, pp = base - h * m_end - pa, base + h * m_end - pa
-                lm, lp = pm @ vk, pp @ vk
-                pts = [x for x, l in ((pm, lm), (pp, lp)) if l >= 0 or len(panels) == 1]
-                if (lm < 0) != (lp < 0):   # the end face crosses the fold line
-                    pts.append(pm + (lm / (lm - lp)) * (pp - pm))
-                for x in pts:
-                    s_new = max(s_new, s_req + (gap - x @ nk) / cos)
-            if not np.isfinite(s_new):
-                raise _Untrimmable("its end does not lie over the other plate's panels")
-            done = abs(s_new - s_req) <= 1e-12 * L
-            s_req = s_new
-            if done:
-                break
-        if s_req >= 0.5 * L:
-            raise _Untrimmable(f"panel too short ({L:.3g}) to trim by {s_req:.3g}")
-        return quad[cc] + s_req * u
-
-    def _required_width(self, node: int) -> float:
-        """Slot width for the plates of both families to pass at an X crossing."""
-        t = self.thickness
-        theta, means = 0.0, []
-        for fam in (0, 1):
-            lst = self._plate[(fam, node)]
-            ns = [lst[0][0]] + [nk if nk @ lst[0][0] >= 0 else -nk for nk, _ in lst[1:]]
-            if len(ns) > 1:
-                theta = max(theta, float(np.arccos(np.clip(ns[0] @ ns[1], -1, 1))))
-            mean = sum(ns)
-            means.append(mean / np.linalg.norm(mean))
-        sin_alpha = float(np.linalg.norm(np.cross(means[0], means[1])))
-        if sin_alpha < 1e-6:
-            raise ValueError(f"node {node}: the crossing plates are parallel; cannot slot them")
-        return t * (1.0 / np.cos(theta / 2) + np.tan(theta / 2)) / sin_alpha
 
     # ------------------------------------------------------------------ access
     def part(self, name: str) -> Part:
@@ -1032,65 +943,67 @@ class FinSystem:
 
     @property
     def n_panels(self) -> int:
-        return int(sum(len(p.panels) for p in self.parts))
+        """Fin panels in the plates (connectors not counted)."""
+        return int(sum(len(p.panels) for p in self.parts if p.family != CONNECTOR_FAMILY))
+
+    @property
+    def connectors(self) -> list[Part]:
+        """The connector parts (brackets, splice plates), named ``C-N<node>-<i>``."""
+        return [p for p in self.parts if p.family == CONNECTOR_FAMILY]
 
     def __repr__(self) -> str:
         return (f"FinSystem({len(self.parts)} parts, {self.n_panels} panels, "
-                f"{len(self.crossings)} crossings, t={self.thickness:g} {self.unit})")
+                f"{len(self.crossings)} crossings, {len(self.connectors)} connectors, "
+                f"t={self.thickness:g} {self.unit})")
 
     # ------------------------------------------------------------------ solids (solids.py)
-    def solids(self, *, repair: bool = True) -> dict:
-        """``{part name: build123d.Solid}``, built once and cached; see
+    def solids(self, *, repair: bool = True, workers: int | None = None) -> dict:
+        """``{part name: build123d.Solid}``, built once and cached; ``workers`` processes
+        build them in parallel (default: one per core); see
         :func:`torsal.fabrication.solids.build_solids`."""
         if self._solids is None:
-            from .solids import build_solids
-
-            self._solids = build_solids(self, repair=repair)
+            self._solids = _solids.build_solids(self, repair=repair, workers=workers)
         return self._solids
 
     def export_step(self, path) -> "object":
         """One STEP assembly with a named, coloured solid per part (``unit``)."""
-        from .solids import export_step
-
-        return export_step(self, path)
+        return _solids.export_step(self, path)
 
     def export_stl(self, path, *, tolerance: float | None = None):
         """Preview mesh of all parts as STL (through trimesh)."""
-        from .solids import export_mesh
-
-        return export_mesh(self, path, file_type="stl", tolerance=tolerance)
+        return _solids.export_mesh(self, path, file_type="stl", tolerance=tolerance)
 
     def export_gltf(self, path, *, tolerance: float | None = None):
         """Preview scene as glTF binary (``.glb``) with a coloured node per part."""
-        from .solids import export_mesh
-
-        return export_mesh(self, path, file_type="glb", tolerance=tolerance)
+        return _solids.export_mesh(self, path, file_type="glb", tolerance=tolerance)
 
     def export_3dm(self, path, *, tolerance: float | None = None):
         """Rhino ``.3dm`` with one named mesh object per part on a layer per family."""
-        from .solids import export_3dm
-
-        return export_3dm(self, path, tolerance=tolerance)
+        return _solids.export_3dm(self, path, tolerance=tolerance)
 
     # ------------------------------------------------------------------ unrolling, layout
     def unrolled(self) -> dict:
         """``{part name: Unrolled}`` for every part (cached); see :func:`unroll`."""
         if self._unrolled is None:
-            from .unroll import unroll
-
             self._unrolled = {p.name: unroll(p) for p in self.parts}
         return self._unrolled
 
     def layout(self, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
                margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270)):
-        """Nest the unrolled parts on sheets (``unit``); see :func:`torsal.fabrication.layout.nest`."""
-        from .layout import nest
-
-        return nest(list(self.unrolled().values()), sheet=sheet, gap=gap, margin=margin,
-                    rotations=rotations, unit=self.unit)
+        """Nest the unrolled plates on sheets (``unit``; see :func:`torsal.fabrication.layout.nest`)
+        and pack the connectors in rows on the sheets after them
+        (:func:`~torsal.fabrication.layout.shelf_pack`: hundreds of small brackets would make
+        the nesting quadratic)."""
+        flat = self.unrolled()
+        conn = {p.name for p in self.connectors}
+        plates = _layout.nest([u for n, u in flat.items() if n not in conn], sheet=sheet, gap=gap,
+                              margin=margin, rotations=rotations, unit=self.unit)
+        if not conn:
+            return plates
+        kit = _layout.shelf_pack([u for n, u in flat.items() if n in conn], sheet=sheet, gap=gap,
+                                 margin=margin, unit=self.unit, first_sheet=plates.n_sheets)
+        return _layout.merge_layouts(plates, kit)
 
     def bill_of_materials(self, path, *, density: float = 2700.0, layout=None):
         """CSV parts list; see :func:`torsal.fabrication.layout.bill_of_materials`."""
-        from .layout import bill_of_materials
-
-        return bill_of_materials(self, path, density=density, layout=layout)
+        return _layout.bill_of_materials(self, path, density=density, layout=layout)

@@ -25,11 +25,12 @@ import numpy as np
 
 from torsal.core.atomic import atomic_path
 
-from .parts import Part, SlotSide
+from .model import CONNECTOR_FAMILY, Part, SlotSide
+from .unroll import unroll
 from torsal.core.errors import TorsalError
 
-__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "export_step", "export_mesh",
-           "export_3dm", "read_step"]
+__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "default_workers",
+           "export_step", "export_mesh", "export_3dm", "read_step"]
 
 
 class InvalidSolidError(TorsalError, RuntimeError):
@@ -275,8 +276,6 @@ def _slot_area(part: Part) -> float:
     """Area the slots take out of the unrolled part (``unit``^2)."""
     from shapely.geometry import Polygon
 
-    from .unroll import unroll
-
     u = unroll(part)
     return float(sum(Polygon(f).area for f in u.panels) - u.outline.area)
 
@@ -300,25 +299,101 @@ def _main_piece(part: Part, thickness: float, plate_volume: float, pieces: list)
     return best
 
 
-def build_solids(fin_system, *, repair: bool = True) -> dict:
-    """``{part name: Solid}`` for every part of a :class:`~.parts.FinSystem`.
+def _build_one(part: Part, thickness: float, repair: bool):
+    """``(status, solid or None, detail)`` for one part; status ``ok``, ``unslotted`` (the valid
+    plate without slots) or ``bad``."""
+    try:
+        return "ok", part_solid(part, thickness, repair=repair), ""
+    except SlotCutError as e:
+        return "unslotted", e.plate, (e.nodes, str(e))
+    except InvalidSolidError as e:
+        return "bad", None, str(e)
+    except Exception as e:  # OpenCascade errors: report by part id
+        return "bad", None, f"{part.name}: {type(e).__name__}: {e}"
 
-    All parts are attempted; if any is invalid an :class:`InvalidSolidError` listing every
-    invalid part id is raised.
+
+def _build_chunk(args):
+    """Worker: build the solids of some parts and return them as OpenCascade binary BReps
+    (OCC shapes do not pickle; bytes do)."""
+    from build123d.persistence import serialize_shape
+
+    parts, thickness, repair = args
+    out = []
+    for p in parts:
+        status, solid, detail = _build_one(p, thickness, repair)
+        out.append((p.name, status, None if solid is None else serialize_shape(solid.wrapped), detail))
+    return out
+
+
+def default_workers(n_parts: int) -> int:
+    """Processes for building ``n_parts`` solids: one per available core, 1 for small jobs
+    (starting the workers, which import OpenCascade, costs about as much as building 200
+    parts)."""
+    import os
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, n_parts // 200))
+
+
+def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
+    """``[(name, status, solid, detail)]`` built by ``workers`` forked processes, in order."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    from build123d import Color, Solid
+    from build123d.persistence import deserialize_shape
+
+    # interleaved chunks of about equal work; a few per worker so that none waits long
+    n_chunks = min(len(parts), 4 * workers)
+    chunks = [parts[i::n_chunks] for i in range(n_chunks)]
+    # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can deadlock
+    # in the child: workers are forked from a clean server that has imported this module
+    if "forkserver" in mp.get_all_start_methods():
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(["torsal.fabrication.solids", "build123d"])
+    else:
+        ctx = mp.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        done = list(pool.map(_build_chunk, [(c, thickness, repair) for c in chunks]))
+    by_name = {p.name: p for p in parts}
+    res = {}
+    for rows in done:
+        for name, status, data, detail in rows:
+            solid = None
+            if data is not None:
+                solid = Solid(deserialize_shape(data))
+                solid.label = name
+                solid.color = Color(*by_name[name].color)
+            res[name] = (status, solid, detail)
+    return [(p.name,) + res[p.name] for p in parts]
+
+
+def build_solids(fin_system, *, repair: bool = True, workers: int | None = None) -> dict:
+    """``{part name: Solid}`` for every part of a :class:`~.parts.FinSystem` (plates and
+    connectors).
+
+    Solids are independent per part: with ``workers > 1`` (default :func:`default_workers`)
+    they are built in worker processes (forked from a clean server process) and sent back as
+    OpenCascade binary BReps. All parts
+    are attempted; if any is invalid an :class:`InvalidSolidError` listing every invalid part
+    id is raised.
     """
+    parts = list(fin_system.parts)
+    t = fin_system.thickness
+    workers = default_workers(len(parts)) if workers is None else max(1, int(workers))
+    if workers > 1:
+        rows = _build_parallel(parts, t, repair, workers)
+    else:
+        rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
     out, bad, detail, unslotted = {}, [], [], []
-    for p in fin_system.parts:
-        try:
-            out[p.name] = part_solid(p, fin_system.thickness, repair=repair)
-        except SlotCutError as e:
-            out[p.name] = e.plate
-            unslotted.append((p.name, e.nodes, str(e)))
-        except InvalidSolidError as e:
-            bad.append(p.name)
-            detail.append(str(e))
-        except Exception as e:  # OpenCascade errors: report by part id
-            bad.append(p.name)
-            detail.append(f"{p.name}: {type(e).__name__}: {e}")
+    for name, status, solid, info in rows:
+        if status == "bad":
+            bad.append(name)
+            detail.append(info)
+            continue
+        out[name] = solid
+        if status == "unslotted":
+            unslotted.append((name, info[0], info[1]))
     fin_system.unslotted_solids = unslotted
     if unslotted:
         import warnings
@@ -448,7 +523,7 @@ def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | 
 
 def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     """Rhino 3DM (through rhino3dm): one named mesh object per part on a layer per family
-    (``family 0``, ``family 1``), coloured by family, model units set to ``unit``."""
+    (``family 0``, ``family 1``, ``connectors``), coloured by family, model units set to ``unit``."""
     import rhino3dm
 
     model = rhino3dm.File3dm()
@@ -460,7 +535,8 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     for p in fin_system.parts:
         if p.family not in layers:
             lay = rhino3dm.Layer()
-            lay.Name = f"family {p.family}" if p.family >= 0 else "developable"
+            lay.Name = (f"family {p.family}" if p.family >= 0 else
+                        "connectors" if p.family == CONNECTOR_FAMILY else "developable")
             lay.Color = tuple(int(255 * c) for c in p.color) + (255,)
             layers[p.family] = model.Layers.Add(lay)
     meshes = _tessellate(fin_system, tolerance)

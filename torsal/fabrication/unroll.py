@@ -25,7 +25,7 @@ import shapely
 from shapely.geometry import Polygon
 from shapely.ops import polylabel, unary_union
 
-from .parts import Slot, SlotSide, fold_angles, quad_normals
+from .model import Slot, SlotSide, fold_angles, quad_normals
 
 __all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle"]
 

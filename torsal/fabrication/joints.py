@@ -1,0 +1,363 @@
+"""Joinery per node: which joint a workshop makes where parts meet, and its geometry (issue 15).
+
+Two families of planar fins meet on the node lines ``L_i = a_i b_i`` (paper section 4.3). At
+every node the joint is chosen from the real geometry of the plates there:
+
+* **Egg-crate** (:attr:`JointKind.EGG_CRATE`) where a strip of each family passes through
+  the node, *neither plate folds there by more than* :data:`MAX_CROSSING_FOLD` and the plates
+  cross at *at least* :data:`MIN_CROSSING_ANGLE`. Both plates contain ``L_i``, so they slide
+  together along it: family 0 is slotted from its ``b`` edge, family 1 from its ``a`` edge,
+  depths adding up to ``|b_i - a_i|``. A laser cut is square to the sheet, so the slot must
+  take the whole cross-section of the other plate, a parallelogram: at a crossing angle
+  ``alpha`` the slot width is ``t (1 + cos alpha) / sin alpha + c`` (:func:`slot_width`;
+  ``t + c`` at 90 degrees, ``2.41 t + c`` at 45, ``3.73 t + c`` at 30). A small fold
+  ``theta`` of either plate is allowed for by narrowing ``alpha`` by the folds and thickening
+  the crossing plate by its mitre (``1 / cos(theta/2)``).
+* **Butt joint with a bracket** (:attr:`JointKind.BUTT_BRACKET`) everywhere else a part ends
+  against a plate: at the boundary (T and L junctions, as before), where a strip must fold at a
+  crossing or the plates cross too obliquely for a slot (the strip that folds more is split
+  there, the other stays continuous), and where a strip is split at a crossing for length or
+  sheet size. The end panel is trimmed back until its end face (along the continuous plate's
+  mean plane) clears both faces of that plate by ``clearance/2``; a bent bracket of the same
+  sheet (:func:`bracket_panels`) sits in the corner between the two plates, one leg flat on
+  each, and is a part of its own (``C-N<node>-<index>``: solid, cutting outline, parts-list
+  row). The bracket goes into the more open of the two corners (at most
+  :data:`MAX_BRACKET_ANGLE`, at least :data:`MIN_BRACKET_ANGLE`), so its bend stays modest.
+  The same joint joins the two parts of a strip split on a fold sharper than
+  ``max_fold_angle``: the later part butts against the square end of the earlier one.
+* **Mitre with a splice plate** (:attr:`JointKind.MITRE_SPLICE`) where a strip is split on a
+  mild fold away from any crossing plate (``max_panels``, ``max_part_length``, sheet size): the
+  ends meet on the fold's bisector plane and a bent splice plate covers the seam on the side
+  clear of other parts.
+
+Where several strips of one family end at the same node, the first is the base and each other
+butts against it and those before it; where both strips are split at a node, family 1's halves
+get a bracket in both corners, which bridges family 0's seam. Node lines of the two families
+that coincide (refined developable strips duplicate them) are one node. A panel folded back
+onto its neighbour (more than ``MITER_LIMIT``) duplicates that fin and is dropped (named).
+
+Limits: slots need a crossing angle of at least :data:`MIN_CROSSING_ANGLE` (30 degrees: the
+slot is then already 3.7 plate thicknesses wide) and folds of at most
+:data:`MAX_CROSSING_FOLD` (10 degrees) at the crossing; a butt trim needs the part to meet the
+plate at more than about 12 degrees (else it is listed in ``FinSystem.untrimmed_joints``); a
+bracket needs room for legs of at least ``2 t`` inside both panels (else the joint is listed in
+``FinSystem.unconnected_joints``). Holes for rivets or bolts are not drawn: brackets are
+placed and drilled, or welded, in the workshop. Folds are not moved away from crossings: the
+strip is split there instead.
+
+Units: lengths in the fin system's ``unit`` (mm by default), angles in degrees unless noted.
+
+Example
+-------
+>>> round(slot_width(45.0, thickness=3.0, clearance=0.5), 3)
+7.743
+>>> JointKind.EGG_CRATE.value
+'egg-crate'
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from shapely.geometry import Polygon
+
+from .model import JointKind, _fold_deg, _miter, quad_normals
+
+__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
+           "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
+           "place_connector", "corners", "JointKind"]
+
+#: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
+MIN_CROSSING_ANGLE = 30.0
+#: degrees: a plate folding more than this at a crossing is split there (butt joint + bracket)
+MAX_CROSSING_FOLD = 10.0
+#: degrees: brackets are bent to corners between these angles (the bend is 180 - angle)
+MIN_BRACKET_ANGLE = 25.0
+MAX_BRACKET_ANGLE = 172.0
+
+
+class _Untrimmable(Exception):
+    """A part end that cannot be butt-trimmed (too shallow an angle, too short a panel)."""
+
+
+def slot_width(alpha: float, *, thickness: float, clearance: float, fold_self: float = 0.0,
+               fold_other: float = 0.0) -> float:
+    """Width of an egg-crate slot square to the sheet (``unit``).
+
+    The crossing plate's cross-section (thickness ``t``, crossing at ``alpha`` degrees) is a
+    parallelogram of width ``t (1 + cos alpha) / sin alpha`` along the slotted plate: that plus
+    the clearance. Folds (degrees) of the slotted plate (``fold_self``) and the crossing plate
+    (``fold_other``) at the node narrow the angle by ``(fold_self + fold_other) / 2`` and
+    thicken the crossing plate by its mitre ``1 / cos(fold_other / 2)``; a slot on a folded
+    plate is cut on the fold's bisector, which costs ``t tan(fold_self / 2)`` more.
+
+    >>> slot_width(90.0, thickness=3.0, clearance=0.5)
+    3.5
+    """
+    a = np.radians(min(90.0, abs(alpha)) - 0.5 * (fold_self + fold_other))
+    if not a > 0:
+        raise ValueError(f"plates crossing at {alpha:.1f} deg with folds {fold_self:.1f}, "
+                         f"{fold_other:.1f} deg cannot be slotted")
+    t_other = thickness / np.cos(np.radians(fold_other) / 2)
+    w = t_other * (1.0 + abs(np.cos(a))) / np.sin(a)
+    return float(w + thickness * np.tan(np.radians(fold_self) / 2) + clearance)
+
+
+def _mean_normal(panels) -> np.ndarray:
+    """Mean unit normal of a plate's panels [(n, v)] at a node, normals turned alike."""
+    ns = [panels[0][0]] + [p[0] if p[0] @ panels[0][0] >= 0 else -p[0] for p in panels[1:]]
+    m = np.sum(ns, axis=0)
+    return m / np.linalg.norm(m)
+
+
+def _plate_fold(panels) -> float:
+    """Fold (degrees) of a plate at a node: angle between its two panels' normals (0 if one)."""
+    if len(panels) < 2:
+        return 0.0
+    n0, n1 = panels[0][0], panels[1][0]
+    v0, v1 = panels[0][1], panels[1][1]
+    # the panels lie on opposite sides of the node line: a flat plate has v0 = -v1, n0 = +-n1
+    # with the strip's consistent orientation n0 = n1; measure the dihedral from the directions
+    return float(180.0 - np.degrees(np.arccos(np.clip(v0 @ v1, -1.0, 1.0))))
+
+
+def crossing_angle(panels0, panels1) -> float:
+    """Angle (degrees, 0..90) between the mean planes of two plates at a node."""
+    n0, n1 = _mean_normal(panels0), _mean_normal(panels1)
+    return float(np.degrees(np.arcsin(np.clip(np.linalg.norm(np.cross(n0, n1)), 0.0, 1.0))))
+
+
+class NodeJoinery(NamedTuple):
+    """The joint chosen at a node where strips of both families pass.
+
+    ``kind`` egg-crate or butt-bracket; ``split`` the family whose strip is cut there (-1 for
+    an egg-crate); ``angle`` the crossing angle and ``folds`` the folds of family 0 and 1
+    (degrees); ``why`` says why an egg-crate was not possible."""
+
+    node: int
+    kind: JointKind
+    split: int
+    angle: float
+    folds: tuple[float, float]
+    why: str = ""
+
+
+def choose_joinery(node: int, panels0, panels1, *, min_angle: float = MIN_CROSSING_ANGLE,
+                   max_fold: float = MAX_CROSSING_FOLD) -> NodeJoinery:
+    """Egg-crate or split-and-butt at an X node, from the plates' panels there.
+
+    ``panels0`` / ``panels1`` are the (unit normal, in-plane direction from the node line into
+    the panel) pairs of each family's panels at the node. The strip that folds more (family 1
+    on a tie) is the one split.
+    """
+    alpha = crossing_angle(panels0, panels1)
+    folds = (_plate_fold(panels0), _plate_fold(panels1))
+    why = []
+    if max(folds) > max_fold:
+        why.append(f"a plate folds {max(folds):.0f} deg there (> {max_fold:g})")
+    if alpha < min_angle:
+        why.append(f"the plates cross at {alpha:.0f} deg (< {min_angle:g})")
+    if not why:
+        return NodeJoinery(node, JointKind.EGG_CRATE, -1, alpha, folds)
+    split = 0 if folds[0] > folds[1] + 1e-9 else 1
+    return NodeJoinery(node, JointKind.BUTT_BRACKET, split, alpha, folds, "; ".join(why))
+
+
+def bracket_panels(p0: np.ndarray, p1: np.ndarray, side1, side2, offset: float,
+                   leg: float) -> np.ndarray:
+    """Mid-surface (2, 4, 3) of a bent plate lying on two plate faces that meet at a line.
+
+    ``p0 -> p1`` is the stretch of the joint line it covers; ``side1`` / ``side2`` are
+    ``(n, v)``: the unit normal of each plate, turned towards the connector, and the unit
+    direction in that plate away from the line (square to it). The connector's mid-surface is
+    ``offset`` off both faces' mid-planes (``t/2 + t_connector/2``); its bend line is where the
+    two offset planes meet (``p + offset * m`` with the mitre ``m.n1 = m.n2 = 1``), each leg
+    ``leg`` long. Quads ``a_i a_j b_j b_i`` as a 2-panel strip: leg 1 from its free edge to the
+    bend, leg 2 from the bend to its free edge.
+    """
+    (n1, v1), (n2, v2) = side1, side2
+    m = _miter(n1, n2)
+    c0, c1 = p0 + offset * m, p1 + offset * m
+    return np.array([[c0 + leg * v1, c0, c1, c1 + leg * v1],
+                     [c0, c0 + leg * v2, c1 + leg * v2, c1]])
+
+
+def _inside(leg: np.ndarray, panel: np.ndarray, tol: float) -> bool:
+    """Whether a leg quad (4, 3), projected on the plane of ``panel`` (4, 3), lies inside it."""
+    n = quad_normals(panel[None])[0]
+    e1 = panel[1] - panel[0] if np.linalg.norm(panel[1] - panel[0]) > 0 else panel[2] - panel[3]
+    e1 = e1 - (e1 @ n) * n
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    P = np.c_[(panel - panel[0]) @ e1, (panel - panel[0]) @ e2]
+    Q = np.c_[(leg - panel[0]) @ e1, (leg - panel[0]) @ e2]
+    poly = Polygon(P)
+    if not poly.is_valid:
+        return False
+    return poly.buffer(tol).contains(Polygon(Q))
+
+
+def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarray,
+                    panel2: np.ndarray, *, thickness: float, leg: float | None = None,
+                    gap: float = 0.0) -> np.ndarray | None:
+    """A connector (2, 4, 3) on the node line ``a -> b`` between two plate panels, or None.
+
+    ``side1``, ``side2`` as in :func:`bracket_panels`; ``panel1``, ``panel2`` (4, 3) are the
+    panels the legs lie on: the legs are shortened (down to ``2 t``) and the stretch along the
+    node line narrowed (from the middle half of it) until both legs lie inside their panels.
+    ``gap`` is left between the connector and the plates' faces.
+    """
+    t = thickness
+    leg = 6.0 * t if leg is None else leg
+    line = b - a
+    depth = float(np.linalg.norm(line))
+    u = line / depth
+    offset = t + gap                 # t/2 of the plate + t/2 of the connector
+    for lo, f in ((0.25, 1.0), (0.25, 0.6), (0.3, 0.45), (0.35, 0.33), (0.4, 0.33)):
+        ell = max(2.0 * t, f * leg)
+        if (1 - 2 * lo) * depth < 2.0 * t:
+            break
+        q = bracket_panels(a + lo * depth * u, a + (1 - lo) * depth * u, side1, side2, offset, ell)
+        # the outer 60 % of each leg must lie on its panel; nearer the bend a leg may pass the
+        # trimmed end of a butted part (the clearance) or a convex fold line
+        outer0 = np.array([q[0, 0], q[0, 0] + 0.6 * (q[0, 1] - q[0, 0]),
+                           q[0, 3] + 0.6 * (q[0, 2] - q[0, 3]), q[0, 3]])
+        outer1 = np.array([q[1, 1] + 0.6 * (q[1, 0] - q[1, 1]), q[1, 1], q[1, 2],
+                           q[1, 2] + 0.6 * (q[1, 3] - q[1, 2])])
+        if _inside(outer0, panel1, 1e-6 * depth) and _inside(outer1, panel2, 1e-6 * depth):
+            return q
+    return None
+
+
+def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray,
+            obstacles=()) -> list[tuple[int, float]]:
+    """The panels of the continuous plate whose corners with the butted part can take a bracket.
+
+    ``v_cont`` are the in-plane directions (from the node line) of the continuous plate's
+    panels at the node, ``v_butt`` that of the butted part, ``line`` the node line direction.
+    Returns ``[(index, angle in degrees)]`` of the corners between :data:`MIN_BRACKET_ANGLE`
+    and :data:`MAX_BRACKET_ANGLE` that no other panel of the plate, nor any direction in
+    ``obstacles`` (other parts' panels and brackets at the node), lies in, most open first.
+    """
+    u = line / np.linalg.norm(line)
+
+    def ang(v):      # signed angle from v_butt to v about the node line, degrees
+        return float(np.degrees(np.arctan2(np.cross(v_butt, v) @ u, v_butt @ v)))
+
+    angles = [ang(v) for v in v_cont]
+    out = []
+    for i, a in enumerate(angles):
+        phi = abs(a)
+        if not MIN_BRACKET_ANGLE <= phi <= MAX_BRACKET_ANGLE:
+            continue
+        # another panel of the plate inside this corner would be in the bracket's way
+        if any(j != i and np.sign(b) == np.sign(a) and abs(b) < phi for j, b in enumerate(angles)):
+            continue
+        inside = [ang(o) for o in obstacles]
+        if any(np.sign(b) == np.sign(a) and 0.5 < abs(b) < phi - 0.5 for b in inside):
+            continue
+        out.append((i, phi))
+    return sorted(out, key=lambda x: -x[1])
+
+
+def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2,
+                line: np.ndarray | None = None) -> np.ndarray:
+    """Corner ``cc`` of an end panel moved along its edge towards ``oc`` until the end face
+    (``+-h m_end``) clears every panel ``(n, v)`` of the crossing plate by ``gap`` from its
+    mid-plane (``pa`` a point of the node line). With ``line`` (unit direction of the node
+    line) the edge where the plate's faces meet at a fold (``pa + h m``, mitre ``m``) is kept
+    ``gap - h`` clear of the end face too. Raises :class:`_Untrimmable`."""
+    u = quad[oc] - quad[cc]
+    L = np.linalg.norm(u)
+    if not L > 0:
+        raise _Untrimmable("its edge has zero length")
+    u = u / L
+    s_req = 0.0
+    for _ in range(4):      # laterals move a little with the trim: iterate
+        base = quad[cc] + s_req * u
+        s_new = -np.inf
+        pm, pp = base - h * m_end - pa, base + h * m_end - pa
+        behind = []                # end-face points beyond the fold line of every panel
+        for nk, vk in panels:
+            cos = u @ nk
+            if cos < min_cos:
+                raise _Untrimmable(f"its edge meets the plate at "
+                                   f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
+            lm, lp = pm @ vk, pp @ vk
+            pts = [x for x, l in ((pm, lm), (pp, lp)) if l >= 0 or len(panels) == 1]
+            if (lm < 0) != (lp < 0):   # the end face crosses the fold line
+                pts.append(pm + (lm / (lm - lp)) * (pp - pm))
+            for x in pts:
+                s_new = max(s_new, s_req + (gap - x @ nk) / cos)
+        if len(panels) > 1:
+            # a point behind every panel's fold line is next to the mitred (convex) corner of
+            # the plate: it clears the plate once it clears the face plane of any panel
+            for x in (pm, pp):
+                if all(x @ vk < 0 for _, vk in panels):
+                    s_new = max(s_new, min(s_req + (gap - x @ nk) / (u @ nk) for nk, _ in panels))
+            if line is not None and abs(panels[0][0] @ panels[1][0]) < 0.9999:
+                # the plate's fold edge on this side must stay behind the end face
+                edge = h * _miter(panels[0][0], panels[1][0])
+                rel = base - pa
+                pc = edge + ((rel - edge) @ line) * line           # at the height of this corner
+                w = np.cross(m_end, line)
+                w = w / np.linalg.norm(w) * (1.0 if np.cross(m_end, line) @ u >= 0 else -1.0)
+                npan = m_end / np.linalg.norm(m_end)
+                if abs((pc - rel) @ npan) <= h + (gap - h) and u @ w > 0.05:
+                    s_new = max(s_new, s_req + ((gap - h) - (rel - pc) @ w) / (u @ w))
+        if not np.isfinite(s_new):
+            raise _Untrimmable("its end does not lie over the other plate's panels")
+        done = abs(s_new - s_req) <= 1e-12 * L
+        s_req = s_new
+        if done:
+            break
+    if s_req >= 0.5 * L:
+        raise _Untrimmable(f"panel too short ({L:.3g}) to trim by {s_req:.3g}")
+    return quad[cc] + s_req * u
+
+
+def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float, h: float):
+    """Trim an end panel (``start``: its ``a_i b_i`` edge, else ``a_j b_j``) against a plate.
+
+    ``panels`` are the plate's ``(n, v)`` at the node, ``pa`` a point of the node line. The end
+    cap is laid along the plate's mean plane. Returns ``(moved corners {index: point}, end
+    mitre vector, mean plate normal turned towards the part)``; raises :class:`_Untrimmable`.
+    """
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0)
+    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    nbar = sum((nk for nk, _ in panels), np.zeros(3))
+    if not np.linalg.norm(nbar) > 1e-6:
+        raise _Untrimmable("no usable panel of the other plate there")
+    nbar = nbar / np.linalg.norm(nbar)
+    npan = quad_normals(quad[None])[0]
+    d = npan @ nbar
+    if 1.0 - d * d < 0.04:
+        # nearly parallel plates (< 11.5 deg): an end cap along the plate would be a long
+        # sliver; cut the end square to the part instead and pull it back until it clears
+        m_end, min_cos = npan, 0.05
+    else:
+        # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
+        m_end, min_cos = (npan - d * nbar) / (1.0 - d * d), 0.2
+    line = quad[ib] - quad[ia]
+    line = line / np.linalg.norm(line)
+    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_cos, line=line)
+             for cc, oc in ((ia, ja), (ib, jb))}
+    if not all(np.isfinite(x).all() for x in moved.values()):
+        raise _Untrimmable("trim failed (non-finite)")
+    return moved, m_end, nbar
+
+
+def into_direction(quad: np.ndarray, start: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(a, b, v)`` of a panel's end node line (``start``: ``a_i b_i``) and the unit direction
+    from that line into the panel, square to it."""
+    a, b = (quad[0], quad[3]) if start else (quad[1], quad[2])
+    u = (b - a) / np.linalg.norm(b - a)
+    v = quad.mean(axis=0) - a
+    v = v - (v @ u) * u
+    return a, b, v / np.linalg.norm(v)
+
+
+def fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:
+    """Unsigned angle between two unit normals, degrees."""
+    return _fold_deg(n1, n2)
