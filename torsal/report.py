@@ -276,8 +276,9 @@ def plot_assembly(solids, check, path, *, title: str | None = None) -> Path:
             polys.append(poly)
             colors.append(col)
             pts.append(poly)
-    if pts:
-        p = np.concatenate(pts)
+    p = np.concatenate(pts) if pts else np.zeros((0, 3))
+    p = p[np.isfinite(p).all(axis=1)]
+    if len(p):
         lo, hi = p.min(0), p.max(0)
         c, r = 0.5 * (lo + hi), 0.5 * float((hi - lo).max())
         ax.add_collection3d(Poly3DCollection(polys, facecolors=colors, edgecolors="none"))

@@ -308,8 +308,9 @@ def face_polygons(solid) -> list[np.ndarray]:
             p = BRep_Tool.Pnt_s(ex.CurrentVertex())
             pts.append((p.X(), p.Y(), p.Z()))
             ex.Next()
-        if len(pts) >= 3:
-            out.append(np.asarray(pts))
+        pts = np.asarray(pts, float).reshape(-1, 3)
+        if len(pts) >= 3 and np.isfinite(pts).all():     # degenerate loops are left out
+            out.append(pts)
     return out
 
 
