@@ -2,6 +2,8 @@
 assembly order with insertion paths, on constructed cases with known answers."""
 from __future__ import annotations
 
+from collections import Counter
+
 import csv
 import dataclasses
 import itertools
@@ -68,7 +70,8 @@ def test_egg_crate_sphere_is_buildable_and_family_1_goes_in_along_the_node_axis(
     fs = sphere_fs
     r = verify_assembly(fs, workers=1)
     assert r.buildable and r.interfering_pairs == 0 and r.failed_pairs == []
-    assert r.joints == {"egg-crate": len(fs.crossings)}
+    assert r.joints == dict(Counter(j.kind.value for j in fs.joints))
+    assert r.joints["egg-crate"] == len(fs.crossings)
     # independent recount of the touching pairs: every pair, exact distance
     sol = fs.solids()
     touching = sum(solid_distance(sol[m], sol[n]) <= 1.0 for m, n in itertools.combinations(sol, 2))
@@ -118,20 +121,16 @@ def test_insertion_across_the_slot_is_blocked(sphere_fs):
     assert x.parts0[0] in {c.parts[1] for c in blocked.collisions}
 
 
-def test_folded_crossing_needs_its_clearance():
+def test_folded_crossing_is_butted_and_buildable():
+    # (issue 15, fab branch) a strip folding at a crossing is split there and butted with
+    # brackets instead of slotted, so no clearance is needed
     s = cylinder_structure(nu=6, nv=3, closed=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        tight = FinSystem(s, thickness=3.0, clearance=0.5)
-    need = max(c.required_clearance for c in tight.crossings)
-    assert need > 0.5
-    r = verify_assembly(tight, workers=1)
-    crossing_pairs = {tuple(sorted((a, b))) for c in tight.crossings
-                      for a in c.parts0 for b in c.parts1}
-    assert r.interfering_pairs > 0
-    assert {tuple(sorted(i.parts)) for i in r.interfering} <= crossing_pairs
-    ok = verify_assembly(FinSystem(s, thickness=3.0, clearance=need + 1e-6), workers=1)
-    assert ok.buildable and ok.pairs_checked >= len(crossing_pairs)
+        fs = FinSystem(s, thickness=3.0, clearance=0.5)
+    assert not fs.crossings and fs.connectors
+    r = verify_assembly(fs, workers=1)
+    assert r.interfering_pairs == 0 and r.pairs_checked > 0
 
 
 def test_step_reread_gives_the_same_answer_and_csv_lists_every_step(sphere_fs, tmp_path):
