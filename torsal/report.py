@@ -153,6 +153,20 @@ def _save(fig, path: Path) -> str:
     return path.name
 
 
+def _cube_limits(ax, points: np.ndarray) -> None:
+    """Equal axis ranges around the finite ones of ``points`` (n, 3): a degenerate fin or a
+    solid's face with a non-finite corner must not leave the whole picture without limits."""
+    p = np.asarray(points, float).reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    if not len(p):
+        return
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    mid, rad = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-9)
+    ax.set_xlim(mid[0] - rad, mid[0] + rad)
+    ax.set_ylim(mid[1] - rad, mid[1] + rad)
+    ax.set_zlim(mid[2] - rad, mid[2] + rad)
+
+
 def plot_fins(structure, surface, path: str | Path, *, title: str = "") -> Path:
     """3D view of the fins over the surface, each fin coloured by its planarity (Fig. 12's
     measure: distance of the diagonals / their mean length, log scale), seen from outside."""
@@ -172,12 +186,7 @@ def plot_fins(structure, surface, path: str | Path, *, title: str = "") -> Path:
     ax.add_collection3d(pc)
     cb = fig.colorbar(pc, ax=ax, shrink=0.7, pad=0.08)
     cb.set_label("fin planarity: diagonal distance / mean diagonal (log)")
-    pts = np.concatenate([v, structure.vertices_b])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    mid, rad = (lo + hi) / 2, (hi - lo).max() / 2
-    ax.set_xlim(mid[0] - rad, mid[0] + rad)
-    ax.set_ylim(mid[1] - rad, mid[1] + rad)
-    ax.set_zlim(mid[2] - rad, mid[2] + rad)
+    _cube_limits(ax, np.concatenate([v, structure.vertices_b]))
     n = area_vector(v, f)
     n /= np.linalg.norm(n)
     ax.view_init(elev=float(np.clip(np.degrees(np.arcsin(n[2])), 15, 60)),
@@ -258,7 +267,7 @@ def plot_assembly(solids, check, path, *, title: str | None = None) -> Path:
     blocked = {s.part for s in check.blocked}
     fig = _figure((9, 7))
     ax = fig.add_subplot(projection="3d")
-    polys, colors, pts = [], [], []
+    polys, colors = [], []
     for name, solid in items:
         if name in bad:
             col = (0.85, 0.05, 0.05, 1.0)
@@ -275,16 +284,12 @@ def plot_assembly(solids, check, path, *, title: str | None = None) -> Path:
         for poly in face_polygons(solid):
             polys.append(poly)
             colors.append(col)
-            pts.append(poly)
-    p = np.concatenate(pts) if pts else np.zeros((0, 3))
-    p = p[np.isfinite(p).all(axis=1)]
-    if len(p):
-        lo, hi = p.min(0), p.max(0)
-        c, r = 0.5 * (lo + hi), 0.5 * float((hi - lo).max())
-        ax.add_collection3d(Poly3DCollection(polys, facecolors=colors, edgecolors="none"))
-        ax.set_xlim(c[0] - r, c[0] + r)
-        ax.set_ylim(c[1] - r, c[1] + r)
-        ax.set_zlim(c[2] - r, c[2] + r)
+    keep = [k for k, q in enumerate(polys) if np.isfinite(q).all()]
+    if keep:
+        ax.add_collection3d(Poly3DCollection([polys[k] for k in keep],
+                                             facecolors=[colors[k] for k in keep],
+                                             edgecolors="none"), autolim=False)
+        _cube_limits(ax, np.concatenate([polys[k] for k in keep]))
     ax.set_xlabel(f"x ({check.unit})")
     ax.set_ylabel(f"y ({check.unit})")
     ax.set_zlabel(f"z ({check.unit})")

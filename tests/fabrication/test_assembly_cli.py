@@ -21,25 +21,25 @@ pytest.importorskip("build123d")
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _small_design(tmp_path: Path, clearance: float) -> Path:
-    """Example 7a on a coarse mesh with few fins (as tests/test_examples.py runs it) and the
-    given slot clearance (mm)."""
-    text = (ROOT / "examples" / "7a_facade_block.toml").read_text()
+def _unbuildable_design(tmp_path: Path) -> Path:
+    """Example 7c on a coarse mesh with few fins (as tests/test_examples.py runs it). Its
+    see-through windows make torsal planes cross at a few degrees: today's joinery leaves
+    interfering parts there (issue 15 is open), which is what this test needs. Should 7c ever
+    assemble, use another structure the joinery cannot handle."""
+    text = (ROOT / "examples" / "7c_facade_see_through.toml").read_text()
     text = text.replace("params = { nu = 33, nv = 33 }", "params = { nu = 15, nv = 11 }")
-    text = text.replace("spacing = 0.6", "spacing = 1.5").replace("max_iter = 300", "max_iter = 400")
-    text = text.replace("sheet_mm = [2500, 1250]", f"sheet_mm = [4000, 2000]\nclearance_mm = {clearance}")
-    text += "\n[outputs]\nlight_samples = 300\n"
+    text = text.replace("spacing = 0.6", "spacing = 1.5")
+    text += "\n[material]\nsheet_mm = [4000, 2000]\n\n[outputs]\nlight_samples = 300\n"
     path = tmp_path / "tight.toml"
     path.write_text(text)
     return path
 
 
 def test_interfering_design_exits_3_naming_the_parts(tmp_path, capsys):
-    # slots exactly as wide as the plates: where the plates fold or cross obliquely they collide
-    design = _small_design(tmp_path, clearance=0.0)
+    design = _unbuildable_design(tmp_path)
     out = tmp_path / "out"
     assert main(["design", str(design), "--out", str(out)]) == 3
-    text = capsys.readouterr().out
+    text = capsys.readouterr().err
     report = json.loads((out / "report.json").read_text())
     a = report["fabrication"]["assembly"]
     assert not a["buildable"] and a["interfering_pairs"] > 0 and a["worst_overlap_mm3"] > 1.0
@@ -54,7 +54,7 @@ def test_interfering_design_exits_3_naming_the_parts(tmp_path, capsys):
     assert len(rows) == report["fabrication"]["parts"]
     # accepted explicitly: exit 0, still not reported as buildable
     assert main(["design", str(design), "--out", str(out), "--accept-unbuildable"]) == 0
-    assert "NOT BUILDABLE" in re.sub(r"\s+", " ", capsys.readouterr().out)
+    assert "NOT BUILDABLE" in re.sub(r"\s+", " ", capsys.readouterr().err)
 
 
 def test_congruence_gate_names_faces_with_oblique_torsal_planes():

@@ -62,6 +62,7 @@ from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 import numpy as np
 
 from torsal.core.atomic import atomic_path
+from torsal.core.parallel import usable_workers
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
            "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
@@ -469,6 +470,7 @@ def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> 
     """``[fn(job)]`` in order, over forked processes when ``workers > 1`` (the solids in
     ``_SHAPES`` are inherited, not pickled)."""
     out = []
+    workers = usable_workers(workers)
     if workers <= 1 or len(jobs) < 8 or "fork" not in multiprocessing.get_all_start_methods():
         for n, job in enumerate(jobs):
             out.append(fn(job))

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from torsal.core.atomic import atomic_path
+from torsal.core.parallel import usable_workers
 
 from .model import CONNECTOR_FAMILY, Part, SlotSide
 from .unroll import unroll
@@ -380,7 +381,7 @@ def build_solids(fin_system, *, repair: bool = True, workers: int | None = None)
     """
     parts = list(fin_system.parts)
     t = fin_system.thickness
-    workers = default_workers(len(parts)) if workers is None else max(1, int(workers))
+    workers = usable_workers(default_workers(len(parts)) if workers is None else workers)
     if workers > 1:
         rows = _build_parallel(parts, t, repair, workers)
     else:

@@ -129,7 +129,7 @@ def check_axis(key: str) -> None:
     >>> check_axis("fins.dpeth")
     Traceback (most recent call last):
     ...
-    torsal.pipeline.study_file.StudyFileError: axes."fins.dpeth": 'dpeth' is not a key of [fins] (keys: depth, developable_levels, optimize, planarity_tol, spacing)
+    torsal.pipeline.study_file.StudyFileError: axes."fins.dpeth": 'dpeth' is not a key of [fins] (keys: depth, developable_levels, max_fold_at_crossing, optimize, planarity_tol, spacing)
     """
     model: Any = DesignSpec
     parts = key.split(".")

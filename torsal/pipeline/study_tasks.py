@@ -110,8 +110,11 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 try:
+                    # a study compares variants: an unbuildable one is a row whose `buildable`
+                    # column says so (its report names the parts), not a failed variant
                     Design(variant.spec, source=out / "design.toml").run(
-                        out, cache=StageCache(cache_dir, prune=False), progress=record)
+                        out, cache=StageCache(cache_dir, prune=False), progress=record,
+                        accept_unbuildable=True)
                 finally:
                     outcome["warnings"] = sorted({f"{w.category.__name__}: {w.message}"
                                                   for w in caught})
