@@ -19,7 +19,6 @@ REPORT_KEYS = {
 }
 ASSEMBLY_KEYS = {"pairs_checked", "interfering_pairs", "worst_overlap_mm3", "buildable", "joints",
                  "connectors"}
-#: the per-node joinery (issue 15, part 1) has landed: every example must assemble
 #: examples whose test-size parts the assembly check still finds interfering or blocked
 #: (measured 2026-11-23; 7c assembles in some runs and not in others); every other example
 #: must assemble
