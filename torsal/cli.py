@@ -200,7 +200,7 @@ class _DesignProgress:
     Called as ``progress(stage, event, info)`` by :meth:`torsal.design.Design.run`.
     """
 
-    _ITERATION_EVERY_S = 2.0  # piped: at most one iteration line per this many seconds
+    _ITERATION_EVERY_S = 2.0  # piped: at most one iteration or progress line per this many seconds
 
     def __init__(self, ui: _Terminal, design, stages):
         self.ui, self.stages = ui, stages
@@ -262,7 +262,7 @@ class _DesignProgress:
             self.live.update(self._render())
             return
         now = time.perf_counter()
-        if event == "iteration" and now - self._last_line < self._ITERATION_EVERY_S:
+        if event in ("iteration", "progress") and now - self._last_line < self._ITERATION_EVERY_S:
             return
         self._last_line = now
         self.ui.line(f"[{now - self.t0:7.1f} s] {stage}: {state[0]}"
