@@ -25,13 +25,8 @@ from .stage import StageInputs
 __all__ = ["run_assembly", "UnbuildableDesignError", "unbuildable_message",
            "congruence_gate", "support_gate", "MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD"]
 
-try:        # the joinery's limits (torsal.fabrication.joints, issue 15 part 1)
-    from ..fabrication.joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE
-except ImportError:          # before the per-node joinery: today's egg-crate slots
-    #: degrees: plates crossing more obliquely than this cannot be slotted
-    MIN_CROSSING_ANGLE = 30.0
-    #: degrees: a plate folding more than this at a crossing cannot slide through a slot
-    MAX_CROSSING_FOLD = 10.0
+# the joinery's limits: one source, the joint builder's (torsal.fabrication.joints)
+from ..fabrication.joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE
 
 #: how many faces / nodes / parts a report names (all are counted)
 _NAMED = 20

@@ -11,16 +11,12 @@ __all__ = ["fin_system"]
 def fin_system(spec: DesignSpec, structure):
     """The design's :class:`~torsal.fabrication.FinSystem` (material, sheet and joinery limits
     of the design file; parts in mm)."""
-    import inspect
-
     from ..fabrication import FinSystem
 
     m = spec.material
     options = {}
-    # the per-node joinery (split + connector where a strip folds at a crossing) takes the
-    # limit; a FinSystem without it only slots, and the support stage's gate names the nodes
-    if spec.fins.max_fold_at_crossing is not None and \
-            "max_crossing_fold" in inspect.signature(FinSystem).parameters:
+    # unset: the joinery's own limit (torsal.fabrication.joints.MAX_CROSSING_FOLD)
+    if spec.fins.max_fold_at_crossing is not None:
         options["max_crossing_fold"] = spec.fins.max_fold_at_crossing
     return FinSystem(structure, m.thickness_mm, family_split=m.family_split.value,
                      clearance=m.clearance_mm, fit_sheet=tuple(m.sheet_mm),
