@@ -117,11 +117,7 @@ def plot_torsal_field(congruence, path: str | Path, *, title: str | None = None,
     e = e / np.linalg.norm(e, axis=1, keepdims=True) * 2 * delta
     ax3.add_collection3d(Line3DCollection(np.stack([a, a + e], axis=1), colors="tab:orange",
                                           linewidths=0.6, label="lines of the congruence"))
-    lo, hi = v.min(axis=0), v.max(axis=0)
-    mid, rad = (lo + hi) / 2, (hi - lo).max() / 2
-    ax3.set_xlim(mid[0] - rad, mid[0] + rad)
-    ax3.set_ylim(mid[1] - rad, mid[1] + rad)
-    ax3.set_zlim(mid[2] - rad, mid[2] + rad)
+    _cube_limits(ax3, v)
     ax3.set_xlabel("x")
     ax3.set_ylabel("y")
     ax3.set_zlabel("z")
