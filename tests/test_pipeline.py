@@ -115,3 +115,31 @@ def test_design_run_takes_a_pipeline(tmp_path):
                                                 after="orient")
     res = Design(SPEC).run(tmp_path, pipeline=p)
     assert res.report["count"]["faces"] == res.report["surface"]["faces"] == seen["faces"] > 0
+
+
+# ---------------------------------------------------------------- worker caps (core.parallel)
+def test_limit_workers_caps_nested_and_restores():
+    from torsal.core.parallel import limit_workers, usable_workers
+
+    assert usable_workers(3) == 3
+    with limit_workers(2):
+        assert usable_workers(3) == 2
+        assert usable_workers(1) == 1
+        with limit_workers(1):
+            assert usable_workers(8) == 1
+        assert usable_workers(3) == 2
+    assert usable_workers(3) == 3
+    with pytest.raises(ValueError, match="n >= 1"):
+        with limit_workers(0):
+            pass
+
+
+def test_serial_study_executor_runs_its_tasks_on_one_process():
+    from torsal.core.parallel import usable_workers
+    from torsal.pipeline.study_tasks import SerialExecutor
+
+    ex = SerialExecutor()
+    job = ex.submit(usable_workers, 4)
+    assert ex.wait([job]) == [job]
+    assert ex.result(job) == 1          # inside: the stages' pools are capped to this process
+    assert usable_workers(4) == 4       # outside: not

@@ -116,7 +116,8 @@ class Study:
         client : distributed.Client, optional
             Use this client (and its cluster) instead.
         serial : bool
-            Run in this process without Dask (the reference for speed-ups).
+            Run in this process without Dask, on one core (the stages' own process pools
+            are capped to this process): the reference for speed-ups.
         progress : callable(StudyProgress), optional
             Told the counts of variants done, failed, running after every change.
         retry_failed : bool

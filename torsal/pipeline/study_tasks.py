@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import __version__
+from ..core.parallel import limit_workers
 from .._io import atomic_path, write_json
 from .cache import StageCache
 from .design import Design
@@ -170,7 +171,10 @@ class _Executor:
 
 
 class SerialExecutor(_Executor):
-    """Runs tasks one after another in this process (the reference for speed-ups)."""
+    """Runs tasks one after another in this process, with one core: the stages' own process
+    pools (solids, assembly check) are capped to this process too, so a serial study is the
+    one-core reference for the speed-up of a study on Dask workers (which are one core each).
+    """
 
     def __init__(self):
         self._pending: list[_Job] = []
@@ -191,7 +195,8 @@ class SerialExecutor(_Executor):
             self.running = {vid}
             on_change()
         args = [a.result if isinstance(a, _Job) else a for a in job.args]
-        job.result = job.fn(*args)
+        with limit_workers(1):
+            job.result = job.fn(*args)
         self.running = set()
         return [job]
 
