@@ -224,6 +224,7 @@ def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str
 
 def plot_sheets(layout, path: str | Path, *, max_sheets: int = 6) -> Path:
     """The nested cutting sheets: part outlines (cut), fold lines (dashed) and part ids."""
+    from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.patches import Rectangle
 
     k = min(layout.n_sheets, max_sheets)
@@ -234,12 +235,16 @@ def plot_sheets(layout, path: str | Path, *, max_sheets: int = 6) -> Path:
     for s in range(k):
         ax = fig.add_subplot(rows, cols, s + 1)
         ax.add_patch(Rectangle((0, 0), W, H, fill=False, edgecolor="k", linewidth=1.2))
-        for pl in layout.on_sheet(s):
-            x, y = pl.polygon.exterior.xy
-            ax.fill(x, y, facecolor=(0.55, 0.7, 0.9, 0.6), edgecolor="tab:blue", linewidth=0.6)
-            for line, _angle in pl.folds:
-                fx, fy = line.xy
-                ax.plot(fx, fy, "--", color="tab:red", linewidth=0.5)
+        placed = list(layout.on_sheet(s))
+        # one collection per sheet, not one artist per part: hundreds of parts draw at once
+        ax.add_collection(PolyCollection(
+            [np.column_stack(pl.polygon.exterior.xy) for pl in placed],
+            facecolor=(0.55, 0.7, 0.9, 0.6), edgecolor="tab:blue", linewidth=0.6))
+        folds = [np.column_stack(line.xy) for pl in placed for line, _angle in pl.folds]
+        if folds:
+            ax.add_collection(LineCollection(folds, colors="tab:red", linestyles="--",
+                                             linewidths=0.5))
+        for pl in placed:
             ax.text(pl.label[0], pl.label[1], pl.name, fontsize=4, ha="center", va="center")
         ax.set_xlim(-0.02 * W, 1.02 * W)
         ax.set_ylim(-0.02 * H, 1.02 * H)
