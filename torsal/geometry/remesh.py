@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -383,6 +384,304 @@ def _segments(uv, face_edges, edge_faces, matching, transition, fam):
     return out
 
 
+class _Crossings(NamedTuple):
+    """Where iso-line segments cross the edges of A: one record per crossing point."""
+
+    keys: np.ndarray      # (nX, 3) int: canonical (edge, family, line value) of each crossing
+    at_p: np.ndarray      # (S,) int: crossing at each segment's p end
+    at_q: np.ndarray      # (S,) int: crossing at each segment's q end
+    face: np.ndarray      # (nX,) int: a triangle of A holding the crossing
+    bary: np.ndarray      # (nX, 3) float: its barycentric coordinates there
+
+
+def _crossings(seg: dict) -> _Crossings:
+    """Merge the segment ends that are the same point (same canonical key)."""
+    S = len(seg["face"])
+    keys = np.concatenate([seg["p_key"], seg["q_key"]])
+    ukeys, cinv = np.unique(keys, axis=0, return_inverse=True)
+    cinv = cinv.ravel()
+    first = np.full(len(ukeys), -1)                    # first occurrence of every crossing
+    first[cinv[::-1]] = np.arange(2 * S)[::-1]
+    face = np.concatenate([seg["face"], seg["face"]])[first]
+    bary = np.concatenate([seg["p_bary"], seg["q_bary"]])[first]
+    return _Crossings(ukeys, cinv[:S], cinv[S:], face, bary)
+
+
+class _LatticeNodes(NamedTuple):
+    """Lattice points (u = k and v = l both integer) on the iso-line segments."""
+
+    per_segment: np.ndarray   # (S,) int: how many lie on each segment
+    rank: np.ndarray          # (M,) int: position of each occurrence along its segment
+    bary: np.ndarray          # (M, 3) float: barycentric coordinates of each occurrence
+    node: np.ndarray          # (M,) int: the lattice node of each occurrence
+    face: np.ndarray          # (nN,) int: triangle of each node
+    node_bary: np.ndarray     # (nN, 3) float: barycentric coordinates of each node
+
+
+def _lattice_nodes(seg: dict) -> _LatticeNodes:
+    """The integer values l of the other coordinate y between a segment's two ends; a value
+    exactly at an end is counted iff the other end is below (simulation of simplicity:
+    l counted iff (yp >= l) != (yq >= l), i.e. l in (ylo, yhi])."""
+    S = len(seg["face"])
+    yp, yq = seg["p_y"], seg["q_y"]
+    lo = np.floor(np.minimum(yp, yq)).astype(np.int64)
+    hi = np.floor(np.maximum(yp, yq)).astype(np.int64)
+    m = hi - lo
+    sid = np.repeat(np.arange(S), m)
+    rank = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
+    asc = (yq >= yp)[sid]
+    l_val = np.where(asc, lo[sid] + 1 + rank, hi[sid] - rank)
+    sig = (l_val - yp[sid]) / np.where(yq[sid] != yp[sid], (yq - yp)[sid], 1.0)
+    nb = (1 - sig)[:, None] * seg["p_bary"][sid] + sig[:, None] * seg["q_bary"][sid]
+    fam, k = seg["fam"][sid], seg["k"][sid]
+    nkeys = np.stack([seg["face"][sid], np.where(fam == 1, k, l_val),
+                      np.where(fam == 1, l_val, k)], axis=1)           # (face, u, v)
+    if not len(nkeys):
+        return _LatticeNodes(m, rank, nb, np.zeros(0, np.int64), np.zeros(0, np.int64),
+                             np.zeros((0, 3)))
+    ukn, ninv = np.unique(nkeys, axis=0, return_inverse=True)
+    ninv = ninv.ravel()
+    nfirst = np.full(len(ukn), -1)
+    nfirst[ninv[::-1]] = np.arange(len(ninv))[::-1]
+    return _LatticeNodes(m, rank, nb, ninv, ukn[:, 0], nb[nfirst])
+
+
+class _Pieces(NamedTuple):
+    """Iso-line pieces between consecutive graph points (crossings 0..nX-1, lattice nodes
+    nX..) inside one triangle."""
+
+    a: np.ndarray      # (P,) int: graph id of the first end
+    b: np.ndarray      # (P,) int: graph id of the second end
+    family: np.ndarray  # (P,) int
+    pos_a: np.ndarray  # (P, 3) float: position of the first end on A
+    pos_b: np.ndarray  # (P, 3) float
+
+
+def _pieces(seg: dict, X: _Crossings, N: _LatticeNodes, V, F) -> _Pieces:
+    """Split every segment at its lattice nodes: the chain p, n_1..n_m, q."""
+    S, m = len(seg["face"]), N.per_segment
+    L = m + 2
+    tot = int(L.sum())
+    seq = np.empty(tot, np.int64)
+    seq_bary = np.empty((tot, 3))
+    offs = np.cumsum(L) - L
+    seq[offs], seq[offs + L - 1] = X.at_p, X.at_q
+    seq_bary[offs], seq_bary[offs + L - 1] = seg["p_bary"], seg["q_bary"]
+    inner = np.repeat(offs + 1, m) + N.rank
+    seq[inner] = len(X.keys) + N.node
+    seq_bary[inner] = N.bary
+    is_last = np.zeros(tot, bool)
+    is_last[offs + L - 1] = True
+    pa = np.flatnonzero(~is_last)
+    pseg = np.repeat(np.arange(S), L)[pa]
+    tri = V[F[seg["face"][pseg]]]
+    return _Pieces(seq[pa], seq[pa + 1], seg["fam"][pseg],
+                   np.einsum("pk,pkd->pd", seq_bary[pa], tri),
+                   np.einsum("pk,pkd->pd", seq_bary[pa + 1], tri))
+
+
+class _Fins(NamedTuple):
+    """Fins: chains of pieces between two terminal graph points (a lattice node, or a
+    crossing that is not passed through: on the boundary, or dangling)."""
+
+    ends: np.ndarray        # (E, 2) int: graph ids of the two terminals
+    leave_0: np.ndarray     # (E, 3) float: direction leaving ends[:, 0] along the fin
+    leave_1: np.ndarray     # (E, 3) float: direction leaving ends[:, 1]
+    family: np.ndarray      # (E,) int
+    dropped_chains: int     # chains without exactly two terminals (closed loops)
+
+
+def _chain_fins(P: _Pieces, n_crossings: int, n_graph: int) -> _Fins:
+    """Join pieces through pass-through crossings (degree 2) into fins."""
+    nP = len(P.a)
+    ends = np.r_[P.a, P.b]
+    end_piece = np.r_[np.arange(nP), np.arange(nP)]
+    terminal = np.ones(n_graph, bool)
+    terminal[:n_crossings] = np.bincount(ends, minlength=n_graph)[:n_crossings] != 2
+    pt = np.flatnonzero(~terminal[ends])
+    pt = pt[np.argsort(ends[pt], kind="stable")]
+    pairs = end_piece[pt].reshape(-1, 2)               # two pieces sharing a pass-through point
+    adj = sp.csr_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(nP, nP))
+    n_chains, chain = csg.connected_components(adj, directed=False)
+    te = np.flatnonzero(terminal[ends])
+    good = np.bincount(chain[end_piece[te]], minlength=n_chains) == 2
+    te = te[good[chain[end_piece[te]]]]
+    te = te[np.argsort(chain[end_piece[te]], kind="stable")]
+    tnode = ends[te].reshape(-1, 2)
+    tpiece = end_piece[te].reshape(-1, 2)
+    tside = (te >= nP).reshape(-1, 2)                  # True: the terminal is the piece's b end
+
+    def leaving(pc, side):
+        return np.where(side[:, None], P.pos_a[pc] - P.pos_b[pc], P.pos_b[pc] - P.pos_a[pc])
+
+    keep = tnode[:, 0] != tnode[:, 1]
+    return _Fins(tnode[keep], leaving(tpiece[:, 0], tside[:, 0])[keep],
+                 leaving(tpiece[:, 1], tside[:, 1])[keep], P.family[tpiece[:, 0]][keep],
+                 int((~good).sum()))
+
+
+class _Vertices(NamedTuple):
+    """Vertices of A~: the terminals that some fin uses."""
+
+    graph_id: np.ndarray    # (n,) int: graph point of each vertex
+    face: np.ndarray        # (n,) int: its triangle of A
+    bary: np.ndarray        # (n, 3) float: its barycentric coordinates
+    crossing: np.ndarray    # (n,) bool: an edge crossing (else a lattice node)
+    boundary: np.ndarray    # (n,) bool: on the boundary of A
+    dangling: np.ndarray    # (n,) bool: an iso-line end inside A (next to a singularity)
+
+
+def _fin_vertices(fins: _Fins, X: _Crossings, N: _LatticeNodes, edge_faces):
+    """The vertices of A~ and the fins as (E, 2) indices into them."""
+    nX, nN = len(X.keys), len(N.face)
+    used = np.unique(fins.ends.ravel())
+    remap = np.full(nX + nN, -1)
+    remap[used] = np.arange(len(used))
+    is_x = used < nX
+    face = np.where(is_x, X.face[np.minimum(used, nX - 1)],
+                    N.face[np.maximum(used - nX, 0)] if nN else 0)
+    bary = np.where(is_x[:, None], X.bary[np.minimum(used, nX - 1)],
+                    N.node_bary[np.maximum(used - nX, 0)] if nN else 0.0)
+    on_bnd = np.zeros(len(used), bool)
+    on_bnd[is_x] = edge_faces[X.keys[used[is_x], 0], 1] < 0
+    return _Vertices(used, face, bary, is_x, on_bnd, is_x & ~on_bnd), remap[fins.ends]
+
+
+class _BoundarySides(NamedTuple):
+    """Straight sides of the boundary polygons: between consecutive hits of iso-lines with
+    a boundary loop of A."""
+
+    ends: np.ndarray       # (B, 2) int: vertex indices
+    leave_0: np.ndarray    # (B, 3) float: direction leaving ends[:, 0]
+    leave_1: np.ndarray    # (B, 3) float
+
+
+def _boundary_sides(vt: _Vertices, X: _Crossings, V, F, face_edges, edge_faces) -> _BoundarySides:
+    hit = np.flatnonzero(vt.boundary)
+    none = _BoundarySides(np.zeros((0, 2), np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
+    if not hit.size:
+        return none
+    ge = X.keys[vt.graph_id[hit], 0]
+    fb = edge_faces[ge, 0]
+    loc = np.argmax(face_edges[fb] == ge[:, None], axis=1)
+    a_c, b_c = (loc + 1) % 3, (loc + 2) % 3
+    s_along = vt.bary[hit, :][np.arange(hit.size), b_c]   # weight of the forward end
+    va, vb = F[fb, a_c], F[fb, b_c]
+    pos = {ab: (li, k) for li, loop in enumerate(_boundary_loops(F, face_edges, edge_faces))
+           for k, ab in enumerate(loop)}
+    lp = np.array([pos[(int(a), int(b))] for a, b in zip(va, vb)])
+    o = np.lexsort((s_along, lp[:, 1], lp[:, 0]))      # hits in order along each loop
+    hs, lid = hit[o], lp[o, 0]
+    evec = (V[vb] - V[va])[o]
+    sides, d0, d1 = [], [], []
+    for li in np.unique(lid):
+        idx = np.flatnonzero(lid == li)
+        if idx.size < 2:
+            continue
+        nxt = np.roll(idx, -1)
+        sides.append(np.stack([hs[idx], hs[nxt]], 1))
+        d0.append(evec[idx])
+        d1.append(-evec[nxt])
+    if not sides:
+        return none
+    return _BoundarySides(np.concatenate(sides), np.concatenate(d0), np.concatenate(d1))
+
+
+def _trace_faces(fin_edges, fins: _Fins, sides: _BoundarySides, vertex_face, V, F) -> list:
+    """Faces of the embedded graph (fins and boundary sides): the rotation system at every
+    vertex (half-edges sorted by angle in the tangent plane of its triangle), each face to
+    the left of its half-edges; faces made of boundary sides only (the outside) dropped."""
+    n_fins = len(fin_edges)
+    all_e = np.concatenate([fin_edges, sides.ends])
+    n_all = len(all_e)
+    # half-edge h = 2e (a->b), 2e+1 (b->a); origin and leaving direction
+    h_org = all_e.ravel()
+    h_dir = np.empty((2 * n_all, 3))
+    h_dir[0::2] = np.concatenate([fins.leave_0, sides.leave_0])
+    h_dir[1::2] = np.concatenate([fins.leave_1, sides.leave_1])
+    b1, b2, _ = face_bases(V, F)
+    vf = vertex_face[h_org]
+    ang = np.arctan2(np.einsum("ij,ij->i", h_dir, b2[vf]), np.einsum("ij,ij->i", h_dir, b1[vf]))
+    o = np.lexsort((ang, h_org))
+    org_sorted = h_org[o]
+    n_v = len(vertex_face)
+    startpos = np.searchsorted(org_sorted, np.arange(n_v))
+    nval = np.searchsorted(org_sorted, np.arange(n_v), side="right") - startpos
+    rank_in = np.empty(2 * n_all, np.int64)
+    rank_in[o] = np.arange(2 * n_all) - startpos[org_sorted]
+    # next(h) = the half-edge preceding twin(h) in the CCW order at twin(h)'s origin
+    tw = np.arange(2 * n_all) ^ 1
+    b_org = h_org[tw]
+    nxt = o[startpos[b_org] + (rank_in[tw] - 1) % nval[b_org]]
+    is_b = np.zeros(2 * n_all, bool)
+    is_b[2 * n_fins:] = True
+    visited = np.zeros(2 * n_all, bool)
+    faces = []
+    for h0 in range(2 * n_all):
+        if visited[h0]:
+            continue
+        cyc = []
+        h = h0
+        while not visited[h]:
+            visited[h] = True
+            cyc.append(h)
+            h = nxt[h]
+        cyc = np.array(cyc)
+        if len(cyc) >= 3 and not is_b[cyc].all():
+            faces.append(h_org[cyc].tolist())
+    return faces
+
+
+class _Collapsed(NamedTuple):
+    vertices: _Vertices
+    fin_edges: np.ndarray
+    family: np.ndarray
+    faces: list
+    n_collapsed: int
+
+
+def _collapse_short_fins(vt: _Vertices, fin_edges, family, faces, min_length: float,
+                         V, F) -> _Collapsed:
+    """Merge the end points of fins shorter than ``min_length`` (an iso-line leaving A within
+    ~1e-3 spacing of a lattice point, or through a vertex of A's boundary). The merged vertex
+    is a lattice node of the group if it has one, else its smallest index; it stays on A."""
+    pos = np.einsum("nk,nkd->nd", vt.bary, V[F[vt.face]])
+    short = np.linalg.norm(pos[fin_edges[:, 1]] - pos[fin_edges[:, 0]], axis=1) < min_length
+    n_collapsed = int(short.sum())
+    if not n_collapsed:
+        return _Collapsed(vt, fin_edges, family, faces, 0)
+    n = len(vt.face)
+    se = fin_edges[short]
+    g = sp.csr_matrix((np.ones(len(se)), (se[:, 0], se[:, 1])), shape=(n, n))
+    _, comp = csg.connected_components(g, directed=False)
+    prio = np.where(vt.crossing, 1, 0) * n + np.arange(n)
+    rep = np.full(comp.max() + 1, -1)
+    order = np.argsort(prio)[::-1]
+    rep[comp[order]] = order              # last write wins: the smallest priority
+    grp_bnd = np.zeros(comp.max() + 1, bool)
+    np.logical_or.at(grp_bnd, comp, vt.boundary)
+    new_id = np.full(n, -1)
+    reps = np.unique(rep[comp])
+    new_id[reps] = np.arange(len(reps))
+    vmap = new_id[rep[comp]]
+    fin_edges, family = vmap[fin_edges[~short]], family[~short]
+    nondeg = fin_edges[:, 0] != fin_edges[:, 1]
+    fin_edges, family = fin_edges[nondeg], family[nondeg]
+    new_faces = []
+    for fc in faces:
+        mapped = [int(vmap[v]) for v in fc]
+        dedup = [v for k, v in enumerate(mapped) if v != mapped[k - 1]] if len(mapped) > 1 else mapped
+        if len(set(dedup)) >= 3:
+            new_faces.append(dedup)
+    on_bnd = grp_bnd[comp[reps]]
+    vt = _Vertices(vt.graph_id[reps], vt.face[reps], vt.bary[reps], vt.crossing[reps], on_bnd,
+                   vt.dangling[reps] & ~on_bnd)
+    # edges may now be duplicated (two short fins merged into one pair)
+    _, uniq = np.unique(np.sort(fin_edges, axis=1), axis=0, return_index=True)
+    uniq = np.sort(uniq)
+    return _Collapsed(vt, fin_edges[uniq], family[uniq], new_faces, n_collapsed)
+
+
 def extract_quads(param: TorsalParametrization, vertices_b=None, *, congruence=None,
                   min_edge: float = 1e-3) -> "SupportStructure":
     """Quad mesh A~ (and B~) from a parametrization: the integer iso-lines of ``(u, v)``.
@@ -432,267 +731,30 @@ def extract_quads(param: TorsalParametrization, vertices_b=None, *, congruence=N
             raise ValueError("extract_quads needs vertices_b or the congruence (for mesh B)")
         vertices_b = congruence.vertices_b
     VB = np.asarray(vertices_b, float)
-    edges, ef = fld.edges, fld.edge_faces
+    ef = fld.edge_faces
     _, face_edges = unique_edges(F)
-    uv = param.uv
-    segs = [_segments(uv, face_edges, ef, fld.matching, param.transition, fam) for fam in (0, 1)]
+    segs = [_segments(param.uv, face_edges, ef, fld.matching, param.transition, fam)
+            for fam in (0, 1)]
     seg = {key: np.concatenate([s[key] for s in segs]) for key in segs[0]}
-    S = len(seg["face"])
-    if S == 0:
+    if len(seg["face"]) == 0:
         raise ParametrizationError(
             f"no iso-line crosses the mesh: spacing {param.spacing:g} is larger than the patch")
-
-    # ---- crossings: unique canonical keys
-    keys = np.concatenate([seg["p_key"], seg["q_key"]])
-    ukeys, cinv = np.unique(keys, axis=0, return_inverse=True)
-    cinv = cinv.ravel()
-    nX = len(ukeys)
-    cp, cq = cinv[:S], cinv[S:]
-    # position data of each crossing (first occurrence)
-    first = np.full(nX, -1)
-    occ = np.arange(2 * S)
-    first[cinv[::-1]] = occ[::-1]
-    xf = np.concatenate([seg["face"], seg["face"]])[first]
-    xb = np.concatenate([seg["p_bary"], seg["q_bary"]])[first]
-
-    # ---- lattice nodes on each segment: other coordinate y integer between p_y and q_y
-    yp, yq = seg["p_y"], seg["q_y"]
-    ylo = np.minimum(yp, yq)
-    yhi = np.maximum(yp, yq)
-    # SoS: l counted iff (yp >= l) != (yq >= l)  <=>  l in (ylo, yhi]
-    lo = np.floor(ylo).astype(np.int64)
-    hi = np.floor(yhi).astype(np.int64)
-    # a value exactly equal to an integer: l = y is counted iff the other end is below
-    m = hi - lo
-    sid = np.repeat(np.arange(S), m)
-    start = np.repeat(np.cumsum(m) - m, m)
-    rank = np.arange(m.sum()) - start
-    asc = (yq >= yp)[sid]
-    l_val = np.where(asc, lo[sid] + 1 + rank, hi[sid] - rank)
-    sig = (l_val - yp[sid]) / np.where(yq[sid] != yp[sid], (yq - yp)[sid], 1.0)
-    nb = (1 - sig)[:, None] * seg["p_bary"][sid] + sig[:, None] * seg["q_bary"][sid]
-    fam_s = seg["fam"][sid]
-    kk = seg["k"][sid]
-    # node key (face, u, v)
-    nu_ = np.where(fam_s == 1, kk, l_val)
-    nv_ = np.where(fam_s == 1, l_val, kk)
-    nkeys = np.stack([seg["face"][sid], nu_, nv_], axis=1)
-    if len(nkeys):
-        ukn, ninv = np.unique(nkeys, axis=0, return_inverse=True)
-        ninv = ninv.ravel()
-    else:
-        ukn, ninv = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
-    nN = len(ukn)
-    nfirst = np.full(nN, -1)
-    nfirst[ninv[::-1]] = np.arange(len(ninv))[::-1]
-    nface = ukn[:, 0]
-    nbary = nb[nfirst] if nN else np.zeros((0, 3))
-
-    # ---- pieces: per segment the chain p, n_1..n_m, q   (graph ids: crossings 0..nX-1, nodes nX..)
-    node_gid = nX + ninv
-    L = m + 2
-    tot = int(L.sum())
-    seq = np.empty(tot, np.int64)
-    seq_bary = np.empty((tot, 3))
-    offs = np.cumsum(L) - L
-    seq[offs] = cp
-    seq[offs + L - 1] = cq
-    seq_bary[offs] = seg["p_bary"]
-    seq_bary[offs + L - 1] = seg["q_bary"]
-    inner_pos = np.repeat(offs + 1, m) + rank
-    seq[inner_pos] = node_gid
-    seq_bary[inner_pos] = nb
-    seg_of = np.repeat(np.arange(S), L)
-    is_last = np.zeros(tot, bool)
-    is_last[offs + L - 1] = True
-    pa = np.flatnonzero(~is_last)
-    pb = pa + 1
-    piece_a, piece_b = seq[pa], seq[pb]
-    piece_seg = seg_of[pa]
-    piece_face = seg["face"][piece_seg]
-    piece_fam = seg["fam"][piece_seg]
-    Pa = np.einsum("pk,pkd->pd", seq_bary[pa], V[F[piece_face]])
-    Pb = np.einsum("pk,pkd->pd", seq_bary[pb], V[F[piece_face]])
-    P = len(pa)
-
-    # ---- chains through pass-through crossings
-    nG = nX + nN
-    deg = np.bincount(np.r_[piece_a, piece_b], minlength=nG)
-    terminal = np.ones(nG, bool)
-    terminal[:nX] = deg[:nX] != 2
-    ends = np.r_[piece_a, piece_b]
-    end_piece = np.r_[np.arange(P), np.arange(P)]
-    pt = np.flatnonzero(~terminal[ends])
-    order = np.argsort(ends[pt], kind="stable")
-    pt = pt[order]
-    # pairs of pieces sharing a pass-through node
-    pr = end_piece[pt].reshape(-1, 2)
-    adj = sp.csr_matrix((np.ones(len(pr)), (pr[:, 0], pr[:, 1])), shape=(P, P))
-    nch, chain = csg.connected_components(adj, directed=False)
-    te = np.flatnonzero(terminal[ends])
-    t_chain = chain[end_piece[te]]
-    cnt = np.bincount(t_chain, minlength=nch)
-    good_chain = cnt == 2
-    te = te[good_chain[t_chain]]
-    te = te[np.argsort(chain[end_piece[te]], kind="stable")]
-    tnode = ends[te].reshape(-1, 2)
-    tpiece = end_piece[te].reshape(-1, 2)
-    tside = (te >= P).reshape(-1, 2)  # True: the terminal is the piece's b end
-    # direction leaving each terminal along its piece
-    def leaving(pc, side):
-        return np.where(side[:, None], Pa[pc] - Pb[pc], Pb[pc] - Pa[pc])
-    d0 = leaving(tpiece[:, 0], tside[:, 0])
-    d1 = leaving(tpiece[:, 1], tside[:, 1])
-    efam = piece_fam[tpiece[:, 0]]
-    keep = tnode[:, 0] != tnode[:, 1]
-    tnode, d0, d1, efam = tnode[keep], d0[keep], d1[keep], efam[keep]
-    dropped_chains = int((~good_chain).sum())
-
-    # ---- vertices of A~
-    used = np.unique(tnode.ravel())
-    remap = np.full(nG, -1)
-    remap[used] = np.arange(len(used))
-    vface = np.where(used < nX, xf[np.minimum(used, nX - 1)], nface[np.maximum(used - nX, 0)] if nN else 0)
-    vbary = np.where((used < nX)[:, None], xb[np.minimum(used, nX - 1)],
-                     nbary[np.maximum(used - nX, 0)] if nN else 0.0)
-    is_x = used < nX
-    on_bnd = np.zeros(len(used), bool)
-    on_bnd[is_x] = ef[ukeys[used[is_x], 0], 1] < 0
-    dangling = is_x & ~on_bnd
-    fin_edges = remap[tnode]
-
-    # ---- boundary segments between consecutive hits along each boundary loop
-    hit = np.flatnonzero(on_bnd)
-    bsegs = np.zeros((0, 2), np.int64)
-    bdir0 = bdir1 = np.zeros((0, 3))
-    if hit.size:
-        ge = ukeys[used[hit], 0]
-        fb = ef[ge, 0]
-        loc = np.argmax(face_edges[fb] == ge[:, None], axis=1)
-        a_c, b_c = (loc + 1) % 3, (loc + 2) % 3
-        s_along = vbary[hit, :][np.arange(hit.size), b_c]  # weight of the forward end
-        va, vb = F[fb, a_c], F[fb, b_c]
-        loops = _boundary_loops(F, face_edges, ef)
-        pos = {}
-        for li, loop in enumerate(loops):
-            for k_, (a, b) in enumerate(loop):
-                pos[(a, b)] = (li, k_)
-        lp = np.array([pos[(int(a), int(b))] for a, b in zip(va, vb)])
-        o = np.lexsort((s_along, lp[:, 1], lp[:, 0]))
-        hs, lid = hit[o], lp[o, 0]
-        evec = (V[vb] - V[va])[o]
-        segs_list, d0l, d1l = [], [], []
-        for li in np.unique(lid):
-            idx = np.flatnonzero(lid == li)
-            if idx.size < 2:
-                continue
-            nxt = np.roll(idx, -1)
-            segs_list.append(np.stack([hs[idx], hs[nxt]], 1))
-            d0l.append(evec[idx])
-            d1l.append(-evec[nxt])
-        if segs_list:
-            bsegs = np.concatenate(segs_list)
-            bdir0 = np.concatenate(d0l)
-            bdir1 = np.concatenate(d1l)
-
-    # ---- faces: rotation system at every vertex, faces to the left of half-edges
-    nE = len(fin_edges)
-    all_e = np.concatenate([fin_edges, bsegs]) if len(bsegs) else fin_edges
-    dir_from = np.concatenate([d0, bdir0]) if len(bsegs) else d0
-    dir_to = np.concatenate([d1, bdir1]) if len(bsegs) else d1
-    nAll = len(all_e)
-    # half-edge h = 2e (a->b), 2e+1 (b->a); origin and leaving direction
-    h_org = np.empty(2 * nAll, np.int64)
-    h_org[0::2], h_org[1::2] = all_e[:, 0], all_e[:, 1]
-    h_dir = np.empty((2 * nAll, 3))
-    h_dir[0::2], h_dir[1::2] = dir_from, dir_to
-    b1, b2, _ = face_bases(V, F)
-    vf = vface
-    ang = np.arctan2(np.einsum("ij,ij->i", h_dir, b2[vf[h_org]]), np.einsum("ij,ij->i", h_dir, b1[vf[h_org]]))
-    o = np.lexsort((ang, h_org))
-    # position of each half-edge in the CCW order at its origin
-    org_sorted = h_org[o]
-    startpos = np.searchsorted(org_sorted, np.arange(len(used)))
-    endpos = np.searchsorted(org_sorted, np.arange(len(used)), side="right")
-    rank_in = np.empty(2 * nAll, np.int64)
-    rank_in[o] = np.arange(2 * nAll) - startpos[org_sorted]
-    nval = (endpos - startpos)
-    twin = np.arange(2 * nAll) ^ 1
-    # next(h) = half-edge preceding twin(h) in CCW order at origin of twin
-    tw = twin
-    b_org = h_org[tw]
-    prev_rank = (rank_in[tw] - 1) % nval[b_org]
-    nxt = o[startpos[b_org] + prev_rank]
-    is_b = np.zeros(2 * nAll, bool)
-    is_b[2 * nE:] = True
-    visited = np.zeros(2 * nAll, bool)
-    faces_out = []
-    for h0 in range(2 * nAll):
-        if visited[h0]:
-            continue
-        cyc = []
-        h = h0
-        while not visited[h]:
-            visited[h] = True
-            cyc.append(h)
-            h = nxt[h]
-        cyc = np.array(cyc)
-        if is_b[cyc].all() or len(cyc) < 3 and not (len(cyc) >= 2 and not is_b[cyc].all()):
-            continue
-        faces_out.append(h_org[cyc].tolist())
-    # drop faces that are all boundary (outer faces) -- done above; faces with < 3 corners
-    faces_out = [fc for fc in faces_out if len(fc) >= 3]
-
-    # ---- collapse degenerate fins (an iso-line leaving A within ~1e-3 spacing of a lattice
-    # point, or through a vertex of A's boundary): merge their end points
-    pos0 = np.einsum("nk,nkd->nd", vbary, V[F[vface]])
-    elen = np.linalg.norm(pos0[fin_edges[:, 1]] - pos0[fin_edges[:, 0]], axis=1)
-    short = elen < min_edge * param.spacing
-    n_collapsed = int(short.sum())
-    if n_collapsed:
-        nV_ = len(used)
-        se = fin_edges[short]
-        g = sp.csr_matrix((np.ones(len(se)), (se[:, 0], se[:, 1])), shape=(nV_, nV_))
-        _, comp = csg.connected_components(g, directed=False)
-        # representative: a lattice node if the group has one, else the smallest index
-        prio = np.where(is_x, 1, 0) * nV_ + np.arange(nV_)
-        rep = np.full(comp.max() + 1, -1)
-        order_ = np.argsort(prio)[::-1]
-        rep[comp[order_]] = order_  # last write wins: the smallest priority
-        grp_bnd = np.zeros(comp.max() + 1, bool)
-        np.logical_or.at(grp_bnd, comp, on_bnd)
-        newid_of_rep = np.full(nV_, -1)
-        reps = np.unique(rep[comp])
-        newid_of_rep[reps] = np.arange(len(reps))
-        vmap = newid_of_rep[rep[comp]]
-        keep_e = ~short
-        fin_edges = vmap[fin_edges[keep_e]]
-        efam = efam[keep_e]
-        nondeg = fin_edges[:, 0] != fin_edges[:, 1]
-        fin_edges, efam = fin_edges[nondeg], efam[nondeg]
-        new_faces = []
-        for fc in faces_out:
-            mapped = [int(vmap[v_]) for v_ in fc]
-            dedup = [v_ for k_, v_ in enumerate(mapped) if v_ != mapped[k_ - 1]] if len(mapped) > 1 else mapped
-            if len(set(dedup)) >= 3:
-                new_faces.append(dedup)
-        faces_out = new_faces
-        vface, vbary = vface[reps], vbary[reps]
-        on_bnd = grp_bnd[comp[reps]]
-        dangling = dangling[reps] & ~on_bnd
-        # edges may now be duplicated (two short fins merged into one pair)
-        _, uniq = np.unique(np.sort(fin_edges, axis=1), axis=0, return_index=True)
-        uniq = np.sort(uniq)
-        fin_edges, efam = fin_edges[uniq], efam[uniq]
-
-    Fv = F[vface]
-    a_pos = np.einsum("nk,nkd->nd", vbary, V[Fv])
-    b_pos = np.einsum("nk,nkd->nd", vbary, VB[Fv])
-    uvn = np.einsum("nk,nkc->nc", vbary, uv[vface])
-    meta = {"face": vface, "barycentric": vbary, "uv": uvn, "boundary": on_bnd,
-            "dangling": dangling, "spacing": param.spacing, "dropped_chains": dropped_chains,
-            "collapsed_fins": n_collapsed}
-    return SupportStructure(a_pos, b_pos, faces_out, fin_edges, efam, metadata=meta)
+    X = _crossings(seg)
+    N = _lattice_nodes(seg)
+    fins = _chain_fins(_pieces(seg, X, N, V, F), len(X.keys), len(X.keys) + len(N.face))
+    vt, fin_edges = _fin_vertices(fins, X, N, ef)
+    faces = _trace_faces(fin_edges, fins, _boundary_sides(vt, X, V, F, face_edges, ef),
+                         vt.face, V, F)
+    c = _collapse_short_fins(vt, fin_edges, fins.family, faces, min_edge * param.spacing, V, F)
+    vt = c.vertices
+    Fv = F[vt.face]
+    meta = {"face": vt.face, "barycentric": vt.bary,
+            "uv": np.einsum("nk,nkc->nc", vt.bary, param.uv[vt.face]),
+            "boundary": vt.boundary, "dangling": vt.dangling, "spacing": param.spacing,
+            "dropped_chains": fins.dropped_chains, "collapsed_fins": c.n_collapsed}
+    return SupportStructure(np.einsum("nk,nkd->nd", vt.bary, V[Fv]),
+                            np.einsum("nk,nkd->nd", vt.bary, VB[Fv]), c.faces, c.fin_edges,
+                            c.family, metadata=meta)
 
 
 def _boundary_loops(F, face_edges, ef):
