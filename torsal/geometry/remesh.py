@@ -143,6 +143,117 @@ def _wedges(F, face_edges, edges, ef, cut):
     return wid.reshape(nF, 3)
 
 
+class _Alignment(NamedTuple):
+    """The least-squares rows of the field alignment: ``G x ~ b`` per coordinate."""
+
+    G: sp.csr_matrix       # (2 F, W): derivative of a wedge-valued function along t0, t1
+    rhs_u: np.ndarray      # (2 F,): targets (1, 0) / spacing, area weighted
+    rhs_v: np.ndarray      # (2 F,): targets (0, 1) / spacing
+    GtG: sp.csc_matrix     # (W, W)
+    reg: float             # Tikhonov weight that pins the constant (1e-10 of the mean diagonal)
+
+
+def _alignment(field: TorsalFrameField, wid: np.ndarray, n_wedges: int, spacing: float,
+               g: np.ndarray, area: np.ndarray) -> _Alignment:
+    """Per face the derivatives of u (and v) along t0 and t1 against (1, 0) / spacing (and
+    (0, 1) / spacing). Same minimizer as |grad - dual frame|^2 where the field is integrable,
+    but bounded where t0, t1 nearly coincide: there the dual frame grows like 1 / sin(angle)
+    and a few such faces would dominate and fold the map."""
+    nF = len(field.faces)
+    sq = np.sqrt(area)
+    R = np.repeat(np.arange(2 * nF).reshape(nF, 2)[:, :, None], 3, axis=2)  # (F, dir, corner)
+    C = np.repeat(wid[:, None, :], 2, axis=1)
+    vals = np.einsum("fkd,fcd->fkc", field.directions, g) * sq[:, None, None]
+    G = sp.csr_matrix((vals.ravel(), (R.ravel(), C.ravel())), shape=(2 * nF, n_wedges))
+    bu = (np.array([1.0, 0.0]) / spacing * sq[:, None]).ravel()
+    bv = (np.array([0.0, 1.0]) / spacing * sq[:, None]).ravel()
+    GtG = (G.T @ G).tocsc()
+    return _Alignment(G, bu, bv, GtG, 1e-10 * GtG.diagonal().mean())
+
+
+def _cut_constraints(field: TorsalFrameField, ce: np.ndarray, wid: np.ndarray,
+                     n_wedges: int) -> sp.csr_matrix:
+    """Rows of ``uv[f0] - M uv[f1] - t = 0`` at both ends of every cut edge, over the
+    unknowns ``[u (W), v (W), t (nC, 2)]``."""
+    F, ef, W, nC = field.faces, field.edge_faces, n_wedges, len(ce)
+    f0, f1 = ef[ce, 0], ef[ce, 1]
+    M = GROUP[field.matching[ce]]  # (nC, 2, 2)
+    crow, ccol, cval = [], [], []
+    r = 0
+    for end in (0, 1):
+        vtx = field.edges[ce, end]
+        w0 = wid[f0, np.argmax(F[f0] == vtx[:, None], axis=1)]
+        w1 = wid[f1, np.argmax(F[f1] == vtx[:, None], axis=1)]
+        for i in range(2):  # component i: x0_i - sum_j M_ij x1_j - t_i = 0
+            rid = r + np.arange(nC)
+            crow += [rid]
+            ccol += [i * W + w0]
+            cval += [np.ones(nC)]
+            for j in range(2):
+                crow += [rid]
+                ccol += [j * W + w1]
+                cval += [-M[:, i, j].astype(float)]
+            crow += [rid]
+            ccol += [2 * W + 2 * np.arange(nC) + i]
+            cval += [-np.ones(nC)]
+            r += nC
+    return sp.csr_matrix((np.concatenate(cval), (np.concatenate(crow), np.concatenate(ccol))),
+                         shape=(r, 2 * W + 2 * nC))
+
+
+def _solve_across_cuts(al: _Alignment, Cm: sp.csr_matrix, n_wedges: int, round_jumps: bool):
+    """The constrained least squares (KKT system, slightly regularized); with
+    ``round_jumps`` the translations are rounded to integers and the system solved again
+    for u, v alone. Returns ``u (W,), v (W,), t (nC, 2)``."""
+    W, r = n_wedges, Cm.shape[0]
+    nC = (Cm.shape[1] - 2 * W) // 2
+    Q = sp.block_diag([al.GtG, al.GtG, sp.csr_matrix((2 * nC, 2 * nC))]).tocsc()
+    q = np.concatenate([al.G.T @ al.rhs_u, al.G.T @ al.rhs_v, np.zeros(2 * nC)])
+    n = 2 * W + 2 * nC
+    eps = 1e-9
+    K = sp.bmat([[Q + al.reg * sp.identity(n), Cm.T], [Cm, -eps * sp.identity(r)]]).tocsc()
+    x = spla.spsolve(K, np.concatenate([q, np.zeros(r)]))[:n]
+    if not round_jumps:
+        return x[:W], x[W:2 * W], x[2 * W:].reshape(nC, 2)
+    t_int = np.round(x[2 * W:].reshape(nC, 2)).astype(int)
+    # fixed t: moved to the right-hand side, unknowns only u, v
+    Cx = Cm[:, :2 * W]
+    d = -(Cm[:, 2 * W:] @ t_int.ravel().astype(float))
+    K2 = sp.bmat([[Q[:2 * W, :2 * W] + al.reg * sp.identity(2 * W), Cx.T],
+                  [Cx, -eps * sp.identity(r)]]).tocsc()
+    x2 = spla.spsolve(K2, np.concatenate([q[:2 * W], d]))
+    return x2[:W], x2[W:2 * W], t_int
+
+
+def _lattice_offset(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """(2,) shift of the lattice that keeps every vertex value farthest from an integer (a
+    search over 37 x 7 fractions): extraction then never meets a vertex on an iso-line."""
+    vals = np.stack([u, v], axis=1)
+    best, best_d = None, -1.0
+    for cand in np.linspace(0.0, 1.0, 37, endpoint=False):
+        for cand2 in np.linspace(0.0, 1.0, 37, endpoint=False)[::6]:
+            sh = np.array([cand, (cand + cand2) % 1.0])
+            fr = (vals + sh) % 1.0
+            dmin = float(np.minimum(fr, 1.0 - fr).min())
+            if dmin > best_d:
+                best, best_d = sh, dmin
+    return best
+
+
+def _alignment_quality(field: TorsalFrameField, g, area, uv, spacing: float):
+    """Area-weighted RMS of the derivatives along the field directions against their targets
+    (the identity), and the faces where the map's orientation disagrees with the dual frame's
+    (folds). Returns ``(residual, flipped)``."""
+    grad = np.einsum("fkd,fkc->fcd", g, uv)  # (F, 2(coord), 3)
+    dt = np.einsum("fcd,fkd->fck", grad, field.directions) * spacing  # ideally identity
+    residual = float(np.sqrt(np.average(((dt - np.eye(2)[None]) ** 2).sum((1, 2)), weights=area)))
+    _, _, nrm = face_bases(field.vertices, field.faces)
+    w = field.dual_frame() / spacing
+    det = np.einsum("ij,ij->i", np.cross(grad[:, 0], grad[:, 1]), nrm)
+    ref = np.einsum("ij,ij->i", np.cross(w[:, 0], w[:, 1]), nrm)
+    return residual, np.flatnonzero(np.sign(det) != np.sign(ref))
+
+
 def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = True,
                 offset: bool = True) -> TorsalParametrization:
     """Global field-aligned parametrization with fin spacing ``spacing`` (model units).
@@ -194,109 +305,31 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
         raise ValueError(f"spacing must be a positive length in model units, got {spacing}")
     V, F = field.vertices, field.faces
     nF = len(F)
-    edges, ef = field.edges, field.edge_faces
     _, face_edges = unique_edges(F)
     cut = cut_graph(field)
     ce = np.flatnonzero(cut)
     nonid = ce[field.matching[ce] != 0]
-    wid = _wedges(F, face_edges, edges, ef, cut)
+    wid = _wedges(F, face_edges, field.edges, field.edge_faces, cut)
     W = int(wid.max()) + 1
     g, area = _gradient_basis(V, F)
-    w = field.dual_frame() / spacing  # (F, 2, 3)
-    t = field.directions  # (F, 2, 3) unit
-    sq = np.sqrt(area)
-    # least-squares rows: per face the derivatives of u (and v) along t0 and t1, targets
-    # (1, 0) / spacing for u and (0, 1) / spacing for v. Same minimizer as |grad - dual frame|^2
-    # where the field is integrable, but bounded where t0, t1 nearly coincide: there the dual
-    # frame grows like 1 / sin(angle) and a few such faces would dominate and fold the map.
-    rows = np.arange(2 * nF).reshape(nF, 2)  # row per (face, direction)
-    R = np.repeat(rows[:, :, None], 3, axis=2)  # (F, dir, corner)
-    C = np.repeat(wid[:, None, :], 2, axis=1)
-    Vals = np.einsum("fkd,fcd->fkc", t, g) * sq[:, None, None]  # (F, dir, corner)
-    G = sp.csr_matrix((Vals.ravel(), (R.ravel(), C.ravel())), shape=(2 * nF, W))
-    bu = (np.array([1.0, 0.0]) / spacing * sq[:, None]).ravel()
-    bv = (np.array([0.0, 1.0]) / spacing * sq[:, None]).ravel()
-    GtG = (G.T @ G).tocsc()
-    scale = GtG.diagonal().mean()
-    reg = 1e-10 * scale
-
+    al = _alignment(field, wid, W, spacing, g, area)
     nC = len(ce)
     if nC == 0:
-        K = (GtG + reg * sp.identity(W)).tocsc()
-        solve = spla.factorized(K)
-        u = solve(G.T @ bu)
-        v = solve(G.T @ bv)
-        t_int = np.zeros((0, 2), int)
+        solve = spla.factorized((al.GtG + al.reg * sp.identity(W)).tocsc())
+        u, v = solve(al.G.T @ al.rhs_u), solve(al.G.T @ al.rhs_v)
+        t_jump = np.zeros((0, 2), int)
     else:
-        # unknowns x = [u (W), v (W), t (nC, 2)]; constraints per cut edge and endpoint
-        f0, f1 = ef[ce, 0], ef[ce, 1]
-        M = GROUP[field.matching[ce]]  # (nC, 2, 2)
-        crow, ccol, cval, = [], [], []
-        r = 0
-        for end in (0, 1):
-            vtx = edges[ce, end]
-            w0 = wid[f0, np.argmax(F[f0] == vtx[:, None], axis=1)]
-            w1 = wid[f1, np.argmax(F[f1] == vtx[:, None], axis=1)]
-            for i in range(2):  # component i: x0_i - sum_j M_ij x1_j - t_i = 0
-                rid = r + np.arange(nC)
-                crow += [rid]
-                ccol += [i * W + w0]
-                cval += [np.ones(nC)]
-                for j in range(2):
-                    crow += [rid]
-                    ccol += [j * W + w1]
-                    cval += [-M[:, i, j].astype(float)]
-                crow += [rid]
-                ccol += [2 * W + 2 * np.arange(nC) + i]
-                cval += [-np.ones(nC)]
-                r += nC
-        Cm = sp.csr_matrix((np.concatenate(cval), (np.concatenate(crow), np.concatenate(ccol))),
-                           shape=(r, 2 * W + 2 * nC))
-        Q = sp.block_diag([GtG, GtG, sp.csr_matrix((2 * nC, 2 * nC))]).tocsc()
-        q = np.concatenate([G.T @ bu, G.T @ bv, np.zeros(2 * nC)])
-        n = 2 * W + 2 * nC
-        eps = 1e-9
-        K = sp.bmat([[Q + reg * sp.identity(n), Cm.T], [Cm, -eps * sp.identity(r)]]).tocsc()
-        x = spla.spsolve(K, np.concatenate([q, np.zeros(r)]))[:n]
-        if round_jumps:
-            t_int = np.round(x[2 * W:].reshape(nC, 2)).astype(int)
-            # fix t: move to the right-hand side, unknowns only u, v
-            Cx = Cm[:, :2 * W]
-            d = -(Cm[:, 2 * W:] @ t_int.ravel().astype(float))
-            K2 = sp.bmat([[Q[:2 * W, :2 * W] + reg * sp.identity(2 * W), Cx.T],
-                          [Cx, -eps * sp.identity(r)]]).tocsc()
-            x2 = spla.spsolve(K2, np.concatenate([q[:2 * W], d]))
-            u, v = x2[:W], x2[W:2 * W]
-        else:
-            t_int = x[2 * W:].reshape(nC, 2)
-            u, v = x[:W], x[W:2 * W]
+        u, v, t_jump = _solve_across_cuts(al, _cut_constraints(field, ce, wid, W), W, round_jumps)
     uv = np.stack([u[wid], v[wid]], axis=-1)  # (F, 3, 2)
     did_offset = None
     if offset and nonid.size == 0:
-        # shift the lattice so no vertex value is (close to) an integer
-        vals = np.stack([u, v], axis=1)
-        best, best_d = None, -1.0
-        for cand in np.linspace(0.0, 1.0, 37, endpoint=False):
-            for cand2 in np.linspace(0.0, 1.0, 37, endpoint=False)[::6]:
-                sh = np.array([cand, (cand + cand2) % 1.0])
-                fr = (vals + sh) % 1.0
-                dmin = float(np.minimum(fr, 1.0 - fr).min())
-                if dmin > best_d:
-                    best, best_d = sh, dmin
+        best = _lattice_offset(u, v)
         uv = uv + best
         did_offset = best.tolist()
-    transition = np.zeros((len(edges), 2), int)
+    transition = np.zeros((len(field.edges), 2), int)
     if nC:
-        transition[ce] = np.round(t_int).astype(int)
-    # quality: derivatives along the field directions against their targets
-    grad = np.einsum("fkd,fkc->fcd", g, uv)  # (F, 2(coord), 3)
-    dt = np.einsum("fcd,fkd->fck", grad, t) * spacing  # (F, coord, dir): ideally identity
-    res = dt - np.eye(2)[None]
-    residual = float(np.sqrt(np.average((res ** 2).sum((1, 2)), weights=area)))
-    _, _, nrm = face_bases(V, F)
-    det = np.einsum("ij,ij->i", np.cross(grad[:, 0], grad[:, 1]), nrm)
-    ref = np.einsum("ij,ij->i", np.cross(w[:, 0], w[:, 1]), nrm)
-    flipped = np.flatnonzero(np.sign(det) != np.sign(ref))
+        transition[ce] = np.round(t_jump).astype(int)
+    residual, flipped = _alignment_quality(field, g, area, uv, spacing)
     meta = {"seconds": time.perf_counter() - t0, "wedges": W, "cut_edges": int(nC),
             "rotational_cut_edges": int(nonid.size), "offset": did_offset,
             "singularities": field.singularities.tolist()}
