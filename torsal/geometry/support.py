@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -439,6 +440,158 @@ def _reference_arrays(reference):
     return np.asarray(v, float), np.asarray(f, np.int64)
 
 
+class _SupportScales(NamedTuple):
+    """Normalizations of eq. (8) and the reference surface's arrays."""
+
+    fin_length: float            # delta~: mean length of the a~ edges
+    edge_length: float           # delta: mean edge length of A (fin_length without A)
+    reference: tuple | None      # (vertices, faces) of A
+    face_normals: np.ndarray | None
+    laplacian: "scipy.sparse.csr_matrix"   # (n, n) graph Laplacian of A~
+
+
+def _support_scales(structure: "SupportStructure", reference) -> _SupportScales:
+    a = structure.vertices_a
+    i, j = structure.edges[:, 0], structure.edges[:, 1]
+    dtil = float(np.linalg.norm(a[j] - a[i], axis=1).mean())
+    ref = _reference_arrays(reference)
+    if ref is None:
+        return _SupportScales(dtil, dtil, None, None, graph_laplacian(structure.edges, len(a)))
+    from .mesh import average_edge_length
+
+    return _SupportScales(dtil, average_edge_length(*ref), ref, _face_normals(*ref),
+                          graph_laplacian(structure.edges, len(a)))
+
+
+def _fin_kernel(ca):
+    """casadi Function of one fin (a_i, a_j, e_i, e_j) -> (diagonal distance, vol).
+
+    With a hard constraint, fin_planarity = dist / mean diagonal = vol / sin(angle of the
+    diagonals), with vol = det / (|d1| |d2| mean diagonal). On sliver fins the diagonals are
+    nearly parallel (sin ~ 1e-3) and dist / mean diagonal swings wildly under tiny moves:
+    IPOPT's linearized steps then overshoot, its line search stalls and the restoration phase
+    ends in "Infeasible_Problem_Detected" at a feasible point. vol is a smooth, bounded
+    function of the nodes; |vol| <= tol * sin, with sin frozen at the start of each round
+    (updated between rounds), is the same constraint, well conditioned."""
+    sa, sb_, sc, sd = (ca.SX.sym(nm, 3) for nm in ("ai", "aj", "ei", "ej"))
+    d1 = sb_ + sd - sa           # b_j - a_i
+    d2 = sa + sc - sb_           # b_i - a_j
+    cr = ca.cross(d1, d2)
+    det = ca.dot(sb_ - sa, cr)
+    dist_k = det / ca.sqrt(ca.dot(cr, cr) + 1e-300)
+    n1, n2 = ca.norm_2(d1), ca.norm_2(d2)
+    vol_k = det / (n1 * n2 * 0.5 * (n1 + n2))
+    return ca.Function("fin", [sa, sb_, sc, sd], [dist_k, vol_k])
+
+
+def _support_solver(ca, s0: "SupportStructure", sc: _SupportScales, weights: SupportWeights, *,
+                    hard: bool, fixed_e: bool, max_iter: int, ipopt_options: dict | None,
+                    exact_hessian: str):
+    """The casadi NLP of eq. (8) (one per-fin SX kernel mapped over all fins, nodes stored
+    column-wise (3, n)) and its IPOPT solver. Parameters: the closest points on A and their
+    normals (6 n), updated per round. With ``hard``, g = the fins' vol (bounded per round)."""
+    n, E = len(s0.vertices_a), len(s0.edges)
+    a0, e0 = s0.vertices_a, s0.directions
+    i, j = s0.edges[:, 0], s0.edges[:, 1]
+    dtil, delta, ref = sc.fin_length, sc.edge_length, sc.reference
+    fin = _fin_kernel(ca)
+    x = ca.MX.sym("x", 3 * n if fixed_e else 6 * n)
+    A = ca.reshape(x[:3 * n], 3, n)
+    Em = ca.DM(e0.T) if fixed_e else ca.reshape(x[3 * n:], 3, n)
+    p_pt, p_n = ca.MX.sym("p", 3 * n), ca.MX.sym("q", 3 * n)
+    P_, N_ = ca.reshape(p_pt, 3, n), ca.reshape(p_n, 3, n)
+    il, jl = i.tolist(), j.tolist()
+    dist, plan = fin.map(E, "serial")(A[:, il], A[:, jl], Em[:, il], Em[:, jl])
+    # with a hard planarity constraint the planarity summand is replaced by the constraint
+    # (keeping both makes the Lagrangian Hessian indefinite and IPOPT crawls)
+    w_pl = 0.0 if hard else weights.plnr
+    f_pl = w_pl / (dtil ** 2 * E) * ca.sumsqr(dist)
+    bnd = _near_boundary(s0) if ref is not None else None
+    if ref is not None:
+        f_tan = ca.sumsqr(ca.sum1((A - P_) * N_) / delta)
+        # nodes on the boundary of A would slide off the patch along the tangent plane:
+        # for them the distance to the closest point itself is used
+        if bnd.any():
+            bl = np.flatnonzero(bnd).tolist()
+            f_tan = f_tan + ca.sumsqr(A[:, bl] - P_[:, bl]) / delta ** 2
+    else:
+        f_tan = ca.sumsqr(A - P_) / delta ** 2
+    f_prox = weights.prox / n * f_tan
+    if not fixed_e:
+        f_prox = f_prox + weights.prox / n * weights.prox_e * ca.sumsqr(Em - ca.DM(e0.T))
+    Lc = sc.laplacian.tocoo()
+    Ls = ca.DM.triplet(Lc.row.tolist(), Lc.col.tolist(), ca.DM(Lc.data), n, n)
+    f_fair = weights.fair / (dtil ** 2 * n) * ca.sumsqr(ca.mtimes(A, Ls.T))
+    f_reg = weights.prox_t / n * ca.sumsqr(A - ca.DM(a0.T)) / delta ** 2
+    par = ca.vertcat(p_pt, p_n)
+    nlp = {"x": x, "f": f_pl + f_prox + f_fair + f_reg, "p": par}
+    if hard:
+        nlp["g"] = plan.T
+    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.linear_solver": "mumps",
+            "ipopt.max_iter": int(max_iter), "ipopt.tol": 1e-9, "ipopt.sb": "yes",
+            "ipopt.mumps_pivot_order": 5}
+    if ipopt_options:
+        opts.update({(k if k.startswith("ipopt.") else "ipopt." + k): v for k, v in ipopt_options.items()})
+    if exact_hessian == "assembled":
+        opts["hess_lag"] = _assembled_hessian(
+            ca, fin, x, par, N_, n, E, i, j, fixed_e, hard, ref is not None, bnd,
+            c_pl=w_pl / (dtil ** 2 * E), c_tan=weights.prox / (n * delta ** 2),
+            c_e=weights.prox * weights.prox_e / n, c_fair=weights.fair / (dtil ** 2 * n),
+            c_reg=weights.prox_t / (n * delta ** 2), L=sc.laplacian)
+    return ca.nlpsol("support", "ipopt", nlp, opts)
+
+
+class _Rounds(NamedTuple):
+    a: np.ndarray          # (n, 3) final a~
+    e: np.ndarray          # (n, 3) final e~
+    ok: bool               # IPOPT's success flag of the last solve
+    status: str
+    iterations: int
+    history: list
+
+
+def _solve_rounds(solver, s0: "SupportStructure", sc: _SupportScales, a_cur, e_cur, *,
+                  rounds: int, hard_tol: float | None, fixed_e: bool, history: list) -> _Rounds:
+    """Outer rounds (Fig. 8c): tangent planes of A at the current closest points, then IPOPT.
+    With a hard constraint the diagonals' sines that bound vol are refreshed and the round
+    re-solved (warm) until the planarity itself holds: sliver fins turn their diagonals as
+    they move."""
+    n = len(s0.vertices_a)
+    i, j = s0.edges[:, 0], s0.edges[:, 1]
+    ref = sc.reference
+    iters, status, ok = 0, "not run", False
+    for rnd in range(max(1, int(rounds))):
+        if ref is not None:
+            cp, _, tri = closest_points(ref[0], ref[1], a_cur)
+            pn = sc.face_normals[tri]
+        else:
+            cp, pn = s0.vertices_a, np.zeros_like(s0.vertices_a)
+        p_round = np.r_[np.asarray(cp).ravel(), np.asarray(pn).ravel()]
+        for _ in range(4 if hard_tol is not None else 1):
+            x0 = a_cur.ravel() if fixed_e else np.r_[a_cur.ravel(), e_cur.ravel()]
+            args = {"x0": x0, "p": p_round}
+            if hard_tol is not None:
+                bound = 0.9 * float(hard_tol) * _diagonal_sine(a_cur, e_cur, s0.edges)
+                args.update(lbg=-bound, ubg=bound)
+            sol = solver(**args)
+            st = solver.stats()
+            status = st.get("return_status", "unknown")
+            ok = bool(st.get("success", False))
+            iters += int(st.get("iter_count", 0))
+            xs = np.asarray(sol["x"]).ravel()
+            a_cur = xs[:3 * n].reshape(n, 3).copy()
+            if not fixed_e:
+                e_cur = xs[3 * n:].reshape(n, 3).copy()
+            if hard_tol is None or not ok or np.abs(fin_planarity(np.stack(
+                    [a_cur[i], a_cur[j], a_cur[j] + e_cur[j], a_cur[i] + e_cur[i]], axis=1))).max() <= hard_tol:
+                break
+        cur = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
+                               metadata=dict(s0.metadata))
+        history.append({"round": rnd, "objective": float(sol["f"]), "delta_pl": cur.delta_pl,
+                        "status": status, "iterations": int(st.get("iter_count", 0))})
+    return _Rounds(a_cur, e_cur, ok, status, iters, history)
+
+
 def optimize_support(structure: "SupportStructure", reference=None, weights: SupportWeights | dict | None = None,
                      *, hard_tol: float | None = None, rounds: int = 2, max_iter: int = 200,
                      fixed_e: bool = False, ipopt_options: dict | None = None,
@@ -531,156 +684,35 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
     elif isinstance(weights, dict):
         weights = SupportWeights(**weights)
     s0 = structure
-    n, E = len(s0.vertices_a), len(s0.edges)
-    a0 = s0.vertices_a.copy()
-    e0 = s0.directions.copy()
     before = s0.delta_pl
-    if E == 0:
+    if len(s0.edges) == 0:
         return SupportOptimizationResult(s0, True, "no edges", 0.0, 0, before, before, float("nan"))
-    i, j = s0.edges[:, 0], s0.edges[:, 1]
-    len_a = np.linalg.norm(a0[j] - a0[i], axis=1)
-    dtil = float(len_a.mean())
-    ref = _reference_arrays(reference)
-    if ref is not None:
-        from .mesh import average_edge_length
-
-        delta = average_edge_length(*ref)
-        fn = _face_normals(*ref)
-    else:
-        delta = dtil
-    L = graph_laplacian(s0.edges, n)
-
-    # ----- symbolic problem: one per-fin SX kernel mapped over all fins (casadi Function.map),
-    # nodes stored column-wise (3, n) so a node's coordinates are contiguous
-    sa, sb_, sc, sd = (ca.SX.sym(nm, 3) for nm in ("ai", "aj", "ei", "ej"))
-    d1 = sb_ + sd - sa           # b_j - a_i
-    d2 = sa + sc - sb_           # b_i - a_j
-    cr = ca.cross(d1, d2)
-    det = ca.dot(sb_ - sa, cr)
-    dist_k = det / ca.sqrt(ca.dot(cr, cr) + 1e-300)
-    # the hard constraint: fin_planarity = dist / mean diagonal = vol / sin(angle of the
-    # diagonals), with vol = det / (|d1| |d2| mean diagonal). On sliver fins the diagonals are
-    # nearly parallel (sin ~ 1e-3) and dist / mean diagonal swings wildly under tiny moves:
-    # IPOPT's linearized steps then overshoot, its line search stalls and the restoration
-    # phase ends in "Infeasible_Problem_Detected" at a feasible point. vol is a smooth,
-    # bounded function of the nodes; |vol| <= tol * sin, with sin frozen at the start of each
-    # round (updated between rounds), is the same constraint, well conditioned.
-    n1, n2 = ca.norm_2(d1), ca.norm_2(d2)
-    vol_k = det / (n1 * n2 * 0.5 * (n1 + n2))
-    fin = ca.Function("fin", [sa, sb_, sc, sd], [dist_k, vol_k])
-    fin_map = fin.map(E, "serial")
-    nx = 3 * n if fixed_e else 6 * n
-    x = ca.MX.sym("x", nx)
-    xa = x[:3 * n]
-    A = ca.reshape(xa, 3, n)
-    if fixed_e:
-        Em = ca.DM(e0.T)
-    else:
-        Em = ca.reshape(x[3 * n:], 3, n)
-    p_pt = ca.MX.sym("p", 3 * n)
-    p_n = ca.MX.sym("q", 3 * n)
-    P_ = ca.reshape(p_pt, 3, n)
-    N_ = ca.reshape(p_n, 3, n)
-    il, jl = i.tolist(), j.tolist()
-    dist, plan = fin_map(A[:, il], A[:, jl], Em[:, il], Em[:, jl])
-    # with a hard planarity constraint the planarity summand is replaced by the constraint
-    # (keeping both makes the Lagrangian Hessian indefinite and IPOPT crawls)
-    w_pl = 0.0 if hard_tol is not None else weights.plnr
-    f_pl = w_pl / (dtil ** 2 * E) * ca.sumsqr(dist)
-    if ref is not None:
-        tang = ca.sum1((A - P_) * N_) / delta
-        f_tan = ca.sumsqr(tang)
-        # nodes on the boundary of A would slide off the patch along the tangent plane:
-        # for them the distance to the closest point itself is used
-        bnd = _near_boundary(s0)
-        if bnd.any():
-            bl = np.flatnonzero(bnd).tolist()
-            f_tan = f_tan + ca.sumsqr(A[:, bl] - P_[:, bl]) / delta ** 2
-    else:
-        f_tan = ca.sumsqr(A - P_) / delta ** 2
-    f_prox = weights.prox / n * f_tan
-    if not fixed_e:
-        f_prox = f_prox + weights.prox / n * weights.prox_e * ca.sumsqr(Em - ca.DM(e0.T))
-    Lc = L.tocoo()
-    Ls = ca.DM.triplet(Lc.row.tolist(), Lc.col.tolist(), ca.DM(Lc.data), n, n)
-    f_fair = weights.fair / (dtil ** 2 * n) * ca.sumsqr(ca.mtimes(A, Ls.T))
-    f_reg = weights.prox_t / n * ca.sumsqr(A - ca.DM(a0.T)) / delta ** 2
-    f = f_pl + f_prox + f_fair + f_reg
-    par = ca.vertcat(p_pt, p_n)
-    nlp = {"x": x, "f": f, "p": par}
-    lbg = ubg = None
-    if hard_tol is not None:
-        nlp["g"] = plan.T
-        tol_eff = 0.9 * float(hard_tol)
-        lbg = ubg = True          # set per round from the diagonals' angles (see vol_k)
-    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.linear_solver": "mumps",
-            "ipopt.max_iter": int(max_iter), "ipopt.tol": 1e-9, "ipopt.sb": "yes",
-            "ipopt.mumps_pivot_order": 5}
-    if ipopt_options:
-        opts.update({(k if k.startswith("ipopt.") else "ipopt." + k): v for k, v in ipopt_options.items()})
-    if exact_hessian == "assembled":
-        bnd_mask = None
-        if ref is not None:
-            bnd_mask = _near_boundary(s0)
-        opts["hess_lag"] = _assembled_hessian(
-            ca, fin, x, par, N_, n, E, i, j, fixed_e, hard_tol is not None, ref is not None, bnd_mask,
-            c_pl=w_pl / (dtil ** 2 * E), c_tan=weights.prox / (n * delta ** 2),
-            c_e=weights.prox * weights.prox_e / n, c_fair=weights.fair / (dtil ** 2 * n),
-            c_reg=weights.prox_t / (n * delta ** 2), L=L)
-    solver = ca.nlpsol("support", "ipopt", nlp, opts)
-
-    a_cur, e_cur = a0.copy(), e0.copy()
-    history, iters, status, ok = [], 0, "not run", False
+    sc = _support_scales(s0, reference)
+    solver = _support_solver(ca, s0, sc, weights, hard=hard_tol is not None, fixed_e=fixed_e,
+                             max_iter=max_iter, ipopt_options=ipopt_options,
+                             exact_hessian=exact_hessian)
+    a_cur, e_cur = s0.vertices_a.copy(), s0.directions.copy()
+    history = []
     if start == "projection" and hard_tol is not None:
         pr = _project_support(s0, reference, hard_tol=hard_tol, rounds=1, max_iter=50, fixed_e=fixed_e)
         a_cur, e_cur = pr.structure.vertices_a.copy(), pr.structure.directions.copy()
         history.append({"round": "start", "delta_pl": pr.delta_pl_after, "status": pr.status,
                         "iterations": pr.iterations})
-    for rnd in range(max(1, int(rounds))):
-        if ref is not None:
-            cp, _, tri = closest_points(ref[0], ref[1], a_cur)
-            pn = fn[tri]
-        else:
-            cp, pn = a0, np.zeros_like(a0)
-        p_round = np.r_[np.asarray(cp).ravel(), np.asarray(pn).ravel()]
-        # with a hard constraint the diagonals' sines that bound vol_k are refreshed and the
-        # round re-solved (warm) until the planarity itself holds: sliver fins turn their
-        # diagonals as they move
-        for _ in range(4 if lbg is not None else 1):
-            x0 = a_cur.ravel() if fixed_e else np.r_[a_cur.ravel(), e_cur.ravel()]
-            args = {"x0": x0, "p": p_round}
-            if lbg is not None:
-                bound = tol_eff * _diagonal_sine(a_cur, e_cur, s0.edges)
-                args.update(lbg=-bound, ubg=bound)
-            sol = solver(**args)
-            st = solver.stats()
-            status = st.get("return_status", "unknown")
-            ok = bool(st.get("success", False))
-            iters += int(st.get("iter_count", 0))
-            xs = np.asarray(sol["x"]).ravel()
-            a_cur = xs[:3 * n].reshape(n, 3).copy()
-            if not fixed_e:
-                e_cur = xs[3 * n:].reshape(n, 3).copy()
-            if lbg is None or not ok or np.abs(fin_planarity(np.stack(
-                    [a_cur[i], a_cur[j], a_cur[j] + e_cur[j], a_cur[i] + e_cur[i]], axis=1))).max() <= hard_tol:
-                break
-        cur = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
-                               metadata=dict(s0.metadata))
-        history.append({"round": rnd, "objective": float(sol["f"]), "delta_pl": cur.delta_pl,
-                        "status": status, "iterations": int(st.get("iter_count", 0))})
-    out = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
+    r = _solve_rounds(solver, s0, sc, a_cur, e_cur, rounds=rounds, hard_tol=hard_tol,
+                      fixed_e=fixed_e, history=history)
+    out = SupportStructure(r.a, r.a + r.e, s0.faces, s0.edges, s0.edge_family,
                            metadata=dict(s0.metadata))
-    if ref is not None:
-        _, dref, _ = closest_points(ref[0], ref[1], a_cur)
-        dist_ref = float(np.max(dref) / delta)
-    else:
-        dist_ref = float("nan")
+    dist_ref = float("nan")
+    if sc.reference is not None:
+        _, dref, _ = closest_points(sc.reference[0], sc.reference[1], r.a)
+        dist_ref = float(np.max(dref) / sc.edge_length)
     after = out.delta_pl
-    success = ok and (hard_tol is None or after <= hard_tol)
-    if ok and not success:
+    success = r.ok and (hard_tol is None or after <= hard_tol)
+    status = r.status
+    if r.ok and not success:
         status = f"{status}; delta_pl {after:.3g} above hard_tol {hard_tol:.3g}"
-    return SupportOptimizationResult(out, success, status, time.perf_counter() - t_start, iters,
-                                     before, after, dist_ref, history)
+    return SupportOptimizationResult(out, success, status, time.perf_counter() - t_start,
+                                     r.iterations, before, after, dist_ref, r.history)
 
 
 #: IPOPT stops whose last iterate is a usable answer (the others are failures)
