@@ -28,6 +28,7 @@ Steps of :func:`torsal_frame_field`:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -300,6 +301,63 @@ def _screening_weights(V, F, edges, ef_inner, usable, confidence, smoothing):
     return omega, kappa * area / smoothing ** 2, kappa
 
 
+def _check_filled_regions(adj, usable: np.ndarray) -> None:
+    """Every face without usable torsal directions must be connected (through such faces)
+    to one with them: the fill interpolates from there."""
+    free_idx = np.flatnonzero(~usable)
+    if not free_idx.size:
+        return
+    sub = adj[free_idx][:, free_idx]
+    ncomp, lab = csg.connected_components(sub, directed=False)
+    touches = np.zeros(ncomp, bool)
+    nb = (adj + adj.T)[free_idx][:, np.flatnonzero(usable)]
+    has_nb = np.asarray(nb.sum(axis=1)).ravel() > 0
+    touches[np.unique(lab[has_nb])] = True
+    if not touches.all():
+        bad = free_idx[lab == np.flatnonzero(~touches)[0]]
+        raise FrameFieldError(
+            f"faces {bad[:10].tolist()} (a region of {bad.size} faces without torsal directions) "
+            "are not connected to any face with torsal directions; the mesh has a component "
+            "that is a line bundle or non-hyperbolic everywhere"
+        )
+
+
+class _Combing(NamedTuple):
+    frames: np.ndarray       # (F, 2) complex: combed directions in each face's basis
+    tree_edge: np.ndarray    # (nE,) bool: edges of the dual spanning tree
+
+
+def _comb(z: np.ndarray, adj, edges, ef, inner_edges, r, root: int) -> _Combing:
+    """Comb the frames along a BFS dual spanning tree from ``root``: each child's frame is
+    permuted (a signed permutation of GROUP) to best match its parent's."""
+    nF = len(z)
+    ei = inner_edges
+    ncomp, _ = csg.connected_components(adj, directed=False)
+    if ncomp > 1:
+        raise FrameFieldError(f"the mesh has {ncomp} face-connected components; remesh each separately")
+    order, pred = csg.breadth_first_order(adj + adj.T, root, directed=False, return_predecessors=True)
+    depth = np.zeros(nF, int)
+    for fidx in order[1:]:
+        depth[fidx] = depth[pred[fidx]] + 1
+    # transport factor from a child g into its parent p: z_in_p = rho * z_in_g, from a
+    # lookup of the inner edge of each (p, g) pair
+    lut = sp.csr_matrix((np.arange(1, len(ei) + 1), (ef[ei, 0], ef[ei, 1])), shape=(nF, nF))
+    lut = lut + lut.T
+    child = order[1:]
+    par = pred[child]
+    ee = ei[np.asarray(lut[par, child]).ravel() - 1]
+    rho_full = np.ones(nF, complex)
+    rho_full[child] = np.where(ef[ee, 0] == par, r[ee], np.conj(r[ee]))  # r maps f1 -> f0
+    zc = z.copy()
+    for d in range(1, depth.max() + 1 if nF > 1 else 1):
+        fs = np.flatnonzero(depth == d)
+        g = _best_matching(zc[pred[fs]], zc[fs] * rho_full[fs][:, None])
+        zc[fs] = np.einsum("mij,mj->mi", GROUP[g].astype(complex), zc[fs])
+    tree_edge = np.zeros(len(edges), bool)
+    tree_edge[ee] = True
+    return _Combing(zc, tree_edge)
+
+
 def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: float = 10.0,
                        root: int | None = None, smoothing: float | None = None) -> TorsalFrameField:
     """Per face the two torsal directions of a congruence, filled, combed, with singularities.
@@ -370,25 +428,9 @@ def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: f
     tt = np.where(usable[:, None, None], t, 0.0)
     z = np.einsum("fkj,fj->fk", tt, b1) + 1j * np.einsum("fkj,fj->fk", tt, b2)
     z = np.where(usable[:, None], z / np.where(np.abs(z) > 0, np.abs(z), 1.0), 1.0 + 0j)
-
-    # every non-usable face must be connected (through non-usable faces) to a usable one
     ei = np.flatnonzero(inner)
     adj = sp.csr_matrix((np.ones(len(ei)), (ef[ei, 0], ef[ei, 1])), shape=(nF, nF))
-    free_idx = np.flatnonzero(~usable)
-    if free_idx.size:
-        sub = adj[free_idx][:, free_idx]
-        ncomp, lab = csg.connected_components(sub, directed=False)
-        touches = np.zeros(ncomp, bool)
-        nb = (adj + adj.T)[free_idx][:, np.flatnonzero(usable)]
-        has_nb = np.asarray(nb.sum(axis=1)).ravel() > 0
-        touches[np.unique(lab[has_nb])] = True
-        if not touches.all():
-            bad = free_idx[lab == np.flatnonzero(~touches)[0]]
-            raise FrameFieldError(
-                f"faces {bad[:10].tolist()} (a region of {bad.size} faces without torsal directions) "
-                "are not connected to any face with torsal directions; the mesh has a component "
-                "that is a line bundle or non-hyperbolic everywhere"
-            )
+    _check_filled_regions(adj, usable)
     kappa = usable.astype(float)
     if smoothing:
         if not smoothing > 0:
@@ -398,56 +440,20 @@ def torsal_frame_field(congruence, *, bundle_tol: float = 1e-3, min_angle_deg: f
         z = _smooth_fill(z, usable, edges[ei], r[ei], ef[ei], nF, data_weight=mu, edge_weight=omega)
     else:
         z = _smooth_fill(z, usable, edges[ei], r[ei], ef[ei], nF)
-
-    # ---- combing along a BFS dual spanning tree
     if root is None:
-        cand = np.where(usable, ang, -1.0)
-        root = int(np.argmax(cand))
-    ncomp, lab = csg.connected_components(adj, directed=False)
-    if ncomp > 1:
-        raise FrameFieldError(f"the mesh has {ncomp} face-connected components; remesh each separately")
-    order, pred = csg.breadth_first_order(adj + adj.T, root, directed=False, return_predecessors=True)
-    depth = np.zeros(nF, int)
-    for fidx in order[1:]:
-        depth[fidx] = depth[pred[fidx]] + 1
-    # transport factor from a child g into its parent p: z_in_p = rho * z_in_g
-    # build a lookup of r for (p, g) pairs
-    e_of_pair = np.full(nF, -1, int)
-    f0, f1 = ef[ei, 0], ef[ei, 1]
-    lut = sp.csr_matrix((np.arange(1, len(ei) + 1), (f0, f1)), shape=(nF, nF))
-    lut = lut + lut.T
-    child = order[1:]
-    par = pred[child]
-    eidx = np.asarray(lut[par, child]).ravel() - 1
-    e_of_pair[child] = ei[eidx]
-    ee = ei[eidx]
-    rho = np.where(ef[ee, 0] == par, r[ee], np.conj(r[ee]))  # r maps f1 -> f0
-    rho_full = np.ones(nF, complex)
-    rho_full[child] = rho
-    zc = z.copy()
-    for d in range(1, depth.max() + 1 if nF > 1 else 1):
-        fs = np.flatnonzero(depth == d)
-        p = pred[fs]
-        zg = zc[fs] * rho_full[fs][:, None]
-        g = _best_matching(zc[p], zg)
-        M = GROUP[g]
-        zc[fs] = np.einsum("mij,mj->mi", M.astype(complex), zc[fs])
-    tree_edge = np.zeros(len(edges), bool)
-    tree_edge[e_of_pair[child]] = True
-
+        root = int(np.argmax(np.where(usable, ang, -1.0)))
+    comb = _comb(z, adj, edges, ef, ei, r, root)
+    zc = comb.frames
     # ---- matchings after combing: frame[f0] ~ M frame[f1]
     matching = np.full(len(edges), -1, int)
-    zg = zc[f1] * r[ei][:, None]
-    matching[ei] = _best_matching(zc[f0], zg)
-    if np.any(matching[tree_edge] != 0):
+    matching[ei] = _best_matching(zc[ef[ei, 0]], zc[ef[ei, 1]] * r[ei][:, None])
+    if np.any(matching[comb.tree_edge] != 0):
         raise FrameFieldError("internal error: combing left a non-identity matching on a tree edge")
-
     directions = (np.real(zc)[..., None] * b1[:, None, :] + np.imag(zc)[..., None] * b2[:, None, :])
-
     sing, hol = _singularities(F, edges, ef, matching, len(V))
     return TorsalFrameField(
         vertices=V, faces=F, directions=directions, from_torsal=usable, edges=edges, edge_faces=ef,
-        matching=matching, tree_edge=tree_edge, singularities=sing, holonomy=hol,
+        matching=matching, tree_edge=comb.tree_edge, singularities=sing, holonomy=hol,
         metadata={"root": root, "filled_faces": int((~usable).sum()),
                   "mismatched_edges": int((matching > 0).sum()),
                   "smoothing": float(smoothing) if smoothing else None,
