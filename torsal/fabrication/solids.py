@@ -107,23 +107,33 @@ def _polygon_face(pts: np.ndarray):
     return TopoDS.Face(face_fix.Result())
 
 
-def _face(points, planar_tol: float) -> list:
+def _face(points, planar_tol: float, planar: bool | None = None) -> list:
     """OCC faces through the points: one planar face, or a fan of triangles if they are not
     coplanar (to ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's
-    1e-7)."""
-    pts = _dedup(points)
+    1e-7). ``planar``: that test, done already (by :func:`_planar_quads`) for points without
+    repeats."""
+    pts = _dedup(points) if planar is None else np.asarray(points, float)
     if len(pts) < 3:
         return []
-    c = pts.mean(0)
-    _, sv, vt = np.linalg.svd(pts - c)
-    size = np.linalg.norm(pts.max(0) - pts.min(0))
-    if len(pts) == 3 or np.abs((pts - c) @ vt[2]).max() <= min(planar_tol * size, 1e-9):
+    if planar is None:
+        planar = len(pts) == 3 or bool(_planar_quads(pts[None], planar_tol)[0])
+    if planar:
         try:
             return [_polygon_face(pts)]
         except ValueError:       # OpenCascade finds it not planar enough: use triangles
             if len(pts) == 3:
                 raise
     return [_polygon_face(pts[[0, i, i + 1]]) for i in range(1, len(pts) - 1)]
+
+
+def _planar_quads(pts: np.ndarray, planar_tol: float) -> np.ndarray:
+    """Whether each polygon of ``pts`` (F, n, 3) is within ``min(planar_tol * size, 1e-9)`` of
+    its best-fit plane (size: its bounding-box diagonal)."""
+    c = pts.mean(axis=1, keepdims=True)
+    normal = np.linalg.svd(pts - c)[2][:, 2]                                  # (F, 3)
+    size = np.linalg.norm(pts.max(axis=1) - pts.min(axis=1), axis=1)
+    off = np.abs(np.einsum("fni,fi->fn", pts - c, normal)).max(axis=1)
+    return off <= np.minimum(planar_tol * size, 1e-9)
 
 
 def _fan_volume(points) -> float:
@@ -266,19 +276,27 @@ def _plate(part: Part, thickness: float, planar_tol: float):
     node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
     top = q + 0.5 * thickness * m[node]
     bot = q - 0.5 * thickness * m[node]
-    outlines = []                                   # (points, orientation) of every face
-    for j in range(k):
-        outlines += [(top[j], 1.0), (bot[j], -1.0),   # bottom: same diagonal as the top if warped
-                     ([top[j, 1], top[j, 0], bot[j, 0], bot[j, 1]], 1.0),   # a side
-                     ([top[j, 3], top[j, 2], bot[j, 2], bot[j, 3]], 1.0)]   # b side
-    outlines += [([top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]], 1.0),       # start cap
-                 ([top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]], 1.0)]   # end cap
+    # every face's outline (F, 4, 3), per panel: top, bottom (same diagonal as the top if
+    # warped), a side, b side; then the start and end caps; the bottom is oriented inwards
+    sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
+                      np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
+    caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],
+                     [top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]]])
+    outlines = np.concatenate([sides.reshape(-1, 4, 3), caps])
+    sign = np.r_[np.tile([1.0, -1.0, 1.0, 1.0], k), 1.0, 1.0]
+    # outlines without repeated corners (all but degenerate twisted sides) in one go
+    clean = (np.linalg.norm(outlines - np.roll(outlines, -1, axis=1), axis=2) > 1e-12).all(axis=1)
+    planar = np.zeros(len(outlines), bool)
+    planar[clean] = _planar_quads(outlines[clean], planar_tol)
+    p0, p1, p2, p3 = (outlines[clean, i] for i in range(4))
+    poly_volume = float(sign[clean] @ (np.einsum("fi,fi->f", p0, np.cross(p1, p2) + np.cross(p2, p3))
+                                       / 6.0))
     sewing = BRepBuilderAPI_Sewing()
-    poly_volume = 0.0
-    for pts, sign in outlines:
-        for f in _face(pts, planar_tol):
+    for pts, sgn, ok, flat in zip(outlines, sign, clean, planar):
+        for f in _face(pts, planar_tol, planar=bool(flat) if ok else None):
             sewing.Add(f)
-        poly_volume += sign * _fan_volume(pts)
+        if not ok:
+            poly_volume += sgn * _fan_volume(pts)
     sewing.Perform()
     try:
         shell = TopoDS.Shell(sewing.SewedShape())
