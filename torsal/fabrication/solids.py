@@ -687,13 +687,44 @@ def read_step(path) -> list[tuple[str, object]]:
     return out
 
 
+def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
+    """Vertices (n, 3) and triangles (m, 3) of an OCC shape, meshed as build123d's
+    ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer order, reversed
+    faces' triangles turned round), without its per-vertex wrappers."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    if not BRepTools.Triangulation_s(shape, tolerance):
+        BRepMesh_IncrementalMesh(shape, tolerance, True, angular_tolerance, True)
+    faces, exp = {}, TopExp_Explorer(shape, TopAbs_FACE)
+    while exp.More():                        # each face once, in the order first met
+        faces[hash(exp.Current())] = exp.Current()
+        exp.Next()
+    verts, tris, offset = [], [], 0
+    for f in faces.values():
+        face = TopoDS.Face(f)
+        loc = TopLoc_Location()
+        poly = BRep_Tool.Triangulation_s(face, loc)
+        trsf = loc.Transformation()
+        pts = (poly.Node(j).Transformed(trsf) for j in range(1, poly.NbNodes() + 1))
+        verts.append(np.array([(p.X(), p.Y(), p.Z()) for p in pts], float).reshape(-1, 3))
+        t = np.array([(x.Value(1), x.Value(2), x.Value(3)) for x in poly.Triangles()],
+                     dtype=np.int64).reshape(-1, 3) + (offset - 1)
+        tris.append(t[:, [0, 2, 1]] if face.Orientation() == TopAbs_REVERSED else t)
+        offset += len(verts[-1])
+    if not verts:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    return np.concatenate(verts), np.concatenate(tris)
+
+
 def _tessellate(fin_system, tolerance: float | None):
     tol = tolerance if tolerance is not None else 0.05 * fin_system.thickness
-    res = {}
-    for name, s in fin_system.solids().items():
-        v, f = s.tessellate(tol)
-        res[name] = (np.array([[p.X, p.Y, p.Z] for p in v]), np.asarray(f, dtype=np.int64))
-    return res
+    return {name: _triangles(s.wrapped, tol) for name, s in fin_system.solids().items()}
 
 
 def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | None = None) -> Path:
