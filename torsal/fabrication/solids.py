@@ -16,8 +16,8 @@ sound plate is kept without them, listed in ``FinSystem.unslotted_solids`` and w
 (the unrolled cutting outlines always have the slots).
 
 The plates are built with OpenCascade directly (OCP: the same calls build123d makes, without
-its wrappers, a third of the time per part); build123d is used for the returned ``Solid`` and
-the exporters. Worker processes (:func:`build_solids`) need OCP only and send back binary BReps.
+its wrappers: about a third less CPU per part); build123d is used for the returned ``Solid``
+and the exporters. Worker processes (:func:`build_solids`) need OCP only and send back binary BReps.
 
 Units: the ``unit`` of the fin system (mm by default); STEP files are written in mm.
 """
@@ -110,13 +110,13 @@ def _polygon_face(pts: np.ndarray):
 def _face(points, planar_tol: float, planar: bool | None = None) -> list:
     """OCC faces through the points: one planar face, or a fan of triangles if they are not
     coplanar (to ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's
-    1e-7). ``planar``: that test, done already (by :func:`_planar_quads`) for points without
+    1e-7). ``planar``: that test, done already (by :func:`_coplanar`) for points without
     repeats."""
     pts = _dedup(points) if planar is None else np.asarray(points, float)
     if len(pts) < 3:
         return []
     if planar is None:
-        planar = len(pts) == 3 or bool(_planar_quads(pts[None], planar_tol)[0])
+        planar = len(pts) == 3 or bool(_coplanar(pts[None], planar_tol)[0])
     if planar:
         try:
             return [_polygon_face(pts)]
@@ -126,7 +126,7 @@ def _face(points, planar_tol: float, planar: bool | None = None) -> list:
     return [_polygon_face(pts[[0, i, i + 1]]) for i in range(1, len(pts) - 1)]
 
 
-def _planar_quads(pts: np.ndarray, planar_tol: float) -> np.ndarray:
+def _coplanar(pts: np.ndarray, planar_tol: float) -> np.ndarray:
     """Whether each polygon of ``pts`` (F, n, 3) is within ``min(planar_tol * size, 1e-9)`` of
     its best-fit plane (size: its bounding-box diagonal)."""
     c = pts.mean(axis=1, keepdims=True)
@@ -287,7 +287,7 @@ def _plate(part: Part, thickness: float, planar_tol: float):
     # outlines without repeated corners (all but degenerate twisted sides) in one go
     clean = (np.linalg.norm(outlines - np.roll(outlines, -1, axis=1), axis=2) > 1e-12).all(axis=1)
     planar = np.zeros(len(outlines), bool)
-    planar[clean] = _planar_quads(outlines[clean], planar_tol)
+    planar[clean] = _coplanar(outlines[clean], planar_tol)
     p0, p1, p2, p3 = (outlines[clean, i] for i in range(4))
     poly_volume = float(sign[clean] @ (np.einsum("fi,fi->f", p0, np.cross(p1, p2) + np.cross(p2, p3))
                                        / 6.0))
