@@ -93,22 +93,16 @@ class Unrolled:
         return int(np.count_nonzero(np.abs(self.fold_angles) > 1e-9))
 
 
-def _plane_frames(quads: np.ndarray) -> np.ndarray:
-    """Frames ``origin, e1 (along p0 -> p1), e2 = n x e1, n`` (k, 4, 3) of quads (k, 4, 3):
-    origin the mean corner, n the Newell normal; a triangle (``p0 == p1``) takes e1 along
-    ``p3 -> p2``."""
-    n = quad_normals(quads)
-    e1 = quads[:, 1] - quads[:, 0]
-    tri = np.linalg.norm(e1, axis=1) <= 1e-9 * np.linalg.norm(quads[:, 2] - quads[:, 3], axis=1)
-    e1[tri] = quads[tri, 2] - quads[tri, 3]
-    e1 = e1 - np.einsum("ij,ij->i", e1, n)[:, None] * n
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    return np.stack([quads.mean(axis=1), e1, np.cross(n, e1), n], axis=1)
-
-
 def _plane_frame(quad: np.ndarray) -> np.ndarray:
     """origin, e1 (along p0 -> p1), e2 = n x e1, n for a quad (4, 3)."""
-    return _plane_frames(np.asarray(quad, float)[None])[0]
+    n = quad_normals(quad[None])[0]
+    e1 = quad[1] - quad[0]
+    if np.linalg.norm(e1) <= 1e-9 * np.linalg.norm(quad[2] - quad[3]):   # triangle: a_i == a_j
+        e1 = quad[2] - quad[3]
+    e1 = e1 - (e1 @ n) * n
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    return np.array([quad.mean(axis=0), e1, e2, n])
 
 
 def _pair_lengths(pts: np.ndarray) -> np.ndarray:
@@ -116,21 +110,13 @@ def _pair_lengths(pts: np.ndarray) -> np.ndarray:
     return np.linalg.norm(pts[..., _PAIRS[:, 0], :] - pts[..., _PAIRS[:, 1], :], axis=-1)
 
 
-def _rigid_motions(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotations (m, 2, 2) and translations (m, 2) of the proper rigid motions that best fit
-    point sets ``src`` (m, n, 2) onto ``dst`` (least squares): ``dst ~ src @ R.T + t``."""
-    cs, cd = src.mean(axis=1), dst.mean(axis=1)
-    h = np.einsum("mki,mkj->mij", src - cs[:, None], dst - cd[:, None])
-    ang = np.arctan2(h[:, 0, 1] - h[:, 1, 0], h[:, 0, 0] + h[:, 1, 1])
-    c, s = np.cos(ang), np.sin(ang)
-    rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], axis=1)
-    return rot, cd - np.einsum("mij,mj->mi", rot, cs)
-
-
-def _rigid_fit(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """``src`` (m, n, 2) moved by the rigid motions of :func:`_rigid_motions` onto ``dst``."""
-    rot, t = _rigid_motions(src, dst)
-    return np.einsum("mij,mkj->mki", rot, src) + t[:, None]
+def _rigid_2d(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation R (2, 2) and translation t with R src + t ~ dst (proper, least squares)."""
+    cs, cd = src.mean(0), dst.mean(0)
+    h = (src - cs).T @ (dst - cd)
+    ang = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
+    r = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
+    return r, cd - r @ cs
 
 
 def _best_flat_quads(target: np.ndarray, start: np.ndarray, *, iterations: int = 50) -> np.ndarray:
@@ -184,21 +170,25 @@ def _best_flat_quads(target: np.ndarray, start: np.ndarray, *, iterations: int =
         cost[idx[ok]] = ct[ok]
         # converged: the step is at rounding level of the quad's size, or no step improves
         active[idx[(moved <= 1e-15 * scale[idx]) | worse]] = False
-    return _rigid_fit(y, start)
+    for i in range(len(y)):
+        rot, shift = _rigid_2d(y[i], start[i])
+        y[i] = y[i] @ rot.T + shift
+    return y
 
 
 def _flat_quads(quads: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Flat versions (k, 4, 2) of 3D quads (k, 4, 3), each in its own plane frame, and whether
     each is planar (corners within ``tol`` of its size from its plane): a planar quad is
-    projected (an isometry), another replaced by the flat quad that best matches its edges and
-    diagonals (:func:`_best_flat_quads`)."""
-    fr = _plane_frames(quads)
-    rel = quads - fr[:, None, 0]
-    x = np.einsum("kci,kdi->kcd", rel, fr[:, 1:3])
-    off = np.einsum("kci,ki->kc", rel, fr[:, 3])
-    size = (np.linalg.norm(quads[:, 2] - quads[:, 0], axis=1)
-            + np.linalg.norm(quads[:, 3] - quads[:, 1], axis=1))
-    planar = np.abs(off).max(axis=1) <= tol * size
+    projected (an isometry), the others replaced together by the flat quads that best match
+    their edges and diagonals (:func:`_best_flat_quads`)."""
+    x = np.empty((len(quads), 4, 2))
+    planar = np.empty(len(quads), bool)
+    for i, quad in enumerate(quads):
+        fr = _plane_frame(quad)
+        x[i] = (quad - fr[0]) @ fr[1:3].T
+        off = (quad - fr[0]) @ fr[3]
+        size = np.linalg.norm(quad[2] - quad[0]) + np.linalg.norm(quad[3] - quad[1])
+        planar[i] = np.abs(off).max() <= tol * size
     if not planar.all():
         bent = ~planar
         x[bent] = _best_flat_quads(_pair_lengths(quads[bent]), x[bent])
@@ -260,8 +250,8 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
             continue
         # rotate about the shared fold line: align p0, p3 onto previous p1, p2
         dst = flat[i - 1, [1, 2]]
-        r, t = _rigid_motions(f[None, [0, 3]], dst[None])
-        g = f @ r[0].T + t[0]
+        r, t = _rigid_2d(f[[0, 3]], dst)
+        g = f @ r.T + t
         g[[0, 3]] = dst                       # identical points on the shared fold
         flat[i] = g
     # errors
@@ -312,8 +302,7 @@ def _label(flat: np.ndarray, outline: Polygon) -> tuple[np.ndarray, float, float
         if not region.contains(pt):
             pt = polylabel(region, tolerance=max(1e-3, 1e-3 * np.sqrt(region.area)))
         r = region.exterior.distance(pt)
-        # ties (the equal panels of a symmetric bracket) go to the first, not to rounding
-        if best is None or r > best[0] * (1.0 + 1e-9):
+        if best is None or r > best[0]:
             best = (r, pt, q)
     r, pt, q = best
     d = q[1] - q[0]
