@@ -215,3 +215,19 @@ def test_slightly_nonplanar_structure_still_gives_valid_solids_and_reports_unrol
     # the warped plates are developed by least squares (connectors are built flat)
     assert not any(fs.unrolled()[p.name].planar for p in fs.parts if p.family >= 0)
     assert 1e-8 < max(errs) < 1e-3
+
+
+def test_worker_processes_build_the_same_solids(sphere_fs):
+    """Solids built by two worker processes (sent back as BReps) equal the serial ones: same
+    names, labels, colours, valid, and the volume of the mid-surface area x thickness."""
+    from torsal.fabrication.solids import build_solids
+
+    serial = build_solids(sphere_fs, workers=1)
+    parallel = build_solids(sphere_fs, workers=2)
+    assert list(parallel) == list(serial) == [p.name for p in sphere_fs.parts]
+    for name, s in parallel.items():
+        assert s.label == name and s.is_valid
+        assert tuple(s.color)[:3] == pytest.approx(tuple(serial[name].color)[:3])
+        assert s.volume == pytest.approx(serial[name].volume, rel=1e-12)
+        assert len(s.faces()) == len(serial[name].faces())
+    assert sum(s.volume for s in parallel.values()) == pytest.approx(_expected_volume(sphere_fs), rel=0.005)

@@ -134,3 +134,58 @@ def test_nonplanar_strip_reports_worst_edge_error():
 def test_unroll_rejects_bad_input():
     with pytest.raises(ValueError):
         unroll(np.zeros((3, 3, 3)))
+
+
+def _twisted_square(h):
+    """A skew square: corners (+-1, +-1) lifted alternately by +-h."""
+    return np.array([[1.0, 1.0, h], [-1.0, 1.0, -h], [-1.0, -1.0, h], [1.0, -1.0, -h]])
+
+
+@pytest.mark.parametrize("h", [1e-4, 1e-2, 0.1])
+def test_twisted_square_unrolls_to_the_least_squares_square(h):
+    """Edges L = 2 sqrt(1 + h^2), diagonals D = 2 sqrt(2): by symmetry the best flat quad is a
+    square of side s minimizing 4 ((s - L) / L)^2 + 2 ((s sqrt2 - D) / D)^2, i.e.
+    s = (8 / L + 4 sqrt2 / D) / (8 / L^2 + 8 / D^2)."""
+    from torsal.fabrication.unroll import _flat_quads, _plane_frame
+
+    quad = _twisted_square(h)
+    L, D = 2.0 * np.sqrt(1.0 + h * h), 2.0 * np.sqrt(2.0)
+    s = (8.0 / L + 4.0 * np.sqrt(2.0) / D) / (8.0 / L**2 + 8.0 / D**2)
+    flat, planar = _flat_quads(quad[None], 1e-9)
+    assert not planar[0]
+    np.testing.assert_allclose(_edge_lengths(flat[0]), s, rtol=1e-12)
+    diag = np.linalg.norm(flat[0, [0, 1]] - flat[0, [2, 3]], axis=1)
+    np.testing.assert_allclose(diag, s * np.sqrt(2.0), rtol=1e-12)
+    # placed where it best fits the panel's projection on its plane (a square of side 2
+    # about the origin, in the panel's frame)
+    o, e1, e2, n = _plane_frame(quad)
+    np.testing.assert_allclose(np.abs(n), [0, 0, 1], atol=1e-15)
+    proj = (quad - o) @ np.array([e1, e2]).T
+    np.testing.assert_allclose(np.abs(proj), 1.0, rtol=1e-15)
+    np.testing.assert_allclose(flat[0], proj * s / 2.0, atol=1e-12)
+
+
+def test_nonplanar_panels_match_an_independent_least_squares_fit():
+    """Random bent quads: the vectorized fit reaches the optimum scipy's least_squares finds
+    (same cost; same edge and diagonal lengths, so congruent flat quads)."""
+    from scipy.optimize import least_squares
+
+    from torsal.fabrication.unroll import _PAIRS, _flat_quads
+
+    rng = np.random.default_rng(7)
+    quads = np.array([[0, 0, 0], [300, 0, 0], [310, 150, 0], [-5, 140, 0]], float)
+    quads = quads + rng.normal(scale=20.0, size=(40, 4, 3)) * [1.0, 1.0, 0.0]
+    quads[:, :, 2] += rng.normal(scale=3.0, size=(40, 4))           # ~1 % of the size
+    flat, planar = _flat_quads(quads, 1e-9)
+    assert not planar.any()
+
+    def lengths(p):
+        return np.linalg.norm(p[..., _PAIRS[:, 0], :] - p[..., _PAIRS[:, 1], :], axis=-1)
+
+    target = lengths(quads)
+    for q, f, t in zip(quads, flat, target):
+        sol = least_squares(lambda z: (lengths(z.reshape(4, 2)) - t) / t, f.ravel() + 0.5,
+                            xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        ours = 0.5 * np.sum(((lengths(f) - t) / t) ** 2)
+        assert ours <= sol.cost * (1 + 1e-9) + 1e-28
+        np.testing.assert_allclose(lengths(f), lengths(sol.x.reshape(4, 2)), rtol=1e-9)

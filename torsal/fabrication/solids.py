@@ -15,6 +15,10 @@ thickness); where OpenCascade cannot cut them (thin, oblique plates of real stru
 sound plate is kept without them, listed in ``FinSystem.unslotted_solids`` and warned about
 (the unrolled cutting outlines always have the slots).
 
+The plates are built with OpenCascade directly (OCP: the same calls build123d makes, without
+its wrappers: about a third less CPU per part); build123d is used for the returned ``Solid``
+and the exporters. Worker processes (:func:`build_solids`) need OCP only and send back binary BReps.
+
 Units: the ``unit`` of the fin system (mm by default); STEP files are written in mm.
 """
 from __future__ import annotations
@@ -44,7 +48,8 @@ class InvalidSolidError(TorsalError, RuntimeError):
 
 class SlotCutError(InvalidSolidError):
     """The plate of a part is sound but OpenCascade could not cut its slots (a boolean failure
-    on a thin, oblique plate). ``plate`` is the valid solid without slots."""
+    on a thin, oblique plate). ``plate`` is the valid solid without slots (a build123d ``Solid``
+    from :func:`part_solid`, an OCC shape inside the module)."""
 
     def __init__(self, parts: list[str], detail: str = "", plate=None, nodes=()):
         super().__init__(parts, detail)
@@ -52,48 +57,163 @@ class SlotCutError(InvalidSolidError):
         self.nodes = list(nodes)
 
 
-def _face(points, planar_tol: float):
-    """Planar face through the points, or a fan of triangles if they are not coplanar (to
-    ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's 1e-7)."""
-    from build123d import Face, Vector, Wire
+#: build123d's point tolerance: a polygon whose last point is farther than this from its first
+#: is closed by repeating the first (as ``Wire.make_polygon(close=True)``)
+_CLOSE_TOL = 1e-6
 
+
+def _dedup(points) -> np.ndarray:
+    """Points (n, 3) without consecutive repeats (degenerate twisted sides) and without a last
+    point repeating the first."""
     pts = np.asarray(points, float)
-    # drop repeated points (degenerate twisted sides)
-    keep = [0] + [i for i in range(1, len(pts)) if np.linalg.norm(pts[i] - pts[i - 1]) > 1e-12]
+    keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-12]
     pts = pts[keep]
     if len(pts) > 3 and np.linalg.norm(pts[-1] - pts[0]) <= 1e-12:
         pts = pts[:-1]
+    return pts
+
+
+def _polygon_face(pts: np.ndarray):
+    """Planar OCC face bounded by the closed polygon ``pts`` (n, 3), built as build123d's
+    ``Face(Wire.make_polygon(pts, close=True))`` does (same OCC calls: the wire is fixed,
+    the face made on its plane and its orientation fixed). ValueError if OpenCascade finds
+    the points not coplanar."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
+    from OCP.BRepLib import BRepLib_FindSurface
+    from OCP.gp import gp_Pnt
+    from OCP.ShapeFix import ShapeFix_Face, ShapeFix_Shape
+    from OCP.TopoDS import TopoDS
+
+    poly = BRepBuilderAPI_MakePolygon()
+    for p in pts:
+        poly.Add(gp_Pnt(float(p[0]), float(p[1]), float(p[2])))
+    if np.linalg.norm(pts[0] - pts[-1]) > _CLOSE_TOL:
+        poly.Add(gp_Pnt(float(pts[0, 0]), float(pts[0, 1]), float(pts[0, 2])))
+    wire = poly.Wire()
+    if not BRep_Tool.IsClosed_s(wire):
+        raise ValueError("Face can only be created with closed wires")
+    if not BRepLib_FindSurface(wire, OnlyPlane=True).Found():
+        raise ValueError("Cannot build face(s): wires not planar")
+    fix = ShapeFix_Shape(wire)
+    fix.Perform()
+    maker = BRepBuilderAPI_MakeFace(TopoDS.Wire(fix.Shape()), True)
+    maker.Build()
+    if not maker.IsDone():
+        raise ValueError(f"Cannot build face(s): {maker.Error()}")
+    face_fix = ShapeFix_Face(maker.Face())
+    face_fix.FixOrientation()
+    face_fix.Perform()
+    return TopoDS.Face(face_fix.Result())
+
+
+def _face(points, planar_tol: float, planar: bool | None = None) -> list:
+    """OCC faces through the points: one planar face, or a fan of triangles if they are not
+    coplanar (to ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's
+    1e-7). ``planar``: that test, done already (by :func:`_coplanar`) for points without
+    repeats."""
+    pts = _dedup(points) if planar is None else np.asarray(points, float)
     if len(pts) < 3:
         return []
-    c = pts.mean(0)
-    _, sv, vt = np.linalg.svd(pts - c)
-    size = np.linalg.norm(pts.max(0) - pts.min(0))
-    if len(pts) == 3 or np.abs((pts - c) @ vt[2]).max() <= min(planar_tol * size, 1e-9):
+    if planar is None:
+        planar = len(pts) == 3 or bool(_coplanar(pts[None], planar_tol)[0])
+    if planar:
         try:
-            return [Face(Wire.make_polygon([Vector(*p) for p in pts], close=True))]
+            return [_polygon_face(pts)]
         except ValueError:       # OpenCascade finds it not planar enough: use triangles
             if len(pts) == 3:
                 raise
-    return [Face(Wire.make_polygon([Vector(*pts[0]), Vector(*pts[i]), Vector(*pts[i + 1])], close=True))
-            for i in range(1, len(pts) - 1)]
+    return [_polygon_face(pts[[0, i, i + 1]]) for i in range(1, len(pts) - 1)]
+
+
+def _coplanar(pts: np.ndarray, planar_tol: float) -> np.ndarray:
+    """Whether each polygon of ``pts`` (F, n, 3) is within ``min(planar_tol * size, 1e-9)`` of
+    its best-fit plane (size: its bounding-box diagonal)."""
+    c = pts.mean(axis=1, keepdims=True)
+    normal = np.linalg.svd(pts - c)[2][:, 2]                                  # (F, 3)
+    size = np.linalg.norm(pts.max(axis=1) - pts.min(axis=1), axis=1)
+    off = np.abs(np.einsum("fni,fi->fn", pts - c, normal)).max(axis=1)
+    return off <= np.minimum(planar_tol * size, 1e-9)
 
 
 def _fan_volume(points) -> float:
     """Signed volume contribution (divergence theorem) of a face as :func:`_face` builds it:
     repeated points dropped, a fan of triangles from the first point."""
-    pts = np.asarray(points, float)
-    keep = [0] + [i for i in range(1, len(pts)) if np.linalg.norm(pts[i] - pts[i - 1]) > 1e-12]
-    pts = pts[keep]
+    pts = _dedup(points)
     if len(pts) < 3:
         return 0.0
-    return float(sum(pts[0] @ np.cross(pts[i], pts[i + 1]) for i in range(1, len(pts) - 1)) / 6.0)
+    return float(np.einsum("j,ij->", pts[0], np.cross(pts[1:-1], pts[2:])) / 6.0)
 
 
 def _box(origin, x_dir, z_dir, length, width, height):
-    from build123d import Plane, Solid, Vector
+    """OCC box ``length x width x height`` from ``origin`` along ``x_dir``, ``z_dir x x_dir``,
+    ``z_dir`` (as build123d's ``Solid.make_box`` on that plane)."""
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
 
-    return Solid.make_box(length, width, height,
-                          Plane(origin=Vector(*origin), x_dir=Vector(*x_dir), z_dir=Vector(*z_dir)))
+    def unit(v):
+        v = np.asarray(v, float)
+        return gp_Dir(*map(float, v / np.linalg.norm(v)))
+
+    ax = gp_Ax2(gp_Pnt(*map(float, origin)), unit(z_dir), unit(x_dir))
+    return BRepPrimAPI_MakeBox(ax, float(length), float(width), float(height)).Shape()
+
+
+def _volume(shape) -> float:
+    """Volume of an OCC shape (signed: negative for a solid turned inside out)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(shape, props)
+    return props.Mass()
+
+
+def _is_valid(shape) -> bool:
+    """BRepCheck of an OCC shape (as build123d's ``is_valid``)."""
+    from OCP.BRepCheck import BRepCheck_Analyzer
+
+    chk = BRepCheck_Analyzer(shape)
+    chk.SetParallel(True)
+    return chk.IsValid()
+
+
+def _valid(shape, repair: bool):
+    """The shape if BRepCheck finds it valid, else (with ``repair``) what ShapeFix makes of it
+    if that is valid, else None."""
+    if _is_valid(shape):
+        return shape
+    if not repair:
+        return None
+    from OCP.ShapeFix import ShapeFix_Shape
+
+    fix = ShapeFix_Shape(shape)
+    fix.Perform()
+    fixed = _downcast(fix.Shape())
+    return fixed if _is_valid(fixed) else None
+
+
+def _downcast(shape):
+    """The OCC shape as its own type (TopoDS_Solid, TopoDS_Compound, ...)."""
+    from OCP.TopAbs import TopAbs_COMPOUND, TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopoDS import TopoDS
+
+    cast = {TopAbs_SOLID: TopoDS.Solid, TopAbs_COMPOUND: TopoDS.Compound,
+            TopAbs_SHELL: TopoDS.Shell}.get(shape.ShapeType())
+    return cast(shape) if cast is not None else shape
+
+
+def _solids_of(shape) -> list:
+    """The OCC solids in a shape."""
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out, exp = [], TopExp_Explorer(shape, TopAbs_SOLID)
+    while exp.More():
+        out.append(TopoDS.Solid(exp.Current()))
+        exp.Next()
+    return out
 
 
 #: degrees: a slot on a fold flatter than this is cut with one box on the fold's bisector plane
@@ -142,6 +262,62 @@ def slot_boxes(part: Part, thickness: float) -> list:
     return boxes
 
 
+def _plate(part: Part, thickness: float, planar_tol: float):
+    """The plate of a part as a closed, sewn OCC solid (not yet validated) and the volume of
+    the polyhedron it is built from (divergence theorem over its faces)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
+    from OCP.ShapeFix import ShapeFix_Solid
+    from OCP.TopoDS import TopoDS
+
+    q, m = part.panels, part.miters
+    k = len(q)
+    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
+    node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
+    top = q + 0.5 * thickness * m[node]
+    bot = q - 0.5 * thickness * m[node]
+    # every face's outline (F, 4, 3), per panel: top, bottom (same diagonal as the top if
+    # warped), a side, b side; then the start and end caps; the bottom is oriented inwards
+    sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
+                      np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
+    caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],
+                     [top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]]])
+    outlines = np.concatenate([sides.reshape(-1, 4, 3), caps])
+    sign = np.r_[np.tile([1.0, -1.0, 1.0, 1.0], k), 1.0, 1.0]
+    # outlines without repeated corners (all but degenerate twisted sides) in one go
+    clean = (np.linalg.norm(outlines - np.roll(outlines, -1, axis=1), axis=2) > 1e-12).all(axis=1)
+    planar = np.zeros(len(outlines), bool)
+    planar[clean] = _coplanar(outlines[clean], planar_tol)
+    p0, p1, p2, p3 = (outlines[clean, i] for i in range(4))
+    poly_volume = float(sign[clean] @ (np.einsum("fi,fi->f", p0, np.cross(p1, p2) + np.cross(p2, p3))
+                                       / 6.0))
+    sewing = BRepBuilderAPI_Sewing()
+    for pts, sgn, ok, flat in zip(outlines, sign, clean, planar):
+        for f in _face(pts, planar_tol, planar=bool(flat) if ok else None):
+            sewing.Add(f)
+        if not ok:
+            poly_volume += sgn * _fan_volume(pts)
+    sewing.Perform()
+    try:
+        shell = TopoDS.Shell(sewing.SewedShape())
+    except Exception as e:           # a compound of pieces: OCC's Standard_TypeMismatch
+        raise InvalidSolidError([part.name], f"the plate's faces do not sew into one shell "
+                                f"({type(e).__name__})") from None
+    if not BRep_Tool.IsClosed_s(shell):
+        raise InvalidSolidError([part.name], "the plate's faces do not sew into a closed shell")
+    return ShapeFix_Solid().SolidFromShell(shell), poly_volume
+
+
+def _labelled(shape, part: Part):
+    """build123d ``Solid`` of an OCC solid, labelled with the part id and coloured by family."""
+    from build123d import Color, Solid
+
+    solid = Solid(shape)
+    solid.label = part.name
+    solid.color = Color(*part.color)
+    return solid
+
+
 def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
     """The thickened, slotted solid of one part (build123d ``Solid``), labelled and coloured.
 
@@ -149,87 +325,66 @@ def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol:
     ------
     InvalidSolidError
         If the solid is invalid and cannot be repaired.
+    SlotCutError
+        If the plate is sound but its slots could not be cut (``plate``: the labelled plate).
     """
-    from build123d import Color, Shell, Solid
+    try:
+        shape = _part_shape(part, thickness, repair=repair, planar_tol=planar_tol)
+    except SlotCutError as e:
+        e.plate = _labelled(e.plate, part)
+        raise
+    return _labelled(shape, part)
 
-    q = part.panels
-    m = part.miters
-    h = 0.5 * thickness
-    k = len(q)
-    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
-    top = np.empty_like(q)
-    bot = np.empty_like(q)
-    for j in range(k):
-        for c, node in ((0, j), (3, j), (1, j + 1), (2, j + 1)):
-            top[j, c] = q[j, c] + h * m[node]
-            bot[j, c] = q[j, c] - h * m[node]
+
+def _part_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
+    """:func:`part_solid` as a bare OCC shape (what worker processes send back); a
+    :class:`SlotCutError` carries the plate as an OCC shape too."""
+    from OCP.TopoDS import TopoDS
+
+    q, m = part.panels, part.miters
     if not (np.isfinite(q).all() and np.isfinite(m).all()):
         raise InvalidSolidError([part.name], "non-finite panel or mitre coordinates")
-    faces, poly_volume = [], 0.0
-    outlines = []                                   # (points, orientation) of every face
-    for j in range(k):
-        outlines += [(top[j], 1.0), (bot[j], -1.0),   # bottom: same diagonal as the top if warped
-                     ([top[j, 1], top[j, 0], bot[j, 0], bot[j, 1]], 1.0),   # a side
-                     ([top[j, 3], top[j, 2], bot[j, 2], bot[j, 3]], 1.0)]   # b side
-    outlines += [([top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]], 1.0),       # start cap
-                 ([top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]], 1.0)]   # end cap
-    for pts, sign in outlines:
-        faces += _face(pts, planar_tol)
-        poly_volume += sign * _fan_volume(pts)
-    shell = Shell(faces)
-    from OCP.BRep import BRep_Tool
-
-    if not BRep_Tool.IsClosed_s(shell.wrapped):
-        raise InvalidSolidError([part.name], "the plate's faces do not sew into a closed shell")
-    solid = Solid(shell)
-    if solid.volume < 0:             # sewn inside out: turn it round
-        solid = Solid(solid.wrapped.Reversed())
+    solid, poly_volume = _plate(part, thickness, planar_tol)
+    volume = _volume(solid)
+    if volume < 0:                   # sewn inside out: turn it round
+        solid = TopoDS.Solid(solid.Reversed())
+        volume = -volume
     # a closed, valid shell can still be garbage (e.g. a bow-tie panel): the solid must have the
     # volume of the polyhedron it was built from, and that the volume sum(panel area) *
     # thickness up to the twist of its side faces (which grows on narrow panels that meet the
     # node lines obliquely, mitred: a few percent at most)
     expected = float(part.panel_areas.sum()) * thickness
-    if not abs(solid.volume - abs(poly_volume)) <= 1e-3 * abs(poly_volume):
-        raise InvalidSolidError([part.name], f"plate volume {solid.volume:.6g} differs from that of "
+    if not abs(volume - abs(poly_volume)) <= 1e-3 * abs(poly_volume):
+        raise InvalidSolidError([part.name], f"plate volume {volume:.6g} differs from that of "
                                 f"its faces {abs(poly_volume):.6g}: the faces do not sew into a sound solid")
-    if not abs(solid.volume - expected) <= 0.05 * expected:
-        raise InvalidSolidError([part.name], f"plate volume {solid.volume:.6g} differs from panel "
+    if not abs(volume - expected) <= 0.05 * expected:
+        raise InvalidSolidError([part.name], f"plate volume {volume:.6g} differs from panel "
                                 f"area x thickness {expected:.6g}: broken or self-intersecting panels")
-    plate_volume = abs(solid.volume)
-    plate = solid
-    if not plate.is_valid:
-        if repair:
-            plate = plate.fix()
-        if not plate.is_valid:
-            raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
-    plate.label = part.name
-    plate.color = Color(*part.color)
+    plate_volume = volume
+    plate = _valid(solid, repair)
+    if plate is None:
+        raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
     if not part.slots:
         return plate
     nodes = sorted({s.node for s in part.slots})
     try:
-        boxes = slot_boxes(part, thickness)
-        solid = plate.cut(*boxes)
-        if solid is None:
+        solid = _cut(plate, slot_boxes(part, thickness))
+        pieces = _solids_of(solid)
+        if not pieces:
             raise ValueError("the boolean cut returned nothing")
-        if not isinstance(solid, Solid):
-            sols = solid.solids()
-            if len(sols) != 1:
-                solid = _main_piece(part, thickness, plate_volume, sols)
-            else:
-                solid = sols[0]
-        if not solid.is_valid and repair:
-            solid = solid.fix()
-        if not solid.is_valid:
+        solid = pieces[0] if len(pieces) == 1 else _main_piece(part, thickness, plate_volume, pieces)
+        solid = _valid(solid, repair)
+        if solid is None:
             raise ValueError("BRepCheck failed after ShapeFix")
-        if not 0.5 * plate_volume < solid.volume <= plate_volume * (1 + 1e-9):
-            raise ValueError(f"volume {solid.volume:.6g} after cutting slots is implausible for a "
+        volume = _volume(solid)
+        if not 0.5 * plate_volume < volume <= plate_volume * (1 + 1e-9):
+            raise ValueError(f"volume {volume:.6g} after cutting slots is implausible for a "
                              f"plate of {plate_volume:.6g}")
         # every slot is open where it should be and the web beyond it is kept (on folds the
         # boxes in both panel planes take a little more than slot area x thickness)
         removed = _slot_area(part) * thickness
-        if not 0.3 * removed <= plate_volume - solid.volume <= 3.0 * removed + 1e-6 * plate_volume:
-            raise ValueError(f"the slots removed {plate_volume - solid.volume:.6g} instead of about "
+        if not 0.3 * removed <= plate_volume - volume <= 3.0 * removed + 1e-6 * plate_volume:
+            raise ValueError(f"the slots removed {plate_volume - volume:.6g} instead of about "
                              f"{removed:.6g} (slot area x thickness)")
         _check_slots(solid, part)
     except InvalidSolidError as e:
@@ -237,20 +392,49 @@ def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol:
     except Exception as e:     # OpenCascade failures
         raise SlotCutError([part.name], f"cutting the slots at nodes {nodes} failed: "
                            f"{type(e).__name__}: {e}", plate=plate, nodes=nodes) from None
-    solid.label = part.name
-    solid.color = Color(*part.color)
     return solid
+
+
+def _cut(shape, tools: list):
+    """``shape`` minus the ``tools`` (OCC boolean cut, then coplanar faces merged), as
+    build123d's ``Shape.cut`` does it."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
+    from OCP.collections import List_TopoDS_Shape
+
+    args, tls = List_TopoDS_Shape(), List_TopoDS_Shape()
+    args.Append(shape)
+    for t in tools:
+        tls.Append(t)
+    op = BRepAlgoAPI_Cut()
+    op.SetArguments(args)
+    op.SetTools(tls)
+    op.SetRunParallel(True)
+    op.SetUseOBB(True)          # oriented boxes: fewer face pairs intersected, same result
+    op.Build()
+    if not op.IsDone():
+        raise ValueError("the boolean cut failed")
+    result = _downcast(op.Shape())
+    unify = ShapeUpgrade_UnifySameDomain(result, True, True, True)
+    unify.AllowInternalEdges(False)
+    try:
+        unify.Build()
+        result = _downcast(unify.Shape())
+    except Exception:        # merging faces is cosmetic: keep the uncleaned result
+        pass
+    return result
 
 
 def _check_slots(solid, part: Part) -> None:
     """Raise ValueError unless, for every slot, a point in the slot (on the mid-plane, halfway
-    down) is outside the solid and a point of the web beyond it is inside."""
+    down) is outside the OCC solid and a point of the web beyond it is inside."""
     from OCP.BRepClass3d import BRepClass3d_SolidClassifier
     from OCP.gp import gp_Pnt
     from OCP.TopAbs import TopAbs_IN, TopAbs_OUT
 
     q = part.panels
     k = len(q)
+    cls = BRepClass3d_SolidClassifier(solid)      # one classifier for every probe of the solid
     for s in part.slots:
         pos = s.position
         a, b = (q[0, 0], q[0, 3]) if pos == 0 else (q[pos - 1, 1], q[pos - 1, 2])
@@ -268,7 +452,7 @@ def _check_slots(solid, part: Part) -> None:
             probes.append((start + (s.depth + 0.5 * (length - s.depth)) * u + off, TopAbs_IN,
                            "cut through the web"))
         for x, want, what in probes:
-            cls = BRepClass3d_SolidClassifier(solid.wrapped, gp_Pnt(*map(float, x)), 1e-6)
+            cls.Perform(gp_Pnt(*map(float, x)), 1e-6)
             if cls.State() != want:
                 raise ValueError(f"the slot at node {s.node} {what}")
 
@@ -283,28 +467,29 @@ def _slot_area(part: Part) -> float:
 
 def _main_piece(part: Part, thickness: float, plate_volume: float, pieces: list):
     """The plate left after cutting the slots when OpenCascade's boolean returned several
-    pieces: on thin, oblique plates it sometimes splits the cut-out off instead of removing it,
-    or leaves slivers. The unrolled outline says what must be left (``plate - slot area x
-    thickness``); the piece of that volume is kept, else the part is reported."""
+    pieces (OCC solids): on thin, oblique plates it sometimes splits the cut-out off instead of
+    removing it, or leaves slivers. The unrolled outline says what must be left (``plate - slot
+    area x thickness``); the piece of that volume is kept, else the part is reported."""
     nodes = sorted({s.node for s in part.slots})
     try:
         removed = _slot_area(part) * thickness
     except ValueError as e:
         raise InvalidSolidError([part.name], f"the slots at nodes {nodes} cut the plate apart ({e})")
     expected = plate_volume - removed
-    best = min(pieces, key=lambda x: abs(x.volume - expected))
-    if not abs(best.volume - expected) <= 0.05 * removed + 1e-6 * plate_volume:
+    volumes = [_volume(x) for x in pieces]
+    best = int(np.argmin([abs(v - expected) for v in volumes]))
+    if not abs(volumes[best] - expected) <= 0.05 * removed + 1e-6 * plate_volume:
         raise InvalidSolidError([part.name], f"the slots at nodes {nodes} split the plate into "
-                                f"{len(pieces)} pieces (volumes {sorted(round(x.volume, 1) for x in pieces)}, "
+                                f"{len(pieces)} pieces (volumes {sorted(round(v, 1) for v in volumes)}, "
                                 f"expected one of {expected:.6g})")
-    return best
+    return pieces[best]
 
 
 def _build_one(part: Part, thickness: float, repair: bool):
-    """``(status, solid or None, detail)`` for one part; status ``ok``, ``unslotted`` (the valid
-    plate without slots) or ``bad``."""
+    """``(status, OCC shape or None, detail)`` for one part; status ``ok``, ``unslotted`` (the
+    valid plate without slots) or ``bad``."""
     try:
-        return "ok", part_solid(part, thickness, repair=repair), ""
+        return "ok", _part_shape(part, thickness, repair=repair), ""
     except SlotCutError as e:
         return "unslotted", e.plate, (e.nodes, str(e))
     except InvalidSolidError as e:
@@ -313,16 +498,37 @@ def _build_one(part: Part, thickness: float, repair: bool):
         return "bad", None, f"{part.name}: {type(e).__name__}: {e}"
 
 
-def _build_chunk(args):
-    """Worker: build the solids of some parts and return them as OpenCascade binary BReps
-    (OCC shapes do not pickle; bytes do)."""
-    from build123d.persistence import serialize_shape
+def _to_bytes(shape) -> bytes:
+    """OpenCascade binary BRep of a shape (OCC shapes do not pickle; bytes do)."""
+    import io
 
+    from OCP.BinTools import BinTools
+
+    buf = io.BytesIO()
+    BinTools.Write_s(shape, buf)
+    return buf.getvalue()
+
+
+def _from_bytes(data: bytes):
+    """The OCC shape of :func:`_to_bytes`."""
+    import io
+
+    from OCP.BinTools import BinTools
+    from OCP.TopoDS import TopoDS_Shape
+
+    shape = TopoDS_Shape()
+    BinTools.Read_s(shape, io.BytesIO(data))
+    return _downcast(shape)
+
+
+def _build_chunk(args):
+    """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
+    worker never imports build123d)."""
     parts, thickness, repair = args
     out = []
     for p in parts:
-        status, solid, detail = _build_one(p, thickness, repair)
-        out.append((p.name, status, None if solid is None else serialize_shape(solid.wrapped), detail))
+        status, shape, detail = _build_one(p, thickness, repair)
+        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
     return out
 
 
@@ -337,12 +543,9 @@ def default_workers(n_parts: int) -> int:
 
 
 def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
-    """``[(name, status, solid, detail)]`` built by ``workers`` forked processes, in order."""
+    """``[(name, status, OCC shape, detail)]`` built by ``workers`` forked processes, in order."""
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
-
-    from build123d import Color, Solid
-    from build123d.persistence import deserialize_shape
 
     # interleaved chunks of about equal work; a few per worker so that none waits long
     n_chunks = min(len(parts), 4 * workers)
@@ -351,21 +554,15 @@ def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
     # in the child: workers are forked from a clean server that has imported this module
     if "forkserver" in mp.get_all_start_methods():
         ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["torsal.fabrication.solids", "build123d"])
+        ctx.set_forkserver_preload(["torsal.fabrication.solids", "OCP.BRepAlgoAPI"])
     else:
         ctx = mp.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         done = list(pool.map(_build_chunk, [(c, thickness, repair) for c in chunks]))
-    by_name = {p.name: p for p in parts}
     res = {}
     for rows in done:
         for name, status, data, detail in rows:
-            solid = None
-            if data is not None:
-                solid = Solid(deserialize_shape(data))
-                solid.label = name
-                solid.color = Color(*by_name[name].color)
-            res[name] = (status, solid, detail)
+            res[name] = (status, None if data is None else _from_bytes(data), detail)
     return [(p.name,) + res[p.name] for p in parts]
 
 
@@ -386,13 +583,14 @@ def build_solids(fin_system, *, repair: bool = True, workers: int | None = None)
         rows = _build_parallel(parts, t, repair, workers)
     else:
         rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
+    by_name = {p.name: p for p in parts}
     out, bad, detail, unslotted = {}, [], [], []
-    for name, status, solid, info in rows:
+    for name, status, shape, info in rows:
         if status == "bad":
             bad.append(name)
             detail.append(info)
             continue
-        out[name] = solid
+        out[name] = _labelled(shape, by_name[name])
         if status == "unslotted":
             unslotted.append((name, info[0], info[1]))
     fin_system.unslotted_solids = unslotted
@@ -414,7 +612,9 @@ def export_step(fin_system, path) -> Path:
     """Write one STEP assembly (AP214, mm) with a named, coloured solid per part.
 
     The assembly is a build123d ``Compound`` labelled ``torsal_fins`` whose children are the
-    part solids (``label`` = part id, ``color`` by family).
+    part solids (``label`` = part id, ``color`` by family). Every face of a part is planar, so
+    no parametric curves (pcurves) are written: readers compute them from the plane (the file
+    is 2.4 times smaller, written 40 % and re-read 15 % faster, with the same solids).
     """
     from build123d import Compound, Unit
     from build123d import export_step as _bd_export_step
@@ -424,7 +624,7 @@ def export_step(fin_system, path) -> Path:
     unit = {"mm": Unit.MM, "cm": Unit.CM, "m": Unit.M, "in": Unit.IN, "ft": Unit.FT}[fin_system.unit]
 
     with atomic_path(path) as tmp:
-        if not _bd_export_step(assembly, str(tmp), unit=unit):
+        if not _bd_export_step(assembly, str(tmp), unit=unit, write_pcurves=False):
             raise RuntimeError(f"STEP writer failed for {path}")
     return Path(path)
 
@@ -490,13 +690,44 @@ def read_step(path) -> list[tuple[str, object]]:
     return out
 
 
+def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
+    """Vertices (n, 3) and triangles (m, 3) of an OCC shape, meshed as build123d's
+    ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer order, reversed
+    faces' triangles turned round), without its per-vertex wrappers."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    if not BRepTools.Triangulation_s(shape, tolerance):
+        BRepMesh_IncrementalMesh(shape, tolerance, True, angular_tolerance, True)
+    faces, exp = {}, TopExp_Explorer(shape, TopAbs_FACE)
+    while exp.More():                        # each face once, in the order first met
+        faces[hash(exp.Current())] = exp.Current()
+        exp.Next()
+    verts, tris, offset = [], [], 0
+    for f in faces.values():
+        face = TopoDS.Face(f)
+        loc = TopLoc_Location()
+        poly = BRep_Tool.Triangulation_s(face, loc)
+        trsf = loc.Transformation()
+        pts = (poly.Node(j).Transformed(trsf) for j in range(1, poly.NbNodes() + 1))
+        verts.append(np.array([(p.X(), p.Y(), p.Z()) for p in pts], float).reshape(-1, 3))
+        t = np.array([(x.Value(1), x.Value(2), x.Value(3)) for x in poly.Triangles()],
+                     dtype=np.int64).reshape(-1, 3) + (offset - 1)
+        tris.append(t[:, [0, 2, 1]] if face.Orientation() == TopAbs_REVERSED else t)
+        offset += len(verts[-1])
+    if not verts:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    return np.concatenate(verts), np.concatenate(tris)
+
+
 def _tessellate(fin_system, tolerance: float | None):
     tol = tolerance if tolerance is not None else 0.05 * fin_system.thickness
-    res = {}
-    for name, s in fin_system.solids().items():
-        v, f = s.tessellate(tol)
-        res[name] = (np.array([[p.X, p.Y, p.Z] for p in v]), np.asarray(f, dtype=np.int64))
-    return res
+    return {name: _triangles(s.wrapped, tol) for name, s in fin_system.solids().items()}
 
 
 def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | None = None) -> Path:

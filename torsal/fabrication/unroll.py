@@ -5,7 +5,9 @@ A strip of quads ``p0 p1 p2 p3`` whose consecutive quads share the fold line ``p
 rotated about the shared fold line into that plane. For planar panels this is an isometry
 of every panel (edge lengths preserved to rounding); for panels that are not quite planar each
 panel is replaced by the flat quad that best matches its 4 edges and 2 diagonals (least
-squares) and the worst relative edge-length error is reported.
+squares on the relative length errors, all panels of a strip at once by vectorized
+Gauss-Newton, placed where it best fits the panel's projection on its plane) and the worst
+relative edge-length error is reported.
 
 Coordinates are in the unit of the input (``unit`` of a :class:`~.parts.Part`, usually mm).
 The flat top side is the ``+normal`` side of the panels (Newell normal of ``a_i a_j b_j b_i``),
@@ -103,24 +105,9 @@ def _plane_frame(quad: np.ndarray) -> np.ndarray:
     return np.array([quad.mean(axis=0), e1, e2, n])
 
 
-def _flat_quad(quad: np.ndarray, tol: float) -> tuple[np.ndarray, bool]:
-    """Flat (4, 2) version of a 3D quad in its own plane frame; least squares if not planar."""
-    fr = _plane_frame(quad)
-    x = (quad - fr[0]) @ fr[1:3].T
-    off = (quad - fr[0]) @ fr[3]
-    size = np.linalg.norm(quad[2] - quad[0]) + np.linalg.norm(quad[3] - quad[1])
-    if np.abs(off).max() <= tol * size:
-        return x, True
-    from scipy.optimize import least_squares
-
-    target = np.linalg.norm(quad[_PAIRS[:, 0]] - quad[_PAIRS[:, 1]], axis=1)
-
-    def res(z):
-        y = z.reshape(4, 2)
-        return (np.linalg.norm(y[_PAIRS[:, 0]] - y[_PAIRS[:, 1]], axis=1) - target) / target
-
-    sol = least_squares(res, x.ravel(), method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15)
-    return sol.x.reshape(4, 2), False
+def _pair_lengths(pts: np.ndarray) -> np.ndarray:
+    """Lengths (..., 6) of the 4 edges and 2 diagonals of quads (..., 4, d)."""
+    return np.linalg.norm(pts[..., _PAIRS[:, 0], :] - pts[..., _PAIRS[:, 1], :], axis=-1)
 
 
 def _rigid_2d(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -130,6 +117,82 @@ def _rigid_2d(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     ang = np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1])
     r = np.array([[np.cos(ang), -np.sin(ang)], [np.sin(ang), np.cos(ang)]])
     return r, cd - r @ cs
+
+
+def _best_flat_quads(target: np.ndarray, start: np.ndarray, *, iterations: int = 50) -> np.ndarray:
+    """Flat quads (m, 4, 2) whose 4 edges and 2 diagonals best match ``target`` (m, 6):
+    Gauss-Newton on the relative length errors ``(l - target) / target`` (minimum-norm steps,
+    so the flat quad does not drift by a rigid motion), from ``start`` (m, 4, 2), then placed
+    by the rigid motion that best fits it onto ``start``.
+
+    The residual of a nearly planar quad is small (its out-of-plane offset over its size, squared),
+    so Gauss-Newton converges to the least-squares optimum in a few steps; a step that does not
+    lower a quad's cost is halved. Pairs of zero target length (a triangle's double corner) do
+    not count.
+    """
+    w = np.divide(1.0, target, out=np.zeros_like(target), where=target > 0)
+    y = start.copy()
+    scale = np.linalg.norm(np.ptp(start, axis=1), axis=1)                  # (m,)
+
+    def residual(pts, sel):
+        return (_pair_lengths(pts) - target[sel]) * w[sel]
+
+    r = residual(y, slice(None))
+    cost = np.einsum("mp,mp->m", r, r)
+    active = np.ones(len(y), bool)
+    for _ in range(iterations):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        ya = y[idx]
+        d = ya[:, _PAIRS[:, 0]] - ya[:, _PAIRS[:, 1]]                        # (m, 6, 2)
+        length = np.linalg.norm(d, axis=2, keepdims=True)
+        u = np.divide(d, length, out=np.zeros_like(d), where=length > 0) * w[idx, :, None]
+        jac = np.zeros((idx.size, 6, 4, 2))
+        rows = np.arange(6)
+        jac[:, rows, _PAIRS[:, 0]] = u
+        jac[:, rows, _PAIRS[:, 1]] = -u
+        jac = jac.reshape(idx.size, 6, 8)
+        step = -np.einsum("mij,mj->mi", np.linalg.pinv(jac, rcond=1e-12), r[idx]).reshape(-1, 4, 2)
+        t = np.ones(idx.size)
+        for _ in range(30):                       # halve the step of quads it does not improve
+            trial = ya + t[:, None, None] * step
+            rt = residual(trial, idx)
+            ct = np.einsum("mp,mp->m", rt, rt)
+            worse = ct > cost[idx]
+            if not worse.any():
+                break
+            t[worse] *= 0.5
+        ok = ~worse
+        y[idx[ok]] = trial[ok]
+        r[idx[ok]] = rt[ok]
+        moved = t * np.abs(step).reshape(idx.size, -1).max(axis=1)
+        cost[idx[ok]] = ct[ok]
+        # converged: the step is at rounding level of the quad's size, or no step improves
+        active[idx[(moved <= 1e-15 * scale[idx]) | worse]] = False
+    for i in range(len(y)):
+        rot, shift = _rigid_2d(y[i], start[i])
+        y[i] = y[i] @ rot.T + shift
+    return y
+
+
+def _flat_quads(quads: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Flat versions (k, 4, 2) of 3D quads (k, 4, 3), each in its own plane frame, and whether
+    each is planar (corners within ``tol`` of its size from its plane): a planar quad is
+    projected (an isometry), the others replaced together by the flat quads that best match
+    their edges and diagonals (:func:`_best_flat_quads`)."""
+    x = np.empty((len(quads), 4, 2))
+    planar = np.empty(len(quads), bool)
+    for i, quad in enumerate(quads):
+        fr = _plane_frame(quad)
+        x[i] = (quad - fr[0]) @ fr[1:3].T
+        off = (quad - fr[0]) @ fr[3]
+        size = np.linalg.norm(quad[2] - quad[0]) + np.linalg.norm(quad[3] - quad[1])
+        planar[i] = np.abs(off).max() <= tol * size
+    if not planar.all():
+        bent = ~planar
+        x[bent] = _best_flat_quads(_pair_lengths(quads[bent]), x[bent])
+    return x, planar
 
 
 def slot_rectangle(a2: np.ndarray, b2: np.ndarray, side: SlotSide, depth: float, width: float,
@@ -177,11 +240,11 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
         name = getattr(strip, "name", "strip")
     k = len(quads)
     flat = np.empty((k, 4, 2))
-    planar = True
     frame = _plane_frame(quads[0])
+    flats, planar_each = _flat_quads(quads, planar_tol)
+    planar = bool(planar_each.all())
     for i in range(k):
-        f, ok = _flat_quad(quads[i], planar_tol)
-        planar &= ok
+        f = flats[i]
         if i == 0:
             flat[0] = f
             continue

@@ -1,23 +1,62 @@
 """The design's fin system: one place that turns a design file's material and joinery keys
 into :class:`~torsal.fabrication.FinSystem` options (used by the fabrication and assembly
-stages)."""
+stages).
+
+Both stages of one run ask for the fin system of the same structure: it is built once and
+handed to the second (with its solids, if the first built them). The memo keeps only the last
+fin system and is keyed by the content of the structure and the options, so a changed design
+or structure is always built afresh; the stage cache (:mod:`.cache`) is not involved.
+"""
 from __future__ import annotations
+
+import hashlib
+import pickle
 
 from ..design_file import DesignSpec
 
 __all__ = ["fin_system"]
 
+#: (key, FinSystem) of the last call: the fabrication and assembly stages of one run share it
+_last: tuple[str, object] | None = None
 
-def fin_system(spec: DesignSpec, structure):
-    """The design's :class:`~torsal.fabrication.FinSystem` (material, sheet and joinery limits
-    of the design file; parts in mm)."""
-    from ..fabrication import FinSystem
 
+def _options(spec: DesignSpec) -> dict:
+    """FinSystem keyword arguments of the design file (material, sheet, joinery limits)."""
     m = spec.material
-    options = {}
+    options = {"family_split": m.family_split.value, "clearance": m.clearance_mm,
+               "fit_sheet": tuple(m.sheet_mm), "model_unit": spec.units, "unit": "mm"}
     # unset: the joinery's own limit (torsal.fabrication.joints.MAX_CROSSING_FOLD)
     if spec.fins.max_fold_at_crossing is not None:
         options["max_crossing_fold"] = spec.fins.max_fold_at_crossing
-    return FinSystem(structure, m.thickness_mm, family_split=m.family_split.value,
-                     clearance=m.clearance_mm, fit_sheet=tuple(m.sheet_mm),
-                     model_unit=spec.units, unit="mm", **options)
+    return options
+
+
+def _key(structure, thickness: float, options: dict) -> str | None:
+    """Content hash of the structure and the options (None: cannot be hashed, do not reuse)."""
+    try:
+        data = pickle.dumps((structure, thickness, sorted(options.items())), protocol=4)
+    except Exception:
+        return None
+    return hashlib.sha256(data).hexdigest()
+
+
+def fin_system(spec: DesignSpec, structure):
+    """The design's :class:`~torsal.fabrication.FinSystem` (material, sheet and joinery limits
+    of the design file; parts in mm). A second call with the same structure and design keys
+    returns the same object (see the module docstring).
+
+    >>> fs = fin_system(spec, support["structure"])              # doctest: +SKIP
+    >>> fin_system(spec, support["structure"]) is fs              # doctest: +SKIP
+    True
+    """
+    global _last
+    from ..fabrication import FinSystem
+
+    options = _options(spec)
+    thickness = spec.material.thickness_mm
+    key = _key(structure, thickness, options)
+    if key is not None and _last is not None and _last[0] == key:
+        return _last[1]
+    fs = FinSystem(structure, thickness, **options)
+    _last = (key, fs) if key is not None else None
+    return fs
