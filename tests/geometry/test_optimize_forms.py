@@ -100,3 +100,23 @@ def test_split_rows_say_abs_p_below_cos_alpha_rho():
             rows = [float(fn(e.ravel(), a, [np.cos(np.radians(40)), 1e-6, s])) for s in (1, -1)]
             if abs(ang - 40) > 0.5:
                 assert (min(rows) >= 0) == (ang >= 40), (t, k, ang, rows)
+
+
+def test_hyperbolic_rows_implied_by_the_angle_bound_are_left_out_and_still_measured():
+    c = Congruence.from_normals(facade_patch(nu=9, nv=7))
+    faces = np.arange(0, len(c.faces), 2)          # the angle bound on every other face
+    p = (CongruenceProblem(c).normal().fair().perpendicular(SUN, weight=10)
+         .hyperbolic().min_torsal_angle(40, faces=faces))
+    p.build()
+    rows = {t.name: t for t in p._built["tangent"].cons}
+    assert set(rows["hyperbolic"].elements) == set(range(len(c.faces))) - set(faces)
+    r = p.solve(max_iter=300)
+    assert r.success, r.status
+    h = r.congruence.hyperbolicity()                  # eq. (2), on every face
+    assert set(r.measured["hyperbolic"].elements) == set(range(len(c.faces)))
+    assert h.min() >= -1e-9 * p.delta**2
+    assert np.nan_to_num(r.congruence.torsal_angle())[faces].min() >= 40 - 0.1
+    # a positive margin is not implied: every face gets its row again
+    p.hyperbolic(margin=1e-4)
+    p.build()
+    assert len(p._built["tangent"].cons[0].elements) == len(c.faces)
