@@ -37,7 +37,11 @@ times are 3 to 5 times a quiet machine's; the iteration counts and energies are 
       11   5041   9800  11.0   split |   118.8    21    118.8   NO |      2.3    NO | 9.4827e-09 9.4827e-09       -
 
 (The 7c ``split`` row above still had every ``hyperbolic`` row; with the implied ones left out,
-same load: 500 iterations in 88.8 s, objective 0.4616.) This morning's code, load 2.5 to 9:
+same load: 500 iterations in 88.8 s, objective 0.4616, and with ``max_iter`` 1500 IPOPT
+converges, for the first time on this row: 746 iterations, objective 0.45722, min torsal
+angle 40.17, 624 s at load 13 to 15. Row 9 with it, load 12: 328 iterations in 180 s,
+objective 0.0181 against 0.0165 converged (the form before: 0.459 in 180 s, 121 iterations).
+100k vertices at load 12 to 18: build 40.5 s + solve 164.5 s (7 iterations), re-solve 192.8 s.) This morning's code, load 2.5 to 9:
 7c ipopt 122.0 s, 500 iterations, E 0.5004, re-solve 100.6 s; 7c lbfgs 14.9 s (infeasible);
 11 ipopt 105.1 s (21 iterations), re-solve 9.7 s; 11 lbfgs 222.8 s (E 2.6e-5 against
 9.5e-9); 13 ipopt 5.2 s (to quality 4.0 s), re-solve 0.6 s; 13 lbfgs 79.5 s; 100k vertices

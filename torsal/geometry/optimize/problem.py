@@ -551,7 +551,9 @@ class CongruenceProblem:
         bundle), which satisfies ``c_hyp >= 0``. ``fair`` with ``perpendicular`` or
         ``parallel`` favours parallel lines; when many faces end near a bundle, IPOPT's
         multipliers grow and it may need hundreds of iterations. A ``closeness`` term keeps
-        the lines near the start and away from a bundle.
+        the lines near the start and away from a bundle. With ``margin = 0``, faces under a
+        (split form) ``min_torsal_angle`` bound are hyperbolic by that bound; their rows are
+        left out of IPOPT's NLP and still measured (see ``_implied_hyperbolic``).
 
         Examples
         --------
