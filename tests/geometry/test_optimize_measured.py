@@ -48,10 +48,13 @@ def test_min_torsal_angle_holds_as_measured_or_the_result_says_where_not(patch, 
 
 
 def test_an_unreachable_angle_is_not_success_and_names_the_faces(patch):
-    """Three iterations cannot open the torsal angles to 85 degrees: the result must say so
-    in degrees, measured, and list exactly the faces that miss the bound."""
+    """Two iterations from the shading optimum (torsal angles far below 85 degrees) cannot
+    open every face to 85 degrees: the result must say so in degrees, measured, and list
+    exactly the faces that miss the bound. (From the facade's own normals the split form
+    holds 85 degrees from its first iterate on, so the start is the shading optimum.)"""
+    start = _shading(patch).solve().congruence.directions
     p = _shading(patch).min_torsal_angle(85)
-    res = p.solve(max_iter=3, try_unconstrained=False, keep_best=False)
+    res = p.solve(max_iter=2, try_unconstrained=False, keep_best=False, initial=start)
     ang = _measured_angles(res.congruence)
     assert not res.success
     assert res.max_violation["min_torsal_angle"] == pytest.approx(85 - ang.min(), abs=1e-9)

@@ -31,13 +31,16 @@ Constraints are measured, not trusted: after every iterate and at the end, torsa
 hyperbolicity and angles to a direction are measured on the resulting congruence
 (:mod:`.measure`), ``OptimizationResult.max_violation`` is in each constraint's own units
 (degrees for angles), and a solve whose measured value misses a bound by more than 0.1
-degree is not ``success``. ``min_torsal_angle`` is imposed in a regular cone form with a
-documented lower bound on the torsal form's strength (:meth:`CongruenceProblem.min_torsal_angle`).
+degree is not ``success``. ``min_torsal_angle`` is imposed in a regular split form (two rows
+per face, :mod:`.forms`) with a documented lower bound on the torsal form's strength
+(:meth:`CongruenceProblem.min_torsal_angle`). One-sided inequalities can be made elastic
+(``CongruenceProblem(elastic=rho)``, l1-exact slacks).
 
 Package layout (one responsibility per module):
 
 - :mod:`.problem`: :class:`CongruenceProblem`, the builder API and ``solve``;
 - :mod:`.catalogue`: default weights, one term's data (:class:`~.catalogue.Term`), input checks;
+- :mod:`.forms`: the forms of the torsal-angle constraint;
 - :mod:`.kernels`: per-element derivative kernels, the gnomonic chart, C compilation;
 - :mod:`.nlp`: assembly of the NLP (:class:`~.nlp.Built`);
 - :mod:`.ipopt`: IPOPT options and the three-pass strategy; :mod:`.working_set`: pass 2;

@@ -104,7 +104,8 @@ class IpoptStrategy:
         x = np.asarray(arg[ca.nlpsol_out().index("x")]).ravel()
         g = np.asarray(arg[ca.nlpsol_out().index("g")]).ravel()
         inf = float(np.max(_bound_violation(g, b.lbg, b.ubg))) if g.size else 0.0
-        f = float(arg[ca.nlpsol_out().index("f")])
+        # the objective of eq. (9): without the elastic penalty (0 where every constraint holds)
+        f = float(arg[ca.nlpsol_out().index("f")]) - b.penalty(x, self.p)
         return self.monitor.iterate(b.unpack(x, self.frames), f, inf)
 
     # ------------------------------------------------------------------ solvers
@@ -152,13 +153,18 @@ class IpoptStrategy:
                 "hess_lag": b.hess_lag, "iteration_callback": cb, "error_on_fail": False,
                 "calc_lam_p": False}
         s = ca.nlpsol("congruence", "ipopt", {"x": b.x, "p": b.p, "f": b.f_expr, "g": b.g_expr}, opts)
+        _limit_blas_threads()     # the plugin (and its BLAS) is loaded now
         b.solvers[key] = (s, cb)
         self.build_seconds += time.perf_counter() - t0
         return s
 
     def call(self, s, b: Built, args: dict, cap: int | None) -> IpoptRun:
         """One IPOPT run with at most ``cap`` iterations."""
-        self.active = b
+        self.active, self.p = b, args["p"]
+        if b.n_slack:   # slacks just large enough for the start (elastic form, see Built._elastic)
+            args = {**args, "x0": b.with_slacks(args["x0"], args["p"]), "lbx": b.lbx}
+        else:           # a start from an NLP with slacks: its directions
+            args = {**args, "x0": b.full(args["x0"])}
         self.monitor.start_pass(cap)
         r = s(**args)
         stats = s.stats()
@@ -214,10 +220,11 @@ class IpoptStrategy:
                 if out.converged or self._stopped(out.status):
                     return out._replace(iterations=iters)
                 status = out.status
-            if r1.converged and _violated_count(b, r1.x, p) < _violated_count(b, x0, p):
+            if r1.converged and (b.n_slack or _violated_count(b, r1.x, p) < _violated_count(b, x0, p)):
                 # pass 3 starts where fewer constraints are violated: a flat facade's normals
                 # are a line bundle (the apex g = 0 of every torsal-angle cone, where each
-                # constraint is stationary), the energies' answer usually is not
+                # constraint is stationary), the energies' answer usually is not. In the
+                # elastic form every start is feasible: start from the energies' optimum
                 x0 = r1.x
             warm = False
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
@@ -258,6 +265,35 @@ class IpoptStrategy:
             ws |= _near_bounds(g, b) | new
             lam_g, ok = None, False          # cold: the new elements have no multipliers yet
         return PassOutcome(x, lam_g, iters, status, ok, True, ws)
+
+
+#: Threads of the BLAS under IPOPT's MUMPS (casadi's own OpenBLAS); ``$TORSAL_BLAS_THREADS``
+#: overrides. One: MUMPS's fronts on these meshes are small, and a second BLAS thread spins
+#: while waiting for a busy core. Measured on row 7c, 80 IPOPT iterations, load 11 on 2
+#: cores: 45.0 s wall with OpenBLAS's default (2 threads), 28.5 s with 1, same iterates.
+BLAS_THREADS = 1
+
+
+def _limit_blas_threads() -> None:
+    """Set the thread count of casadi's bundled OpenBLAS (not numpy's) once per process."""
+    import ctypes
+    import os
+    from pathlib import Path
+
+    global _BLAS_SET
+    if _BLAS_SET:
+        return
+    _BLAS_SET = True
+    try:
+        n = int(os.environ.get("TORSAL_BLAS_THREADS", BLAS_THREADS))
+        for lib in sorted(Path(ca.__file__).parent.glob("libcasadi-tp-openblas.so*")):
+            ctypes.CDLL(str(lib)).openblas_set_num_threads(n)
+            break
+    except (OSError, AttributeError, ValueError):   # another casadi build: keep its default
+        pass
+
+
+_BLAS_SET = False
 
 
 def _violated_count(b: Built, x: np.ndarray, p: np.ndarray, feas_tol: float = 1e-9) -> int:

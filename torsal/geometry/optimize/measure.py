@@ -98,6 +98,8 @@ def measure(term, c: Congruence, delta: float, g: np.ndarray | None, *, angle_to
     """
     el = term.elements
     if term.kind == "torsal_angle":
+        # the split form imposes each face twice (+p, -p): measure each face once
+        el = el[np.sort(np.unique(el, return_index=True)[1])]
         vals = torsal_angle_deg(c, el)
         viol, tol = np.maximum(term.bound - vals, 0.0), angle_tol_deg
     elif term.kind == "hyperbolicity":

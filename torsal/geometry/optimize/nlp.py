@@ -72,25 +72,34 @@ class Built:
     """
 
     def __init__(self, terms: list[Term], n_vertices: int, mode: str, jit: bool = False,
-                 hessian: str = "exact"):
+                 hessian: str = "exact", elastic: float = 0.0):
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
         tangent = mode == "tangent"
         dof = 2 if tangent else 3
         n_e = 3 * n_vertices
         n_var = dof * n_vertices
-        self.n_var = n_var
-        x = ca.MX.sym("x", n_var)
+        cons = [t for t in terms if t.constraint]
+        # elastic rows: the one-sided inequalities c >= lower (see _elastic)
+        el_rows = np.concatenate([np.full(t.size, np.isfinite(t.lower) and not np.isfinite(t.upper))
+                                  for t in cons]) if cons and elastic > 0 else np.zeros(0, bool)
+        self.elastic_rows = np.flatnonzero(el_rows)
+        self.n_slack = int(self.elastic_rows.size)
+        self.elastic = float(elastic)
+        self.n_dir = n_var
+        self.n_var = n_var + self.n_slack
+        x_all = ca.MX.sym("x", self.n_var)
+        x = x_all[0:n_var] if self.n_slack else x_all
         n_fr = 9 * n_vertices if tangent else 0
         self.n_frames = n_fr
         offsets, n_p = [], n_fr
         for t in terms:
             offsets.append(n_p)
             n_p += 1 + t.par.size
+        n_p += 1 if self.n_slack else 0      # the elastic penalty weight, last
         self.p_offsets, self.n_par = offsets, n_p
         p = ca.MX.sym("p", n_p)
         lam_f = ca.MX.sym("lam_f")
-        cons = [t for t in terms if t.constraint]
         g_sizes = [t.size for t in cons]
         self.g_offsets = np.concatenate([[0], np.cumsum(g_sizes)]).astype(np.int64)
         self.g_slices = [slice(int(o), int(o) + n) for o, n in zip(self.g_offsets, g_sizes)]
@@ -234,34 +243,90 @@ class Built:
         for coef, Qg in quad_h:
             hess = hess + coef * _to_casadi(Qg)
 
-        self.x, self.p = x, p
+        self._evaluate = ca.Function("evaluate", [x_all, p],
+                                     [ca.vertcat(*e_vals) if e_vals else ca.MX(0, 1), f, g])
+        if self.n_slack:
+            f, grad, g, jac, hess = self._elastic(x_all, p, f, grad, g, jac, hess)
+        self.x, self.p = x_all, p
         self.f_expr, self.g_expr = f, g
-        self.grad_f = ca.Function("nlp_grad_f", [x, p], [f, grad], ["x", "p"], ["f", "grad"])
-        self.jac_g = ca.Function("nlp_jac_g", [x, p], [g, jac], ["x", "p"], ["g", "jac"])
-        self.hess_lag = ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
+        self.grad_f = ca.Function("nlp_grad_f", [x_all, p], [f, grad], ["x", "p"], ["f", "grad"])
+        self.jac_g = ca.Function("nlp_jac_g", [x_all, p], [g, jac], ["x", "p"], ["g", "jac"])
+        self.hess_lag = ca.Function("nlp_hess_l", [x_all, p, lam_f, lam_g], [hess],
                                     ["x", "p", "lam_f", "lam_g"], ["hess"])
         self.energy_names = [t.name for t in terms if not t.constraint]
-        self.evaluate = ca.Function("evaluate", [x, p],
-                                    [ca.vertcat(*e_vals) if e_vals else ca.MX(0, 1), f, g])
         self.cons = cons
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)
+        #: variable bounds: the directions are free, elastic slacks are >= 0
+        self.lbx = np.concatenate([np.full(self.n_dir, -np.inf), np.zeros(self.n_slack)])
         self.solvers: dict = {}
         # first Hessian regularization per IPOPT objective scaling (see _hessian_shift)
         self.hessian_shifts: dict[tuple, float] = {}
         self.seconds = time.perf_counter() - t0
+
+    def _elastic(self, x_all, p, f, grad, g, jac, hess):
+        """The elastic (l1-exact penalty) form of the one-sided inequalities ``c_j >= l_j``.
+
+        Each gets a slack ``p_j >= 0``: ``c_j + p_j >= l_j`` and ``rho / |V| * sum_j p_j`` in
+        the objective (``rho``: the last NLP parameter; the energies are means over |V|, IPOPT
+        scales the objective by |V|). The slack's column is a unit vector, so the constraint
+        Jacobian has full row rank at every point (LICQ holds, also at the apex ``g = 0`` of
+        the torsal cones where ``grad c_j = 0``), every start is feasible (``p_j = max(l_j -
+        c_j, 0)``), and each multiplier is bounded by ``rho / |V|`` (the slack's dual
+        condition), so the constraints' curvature times their multipliers is bounded too.
+        For ``rho`` above the multipliers of a KKT point of the original problem, that point
+        is a KKT point of the elastic one with ``p = 0`` (exact penalty, Thierry and Biegler
+        2020); a positive slack at the answer shows up as a measured violation.
+        """
+        ns, nd = self.n_slack, self.n_dir
+        sl = x_all[nd:nd + ns]
+        rho = p[self.n_par - 1] / max(self.n_vertices, 1)
+        f = f + rho * ca.sum1(sl)
+        grad = ca.vertcat(grad, ca.repmat(rho, ns, 1))
+        rows = self.elastic_rows
+        E = ca.DM(ca.Sparsity(self.n_g, ns, np.arange(ns + 1, dtype=np.int64).tolist(),
+                              rows.astype(np.int64).tolist()), 1.0)
+        g = g + ca.mtimes(E, sl)
+        jac = ca.horzcat(jac, ca.MX(E))
+        hess = ca.diagcat(hess, ca.MX(ns, ns))
+        return f, grad, g, jac, hess
+
+    def evaluate(self, x: np.ndarray, p: np.ndarray):
+        """(energies, objective, c) at ``x`` without the elastic slacks and their penalty."""
+        return self._evaluate(self.full(x), p)
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        """``x`` (directions only, or all variables) as all variables (slacks kept or 0)."""
+        x = np.asarray(x, dtype=float).ravel()
+        return x if x.size == self.n_var else np.concatenate([x[:self.n_dir], np.zeros(self.n_slack)])
+
+    def with_slacks(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """All variables with the elastic slacks just large enough: ``p_j = max(l_j - c_j, 0)``."""
+        x = self.full(x)
+        if self.n_slack:
+            c = np.asarray(self._evaluate(np.concatenate([x[:self.n_dir], np.zeros(self.n_slack)]), p)[2]).ravel()
+            x = x.copy()
+            x[self.n_dir:] = np.maximum(self.lbg[self.elastic_rows] - c[self.elastic_rows], 0.0)
+        return x
+
+    def penalty(self, x: np.ndarray, p: np.ndarray) -> float:
+        """The elastic penalty ``rho / |V| * sum p_j`` at ``x`` (0 without slacks)."""
+        if not self.n_slack:
+            return 0.0
+        return float(p[self.n_par - 1] / max(self.n_vertices, 1) * np.sum(np.asarray(x).ravel()[self.n_dir:]))
 
     # conversions between directions e (n, 3) and the NLP's (x, frames)
     def pack(self, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         e = np.asarray(e, dtype=float).reshape(-1, 3)
         if self.mode == "tangent":
             return np.zeros(self.n_var), tangent_frames(e)
-        return e.ravel().copy(), np.zeros((0, 9))
+        return self.full(e.ravel()), np.zeros((0, 9))
 
     def unpack(self, x: np.ndarray, frames: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float).ravel()[:self.n_dir]
         if self.mode == "tangent":
-            return _from_tangent(np.asarray(x).ravel(), frames)
-        return np.asarray(x, dtype=float).reshape(-1, 3)
+            return _from_tangent(x, frames)
+        return x.reshape(-1, 3)
 
     def parameters(self, current: dict | None = None, frames: np.ndarray | None = None) -> np.ndarray:
         """The parameter vector, taking weights and data from ``current`` terms by name."""
@@ -273,6 +338,8 @@ class Built:
             src = current.get(t.name, t)
             p[off] = src.weight if not t.name.startswith("penalty:") else t.weight
             p[off + 1:off + 1 + t.par.size] = src.par.ravel()
+        if self.n_slack:
+            p[-1] = self.elastic
         return p
 
 

@@ -23,6 +23,7 @@ from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
                         _stroke_barycentric, _unit_rows, _var_index)
+from .forms import ANGLE_FORMS, torsal_angle_split_element
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
 from .lbfgs import lbfgs
@@ -59,6 +60,14 @@ class CongruenceProblem:
         curvature. Measured (benchmarks/optimize_bench.py, row 9 at 693 vertices, 500
         iterations): objective 0.0235 against 0.0271 exact, neither converged; it can also
         reach a different local minimum (e.g. all lines parallel where the energies allow).
+    elastic : float, default 0
+        ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
+        ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
+        :meth:`~torsal.geometry.optimize.nlp.Built._elastic`): LICQ holds everywhere, every
+        start is feasible, multipliers are bounded by ``rho``. 0 (default): off. Measured on
+        row 7c, it did not converge faster than the plain split form (rho 1e2: infeasible
+        after 500 iterations; 1e3: objective 0.69 against 0.49), so it is an option, not the
+        default; on small patches it reaches the same optimum (tests/geometry/test_optimize_forms.py).
     jit : bool, default False
         Compile the per-element kernels to C with the system compiler (casadi codegen; cached
         on disk in ``~/.cache/torsal/kernels`` or ``$TORSAL_KERNEL_CACHE``, so only the first
@@ -85,7 +94,8 @@ class CongruenceProblem:
     """
 
     def __init__(self, congruence: Congruence, weights: dict | None = None,
-                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact"):
+                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact",
+                 elastic: float = 0.0):
         if not isinstance(congruence, Congruence):
             raise TypeError("CongruenceProblem needs a torsal Congruence (e.g. Congruence.from_normals(mesh))")
         if normalize not in ("tangent", "constraint", "renormalize"):
@@ -103,6 +113,9 @@ class CongruenceProblem:
         if hessian not in ("gauss-newton", "exact"):
             raise ValueError(f"hessian must be 'gauss-newton' or 'exact', got {hessian!r}")
         self.hessian = hessian
+        if not (np.isfinite(elastic) and elastic >= 0):
+            raise ValueError(f"elastic must be a finite number >= 0 (0: off), got {elastic}")
+        self.elastic = float(elastic)
         self.weights = {**DEFAULT_WEIGHTS, **weights}
         self.delta = congruence.delta
         self._blocks: list[Congruence] = [congruence]
@@ -121,7 +134,8 @@ class CongruenceProblem:
     @property
     def terms(self) -> dict:
         """Registered terms and constraints by name: ``{name: (kind, weight or None, n_elements)}``."""
-        return {k: ("constraint" if t.constraint else "energy", None if t.constraint else t.weight, t.size)
+        return {k: ("constraint" if t.constraint else "energy", None if t.constraint else t.weight,
+                    len(np.unique(t.elements)))
                 for k, t in self._terms.items()}
 
     def _weight(self, name: str, weight) -> float:
@@ -537,7 +551,9 @@ class CongruenceProblem:
         bundle), which satisfies ``c_hyp >= 0``. ``fair`` with ``perpendicular`` or
         ``parallel`` favours parallel lines; when many faces end near a bundle, IPOPT's
         multipliers grow and it may need hundreds of iterations. A ``closeness`` term keeps
-        the lines near the start and away from a bundle.
+        the lines near the start and away from a bundle. With ``margin = 0``, faces under a
+        (split form) ``min_torsal_angle`` bound are hyperbolic by that bound; their rows are
+        left out of IPOPT's NLP and still measured (see ``_implied_hyperbolic``).
 
         Examples
         --------
@@ -550,21 +566,33 @@ class CongruenceProblem:
             raise ValueError("margin must be finite")
         fi = _as_index(faces, len(self.congruence.faces), "faces")
         fv, a = self._face_data(fi)
+        old = self._terms.get("hyperbolic")
+        if old is not None and bool(np.all(old.par[:, 0] <= 0)) != (margin <= 0):
+            self._built.clear()     # rows implied by min_torsal_angle only at margin <= 0
         t = Term("hyperbolic", True, T.hyperbolicity_element(1.0), _var_index(fv, 0), a,
                   np.full((len(fi), 1), float(margin)), fi, kind="hyperbolicity", bound=float(margin))
         return self._add(t)
 
     def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
-                         min_strength: float = 1e-3) -> "CongruenceProblem":
+                         min_strength: float = 1e-3, form: str = "split") -> "CongruenceProblem":
         """Torsal directions at least ``alpha_deg`` apart on every face (c_ang, Wang et al. 2013, 4.1).
 
-        Imposed in the regular cone form of :func:`torsal.geometry.terms.torsal_angle_cone_element`::
+        ``form="split"`` (default): two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
+
+            cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0
+
+        ``form="cone"`` (the form before; one row per face,
+        :func:`torsal.geometry.terms.torsal_angle_cone_element`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0
 
         (``p``, ``rho``: isotropic part and strength of the torsal form, eq. (1), per edge
-        length; ``s = min_strength``). It implies hyperbolicity, keeps its gradient where
-        the printed polynomial c_ang loses it, and makes a line bundle infeasible:
+        length; ``s = min_strength``). Both imply hyperbolicity, keep their gradient where
+        the printed polynomial c_ang loses it, and make a line bundle infeasible. The split
+        form needs no smoothing of ``|p|``, whose ``1/s`` curvature at ``p = 0`` the cone
+        form carries: measured on a 9 x 7 patch at 85 degrees with ``s = 1e-5``, split 19
+        IPOPT iterations, cone not converged in 400; on row 7c (500 iterations, neither
+        converged) objective 0.492 against 0.500. The strength floor:
 
         *Design choice*: a face that must have torsal directions at least ``alpha`` apart
         must have torsal directions, so the torsal form's strength is bounded below,
@@ -592,12 +620,22 @@ class CongruenceProblem:
                              "torsal directions are at most 90 degrees apart")
         if not (np.isfinite(min_strength) and min_strength > 0):
             raise ValueError(f"min_strength must be a finite number > 0, got {min_strength}")
+        if form not in ANGLE_FORMS:
+            raise ValueError(f"form must be one of {ANGLE_FORMS}, got {form!r}")
         fi = _as_index(faces, len(self.congruence.faces), "faces")
         fv, a = self._face_data(fi)
         c = math.cos(math.radians(min(alpha_deg + safety_deg, 89.999)))
-        t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
-                 np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
-                 bound=float(alpha_deg))
+        if form == "cone":
+            t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
+                     np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
+                     bound=float(alpha_deg))
+        else:   # two rows per face, +p and -p (see .forms)
+            m = len(fi)
+            par = np.concatenate([np.tile([c, float(min_strength), 1.0], (m, 1)),
+                                  np.tile([c, float(min_strength), -1.0], (m, 1))])
+            t = Term("min_torsal_angle", True, torsal_angle_split_element(), _var_index(np.tile(fv, (2, 1)), 0),
+                     np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle",
+                     bound=float(alpha_deg))
         return self._add(t)
 
     def max_angle_to(self, d, theta_deg: float, vertices=None) -> "CongruenceProblem":
@@ -647,9 +685,31 @@ class CongruenceProblem:
     def _mode(self, solver: str) -> str:
         return "penalty" if solver == "lbfgs" else self.normalize
 
+    def _implied_hyperbolic(self, t: Term) -> Term | None:
+        """``hyperbolic`` without the faces where ``min_torsal_angle`` implies it (None if all).
+
+        On a face where both rows of the split torsal-angle form hold,
+        ``sqrt(rho^2 + s^2) >= (s + |p|) / cos(alpha) > s + |p|``, so ``rho > |p|``: the face
+        is hyperbolic (``c_hyp > 0``). With margin 0 its ``c_hyp`` row adds nothing but a
+        row whose gradient vanishes near a line bundle (LICQ fails there) and barrier terms
+        (measured on row 7c, 300 iterations: objective 0.74 without those rows, 0.90 with
+        them). It is left out of IPOPT's NLP there and still measured on every face.
+        """
+        if t.kind != "hyperbolicity" or np.any(t.par[:, 0] > 0):
+            return t
+        covered = [a.elements for a in self._terms.values()
+                   if a.kind == "torsal_angle" and a.block == t.block and a.element.fn.name() == "c_ang_split"]
+        if not covered:
+            return t
+        keep = ~np.isin(t.elements, np.concatenate(covered))
+        if not keep.any():
+            return None
+        return replace(t, idx=t.idx[keep], data=t.data[keep], par=t.par[keep], elements=t.elements[keep])
+
     def _term_list(self, mode: str) -> list[Term]:
-        out = [(_penalty_term(t) if (mode == "penalty" and t.constraint) else t)
+        out = [(_penalty_term(t) if (mode == "penalty" and t.constraint) else self._implied_hyperbolic(t))
                for t in self._terms.values()]
+        out = [t for t in out if t is not None]
         nv = self.n_var // 3
         allv = np.arange(nv)
         idx = 3 * allv[:, None] + np.arange(3)
@@ -677,7 +737,8 @@ class CongruenceProblem:
             return 0.0
         if not self._terms:
             raise ValueError("the problem has no terms; add energies (e.g. .normal().fair()) before solving")
-        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit, self.hessian)
+        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit, self.hessian,
+                                  elastic=self.elastic if mode != "penalty" else 0.0)
         return self._built[mode].seconds
 
     def _free_built(self, mode: str) -> tuple[Built, float]:
@@ -693,7 +754,8 @@ class CongruenceProblem:
         return np.concatenate([b.directions for b in self._blocks])
 
     def _current(self) -> dict:
-        cur = dict(self._terms)
+        # the terms as the NLP has them (hyperbolic without the rows min_torsal_angle implies)
+        cur = {k: (self._implied_hyperbolic(t) or t) for k, t in self._terms.items()}
         for k, t in self._terms.items():
             if t.constraint:
                 cur["penalty:" + k] = t
@@ -748,7 +810,10 @@ class CongruenceProblem:
         e = self._directions() if directions is None else np.asarray(directions, float).reshape(-1, 3)
         if e.size != self.n_var:
             raise ValueError(f"directions must have {self.n_var // 3} rows, got {e.size // 3}")
-        cons = [t for t in self._term_list(self.normalize) if t.constraint]
+        # every constraint the user imposed (also where the NLP leaves it out as implied),
+        # and the NLP's own (unit_length)
+        cons = [t for t in self._terms.values() if t.constraint]
+        cons += [t for t in self._term_list(self.normalize) if t.constraint and t.name not in self._terms]
         g_by = {}
         if any(t.kind == "value" for t in cons):
             _, _, g, b = self._evaluate(e)

@@ -26,6 +26,8 @@ def _near_bounds(g: np.ndarray, b: "Built", share: float = 0.1) -> np.ndarray:
 
 
 def _working_ids(b: "Built", mask: np.ndarray) -> dict:
-    """Element ids of the imposed inequality constraints, by constraint name."""
-    return {t.name: t.elements[mask[rows]] for t, rows in zip(b.cons, b.g_slices) if t.lower < t.upper}
+    """Element ids of the imposed inequality constraints, by constraint name (each once: the
+    split torsal-angle form has two rows per face)."""
+    return {t.name: np.unique(t.elements[mask[rows]]) for t, rows in zip(b.cons, b.g_slices)
+            if t.lower < t.upper}
 
