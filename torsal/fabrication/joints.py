@@ -63,7 +63,7 @@ from shapely.geometry import Polygon
 
 from .model import JointKind, _fold_deg, _miter, quad_normals
 
-__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
+__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
            "place_connector", "corners", "JointKind"]
 
@@ -71,6 +71,10 @@ __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MIN_BRACKET_ANGLE", "MAX_
 MIN_CROSSING_ANGLE = 30.0
 #: degrees: a plate folding more than this at a crossing is split there (butt joint + bracket)
 MAX_CROSSING_FOLD = 10.0
+#: degrees: a plate slotted at several crossings slides onto them all along the mean of their
+#: node axes; its slots (and its partners') are widened by ``2 depth tan(skew)`` for a crossing
+#: whose axis is ``skew`` off it. Beyond this skew the crossing is butted instead.
+MAX_SLOT_SKEW = 2.0
 #: degrees: brackets are bent to corners between these angles (the bend is 180 - angle)
 MIN_BRACKET_ANGLE = 25.0
 MAX_BRACKET_ANGLE = 172.0
@@ -346,6 +350,25 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     if not all(np.isfinite(x).all() for x in moved.values()):
         raise _Untrimmable("trim failed (non-finite)")
     return moved, m_end, nbar
+
+
+def trim_further(quad: np.ndarray, start: bool, panels, pa: np.ndarray, m_end: np.ndarray,
+                 moved: dict, gap: float, h: float) -> dict:
+    """The corners ``moved`` by :func:`butt_trim` moved further along their edges, where needed,
+    until the end face (mitre ``m_end``) also clears the plate ``panels`` ``[(n, v)]``, e.g. a
+    strip of the same family that ends at the same node on the same side of the plate (the
+    two would overlap in the corner they make). ``quad`` is the untrimmed panel. Raises
+    :class:`_Untrimmable`."""
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0)
+    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    out = dict(moved)
+    for cc, oc in ((ia, ja), (ib, jb)):
+        x = trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
+        u = quad[oc] - quad[cc]
+        if (x - quad[cc]) @ u > (out[cc] - quad[cc]) @ u:
+            out[cc] = x
+    return out
 
 
 def into_direction(quad: np.ndarray, start: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

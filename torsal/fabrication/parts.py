@@ -62,8 +62,9 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 
 from . import layout as _layout
 from . import solids as _solids
-from .joints import (MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
-                     corners, place_connector, slot_width, trim_corner)
+from .joints import (MAX_CROSSING_FOLD, MAX_SLOT_SKEW, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
+                     corners, into_direction, place_connector, slot_width, trim_corner,
+                     trim_further)
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
                     JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
                     _oriented_size, _safe_normals, fold_angles, panel_widths, quad_normals)
@@ -75,6 +76,9 @@ __all__ = [
     "MITER_LIMIT", "panel_widths",
 ]
 
+
+#: how often :class:`FinSystem` rebuilds, leaving out end panels that cannot be trimmed
+MAX_REBUILDS = 8
 
 #: gap left between a connector and the plates it lies on, as a fraction of the thickness
 #: (so that touching faces are not coincident for the boolean checks; 0.03 mm at 3 mm)
@@ -124,8 +128,9 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     return d if d @ axis >= 0 else -d
 
 
-def _read_strips(structure, scale: float, drop_mask) -> _Strips:
-    """Strips of a support structure scaled to ``unit``, degenerate panels marked."""
+def _read_strips(structure, scale: float, drop_mask, extra: dict | None = None) -> _Strips:
+    """Strips of a support structure scaled to ``unit``, degenerate panels marked (and the
+    panels ``extra`` {strip index: panel indices})"""
     strips = _merge_coincident_nodes(structure).fins()
     a = structure.vertices_a * scale
     b = structure.vertices_b * scale
@@ -136,6 +141,8 @@ def _read_strips(structure, scale: float, drop_mask) -> _Strips:
         raise ValueError(f"nodes {used[tiny][:10].tolist()} have zero fin depth (a_i == b_i)")
     quads = [fs.quads * scale for fs in strips]
     drops = [drop_mask(q) for q in quads]
+    for si, panels in (extra or {}).items():
+        drops[si][sorted(panels)] = True
     n = len(a)
     passes = np.zeros((2, n), dtype=bool)
     ends = np.zeros((2, n), dtype=bool)
@@ -239,6 +246,10 @@ class FinSystem:
     dropped_panels : list of (strip, structure edge, width)
         Degenerate panels left out (narrower than ``min_panel_width``; warned); ``strip`` is
         the part-id prefix ``F<family>-S<strip>``.
+    coplanar_panels : list of (strip, structure edge, node, reason)
+        End panels left out because they meet the plate they end against within about 12
+        degrees (they lie along it, duplicate its fin and cannot be trimmed clear of it;
+        warned); the strip then ends one node earlier, joined there as usual.
 
     Examples
     --------
@@ -282,6 +293,16 @@ class FinSystem:
         self._set_min_width(min_panel_width)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
+        self.parts: list[Part] = []
+        self._solids: dict | None = None
+        self._unrolled: dict | None = None
+        if len(structure.edges) == 0:
+            raise ValueError("the support structure has no edges: nothing to fabricate")
+        self._build_until_trimmed()
+
+    # ------------------------------------------------------------------ construction
+    def _reset_state(self) -> None:
+        """Empty the lists one build fills."""
         #: degenerate panels dropped: (part-id prefix of the strip, structure edge, width)
         self.dropped_panels: list[tuple[str, int, float]] = []
         #: parts whose solid could not be slotted by OpenCascade: (name, slot nodes, reason)
@@ -295,14 +316,42 @@ class FinSystem:
         #: part ends that could not be butt-trimmed: (part name, node, reason)
         self.untrimmed_joints: list[tuple[str, int, str]] = []
         self._init_joints()
-        self.parts: list[Part] = []
-        self._solids: dict | None = None
-        self._unrolled: dict | None = None
-        if len(structure.edges) == 0:
-            raise ValueError("the support structure has no edges: nothing to fabricate")
-        self._build_from_structure()
+        self.parts = []
 
-    # ------------------------------------------------------------------ construction
+    def _build_until_trimmed(self) -> None:
+        """Build; where a part end meets the plate it butts against too obliquely to be
+        trimmed (it lies along that plate, within about 12 degrees, and would overlap it), leave
+        that end panel out (it duplicates the other plate's fin there) and build again, so that
+        every part end is trimmed. The panels left out are named in ``coplanar_panels``
+        (warned); at most :data:`MAX_REBUILDS` rebuilds."""
+        extra: dict[int, set] = {}
+        forced: dict[int, str] = {}
+        left_out: list[tuple[str, int, int, str]] = []
+        for attempt in range(MAX_REBUILDS + 1):
+            self._reset_state()
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                self._build_from_structure(extra, forced)
+            new = {(si, i): rec for si, i, *rec in self._untrimmable if i not in extra.get(si, ())}
+            new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
+            if not (new or new_forced) or attempt == MAX_REBUILDS:
+                break
+            for (si, i), (prefix, edge, node, why) in sorted(new.items()):
+                extra.setdefault(si, set()).add(i)
+                left_out.append((prefix, edge, node, why))
+            forced.update(new_forced)
+        self.coplanar_panels = left_out
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        if left_out:
+            warnings.warn(
+                f"{len(left_out)} fin panels were left out because they meet the plate they end "
+                f"against too obliquely to be trimmed (they lie along it and would overlap it): "
+                + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
+                + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
+                "Raise constraints.min_torsal_angle to keep the two families' fins apart",
+                stacklevel=3)
+
     def _init_joints(self) -> None:
         #: every joint of the assembly (egg-crate, butt + bracket, mitre + splice)
         self.joints: list[Joint] = []
@@ -312,6 +361,15 @@ class FinSystem:
         self.joinery: list = []
         self._connectors: list[Part] = []
         self._n_conn: dict[int, int] = {}
+        #: part ends that could not be trimmed: (strip index, panel of the strip, strip name,
+        #: structure edge, node, reason)
+        self._untrimmable: list[tuple] = []
+        #: crossings an egg-crate cannot join (node -> reason): butted in the next build
+        self._unslidable: dict[int, str] = {}
+        #: part name -> [unit normal of a plate it butts against, turned towards the part]
+        self._walls: dict[str, list] = {}
+        #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
+        self._ends_at: dict[tuple[int, int], list] = {}
 
     @staticmethod
     def _check_common(thickness, clearance, model_unit, unit, max_panels):
@@ -409,6 +467,7 @@ class FinSystem:
         self._solids = self._unrolled = None
         self.min_crossing_angle, self.max_crossing_fold = MIN_CROSSING_ANGLE, MAX_CROSSING_FOLD
         self._init_joints()
+        self.coplanar_panels = []
         for s, st in enumerate(strips):
             q = np.asarray(getattr(st, "quads", st), dtype=float) * self.scale
             fam = int(family)
@@ -564,11 +623,12 @@ class FinSystem:
 
 
     # ------------------------------------------------------------------ construction phases
-    def _build_from_structure(self) -> None:
+    def _build_from_structure(self, extra: dict | None = None, forced: dict | None = None) -> None:
         """Parts from the structure in five phases: read the strips, choose the joint at every
         crossing (:func:`~.joints.choose_joinery`), cut the strips into parts, join the part
         ends (butt + bracket, mitre + splice) and slot the egg-crate crossings."""
-        st = _read_strips(self.structure, self.scale, self._drop_mask)
+        st = _read_strips(self.structure, self.scale, self._drop_mask, extra)
+        self._extra = extra or {}
         plate = _plate_panels(st)
         joinery = {}
         if self.family_split == FamilySplit.EGG_CRATE:
@@ -576,9 +636,15 @@ class FinSystem:
                 joinery[v] = choose_joinery(v, plate[(0, v)], plate[(1, v)],
                                             min_angle=self.min_crossing_angle,
                                             max_fold=self.max_crossing_fold)
+                if v in (forced or {}) and joinery[v].kind == JointKind.EGG_CRATE:
+                    # the family-1 plate cannot slide onto this crossing together with its
+                    # others: split it here (butt joint + bracket)
+                    joinery[v] = joinery[v]._replace(kind=JointKind.BUTT_BRACKET, split=1,
+                                                     why=forced[v])
         self.joinery = [joinery[v] for v in sorted(joinery)]
         part_of_strip = self._strip_parts(st, joinery)
         self.parts = [p for parts in part_of_strip for p in parts]
+        self._strip_of = {p.name: si for si, parts in enumerate(part_of_strip) for p in parts}
         self._where = {(si, p.span[0] + i): (p, i) for si, parts in enumerate(part_of_strip)
                        for p in parts for i in range(len(p.panels))}
         # a family is continuous at a node where one of its parts passes through it
@@ -593,6 +659,7 @@ class FinSystem:
         self._slot_crossings(st, part_of_strip, joinery, cont)
         self.parts = ([p for parts in part_of_strip for p in parts]
                       + sorted(self._connectors, key=lambda p: p.id))
+        self._set_butt_directions()
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
@@ -605,7 +672,7 @@ class FinSystem:
         part_of_strip: list[list[Part]] = []
         dropped, oversize = [], []
         present = st.passes | st.ends
-        for fs, q, drop in zip(st.fins, st.quads, st.drops):
+        for si, (fs, q, drop) in enumerate(zip(st.fins, st.quads, st.drops)):
             fam = fs.family
             at = {int(v): j for j, v in enumerate(fs.vertices)}
             split_here = {at[x.node] for x in joinery.values()
@@ -621,7 +688,8 @@ class FinSystem:
             strip_no[fam] += 1
             prefix = str(PartId(fam, sn, 0))[:-4]
             dropped += [(prefix, int(fs.edges[i]), float(w))
-                        for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])]
+                        for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])
+                        if i not in self._extra.get(si, ())]
             parts = [self._make_part(PartId(fam, sn, i), q, lo, hi, fs.vertices, fs.edges, fs.closed,
                                      drop)
                      for i, (lo, hi) in enumerate(ranges)]
@@ -710,9 +778,18 @@ class FinSystem:
         try:
             moved, m_end, nbar = butt_trim(quad, end == 0, [(n, v) for n, v, _ in panels],
                                            st.a[node], gap, h)
+            # strips of this family that already end here on the same side of the plate meet
+            # this one in the corner: its end clears them too
+            others = [(n, v) for n, v, nb in self._ends_at.get((p.family, node), []) if nb @ nbar > 0]
+            if others:
+                moved = trim_further(quad, end == 0, others, st.a[node], m_end, moved, gap, h)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, str(why)))
+            self._note_untrimmable(p, j, node, str(why))
             return False
+        self._ends_at.setdefault((p.family, node), []).append(
+            (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
+        self._walls.setdefault(p.name, []).append(nbar)
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0 if end == 0 else -1] = m_end
@@ -722,6 +799,12 @@ class FinSystem:
                       insert=_slide(nbar, quad, st.a[node] - st.b[node]),
                       n_corners=2 if bridge else 1)
         return True
+
+    def _note_untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
+        """Remember panel ``j`` of ``p`` (strip index, panel of the strip) to leave it out."""
+        si = getattr(self, "_strip_of", {}).get(p.name)
+        if si is not None and p.family in (0, 1):
+            self._untrimmable.append((si, p.span[0] + j, p.name[:-4], int(p.edges[j]), node, why))
 
     def _panel_quad(self, ref) -> np.ndarray:
         part, i = self._where[ref]
@@ -746,8 +829,10 @@ class FinSystem:
                 raise _Untrimmable("the previous panel has no extent")
             into = into / np.linalg.norm(into)
             moved, m_end, nbar = butt_trim(quad, True, [(nprev, into)], pa, gap, h)
+            self._walls.setdefault(p.name, []).append(nbar)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, f"{what}: {why}"))
+            self._note_untrimmable(p, 0, node, f"{what}: {why}")
             return False
         for cc, x in moved.items():
             quad[cc] = x
@@ -845,6 +930,7 @@ class FinSystem:
                     x = joinery.get(node)
                     if x is not None and x.kind == JointKind.EGG_CRATE and cont[0, node] and cont[1, node]:
                         at_node.setdefault(node, [[], []])[fs.family].append((p, pos))
+        self._plan = self._slide_plan(st, at_node)
         for node in sorted(at_node):
             l0, l1 = at_node[node]
             if not l0 or not l1:
@@ -853,19 +939,94 @@ class FinSystem:
             d = float(st.depth[node])
             d0 = self.slot_ratio * d
             d1 = d - d0
-            w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0], fold_other=x.folds[1])
-            w1 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[1], fold_other=x.folds[0])
+            # the family-1 plate slides along its own direction, a little off this node axis:
+            # both slots are wider by the sideways travel over the fin depth, on either side
+            direction, sense = self._plan[l1[0][0].name]
+            skew = np.arccos(np.clip(direction @ (sense * (st.a[node] - st.b[node]) / d), -1, 1))
+            extra = 2.0 * d * np.tan(skew)
+            w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
+                            fold_other=x.folds[1]) + extra
+            w1 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[1],
+                            fold_other=x.folds[0]) + extra
             names0 = tuple(sorted({p.name for p, _ in l0}))
             names1 = tuple(sorted({p.name for p, _ in l1}))
+            # family 0 slotted from its b edge and family 1 from its a edge (family 1 moves
+            # along a - b), or the other way round where family 1 slides in along b - a
+            side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
             for p, pos in l0:
-                p.slots.append(Slot(node, pos, SlotSide.B, d0, w0, "+".join(names1)))
+                p.slots.append(Slot(node, pos, side0, d0, w0, "+".join(names1)))
             for p, pos in l1:
-                p.slots.append(Slot(node, pos, SlotSide.A, d1, w1, "+".join(names0)))
+                p.slots.append(Slot(node, pos, side1, d1, w1, "+".join(names0)))
             w = max(w0, w1)
             self.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
             self.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
-                                     (st.a[node] - st.b[node]) / d, None, None, float(x.angle)))
+                                     direction, None, None, float(x.angle)))
+
+    def _slide_plan(self, st: "_Strips", at_node) -> dict:
+        """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
+        all its egg-crate crossings along one direction, the mean of their node axes
+        (``sense`` +1: along ``a - b``, slots open on its ``a`` edge; -1: along ``b - a``),
+        the sense in which its butted ends do not run into the plates they meet. A crossing
+        whose axis is more than :data:`~.joints.MAX_SLOT_SKEW` off that direction, or a plate
+        whose butted ends block it in both senses, is listed in ``_unslidable`` (butted in the
+        next build)."""
+        nodes_of: dict[str, list[int]] = {}
+        for node, (l0, l1) in sorted(at_node.items()):
+            if l0 and l1:
+                for p, _ in l1:
+                    nodes_of.setdefault(p.name, []).append(node)
+        plan = {}
+        for name, nodes in nodes_of.items():
+            axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
+            d = axes.sum(axis=0)
+            d = d / np.linalg.norm(d)
+            skew = np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
+            if skew.max() > MAX_SLOT_SKEW:
+                self._unslidable[nodes[int(np.argmax(skew))]] = (
+                    f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
+                    f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
+            walls = self._walls.get(name, [])
+            sense = 1.0
+            if walls:
+                run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
+                sense = min(run_in, key=run_in.get)
+                # the butted end may close its gap (clearance / 2) over a travel of the depth
+                if run_in[sense] > 0.5 * self.clearance / float(st.depth[nodes].max()):
+                    for v in nodes:
+                        self._unslidable.setdefault(v, (
+                            f"{name} would run into a plate it butts against while sliding "
+                            f"along its node axes ({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"))
+            plan[name] = (sense * d, sense)
+        return plan
+
+    def _set_butt_directions(self) -> None:
+        """Every part slides in along one direction: a family-1 plate with slots along its
+        slide direction (:meth:`_slide_plan`), any other butted part along the direction, of
+        those its butt joints allow (along each plate it meets, along the line where two of
+        them meet, or head on), that runs least into the plates it butts against. The butt
+        joints record it as their ``insert_direction``."""
+        plan = getattr(self, "_plan", {})
+        butted: dict[str, list[int]] = {}
+        for k, j in enumerate(self.joints):
+            if j.kind == JointKind.BUTT_BRACKET:
+                names = [n for n in j.parts if n != j.connector]
+                butted.setdefault(names[-1], []).append(k)
+        for name, ks in butted.items():
+            walls = self._walls.get(name, [])
+            if name in plan:
+                d = plan[name][0]
+            elif len(walls) < 2:
+                continue
+            else:
+                cands = [self.joints[k].insert_direction for k in ks]
+                cands += [np.cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
+                cands.append(-np.sum(walls, axis=0))
+                cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
+                cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
+                d = min(cands, key=lambda c: max(c @ n for n in walls))
+            for k in ks:
+                self.joints[k] = replace(self.joints[k], insert_direction=np.asarray(d, float))
 
     def _resolve_slot_splits(self) -> None:
         """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot
