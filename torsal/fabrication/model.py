@@ -167,6 +167,10 @@ class Joint:
         Unit vector along which the connector is put on last (into the corner it sits in).
     angle : float
         Degrees: crossing angle of the plates (egg-crate, butt) or fold angle (mitre).
+    depth : float or None
+        Fin depth ``|b_i - a_i|`` at the node (``unit``): the parts engage over at most this
+        length along the node line (a slot is never longer), so a part slid in along it by
+        that much is disengaged from the joint (None: unknown).
     """
 
     kind: JointKind
@@ -176,6 +180,7 @@ class Joint:
     connector: str | None = None
     connector_direction: np.ndarray | None = field(default=None, compare=False)
     angle: float = 90.0
+    depth: float | None = None
 
 
 def quad_normals(quads: np.ndarray) -> np.ndarray:

@@ -128,6 +128,47 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     return d if d @ axis >= 0 else -d
 
 
+def _cycles(after: dict) -> list[list[str]]:
+    """Strongly connected components of more than one part of the graph ``{a: {b: ...}}``
+    (``b`` placed after ``a``), each sorted, in a stable order (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack, on, out = [], set(), []
+    for root in sorted(set(after) | {b for a in after for b in after[a]}):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(after.get(root, {}))))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            w = next(it, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(after.get(w, {})))))
+                elif w in on:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                if len(comp) > 1:
+                    out.append(sorted(comp))
+    return out
+
+
 def _read_strips(structure, scale: float, drop_mask, extra: dict | None = None) -> _Strips:
     """Strips of a support structure scaled to ``unit``, degenerate panels marked (and the
     panels ``extra`` {strip index: panel indices})"""
@@ -334,6 +375,8 @@ class FinSystem:
                 self._build_from_structure(extra, forced)
             new = {(si, i): rec for si, i, *rec in self._untrimmable if i not in extra.get(si, ())}
             new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
+            new_forced.update((v, why) for v, why in self._break_cycles(forced).items()
+                              if v not in new_forced)
             if not (new or new_forced) or attempt == MAX_REBUILDS:
                 break
             for (si, i), (prefix, edge, node, why) in sorted(new.items()):
@@ -636,11 +679,13 @@ class FinSystem:
                 joinery[v] = choose_joinery(v, plate[(0, v)], plate[(1, v)],
                                             min_angle=self.min_crossing_angle,
                                             max_fold=self.max_crossing_fold)
-                if v in (forced or {}) and joinery[v].kind == JointKind.EGG_CRATE:
-                    # the family-1 plate cannot slide onto this crossing together with its
-                    # others: split it here (butt joint + bracket)
-                    joinery[v] = joinery[v]._replace(kind=JointKind.BUTT_BRACKET, split=1,
-                                                     why=forced[v])
+                if v in (forced or {}):
+                    # an egg-crate the family-1 plate cannot slide onto together with its
+                    # others: split it here (butt joint + bracket); a butt joint in a cycle
+                    # of parts butting on each other: split the other strip instead
+                    split, why = forced[v]
+                    joinery[v] = joinery[v]._replace(kind=JointKind.BUTT_BRACKET, split=split,
+                                                     why=why)
         self.joinery = [joinery[v] for v in sorted(joinery)]
         part_of_strip = self._strip_parts(st, joinery)
         self.parts = [p for parts in part_of_strip for p in parts]
@@ -660,6 +705,8 @@ class FinSystem:
         self.parts = ([p for parts in part_of_strip for p in parts]
                       + sorted(self._connectors, key=lambda p: p.id))
         self._set_butt_directions()
+        self.joints = [replace(j, depth=float(st.depth[j.node])) if j.node >= 0 else j
+                       for j in self.joints]
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
@@ -751,6 +798,8 @@ class FinSystem:
                         prev = self._previous(parts, p, st.quads[si])
                         if prev is not None:
                             self._splice(prev, p, node, g)
+                    if kind == "miter" and end == 0:
+                        self._seam_walls(self._previous(parts, p, st.quads[si]), p)
                 p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=5)
         if self.unconnected_joints:
@@ -789,7 +838,10 @@ class FinSystem:
             return False
         self._ends_at.setdefault((p.family, node), []).append(
             (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
-        self._walls.setdefault(p.name, []).append(nbar)
+        # every face it ends against, turned towards it: its insertion must not close those gaps
+        centre = quad.mean(axis=0) - st.a[node]
+        self._walls.setdefault(p.name, []).extend(
+            n if centre @ n >= 0 else -n for n in [n for n, _, _ in panels] + [n for n, _ in others])
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0 if end == 0 else -1] = m_end
@@ -799,6 +851,20 @@ class FinSystem:
                       insert=_slide(nbar, quad, st.a[node] - st.b[node]),
                       n_corners=2 if bridge else 1)
         return True
+
+    def _seam_walls(self, prev: Part | None, p: Part) -> None:
+        """The two parts of a strip split on a mitre touch on the fold's bisector plane: each is
+        a wall of the other (normal of that plane, turned towards it) for its insertion."""
+        if prev is None:
+            return
+        a, b = p.panels[0][0], p.panels[0][3]
+        seam = np.cross(b - a, p.miters[0])
+        if not np.linalg.norm(seam) > 0:
+            return
+        seam = seam / np.linalg.norm(seam)
+        for q, quad in ((p, p.panels[0]), (prev, prev.panels[-1])):
+            n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
+            self._walls.setdefault(q.name, []).append(n)
 
     def _note_untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
         """Remember panel ``j`` of ``p`` (strip index, panel of the strip) to leave it out."""
@@ -963,6 +1029,52 @@ class FinSystem:
             self.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                      direction, None, None, float(x.angle)))
 
+    def _butted_after(self) -> dict:
+        """``{part: {part placed after it: node}}``: family-1 plates go on family-0 plates
+        at an egg-crate, a butted part after the plate it butts against (the two parts of a
+        mitred seam in either order)."""
+        after: dict[str, dict[str, int]] = {}
+        conn = {j.connector for j in self.joints if j.connector}
+        for j in self.joints:
+            names = [n for n in j.parts if n not in conn]
+            if j.kind == JointKind.EGG_CRATE:
+                pairs = [(a, b) for a in names for b in names if a[:2] == "F0" and b[:2] == "F1"]
+            elif j.kind == JointKind.BUTT_BRACKET:
+                pairs = [(a, names[-1]) for a in names[:-1]]
+            else:
+                pairs = []
+            for a, b in pairs:
+                after.setdefault(a, {})[b] = j.node
+        return after
+
+    def _break_cycles(self, forced: dict) -> dict:
+        """Crossings to split the other way (``{node: (family split, reason)}``) so that no
+        parts butt on each other in a cycle (A against B, B against C, C against A: the last
+        one could not be put in). In every cycle, the crossings of two passing strips where
+        family 0 is split are split on family 1 instead (family 0 continuous, as family-1
+        plates are put on family-0 plates), or, if there are none, the first crossing whose
+        joint is not yet forced has its split family swapped."""
+        after = self._butted_after()
+        split_at = {x.node: x for x in self.joinery}
+        out = {}
+        for comp in _cycles(after):
+            why = f"the parts {', '.join(comp[:4])} would butt on each other in a cycle"
+            # crossings where a family-0 part butts against a family-1 plate (family 0 split
+            # there: by the joinery, or for length): split family 1 there too, bracketed across
+            back = sorted({v for a in comp if a[:2] == "F1" for b, v in after.get(a, {}).items()
+                           if b in comp and b[:2] == "F0" and v in split_at and v not in forced})
+            for v in back:
+                x = split_at[v]
+                out[v] = (1, f"{x.why + '; ' if x.why else ''}split family 1: {why}")
+            if back:
+                continue
+            nodes = sorted({after[a][b] for a in comp for b in after.get(a, {}) if b in comp})
+            xs = [split_at[v] for v in nodes if v in split_at and v not in forced
+                  and split_at[v].kind == JointKind.BUTT_BRACKET]
+            for x in xs[:1]:
+                out[x.node] = (1 - x.split, f"{x.why}; split family {1 - x.split}: {why}")
+        return out
+
     def _slide_plan(self, st: "_Strips", at_node) -> dict:
         """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
         all its egg-crate crossings along one direction, the mean of their node axes
@@ -983,7 +1095,7 @@ class FinSystem:
             d = d / np.linalg.norm(d)
             skew = np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
             if skew.max() > MAX_SLOT_SKEW:
-                self._unslidable[nodes[int(np.argmax(skew))]] = (
+                self._unslidable[nodes[int(np.argmax(skew))]] = 1, (
                     f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
                     f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
             walls = self._walls.get(name, [])
@@ -994,11 +1106,18 @@ class FinSystem:
                 # the butted end may close its gap (clearance / 2) over a travel of the depth
                 if run_in[sense] > 0.5 * self.clearance / float(st.depth[nodes].max()):
                     for v in nodes:
-                        self._unslidable.setdefault(v, (
+                        self._unslidable.setdefault(v, (1,
                             f"{name} would run into a plate it butts against while sliding "
                             f"along its node axes ({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"))
             plan[name] = (sense * d, sense)
         return plan
+
+    def _node_axis(self, node: int) -> np.ndarray:
+        """Unit node axis ``a_i - b_i`` (any vector when the node is -1)."""
+        if node < 0:
+            return np.zeros(3)
+        d = np.asarray(self.structure.vertices_a[node] - self.structure.vertices_b[node], float)
+        return d / np.linalg.norm(d)
 
     def _set_butt_directions(self) -> None:
         """Every part slides in along one direction: a family-1 plate with slots along its
@@ -1016,15 +1135,20 @@ class FinSystem:
             walls = self._walls.get(name, [])
             if name in plan:
                 d = plan[name][0]
-            elif len(walls) < 2:
+            elif not walls:
                 continue
             else:
-                cands = [self.joints[k].insert_direction for k in ks]
+                # the node axis of a butt joint first (it lies in both plates: the end slides
+                # along the plate it meets), then lines where two walls meet, then head on
+                cands = [self._node_axis(self.joints[k].node) for k in ks]
+                cands += [self.joints[k].insert_direction for k in ks]
                 cands += [np.cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
                 cands.append(-np.sum(walls, axis=0))
                 cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
                 cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
-                d = min(cands, key=lambda c: max(c @ n for n in walls))
+                run_in = [max(c @ n for n in walls) for c in cands]
+                ok = [c for c, r in zip(cands, run_in) if r <= 1e-3]
+                d = ok[0] if ok else cands[int(np.argmin(run_in))]
             for k in ks:
                 self.joints[k] = replace(self.joints[k], insert_direction=np.asarray(d, float))
 
