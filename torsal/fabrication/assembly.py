@@ -16,11 +16,13 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    (1 mm^3) is an interference. A boolean that fails is listed in ``failed_pairs`` and the
    design is not called buildable (nothing is assumed).
 3. **Assembly order.** Parts are placed one by one in an order that follows the joints (the
-   parts a joint lists first are placed first: for an egg-crate crossing the family-0 plate,
-   slotted from its ``b`` edge, then the family-1 plate, slotted from its ``a`` edge;
-   connectors go on after the plates around them). Each part is inserted along a straight
-   line: the axis of its joints with parts already placed (the node axis ``L_i`` for
-   egg-crate pairs; the mean axis of its slots first, then the mean of all its joints' axes,
+   parts a joint lists first are placed first: for an egg-crate crossing the family-0
+   plate(s), then the family-1 plate(s); for a butt joint the parts of the plate butted
+   against, in any order among themselves, then the butted part; the two parts of a mitre in
+   either order; connectors go on after the plates around them). Each part is inserted along a
+   straight line: the axis of its joints with parts already placed (the joint's
+   ``insert_direction``: for egg-crate pairs along the node axis ``L_i``, or the slide
+   direction the builder cut the slots for; the mean axis of its slots first, then the mean of all its joints' axes,
    then each axis on its own, then the lines where two plates it butts against meet; both
    senses). The path starts one depth of the part back (``travel``: the part's extent
    along the direction, but no more than the largest ``depth`` of the joints it makes with

@@ -6,8 +6,8 @@ every node the joint is chosen from the real geometry of the plates there:
 * **Egg-crate** (:attr:`JointKind.EGG_CRATE`) where a strip of each family passes through
   the node, *neither plate folds there by more than* :data:`MAX_CROSSING_FOLD` and the plates
   cross at *at least* :data:`MIN_CROSSING_ANGLE`. Both plates contain ``L_i``, so they slide
-  together along it: family 0 is slotted from its ``b`` edge, family 1 from its ``a`` edge,
-  depths adding up to ``|b_i - a_i|``. A laser cut is square to the sheet, so the slot must
+  together along it: family 0 is slotted from its ``b`` edge, family 1 from its ``a`` edge
+  (or the other way round, see below), depths adding up to ``|b_i - a_i|``. A laser cut is square to the sheet, so the slot must
   take the whole cross-section of the other plate, a parallelogram: at a crossing angle
   ``alpha`` the slot width is ``t (1 + cos alpha) / sin alpha + c`` (:func:`slot_width`;
   ``t + c`` at 90 degrees, ``2.41 t + c`` at 45, ``3.73 t + c`` at 30). A small fold
@@ -30,16 +30,38 @@ every node the joint is chosen from the real geometry of the plates there:
   ends meet on the fold's bisector plane and a bent splice plate covers the seam on the side
   clear of other parts.
 
+**One insertion direction per part.** Family-0 plates go in first; each family-1 plate then
+slides onto all its egg-crate crossings along one direction, the mean of their node axes. A
+crossing whose axis is ``skew`` off it gets both slots ``2 depth tan(skew)`` wider; beyond
+:data:`MAX_SLOT_SKEW` (2 degrees) the crossing is butted instead (the strip split there).
+The sense (along ``a - b``, slots open on the family-1 ``a`` edge, or along ``b - a``, slots
+on its ``b`` edge and family 0's ``a`` edge) is the one in which its butted ends do not close
+their gaps to the plates they meet; if neither does, its crossings are butted. A part with
+butt joints only slides along the node axis of one of them where that closes no gap (the end
+slides along the plate), else along the line where two of the faces it ends against meet,
+or head on. No parts butt on each other in a cycle (A against B, B against C, C against A: the
+last could not go in): in a cycle, crossings where a family-0 part butts against a family-1
+plate are split on family 1 instead (family 0 continuous, bracketed across), else one
+crossing's split family is swapped; the design is rebuilt until no cycle is left.
+
+**End panels that cannot be trimmed are left out.** A part end meeting the plate it ends
+against within about 12 degrees (it lies along that plate and duplicates its fin) cannot be
+trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
+warned) and the strip ends one node earlier, joined there as usual.
+
 Where several strips of one family end at the same node, the first is the base and each other
-butts against it and those before it; where both strips are split at a node, family 1's halves
+butts against it and those before it (ending against a plate of the other family, each end
+also clears those of its family that end there on the same side); where both strips are split at a node, family 1's halves
 get a bracket in both corners, which bridges family 0's seam. Node lines of the two families
 that coincide (refined developable strips duplicate them) are one node. A panel folded back
 onto its neighbour (more than ``MITER_LIMIT``) duplicates that fin and is dropped (named).
 
 Limits: slots need a crossing angle of at least :data:`MIN_CROSSING_ANGLE` (30 degrees: the
-slot is then already 3.7 plate thicknesses wide) and folds of at most
-:data:`MAX_CROSSING_FOLD` (10 degrees) at the crossing; a butt trim needs the part to meet the
-plate at more than about 12 degrees (else it is listed in ``FinSystem.untrimmed_joints``); a
+slot is then already 3.7 plate thicknesses wide), folds of at most :data:`MAX_CROSSING_FOLD`
+(10 degrees) at the crossing and node axes within :data:`MAX_SLOT_SKEW` of the plate's slide
+direction; a butt trim needs the part to meet the plate at more than about 12 degrees (else
+the end panel is left out; after ``MAX_REBUILDS`` rebuilds, or for strips from
+:meth:`FinSystem.from_strips`, it is listed in ``FinSystem.untrimmed_joints``); a
 bracket needs room for legs of at least ``2 t`` inside both panels (else the joint is listed in
 ``FinSystem.unconnected_joints``). Holes for rivets or bolts are not drawn: brackets are
 placed and drilled, or welded, in the workshop. Folds are not moved away from crossings: the

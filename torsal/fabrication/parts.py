@@ -27,6 +27,11 @@ of the fold (mitred) with a splice plate, or, at a crossing, are butted against 
 plate. Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
 :attr:`FinSystem.joints` lists every joint (:class:`~.model.Joint`).
 
+Every part goes in along one direction (:mod:`.joints`, "one insertion direction per part"):
+the structure is rebuilt (at most ``MAX_REBUILDS`` times) leaving out end panels that cannot
+be trimmed (``coplanar_panels``), butting crossings a plate cannot slide onto together with
+its others, and re-splitting crossings where parts would butt on each other in a cycle.
+
 Real structures from the remesher have defects near boundaries and at coarse resolution; they
 are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
 into NaN or invalid solids: degenerate panels (narrower than ``min_panel_width`` or
@@ -386,6 +391,8 @@ class FinSystem:
         self.coplanar_panels = left_out
         for w in caught:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        # slots that would cut a part in two: once, on the final parts (it unrolls them all)
+        self._resolve_slot_splits()
         if left_out:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
@@ -710,7 +717,6 @@ class FinSystem:
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
-        self._resolve_slot_splits()
 
     def _strip_parts(self, st: "_Strips", joinery: dict) -> list[list[Part]]:
         """Cut every strip into parts: at sharp folds, dropped panels, length and sheet limits,
@@ -1008,7 +1014,8 @@ class FinSystem:
             # the family-1 plate slides along its own direction, a little off this node axis:
             # both slots are wider by the sideways travel over the fin depth, on either side
             direction, sense = self._plan[l1[0][0].name]
-            skew = np.arccos(np.clip(direction @ (sense * (st.a[node] - st.b[node]) / d), -1, 1))
+            ax = sense * (st.a[node] - st.b[node]) / d
+            skew = np.arctan2(np.linalg.norm(np.cross(direction, ax)), direction @ ax)
             extra = 2.0 * d * np.tan(skew)
             w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
                             fold_other=x.folds[1]) + extra
@@ -1093,7 +1100,7 @@ class FinSystem:
             axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
             d = axes.sum(axis=0)
             d = d / np.linalg.norm(d)
-            skew = np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
+            skew = np.degrees(np.arctan2(np.linalg.norm(np.cross(axes, d), axis=1), axes @ d))
             if skew.max() > MAX_SLOT_SKEW:
                 self._unslidable[nodes[int(np.argmax(skew))]] = 1, (
                     f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
