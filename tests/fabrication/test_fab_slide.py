@@ -84,3 +84,15 @@ def test_butt_joint_groups_the_plate_it_butts_against():
                       np.array([0.0, 0, 1]), "C-N0003-0")
     # the two halves of the plate are not each other's partners by this joint
     assert joint_groups(j) == [("F0-S001-P00", "F0-S001-P01"), ("F1-S002-P00",), ("C-N0003-0",)]
+
+
+def test_quads_crossing_without_a_joint_are_found():
+    from torsal.fabrication.parts import _quads_cross
+
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    post = np.array([[[0.5, 0.5, -1], [0.6, 0.5, -1], [0.6, 0.5, 1], [0.5, 0.5, 1]]], float)
+    assert _quads_cross(floor, post) and _quads_cross(post, floor)
+    assert not _quads_cross(floor, post + [0, 0, 5])           # above it
+    # sharing an edge (neighbours on a node line) is not crossing
+    wall = np.array([[[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]]], float)
+    assert not _quads_cross(floor, wall)

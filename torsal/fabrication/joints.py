@@ -47,7 +47,9 @@ crossing's split family is swapped; the design is rebuilt until no cycle is left
 **End panels that cannot be trimmed are left out.** A part end meeting the plate it ends
 against within about 12 degrees (it lies along that plate and duplicates its fin) cannot be
 trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
-warned) and the strip ends one node earlier, joined there as usual.
+warned) and the strip ends one node earlier, joined there as usual. A part joined to nothing
+(no joint, no slot) whose panels pass through another part's is left out the same way: the
+structure runs through itself there.
 
 Where several strips of one family end at the same node, the first is the base and each other
 butts against it and those before it (ending against a plate of the other family, each end

@@ -133,6 +133,32 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     return d if d @ axis >= 0 else -d
 
 
+def _quads_cross(p: np.ndarray, q: np.ndarray) -> bool:
+    """Whether an edge of a quad of ``p`` (k, 4, 3) passes through a quad of ``q`` (m, 4, 3)
+    or the other way round (mid-surfaces, two triangles per quad; Moller-Trumbore)."""
+
+    def hits(quads, others) -> bool:
+        e0 = quads.reshape(-1, 3)
+        e1 = np.roll(quads, -1, axis=1).reshape(-1, 3)
+        tris = np.concatenate([others[:, [0, 1, 2]], others[:, [0, 2, 3]]])
+        v0, v1, v2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+        d = e1 - e0                                                     # (E, 3)
+        pv = np.cross(d[:, None], v2[None])                             # (E, T, 3)
+        det = np.einsum("etk,tk->et", pv, v1)
+        ok = np.abs(det) > 1e-12 * np.linalg.norm(v1, axis=1) * np.linalg.norm(v2, axis=1) * \
+            np.linalg.norm(d, axis=1)[:, None]
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        tv = e0[:, None] - v0[None]
+        u = np.einsum("etk,etk->et", tv, pv) * inv
+        qv = np.cross(tv, v1[None])
+        v = np.einsum("etk,ek->et", qv, d) * inv
+        t = np.einsum("etk,tk->et", qv, v2) * inv
+        eps = 1e-6
+        return bool((ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)).any())
+
+    return hits(p, q) or hits(q, p)
+
+
 def _cycles(after: dict) -> list[list[str]]:
     """Strongly connected components of more than one part of the graph ``{a: {b: ...}}``
     (``b`` placed after ``a``), each sorted, in a stable order (Tarjan, iterative)."""
@@ -378,7 +404,8 @@ class FinSystem:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 self._build_from_structure(extra, forced)
-            new = {(si, i): rec for si, i, *rec in self._untrimmable if i not in extra.get(si, ())}
+            new = {(si, i): rec for si, i, *rec in self._untrimmable + self._stray_parts()
+                   if i not in extra.get(si, ())}
             new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
             new_forced.update((v, why) for v, why in self._break_cycles(forced).items()
                               if v not in new_forced)
@@ -857,6 +884,30 @@ class FinSystem:
                       insert=_slide(nbar, quad, st.a[node] - st.b[node]),
                       n_corners=2 if bridge else 1)
         return True
+
+    def _stray_parts(self) -> list[tuple]:
+        """Parts joined to nothing (no joint, no slot) whose panels pass through another
+        part's panels: the structure runs through itself there and such a fin could neither
+        be fastened nor fitted; its panels are left out (as :meth:`_note_untrimmable`)."""
+        joined = {n for j in self.joints for n in j.parts}
+        plates = [p for p in self.parts if p.family in (0, 1)]
+        out = []
+        for p in plates:
+            if p.name in joined or p.slots or p.name not in self._strip_of:
+                continue
+            lo, hi = p.panels.reshape(-1, 3).min(axis=0), p.panels.reshape(-1, 3).max(axis=0)
+            for o in plates:
+                if o is p:
+                    continue
+                q = o.panels.reshape(-1, 3)
+                if (q.min(axis=0) > hi).any() or (q.max(axis=0) < lo).any():
+                    continue
+                if _quads_cross(p.panels, o.panels):
+                    why = f"it crosses {o.name} without a joint (the structure runs through itself)"
+                    out += [(self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
+                             int(p.nodes[j]), why) for j in range(len(p.panels))]
+                    break
+        return out
 
     def _seam_walls(self, prev: Part | None, p: Part) -> None:
         """The two parts of a strip split on a mitre touch on the fold's bisector plane: each is
