@@ -96,3 +96,12 @@ def test_quads_crossing_without_a_joint_are_found():
     # sharing an edge (neighbours on a node line) is not crossing
     wall = np.array([[[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]]], float)
     assert not _quads_cross(floor, wall)
+
+
+def test_fin_folded_back_onto_another_is_found():
+    from torsal.fabrication.parts import _quads_on
+
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    assert _quads_on(floor * 0.5 + [0.2, 0.2, 0.002], floor, 0.003)      # lies on it
+    assert not _quads_on(floor * 0.5 + [0.2, 0.2, 0.01], floor, 0.003)   # 10 mm above
+    assert not _quads_on(floor + [2, 0, 0], floor, 0.003)                 # beside it

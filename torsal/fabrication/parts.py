@@ -159,6 +159,28 @@ def _quads_cross(p: np.ndarray, q: np.ndarray) -> bool:
     return hits(p, q) or hits(q, p)
 
 
+def _quads_on(p: np.ndarray, q: np.ndarray, gap: float) -> bool:
+    """Whether the centre of a quad of ``p`` (k, 4, 3) lies within ``gap`` of a quad of ``q``
+    (m, 4, 3), over it (a fin folded back onto another: coplanar overlap, no edge crossing)."""
+    c = p.mean(axis=1)                                                  # (k, 3)
+    tris = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])           # (T, 3, 3)
+    v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    n = np.cross(e1, e2)
+    area2 = np.linalg.norm(n, axis=1)
+    ok = area2 > 0
+    n = n / np.where(ok, area2, 1.0)[:, None]
+    w = c[:, None] - v0[None]                                           # (k, T, 3)
+    dist = np.abs(np.einsum("ktj,tj->kt", w, n))
+    # barycentric coordinates of the projection
+    d00, d01, d11 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    d20, d21 = np.einsum("ktj,tj->kt", w, e1), np.einsum("ktj,tj->kt", w, e2)
+    den = np.where(ok, d00 * d11 - d01 * d01, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    u = (d00 * d21 - d01 * d20) / den
+    inside = ok & (v > 0) & (u > 0) & (u + v < 1)
+    return bool((inside & (dist <= gap)).any())
+
+
 def _cycles(after: dict) -> list[list[str]]:
     """Strongly connected components of more than one part of the graph ``{a: {b: ...}}``
     (``b`` placed after ``a``), each sorted, in a stable order (Tarjan, iterative)."""
@@ -902,7 +924,7 @@ class FinSystem:
                 q = o.panels.reshape(-1, 3)
                 if (q.min(axis=0) > hi).any() or (q.max(axis=0) < lo).any():
                     continue
-                if _quads_cross(p.panels, o.panels):
+                if _quads_cross(p.panels, o.panels) or _quads_on(p.panels, o.panels, self.thickness):
                     why = f"it crosses {o.name} without a joint (the structure runs through itself)"
                     out += [(self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
                              int(p.nodes[j]), why) for j in range(len(p.panels))]
