@@ -19,10 +19,9 @@ REPORT_KEYS = {
 }
 ASSEMBLY_KEYS = {"pairs_checked", "interfering_pairs", "worst_overlap_mm3", "buildable", "joints",
                  "connectors"}
-#: examples whose test-size parts the assembly check still finds interfering or blocked
-#: (measured 2026-11-23; 7c assembles in some runs and not in others); every other example
-#: must assemble
-NOT_YET_BUILDABLE = {"7c", "7d", "9", "13"}
+#: examples whose test-size parts the assembly check still finds interfering or blocked:
+#: none (measured 2026-11-23); every example must assemble
+NOT_YET_BUILDABLE: set[str] = set()
 
 
 def recount_interference(step_file) -> list[float]:

@@ -204,14 +204,18 @@ def test_max_part_length_splits_strips_to_fit_sheets():
 
 
 @pytest.mark.filterwarnings("ignore:.*egg-crate crossings")
-def test_end_that_cannot_be_trimmed_is_reported_not_fatal():
+def test_end_that_lies_along_the_plate_is_left_out_and_named():
     # a column ends against row 0 almost tangentially: move its second node along the row
     s = flat_structure()
     a, b = s.vertices_a.copy(), s.vertices_b.copy()
     a[5] = a[1] + [0.3, 0.005, 0.0]          # column 1: node 1 -> node 5 runs nearly along row 0
     b[5] = a[5] + [0, 0, 0.1]
     bad = SupportStructure(a, b, s.faces, s.edges, s.edge_family)
-    with pytest.warns(UserWarning, match="could not be butt-trimmed"):
+    with pytest.warns(UserWarning, match="left out because they meet the plate"):
         fs = FinSystem(bad, thickness=3.0)
-    assert any(name == "F1-S001-P00" and node == 1 for name, node, _ in fs.untrimmed_joints)
-    assert fs.part("F1-S001-P00").trimmed[0] is False
+    # the panel 1 -> 5 meets row 0 at 1 degree: it cannot be trimmed clear of it, so it is
+    # left out (named), and every remaining part end is trimmed
+    edge = next(e for e, (i, j) in enumerate(np.asarray(bad.edges).tolist()) if {i, j} == {1, 5})
+    assert ("F1-S001", edge, 1) in {(s_, e, v) for s_, e, v, _ in fs.coplanar_panels}
+    assert edge not in np.concatenate([p.edges for p in fs.parts]).tolist()
+    assert fs.untrimmed_joints == []

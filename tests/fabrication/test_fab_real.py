@@ -53,8 +53,9 @@ def test_every_part_is_a_valid_finite_solid(name):
     assert sorted(sol) == sorted(p.name for p in fs.parts)
     plates = [p for p in fs.parts if p.family >= 0]
     edges = np.concatenate([p.edges for p in plates])
-    dropped = {e for _, e, _ in fs.dropped_panels}
-    # every fin of the structure is in exactly one part, unless dropped as degenerate
+    dropped = {e for _, e, _ in fs.dropped_panels} | {e for _, e, _, _ in fs.coplanar_panels}
+    # every fin of the structure is in exactly one part, unless dropped as degenerate or left
+    # out as lying along the plate it ends against
     assert len(edges) == len(set(edges.tolist()))
     assert set(edges.tolist()) | dropped == set(range(len(fs.structure.edges)))
     for p in fs.parts:
@@ -85,7 +86,8 @@ def test_sharp_folds_split_the_part_and_are_reported():
     # splits at sharp folds are never mitred: the later part is butt-trimmed (against the
     # earlier part, or against the crossing plate at a crossing) or listed as overlapping
     folds = [p for p in fs.parts if p.ends[0] == "fold"]
-    assert folds
+    # (or the panel after the fold was left out: it could not be trimmed against the other)
+    assert folds or fs.coplanar_panels
     listed = {(n, v): r for n, v, r in fs.untrimmed_joints}
     for p in folds:
         assert p.trimmed[0] or (p.name, int(p.nodes[0])) in listed, p.name
@@ -94,9 +96,15 @@ def test_sharp_folds_split_the_part_and_are_reported():
             if kind in ("fold", "dropped") and not p.trimmed[end]:
                 m = p.miters[0 if end == 0 else -1]
                 n = p.normals[0 if end == 0 else -1]
-                assert np.allclose(m, n)                     # square end
-    msg = _warning(msgs, "untrimmed_joints")
-    assert any(f"{n} at node {v}" in msg for n, v, _ in fs.untrimmed_joints[:6])
+                # square end (to the panel as built: a trim at its other end may tilt the
+                # Newell normal of a slightly non-planar panel by ~1e-5)
+                assert np.allclose(m, n, atol=1e-4)
+    if fs.untrimmed_joints:
+        msg = _warning(msgs, "untrimmed_joints")
+        assert any(f"{n} at node {v}" in msg for n, v, _ in fs.untrimmed_joints[:6])
+    # ends that could not be trimmed were left out and named
+    msg = _warning(msgs, "coplanar_panels")
+    assert any(f"{s} edge {e} at node {v}" in msg for s, e, v, _ in fs.coplanar_panels[:6])
 
 
 def _folds(quads):
@@ -124,13 +132,13 @@ def test_degenerate_panels_are_dropped_with_a_warning_naming_them():
 
 def test_unconstrained_butt_trim_is_skipped_not_nan():
     # 7c: part ends that do not lie over the plate they end against used to make the trim run
-    # to -inf and NaN; such ends are now skipped and listed by name, never NaN
+    # to -inf and NaN; such end panels are now left out and named, never NaN
     fs, msgs = _build("7c_facade_see_through")
     for p in fs.parts:
         assert np.isfinite(p.panels).all() and np.isfinite(p.miters).all(), p.name
-    assert fs.untrimmed_joints
-    name, node, why = fs.untrimmed_joints[0]
-    assert f"{name} at node {node}" in _warning(msgs, "untrimmed_joints") and why
+    assert fs.coplanar_panels and not fs.untrimmed_joints
+    strip, edge, node, why = fs.coplanar_panels[0]
+    assert f"{strip} edge {edge} at node {node}" in _warning(msgs, "coplanar_panels") and why
 
 
 def test_slots_on_nearly_flat_folds_are_cut_cleanly(tmp_path):
@@ -208,7 +216,9 @@ def test_single_oversize_panel_is_reported_as_one_panel(name, part):
         if len(q.panels) > 1:
             w, h = _oriented_size(fs.unrolled()[q.name].outline)
             assert w <= SHEET[0] - 2 * fs.fit_margin + 1e-6 and h <= SHEET[1] - 2 * fs.fit_margin + 1e-6
-    with pytest.raises(PartTooLargeError, match=f"{part}.*ONE fin panel.*smaller fin spacing"):
+    # layout names the first oversize part it meets
+    with pytest.raises(PartTooLargeError, match=f"({'|'.join(fs.oversize_panels)}).*ONE fin "
+                                                "panel.*smaller fin spacing"):
         fs.layout(sheet=SHEET, gap=5.0)
     # on a sheet it fits, everything is nested
     big = (3000.0, 1500.0)

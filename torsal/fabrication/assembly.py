@@ -16,15 +16,18 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    (1 mm^3) is an interference. A boolean that fails is listed in ``failed_pairs`` and the
    design is not called buildable (nothing is assumed).
 3. **Assembly order.** Parts are placed one by one in an order that follows the joints (the
-   parts a joint lists first are placed first: for an egg-crate crossing the family-0 plate,
-   slotted from its ``b`` edge, then the family-1 plate, slotted from its ``a`` edge;
-   connectors go on after the plates around them). Each part is inserted along a straight
-   line: the axis of its joints with parts already placed (the node axis ``L_i`` for
-   egg-crate pairs; the mean axis of its slots first, then the mean of all its joints' axes,
+   parts a joint lists first are placed first: for an egg-crate crossing the family-0
+   plate(s), then the family-1 plate(s); for a butt joint the parts of the plate butted
+   against, in any order among themselves, then the butted part; the two parts of a mitre in
+   either order; connectors go on after the plates around them). Each part is inserted along a
+   straight line: the axis of its joints with parts already placed (the joint's
+   ``insert_direction``: for egg-crate pairs along the node axis ``L_i``, or the slide
+   direction the builder cut the slots for; the mean axis of its slots first, then the mean of all its joints' axes,
    then each axis on its own, then the lines where two plates it butts against meet; both
-   senses). The path starts one depth of the part back (``travel``,
-   the part's extent along the direction, so it is disengaged from its slots) and ends in
-   place; every placed part near the path is checked, joined or not. A
+   senses). The path starts one depth of the part back (``travel``: the part's extent
+   along the direction, but no more than the largest ``depth`` of the joints it makes with
+   parts placed before, the fin depth at their nodes, over which the parts engage: a slot is
+   never longer; so it is disengaged from its slots) and ends in place; every placed part near the path is checked, joined or not. A
    path is clear when the volume swept by the part meets no placed part by more than
    ``min_volume``: the swept volume is the union of the prisms that every face of the solid
    sweeps (``BRepPrimAPI_MakePrism``), each intersected exactly with the placed parts near the
@@ -87,6 +90,9 @@ class AssemblyJoint(NamedTuple):
     connector: str | None = None
     #: (3,) direction the connector is put on along (None: ``insert_direction``)
     connector_direction: np.ndarray | None = None
+    #: length (unit) over which the joint's parts engage along its axis, e.g. the fin depth at
+    #: the node (a slot is never longer); None: unknown (the part's own extent is used)
+    depth: float | None = None
 
 
 @dataclass(frozen=True)
@@ -520,21 +526,32 @@ def _as_joint(j) -> AssemblyJoint:
     if isinstance(j, AssemblyJoint):
         return j
     cd = getattr(j, "connector_direction", None)
+    depth = getattr(j, "depth", None)
     return AssemblyJoint(str(getattr(j.kind, "value", j.kind)), int(j.node), tuple(j.parts),
                          np.asarray(j.insert_direction, float), getattr(j, "connector", None),
-                         None if cd is None else np.asarray(cd, float))
+                         None if cd is None else np.asarray(cd, float),
+                         None if depth is None else float(depth))
 
 
 def joint_groups(joint: AssemblyJoint) -> list[tuple[str, ...]]:
     """The parts of a joint in the groups that go in one after the other: for an egg-crate the
     plates of one family, then those of the other (named ``F<family>-...``: two parts of one
-    strip split at the crossing are not each other's partners); otherwise one part at a time
-    (a butt joint: the continuous plate, the butted part, the connector)."""
+    strip split at the crossing are not each other's partners); for a butt joint the parts of
+    the plate it butts against (one group: they are not joined to each other by it), the butted
+    part, the connector; for a mitre the two parts (either may go in first: they meet on the
+    fold's bisector plane), then the splice plate; otherwise one part at a time."""
     if joint.kind == "egg-crate":
         groups: dict[str, list] = {}
         for p in joint.parts:
             groups.setdefault(p.split("-", 1)[0], []).append(p)
         return [tuple(g) for g in groups.values()]
+    if joint.kind == "butt-bracket":
+        plates = [p for p in joint.parts if p != joint.connector]
+        return ([tuple(plates[:-1])] if len(plates) > 1 else []) + [(plates[-1],)] + (
+            [(joint.connector,)] if joint.connector else [])
+    if joint.kind == "mitre-splice":
+        return [tuple(p for p in joint.parts if p != joint.connector)] + (
+            [(joint.connector,)] if joint.connector else [])
     return [(p,) for p in joint.parts]
 
 
@@ -697,7 +714,7 @@ def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progre
     verts = {k: _vertices(_SHAPES[k]) for k in range(len(names))}
     plans = []                       # per step: (part, partners, kinds, [(direction, travel, others)])
     for k in order:
-        partners, kinds, axes, slotted = set(), [], [], []
+        partners, kinds, axes, slotted, depths = set(), [], [], [], []
         for jt in joint_of[k]:
             groups = joint_groups(jt)
             mine = next(g for g, ps in enumerate(groups) if names[k] in ps)
@@ -710,12 +727,18 @@ def _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progre
                        and jt.connector_direction is not None else jt.insert_direction)
                 axes.append(np.asarray(own, float))
                 slotted.append(jt.kind == "egg-crate")
+                depths.append(jt.depth if jt.connector != names[k] else None)
         cands = []
         for d in _candidate_directions(axes, slotted):
             # start one depth of the part (its extent along d) back: disengaged from its
             # joints (a slot is at most as long as the part is deep along its axis)
             ext = verts[k] @ d
-            travel = float(ext.max() - ext.min()) + tolerance
+            travel = float(ext.max() - ext.min())
+            if depths and all(x is not None and x > 0 for x in depths):
+                # disengaged from its joints once slid back by their depth (a long, skewed
+                # plate need not come from beyond its own far end)
+                travel = min(travel, max(depths))
+            travel += tolerance
             lo = np.minimum(boxes[k, 0], boxes[k, 0] - travel * d) - tolerance
             hi = np.maximum(boxes[k, 1], boxes[k, 1] - travel * d) + tolerance
             others = [o for o in order[:rank[k]]

@@ -6,8 +6,8 @@ every node the joint is chosen from the real geometry of the plates there:
 * **Egg-crate** (:attr:`JointKind.EGG_CRATE`) where a strip of each family passes through
   the node, *neither plate folds there by more than* :data:`MAX_CROSSING_FOLD` and the plates
   cross at *at least* :data:`MIN_CROSSING_ANGLE`. Both plates contain ``L_i``, so they slide
-  together along it: family 0 is slotted from its ``b`` edge, family 1 from its ``a`` edge,
-  depths adding up to ``|b_i - a_i|``. A laser cut is square to the sheet, so the slot must
+  together along it: family 0 is slotted from its ``b`` edge, family 1 from its ``a`` edge
+  (or the other way round, see below), depths adding up to ``|b_i - a_i|``. A laser cut is square to the sheet, so the slot must
   take the whole cross-section of the other plate, a parallelogram: at a crossing angle
   ``alpha`` the slot width is ``t (1 + cos alpha) / sin alpha + c`` (:func:`slot_width`;
   ``t + c`` at 90 degrees, ``2.41 t + c`` at 45, ``3.73 t + c`` at 30). A small fold
@@ -30,16 +30,40 @@ every node the joint is chosen from the real geometry of the plates there:
   ends meet on the fold's bisector plane and a bent splice plate covers the seam on the side
   clear of other parts.
 
+**One insertion direction per part.** Family-0 plates go in first; each family-1 plate then
+slides onto all its egg-crate crossings along one direction, the mean of their node axes. A
+crossing whose axis is ``skew`` off it gets both slots ``2 depth tan(skew)`` wider; beyond
+:data:`MAX_SLOT_SKEW` (2 degrees) the crossing is butted instead (the strip split there).
+The sense (along ``a - b``, slots open on the family-1 ``a`` edge, or along ``b - a``, slots
+on its ``b`` edge and family 0's ``a`` edge) is the one in which its butted ends do not close
+their gaps to the plates they meet; if neither does, its crossings are butted. A part with
+butt joints only slides along the node axis of one of them where that closes no gap (the end
+slides along the plate), else along the line where two of the faces it ends against meet,
+or head on. No parts butt on each other in a cycle (A against B, B against C, C against A: the
+last could not go in): in a cycle, crossings where a family-0 part butts against a family-1
+plate are split on family 1 instead (family 0 continuous, bracketed across), else one
+crossing's split family is swapped; the design is rebuilt until no cycle is left.
+
+**End panels that cannot be trimmed are left out.** A part end meeting the plate it ends
+against within about 12 degrees (it lies along that plate and duplicates its fin) cannot be
+trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
+warned) and the strip ends one node earlier, joined there as usual. A part joined to nothing
+(no joint, no slot) whose panels pass through another part's is left out the same way: the
+structure runs through itself there.
+
 Where several strips of one family end at the same node, the first is the base and each other
-butts against it and those before it; where both strips are split at a node, family 1's halves
+butts against it and those before it (ending against a plate of the other family, each end
+also clears those of its family that end there on the same side); where both strips are split at a node, family 1's halves
 get a bracket in both corners, which bridges family 0's seam. Node lines of the two families
 that coincide (refined developable strips duplicate them) are one node. A panel folded back
 onto its neighbour (more than ``MITER_LIMIT``) duplicates that fin and is dropped (named).
 
 Limits: slots need a crossing angle of at least :data:`MIN_CROSSING_ANGLE` (30 degrees: the
-slot is then already 3.7 plate thicknesses wide) and folds of at most
-:data:`MAX_CROSSING_FOLD` (10 degrees) at the crossing; a butt trim needs the part to meet the
-plate at more than about 12 degrees (else it is listed in ``FinSystem.untrimmed_joints``); a
+slot is then already 3.7 plate thicknesses wide), folds of at most :data:`MAX_CROSSING_FOLD`
+(10 degrees) at the crossing and node axes within :data:`MAX_SLOT_SKEW` of the plate's slide
+direction; a butt trim needs the part to meet the plate at more than about 12 degrees (else
+the end panel is left out; after ``MAX_REBUILDS`` rebuilds, or for strips from
+:meth:`FinSystem.from_strips`, it is listed in ``FinSystem.untrimmed_joints``); a
 bracket needs room for legs of at least ``2 t`` inside both panels (else the joint is listed in
 ``FinSystem.unconnected_joints``). Holes for rivets or bolts are not drawn: brackets are
 placed and drilled, or welded, in the workshop. Folds are not moved away from crossings: the
@@ -63,7 +87,7 @@ from shapely.geometry import Polygon
 
 from .model import JointKind, _fold_deg, _miter, quad_normals
 
-__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
+__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
            "place_connector", "corners", "JointKind"]
 
@@ -71,6 +95,10 @@ __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MIN_BRACKET_ANGLE", "MAX_
 MIN_CROSSING_ANGLE = 30.0
 #: degrees: a plate folding more than this at a crossing is split there (butt joint + bracket)
 MAX_CROSSING_FOLD = 10.0
+#: degrees: a plate slotted at several crossings slides onto them all along the mean of their
+#: node axes; its slots (and its partners') are widened by ``2 depth tan(skew)`` for a crossing
+#: whose axis is ``skew`` off it. Beyond this skew the crossing is butted instead.
+MAX_SLOT_SKEW = 2.0
 #: degrees: brackets are bent to corners between these angles (the bend is 180 - angle)
 MIN_BRACKET_ANGLE = 25.0
 MAX_BRACKET_ANGLE = 172.0
@@ -346,6 +374,25 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     if not all(np.isfinite(x).all() for x in moved.values()):
         raise _Untrimmable("trim failed (non-finite)")
     return moved, m_end, nbar
+
+
+def trim_further(quad: np.ndarray, start: bool, panels, pa: np.ndarray, m_end: np.ndarray,
+                 moved: dict, gap: float, h: float) -> dict:
+    """The corners ``moved`` by :func:`butt_trim` moved further along their edges, where needed,
+    until the end face (mitre ``m_end``) also clears the plate ``panels`` ``[(n, v)]``, e.g. a
+    strip of the same family that ends at the same node on the same side of the plate (the
+    two would overlap in the corner they make). ``quad`` is the untrimmed panel. Raises
+    :class:`_Untrimmable`."""
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0)
+    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    out = dict(moved)
+    for cc, oc in ((ia, ja), (ib, jb)):
+        x = trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
+        u = quad[oc] - quad[cc]
+        if (x - quad[cc]) @ u > (out[cc] - quad[cc]) @ u:
+            out[cc] = x
+    return out
 
 
 def into_direction(quad: np.ndarray, start: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

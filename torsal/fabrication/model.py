@@ -156,17 +156,23 @@ class Joint:
         part, the later one, then the connector.
     insert_direction : (3,) float
         Unit vector (model coordinates, i.e. the fin system's frame) along which the later
-        part slides into place: for an egg-crate the family-1 plate moves along
-        ``a_i - b_i`` (its slots open on the ``a`` edge) onto the family-0 plate; for a butt
-        joint the butted part slides along the line where its plane meets the continuous
-        plate (its trimmed end face then slides along that plate), in the sense of
-        ``a_i - b_i``; for a mitre the later part moves towards the earlier one.
+        part slides into place: for an egg-crate the family-1 plate moves onto the family-0
+        plate along its slide direction, the mean node axis of all its crossings (``a_i -
+        b_i`` when its slots open on the ``a`` edge, ``b_i - a_i`` when they open on ``b``);
+        for a butt joint the butted part's one insertion direction (that slide direction if
+        it is slotted too, else a node axis or a line between the faces it ends against, see
+        :mod:`~torsal.fabrication.joints`); for a mitre the later part moves towards the
+        earlier one.
     connector : str or None
         Name of the connector part (bracket or splice plate), ``None`` for an egg-crate.
     connector_direction : (3,) float or None
         Unit vector along which the connector is put on last (into the corner it sits in).
     angle : float
         Degrees: crossing angle of the plates (egg-crate, butt) or fold angle (mitre).
+    depth : float or None
+        Fin depth ``|b_i - a_i|`` at the node (``unit``): the parts engage over at most this
+        length along the node line (a slot is never longer), so a part slid in along it by
+        that much is disengaged from the joint (None: unknown).
     """
 
     kind: JointKind
@@ -176,6 +182,7 @@ class Joint:
     connector: str | None = None
     connector_direction: np.ndarray | None = field(default=None, compare=False)
     angle: float = 90.0
+    depth: float | None = None
 
 
 def quad_normals(quads: np.ndarray) -> np.ndarray:

@@ -27,6 +27,11 @@ of the fold (mitred) with a splice plate, or, at a crossing, are butted against 
 plate. Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
 :attr:`FinSystem.joints` lists every joint (:class:`~.model.Joint`).
 
+Every part goes in along one direction (:mod:`.joints`, "one insertion direction per part"):
+the structure is rebuilt (at most ``MAX_REBUILDS`` times) leaving out end panels that cannot
+be trimmed (``coplanar_panels``), butting crossings a plate cannot slide onto together with
+its others, and re-splitting crossings where parts would butt on each other in a cycle.
+
 Real structures from the remesher have defects near boundaries and at coarse resolution; they
 are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
 into NaN or invalid solids: degenerate panels (narrower than ``min_panel_width`` or
@@ -62,8 +67,9 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 
 from . import layout as _layout
 from . import solids as _solids
-from .joints import (MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
-                     corners, place_connector, slot_width, trim_corner)
+from .joints import (MAX_CROSSING_FOLD, MAX_SLOT_SKEW, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
+                     corners, into_direction, place_connector, slot_width, trim_corner,
+                     trim_further)
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
                     JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
                     _oriented_size, _safe_normals, fold_angles, panel_widths, quad_normals)
@@ -75,6 +81,9 @@ __all__ = [
     "MITER_LIMIT", "panel_widths",
 ]
 
+
+#: how often :class:`FinSystem` rebuilds, leaving out end panels that cannot be trimmed
+MAX_REBUILDS = 8
 
 #: gap left between a connector and the plates it lies on, as a fraction of the thickness
 #: (so that touching faces are not coincident for the boolean checks; 0.03 mm at 3 mm)
@@ -124,8 +133,98 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     return d if d @ axis >= 0 else -d
 
 
-def _read_strips(structure, scale: float, drop_mask) -> _Strips:
-    """Strips of a support structure scaled to ``unit``, degenerate panels marked."""
+def _quads_cross(p: np.ndarray, q: np.ndarray) -> bool:
+    """Whether an edge of a quad of ``p`` (k, 4, 3) passes through a quad of ``q`` (m, 4, 3)
+    or the other way round (mid-surfaces, two triangles per quad; Moller-Trumbore)."""
+
+    def hits(quads, others) -> bool:
+        e0 = quads.reshape(-1, 3)
+        e1 = np.roll(quads, -1, axis=1).reshape(-1, 3)
+        tris = np.concatenate([others[:, [0, 1, 2]], others[:, [0, 2, 3]]])
+        v0, v1, v2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+        d = e1 - e0                                                     # (E, 3)
+        pv = np.cross(d[:, None], v2[None])                             # (E, T, 3)
+        det = np.einsum("etk,tk->et", pv, v1)
+        ok = np.abs(det) > 1e-12 * np.linalg.norm(v1, axis=1) * np.linalg.norm(v2, axis=1) * \
+            np.linalg.norm(d, axis=1)[:, None]
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        tv = e0[:, None] - v0[None]
+        u = np.einsum("etk,etk->et", tv, pv) * inv
+        qv = np.cross(tv, v1[None])
+        v = np.einsum("etk,ek->et", qv, d) * inv
+        t = np.einsum("etk,tk->et", qv, v2) * inv
+        eps = 1e-6
+        return bool((ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)).any())
+
+    return hits(p, q) or hits(q, p)
+
+
+def _quads_on(p: np.ndarray, q: np.ndarray, gap: float) -> bool:
+    """Whether the centre of a quad of ``p`` (k, 4, 3) lies within ``gap`` of a quad of ``q``
+    (m, 4, 3), over it (a fin folded back onto another: coplanar overlap, no edge crossing)."""
+    c = p.mean(axis=1)                                                  # (k, 3)
+    tris = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])           # (T, 3, 3)
+    v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    n = np.cross(e1, e2)
+    area2 = np.linalg.norm(n, axis=1)
+    ok = area2 > 0
+    n = n / np.where(ok, area2, 1.0)[:, None]
+    w = c[:, None] - v0[None]                                           # (k, T, 3)
+    dist = np.abs(np.einsum("ktj,tj->kt", w, n))
+    # barycentric coordinates of the projection
+    d00, d01, d11 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    d20, d21 = np.einsum("ktj,tj->kt", w, e1), np.einsum("ktj,tj->kt", w, e2)
+    den = np.where(ok, d00 * d11 - d01 * d01, 1.0)
+    v = (d11 * d20 - d01 * d21) / den
+    u = (d00 * d21 - d01 * d20) / den
+    inside = ok & (v > 0) & (u > 0) & (u + v < 1)
+    return bool((inside & (dist <= gap)).any())
+
+
+def _cycles(after: dict) -> list[list[str]]:
+    """Strongly connected components of more than one part of the graph ``{a: {b: ...}}``
+    (``b`` placed after ``a``), each sorted, in a stable order (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack, on, out = [], set(), []
+    for root in sorted(set(after) | {b for a in after for b in after[a]}):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(after.get(root, {}))))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            w = next(it, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(after.get(w, {})))))
+                elif w in on:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                if len(comp) > 1:
+                    out.append(sorted(comp))
+    return out
+
+
+def _read_strips(structure, scale: float, drop_mask, extra: dict | None = None) -> _Strips:
+    """Strips of a support structure scaled to ``unit``, degenerate panels marked (and the
+    panels ``extra`` {strip index: panel indices})"""
     strips = _merge_coincident_nodes(structure).fins()
     a = structure.vertices_a * scale
     b = structure.vertices_b * scale
@@ -136,6 +235,8 @@ def _read_strips(structure, scale: float, drop_mask) -> _Strips:
         raise ValueError(f"nodes {used[tiny][:10].tolist()} have zero fin depth (a_i == b_i)")
     quads = [fs.quads * scale for fs in strips]
     drops = [drop_mask(q) for q in quads]
+    for si, panels in (extra or {}).items():
+        drops[si][sorted(panels)] = True
     n = len(a)
     passes = np.zeros((2, n), dtype=bool)
     ends = np.zeros((2, n), dtype=bool)
@@ -239,6 +340,10 @@ class FinSystem:
     dropped_panels : list of (strip, structure edge, width)
         Degenerate panels left out (narrower than ``min_panel_width``; warned); ``strip`` is
         the part-id prefix ``F<family>-S<strip>``.
+    coplanar_panels : list of (strip, structure edge, node, reason)
+        End panels left out because they meet the plate they end against within about 12
+        degrees (they lie along it, duplicate its fin and cannot be trimmed clear of it;
+        warned); the strip then ends one node earlier, joined there as usual.
 
     Examples
     --------
@@ -282,6 +387,16 @@ class FinSystem:
         self._set_min_width(min_panel_width)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
+        self.parts: list[Part] = []
+        self._solids: dict | None = None
+        self._unrolled: dict | None = None
+        if len(structure.edges) == 0:
+            raise ValueError("the support structure has no edges: nothing to fabricate")
+        self._build_until_trimmed()
+
+    # ------------------------------------------------------------------ construction
+    def _reset_state(self) -> None:
+        """Empty the lists one build fills."""
         #: degenerate panels dropped: (part-id prefix of the strip, structure edge, width)
         self.dropped_panels: list[tuple[str, int, float]] = []
         #: parts whose solid could not be slotted by OpenCascade: (name, slot nodes, reason)
@@ -295,14 +410,47 @@ class FinSystem:
         #: part ends that could not be butt-trimmed: (part name, node, reason)
         self.untrimmed_joints: list[tuple[str, int, str]] = []
         self._init_joints()
-        self.parts: list[Part] = []
-        self._solids: dict | None = None
-        self._unrolled: dict | None = None
-        if len(structure.edges) == 0:
-            raise ValueError("the support structure has no edges: nothing to fabricate")
-        self._build_from_structure()
+        self.parts = []
 
-    # ------------------------------------------------------------------ construction
+    def _build_until_trimmed(self) -> None:
+        """Build; where a part end meets the plate it butts against too obliquely to be
+        trimmed (it lies along that plate, within about 12 degrees, and would overlap it), leave
+        that end panel out (it duplicates the other plate's fin there) and build again, so that
+        every part end is trimmed. The panels left out are named in ``coplanar_panels``
+        (warned); at most :data:`MAX_REBUILDS` rebuilds."""
+        extra: dict[int, set] = {}
+        forced: dict[int, str] = {}
+        left_out: list[tuple[str, int, int, str]] = []
+        for attempt in range(MAX_REBUILDS + 1):
+            self._reset_state()
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                self._build_from_structure(extra, forced)
+            new = {(si, i): rec for si, i, *rec in self._untrimmable + self._stray_parts()
+                   if i not in extra.get(si, ())}
+            new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
+            new_forced.update((v, why) for v, why in self._break_cycles(forced).items()
+                              if v not in new_forced)
+            if not (new or new_forced) or attempt == MAX_REBUILDS:
+                break
+            for (si, i), (prefix, edge, node, why) in sorted(new.items()):
+                extra.setdefault(si, set()).add(i)
+                left_out.append((prefix, edge, node, why))
+            forced.update(new_forced)
+        self.coplanar_panels = left_out
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        # slots that would cut a part in two: once, on the final parts (it unrolls them all)
+        self._resolve_slot_splits()
+        if left_out:
+            warnings.warn(
+                f"{len(left_out)} fin panels were left out because they meet the plate they end "
+                f"against too obliquely to be trimmed (they lie along it and would overlap it): "
+                + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
+                + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
+                "Raise constraints.min_torsal_angle to keep the two families' fins apart",
+                stacklevel=3)
+
     def _init_joints(self) -> None:
         #: every joint of the assembly (egg-crate, butt + bracket, mitre + splice)
         self.joints: list[Joint] = []
@@ -312,6 +460,15 @@ class FinSystem:
         self.joinery: list = []
         self._connectors: list[Part] = []
         self._n_conn: dict[int, int] = {}
+        #: part ends that could not be trimmed: (strip index, panel of the strip, strip name,
+        #: structure edge, node, reason)
+        self._untrimmable: list[tuple] = []
+        #: crossings an egg-crate cannot join (node -> reason): butted in the next build
+        self._unslidable: dict[int, str] = {}
+        #: part name -> [unit normal of a plate it butts against, turned towards the part]
+        self._walls: dict[str, list] = {}
+        #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
+        self._ends_at: dict[tuple[int, int], list] = {}
 
     @staticmethod
     def _check_common(thickness, clearance, model_unit, unit, max_panels):
@@ -409,6 +566,7 @@ class FinSystem:
         self._solids = self._unrolled = None
         self.min_crossing_angle, self.max_crossing_fold = MIN_CROSSING_ANGLE, MAX_CROSSING_FOLD
         self._init_joints()
+        self.coplanar_panels = []
         for s, st in enumerate(strips):
             q = np.asarray(getattr(st, "quads", st), dtype=float) * self.scale
             fam = int(family)
@@ -564,11 +722,12 @@ class FinSystem:
 
 
     # ------------------------------------------------------------------ construction phases
-    def _build_from_structure(self) -> None:
+    def _build_from_structure(self, extra: dict | None = None, forced: dict | None = None) -> None:
         """Parts from the structure in five phases: read the strips, choose the joint at every
         crossing (:func:`~.joints.choose_joinery`), cut the strips into parts, join the part
         ends (butt + bracket, mitre + splice) and slot the egg-crate crossings."""
-        st = _read_strips(self.structure, self.scale, self._drop_mask)
+        st = _read_strips(self.structure, self.scale, self._drop_mask, extra)
+        self._extra = extra or {}
         plate = _plate_panels(st)
         joinery = {}
         if self.family_split == FamilySplit.EGG_CRATE:
@@ -576,9 +735,17 @@ class FinSystem:
                 joinery[v] = choose_joinery(v, plate[(0, v)], plate[(1, v)],
                                             min_angle=self.min_crossing_angle,
                                             max_fold=self.max_crossing_fold)
+                if v in (forced or {}):
+                    # an egg-crate the family-1 plate cannot slide onto together with its
+                    # others: split it here (butt joint + bracket); a butt joint in a cycle
+                    # of parts butting on each other: split the other strip instead
+                    split, why = forced[v]
+                    joinery[v] = joinery[v]._replace(kind=JointKind.BUTT_BRACKET, split=split,
+                                                     why=why)
         self.joinery = [joinery[v] for v in sorted(joinery)]
         part_of_strip = self._strip_parts(st, joinery)
         self.parts = [p for parts in part_of_strip for p in parts]
+        self._strip_of = {p.name: si for si, parts in enumerate(part_of_strip) for p in parts}
         self._where = {(si, p.span[0] + i): (p, i) for si, parts in enumerate(part_of_strip)
                        for p in parts for i in range(len(p.panels))}
         # a family is continuous at a node where one of its parts passes through it
@@ -593,10 +760,12 @@ class FinSystem:
         self._slot_crossings(st, part_of_strip, joinery, cont)
         self.parts = ([p for parts in part_of_strip for p in parts]
                       + sorted(self._connectors, key=lambda p: p.id))
+        self._set_butt_directions()
+        self.joints = [replace(j, depth=float(st.depth[j.node])) if j.node >= 0 else j
+                       for j in self.joints]
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
-        self._resolve_slot_splits()
 
     def _strip_parts(self, st: "_Strips", joinery: dict) -> list[list[Part]]:
         """Cut every strip into parts: at sharp folds, dropped panels, length and sheet limits,
@@ -605,7 +774,7 @@ class FinSystem:
         part_of_strip: list[list[Part]] = []
         dropped, oversize = [], []
         present = st.passes | st.ends
-        for fs, q, drop in zip(st.fins, st.quads, st.drops):
+        for si, (fs, q, drop) in enumerate(zip(st.fins, st.quads, st.drops)):
             fam = fs.family
             at = {int(v): j for j, v in enumerate(fs.vertices)}
             split_here = {at[x.node] for x in joinery.values()
@@ -621,7 +790,8 @@ class FinSystem:
             strip_no[fam] += 1
             prefix = str(PartId(fam, sn, 0))[:-4]
             dropped += [(prefix, int(fs.edges[i]), float(w))
-                        for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])]
+                        for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])
+                        if i not in self._extra.get(si, ())]
             parts = [self._make_part(PartId(fam, sn, i), q, lo, hi, fs.vertices, fs.edges, fs.closed,
                                      drop)
                      for i, (lo, hi) in enumerate(ranges)]
@@ -683,6 +853,8 @@ class FinSystem:
                         prev = self._previous(parts, p, st.quads[si])
                         if prev is not None:
                             self._splice(prev, p, node, g)
+                    if kind == "miter" and end == 0:
+                        self._seam_walls(self._previous(parts, p, st.quads[si]), p)
                 p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=5)
         if self.unconnected_joints:
@@ -710,9 +882,21 @@ class FinSystem:
         try:
             moved, m_end, nbar = butt_trim(quad, end == 0, [(n, v) for n, v, _ in panels],
                                            st.a[node], gap, h)
+            # strips of this family that already end here on the same side of the plate meet
+            # this one in the corner: its end clears them too
+            others = [(n, v) for n, v, nb in self._ends_at.get((p.family, node), []) if nb @ nbar > 0]
+            if others:
+                moved = trim_further(quad, end == 0, others, st.a[node], m_end, moved, gap, h)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, str(why)))
+            self._note_untrimmable(p, j, node, str(why))
             return False
+        self._ends_at.setdefault((p.family, node), []).append(
+            (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
+        # every face it ends against, turned towards it: its insertion must not close those gaps
+        centre = quad.mean(axis=0) - st.a[node]
+        self._walls.setdefault(p.name, []).extend(
+            n if centre @ n >= 0 else -n for n in [n for n, _, _ in panels] + [n for n, _ in others])
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0 if end == 0 else -1] = m_end
@@ -722,6 +906,50 @@ class FinSystem:
                       insert=_slide(nbar, quad, st.a[node] - st.b[node]),
                       n_corners=2 if bridge else 1)
         return True
+
+    def _stray_parts(self) -> list[tuple]:
+        """Parts joined to nothing (no joint, no slot) whose panels pass through another
+        part's panels: the structure runs through itself there and such a fin could neither
+        be fastened nor fitted; its panels are left out (as :meth:`_note_untrimmable`)."""
+        joined = {n for j in self.joints for n in j.parts}
+        plates = [p for p in self.parts if p.family in (0, 1)]
+        out = []
+        for p in plates:
+            if p.name in joined or p.slots or p.name not in self._strip_of:
+                continue
+            lo, hi = p.panels.reshape(-1, 3).min(axis=0), p.panels.reshape(-1, 3).max(axis=0)
+            for o in plates:
+                if o is p:
+                    continue
+                q = o.panels.reshape(-1, 3)
+                if (q.min(axis=0) > hi).any() or (q.max(axis=0) < lo).any():
+                    continue
+                if _quads_cross(p.panels, o.panels) or _quads_on(p.panels, o.panels, self.thickness):
+                    why = f"it crosses {o.name} without a joint (the structure runs through itself)"
+                    out += [(self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
+                             int(p.nodes[j]), why) for j in range(len(p.panels))]
+                    break
+        return out
+
+    def _seam_walls(self, prev: Part | None, p: Part) -> None:
+        """The two parts of a strip split on a mitre touch on the fold's bisector plane: each is
+        a wall of the other (normal of that plane, turned towards it) for its insertion."""
+        if prev is None:
+            return
+        a, b = p.panels[0][0], p.panels[0][3]
+        seam = np.cross(b - a, p.miters[0])
+        if not np.linalg.norm(seam) > 0:
+            return
+        seam = seam / np.linalg.norm(seam)
+        for q, quad in ((p, p.panels[0]), (prev, prev.panels[-1])):
+            n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
+            self._walls.setdefault(q.name, []).append(n)
+
+    def _note_untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
+        """Remember panel ``j`` of ``p`` (strip index, panel of the strip) to leave it out."""
+        si = getattr(self, "_strip_of", {}).get(p.name)
+        if si is not None and p.family in (0, 1):
+            self._untrimmable.append((si, p.span[0] + j, p.name[:-4], int(p.edges[j]), node, why))
 
     def _panel_quad(self, ref) -> np.ndarray:
         part, i = self._where[ref]
@@ -746,8 +974,10 @@ class FinSystem:
                 raise _Untrimmable("the previous panel has no extent")
             into = into / np.linalg.norm(into)
             moved, m_end, nbar = butt_trim(quad, True, [(nprev, into)], pa, gap, h)
+            self._walls.setdefault(p.name, []).append(nbar)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, f"{what}: {why}"))
+            self._note_untrimmable(p, 0, node, f"{what}: {why}")
             return False
         for cc, x in moved.items():
             quad[cc] = x
@@ -845,6 +1075,7 @@ class FinSystem:
                     x = joinery.get(node)
                     if x is not None and x.kind == JointKind.EGG_CRATE and cont[0, node] and cont[1, node]:
                         at_node.setdefault(node, [[], []])[fs.family].append((p, pos))
+        self._plan = self._slide_plan(st, at_node)
         for node in sorted(at_node):
             l0, l1 = at_node[node]
             if not l0 or not l1:
@@ -853,19 +1084,153 @@ class FinSystem:
             d = float(st.depth[node])
             d0 = self.slot_ratio * d
             d1 = d - d0
-            w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0], fold_other=x.folds[1])
-            w1 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[1], fold_other=x.folds[0])
+            # the family-1 plate slides along its own direction, a little off this node axis:
+            # both slots are wider by the sideways travel over the fin depth, on either side
+            direction, sense = self._plan[l1[0][0].name]
+            ax = sense * (st.a[node] - st.b[node]) / d
+            skew = np.arctan2(np.linalg.norm(np.cross(direction, ax)), direction @ ax)
+            extra = 2.0 * d * np.tan(skew)
+            w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
+                            fold_other=x.folds[1]) + extra
+            w1 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[1],
+                            fold_other=x.folds[0]) + extra
             names0 = tuple(sorted({p.name for p, _ in l0}))
             names1 = tuple(sorted({p.name for p, _ in l1}))
+            # family 0 slotted from its b edge and family 1 from its a edge (family 1 moves
+            # along a - b), or the other way round where family 1 slides in along b - a
+            side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
             for p, pos in l0:
-                p.slots.append(Slot(node, pos, SlotSide.B, d0, w0, "+".join(names1)))
+                p.slots.append(Slot(node, pos, side0, d0, w0, "+".join(names1)))
             for p, pos in l1:
-                p.slots.append(Slot(node, pos, SlotSide.A, d1, w1, "+".join(names0)))
+                p.slots.append(Slot(node, pos, side1, d1, w1, "+".join(names0)))
             w = max(w0, w1)
             self.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
             self.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
-                                     (st.a[node] - st.b[node]) / d, None, None, float(x.angle)))
+                                     direction, None, None, float(x.angle)))
+
+    def _butted_after(self) -> dict:
+        """``{part: {part placed after it: node}}``: family-1 plates go on family-0 plates
+        at an egg-crate, a butted part after the plate it butts against (the two parts of a
+        mitred seam in either order)."""
+        after: dict[str, dict[str, int]] = {}
+        conn = {j.connector for j in self.joints if j.connector}
+        for j in self.joints:
+            names = [n for n in j.parts if n not in conn]
+            if j.kind == JointKind.EGG_CRATE:
+                pairs = [(a, b) for a in names for b in names if a[:2] == "F0" and b[:2] == "F1"]
+            elif j.kind == JointKind.BUTT_BRACKET:
+                pairs = [(a, names[-1]) for a in names[:-1]]
+            else:
+                pairs = []
+            for a, b in pairs:
+                after.setdefault(a, {})[b] = j.node
+        return after
+
+    def _break_cycles(self, forced: dict) -> dict:
+        """Crossings to split the other way (``{node: (family split, reason)}``) so that no
+        parts butt on each other in a cycle (A against B, B against C, C against A: the last
+        one could not be put in). In every cycle, the crossings of two passing strips where
+        family 0 is split are split on family 1 instead (family 0 continuous, as family-1
+        plates are put on family-0 plates), or, if there are none, the first crossing whose
+        joint is not yet forced has its split family swapped."""
+        after = self._butted_after()
+        split_at = {x.node: x for x in self.joinery}
+        out = {}
+        for comp in _cycles(after):
+            why = f"the parts {', '.join(comp[:4])} would butt on each other in a cycle"
+            # crossings where a family-0 part butts against a family-1 plate (family 0 split
+            # there: by the joinery, or for length): split family 1 there too, bracketed across
+            back = sorted({v for a in comp if a[:2] == "F1" for b, v in after.get(a, {}).items()
+                           if b in comp and b[:2] == "F0" and v in split_at and v not in forced})
+            for v in back:
+                x = split_at[v]
+                out[v] = (1, f"{x.why + '; ' if x.why else ''}split family 1: {why}")
+            if back:
+                continue
+            nodes = sorted({after[a][b] for a in comp for b in after.get(a, {}) if b in comp})
+            xs = [split_at[v] for v in nodes if v in split_at and v not in forced
+                  and split_at[v].kind == JointKind.BUTT_BRACKET]
+            for x in xs[:1]:
+                out[x.node] = (1 - x.split, f"{x.why}; split family {1 - x.split}: {why}")
+        return out
+
+    def _slide_plan(self, st: "_Strips", at_node) -> dict:
+        """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
+        all its egg-crate crossings along one direction, the mean of their node axes
+        (``sense`` +1: along ``a - b``, slots open on its ``a`` edge; -1: along ``b - a``),
+        the sense in which its butted ends do not run into the plates they meet. A crossing
+        whose axis is more than :data:`~.joints.MAX_SLOT_SKEW` off that direction, or a plate
+        whose butted ends block it in both senses, is listed in ``_unslidable`` (butted in the
+        next build)."""
+        nodes_of: dict[str, list[int]] = {}
+        for node, (l0, l1) in sorted(at_node.items()):
+            if l0 and l1:
+                for p, _ in l1:
+                    nodes_of.setdefault(p.name, []).append(node)
+        plan = {}
+        for name, nodes in nodes_of.items():
+            axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
+            d = axes.sum(axis=0)
+            d = d / np.linalg.norm(d)
+            skew = np.degrees(np.arctan2(np.linalg.norm(np.cross(axes, d), axis=1), axes @ d))
+            if skew.max() > MAX_SLOT_SKEW:
+                self._unslidable[nodes[int(np.argmax(skew))]] = 1, (
+                    f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
+                    f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
+            walls = self._walls.get(name, [])
+            sense = 1.0
+            if walls:
+                run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
+                sense = min(run_in, key=run_in.get)
+                # the butted end may close its gap (clearance / 2) over a travel of the depth
+                if run_in[sense] > 0.5 * self.clearance / float(st.depth[nodes].max()):
+                    for v in nodes:
+                        self._unslidable.setdefault(v, (1,
+                            f"{name} would run into a plate it butts against while sliding "
+                            f"along its node axes ({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"))
+            plan[name] = (sense * d, sense)
+        return plan
+
+    def _node_axis(self, node: int) -> np.ndarray:
+        """Unit node axis ``a_i - b_i`` (any vector when the node is -1)."""
+        if node < 0:
+            return np.zeros(3)
+        d = np.asarray(self.structure.vertices_a[node] - self.structure.vertices_b[node], float)
+        return d / np.linalg.norm(d)
+
+    def _set_butt_directions(self) -> None:
+        """Every part slides in along one direction: a family-1 plate with slots along its
+        slide direction (:meth:`_slide_plan`), any other butted part along the direction, of
+        those its butt joints allow (along each plate it meets, along the line where two of
+        them meet, or head on), that runs least into the plates it butts against. The butt
+        joints record it as their ``insert_direction``."""
+        plan = getattr(self, "_plan", {})
+        butted: dict[str, list[int]] = {}
+        for k, j in enumerate(self.joints):
+            if j.kind == JointKind.BUTT_BRACKET:
+                names = [n for n in j.parts if n != j.connector]
+                butted.setdefault(names[-1], []).append(k)
+        for name, ks in butted.items():
+            walls = self._walls.get(name, [])
+            if name in plan:
+                d = plan[name][0]
+            elif not walls:
+                continue
+            else:
+                # the node axis of a butt joint first (it lies in both plates: the end slides
+                # along the plate it meets), then lines where two walls meet, then head on
+                cands = [self._node_axis(self.joints[k].node) for k in ks]
+                cands += [self.joints[k].insert_direction for k in ks]
+                cands += [np.cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
+                cands.append(-np.sum(walls, axis=0))
+                cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
+                cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
+                run_in = [max(c @ n for n in walls) for c in cands]
+                ok = [c for c, r in zip(cands, run_in) if r <= 1e-3]
+                d = ok[0] if ok else cands[int(np.argmin(run_in))]
+            for k in ks:
+                self.joints[k] = replace(self.joints[k], insert_direction=np.asarray(d, float))
 
     def _resolve_slot_splits(self) -> None:
         """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot

@@ -239,7 +239,9 @@ def slot_boxes(part: Part, thickness: float) -> list:
         start, other = (b, a) if SlotSide(s.side) == SlotSide.B else (a, b)
         u = other - start
         u = u / np.linalg.norm(u)
-        over = 2.0 * s.width
+        # beyond the open edge by 2 widths and the node line's length: an edge slanted
+        # along the line leaves no web across the slot's mouth
+        over = 2.0 * s.width + float(np.linalg.norm(b - a))
         if 0 < pos < k:
             n1, n2 = normals[pos - 1], normals[pos]
             c = float(np.clip(n1 @ n2, -1.0, 1.0))

@@ -199,13 +199,14 @@ def slot_rectangle(a2: np.ndarray, b2: np.ndarray, side: SlotSide, depth: float,
                    overshoot: float | None = None) -> np.ndarray:
     """The (4, 2) cut-out of a slot on the flat node line ``a2 -> b2``: ``width`` wide,
     centred on the line, from the open end (``a2`` or ``b2``) ``depth`` into the part and
-    ``overshoot`` (default ``2 width``) beyond the open edge."""
+    ``overshoot`` (default ``2 width`` plus the line's length: an open edge slanted along the
+    line leaves no web across the slot's mouth) beyond the open edge."""
     a2, b2 = np.asarray(a2, float), np.asarray(b2, float)
     start, other = (b2, a2) if SlotSide(side) == SlotSide.B else (a2, b2)
     u = other - start
     u /= np.linalg.norm(u)
     v = np.array([-u[1], u[0]])
-    o = 2.0 * width if overshoot is None else overshoot
+    o = 2.0 * width + float(np.linalg.norm(b2 - a2)) if overshoot is None else overshoot
     h = 0.5 * width
     return np.array([start - o * u - h * v, start + depth * u - h * v,
                      start + depth * u + h * v, start - o * u + h * v])

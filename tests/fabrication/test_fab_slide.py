@@ -1,0 +1,107 @@
+"""Every part slides in along one direction (issue 15): constructed cases with known answers.
+
+A family-1 plate slotted onto two crossings whose node axes differ slides along their mean
+axis, its slots (and its partners') widened by ``2 depth tan(skew)``; beyond
+``MAX_SLOT_SKEW`` a crossing is butted instead. Parts never butt on each other in a cycle.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from fab_structures import grid_structure
+from torsal.fabrication import FinSystem, JointKind, check_assembly, joints_of, slot_width
+from torsal.fabrication.assembly import AssemblyJoint, joint_groups
+from torsal.fabrication.joints import MAX_SLOT_SKEW
+from torsal.fabrication.parts import _cycles
+
+T, C = 3.0, 0.5
+
+
+def fanned_grid(half_skew_deg: float, step: float = 0.3, depth: float = 0.1):
+    """3 columns x 4 rows; the node lines of every column fan in its plane (x = const) about
+    the middle of rows 1 and 2, so the middle column crosses rows 1 and 2 (nodes 4 and 7) on
+    node axes ``2 * half_skew_deg`` apart; the lines of a row are parallel (flat rows)."""
+    y_mid = 1.5 * step
+    h = 0.5 * step / np.tan(np.radians(half_skew_deg))      # apex height of the fans
+    a = np.array([[[c * step, r * step, 0.0] for c in range(3)] for r in range(4)])
+    d = np.array([[[0.0, y_mid - r * step, h] for c in range(3)] for r in range(4)])
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return grid_structure(a, a + depth * d, 3, 4)
+
+
+def _build(structure):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return FinSystem(structure, thickness=T, clearance=C)
+
+
+def test_plate_slotted_on_skewed_axes_slides_along_their_mean_with_wider_slots():
+    fs = _build(fanned_grid(0.5))
+    col = fs.part("F1-S001-P00")
+    assert sorted(s.node for s in col.slots) == [4, 7]
+    # the plates cross at 90 degrees; each axis is 0.5 deg off the mean: 2 * 100 mm * tan(0.5)
+    want = slot_width(90.0, thickness=T, clearance=C) + 2 * 100.0 * np.tan(np.radians(0.5))
+    for p in fs.parts:
+        for s in p.slots:
+            assert s.width == pytest.approx(want, rel=1e-6), (p.name, s)
+    crate = [j for j in fs.joints if j.kind == JointKind.EGG_CRATE]
+    assert sorted(j.node for j in crate) == [4, 7]
+    # one direction for the column at both crossings: the mean axis. Its ends butt against
+    # rows 0 and 3, whose planes lean outwards (1.5 deg): sliding down (a - b) would close
+    # both butt gaps, so it slides up (b - a), slotted from its b edge, the rows from their a
+    for j in crate:
+        np.testing.assert_allclose(j.insert_direction, [0, 0, 1], atol=1e-9)
+    assert {s.side.value for s in col.slots} == {"b"}
+    assert {s.side.value for p in fs.parts if p.family == 0 for s in p.slots} == {"a"}
+    check = check_assembly(fs.solids(workers=1), joints=joints_of(fs), workers=1)
+    assert check.interfering_pairs == 0 and not check.blocked, check.problems()
+
+
+def test_crossing_too_far_off_the_slide_direction_is_butted():
+    fs = _build(fanned_grid(MAX_SLOT_SKEW + 1.0))
+    kinds = {j.node: j.kind for j in fs.joints if j.node in (4, 7)}
+    # each axis is 3 deg off the mean: the first is butted (the column split there), the
+    # other stays an egg-crate (one crossing left: no skew)
+    assert kinds == {4: JointKind.BUTT_BRACKET, 7: JointKind.EGG_CRATE}
+    [x] = [x for x in fs.joinery if x.node == 4]
+    assert "off the slide direction" in x.why
+    [s7] = [s for p in fs.parts for s in p.slots if s.node == 7 and p.family == 1]
+    assert s7.width == pytest.approx(slot_width(90.0, thickness=T, clearance=C), rel=1e-6)
+
+
+def test_cycles_are_found_and_sorted():
+    after = {"a": {"b": 1}, "b": {"c": 2}, "c": {"a": 3, "d": 4}, "d": {"e": 5}, "e": {"d": 6}}
+    assert _cycles(after) == [["d", "e"], ["a", "b", "c"]] or \
+        sorted(_cycles(after)) == [["a", "b", "c"], ["d", "e"]]
+    assert _cycles({"a": {"b": 1}, "b": {}}) == []
+
+
+def test_butt_joint_groups_the_plate_it_butts_against():
+    j = AssemblyJoint("butt-bracket", 3, ("F0-S001-P00", "F0-S001-P01", "F1-S002-P00", "C-N0003-0"),
+                      np.array([0.0, 0, 1]), "C-N0003-0")
+    # the two halves of the plate are not each other's partners by this joint
+    assert joint_groups(j) == [("F0-S001-P00", "F0-S001-P01"), ("F1-S002-P00",), ("C-N0003-0",)]
+
+
+def test_quads_crossing_without_a_joint_are_found():
+    from torsal.fabrication.parts import _quads_cross
+
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    post = np.array([[[0.5, 0.5, -1], [0.6, 0.5, -1], [0.6, 0.5, 1], [0.5, 0.5, 1]]], float)
+    assert _quads_cross(floor, post) and _quads_cross(post, floor)
+    assert not _quads_cross(floor, post + [0, 0, 5])           # above it
+    # sharing an edge (neighbours on a node line) is not crossing
+    wall = np.array([[[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]]], float)
+    assert not _quads_cross(floor, wall)
+
+
+def test_fin_folded_back_onto_another_is_found():
+    from torsal.fabrication.parts import _quads_on
+
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    assert _quads_on(floor * 0.5 + [0.2, 0.2, 0.002], floor, 0.003)      # lies on it
+    assert not _quads_on(floor * 0.5 + [0.2, 0.2, 0.01], floor, 0.003)   # 10 mm above
+    assert not _quads_on(floor + [2, 0, 0], floor, 0.003)                 # beside it
