@@ -119,6 +119,11 @@ def test_example_runs_small(path, tmp_path):
     assert s["edges"] > 10 and s["delta_pl_optimized"] <= max(1e-4, s["delta_pl_extracted"])
     assert 0.0 <= li["blocked_share"] <= 1.0 and 0.0 <= li["transparency"] <= 1.0
     assert fa["parts"] > 0 and fa["sheets"] > 0 and 0 < fa["utilization"] <= 1
+    # the light is measured on the fins as built: every fin but the panels left out
+    left = {p["edge"] for p in fa["panels_left_out_list"]}
+    assert len(fa["panels_left_out_list"]) == min(fa["panels_left_out"], 50)
+    if fa["panels_left_out"] <= 50:
+        assert li["fins_measured"] == s["edges"] - len(left)
     # the assembly check, and an independent recount of its interference from fins.step
     a = fa["assembly"]
     assert ASSEMBLY_KEYS <= set(a)

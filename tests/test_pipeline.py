@@ -2,6 +2,7 @@
 a stage, one source of default weights."""
 import tomllib
 
+import numpy as np
 import pytest
 
 from torsal.design import STAGES, Design, DesignError
@@ -30,6 +31,7 @@ def test_default_stage_order_and_public_names():
     assert STAGES == DEFAULT_PIPELINE.names
     assert STAGES[:5] == ("surface", "estimate", "sun", "orient", "congruence")
     assert STAGES.index("fabrication") < STAGES.index("report") == len(STAGES) - 1
+    assert STAGES.index("fabrication") < STAGES.index("light")    # it measures the built fins
 
 
 def test_keys_follow_the_inputs_only():
@@ -41,7 +43,9 @@ def test_keys_follow_the_inputs_only():
     thicker = SPEC.model_copy(update={"material": SPEC.material.model_copy(
         update={"thickness_mm": 5.0})})
     c = stage_keys(DEFAULT_PIPELINE, thicker)
-    assert {s for s in a if a[s] != c[s]} == {"fabrication", "assembly", "report"}
+    # the light stage measures the fins as built: the plate thickness decides which panels
+    # the fabrication leaves out
+    assert {s for s in a if a[s] != c[s]} == {"fabrication", "light", "assembly", "report"}
 
 
 def test_unset_weights_come_from_the_optimizer_defaults():
@@ -143,3 +147,20 @@ def test_serial_study_executor_runs_its_tasks_on_one_process():
     assert ex.wait([job]) == [job]
     assert ex.result(job) == 1          # inside: the stages' pools are capped to this process
     assert usable_workers(4) == 4       # outside: not
+
+
+def test_built_structure_leaves_out_the_fins_the_fabrication_did_not_build():
+    from torsal.geometry.support import SupportStructure
+    from torsal.pipeline.stages import built_structure
+
+    a = np.array([[0., 0, 0], [1, 0, 0], [2, 0, 0], [0, 1, 0], [1, 1, 0], [2, 1, 0]])
+    s = SupportStructure(a, a + [0, 0, 1], [[0, 1, 4, 3], [1, 2, 5, 4]],
+                         np.array([[0, 1], [1, 2], [3, 4], [4, 5], [0, 3], [1, 4], [2, 5]]),
+                         np.array([0, 0, 0, 0, 1, 1, 1]))
+    assert built_structure(s, []) is s
+    b = built_structure(s, [5, 1])
+    assert b.edges.tolist() == [[0, 1], [3, 4], [4, 5], [0, 3], [2, 5]]
+    assert b.edge_family.tolist() == [0, 0, 0, 1, 1]
+    # each fin is one planar quad a_i a_j b_j b_i of unit area: 5 left of 7
+    m = b.fin_mesh()
+    assert np.isclose(m.area, 5.0)

@@ -366,6 +366,21 @@ def _gate_rows(gate: dict | None, what: str, count_key: str) -> list:
     return [(label, f'<span class="bad">{gate[count_key]}</span>: {html.escape(gate["message"])}')]
 
 
+def _left_out_cell(fa: dict) -> str:
+    """The fin panels the fabrication left out, named (the light section measures without
+    them)."""
+    n = fa.get("panels_left_out", 0)
+    if not n:
+        return "0"
+    named = "; ".join(html.escape(f"{d['strip']} edge {d['edge']}"
+                                  + (f" at node {d['node']}" if d["node"] is not None else "")
+                                  + f": {d['reason']}")
+                      for d in fa.get("panels_left_out_list", [])[:12])
+    more = " ..." if n > 12 else ""
+    return (f'<span class="bad">{n}</span> (not built, not counted in the light measurement): '
+            f"{named}{more}")
+
+
 def _assembly_html(a: dict, max_steps: int = 300) -> str:
     """Section 5: the assembly check (verdict, numbers, picture) and the assembly sequence."""
     verdict = ('<span class="ok">buildable</span>' if a["buildable"] else
@@ -441,7 +456,9 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                     "the heavier directions are drawn thicker.</p>" + view3d)
     if li:
         b = li["baseline_louvers"]
-        rows = [("fins of this design", li["blocked_share"], li["transparency"], li["transparency_cone"]),
+        built = (f"fins of this design as built ({li['fins_measured']} fins)"
+                 if "fins_measured" in li else "fins of this design")
+        rows = [(built, li["blocked_share"], li["transparency"], li["transparency_cone"]),
                 ("horizontal louvers, same depth and spacing", b["blocked_share"], b["transparency"],
                  b["transparency_cone"])]
         secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>"
@@ -453,6 +470,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
         dxf = fa.get("dxf") or []
         rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
                 ("sheet utilization", fa["utilization"]),
+                ("fin panels left out", _left_out_cell(fa)),
                 ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
                 ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
         secs.append("<h2>4. Fabrication</h2>" + _table(rows))

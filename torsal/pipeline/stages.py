@@ -301,16 +301,32 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float)
             "fin_area_m2": float(fins.area) * metres_per_unit ** 2}, blocked
 
 
+def built_structure(structure, left_out):
+    """The support structure without the fins (structure edges) ``left_out`` by the
+    fabrication (panels too narrow or lying along the plate they end against): the fins that
+    are built. ``structure`` itself when nothing is left out."""
+    if not len(left_out):
+        return structure
+    keep = np.ones(len(structure.edges), bool)
+    keep[np.asarray(sorted(left_out), np.int64)] = False
+    return type(structure)(structure.vertices_a, structure.vertices_b, structure.faces,
+                           structure.edges[keep], structure.edge_family[keep],
+                           metadata=dict(structure.metadata))
+
+
 def run_light(inp: StageInputs) -> dict:
-    """Sun blocked over the sun hours and view clear, for the fins and for horizontal
-    louvers of the same depth and spacing (:func:`measure_fins`). Returns the ``report``
-    section and ``map`` (``points`` (p, 3), ``per_point`` (p,) blocked share) for the figure."""
+    """Sun blocked over the sun hours and view clear, for the fins as built (without the
+    panels the fabrication left out) and for horizontal louvers of the same depth and
+    spacing (:func:`measure_fins`). Returns the ``report`` section and ``map`` (``points``
+    (p, 3), ``per_point`` (p,) blocked share) for the figure."""
     from ..light import horizontal_louvers
 
     spec = inp.spec
     o, sun = inp["orient"], inp["sun"]
     v, f = o["vertices"], o["faces"]
-    fins = inp["support"]["structure"].fin_mesh()
+    left_out = inp["fabrication"].get("left_out_edges", [])
+    # the fins as built: panels the fabrication left out neither shade nor reflect
+    fins = built_structure(inp["support"]["structure"], left_out).fin_mesh()
     n, m_per_unit = spec.outputs.light_samples, spec.metres_per_unit
     report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit)
     louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
@@ -325,6 +341,7 @@ def run_light(inp: StageInputs) -> dict:
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
+        "fins_measured": int(len(inp["support"]["structure"].edges) - len(left_out)),
         **report,
         "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
                                                  "transparency_cone")}},
@@ -373,12 +390,20 @@ def run_fabrication(inp: StageInputs) -> dict:
     if spec.outputs.bom:
         fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
         written["bom"] = "parts.csv"
+    left_out = ([{"strip": s_, "edge": int(e), "node": int(v), "reason": why}
+                 for s_, e, v, why in getattr(fs, "coplanar_panels", [])]
+                + [{"strip": s_, "edge": int(e), "node": None,
+                    "reason": f"narrower than a plate ({w:.1f} mm)"}
+                   for s_, e, w in fs.dropped_panels])
     return {"report": {
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
+        "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
         "files": written, "layout": layout,
+        # for the light stage: the fins that are not built
+        "left_out_edges": sorted({d["edge"] for d in left_out}),
         # for the assembly stage: which parts each joint joins, and along which axis
         "joints": joints_of(fs)}
 
@@ -482,10 +507,11 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("congruence", run_congruence, inputs=("orient", "sun"), key=_congruence_key),
     Stage("remesh", run_remesh, inputs=("orient", "congruence"), key=_remesh_key),
     Stage("support", run_support, inputs=("orient", "remesh"), key=_fins_key),
-    Stage("light", run_light, inputs=("orient", "sun", "support"), key=_light_key),
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
+    # after the fabrication: it measures the fins that are built
+    Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication"), key=_light_key),
     Stage("assembly", run_assembly, inputs=("support", "fabrication"),
           key=_assembly_key, section="fabrication.assembly"),
     Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",
