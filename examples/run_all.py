@@ -50,7 +50,7 @@ def row(key: str, r: dict | None, err: str | None) -> str:
             f"{100 * li['blocked_share']:.0f}% ({100 * li['baseline_louvers']['blocked_share']:.0f}%) | "
             f"{100 * li['transparency']:.0f}% ({100 * li['baseline_louvers']['transparency']:.0f}%) | "
             f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {min_torsal_angle(c)} | "
-            f"{interfering_cell(fa.get('assembly'))} | {paper} |")
+            f"{interfering_cell(fa.get('assembly'))}{left_out_cell(fa)} | {paper} |")
 
 
 def min_torsal_angle(c: dict) -> str:
@@ -78,6 +78,12 @@ def interfering_cell(a: dict | None) -> str:
     if a["blocked_parts"]:
         cell += f", {len(a['blocked_parts'])} blocked"
     return cell
+
+
+def left_out_cell(fa: dict) -> str:
+    """Fin panels the fabrication left out (not built, not in the light measurement)."""
+    n = fa.get("panels_left_out", 0)
+    return f"; {n} panels left out" if n else ""
 
 
 def _pad(line: str, bars: int) -> str:
