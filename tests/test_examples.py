@@ -153,7 +153,7 @@ def test_example_runs_small(path, tmp_path):
     assert set(res.files) >= {"report_json", "report_html", "congruence", "support"}
 
 
-def test_changing_only_the_material_reruns_only_fabrication(tmp_path):
+def test_changing_only_the_material_reruns_only_fabrication_and_what_measures_it(tmp_path):
     d = small(Design.from_toml(EXAMPLES[0]))
     first = d.run(tmp_path, accept_unbuildable=True)
     assert first.cached == []
@@ -164,4 +164,5 @@ def test_changing_only_the_material_reruns_only_fabrication(tmp_path):
         update={"thickness_mm": 5.0})}))
     third = thicker.run(tmp_path, accept_unbuildable=True)
     assert "fabrication" not in third.cached and "assembly" not in third.cached
-    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support", "light"}
+    # the light is measured on the fins as built, which the plate thickness can change
+    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support"}
