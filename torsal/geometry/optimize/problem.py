@@ -259,11 +259,8 @@ class CongruenceProblem:
         >>> round(p.perpendicular([0, 1, 0]).energies()["perpendicular"], 2)
         0.95
         """
-        vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
-        dd = _unit_rows(d, len(vi), "light direction d")
-        t = Term(name, False, T.perpendicular_element(), _var_index(vi, 0), np.zeros((len(vi), 0)), dd,
-                  vi, scale=1.0 / len(vi), weight=self._weight("perpendicular", weight))
-        return self._add(t)
+        return self._direction_term(name, T.perpendicular_element(), d, vertices, weight,
+                                    "perpendicular", "light direction d")
 
     def parallel(self, d, vertices=None, weight: float | None = None,
                  name: str = "parallel") -> "CongruenceProblem":
@@ -276,10 +273,16 @@ class CongruenceProblem:
         >>> round(p.parallel([0, -1, 0], vertices=[0, 1]).energies()["parallel"], 2)
         0.08
         """
+        return self._direction_term(name, T.parallel_element(), d, vertices, weight,
+                                    "parallel", "direction d")
+
+    def _direction_term(self, name: str, element, d, vertices, weight, kind: str,
+                        what: str) -> "CongruenceProblem":
+        """A term of one unit direction per vertex of V' (f_perp, f_par): mean over V'."""
         vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
-        dd = _unit_rows(d, len(vi), "direction d")
-        t = Term(name, False, T.parallel_element(), _var_index(vi, 0), np.zeros((len(vi), 0)), dd,
-                  vi, scale=1.0 / len(vi), weight=self._weight("parallel", weight))
+        dd = _unit_rows(d, len(vi), what)
+        t = Term(name, False, element, _var_index(vi, 0), np.zeros((len(vi), 0)), dd,
+                 vi, scale=1.0 / len(vi), weight=self._weight(kind, weight))
         return self._add(t)
 
     def through_points(self, points, vertices, weight: float | None = None,
