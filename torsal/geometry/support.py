@@ -856,60 +856,99 @@ def _project_support(structure, reference, *, hard_tol, rounds, max_iter, fixed_
                                      before, after, dist_ref, history)
 
 
-def _assembled_hessian(ca, fin, x, par, N_, n, E, i, j, fixed_e, constrained, with_ref, bnd_mask, *,
-                       c_pl, c_tan, c_e, c_fair, c_reg, L):
-    """casadi Function (x, p, lam_f, lam_g) -> upper triangle of the Lagrangian Hessian.
+class _HessianEntries:
+    """Entries of the Lagrangian Hessian, gathered block by block: symbolic values (casadi)
+    and, per value, the global (row, column) it adds to. :meth:`function` sums them into the
+    upper triangle with one constant sparse matrix product."""
 
-    Per fin the 12x12 Hessian of ``lam_f c_pl dist^2 + lam_g plan`` (SX, mapped over all
-    fins); the quadratic terms of eq. (8) add constant (or parameter-bilinear) blocks. All
-    entries are summed into the global sparsity by one constant sparse matrix product.
-    """
-    import scipy.sparse as sp
+    def __init__(self) -> None:
+        self.values: list = []
+        self.rows: list[np.ndarray] = []
+        self.cols: list[np.ndarray] = []
+        self.src: list[np.ndarray] = []
+        self.size = 0
 
+    def add(self, values, rows, cols, order=None) -> None:
+        """``values`` (m,) symbolic; entry ``order[k]`` of them adds to ``(rows[k], cols[k])``
+        (``order`` defaults to ``arange(m)``)."""
+        m = len(rows)
+        self.values.append(values)
+        self.rows.append(np.asarray(rows))
+        self.cols.append(np.asarray(cols))
+        self.src.append(self.size + (np.arange(m) if order is None else np.asarray(order)))
+        self.size += m
+
+    def function(self, ca, x, par, lam_f, lam_g):
+        """casadi Function (x, p, lam_f, lam_g) -> upper triangle of the summed Hessian."""
+        import scipy.sparse as sp
+
+        rows, cols = np.concatenate(self.rows), np.concatenate(self.cols)
+        src = np.concatenate(self.src)
+        # upper triangle only (symmetric blocks: mirror the lower entries)
+        lo = rows > cols
+        rows[lo], cols[lo] = cols[lo], rows[lo].copy()
+        nx = int(x.numel())
+        ukey, inv = np.unique(cols.astype(np.int64) * nx + rows, return_inverse=True)
+        ur, uc = (ukey % nx).astype(np.int64), (ukey // nx).astype(np.int64)
+        # entries mirrored from the lower triangle must not be double counted: keep the
+        # strictly-lower copies out (the per-fin and L^T L blocks contain both halves)
+        keep = ~lo | (rows == cols)
+        S = sp.csr_matrix((np.ones(int(keep.sum())), (inv[keep], src[keep])),
+                          shape=(len(ukey), self.size)).tocoo()
+        Sdm = ca.DM.triplet(S.row.tolist(), S.col.tolist(), ca.DM(S.data), len(ukey), self.size)
+        values = ca.mtimes(Sdm, ca.vertcat(*self.values))
+        H = ca.MX(ca.Sparsity.triplet(nx, nx, ur.tolist(), uc.tolist()), values)
+        return ca.Function("nlp_hess_l", [x, par, lam_f, lam_g], [H],
+                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+
+
+def _fin_blocks(entries: _HessianEntries, ca, fin, x, n, E, i, j, fixed_e, constrained,
+                lam_f, lam_g, c_pl) -> None:
+    """Per fin the 12x12 (6x6 with e fixed) Hessian of ``lam_f c_pl dist^2 + lam_g plan``
+    (SX, mapped over all ``E`` fins), placed at the fin's nodes ``i``, ``j``."""
     nv = 6 if fixed_e else 12
     z = ca.SX.sym("z", 12)
     lf, lg = ca.SX.sym("lf"), ca.SX.sym("lg")
     d_k, p_k = fin(z[0:3], z[3:6], z[6:9], z[9:12])
     hk = ca.hessian(lf * c_pl * d_k ** 2 + lg * p_k, z[:nv])[0]
-    hk_fun = ca.Function("fin_hess", [z, lf, lg], [ca.vec(ca.densify(hk))])
-    hk_map = hk_fun.map(E, "serial")
+    hk_map = ca.Function("fin_hess", [z, lf, lg], [ca.vec(ca.densify(hk))]).map(E, "serial")
     A = ca.reshape(x[:3 * n], 3, n)
     Em = ca.DM(np.zeros((3, n))) if fixed_e else ca.reshape(x[3 * n:], 3, n)
     il, jl = i.tolist(), j.tolist()
     Z = ca.vertcat(A[:, il], A[:, jl], Em[:, il], Em[:, jl])
-    lam_f = ca.MX.sym("lam_f")
-    lam_g = ca.MX.sym("lam_g", E if constrained else 0)
-    vals = [ca.vec(hk_map(Z, ca.repmat(lam_f, 1, E), lam_g.T if constrained else ca.DM.zeros(1, E)))]
+    values = ca.vec(hk_map(Z, ca.repmat(lam_f, 1, E), lam_g.T if constrained else ca.DM.zeros(1, E)))
     # global index of each of the nv local variables of every fin, (E, nv)
     three = np.arange(3)
     gl = [3 * i[:, None] + three, 3 * j[:, None] + three]
     if not fixed_e:
         gl += [3 * n + 3 * i[:, None] + three, 3 * n + 3 * j[:, None] + three]
     gl = np.concatenate(gl, axis=1)
-    r_loc, c_loc = np.meshgrid(np.arange(nv), np.arange(nv), indexing="ij")  # entry q = c*nv + r
+    r_loc, c_loc = np.meshgrid(np.arange(nv), np.arange(nv), indexing="ij")  # value q = c*nv + r
     q = (c_loc * nv + r_loc).ravel()
-    rows = [gl[:, r_loc.ravel()].ravel()]
-    cols = [gl[:, c_loc.ravel()].ravel()]
-    src = [(np.arange(E)[:, None] * nv * nv + q[None, :]).ravel()]
-    off = E * nv * nv
-    # quadratic terms: tangent planes (parameter dependent) ...
-    if with_ref:
-        ab = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
-        nn = ca.vertcat(*[N_[a, :] * N_[b, :] for a, b in ab])  # (6, n)
-        vals.append(lam_f * 2.0 * c_tan * ca.vec(nn))
-        k = np.arange(n)
-        for t_, (a, b) in enumerate(ab):
-            rows.append(3 * k + a)
-            cols.append(3 * k + b)
-            src.append(off + k * 6 + t_)
-        off += 6 * n
-    # ... and constant blocks: fairness (L^T L per coordinate), regularizer, boundary, e-proximity
+    entries.add(values, gl[:, r_loc.ravel()].ravel(), gl[:, c_loc.ravel()].ravel(),
+                order=(np.arange(E)[:, None] * nv * nv + q[None, :]).ravel())
+
+
+def _tangent_blocks(entries: _HessianEntries, ca, N_, n, lam_f, c_tan) -> None:
+    """Tangent-plane proximity ``c_tan (n_k . (a_k - p_k))^2``: 3x3 blocks ``2 c_tan n n^T``
+    per node, with the normals ``N_`` (3, n) an NLP parameter."""
+    ab = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    nn = ca.vertcat(*[N_[a, :] * N_[b, :] for a, b in ab])  # (6, n), node-major when vec'd
+    k = np.arange(n)
+    rows = np.stack([3 * k + a for a, _ in ab], axis=1).ravel()
+    cols = np.stack([3 * k + b for _, b in ab], axis=1).ravel()
+    entries.add(lam_f * 2.0 * c_tan * ca.vec(nn), rows, cols)
+
+
+def _constant_blocks(entries: _HessianEntries, ca, n, fixed_e, with_ref, bnd_mask, lam_f, *,
+                     c_tan, c_e, c_fair, c_reg, L) -> None:
+    """Constant blocks of eq. (8)'s quadratic terms: fairness (``L^T L`` per coordinate),
+    the regularizer, tangent distance without a reference (or on the boundary) and the
+    proximity of e."""
     LtL = (L.T @ L).tocoo()
-    cr, cc, cv = [], [], []
-    for d in range(3):
-        cr.append(3 * LtL.row + d)
-        cc.append(3 * LtL.col + d)
-        cv.append(2.0 * c_fair * LtL.data)
+    cr = [3 * LtL.row + d for d in range(3)]
+    cc = [3 * LtL.col + d for d in range(3)]
+    cv = [2.0 * c_fair * LtL.data] * 3
     diag_a = np.full(n, 2.0 * c_reg)
     if not with_ref:
         diag_a = diag_a + 2.0 * c_tan
@@ -922,28 +961,23 @@ def _assembled_hessian(ca, fin, x, par, N_, n, E, i, j, fixed_e, constrained, wi
         cr.append(3 * n + np.arange(3 * n))
         cc.append(3 * n + np.arange(3 * n))
         cv.append(np.full(3 * n, 2.0 * c_e))
-    cr, cc, cv = np.concatenate(cr), np.concatenate(cc), np.concatenate(cv)
-    vals.append(lam_f * ca.DM(cv))
-    rows.append(cr)
-    cols.append(cc)
-    src.append(off + np.arange(len(cv)))
-    off += len(cv)
-    rows, cols, src = np.concatenate(rows), np.concatenate(cols), np.concatenate(src)
-    # upper triangle only (symmetric blocks: mirror the lower entries)
-    lo = rows > cols
-    rows[lo], cols[lo] = cols[lo], rows[lo].copy()
-    nx = int(x.numel())
-    key = cols.astype(np.int64) * nx + rows
-    ukey, inv = np.unique(key, return_inverse=True)
-    ur, uc = (ukey % nx).astype(np.int64), (ukey // nx).astype(np.int64)
-    # entries that were mirrored from the lower triangle must not be double counted: keep the
-    # strictly-lower copies out (the per-fin and L^T L blocks contain both halves)
-    keep = ~lo | (rows == cols)
-    S = sp.csr_matrix((np.ones(int(keep.sum())), (inv[keep], src[keep])), shape=(len(ukey), off))
-    Sc = S.tocoo()
-    Sdm = ca.DM.triplet(Sc.row.tolist(), Sc.col.tolist(), ca.DM(Sc.data), len(ukey), off)
-    values = ca.mtimes(Sdm, ca.vertcat(*vals))
-    spars = ca.Sparsity.triplet(nx, nx, ur.tolist(), uc.tolist())
-    H = ca.MX(spars, values)
-    return ca.Function("nlp_hess_l", [x, par, lam_f, lam_g], [H],
-                       ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    entries.add(lam_f * ca.DM(np.concatenate(cv)), np.concatenate(cr), np.concatenate(cc))
+
+
+def _assembled_hessian(ca, fin, x, par, N_, n, E, i, j, fixed_e, constrained, with_ref, bnd_mask, *,
+                       c_pl, c_tan, c_e, c_fair, c_reg, L):
+    """casadi Function (x, p, lam_f, lam_g) -> upper triangle of the Lagrangian Hessian.
+
+    Per fin the 12x12 Hessian of ``lam_f c_pl dist^2 + lam_g plan`` (SX, mapped over all
+    fins); the quadratic terms of eq. (8) add constant (or parameter-bilinear) blocks. All
+    entries are summed into the global sparsity by one constant sparse matrix product.
+    """
+    lam_f = ca.MX.sym("lam_f")
+    lam_g = ca.MX.sym("lam_g", E if constrained else 0)
+    entries = _HessianEntries()
+    _fin_blocks(entries, ca, fin, x, n, E, i, j, fixed_e, constrained, lam_f, lam_g, c_pl)
+    if with_ref:
+        _tangent_blocks(entries, ca, N_, n, lam_f, c_tan)
+    _constant_blocks(entries, ca, n, fixed_e, with_ref, bnd_mask, lam_f, c_tan=c_tan, c_e=c_e,
+                     c_fair=c_fair, c_reg=c_reg, L=L)
+    return entries.function(ca, x, par, lam_f, lam_g)
