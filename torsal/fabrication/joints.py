@@ -27,8 +27,9 @@ every node the joint is chosen from the real geometry of the plates there:
   ``max_fold_angle``: the later part butts against the square end of the earlier one.
 * **Mitre with a splice plate** (:attr:`JointKind.MITRE_SPLICE`) where a strip is split on a
   mild fold away from any crossing plate (``max_panels``, ``max_part_length``, sheet size): the
-  ends meet on the fold's bisector plane and a bent splice plate covers the seam on the side
-  clear of other parts.
+  ends are mitred on the fold's bisector plane, each trimmed back from it by ``clearance/2``
+  (:func:`mitre_trim`: the parts leave the clearance between them, like a butt joint), and a
+  bent splice plate covers the seam on the side clear of other parts.
 
 **One insertion direction per part.** Family-0 plates go in first; each family-1 plate then
 slides onto all its egg-crate crossings along one direction, the mean of their node axes. A
@@ -89,7 +90,7 @@ from .model import JointKind, _fold_deg, _miter, quad_normals
 
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
-           "place_connector", "corners", "JointKind"]
+           "place_connector", "corners", "mitre_trim", "JointKind"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -392,6 +393,37 @@ def trim_further(quad: np.ndarray, start: bool, panels, pa: np.ndarray, m_end: n
         u = quad[oc] - quad[cc]
         if (x - quad[cc]) @ u > (out[cc] - quad[cc]) @ u:
             out[cc] = x
+    return out
+
+
+def mitre_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray,
+               gap: float) -> dict:
+    """Corners of a mitred end panel moved back from the fold's bisector plane by ``gap``.
+
+    The two parts of a strip split on a mild fold meet on the bisector plane of the fold
+    (unit normal ``seam``, through the node line at ``pa``); each is trimmed back by ``gap``
+    (``clearance/2``) so that the parts leave the clearance between them, like a butt joint,
+    and can be put in one after the other. ``start``: the panel's ``a_i b_i`` end (corners 0,
+    3 moved along the edges to 1, 2), else its ``a_j b_j`` end (corners 1, 2 moved to 0, 3).
+    A corner moves ``s = gap / (u . seam)`` along its edge ``u`` (``seam`` turned towards the
+    panel), so the end cap, which contains the mitre vector of the fold (in the bisector plane),
+    stays parallel to that plane. Returns ``{corner index: new point}``; raises
+    :class:`_Untrimmable` if an edge runs (nearly) along the plane or the panel is too short.
+    """
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0)
+    s_n = seam if (far - pa) @ seam >= 0 else -seam
+    out = {}
+    for cc, oc in ((ia, ja), (ib, jb)):
+        u = quad[oc] - quad[cc]
+        L = float(np.linalg.norm(u))
+        cos = u @ s_n / L if L > 0 else 0.0
+        if not cos > 0.05:
+            raise _Untrimmable(f"its edge runs along the mitre plane ({np.degrees(np.arcsin(min(1.0, max(-1.0, cos)))):.1f} deg)")
+        s = gap / cos
+        if s >= 0.5 * L:
+            raise _Untrimmable(f"panel too short ({L:.3g}) to trim by {s:.3g}")
+        out[cc] = quad[cc] + (s / L) * u
     return out
 
 

@@ -68,7 +68,7 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 from . import layout as _layout
 from . import solids as _solids
 from .joints import (MAX_CROSSING_FOLD, MAX_SLOT_SKEW, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
-                     corners, into_direction, place_connector, slot_width, trim_corner,
+                     corners, into_direction, mitre_trim, place_connector, slot_width, trim_corner,
                      trim_further)
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
                     JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
@@ -839,7 +839,8 @@ class FinSystem:
                     # halves of family 0, which bridges family 0's seam
                     bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
                     b = base.get((fam, node))
-                    if fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node])):
+                    butted = fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node]))
+                    if butted:
                         trimmed[end] = self._butt(p, end, node, g, st, gap, h,
                                                   bridge=fam == 1 and bridged)
                     elif b is not None and b[0][2][0] != si and kind in ("end", "dropped"):
@@ -854,7 +855,10 @@ class FinSystem:
                         if prev is not None:
                             self._splice(prev, p, node, g)
                     if kind == "miter" and end == 0:
-                        self._seam_walls(self._previous(parts, p, st.quads[si]), p)
+                        prev = self._previous(parts, p, st.quads[si])
+                        self._seam_walls(prev, p)
+                        if not butted:      # (butted: both ends trimmed against the plate)
+                            self._mitre_gap(prev, p, node)
                 p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=5)
         if self.unconnected_joints:
@@ -944,6 +948,27 @@ class FinSystem:
         for q, quad in ((p, p.panels[0]), (prev, prev.panels[-1])):
             n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
             self._walls.setdefault(q.name, []).append(n)
+
+    def _mitre_gap(self, prev: Part | None, p: Part, node: int) -> None:
+        """Trim both parts of a mitred seam back from the fold's bisector plane by
+        ``clearance/2`` (:func:`~.joints.mitre_trim`), so that they do not touch (after the
+        splice plate and the walls, which are placed on the untrimmed node line)."""
+        if prev is None or not self.clearance > 0:
+            return
+        a, b = p.panels[0][0].copy(), p.panels[0][3]
+        seam = np.cross(b - a, p.miters[0])
+        if not np.linalg.norm(seam) > 0:
+            return
+        seam = seam / np.linalg.norm(seam)
+        for q, start in ((p, True), (prev, False)):
+            quad = q.panels[0 if start else -1]
+            try:
+                moved = mitre_trim(quad, start, seam, a, 0.5 * self.clearance)
+            except _Untrimmable as why:
+                self.untrimmed_joints.append((q.name, node, f"mitred seam: {why}"))
+                continue
+            for cc, x in moved.items():
+                quad[cc] = x
 
     def _note_untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
         """Remember panel ``j`` of ``p`` (strip index, panel of the strip) to leave it out."""
