@@ -56,6 +56,7 @@ Example
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import warnings
 from dataclasses import replace
@@ -131,6 +132,17 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
         return axis / np.linalg.norm(axis)
     d = d / np.linalg.norm(d)
     return d if d @ axis >= 0 else -d
+
+
+def _memo_key(x):
+    """A hashable key of nested arrays, sequences, dicts and scalars (arrays by their bytes)."""
+    if isinstance(x, np.ndarray):
+        return ("a", x.shape, x.dtype.str, x.tobytes())
+    if isinstance(x, (list, tuple)):
+        return (type(x).__name__, tuple(_memo_key(y) for y in x))
+    if isinstance(x, dict):
+        return ("d", tuple(sorted((k, _memo_key(v)) for k, v in x.items())))
+    return x
 
 
 def _quads_cross(p: np.ndarray, q: np.ndarray) -> bool:
@@ -393,6 +405,7 @@ class FinSystem:
         if len(structure.edges) == 0:
             raise ValueError("the support structure has no edges: nothing to fabricate")
         self._build_until_trimmed()
+        self.__dict__.pop("_memo", None)        # only the rebuilds of this construction use it
 
     # ------------------------------------------------------------------ construction
     def _reset_state(self) -> None:
@@ -411,6 +424,26 @@ class FinSystem:
         self.untrimmed_joints: list[tuple[str, int, str]] = []
         self._init_joints()
         self.parts = []
+
+    def _cached(self, fn, *args, **kw):
+        """``fn(*args, **kw)`` of a pure joint kernel (butt trims, corners, connectors, sheet
+        fits), remembered by the bytes of its arguments for the rebuilds of one
+        :class:`FinSystem` (:meth:`_build_until_trimmed` rebuilds the whole structure, and most
+        ends and fits come out the same): the same result, a copy, or the same
+        :class:`~.joints._Untrimmable` raised again."""
+        memo = self.__dict__.setdefault("_memo", {})
+        key = (fn.__name__, _memo_key(args), _memo_key(kw))
+        hit = memo.get(key)
+        if hit is None:
+            try:
+                hit = (True, fn(*args, **kw))
+            except _Untrimmable as why:
+                hit = (False, str(why))
+            memo[key] = hit
+        ok, value = hit
+        if not ok:
+            raise _Untrimmable(value)
+        return copy.deepcopy(value)
 
     def _build_until_trimmed(self) -> None:
         """Build; where a part end meets the plate it butts against too obliquely to be
@@ -598,6 +631,7 @@ class FinSystem:
                     trimmed[0] = self._fold_butt(p, self._previous(parts, p, q), q, -1, gap, h)
                     p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=3)
+        self.__dict__.pop("_memo", None)
         return self
 
     @property
@@ -664,6 +698,10 @@ class FinSystem:
         return self._fit(quads, lo, mid) + self._fit(quads, mid, hi)
 
     def _fits(self, quads: np.ndarray) -> bool:
+        """Whether panels ``quads`` unrolled fit ``fit_sheet`` (remembered: see :meth:`_cached`)."""
+        return self._cached(self._fits_sheet, np.ascontiguousarray(quads))
+
+    def _fits_sheet(self, quads: np.ndarray) -> bool:
         try:
             outline = unroll(quads, slots=[]).outline
         except ValueError:          # overlaps itself when unrolled: too long anyway
@@ -884,13 +922,14 @@ class FinSystem:
         j = 0 if end == 0 else len(p.panels) - 1
         quad = p.panels[j]
         try:
-            moved, m_end, nbar = butt_trim(quad, end == 0, [(n, v) for n, v, _ in panels],
+            moved, m_end, nbar = self._cached(butt_trim, quad, end == 0, [(n, v) for n, v, _ in panels],
                                            st.a[node], gap, h)
             # strips of this family that already end here on the same side of the plate meet
             # this one in the corner: its end clears them too
             others = [(n, v) for n, v, nb in self._ends_at.get((p.family, node), []) if nb @ nbar > 0]
             if others:
-                moved = trim_further(quad, end == 0, others, st.a[node], m_end, moved, gap, h)
+                moved = self._cached(trim_further, quad, end == 0, others, st.a[node], m_end, moved,
+                                     gap, h)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, str(why)))
             self._note_untrimmable(p, j, node, str(why))
@@ -998,7 +1037,7 @@ class FinSystem:
             if not np.linalg.norm(into) > 0:
                 raise _Untrimmable("the previous panel has no extent")
             into = into / np.linalg.norm(into)
-            moved, m_end, nbar = butt_trim(quad, True, [(nprev, into)], pa, gap, h)
+            moved, m_end, nbar = self._cached(butt_trim, quad, True, [(nprev, into)], pa, gap, h)
             self._walls.setdefault(p.name, []).append(nbar)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, f"{what}: {why}"))
@@ -1024,7 +1063,7 @@ class FinSystem:
         vb = vb / np.linalg.norm(vb)
         # other parts' panels and the brackets already there must not be in the corner
         obstacles = [v for v in self._dirs.get(node, [])] + self._bracket_dirs.get(node, [])
-        picks = corners([v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
+        picks = self._cached(corners, [v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
         placed = 0
         why = "no corner between 25 and 172 deg for a bracket"
         for i, angle in picks:
@@ -1032,7 +1071,7 @@ class FinSystem:
             nb = quad_normals(quad[None])[0]
             nc = nc if nc @ vb > 0 else -nc
             nb = nb if nb @ vc > 0 else -nb
-            q = place_connector(pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=self.thickness,
+            q = self._cached(place_connector, pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=self.thickness,
                                 gap=CONNECTOR_GAP * self.thickness)
             why = "the panels are too small for a bracket"
             if q is not None:
@@ -1061,7 +1100,7 @@ class FinSystem:
         if len(other) < 2:
             side = -(other[0][1] @ (n1 + n2)) if other else (v1 + v2) @ (n1 + n2)
             s = 1.0 if side >= 0 else -1.0
-            q = place_connector(pa, pb, (s * n1, v1), (s * n2, v2), qe, qp,
+            q = self._cached(place_connector, pa, pb, (s * n1, v1), (s * n2, v2), qe, qp,
                                 thickness=self.thickness, gap=CONNECTOR_GAP * self.thickness)
             why = "the panels are too small for a splice plate"
         cdir = -(n1 + n2) * (1.0 if q is None else s)
