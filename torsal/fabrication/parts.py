@@ -1391,8 +1391,27 @@ class FinSystem:
         build them in parallel (default: one per core); see
         :func:`torsal.fabrication.solids.build_solids`."""
         if self._solids is None:
-            self._solids = _solids.build_solids(self, repair=repair, workers=workers)
+            pending, self._pending = getattr(self, "_pending", None), None
+            self._solids = _solids.build_solids(self, repair=repair, workers=workers,
+                                                pending=pending)
         return self._solids
+
+    def start_solids(self, *, workers: int | None = None) -> bool:
+        """Start building the solids in worker processes and return at once, so that this
+        process can unroll, nest and write the sheets meanwhile; :meth:`solids` (and the
+        exports) then collect them. False if there is nothing to start (built already, or
+        one worker: they are built when asked for); see
+        :func:`torsal.fabrication.solids.start_solids`."""
+        if self._solids is not None or getattr(self, "_pending", None) is not None:
+            return False
+        self._pending = _solids.start_solids(self, workers=workers)
+        return self._pending is not None
+
+    def cancel_solids(self) -> None:
+        """Drop a build started by :meth:`start_solids` (e.g. when a later step failed)."""
+        pending, self._pending = getattr(self, "_pending", None), None
+        if pending is not None:
+            pending.cancel()
 
     def export_step(self, path) -> "object":
         """One STEP assembly with a named, coloured solid per part (``unit``)."""
