@@ -86,7 +86,7 @@ from typing import NamedTuple
 import numpy as np
 from shapely.geometry import Polygon
 
-from .model import JointKind, _fold_deg, _miter, quad_normals
+from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
@@ -153,7 +153,7 @@ def _plate_fold(panels) -> float:
 def crossing_angle(panels0, panels1) -> float:
     """Angle (degrees, 0..90) between the mean planes of two plates at a node."""
     n0, n1 = _mean_normal(panels0), _mean_normal(panels1)
-    return float(np.degrees(np.arcsin(np.clip(np.linalg.norm(np.cross(n0, n1)), 0.0, 1.0))))
+    return float(np.degrees(np.arcsin(np.clip(np.linalg.norm(_cross(n0, n1)), 0.0, 1.0))))
 
 
 class NodeJoinery(NamedTuple):
@@ -217,7 +217,7 @@ def _inside(leg: np.ndarray, panel: np.ndarray, tol: float) -> bool:
     e1 = panel[1] - panel[0] if np.linalg.norm(panel[1] - panel[0]) > 0 else panel[2] - panel[3]
     e1 = e1 - (e1 @ n) * n
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
+    e2 = _cross(n, e1)
     P = np.c_[(panel - panel[0]) @ e1, (panel - panel[0]) @ e2]
     Q = np.c_[(leg - panel[0]) @ e1, (leg - panel[0]) @ e2]
     poly = Polygon(P)
@@ -271,7 +271,7 @@ def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray,
     u = line / np.linalg.norm(line)
 
     def ang(v):      # signed angle from v_butt to v about the node line, degrees
-        return float(np.degrees(np.arctan2(np.cross(v_butt, v) @ u, v_butt @ v)))
+        return float(np.degrees(np.arctan2(_cross(v_butt, v) @ u, v_butt @ v)))
 
     angles = [ang(v) for v in v_cont]
     out = []
@@ -329,8 +329,8 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2
                 edge = h * _miter(panels[0][0], panels[1][0])
                 rel = base - pa
                 pc = edge + ((rel - edge) @ line) * line           # at the height of this corner
-                w = np.cross(m_end, line)
-                w = w / np.linalg.norm(w) * (1.0 if np.cross(m_end, line) @ u >= 0 else -1.0)
+                w = _cross(m_end, line)
+                w = w / np.linalg.norm(w) * (1.0 if _cross(m_end, line) @ u >= 0 else -1.0)
                 npan = m_end / np.linalg.norm(m_end)
                 if abs((pc - rel) @ npan) <= h + (gap - h) and u @ w > 0.05:
                     s_new = max(s_new, s_req + ((gap - h) - (rel - pc) @ w) / (u @ w))

@@ -72,7 +72,7 @@ from .joints import (MAX_CROSSING_FOLD, MAX_SLOT_SKEW, MIN_CROSSING_ANGLE, _Untr
                      corners, into_direction, mitre_trim, place_connector, slot_width, trim_corner,
                      trim_further)
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
-                    JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
+                    JointKind, Part, PartId, Slot, SlotSide, _bowtie, _cross, _fold_deg, _miter,
                     _oriented_size, _safe_normals, fold_angles, panel_widths, quad_normals)
 from .unroll import unroll
 
@@ -127,7 +127,7 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     """Direction a butted part slides into place along: the line where its plane meets the
     plate's (so its trimmed end face slides along the plate, ``clearance/2`` off it),
     oriented like ``axis`` (the node axis, ``a_i - b_i``, as for an egg-crate)."""
-    d = np.cross(n_plate, quad_normals(quad[None])[0])
+    d = _cross(n_plate, quad_normals(quad[None])[0])
     if not np.linalg.norm(d) > 1e-9:
         return axis / np.linalg.norm(axis)
     d = d / np.linalg.norm(d)
@@ -450,7 +450,10 @@ class FinSystem:
         trimmed (it lies along that plate, within about 12 degrees, and would overlap it), leave
         that end panel out (it duplicates the other plate's fin there) and build again, so that
         every part end is trimmed. The panels left out are named in ``coplanar_panels``
-        (warned); at most :data:`MAX_REBUILDS` rebuilds."""
+        (warned); at most :data:`MAX_REBUILDS` rebuilds. A rebuild changes only the ends next
+        to the panels left out and the crossings forced to butt: the trims, bracket corners,
+        connectors and sheet fits of all other ends are taken from the builds before
+        (:meth:`_cached`), so each costs less than the first."""
         extra: dict[int, set] = {}
         forced: dict[int, str] = {}
         left_out: list[tuple[str, int, int, str]] = []
@@ -980,7 +983,7 @@ class FinSystem:
         if prev is None:
             return
         a, b = p.panels[0][0], p.panels[0][3]
-        seam = np.cross(b - a, p.miters[0])
+        seam = _cross(b - a, p.miters[0])
         if not np.linalg.norm(seam) > 0:
             return
         seam = seam / np.linalg.norm(seam)
@@ -995,7 +998,7 @@ class FinSystem:
         if prev is None or not self.clearance > 0:
             return
         a, b = p.panels[0][0].copy(), p.panels[0][3]
-        seam = np.cross(b - a, p.miters[0])
+        seam = _cross(b - a, p.miters[0])
         if not np.linalg.norm(seam) > 0:
             return
         seam = seam / np.linalg.norm(seam)
@@ -1152,7 +1155,7 @@ class FinSystem:
             # both slots are wider by the sideways travel over the fin depth, on either side
             direction, sense = self._plan[l1[0][0].name]
             ax = sense * (st.a[node] - st.b[node]) / d
-            skew = np.arctan2(np.linalg.norm(np.cross(direction, ax)), direction @ ax)
+            skew = np.arctan2(np.linalg.norm(_cross(direction, ax)), direction @ ax)
             extra = 2.0 * d * np.tan(skew)
             w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
                             fold_other=x.folds[1]) + extra
@@ -1237,7 +1240,7 @@ class FinSystem:
             axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
             d = axes.sum(axis=0)
             d = d / np.linalg.norm(d)
-            skew = np.degrees(np.arctan2(np.linalg.norm(np.cross(axes, d), axis=1), axes @ d))
+            skew = np.degrees(np.arctan2(np.linalg.norm(_cross(axes, d), axis=1), axes @ d))
             if skew.max() > MAX_SLOT_SKEW:
                 self._unslidable[nodes[int(np.argmax(skew))]] = 1, (
                     f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
@@ -1286,7 +1289,7 @@ class FinSystem:
                 # along the plate it meets), then lines where two walls meet, then head on
                 cands = [self._node_axis(self.joints[k].node) for k in ks]
                 cands += [self.joints[k].insert_direction for k in ks]
-                cands += [np.cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
+                cands += [_cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
                 cands.append(-np.sum(walls, axis=0))
                 cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
                 cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
