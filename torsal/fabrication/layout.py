@@ -239,27 +239,11 @@ class _Sheet:
         self.grown: list = []
         self.bounds = np.zeros((0, 4))
 
-    def free(self, poly: Polygon, bnd) -> bool:
-        minx, miny, maxx, maxy = bnd
-        m = self.margin
-        if minx < m - 1e-9 or miny < m - 1e-9 or maxx > self.w - m + 1e-9 or maxy > self.h - m + 1e-9:
-            return False
-        if not len(self.bounds):
-            return True
-        g = self.gap
-        b = self.bounds
-        hit = np.flatnonzero((b[:, 0] - g < maxx) & (b[:, 2] + g > minx) &
-                             (b[:, 1] - g < maxy) & (b[:, 3] + g > miny))
-        for i in hit:
-            if self.grown[i].intersects(poly):
-                return False
-        return True
-
     def free_at(self, poly: Polygon, bounds, x: float, y: float) -> bool:
-        """:meth:`free` for ``poly`` (with ``bounds``) translated by ``(x, y)``: the same
-        answer, but the polygon is only moved when its bounding box meets another part's
-        (the bounds of a translated polygon are its bounds translated, exactly: rounding is
-        monotonic), which most candidate positions do not."""
+        """Whether ``poly`` (with ``bounds``) translated by ``(x, y)`` lies inside the margins
+        and ``gap`` clear of every part on the sheet. The bounding box is tested first (the
+        bounds of a translated polygon are its bounds translated, exactly: rounding is
+        monotonic); the polygon is moved only when it meets another part's."""
         minx, miny, maxx, maxy = bounds[0] + x, bounds[1] + y, bounds[2] + x, bounds[3] + y
         m = self.margin
         if minx < m - 1e-9 or miny < m - 1e-9 or maxx > self.w - m + 1e-9 or maxy > self.h - m + 1e-9:
