@@ -17,7 +17,7 @@ the centre (exactly planar fins), ~300 mm panels, 150 mm fins, 3 mm plate, parts
 panels (2.4 m), sheets 2500 x 1250 mm. Not run by the test suite.
 
     .venv/bin/python benchmarks/fabrication_bench.py [--sizes 100 1000 5100]
-        [--no-solids-above N] [--no-verify-above N] [--design examples/7a_facade_block.toml ...]
+        [--no-solids-above N] [--no-verify-above N] [--no-sheets-above N] [--design examples/7a_facade_block.toml ...]
 """
 from __future__ import annotations
 
@@ -49,7 +49,8 @@ def sphere_grid(n_panels: int, radius: float = 10.0, panel: float = 0.3, depth: 
                             np.r_[np.zeros(len(e0), int), np.ones(len(e1), int)])
 
 
-def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: bool = True) -> dict:
+def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: bool = True,
+        sheets: bool = True) -> dict:
     s = sphere_grid(n)
     row = {"panels": len(s.edges)}
     t0 = time.perf_counter()
@@ -63,6 +64,8 @@ def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: boo
         row.update(time_solids(fs, out / f"fins_{n}.step"))
         if verify:
             row.update(verification_times(fs, out / f"fins_{n}.step"))
+    if not sheets:
+        return row
     t0 = time.perf_counter()
     fs.unrolled()
     row["unroll_s"] = time.perf_counter() - t0
@@ -195,6 +198,8 @@ def main():
     ap.add_argument("--out", type=Path, default=None)
     ap.add_argument("--no-verify-above", type=int, default=10**9,
                     help="skip the assembly check above this many panels")
+    ap.add_argument("--no-sheets-above", type=int, default=10**9,
+                    help="skip unrolling, nesting and DXF above this many panels")
     ap.add_argument("--design", type=Path, nargs="*", default=[],
                     help="design files whose fabrication stage to time (table 2)")
     args = ap.parse_args()
@@ -205,7 +210,8 @@ def main():
     if args.sizes:
         _print_header(COLUMNS)
         for n in args.sizes:
-            r = run(n, out, solids=n <= args.no_solids_above, verify=n <= args.no_verify_above)
+            r = run(n, out, solids=n <= args.no_solids_above, verify=n <= args.no_verify_above,
+                    sheets=n <= args.no_sheets_above)
             r["load"] = load_average()
             _print_row(r, COLUMNS)
     if args.design:

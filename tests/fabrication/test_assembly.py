@@ -192,3 +192,27 @@ def test_parts_of_one_strip_at_a_crossing_are_not_each_others_partners():
     b = AssemblyJoint("butt-bracket", 3, ("F0-S001-P00", "F0-S001-P01", "C-N3-0"),
                       np.array([1.0, 0.0, 0.0]), "C-N3-0")
     assert joint_groups(b) == [("F0-S001-P00",), ("F0-S001-P01",), ("C-N3-0",)]
+
+
+@pytest.mark.parametrize("clearance", [0.5, 1.2])
+def test_mitred_split_leaves_the_clearance_and_is_buildable(clearance):
+    # a row of 5 panels folding ~8.6 deg at every node, split every 2 panels: two mitred seams
+    # off any crossing. Each half is trimmed back clearance/2 from the fold's bisector plane, so
+    # the parts are exactly `clearance` apart (parallel end caps) and the splice plate still
+    # lies on both (CONNECTOR_GAP * t off their faces)
+    from torsal.fabrication.parts import CONNECTOR_GAP
+
+    s = cylinder_structure(nu=6, nv=1)
+    t = 3.0
+    fs = FinSystem(s, thickness=t, clearance=clearance, max_panels=2, fit_sheet=None)
+    assert [p.name for p in fs.parts if p.family == 0] == ["F0-S000-P00", "F0-S000-P01", "F0-S000-P02"]
+    splices = [j for j in fs.joints if j.kind.value == "mitre-splice"]
+    assert len(splices) == 2 and all(j.connector for j in splices) and not fs.untrimmed_joints
+    solids = fs.solids(workers=1)
+    for j in splices:
+        e, p, conn = j.parts
+        assert solid_distance(solids[e], solids[p]) == pytest.approx(clearance, abs=1e-6)
+        for plate in (e, p):
+            assert solid_distance(solids[conn], solids[plate]) == pytest.approx(CONNECTOR_GAP * t, abs=1e-6)
+    r = check_assembly(solids, joints=fs.joints, workers=1)
+    assert r.buildable and r.interfering_pairs == 0 and not r.blocked, r.problems()

@@ -231,3 +231,26 @@ def test_worker_processes_build_the_same_solids(sphere_fs):
         assert s.volume == pytest.approx(serial[name].volume, rel=1e-12)
         assert len(s.faces()) == len(serial[name].faces())
     assert sum(s.volume for s in parallel.values()) == pytest.approx(_expected_volume(sphere_fs), rel=0.005)
+
+
+def test_solids_started_in_the_background_are_the_same(sphere_fs):
+    """start_solids returns at once; solids() collects the same solids as a serial build, and
+    a started build can be cancelled (a later step of the stage failed)."""
+    from torsal.fabrication import FinSystem
+    from torsal.fabrication.solids import build_solids
+
+    serial = build_solids(sphere_fs, workers=1)
+    fs = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
+    assert fs.start_solids(workers=2)
+    assert not fs.start_solids(workers=2)          # one build at a time
+    flat = fs.unrolled()                           # this process goes on meanwhile
+    assert sorted(flat) == sorted(serial)
+    background = fs.solids()
+    assert list(background) == list(serial)
+    for name, s in background.items():
+        assert s.is_valid and s.volume == pytest.approx(serial[name].volume, rel=1e-12)
+    assert not fs.start_solids(workers=2)          # built already
+    other = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
+    assert other.start_solids(workers=2)
+    other.cancel_solids()
+    assert list(other.solids(workers=1)) == list(serial)

@@ -27,8 +27,9 @@ every node the joint is chosen from the real geometry of the plates there:
   ``max_fold_angle``: the later part butts against the square end of the earlier one.
 * **Mitre with a splice plate** (:attr:`JointKind.MITRE_SPLICE`) where a strip is split on a
   mild fold away from any crossing plate (``max_panels``, ``max_part_length``, sheet size): the
-  ends meet on the fold's bisector plane and a bent splice plate covers the seam on the side
-  clear of other parts.
+  ends are mitred on the fold's bisector plane, each trimmed back from it by ``clearance/2``
+  (:func:`mitre_trim`: the parts leave the clearance between them, like a butt joint), and a
+  bent splice plate covers the seam on the side clear of other parts.
 
 **One insertion direction per part.** Family-0 plates go in first; each family-1 plate then
 slides onto all its egg-crate crossings along one direction, the mean of their node axes. A
@@ -85,11 +86,11 @@ from typing import NamedTuple
 import numpy as np
 from shapely.geometry import Polygon
 
-from .model import JointKind, _fold_deg, _miter, quad_normals
+from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
-           "place_connector", "corners", "JointKind"]
+           "place_connector", "corners", "mitre_trim", "JointKind"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -152,7 +153,7 @@ def _plate_fold(panels) -> float:
 def crossing_angle(panels0, panels1) -> float:
     """Angle (degrees, 0..90) between the mean planes of two plates at a node."""
     n0, n1 = _mean_normal(panels0), _mean_normal(panels1)
-    return float(np.degrees(np.arcsin(np.clip(np.linalg.norm(np.cross(n0, n1)), 0.0, 1.0))))
+    return float(np.degrees(np.arcsin(np.clip(np.linalg.norm(_cross(n0, n1)), 0.0, 1.0))))
 
 
 class NodeJoinery(NamedTuple):
@@ -216,7 +217,7 @@ def _inside(leg: np.ndarray, panel: np.ndarray, tol: float) -> bool:
     e1 = panel[1] - panel[0] if np.linalg.norm(panel[1] - panel[0]) > 0 else panel[2] - panel[3]
     e1 = e1 - (e1 @ n) * n
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
+    e2 = _cross(n, e1)
     P = np.c_[(panel - panel[0]) @ e1, (panel - panel[0]) @ e2]
     Q = np.c_[(leg - panel[0]) @ e1, (leg - panel[0]) @ e2]
     poly = Polygon(P)
@@ -270,7 +271,7 @@ def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray,
     u = line / np.linalg.norm(line)
 
     def ang(v):      # signed angle from v_butt to v about the node line, degrees
-        return float(np.degrees(np.arctan2(np.cross(v_butt, v) @ u, v_butt @ v)))
+        return float(np.degrees(np.arctan2(_cross(v_butt, v) @ u, v_butt @ v)))
 
     angles = [ang(v) for v in v_cont]
     out = []
@@ -328,8 +329,8 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2
                 edge = h * _miter(panels[0][0], panels[1][0])
                 rel = base - pa
                 pc = edge + ((rel - edge) @ line) * line           # at the height of this corner
-                w = np.cross(m_end, line)
-                w = w / np.linalg.norm(w) * (1.0 if np.cross(m_end, line) @ u >= 0 else -1.0)
+                w = _cross(m_end, line)
+                w = w / np.linalg.norm(w) * (1.0 if _cross(m_end, line) @ u >= 0 else -1.0)
                 npan = m_end / np.linalg.norm(m_end)
                 if abs((pc - rel) @ npan) <= h + (gap - h) and u @ w > 0.05:
                     s_new = max(s_new, s_req + ((gap - h) - (rel - pc) @ w) / (u @ w))
@@ -392,6 +393,37 @@ def trim_further(quad: np.ndarray, start: bool, panels, pa: np.ndarray, m_end: n
         u = quad[oc] - quad[cc]
         if (x - quad[cc]) @ u > (out[cc] - quad[cc]) @ u:
             out[cc] = x
+    return out
+
+
+def mitre_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray,
+               gap: float) -> dict:
+    """Corners of a mitred end panel moved back from the fold's bisector plane by ``gap``.
+
+    The two parts of a strip split on a mild fold meet on the bisector plane of the fold
+    (unit normal ``seam``, through the node line at ``pa``); each is trimmed back by ``gap``
+    (``clearance/2``) so that the parts leave the clearance between them, like a butt joint,
+    and can be put in one after the other. ``start``: the panel's ``a_i b_i`` end (corners 0,
+    3 moved along the edges to 1, 2), else its ``a_j b_j`` end (corners 1, 2 moved to 0, 3).
+    A corner moves ``s = gap / (u . seam)`` along its edge ``u`` (``seam`` turned towards the
+    panel), so the end cap, which contains the mitre vector of the fold (in the bisector plane),
+    stays parallel to that plane. Returns ``{corner index: new point}``; raises
+    :class:`_Untrimmable` if an edge runs (nearly) along the plane or the panel is too short.
+    """
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0)
+    s_n = seam if (far - pa) @ seam >= 0 else -seam
+    out = {}
+    for cc, oc in ((ia, ja), (ib, jb)):
+        u = quad[oc] - quad[cc]
+        L = float(np.linalg.norm(u))
+        cos = u @ s_n / L if L > 0 else 0.0
+        if not cos > 0.05:
+            raise _Untrimmable(f"its edge runs along the mitre plane ({np.degrees(np.arcsin(min(1.0, max(-1.0, cos)))):.1f} deg)")
+        s = gap / cos
+        if s >= 0.5 * L:
+            raise _Untrimmable(f"panel too short ({L:.3g}) to trim by {s:.3g}")
+        out[cc] = quad[cc] + (s / L) * u
     return out
 
 

@@ -56,6 +56,7 @@ Example
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import warnings
 from dataclasses import replace
@@ -68,10 +69,10 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 from . import layout as _layout
 from . import solids as _solids
 from .joints import (MAX_CROSSING_FOLD, MAX_SLOT_SKEW, MIN_CROSSING_ANGLE, _Untrimmable, butt_trim, choose_joinery,
-                     corners, into_direction, place_connector, slot_width, trim_corner,
+                     corners, into_direction, mitre_trim, place_connector, slot_width, trim_corner,
                      trim_further)
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
-                    JointKind, Part, PartId, Slot, SlotSide, _bowtie, _fold_deg, _miter,
+                    JointKind, Part, PartId, Slot, SlotSide, _bowtie, _cross, _fold_deg, _miter,
                     _oriented_size, _safe_normals, fold_angles, panel_widths, quad_normals)
 from .unroll import unroll
 
@@ -126,11 +127,22 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     """Direction a butted part slides into place along: the line where its plane meets the
     plate's (so its trimmed end face slides along the plate, ``clearance/2`` off it),
     oriented like ``axis`` (the node axis, ``a_i - b_i``, as for an egg-crate)."""
-    d = np.cross(n_plate, quad_normals(quad[None])[0])
+    d = _cross(n_plate, quad_normals(quad[None])[0])
     if not np.linalg.norm(d) > 1e-9:
         return axis / np.linalg.norm(axis)
     d = d / np.linalg.norm(d)
     return d if d @ axis >= 0 else -d
+
+
+def _memo_key(x):
+    """A hashable key of nested arrays, sequences, dicts and scalars (arrays by their bytes)."""
+    if isinstance(x, np.ndarray):
+        return ("a", x.shape, x.dtype.str, x.tobytes())
+    if isinstance(x, (list, tuple)):
+        return (type(x).__name__, tuple(_memo_key(y) for y in x))
+    if isinstance(x, dict):
+        return ("d", tuple(sorted((k, _memo_key(v)) for k, v in x.items())))
+    return x
 
 
 def _quads_cross(p: np.ndarray, q: np.ndarray) -> bool:
@@ -393,6 +405,7 @@ class FinSystem:
         if len(structure.edges) == 0:
             raise ValueError("the support structure has no edges: nothing to fabricate")
         self._build_until_trimmed()
+        self.__dict__.pop("_memo", None)        # only the rebuilds of this construction use it
 
     # ------------------------------------------------------------------ construction
     def _reset_state(self) -> None:
@@ -412,12 +425,35 @@ class FinSystem:
         self._init_joints()
         self.parts = []
 
+    def _cached(self, fn, *args, **kw):
+        """``fn(*args, **kw)`` of a pure joint kernel (butt trims, corners, connectors, sheet
+        fits), remembered by the bytes of its arguments for the rebuilds of one
+        :class:`FinSystem` (:meth:`_build_until_trimmed` rebuilds the whole structure, and most
+        ends and fits come out the same): the same result, a copy, or the same
+        :class:`~.joints._Untrimmable` raised again."""
+        memo = self.__dict__.setdefault("_memo", {})
+        key = (fn.__name__, _memo_key(args), _memo_key(kw))
+        hit = memo.get(key)
+        if hit is None:
+            try:
+                hit = (True, fn(*args, **kw))
+            except _Untrimmable as why:
+                hit = (False, str(why))
+            memo[key] = hit
+        ok, value = hit
+        if not ok:
+            raise _Untrimmable(value)
+        return copy.deepcopy(value)
+
     def _build_until_trimmed(self) -> None:
         """Build; where a part end meets the plate it butts against too obliquely to be
         trimmed (it lies along that plate, within about 12 degrees, and would overlap it), leave
         that end panel out (it duplicates the other plate's fin there) and build again, so that
         every part end is trimmed. The panels left out are named in ``coplanar_panels``
-        (warned); at most :data:`MAX_REBUILDS` rebuilds."""
+        (warned); at most :data:`MAX_REBUILDS` rebuilds. A rebuild changes only the ends next
+        to the panels left out and the crossings forced to butt: the trims, bracket corners,
+        connectors and sheet fits of all other ends are taken from the builds before
+        (:meth:`_cached`), so each costs less than the first."""
         extra: dict[int, set] = {}
         forced: dict[int, str] = {}
         left_out: list[tuple[str, int, int, str]] = []
@@ -598,6 +634,7 @@ class FinSystem:
                     trimmed[0] = self._fold_butt(p, self._previous(parts, p, q), q, -1, gap, h)
                     p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=3)
+        self.__dict__.pop("_memo", None)
         return self
 
     @property
@@ -664,6 +701,10 @@ class FinSystem:
         return self._fit(quads, lo, mid) + self._fit(quads, mid, hi)
 
     def _fits(self, quads: np.ndarray) -> bool:
+        """Whether panels ``quads`` unrolled fit ``fit_sheet`` (remembered: see :meth:`_cached`)."""
+        return self._cached(self._fits_sheet, np.ascontiguousarray(quads))
+
+    def _fits_sheet(self, quads: np.ndarray) -> bool:
         try:
             outline = unroll(quads, slots=[]).outline
         except ValueError:          # overlaps itself when unrolled: too long anyway
@@ -839,7 +880,8 @@ class FinSystem:
                     # halves of family 0, which bridges family 0's seam
                     bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
                     b = base.get((fam, node))
-                    if fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node])):
+                    butted = fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node]))
+                    if butted:
                         trimmed[end] = self._butt(p, end, node, g, st, gap, h,
                                                   bridge=fam == 1 and bridged)
                     elif b is not None and b[0][2][0] != si and kind in ("end", "dropped"):
@@ -854,7 +896,10 @@ class FinSystem:
                         if prev is not None:
                             self._splice(prev, p, node, g)
                     if kind == "miter" and end == 0:
-                        self._seam_walls(self._previous(parts, p, st.quads[si]), p)
+                        prev = self._previous(parts, p, st.quads[si])
+                        self._seam_walls(prev, p)
+                        if not butted:      # (butted: both ends trimmed against the plate)
+                            self._mitre_gap(prev, p, node)
                 p.trimmed = tuple(trimmed)
         self._warn_untrimmed(stacklevel=5)
         if self.unconnected_joints:
@@ -880,13 +925,14 @@ class FinSystem:
         j = 0 if end == 0 else len(p.panels) - 1
         quad = p.panels[j]
         try:
-            moved, m_end, nbar = butt_trim(quad, end == 0, [(n, v) for n, v, _ in panels],
+            moved, m_end, nbar = self._cached(butt_trim, quad, end == 0, [(n, v) for n, v, _ in panels],
                                            st.a[node], gap, h)
             # strips of this family that already end here on the same side of the plate meet
             # this one in the corner: its end clears them too
             others = [(n, v) for n, v, nb in self._ends_at.get((p.family, node), []) if nb @ nbar > 0]
             if others:
-                moved = trim_further(quad, end == 0, others, st.a[node], m_end, moved, gap, h)
+                moved = self._cached(trim_further, quad, end == 0, others, st.a[node], m_end, moved,
+                                     gap, h)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, str(why)))
             self._note_untrimmable(p, j, node, str(why))
@@ -937,13 +983,34 @@ class FinSystem:
         if prev is None:
             return
         a, b = p.panels[0][0], p.panels[0][3]
-        seam = np.cross(b - a, p.miters[0])
+        seam = _cross(b - a, p.miters[0])
         if not np.linalg.norm(seam) > 0:
             return
         seam = seam / np.linalg.norm(seam)
         for q, quad in ((p, p.panels[0]), (prev, prev.panels[-1])):
             n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
             self._walls.setdefault(q.name, []).append(n)
+
+    def _mitre_gap(self, prev: Part | None, p: Part, node: int) -> None:
+        """Trim both parts of a mitred seam back from the fold's bisector plane by
+        ``clearance/2`` (:func:`~.joints.mitre_trim`), so that they do not touch (after the
+        splice plate and the walls, which are placed on the untrimmed node line)."""
+        if prev is None or not self.clearance > 0:
+            return
+        a, b = p.panels[0][0].copy(), p.panels[0][3]
+        seam = _cross(b - a, p.miters[0])
+        if not np.linalg.norm(seam) > 0:
+            return
+        seam = seam / np.linalg.norm(seam)
+        for q, start in ((p, True), (prev, False)):
+            quad = q.panels[0 if start else -1]
+            try:
+                moved = mitre_trim(quad, start, seam, a, 0.5 * self.clearance)
+            except _Untrimmable as why:
+                self.untrimmed_joints.append((q.name, node, f"mitred seam: {why}"))
+                continue
+            for cc, x in moved.items():
+                quad[cc] = x
 
     def _note_untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
         """Remember panel ``j`` of ``p`` (strip index, panel of the strip) to leave it out."""
@@ -973,7 +1040,7 @@ class FinSystem:
             if not np.linalg.norm(into) > 0:
                 raise _Untrimmable("the previous panel has no extent")
             into = into / np.linalg.norm(into)
-            moved, m_end, nbar = butt_trim(quad, True, [(nprev, into)], pa, gap, h)
+            moved, m_end, nbar = self._cached(butt_trim, quad, True, [(nprev, into)], pa, gap, h)
             self._walls.setdefault(p.name, []).append(nbar)
         except _Untrimmable as why:
             self.untrimmed_joints.append((p.name, node, f"{what}: {why}"))
@@ -999,7 +1066,7 @@ class FinSystem:
         vb = vb / np.linalg.norm(vb)
         # other parts' panels and the brackets already there must not be in the corner
         obstacles = [v for v in self._dirs.get(node, [])] + self._bracket_dirs.get(node, [])
-        picks = corners([v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
+        picks = self._cached(corners, [v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
         placed = 0
         why = "no corner between 25 and 172 deg for a bracket"
         for i, angle in picks:
@@ -1007,7 +1074,7 @@ class FinSystem:
             nb = quad_normals(quad[None])[0]
             nc = nc if nc @ vb > 0 else -nc
             nb = nb if nb @ vc > 0 else -nb
-            q = place_connector(pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=self.thickness,
+            q = self._cached(place_connector, pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=self.thickness,
                                 gap=CONNECTOR_GAP * self.thickness)
             why = "the panels are too small for a bracket"
             if q is not None:
@@ -1036,7 +1103,7 @@ class FinSystem:
         if len(other) < 2:
             side = -(other[0][1] @ (n1 + n2)) if other else (v1 + v2) @ (n1 + n2)
             s = 1.0 if side >= 0 else -1.0
-            q = place_connector(pa, pb, (s * n1, v1), (s * n2, v2), qe, qp,
+            q = self._cached(place_connector, pa, pb, (s * n1, v1), (s * n2, v2), qe, qp,
                                 thickness=self.thickness, gap=CONNECTOR_GAP * self.thickness)
             why = "the panels are too small for a splice plate"
         cdir = -(n1 + n2) * (1.0 if q is None else s)
@@ -1088,7 +1155,7 @@ class FinSystem:
             # both slots are wider by the sideways travel over the fin depth, on either side
             direction, sense = self._plan[l1[0][0].name]
             ax = sense * (st.a[node] - st.b[node]) / d
-            skew = np.arctan2(np.linalg.norm(np.cross(direction, ax)), direction @ ax)
+            skew = np.arctan2(np.linalg.norm(_cross(direction, ax)), direction @ ax)
             extra = 2.0 * d * np.tan(skew)
             w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
                             fold_other=x.folds[1]) + extra
@@ -1173,7 +1240,7 @@ class FinSystem:
             axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
             d = axes.sum(axis=0)
             d = d / np.linalg.norm(d)
-            skew = np.degrees(np.arctan2(np.linalg.norm(np.cross(axes, d), axis=1), axes @ d))
+            skew = np.degrees(np.arctan2(np.linalg.norm(_cross(axes, d), axis=1), axes @ d))
             if skew.max() > MAX_SLOT_SKEW:
                 self._unslidable[nodes[int(np.argmax(skew))]] = 1, (
                     f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
@@ -1222,7 +1289,7 @@ class FinSystem:
                 # along the plate it meets), then lines where two walls meet, then head on
                 cands = [self._node_axis(self.joints[k].node) for k in ks]
                 cands += [self.joints[k].insert_direction for k in ks]
-                cands += [np.cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
+                cands += [_cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
                 cands.append(-np.sum(walls, axis=0))
                 cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
                 cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
@@ -1327,8 +1394,27 @@ class FinSystem:
         build them in parallel (default: one per core); see
         :func:`torsal.fabrication.solids.build_solids`."""
         if self._solids is None:
-            self._solids = _solids.build_solids(self, repair=repair, workers=workers)
+            pending, self._pending = getattr(self, "_pending", None), None
+            self._solids = _solids.build_solids(self, repair=repair, workers=workers,
+                                                pending=pending)
         return self._solids
+
+    def start_solids(self, *, workers: int | None = None) -> bool:
+        """Start building the solids in worker processes and return at once, so that this
+        process can unroll, nest and write the sheets meanwhile; :meth:`solids` (and the
+        exports) then collect them. False if there is nothing to start (built already, or
+        one worker: they are built when asked for); see
+        :func:`torsal.fabrication.solids.start_solids`."""
+        if self._solids is not None or getattr(self, "_pending", None) is not None:
+            return False
+        self._pending = _solids.start_solids(self, workers=workers)
+        return self._pending is not None
+
+    def cancel_solids(self) -> None:
+        """Drop a build started by :meth:`start_solids` (e.g. when a later step failed)."""
+        pending, self._pending = getattr(self, "_pending", None), None
+        if pending is not None:
+            pending.cancel()
 
     def export_step(self, path) -> "object":
         """One STEP assembly with a named, coloured solid per part (``unit``)."""

@@ -23,6 +23,7 @@ Units: the ``unit`` of the fin system (mm by default); STEP files are written in
 """
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,7 @@ from .model import CONNECTOR_FAMILY, Part, SlotSide
 from .unroll import unroll
 from torsal.core.errors import TorsalError
 
-__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "default_workers",
+__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "start_solids", "PendingSolids", "default_workers",
            "export_step", "export_mesh", "export_3dm", "read_step"]
 
 
@@ -544,47 +545,103 @@ def default_workers(n_parts: int) -> int:
     return max(1, min(cores, n_parts // 200))
 
 
+class PendingSolids:
+    """Solids being built by worker processes (:func:`start_solids`): the caller goes on with
+    other work (unrolling, nesting, DXF) and :meth:`result` collects them. Holds the pool
+    until then; :meth:`cancel` drops work not yet started."""
+
+    def __init__(self, parts: list, thickness: float, repair: bool, workers: int):
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.parts, self.thickness, self.repair, self.workers = parts, thickness, repair, workers
+        # interleaved chunks of about equal work; a few per worker so that none waits long
+        n_chunks = min(len(parts), 4 * workers)
+        chunks = [parts[i::n_chunks] for i in range(n_chunks)]
+        # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can
+        # deadlock in the child: workers are forked from a clean server that has imported
+        # this module
+        if "forkserver" in mp.get_all_start_methods():
+            ctx = mp.get_context("forkserver")
+            ctx.set_forkserver_preload(["torsal.fabrication.solids", "OCP.BRepAlgoAPI"])
+        else:
+            ctx = mp.get_context("spawn")
+        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        self._futures: list = []
+        self._error: BaseException | None = None
+        # submitting starts the workers, and the first start waits for the fork server to
+        # import OpenCascade (seconds): a thread does that, so the caller goes on at once
+        self._starter = threading.Thread(target=self._submit, args=(chunks,), daemon=True)
+        self._starter.start()
+
+    def _submit(self, chunks) -> None:
+        try:
+            for c in chunks:
+                self._futures.append(self._pool.submit(_build_chunk, (c, self.thickness, self.repair)))
+        except BaseException as e:        # re-raised by result()
+            self._error = e
+
+    def result(self) -> list:
+        """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits)."""
+        self._starter.join()
+        try:
+            if self._error is not None:
+                raise self._error
+            done = [f.result() for f in self._futures]
+        finally:
+            self._pool.shutdown(wait=True)
+        res = {}
+        for rows in done:
+            for name, status, data, detail in rows:
+                res[name] = (status, None if data is None else _from_bytes(data), detail)
+        return [(p.name,) + res[p.name] for p in self.parts]
+
+    def cancel(self) -> None:
+        """Stop: chunks not yet started are dropped, the workers end after their current one."""
+        self._starter.join()
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
 def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
     """``[(name, status, OCC shape, detail)]`` built by ``workers`` forked processes, in order."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
-    # interleaved chunks of about equal work; a few per worker so that none waits long
-    n_chunks = min(len(parts), 4 * workers)
-    chunks = [parts[i::n_chunks] for i in range(n_chunks)]
-    # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can deadlock
-    # in the child: workers are forked from a clean server that has imported this module
-    if "forkserver" in mp.get_all_start_methods():
-        ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["torsal.fabrication.solids", "OCP.BRepAlgoAPI"])
-    else:
-        ctx = mp.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        done = list(pool.map(_build_chunk, [(c, thickness, repair) for c in chunks]))
-    res = {}
-    for rows in done:
-        for name, status, data, detail in rows:
-            res[name] = (status, None if data is None else _from_bytes(data), detail)
-    return [(p.name,) + res[p.name] for p in parts]
+    return PendingSolids(parts, thickness, repair, workers).result()
 
 
-def build_solids(fin_system, *, repair: bool = True, workers: int | None = None) -> dict:
+def start_solids(fin_system, *, repair: bool = True, workers: int | None = None) -> PendingSolids | None:
+    """Start building the solids of a :class:`~.parts.FinSystem` in worker processes and return
+    at once (:class:`PendingSolids`), or None if they would be built in this process (one
+    worker: small jobs, one core) or are built already. :func:`build_solids` with ``pending``
+    collects them; meanwhile this process can unroll, nest and write the sheets."""
+    if getattr(fin_system, "_solids", None) is not None:
+        return None
+    parts = list(fin_system.parts)
+    workers = usable_workers(default_workers(len(parts)) if workers is None else workers)
+    if workers <= 1:
+        return None
+    return PendingSolids(parts, fin_system.thickness, repair, workers)
+
+
+def build_solids(fin_system, *, repair: bool = True, workers: int | None = None,
+                 pending: PendingSolids | None = None) -> dict:
     """``{part name: Solid}`` for every part of a :class:`~.parts.FinSystem` (plates and
     connectors).
 
     Solids are independent per part: with ``workers > 1`` (default :func:`default_workers`)
     they are built in worker processes (forked from a clean server process) and sent back as
-    OpenCascade binary BReps. All parts
-    are attempted; if any is invalid an :class:`InvalidSolidError` listing every invalid part
-    id is raised.
+    OpenCascade binary BReps; ``pending`` (:func:`start_solids`) collects such a build
+    started earlier. All parts are attempted; if any is invalid an
+    :class:`InvalidSolidError` listing every invalid part id is raised.
     """
     parts = list(fin_system.parts)
     t = fin_system.thickness
-    workers = usable_workers(default_workers(len(parts)) if workers is None else workers)
-    if workers > 1:
-        rows = _build_parallel(parts, t, repair, workers)
+    if pending is not None:
+        rows = pending.result()
     else:
-        rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
+        workers = usable_workers(default_workers(len(parts)) if workers is None else workers)
+        if workers > 1:
+            rows = _build_parallel(parts, t, repair, workers)
+        else:
+            rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
     by_name = {p.name: p for p in parts}
     out, bad, detail, unslotted = {}, [], [], []
     for name, status, shape, info in rows:

@@ -27,7 +27,7 @@ import shapely
 from shapely.geometry import Polygon
 from shapely.ops import polylabel, unary_union
 
-from .model import Slot, SlotSide, fold_angles, quad_normals
+from .model import Slot, SlotSide, _cross, fold_angles, quad_normals
 
 __all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle"]
 
@@ -101,7 +101,7 @@ def _plane_frame(quad: np.ndarray) -> np.ndarray:
         e1 = quad[2] - quad[3]
     e1 = e1 - (e1 @ n) * n
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
+    e2 = _cross(n, e1)
     return np.array([quad.mean(axis=0), e1, e2, n])
 
 

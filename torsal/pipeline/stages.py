@@ -377,19 +377,27 @@ def run_fabrication(inp: StageInputs) -> dict:
     m = spec.material
     fs = fin_system(spec, inp["support"]["structure"])
     written = {}
+    # the solids (most of the stage's work) are built by worker processes while this one
+    # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards
+    if spec.outputs.step or spec.outputs.rhino_3dm:
+        fs.start_solids()
+    try:
+        layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
+        if spec.outputs.dxf:
+            paths = layout.export_dxf(out / "sheets" / "fins.dxf")
+            written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
+        if spec.outputs.bom:
+            fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
+            written["bom"] = "parts.csv"
+    except BaseException:
+        fs.cancel_solids()
+        raise
     if spec.outputs.step:
         fs.export_step(out / "fins.step")
         written["step"] = "fins.step"
     if spec.outputs.rhino_3dm:
         fs.export_3dm(out / "fins.3dm")
         written["3dm"] = "fins.3dm"
-    layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
-    if spec.outputs.dxf:
-        paths = layout.export_dxf(out / "sheets" / "fins.dxf")
-        written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
-    if spec.outputs.bom:
-        fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
-        written["bom"] = "parts.csv"
     left_out = ([{"strip": s_, "edge": int(e), "node": int(v), "reason": why}
                  for s_, e, v, why in getattr(fs, "coplanar_panels", [])]
                 + [{"strip": s_, "edge": int(e), "node": None,
