@@ -193,6 +193,102 @@ def _quads_on(p: np.ndarray, q: np.ndarray, gap: float) -> bool:
     return bool((inside & (dist <= gap)).any())
 
 
+def _segment_distances(p0, p1, q0, q1) -> np.ndarray:
+    """Distances of segments ``p0 p1`` and ``q0 q1`` (broadcast arrays (..., 3)): the closest
+    points of the two lines, clamped to the segments (Ericson, Real-Time Collision Detection
+    5.1.9)."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = (d1 * d1).sum(-1), (d2 * d2).sum(-1)
+    f, c, b = (d2 * r).sum(-1), (d1 * r).sum(-1), (d1 * d2).sum(-1)
+    den = a * e - b * b
+    safe = lambda x: np.where(x > 0, x, 1.0)  # noqa: E731
+    s = np.where(den > 1e-12 * a * e, np.clip((b * f - c * e) / safe(den), 0.0, 1.0), 0.0)
+    t = (b * s + f) / safe(e)
+    # t outside [0, 1]: clamp it and recompute s for that end of q
+    t_lo, t_hi = t < 0, t > 1
+    s = np.where(t_lo, np.clip(-c / safe(a), 0.0, 1.0), s)
+    s = np.where(t_hi, np.clip((b - c) / safe(a), 0.0, 1.0), s)
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(p0 + s[..., None] * d1 - q0 - t[..., None] * d2, axis=-1)
+
+
+def _point_triangle_distances(x, tri) -> np.ndarray:
+    """Distances of points ``x`` (..., 3) from triangles ``tri`` (..., 3, 3) (broadcast): to
+    the plane where the projection falls inside, else to the nearest edge."""
+    v0, e1, e2 = tri[..., 0, :], tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :]
+    w = x - v0
+    d00, d01, d11 = (e1 * e1).sum(-1), (e1 * e2).sum(-1), (e2 * e2).sum(-1)
+    d20, d21 = (w * e1).sum(-1), (w * e2).sum(-1)
+    den = d00 * d11 - d01 * d01
+    ok = den > 1e-12 * d00 * d11
+    den = np.where(ok, den, 1.0)
+    v, u = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
+    n = np.cross(e1, e2)
+    plane = np.abs((w * n).sum(-1)) / np.where(ok, np.linalg.norm(n, axis=-1), 1.0)
+    edges = np.minimum.reduce([_segment_distances(x, x, tri[..., i, :], tri[..., (i + 1) % 3, :])
+                               for i in range(3)])
+    return np.where(ok & (u >= 0) & (v >= 0) & (u + v <= 1), plane, edges)
+
+
+def _edges_pierce(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(m,) whether an edge of quad ``p[k]`` (m, 4, 3) passes through the inside of quad
+    ``q[k]`` (two triangles; Moller-Trumbore), pair by pair."""
+    e0 = p[:, :, None]                                                  # (m, 4, 1, 3)
+    d = np.roll(p, -1, axis=1)[:, :, None] - e0
+    tris = np.stack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]], axis=1)[:, None]  # (m, 1, 2, 3, 3)
+    v0, v1, v2 = tris[..., 0, :], tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :]
+    pv = np.cross(d, v2)
+    det = (pv * v1).sum(-1)
+    ok = np.abs(det) > 1e-12 * np.linalg.norm(v1, axis=-1) * np.linalg.norm(v2, axis=-1) * \
+        np.linalg.norm(d, axis=-1)
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    tv = e0 - v0
+    u = (tv * pv).sum(-1) * inv
+    qv = np.cross(tv, v1)
+    v = (d * qv).sum(-1) * inv
+    t = (v2 * qv).sum(-1) * inv
+    eps = 1e-9
+    hit = ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)
+    return hit.any(axis=(1, 2))
+
+
+def _quad_distances(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(m,) distances of the mid-surfaces of quads ``p[k]`` and ``q[k]`` (m, 4, 3), pair by
+    pair: 0 where one passes through the other, else the least of corner-to-quad (two
+    triangles each) and edge-to-edge distances (two quads apart come nearest there)."""
+    tri = lambda x: np.stack([x[:, [0, 1, 2]], x[:, [0, 2, 3]]], axis=1)  # noqa: E731
+    tp, tq = tri(p)[:, None], tri(q)[:, None]                           # (m, 1, 2, 3, 3)
+    corner = np.minimum(_point_triangle_distances(p[:, :, None], tq).min(axis=(1, 2)),
+                        _point_triangle_distances(q[:, :, None], tp).min(axis=(1, 2)))
+    pe0, pe1 = p[:, :, None], np.roll(p, -1, axis=1)[:, :, None]        # (m, 4, 1, 3)
+    qe0, qe1 = q[:, None], np.roll(q, -1, axis=1)[:, None]              # (m, 1, 4, 3)
+    edge = _segment_distances(pe0, pe1, qe0, qe1).min(axis=(1, 2))
+    crossing = _edges_pierce(p, q) | _edges_pierce(q, p)
+    return np.where(crossing, 0.0, np.minimum(corner, edge))
+
+
+def _near_panel_pairs(quads: np.ndarray, nodes: np.ndarray, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(i, j)``, i < j, of panels ``quads`` (n, 4, 3) with no node in common
+    (``nodes`` (n, 2): a joint joins panels only at a shared node line) whose mid-surfaces
+    cross or come within ``gap`` of each other, and their distances (0: crossing)."""
+    lo, hi = quads.min(axis=1) - gap, quads.max(axis=1) + gap
+    order = np.argsort(lo[:, 0], kind="stable")
+    ii, jj = [], []
+    # sweep along x: only panels whose boxes overlap in x are compared in full
+    stop = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
+    for k, i in enumerate(order):
+        js = order[k + 1:stop[k]]
+        js = js[((lo[js] <= hi[i]) & (hi[js] >= lo[i])).all(axis=1)]
+        ii.append(np.full(len(js), i))
+        jj.append(js)
+    i, j = np.concatenate(ii).astype(int), np.concatenate(jj).astype(int)
+    share = (nodes[i][:, :, None] == nodes[j][:, None, :]).any(axis=(1, 2))
+    i, j = np.minimum(i[~share], j[~share]), np.maximum(i[~share], j[~share])
+    dist = _quad_distances(quads[i], quads[j])
+    near = dist < gap
+    return np.c_[i[near], j[near]], dist[near]
+
+
 def _cycles(after: dict) -> list[list[str]]:
     """Strongly connected components of more than one part of the graph ``{a: {b: ...}}``
     (``b`` placed after ``a``), each sorted, in a stable order (Tarjan, iterative)."""
