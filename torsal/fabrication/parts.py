@@ -31,6 +31,9 @@ Every part goes in along one direction (:mod:`.joints`, "one insertion direction
 the structure is rebuilt (at most ``MAX_REBUILDS`` times) leaving out end panels that cannot
 be trimmed (``coplanar_panels``), butting crossings a plate cannot slide onto together with
 its others, and re-splitting crossings where parts would butt on each other in a cycle.
+Where two plates cross or come within ``thickness + clearance`` of each other away from any
+joint (no node line in common: strips of one family crossing near a singularity of a rough
+congruence), one of the two panels is left out too (``coplanar_panels``, naming the other).
 
 Real structures from the remesher have defects near boundaries and at coarse resolution; they
 are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
@@ -451,7 +454,11 @@ class FinSystem:
     coplanar_panels : list of (strip, structure edge, node, reason)
         End panels left out because they meet the plate they end against within about 12
         degrees (they lie along it, duplicate its fin and cannot be trimmed clear of it;
-        warned); the strip then ends one node earlier, joined there as usual.
+        warned); the strip then ends one node earlier, joined there as usual. Also panels of
+        parts joined to nothing that pass through another part, and one panel of every pair of
+        plates that cross or come within ``thickness + clearance`` of each other where no joint
+        joins them (they share no node line; the cheaper one: a part's end panel, of the
+        shorter strip); ``reason`` names the other panel.
 
     Examples
     --------
@@ -557,6 +564,7 @@ class FinSystem:
                 self._build_from_structure(extra, forced)
             new = {(si, i): rec for si, i, *rec in self._untrimmable + self._stray_parts()
                    if i not in extra.get(si, ())}
+            new.update({(si, i): rec for si, i, *rec in self._clashing_panels(leaving=set(new))})
             new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
             new_forced.update((v, why) for v, why in self._break_cycles(forced).items()
                               if v not in new_forced)
@@ -574,7 +582,8 @@ class FinSystem:
         if left_out:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
-                f"against too obliquely to be trimmed (they lie along it and would overlap it): "
+                f"against too obliquely to be trimmed (they lie along it and would overlap it), "
+                f"or cross another plate where no joint joins them: "
                 + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
@@ -1068,6 +1077,49 @@ class FinSystem:
                     out += [(self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
                              int(p.nodes[j]), why) for j in range(len(p.panels))]
                     break
+        return out
+
+    def _clashing_panels(self, *, leaving: set = frozenset()) -> list[tuple]:
+        """Panels of two plates that cross, or come within ``thickness + clearance`` of each
+        other, where no joint joins them (they share no node line; e.g. two strips of one
+        family crossing near a singularity of a rough congruence): the plates would interfere
+        and neither could be put in past the other. Of every such pair the panel that costs
+        least is left out (as :meth:`_note_untrimmable`): one at an end of its part (leaving
+        it out splits nothing) before one inside it, then the one of the shorter strip. Pairs
+        with a panel in ``leaving`` ({(strip index, panel of the strip)}, left out for another
+        reason in this build) are resolved already."""
+        plates = [p for p in self.parts if p.family in (0, 1) and p.name in self._strip_of]
+        if not plates:
+            return []
+        refs = [(p, j) for p in plates for j in range(len(p.panels))]
+        quads = np.concatenate([p.panels for p in plates])
+        nodes = np.concatenate([np.c_[p.nodes[:-1], p.nodes[1:]] for p in plates]).astype(int)
+        pairs, dist = _near_panel_pairs(quads, nodes, self.thickness + self.clearance)
+        strip_len: dict[int, int] = {}
+        for p in plates:
+            si = self._strip_of[p.name]
+            strip_len[si] = strip_len.get(si, 0) + len(p.panels)
+
+        def cost(k: int) -> tuple:
+            p, j = refs[k]
+            inside = 0 < j < len(p.panels) - 1
+            return inside, strip_len[self._strip_of[p.name]], p.name, j
+
+        gone = {k for k, (p, j) in enumerate(refs) if (self._strip_of[p.name], p.span[0] + j) in leaving}
+        out = []
+        for (i, k), d in sorted(zip(map(tuple, pairs.tolist()), dist.tolist()), key=lambda x: x[1]):
+            if i in gone or k in gone:
+                continue
+            drop, keep = (i, k) if cost(i) <= cost(k) else (k, i)
+            gone.add(drop)
+            (p, j), (o, jo) = refs[drop], refs[keep]
+            what = "crosses" if d == 0 else f"comes within {d:.2f} {self.unit} of"
+            why = (f"it {what} panel {int(o.edges[jo])} of {o.name[:-4]} without a joint (the "
+                   f"structure runs through itself)")
+            # the node of the panel nearer the other panel names where it is
+            near = np.linalg.norm(quads[drop][[0, 1]] - quads[keep].mean(axis=0), axis=1)
+            out.append((self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
+                        int(p.nodes[j + int(np.argmin(near))]), why))
         return out
 
     def _seam_walls(self, prev: Part | None, p: Part) -> None:
