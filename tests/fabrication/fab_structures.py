@@ -91,3 +91,16 @@ def developable_strip(k: int = 6, seed: int = 0, max_fold_deg: float = 40.0, len
     a, b = np.array(a), np.array(b)
     quads = np.stack([a[:-1], a[1:], b[1:], b[:-1]], axis=1)
     return quads, np.array(folds)
+
+
+def crossing_strips_structure() -> SupportStructure:
+    """:func:`flat_structure` (4 x 3 nodes, rows y = 0, 0.3, 0.6 m) with one more family-0 fin
+    from node 5 (x 0.3, y 0.3) to a new node 12 at (0.5, -0.15): a strip of its own (node 5
+    has three family-0 edges), butted at node 5, whose panel passes through row 0's panel
+    1 -> 2 (structure edge 1) at x = 0.433 m, where no joint joins them."""
+    s = flat_structure()
+    extra = np.array([[0.5, -0.15, 0.0]])
+    a = np.r_[s.vertices_a, extra]
+    b = np.r_[s.vertices_b, extra + [0.0, 0.0, 0.1]]
+    return SupportStructure(a, b, s.faces, np.r_[s.edges, [[5, len(a) - 1]]],
+                            np.r_[s.edge_family, [0]])

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 
-from fab_structures import cylinder_structure, sphere_structure
+from fab_structures import crossing_strips_structure, cylinder_structure, sphere_structure
 from torsal.fabrication import (AssemblyJoint, FinSystem, check_assembly, read_step,
                                 verify_assembly)
 from torsal.fabrication.assembly import common_volume, solid_distance, swept_overlap
@@ -216,3 +216,24 @@ def test_mitred_split_leaves_the_clearance_and_is_buildable(clearance):
             assert solid_distance(solids[conn], solids[plate]) == pytest.approx(CONNECTOR_GAP * t, abs=1e-6)
     r = check_assembly(solids, joints=fs.joints, workers=1)
     assert r.buildable and r.interfering_pairs == 0 and not r.blocked, r.problems()
+
+
+def test_panel_crossing_a_strip_of_its_family_is_left_out_and_the_rest_is_buildable(monkeypatch):
+    # (issue 15, example 7c) two strips of one family cross where no joint joins them: the
+    # builder leaves out the cheaper panel, and the independent check finds nothing
+    s = crossing_strips_structure()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fs = FinSystem(s, thickness=3.0, clearance=0.5)
+    assert [(x[0], x[1]) for x in fs.coplanar_panels] == [("F0-S004", len(s.edges) - 1)]
+    r = verify_assembly(fs, workers=1)
+    assert r.buildable and r.interfering_pairs == 0 and not r.blocked and r.pairs_checked > 0
+    # control: kept, that panel's part and row 0 interfere (the case is a real crossing)
+    monkeypatch.setattr(FinSystem, "_clashing_panels", lambda self, **kw: [])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        kept = FinSystem(s, thickness=3.0, clearance=0.5)
+    pair = ("F0-S000-P00", "F0-S004-P00")
+    sol = kept.solids(workers=1)
+    r = check_assembly({n: sol[n] for n in pair}, workers=1)
+    assert [tuple(sorted(x.parts)) for x in r.interfering] == [pair]

@@ -6,8 +6,10 @@ import warnings
 import numpy as np
 import pytest
 
-from fab_structures import cylinder_structure, developable_strip, flat_structure, sphere_structure
+from fab_structures import (crossing_strips_structure, cylinder_structure, developable_strip, flat_structure,
+                            sphere_structure)
 from torsal.fabrication import FamilySplit, FinSystem, JointKind, PartId, SlotSide, slot_width
+from torsal.fabrication.parts import _near_panel_pairs
 from torsal.geometry.support import SupportStructure
 
 
@@ -219,3 +221,37 @@ def test_end_that_lies_along_the_plate_is_left_out_and_named():
     assert ("F1-S001", edge, 1) in {(s_, e, v) for s_, e, v, _ in fs.coplanar_panels}
     assert edge not in np.concatenate([p.edges for p in fs.parts]).tolist()
     assert fs.untrimmed_joints == []
+
+
+def test_panel_crossing_a_strip_of_its_family_is_left_out_and_named():
+    s = crossing_strips_structure()
+    extra_edge = len(s.edges) - 1
+    assert s.edges[1].tolist() == [1, 2]
+    with pytest.warns(UserWarning, match="cross another plate where no joint joins them"):
+        fs = FinSystem(s, thickness=3.0, clearance=0.5)
+    # the one-panel strip F0-S004 (cheaper than the inner panel of row 0) is left out, named
+    # with the panel it crosses; row 0 keeps all its panels
+    assert fs.coplanar_panels == [("F0-S004", extra_edge, 12, "it crosses panel 1 of F0-S000 "
+                                   "without a joint (the structure runs through itself)")]
+    kept = np.concatenate([p.edges for p in fs.parts if p.family in (0, 1)]).tolist()
+    assert extra_edge not in kept and 1 in kept
+    assert not any(p.name.startswith("F0-S004") for p in fs.parts)
+
+
+def test_near_panel_pairs_known_distances():
+    def wall(x0, x1, y, z1=100.0):      # vertical quad a_i a_j b_j b_i in the plane y (mm)
+        return [[x0, y, 0], [x1, y, 0], [x1, y, z1], [x0, y, z1]]
+
+    quads = np.array([wall(0, 300, 0.0),                              # 0
+                      wall(100, 200, 2.0),                            # 1: parallel, 2 mm off 0
+                      wall(100, 200, 5.0),                            # 2: 5 mm off 0, 3 mm off 1
+                      [[150, -50, 20], [150, 50, 20], [150, 50, 80], [150, -50, 80]],  # 3: through 0, 1, 2
+                      [[300, 0, 0], [300, 9, 0], [300, 9, 100], [300, 0, 100]]],       # 4: shares node 1 of 0
+                     float)
+    nodes = np.array([[0, 1], [2, 3], [4, 5], [6, 7], [1, 8]])
+    pairs, dist = _near_panel_pairs(quads, nodes, 3.5)
+    got = {tuple(p): d for p, d in zip(pairs.tolist(), dist.tolist())}
+    # 0-2 are 5 mm apart (> 3.5); 0-4 touch but share node 1 (joined there)
+    assert set(got) == {(0, 1), (1, 2), (0, 3), (1, 3), (2, 3)}
+    assert got[(0, 1)] == pytest.approx(2.0) and got[(1, 2)] == pytest.approx(3.0)
+    assert got[(0, 3)] == got[(1, 3)] == got[(2, 3)] == 0.0

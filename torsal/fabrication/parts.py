@@ -31,6 +31,9 @@ Every part goes in along one direction (:mod:`.joints`, "one insertion direction
 the structure is rebuilt (at most ``MAX_REBUILDS`` times) leaving out end panels that cannot
 be trimmed (``coplanar_panels``), butting crossings a plate cannot slide onto together with
 its others, and re-splitting crossings where parts would butt on each other in a cycle.
+Where two plates cross or come within ``thickness + clearance`` of each other away from any
+joint (no node line in common: strips of one family crossing near a singularity of a rough
+congruence), one of the two panels is left out too (``coplanar_panels``, naming the other).
 
 Real structures from the remesher have defects near boundaries and at coarse resolution; they
 are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
@@ -191,6 +194,102 @@ def _quads_on(p: np.ndarray, q: np.ndarray, gap: float) -> bool:
     u = (d00 * d21 - d01 * d20) / den
     inside = ok & (v > 0) & (u > 0) & (u + v < 1)
     return bool((inside & (dist <= gap)).any())
+
+
+def _segment_distances(p0, p1, q0, q1) -> np.ndarray:
+    """Distances of segments ``p0 p1`` and ``q0 q1`` (broadcast arrays (..., 3)): the closest
+    points of the two lines, clamped to the segments (Ericson, Real-Time Collision Detection
+    5.1.9)."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = (d1 * d1).sum(-1), (d2 * d2).sum(-1)
+    f, c, b = (d2 * r).sum(-1), (d1 * r).sum(-1), (d1 * d2).sum(-1)
+    den = a * e - b * b
+    safe = lambda x: np.where(x > 0, x, 1.0)  # noqa: E731
+    s = np.where(den > 1e-12 * a * e, np.clip((b * f - c * e) / safe(den), 0.0, 1.0), 0.0)
+    t = (b * s + f) / safe(e)
+    # t outside [0, 1]: clamp it and recompute s for that end of q
+    t_lo, t_hi = t < 0, t > 1
+    s = np.where(t_lo, np.clip(-c / safe(a), 0.0, 1.0), s)
+    s = np.where(t_hi, np.clip((b - c) / safe(a), 0.0, 1.0), s)
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(p0 + s[..., None] * d1 - q0 - t[..., None] * d2, axis=-1)
+
+
+def _point_triangle_distances(x, tri) -> np.ndarray:
+    """Distances of points ``x`` (..., 3) from triangles ``tri`` (..., 3, 3) (broadcast): to
+    the plane where the projection falls inside, else to the nearest edge."""
+    v0, e1, e2 = tri[..., 0, :], tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :]
+    w = x - v0
+    d00, d01, d11 = (e1 * e1).sum(-1), (e1 * e2).sum(-1), (e2 * e2).sum(-1)
+    d20, d21 = (w * e1).sum(-1), (w * e2).sum(-1)
+    den = d00 * d11 - d01 * d01
+    ok = den > 1e-12 * d00 * d11
+    den = np.where(ok, den, 1.0)
+    v, u = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
+    n = np.cross(e1, e2)
+    plane = np.abs((w * n).sum(-1)) / np.where(ok, np.linalg.norm(n, axis=-1), 1.0)
+    edges = np.minimum.reduce([_segment_distances(x, x, tri[..., i, :], tri[..., (i + 1) % 3, :])
+                               for i in range(3)])
+    return np.where(ok & (u >= 0) & (v >= 0) & (u + v <= 1), plane, edges)
+
+
+def _edges_pierce(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(m,) whether an edge of quad ``p[k]`` (m, 4, 3) passes through the inside of quad
+    ``q[k]`` (two triangles; Moller-Trumbore), pair by pair."""
+    e0 = p[:, :, None]                                                  # (m, 4, 1, 3)
+    d = np.roll(p, -1, axis=1)[:, :, None] - e0
+    tris = np.stack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]], axis=1)[:, None]  # (m, 1, 2, 3, 3)
+    v0, v1, v2 = tris[..., 0, :], tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :]
+    pv = np.cross(d, v2)
+    det = (pv * v1).sum(-1)
+    ok = np.abs(det) > 1e-12 * np.linalg.norm(v1, axis=-1) * np.linalg.norm(v2, axis=-1) * \
+        np.linalg.norm(d, axis=-1)
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    tv = e0 - v0
+    u = (tv * pv).sum(-1) * inv
+    qv = np.cross(tv, v1)
+    v = (d * qv).sum(-1) * inv
+    t = (v2 * qv).sum(-1) * inv
+    eps = 1e-9
+    hit = ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)
+    return hit.any(axis=(1, 2))
+
+
+def _quad_distances(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(m,) distances of the mid-surfaces of quads ``p[k]`` and ``q[k]`` (m, 4, 3), pair by
+    pair: 0 where one passes through the other, else the least of corner-to-quad (two
+    triangles each) and edge-to-edge distances (two quads apart come nearest there)."""
+    tri = lambda x: np.stack([x[:, [0, 1, 2]], x[:, [0, 2, 3]]], axis=1)  # noqa: E731
+    tp, tq = tri(p)[:, None], tri(q)[:, None]                           # (m, 1, 2, 3, 3)
+    corner = np.minimum(_point_triangle_distances(p[:, :, None], tq).min(axis=(1, 2)),
+                        _point_triangle_distances(q[:, :, None], tp).min(axis=(1, 2)))
+    pe0, pe1 = p[:, :, None], np.roll(p, -1, axis=1)[:, :, None]        # (m, 4, 1, 3)
+    qe0, qe1 = q[:, None], np.roll(q, -1, axis=1)[:, None]              # (m, 1, 4, 3)
+    edge = _segment_distances(pe0, pe1, qe0, qe1).min(axis=(1, 2))
+    crossing = _edges_pierce(p, q) | _edges_pierce(q, p)
+    return np.where(crossing, 0.0, np.minimum(corner, edge))
+
+
+def _near_panel_pairs(quads: np.ndarray, nodes: np.ndarray, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(i, j)``, i < j, of panels ``quads`` (n, 4, 3) with no node in common
+    (``nodes`` (n, 2): a joint joins panels only at a shared node line) whose mid-surfaces
+    cross or come within ``gap`` of each other, and their distances (0: crossing)."""
+    lo, hi = quads.min(axis=1) - gap, quads.max(axis=1) + gap
+    order = np.argsort(lo[:, 0], kind="stable")
+    ii, jj = [], []
+    # sweep along x: only panels whose boxes overlap in x are compared in full
+    stop = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
+    for k, i in enumerate(order):
+        js = order[k + 1:stop[k]]
+        js = js[((lo[js] <= hi[i]) & (hi[js] >= lo[i])).all(axis=1)]
+        ii.append(np.full(len(js), i))
+        jj.append(js)
+    i, j = np.concatenate(ii).astype(int), np.concatenate(jj).astype(int)
+    share = (nodes[i][:, :, None] == nodes[j][:, None, :]).any(axis=(1, 2))
+    i, j = np.minimum(i[~share], j[~share]), np.maximum(i[~share], j[~share])
+    dist = _quad_distances(quads[i], quads[j])
+    near = dist < gap
+    return np.c_[i[near], j[near]], dist[near]
 
 
 def _cycles(after: dict) -> list[list[str]]:
@@ -355,7 +454,11 @@ class FinSystem:
     coplanar_panels : list of (strip, structure edge, node, reason)
         End panels left out because they meet the plate they end against within about 12
         degrees (they lie along it, duplicate its fin and cannot be trimmed clear of it;
-        warned); the strip then ends one node earlier, joined there as usual.
+        warned); the strip then ends one node earlier, joined there as usual. Also panels of
+        parts joined to nothing that pass through another part, and one panel of every pair of
+        plates that cross or come within ``thickness + clearance`` of each other where no joint
+        joins them (they share no node line; the cheaper one: a part's end panel, of the
+        shorter strip); ``reason`` names the other panel.
 
     Examples
     --------
@@ -464,6 +567,7 @@ class FinSystem:
                 self._build_from_structure(extra, forced)
             new = {(si, i): rec for si, i, *rec in self._untrimmable + self._stray_parts()
                    if i not in extra.get(si, ())}
+            new.update({(si, i): rec for si, i, *rec in self._clashing_panels(leaving=set(new))})
             new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
             new_forced.update((v, why) for v, why in self._break_cycles(forced).items()
                               if v not in new_forced)
@@ -481,7 +585,8 @@ class FinSystem:
         if left_out:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
-                f"against too obliquely to be trimmed (they lie along it and would overlap it): "
+                f"against too obliquely to be trimmed (they lie along it and would overlap it), "
+                f"or cross another plate where no joint joins them: "
                 + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
@@ -975,6 +1080,49 @@ class FinSystem:
                     out += [(self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
                              int(p.nodes[j]), why) for j in range(len(p.panels))]
                     break
+        return out
+
+    def _clashing_panels(self, *, leaving: set = frozenset()) -> list[tuple]:
+        """Panels of two plates that cross, or come within ``thickness + clearance`` of each
+        other, where no joint joins them (they share no node line; e.g. two strips of one
+        family crossing near a singularity of a rough congruence): the plates would interfere
+        and neither could be put in past the other. Of every such pair the panel that costs
+        least is left out (as :meth:`_note_untrimmable`): one at an end of its part (leaving
+        it out splits nothing) before one inside it, then the one of the shorter strip. Pairs
+        with a panel in ``leaving`` ({(strip index, panel of the strip)}, left out for another
+        reason in this build) are resolved already."""
+        plates = [p for p in self.parts if p.family in (0, 1) and p.name in self._strip_of]
+        if not plates:
+            return []
+        refs = [(p, j) for p in plates for j in range(len(p.panels))]
+        quads = np.concatenate([p.panels for p in plates])
+        nodes = np.concatenate([np.c_[p.nodes[:-1], p.nodes[1:]] for p in plates]).astype(int)
+        pairs, dist = _near_panel_pairs(quads, nodes, self.thickness + self.clearance)
+        strip_len: dict[int, int] = {}
+        for p in plates:
+            si = self._strip_of[p.name]
+            strip_len[si] = strip_len.get(si, 0) + len(p.panels)
+
+        def cost(k: int) -> tuple:
+            p, j = refs[k]
+            inside = 0 < j < len(p.panels) - 1
+            return inside, strip_len[self._strip_of[p.name]], p.name, j
+
+        gone = {k for k, (p, j) in enumerate(refs) if (self._strip_of[p.name], p.span[0] + j) in leaving}
+        out = []
+        for (i, k), d in sorted(zip(map(tuple, pairs.tolist()), dist.tolist()), key=lambda x: x[1]):
+            if i in gone or k in gone:
+                continue
+            drop, keep = (i, k) if cost(i) <= cost(k) else (k, i)
+            gone.add(drop)
+            (p, j), (o, jo) = refs[drop], refs[keep]
+            what = "crosses" if d == 0 else f"comes within {d:.2f} {self.unit} of"
+            why = (f"it {what} panel {int(o.edges[jo])} of {o.name[:-4]} without a joint (the "
+                   f"structure runs through itself)")
+            # the node of the panel nearer the other panel names where it is
+            near = np.linalg.norm(quads[drop][[0, 1]] - quads[keep].mean(axis=0), axis=1)
+            out.append((self._strip_of[p.name], p.span[0] + j, p.name[:-4], int(p.edges[j]),
+                        int(p.nodes[j + int(np.argmin(near))]), why))
         return out
 
     def _seam_walls(self, prev: Part | None, p: Part) -> None:
