@@ -63,7 +63,7 @@ class CongruenceProblem:
         (benchmarks/optimize_bench.py, 2026-11-23): on row 11 (pass 1 answers, 20k
         variables) the exact Hessian is indefinite away from the optimum, IPOPT regularizes
         every iteration (damped steps, two or more factorizations each) and needs 21
-        iterations to 9.5e-9; Gauss-Newton 4 iterations to 1.8e-12, same geometry (the
+        iterations to 9.5e-9; Gauss-Newton 4 iterations to 1.8e-12, no line bundle either (the
         energies are nearly zero-residual there, where Gauss-Newton converges quadratically);
         row 13 16 iterations instead of 22, same objective. Not the default elsewhere: on a
         facade with strokes (normal, fair, torsal_direction; tests/geometry/test_optimize.py)
