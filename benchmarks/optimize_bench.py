@@ -56,6 +56,11 @@ pass 1), the bounded Hessian-shift estimate and the main solver built only when 
       13  2145             4.8   22    0.5    7.0693e-02           3.4   16    0.6    7.0693e-02
       7a  1089   (build+solve 0.57 s, 14 it, E 6.19e-09: unchanged, unconstrained, exact Hessian)
      20k 19881   (build 4.1 + solve 12.5 s, 9 it, E 1.17e-06: unchanged, exact Hessian)
+      7c  1089            53.9  500   49.7    4.6341e-01          64.6  500   49.6    4.6924e-01
+
+(7c, load 1 to 3, not converged either way: pass 1 with Gauss-Newton ends at another
+minimizer of the energies, which violates the angle bound too; pass 3 starts there and
+after 500 iterations is 1.3 % higher. Iteration counts, not load, decide this row.)
 
 Row 11's cause, measured with ``print_timing_statistics`` (21 iterations, 37.7 s in IPOPT,
 of which 30.2 s computing search directions and 6.7 s function evaluations; Hessian 598k
