@@ -20,7 +20,7 @@ Methods of the Fig. 12 rows (``--methods``): ``cone``, the formulation before th
 ``lbfgs`` (the paper's baseline, constraints as penalties).
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--rows 7c 9 11 13 7a 20k 100k]
-          [--methods cone split elastic lbfgs] [--no-lbfgs]
+          [--methods cone split elastic lbfgs] [--no-lbfgs] [--hessian auto|exact|gauss-newton]
 
 Note the machine load (``uptime``) next to the numbers: timings on a shared machine vary.
 
@@ -47,6 +47,48 @@ objective 0.0181 against 0.0165 converged (the form before: 0.459 in 180 s, 121 
 9.5e-9); 13 ipopt 5.2 s (to quality 4.0 s), re-solve 0.6 s; 13 lbfgs 79.5 s; 100k vertices
 build 83.6 s + solve 249.1 s (7 iterations) = 337 s, re-solve 163.7 s (load 10).
 
+Measured 2026-11-23 (afternoon, load average 1.4 to 2.9 on 2 cores, nice 19), ``--methods
+split --no-lbfgs``; before = commit edcb249, after = ``hessian="auto"`` (Gauss-Newton for
+pass 1), the bounded Hessian-shift estimate and the main solver built only when needed::
+
+     row  |V|     before: total  it  re-solve  E          after: total  it  re-solve  E
+      11  5041            38.0   21    2.6    9.4827e-09          10.7    4    0.4    1.7984e-12
+      13  2145             4.8   22    0.5    7.0693e-02           3.4   16    0.6    7.0693e-02
+      7a  1089   (build+solve 0.57 s, 14 it, E 6.19e-09: unchanged, unconstrained, exact Hessian)
+     20k 19881   (build 4.1 + solve 12.5 s, 9 it, E 1.17e-06: unchanged, exact Hessian)
+      7c  1089            53.9  500   49.7    4.6341e-01          64.6  500   49.6    4.6924e-01
+
+(7c, load 1 to 3, not converged either way: pass 1 with Gauss-Newton ends at another
+minimizer of the energies, which violates the angle bound too; pass 3 starts there and
+after 500 iterations is 1.3 % higher. Iteration counts, not load, decide this row.)
+
+Row 11's cause, measured with ``print_timing_statistics`` (21 iterations, 37.7 s in IPOPT,
+of which 30.2 s computing search directions and 6.7 s function evaluations; Hessian 598k
+nonzeros, 20k variables, METIS ordering already the fastest of AMD/AMF/METIS/auto): the
+exact Hessian is indefinite away from the optimum, IPOPT regularized every iteration
+(``lg(rg)`` 0.7 down to -6.6, damped steps and two or more MUMPS factorizations per
+iteration). The energies are nearly zero-residual at the answer, where Gauss-Newton
+(``2 J^T J``, positive semidefinite) converges quadratically: 4 iterations, one
+factorization each, 2.8 s in IPOPT, the same kind of answer (bundle deviation 5/50/95th
+percentiles 0.135/0.347/0.599 against 0.129/0.321/0.586 exact; all energies 0 to 6 digits). Build 25.8 s before: main NLP 8.6 s, pass-1 NLP 3.7 s, two nlpsol for the main
+NLP (unused when pass 1 answers) and two ARPACK Hessian-shift estimates, 2.7 s each (and
+with a positive semidefinite Hessian ARPACK ran > 20 min: restarts are now capped at 40,
+and a PSD-by-construction Hessian is not estimated).
+
+Unconstrained rows with ``--hessian gauss-newton`` (same load; the default stays exact for
+them, see ``CongruenceProblem``'s ``hessian``: on a stroke-following test facade
+Gauss-Newton lands on a line bundle, the trivial zero of normal + fair + torsal_direction)::
+
+     row    |V|  exact: build  solve  it  total   E           gauss-newton: build solve it total  re-solve  E
+      7a   1089         0.23   0.46  14   0.72   6.19e-09                   0.27  0.12  4   0.42   0.04   8.19e-12
+     20k  19881         4.35  11.89   9  16.49   1.17e-06                   3.69  2.22  2   6.25   1.36   1.53e-09
+    100k 100489       33.0   87.0    7 122.6   1.12e-07                  25.22 14.71  2  42.02   9.73   6.41e-12
+
+(100k exact: re-solve 69.3 s (5 iterations), CPU 191 s for both solves; Gauss-Newton CPU
+61 s for the three rows; the bundle deviation median 0.285 / 0.283,
+not a bundle. At 100k each factorization is ~5 s CPU: the exact Hessian's 7 regularized
+iterations cost 69 s CPU in search directions, Gauss-Newton's 2 cost 11 s.)
+
 Causes of the misses, measured:
 
 - 7c and 9 (constrained): IPOPT needs more than 500 (7c) and about 1,200 (9) iterations. The
@@ -60,11 +102,10 @@ Causes of the misses, measured:
   removes the cone form's extra ``1/s`` at ``p = 0`` and leaving out implied ``hyperbolic``
   rows removes gradient-free rows: on 7c, 500 iterations reach 0.4616 (split, implied rows
   out) against 0.4923 (split) and 0.5004 (cone). Not converged either way.
-- 11 (unconstrained at the optimum): 21 iterations; the time is MUMPS factorizations of the
-  20k-variable KKT system of two aligned congruences and the NLP build (two NLPs: with and
-  without the ``hyperbolic`` rows). The re-solve fell from 9.7 s to 2.3 s with one BLAS
-  thread under MUMPS (T/5 = 2.2 s).
-- 100k: 7 iterations; factorizations of a 200k-variable system (at load 10; 92 s at load 2 to 6).
+- 11 (unconstrained at the optimum): met since 2026-11-23 afternoon (10.7 s, re-solve 0.4 s,
+  see above); before, 21 regularized exact-Hessian iterations and a doubled build.
+- 100k: with the default (exact) Hessian 7 regularized iterations, 120 s at load 2 to 3;
+  with ``hessian="gauss-newton"`` 42 s, re-solve 9.7 s (met), not the default for the reason above.
 - L-BFGS (the paper's method) ends infeasible as measured on 7c (faces without torsal
   directions) and far from IPOPT's energy on 11 and 13 within 500 iterations.
 """
@@ -208,6 +249,8 @@ def run_fig12_row(name, design, T, methods, lbfgs_iter):
         solver, formulate = METHODS[method]
         t0 = time.perf_counter()
         p = formulate(make())
+        if "hessian" in OPTS:
+            p.hessian = OPTS["hessian"]
         kw = {"max_iter": spec.constraints.max_iter} if solver == "ipopt" else {"max_iter": lbfgs_iter}
         r = p.solve(solver=solver, **kw)
         total = time.perf_counter() - t0
@@ -268,8 +311,12 @@ def main():
     ap.add_argument("--lbfgs-iter", type=int, default=500)
     ap.add_argument("--rows", nargs="*", default=None)
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
+    ap.add_argument("--hessian", choices=["auto", "exact", "gauss-newton"], default=None,
+                    help="CongruenceProblem(hessian=...) of every row (default: the library's, auto)")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
+    if args.hessian:
+        OPTS["hessian"] = args.hessian
     fig12 = [r for r in (args.rows or [n for n, _, _ in FIG12]) if r in {n for n, _, _ in FIG12}]
     if fig12:
         methods = [m for m in args.methods if not (args.no_lbfgs and m == "lbfgs")]

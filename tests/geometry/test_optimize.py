@@ -154,10 +154,16 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
     hyperbolic() and a mild angle bound are not active: the first pass (no inequalities) gives
     the answer, a local minimizer of the constrained problem too; the constrained solve lands
     on the same lines."""
-    def problem():
-        return CongruenceProblem(facade).normal().fair().closeness(weight=0.1).perpendicular(SUN, weight=0.1)
+    def problem(**kw):
+        return (CongruenceProblem(facade, **kw).normal().fair().closeness(weight=0.1)
+                .perpendicular(SUN, weight=0.1))
 
-    free = problem().solve()
+    # pass 1 has the Gauss-Newton Hessian (hessian="auto"): the same IPOPT run as the
+    # energies' own solve with it, and the same minimizer as with the exact Hessian
+    free = problem(hessian="gauss-newton").solve()
+    exact = problem(hessian="exact").solve()
+    assert free.success and exact.success
+    assert _angles_deg(free.congruence.directions, exact.congruence.directions).max() < 0.05
     p = problem().hyperbolic().min_torsal_angle(5)
     seen = []
     res = p.solve(callback=seen.append)
@@ -166,6 +172,9 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
     assert np.allclose(res.congruence.directions, free.congruence.directions, atol=1e-12)
     assert max(res.max_violation.values()) <= 1e-9
     assert "inactive" in res.summary()
+    # positive semidefinite by construction: no regularization estimate for pass 1
+    pass1 = p._built["tangent/without-inequalities"]
+    assert pass1.psd and not p._built["tangent"].psd and set(pass1.hessian_shifts.values()) <= {0.0}
     both = problem().hyperbolic().min_torsal_angle(5).solve(try_unconstrained=False)
     assert both.success and both.constraints_active is True
     assert _angles_deg(both.congruence.directions, res.congruence.directions).max() < 0.05

@@ -185,8 +185,12 @@ class IpoptStrategy:
         3. with all of them, from the start.
         """
         limit, problem = self.limit, self.problem
-        # the cold solver; with constraints its warm-start variant is built (and cached) with it
-        s = self.solver(b, False, x0, p)
+
+        def cold():
+            # the cold solver of b, built (with its warm-start variant) when a pass needs it:
+            # not when pass 1 answers (row 11: two nlpsol and a Hessian estimate saved)
+            return self.solver(b, False, x0, p)
+
         sw = self.solver(b, True, x0, p) if warm else None
         ineq = b.lbg < b.ubg
         feas_tol = float((self.options or {}).get("constr_viol_tol", 1e-9))
@@ -195,7 +199,7 @@ class IpoptStrategy:
         iters, status = 0, ""
         if warm and prev_ws is not None and prev_ws.size == b.n_g:
             # the designer's re-solve after a working-set solve: same set, warm multipliers
-            out = self.working_set(sw, s, b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
+            out = self.working_set(sw, cold(), b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
             if out.converged or self._stopped(out.status):
                 return out
             iters, status = out.iterations, out.status
@@ -215,6 +219,7 @@ class IpoptStrategy:
                 return PassOutcome(r1.x, None, iters, status, True, False, None)
             if r1.converged and viol[ineq].mean() <= _WORKING_SET_MAX_SHARE:
                 ws = _near_bounds(g1, b) | viol | ~ineq
+                s = cold()
                 out = self.working_set(s, s, b, r1.x, p, ws, None, (limit - iters) // 2, feas_tol)
                 iters += out.iterations
                 if out.converged or self._stopped(out.status):
@@ -230,7 +235,7 @@ class IpoptStrategy:
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
         if warm:
             args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
-        r = self.call(sw if warm else s, b, args, (limit - iters) if iters else None)
+        r = self.call(sw if warm else cold(), b, args, (limit - iters) if iters else None)
         return PassOutcome(r.x, r.lam_g, iters + r.iterations, r.status, r.converged,
                            True if ineq.any() else None, None)
 
@@ -306,6 +311,11 @@ _SCALING_OPTIONS = ("obj_scaling_factor", "nlp_scaling_method", "nlp_scaling_max
                     "nlp_scaling_min_value")
 
 
+#: ARPACK restarts of the estimate in :func:`_hessian_shift` (20 Lanczos vectors each): an
+#: indefinite W at the start converged in about 30 (620 products at 20k variables, row 11)
+_EIGSH_RESTARTS = 40
+
+
 def _hessian_shift(b: Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
     """First Hessian regularization for IPOPT: 1.25 times the most negative eigenvalue (internal).
 
@@ -323,7 +333,7 @@ def _hessian_shift(b: Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
     """
     from scipy.sparse.linalg import eigsh
 
-    if b.n_var == 0:
+    if b.n_var == 0 or b.psd:    # nothing to estimate (the Lanczos search would not converge)
         return 0.0
     try:
         scale = float(ip.get("obj_scaling_factor", 1.0))
@@ -339,7 +349,10 @@ def _hessian_shift(b: Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
             lam = float(np.linalg.eigvalsh(h.toarray())[0])
         else:
             v0 = np.random.default_rng(0).standard_normal(b.n_var)    # same start, same result
-            lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=20 * b.n_var, v0=v0,
+            # a bounded number of restarts: on a (nearly) positive semidefinite W the smallest
+            # eigenvalue is clustered at 0 and ARPACK would restart up to 20 n times (measured:
+            # > 20 min at 20k variables); past the cap IPOPT searches as usual
+            lam = float(eigsh(h, k=1, which="SA", tol=5e-2, maxiter=_EIGSH_RESTARTS, v0=v0,
                               return_eigenvectors=False)[0])
     except (RuntimeError, ValueError):   # ArpackError (no convergence), LinAlgError, NaN at x0
         return 0.0

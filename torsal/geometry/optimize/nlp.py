@@ -254,6 +254,10 @@ class Built:
         self.hess_lag = ca.Function("nlp_hess_l", [x_all, p, lam_f, lam_g], [hess],
                                     ["x", "p", "lam_f", "lam_g"], ["hess"])
         self.energy_names = [t.name for t in terms if not t.constraint]
+        #: the Lagrangian Hessian is positive semidefinite by construction: no constraint rows
+        #: and every energy quadratic (PSD Q) or Gauss-Newton with the chart curvature left out
+        self.psd = n_g == 0 and hessian == "gauss-newton" and all(
+            t.matrix is not None or (t.element.residual is not None) for t in terms)
         self.cons = cons
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)

@@ -52,14 +52,24 @@ class CongruenceProblem:
         ``"renormalize"``: the paper's way: no unit constraint; a penalty
         ``mean((||e_i||^2 - 1)^2)`` (weight 1) keeps lengths near 1 during a solve, and the
         directions are renormalized afterwards (and after every round of ``lbfgs``).
-    hessian : {"exact", "gauss-newton"}
-        Hessian of the energies' part of the Lagrangian. ``"exact"`` (default). ``"gauss-newton"``:
-        ``2 J_r^T J_r`` for every energy that is a sum of squares (all built-in ones but
-        ``fair``, which is quadratic and exact either way), no chart curvature for them;
-        positive semidefinite, so IPOPT's inertia correction only meets the constraints'
-        curvature. Measured (benchmarks/optimize_bench.py, row 9 at 693 vertices, 500
-        iterations): objective 0.0235 against 0.0271 exact, neither converged; it can also
-        reach a different local minimum (e.g. all lines parallel where the energies allow).
+    hessian : {"auto", "exact", "gauss-newton"}
+        Hessian of the energies' part of the Lagrangian. ``"gauss-newton"``: ``2 J_r^T J_r`` for
+        every energy that is a sum of squares (all built-in ones but ``fair``, which is
+        quadratic and exact either way), no chart curvature for them; positive semidefinite,
+        so IPOPT's inertia correction only meets the constraints' curvature (the constraints
+        keep their exact Hessian). ``"exact"``: the exact Hessian. ``"auto"`` (default):
+        Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP without them,
+        see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP. Measured
+        (benchmarks/optimize_bench.py, 2026-11-23): on row 11 (pass 1 answers, 20k
+        variables) the exact Hessian is indefinite away from the optimum, IPOPT regularizes
+        every iteration (damped steps, two or more factorizations each) and needs 21
+        iterations to 9.5e-9; Gauss-Newton 4 iterations to 1.8e-12, no line bundle either (the
+        energies are nearly zero-residual there, where Gauss-Newton converges quadratically);
+        row 13 16 iterations instead of 22, same objective. Not the default elsewhere: on a
+        facade with strokes (normal, fair, torsal_direction; tests/geometry/test_optimize.py)
+        its full steps land on a line bundle (objective 6e-16, no torsal directions), a
+        trivial zero of the stroke residual, where the exact Hessian keeps following the
+        strokes; with inequalities, row 7c: 500 iterations to 0.4788 against 0.4616 exact.
     elastic : float, default 0
         ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
         ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
@@ -94,7 +104,7 @@ class CongruenceProblem:
     """
 
     def __init__(self, congruence: Congruence, weights: dict | None = None,
-                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact",
+                 normalize: str = "tangent", jit: bool = False, hessian: str = "auto",
                  elastic: float = 0.0):
         if not isinstance(congruence, Congruence):
             raise TypeError("CongruenceProblem needs a torsal Congruence (e.g. Congruence.from_normals(mesh))")
@@ -110,8 +120,8 @@ class CongruenceProblem:
         self.congruence = congruence
         self.normalize = normalize
         self.jit = bool(jit)
-        if hessian not in ("gauss-newton", "exact"):
-            raise ValueError(f"hessian must be 'gauss-newton' or 'exact', got {hessian!r}")
+        if hessian not in ("auto", "gauss-newton", "exact"):
+            raise ValueError(f"hessian must be 'auto', 'gauss-newton' or 'exact', got {hessian!r}")
         self.hessian = hessian
         if not (np.isfinite(elastic) and elastic >= 0):
             raise ValueError(f"elastic must be a finite number >= 0 (0: off), got {elastic}")
@@ -740,9 +750,16 @@ class CongruenceProblem:
             return 0.0
         if not self._terms:
             raise ValueError("the problem has no terms; add energies (e.g. .normal().fair()) before solving")
-        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit, self.hessian,
+        self._built[mode] = Built(self._term_list(mode), self.n_var // 3, mode, self.jit, self._hessian_of(False),
                                   elastic=self.elastic if mode != "penalty" else 0.0)
         return self._built[mode].seconds
+
+    def _hessian_of(self, pass1: bool) -> str:
+        """The energies' Hessian of an NLP (``hessian="auto"``: Gauss-Newton for pass 1 of a
+        solve with inequalities, exact otherwise; see the class docstring)."""
+        if self.hessian != "auto":
+            return self.hessian
+        return "gauss-newton" if pass1 else "exact"
 
     def _free_built(self, mode: str) -> tuple[Built, float]:
         """The NLP of ``mode`` without its inequality constraints (built once, as needed)."""
@@ -750,7 +767,7 @@ class CongruenceProblem:
         if key in self._built:
             return self._built[key], 0.0
         terms = [t for t in self._term_list(mode) if not (t.constraint and t.lower < t.upper)]
-        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self.hessian)
+        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(True))
         return self._built[key], self._built[key].seconds
 
     def _directions(self) -> np.ndarray:
