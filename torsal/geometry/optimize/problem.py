@@ -57,7 +57,7 @@ class CongruenceProblem:
         every energy that is a sum of squares (all built-in ones but ``fair``, which is
         quadratic and exact either way), no chart curvature for them; positive semidefinite,
         so IPOPT's inertia correction only meets the constraints' curvature (the constraints
-        keep their exact Hessian). ``"exact"``: the exact Hessian. ``"auto"`` (default):
+        keep their exact Hessian). ``"exact"`` (default): the exact Hessian. ``"auto"``:
         Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP without them,
         see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP. Measured
         (benchmarks/optimize_bench.py, 2026-11-23): on row 11 (pass 1 answers, 20k
@@ -70,6 +70,10 @@ class CongruenceProblem:
         its full steps land on a line bundle (objective 6e-16, no torsal directions), a
         trivial zero of the stroke residual, where the exact Hessian keeps following the
         strokes; with inequalities, row 7c: 500 iterations to 0.4788 against 0.4616 exact.
+        ``"auto"`` was the default for a day and was withdrawn, measured at full size: its
+        pass 1 turned example 10 into a near line bundle (116 faces without torsal
+        directions, minimum torsal angle 0.5 degrees, against 6 and 11.1 exact) and left a
+        face of this class's doctest non-hyperbolic; row 11 and 100k use it by choice.
     elastic : float, default 0
         ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
         ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
@@ -104,7 +108,7 @@ class CongruenceProblem:
     """
 
     def __init__(self, congruence: Congruence, weights: dict | None = None,
-                 normalize: str = "tangent", jit: bool = False, hessian: str = "auto",
+                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact",
                  elastic: float = 0.0):
         if not isinstance(congruence, Congruence):
             raise TypeError("CongruenceProblem needs a torsal Congruence (e.g. Congruence.from_normals(mesh))")
