@@ -129,7 +129,7 @@ def main():
         old, tail = rest.split(END, 1)
         if args.only:  # keep the rows of the examples not re-run
             new = {ln.split("|")[1].strip(): ln for ln in lines[2:]}
-            kept = [_pad(ln, lines[0].count("|")) for ln in old.strip().splitlines()[2:]
+            kept = [_pad(ln, lines[0].replace("\\|", "").count("|")) for ln in old.strip().splitlines()[2:]
                     if ln.split("|")[1].strip() not in new]
             rows = sorted(kept + list(new.values()), key=lambda ln: _figure_key(ln.split("|")[1].strip()))
             lines = lines[:2] + rows
