@@ -137,6 +137,17 @@ def _slide(n_plate: np.ndarray, quad: np.ndarray, axis: np.ndarray) -> np.ndarra
     return d if d @ axis >= 0 else -d
 
 
+def _seam_plane(p: Part) -> tuple[np.ndarray, np.ndarray] | None:
+    """The bisector plane of the mitred fold at the start of part ``p``: a point on it (a copy
+    of the node point ``a``, so trimming the panel does not move it) and its unit normal; None
+    where the fold's mitre runs along the node line (no plane)."""
+    a, b = p.panels[0][0].copy(), p.panels[0][3]
+    seam = _cross(b - a, p.miters[0])
+    if not np.linalg.norm(seam) > 0:
+        return None
+    return a, seam / np.linalg.norm(seam)
+
+
 def _memo_key(x):
     """A hashable key of nested arrays, sequences, dicts and scalars (arrays by their bytes)."""
     if isinstance(x, np.ndarray):
@@ -150,28 +161,10 @@ def _memo_key(x):
 
 def _quads_cross(p: np.ndarray, q: np.ndarray) -> bool:
     """Whether an edge of a quad of ``p`` (k, 4, 3) passes through a quad of ``q`` (m, 4, 3)
-    or the other way round (mid-surfaces, two triangles per quad; Moller-Trumbore)."""
-
-    def hits(quads, others) -> bool:
-        e0 = quads.reshape(-1, 3)
-        e1 = np.roll(quads, -1, axis=1).reshape(-1, 3)
-        tris = np.concatenate([others[:, [0, 1, 2]], others[:, [0, 2, 3]]])
-        v0, v1, v2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
-        d = e1 - e0                                                     # (E, 3)
-        pv = np.cross(d[:, None], v2[None])                             # (E, T, 3)
-        det = np.einsum("etk,tk->et", pv, v1)
-        ok = np.abs(det) > 1e-12 * np.linalg.norm(v1, axis=1) * np.linalg.norm(v2, axis=1) * \
-            np.linalg.norm(d, axis=1)[:, None]
-        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        tv = e0[:, None] - v0[None]
-        u = np.einsum("etk,etk->et", tv, pv) * inv
-        qv = np.cross(tv, v1[None])
-        v = np.einsum("etk,ek->et", qv, d) * inv
-        t = np.einsum("etk,tk->et", qv, v2) * inv
-        eps = 1e-6
-        return bool((ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)).any())
-
-    return hits(p, q) or hits(q, p)
+    or the other way round (mid-surfaces, two triangles per quad; Moller-Trumbore): every
+    pair of :func:`_edges_pierce`."""
+    i, j = np.divmod(np.arange(len(p) * len(q)), len(q))
+    return bool((_edges_pierce(p[i], q[j], eps=1e-6) | _edges_pierce(q[j], p[i], eps=1e-6)).any())
 
 
 def _quads_on(p: np.ndarray, q: np.ndarray, gap: float) -> bool:
@@ -233,9 +226,10 @@ def _point_triangle_distances(x, tri) -> np.ndarray:
     return np.where(ok & (u >= 0) & (v >= 0) & (u + v <= 1), plane, edges)
 
 
-def _edges_pierce(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _edges_pierce(p: np.ndarray, q: np.ndarray, *, eps: float = 1e-9) -> np.ndarray:
     """(m,) whether an edge of quad ``p[k]`` (m, 4, 3) passes through the inside of quad
-    ``q[k]`` (two triangles; Moller-Trumbore), pair by pair."""
+    ``q[k]`` (two triangles; Moller-Trumbore), pair by pair; ``eps``: how far inside (in
+    barycentric and edge parameters) a hit must be."""
     e0 = p[:, :, None]                                                  # (m, 4, 1, 3)
     d = np.roll(p, -1, axis=1)[:, :, None] - e0
     tris = np.stack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]], axis=1)[:, None]  # (m, 1, 2, 3, 3)
@@ -250,7 +244,6 @@ def _edges_pierce(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     qv = np.cross(tv, v1)
     v = (d * qv).sum(-1) * inv
     t = (v2 * qv).sum(-1) * inv
-    eps = 1e-9
     hit = ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)
     return hit.any(axis=(1, 2))
 
@@ -1128,13 +1121,10 @@ class FinSystem:
     def _seam_walls(self, prev: Part | None, p: Part) -> None:
         """The two parts of a strip split on a mitre touch on the fold's bisector plane: each is
         a wall of the other (normal of that plane, turned towards it) for its insertion."""
-        if prev is None:
+        plane = None if prev is None else _seam_plane(p)
+        if plane is None:
             return
-        a, b = p.panels[0][0], p.panels[0][3]
-        seam = _cross(b - a, p.miters[0])
-        if not np.linalg.norm(seam) > 0:
-            return
-        seam = seam / np.linalg.norm(seam)
+        a, seam = plane
         for q, quad in ((p, p.panels[0]), (prev, prev.panels[-1])):
             n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
             self._walls.setdefault(q.name, []).append(n)
@@ -1143,13 +1133,10 @@ class FinSystem:
         """Trim both parts of a mitred seam back from the fold's bisector plane by
         ``clearance/2`` (:func:`~.joints.mitre_trim`), so that they do not touch (after the
         splice plate and the walls, which are placed on the untrimmed node line)."""
-        if prev is None or not self.clearance > 0:
+        plane = None if prev is None or not self.clearance > 0 else _seam_plane(p)
+        if plane is None:
             return
-        a, b = p.panels[0][0].copy(), p.panels[0][3]
-        seam = _cross(b - a, p.miters[0])
-        if not np.linalg.norm(seam) > 0:
-            return
-        seam = seam / np.linalg.norm(seam)
+        a, seam = plane
         for q, start in ((p, True), (prev, False)):
             quad = q.panels[0 if start else -1]
             try:

@@ -35,7 +35,8 @@ from .model import CONNECTOR_FAMILY, Part, SlotSide
 from .unroll import unroll
 from torsal.core.errors import TorsalError
 
-__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "start_solids", "PendingSolids", "default_workers",
+__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "start_solids",
+           "PendingSolids", "default_workers",
            "export_step", "export_mesh", "export_3dm", "read_step"]
 
 
@@ -602,9 +603,10 @@ class PendingSolids:
         self._pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _build_parallel(parts: list, thickness: float, repair: bool, workers: int):
-    """``[(name, status, OCC shape, detail)]`` built by ``workers`` forked processes, in order."""
-    return PendingSolids(parts, thickness, repair, workers).result()
+def _workers_for(n_parts: int, workers: int | None) -> int:
+    """Worker processes for ``n_parts`` solids: ``workers`` or :func:`default_workers`, no more
+    than this process may use (:func:`~torsal.core.parallel.usable_workers`)."""
+    return usable_workers(default_workers(n_parts) if workers is None else workers)
 
 
 def start_solids(fin_system, *, repair: bool = True, workers: int | None = None) -> PendingSolids | None:
@@ -615,7 +617,7 @@ def start_solids(fin_system, *, repair: bool = True, workers: int | None = None)
     if getattr(fin_system, "_solids", None) is not None:
         return None
     parts = list(fin_system.parts)
-    workers = usable_workers(default_workers(len(parts)) if workers is None else workers)
+    workers = _workers_for(len(parts), workers)
     if workers <= 1:
         return None
     return PendingSolids(parts, fin_system.thickness, repair, workers)
@@ -637,9 +639,9 @@ def build_solids(fin_system, *, repair: bool = True, workers: int | None = None,
     if pending is not None:
         rows = pending.result()
     else:
-        workers = usable_workers(default_workers(len(parts)) if workers is None else workers)
+        workers = _workers_for(len(parts), workers)
         if workers > 1:
-            rows = _build_parallel(parts, t, repair, workers)
+            rows = PendingSolids(parts, t, repair, workers).result()
         else:
             rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
     by_name = {p.name: p for p in parts}
