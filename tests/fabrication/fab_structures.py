@@ -104,3 +104,27 @@ def crossing_strips_structure() -> SupportStructure:
     b = np.r_[s.vertices_b, extra + [0.0, 0.0, 0.1]]
     return SupportStructure(a, b, s.faces, np.r_[s.edges, [[5, len(a) - 1]]],
                             np.r_[s.edge_family, [0]])
+
+
+def blocked_slide_structure(*, behind: bool = False) -> SupportStructure:
+    """A T junction with plates in the way of its butted part (metres; node lines vertical,
+    ``a`` at the bottom, depth 0.1 m).
+
+    Row ``W`` (family 0, nodes 0-1-2 along x at y = 0) passes node 1, where column ``P``
+    (family 1, nodes 1-3-4 along y at x = 0) ends: P is butted against W and slides into place
+    along the line where their planes meet (z), from above or from below, or head on (along
+    -y, towards W). Two single-fin rows of family 0 that nothing joins cross P's plane at
+    y = 0.3 m, 50 mm above it (``U``, z 0.15 to 0.25) and 50 mm below it (``L``, z -0.15 to
+    -0.05): both slides along z pass through one of them (P is 100 mm deep), the head-on slide
+    passes neither. With ``behind``, a third such row at y = 0.65 m, level with P (``B``, 50 mm
+    beyond P's free end), is in the way of the head-on slide too."""
+    x = [(-0.3, 0.0, 0.0), (0.0, 0.0, 0.0), (0.3, 0.0, 0.0), (0.0, 0.3, 0.0), (0.0, 0.6, 0.0),
+         (-0.15, 0.3, 0.15), (0.15, 0.3, 0.15), (-0.15, 0.3, -0.15), (0.15, 0.3, -0.15)]
+    edges = [[0, 1], [1, 2], [5, 6], [7, 8], [1, 3], [3, 4]]
+    family = [0, 0, 0, 0, 1, 1]
+    if behind:
+        x += [(-0.15, 0.65, 0.0), (0.15, 0.65, 0.0)]
+        edges.insert(4, [9, 10])
+        family.insert(4, 0)
+    a = np.array(x, float)
+    return SupportStructure(a, a + [0.0, 0.0, 0.1], [], np.array(edges), np.array(family))

@@ -255,3 +255,40 @@ def test_near_panel_pairs_known_distances():
     assert set(got) == {(0, 1), (1, 2), (0, 3), (1, 3), (2, 3)}
     assert got[(0, 1)] == pytest.approx(2.0) and got[(1, 2)] == pytest.approx(3.0)
     assert got[(0, 3)] == got[(1, 3)] == got[(2, 3)] == 0.0
+
+
+def test_swept_distances_known_values():
+    from torsal.fabrication.parts import _swept_distances
+
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    wall = np.array([[[3, -1, -1], [3, 2, -1], [3, 2, 1], [3, -1, 1]]], float)
+    # the floor swept towards the wall: through it, to 0.5 short of it, away from it
+    assert _swept_distances(floor, [5.0, 0, 0], wall)[0, 0] == 0.0
+    assert _swept_distances(floor, [1.5, 0, 0], wall)[0, 0] == pytest.approx(0.5)
+    assert _swept_distances(floor, [-5.0, 0, 0], wall)[0, 0] == pytest.approx(2.0)
+    # a small tilted square wholly inside the prism the floor sweeps upwards (no face meets
+    # it): 0; a sweep that stops 1 below it: 1
+    sq = np.array([[[0.4, 0.4, 2], [0.6, 0.4, 2], [0.6, 0.6, 2.1], [0.4, 0.6, 2.1]]], float)
+    assert _swept_distances(floor, [0, 0, 5.0], sq)[0, 0] == 0.0
+    assert _swept_distances(floor, [0, 0, 1.0], sq)[0, 0] == pytest.approx(1.0)
+    # a sweep in the floor's own plane (flat): past a post standing 0.2 beside its path
+    post = np.array([[[0.5, 1.2, -1], [0.6, 1.2, -1], [0.6, 1.2, 1], [0.5, 1.2, 1]]], float)
+    assert _swept_distances(floor, [3.0, 0, 0], post)[0, 0] == pytest.approx(0.2)
+    assert _swept_distances(floor, [0, 3.0, 0], post)[0, 0] == 0.0
+
+
+def test_slab_depths_known_values():
+    from torsal.fabrication.parts import _slab_depths
+
+    # 1 x 1 plates 0.2 thick: a floor at z = 0 and one 0.5 above it, swept from 0.9 (apart by
+    # 0.3: faces at 0.1 and 0.4) or from 0.1 (down to the floor's face: overlap 0.1)
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    assert _slab_depths(floor + [0, 0, 0.5], [0, 0, 0.4], floor, 0.2)[0] == pytest.approx(-0.3)
+    assert _slab_depths(floor + [0, 0, 0.5], [0, 0, -0.4], floor, 0.2)[0] == pytest.approx(0.1)
+    # a wall square to the floor, its square edge at z = 0.4, swept sideways over the floor
+    # (face at 0.1): apart by 0.3; tilted 45 deg about that edge line, its corner dips 0.1 lower
+    wall = np.array([[[0.5, 0.5, 0.4], [0.5, 0.6, 0.4], [0.5, 0.6, 1.4], [0.5, 0.5, 1.4]]], float)
+    assert _slab_depths(wall, [0, 3.0, 0], floor, 0.2)[0] == pytest.approx(-0.3)
+    tilt = wall.copy()
+    tilt[0, 2:, 0] += 1.0                                   # top edge moved 1 along x: 45 deg
+    assert _slab_depths(tilt, [0, 3.0, 0], floor, 0.2)[0] == pytest.approx(-(0.3 - 0.1 / np.sqrt(2)))

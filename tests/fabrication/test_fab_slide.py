@@ -11,8 +11,8 @@ import warnings
 import numpy as np
 import pytest
 
-from fab_structures import grid_structure
-from torsal.fabrication import FinSystem, JointKind, check_assembly, joints_of, slot_width
+from fab_structures import blocked_slide_structure, grid_structure
+from torsal.fabrication import FinSystem, JointKind, check_assembly, joints_of, slot_width, verify_assembly
 from torsal.fabrication.assembly import AssemblyJoint, joint_groups
 from torsal.fabrication.joints import MAX_SLOT_SKEW
 from torsal.fabrication.parts import _cycles
@@ -105,3 +105,39 @@ def test_fin_folded_back_onto_another_is_found():
     assert _quads_on(floor * 0.5 + [0.2, 0.2, 0.002], floor, 0.003)      # lies on it
     assert not _quads_on(floor * 0.5 + [0.2, 0.2, 0.01], floor, 0.003)   # 10 mm above
     assert not _quads_on(floor + [2, 0, 0], floor, 0.003)                 # beside it
+
+
+def test_butted_part_whose_slide_is_blocked_goes_in_head_on():
+    # (issue 15, example 9) column P butts against row W and would slide along their common
+    # line (z); a plate 50 mm above and one 50 mm below are in the way of both senses (nothing
+    # joins them to P): the builder slides P in head on (along -y, towards W), which the
+    # independent check finds clear; nothing is left out
+    fs = _build(blocked_slide_structure())
+    [butt] = [j for j in fs.joints if j.kind == JointKind.BUTT_BRACKET]
+    assert butt.parts[:2] == ("F0-S000-P00", "F1-S000-P00")
+    np.testing.assert_allclose(butt.insert_direction, [0, -1, 0], atol=1e-12)
+    assert fs.coplanar_panels == [] and fs.n_panels == 6
+    r = verify_assembly(fs, workers=1)
+    assert r.buildable and r.interfering_pairs == 0 and not r.blocked, r.problems()
+    [step] = [s for s in r.order if s.part == "F1-S000-P00"]
+    np.testing.assert_allclose(step.insert_direction, [0, -1, 0], atol=1e-12)
+
+
+def test_butted_part_blocked_every_way_leaves_out_the_cheaper_panel(monkeypatch):
+    # the same with a third plate 50 mm beyond P's free end, in the way of the head-on slide:
+    # no direction P's joint allows is clear; of the pair on its first path (sliding down,
+    # through the plate above) the cheaper panel is left out: the plate above, one panel of a
+    # strip of one (P has two); then P slides down
+    fs = _build(blocked_slide_structure(behind=True))
+    assert [(x[0], x[1], x[2]) for x in fs.coplanar_panels] == [("F0-S001", 2, 5)]
+    assert "path of F1-S000-P00" in fs.coplanar_panels[0][3]
+    [butt] = [j for j in fs.joints if j.kind == JointKind.BUTT_BRACKET]
+    np.testing.assert_allclose(butt.insert_direction, [0, 0, -1], atol=1e-12)
+    r = verify_assembly(fs, workers=1)
+    assert r.buildable and r.interfering_pairs == 0 and not r.blocked, r.problems()
+    # control: without the path check P keeps its first slide (down) and is blocked both ways
+    monkeypatch.setattr(FinSystem, "_check_paths", lambda self: None)
+    for behind in (False, True):
+        kept = _build(blocked_slide_structure(behind=behind))
+        r = verify_assembly(kept, workers=1)
+        assert [s.part for s in r.blocked] == ["F1-S000-P00"] and r.interfering_pairs == 0

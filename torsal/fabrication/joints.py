@@ -43,7 +43,11 @@ slides along the plate), else along the line where two of the faces it ends agai
 or head on. No parts butt on each other in a cycle (A against B, B against C, C against A: the
 last could not go in): in a cycle, crossings where a family-0 part butts against a family-1
 plate are split on family 1 instead (family 0 continuous, bracketed across), else one
-crossing's split family is swapped; the design is rebuilt until no cycle is left.
+crossing's split family is swapped; the design is rebuilt until no cycle is left. Last, each
+part's path into place must clear the plates placed before it that it is not joined to (a
+neighbouring fin of a rough congruence may stand in the way of a slide along the node axis):
+the part takes the first clear direction its joints allow, else the cheaper panel of the pair
+in the way is left out (rules in :mod:`.parts`).
 
 **End panels that cannot be trimmed are left out.** A part end meeting the plate it ends
 against within about 12 degrees (it lies along that plate and duplicates its fin) cannot be

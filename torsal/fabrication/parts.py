@@ -35,6 +35,21 @@ Where two plates cross or come within ``thickness + clearance`` of each other aw
 joint (no node line in common: strips of one family crossing near a singularity of a rough
 congruence), one of the two panels is left out too (``coplanar_panels``, naming the other).
 
+**Every part's path into place is clear.** Once the joints are settled, the path of every
+part that goes in after others (a butted part, a slotted family-1 plate) is checked against
+the plates in place before it, in the order a workshop follows (plates a joint lists first go
+first, otherwise by name): its panels, thickened and swept along the path (over the fin depth
+of its joints: then it is clear of them), against theirs (:class:`_PathCheck`). A workshop
+that finds a part blocked by a neighbouring plate first slides it in another way its joints
+allow: a butted part takes the first clear one of its directions (along the node axis of a
+butt joint, either sense, along the line where two faces it ends against meet, head on). Only
+where none is clear (a slotted plate has one direction only) is a panel left out, as the
+trimming does: of every pair of panels on the part's first path that overlap (more than
+touch) or, at a joint, come nearer by more than ``clearance/2`` than in place, the cheaper
+one (a panel at an end of its part before one inside it, then the one of the shorter strip),
+named in ``coplanar_panels``; the structure is rebuilt and checked again. The order itself is
+not changed: it follows from the joints, which the assembly check reads too.
+
 Real structures from the remesher have defects near boundaries and at coarse resolution; they
 are handled and reported (``warnings.warn`` naming parts, nodes and what to do), never turned
 into NaN or invalid solids: degenerate panels (narrower than ``min_panel_width`` or
@@ -88,6 +103,10 @@ __all__ = [
 
 #: how often :class:`FinSystem` rebuilds, leaving out end panels that cannot be trimmed
 MAX_REBUILDS = 8
+
+#: a part's path into place is blocked where its swept solid and a plate in place overlap by
+#: more than this fraction of the thickness (less is touching, e.g. corners that meet)
+SLAB_TOUCH = 0.01
 
 #: gap left between a connector and the plates it lies on, as a fraction of the thickness
 #: (so that touching faces are not coincident for the boolean checks; 0.03 mm at 3 mm)
@@ -263,6 +282,44 @@ def _quad_distances(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.where(crossing, 0.0, np.minimum(corner, edge))
 
 
+def _swept_faces(quads: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    """(k, 6, 4, 3) the boundary of the region each quad of ``quads`` (k, 4, 3) sweeps when
+    moved by ``vector`` (3,): the quad, its translate and the four parallelograms its edges
+    sweep (a convex prism; flat when ``vector`` lies in the quad's plane)."""
+    q = np.asarray(quads, float)
+    e = q + np.asarray(vector, float)
+    sides = np.stack([q, np.roll(q, -1, axis=1), np.roll(e, -1, axis=1), e], axis=2)
+    return np.concatenate([q[:, None], e[:, None], sides], axis=1)
+
+
+def _inside_sweeps(x: np.ndarray, quads: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    """(m, k) whether point ``x[i]`` (m, 3) lies strictly inside the prism quad ``k`` (k, 4, 3,
+    convex) sweeps along ``vector`` (False for a flat sweep: its faces cover it)."""
+    v = np.asarray(vector, float)
+    n = _safe_normals(quads)                                             # (k, 3)
+    sn = n @ v
+    ok = np.abs(sn) > 1e-9 * np.linalg.norm(v)
+    mu = ((x[:, None] - quads[None, :, 0]) * n).sum(-1) / np.where(ok, sn, 1.0)   # (m, k)
+    p = x[:, None] - mu[..., None] * v                                   # on the quad's plane
+    edge = np.roll(quads, -1, axis=1) - quads                            # (k, 4, 3)
+    turn = (_cross(edge[None], p[:, :, None] - quads[None]) * n[None, :, None]).sum(-1)
+    return ok & (mu > 0) & (mu < 1) & (turn > 0).all(axis=-1)
+
+
+def _swept_distances(moving: np.ndarray, vector: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """(k, m) least distance of the mid-surface of panel ``moving[i]`` (k, 4, 3), anywhere on
+    its way from ``moving + vector`` to its place, from panel ``others[j]`` (m, 4, 3): the
+    distance of the region it sweeps (:func:`_swept_faces`; 0 where a panel lies inside it)."""
+    k, m = len(moving), len(others)
+    if not (k and m):
+        return np.zeros((k, m))
+    faces = _swept_faces(moving, vector).reshape(-1, 4, 3)               # (6k, 4, 3)
+    f, o = np.divmod(np.arange(len(faces) * m), m)
+    d = _quad_distances(faces[f], others[o]).reshape(k, 6, m).min(axis=1)
+    inside = _inside_sweeps(others.reshape(-1, 3), moving, vector).reshape(m, 4, k).any(axis=1)
+    return np.where(inside.T, 0.0, d)
+
+
 def _near_panel_pairs(quads: np.ndarray, nodes: np.ndarray, gap: float) -> tuple[np.ndarray, np.ndarray]:
     """Pairs ``(i, j)``, i < j, of panels ``quads`` (n, 4, 3) with no node in common
     (``nodes`` (n, 2): a joint joins panels only at a shared node line) whose mid-surfaces
@@ -283,6 +340,132 @@ def _near_panel_pairs(quads: np.ndarray, nodes: np.ndarray, gap: float) -> tuple
     dist = _quad_distances(quads[i], quads[j])
     near = dist < gap
     return np.c_[i[near], j[near]], dist[near]
+
+
+def _slab_depths(moving: np.ndarray, vector: np.ndarray, others: np.ndarray,
+                 thickness: float) -> np.ndarray:
+    """(m,) how deep the plate panel ``moving[i]`` (m, 4, 3), thickened to ``thickness``
+    about its mid-surface and swept from ``moving + vector`` to its place, and panel
+    ``others[i]`` (m, 4, 3), thickened alike, overlap, pair by pair (< 0: apart, by about
+    that much). Both are convex; the depth is the least overlap of their projections on the
+    separating axes (the products of two of their edge directions, the sweep's among them:
+    they hold every face normal and every edge-edge axis)."""
+    def slab(q):
+        h = 0.5 * thickness * _safe_normals(q)[:, None]
+        return np.concatenate([q - h, q + h], axis=1), np.roll(q, -1, axis=1) - q, 2 * h
+
+    pa, ea, na = slab(np.asarray(moving, float))
+    pb, eb, nb = slab(np.asarray(others, float))
+    v = np.broadcast_to(np.asarray(vector, float), (len(pa), 1, 3))
+    pa = np.concatenate([pa, pa + v], axis=1)                            # (m, 16, 3)
+    dirs = np.concatenate([ea, na, v, eb, nb], axis=1)                   # (m, 11, 3)
+    i, j = np.triu_indices(dirs.shape[1], 1)
+    ax = _cross(dirs[:, i], dirs[:, j])                                  # (m, 55, 3)
+    norm = np.linalg.norm(ax, axis=-1, keepdims=True)
+    ok = norm[..., 0] > 1e-9 * np.maximum(1.0, norm.max(axis=1))
+    ax = ax / np.where(norm > 0, norm, 1.0)
+    sa = np.einsum("mpk,mak->mpa", pa, ax)
+    sb = np.einsum("mpk,mak->mpa", pb, ax)
+    overlap = np.minimum(sa.max(axis=1) - sb.min(axis=1), sb.max(axis=1) - sa.min(axis=1))
+    return np.where(ok, overlap, np.inf).min(axis=1)
+
+
+def _assembly_order(names: list[str], after: dict) -> list[str]:
+    """The plates ``names`` in the order they go in: a plate after those it must follow
+    (``after`` = ``{a: {b: ...}}``: ``b`` after ``a``, see :meth:`FinSystem._butted_after`),
+    otherwise by name; where the plates left all wait for one another (a cycle), the one that
+    waits for the fewest goes next (connectors go on after the plates)."""
+    before: dict[str, set] = {n: set() for n in names}
+    for a, bs in after.items():
+        for b in bs:
+            if b in before and a in before and a != b:
+                before[b].add(a)
+    order, placed, remaining = [], set(), sorted(names)
+    while remaining:
+        nxt = next((n for n in remaining if before[n] <= placed), None)
+        if nxt is None:
+            nxt = min(remaining, key=lambda n: (len(before[n] - placed), n))
+        order.append(nxt)
+        placed.add(nxt)
+        remaining.remove(nxt)
+    return order
+
+
+class _PathCheck:
+    """The paths of parts into place, checked against the plates that may be in place before
+    them, on the panels' mid-surfaces (:func:`_swept_distances`).
+
+    A part goes in along a direction ``d`` over ``travel``: its extent along ``d`` (plus the
+    thickness), but no more than the deepest joint at which it goes in after its partners (the
+    fin depth there: then it is clear of them), plus the thickness. The plates go in in the
+    order a workshop follows (:func:`_assembly_order`): those before it are in place. A pair of
+    panels blocks the path when the one, thickened and swept along the path, and the other,
+    thickened, overlap by more than :data:`SLAB_TOUCH` of the thickness (:func:`_slab_depths`;
+    looked at where their mid-surfaces come within ``thickness + clearance/2``:
+    :func:`_swept_distances`), or, for panels nearer than that in place (at a joint), when
+    their mid-surfaces come nearer by more than ``clearance/2`` than in place (a butted end
+    slides along the plate it meets; slotted panels cross and never block).
+    """
+
+    def __init__(self, fs: "FinSystem"):
+        self.t, self.c = fs.thickness, fs.clearance
+        self.plates = [p for p in fs.parts if p.family in (0, 1)]
+        sizes = [len(p.panels) for p in self.plates]
+        self.quads = (np.concatenate([p.panels for p in self.plates]) if self.plates
+                      else np.zeros((0, 4, 3)))
+        self.owner = np.repeat(np.arange(len(self.plates)), sizes)
+        self.panel = np.concatenate([np.arange(n) for n in sizes]) if sizes else np.zeros(0, int)
+        self.lo, self.hi = self.quads.min(axis=1), self.quads.max(axis=1)
+        self.index = {p.name: k for k, p in enumerate(self.plates)}
+        order = _assembly_order([p.name for p in self.plates], fs._butted_after())
+        self.rank = {n: r for r, n in enumerate(order)}
+        self.order = np.array([self.rank[p.name] for p in self.plates], int)
+        #: deepest joint at which a part goes in after its partners
+        self.depth: dict[str, float] = {}
+        for j in fs.joints:
+            names = [n for n in j.parts if n != j.connector]
+            if j.kind == JointKind.BUTT_BRACKET:
+                later = names[-1:]
+            elif j.kind == JointKind.EGG_CRATE:
+                later = [n for n in names if n[:2] == "F1"]
+            else:
+                later = []
+            for n in later:
+                if j.depth is not None:
+                    self.depth[n] = max(self.depth.get(n, 0.0), float(j.depth))
+
+    def travel(self, p: Part, d: np.ndarray) -> float:
+        ext = p.panels.reshape(-1, 3) @ d
+        travel = float(ext.max() - ext.min()) + self.t
+        if p.name in self.depth:
+            travel = min(travel, self.depth[p.name])
+        return travel + self.t
+
+    def hits(self, p: Part, d: np.ndarray) -> list[tuple]:
+        """``[(panel of p, plate, panel of the plate, least distance)]``, nearest first: the
+        panel pairs that block the path of ``p`` along unit direction ``d``."""
+        d = np.asarray(d, float)
+        vec = -self.travel(p, d) * d
+        reach = self.t + 0.5 * self.c          # the largest limit (see the class text)
+        lo = np.minimum(p.panels.min(axis=(0, 1)), (p.panels + vec).min(axis=(0, 1))) - reach
+        hi = np.maximum(p.panels.max(axis=(0, 1)), (p.panels + vec).max(axis=(0, 1))) + reach
+        before = self.order < self.rank.get(p.name, -1)
+        cand = np.flatnonzero(((self.lo <= hi) & (self.hi >= lo)).all(axis=1) & before[self.owner])
+        if not len(cand):
+            return []
+        swept = _swept_distances(p.panels, vec, self.quads[cand])              # (k, m)
+        i, j = np.divmod(np.arange(swept.size), len(cand))
+        still = _quad_distances(p.panels[i], self.quads[cand][j]).reshape(swept.shape)
+        # panels at a joint (nearer in place than plates can be apart) must not come nearer;
+        # any others that come that near are checked as solids
+        joint = still < reach
+        near = ~joint & (swept < reach)
+        ii, jj = np.nonzero(near)
+        near[ii, jj] = _slab_depths(p.panels[ii], vec, self.quads[cand[jj]], self.t) > SLAB_TOUCH * self.t
+        ii, jj = np.nonzero(near | (joint & (swept < still - 0.5 * self.c)))
+        out = [(int(a), self.plates[self.owner[cand[b]]], int(self.panel[cand[b]]), float(swept[a, b]))
+               for a, b in zip(ii, jj)]
+        return sorted(out, key=lambda h: (h[3], h[1].name, h[0], h[2]))
 
 
 def _cycles(after: dict) -> list[list[str]]:
@@ -451,7 +634,9 @@ class FinSystem:
         parts joined to nothing that pass through another part, and one panel of every pair of
         plates that cross or come within ``thickness + clearance`` of each other where no joint
         joins them (they share no node line; the cheaper one: a part's end panel, of the
-        shorter strip); ``reason`` names the other panel.
+        shorter strip), and one panel of every pair that blocks a part's path into place along
+        every direction its joints allow (the cheaper one); ``reason`` names the other panel
+        or part.
 
     Examples
     --------
@@ -564,7 +749,15 @@ class FinSystem:
             new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
             new_forced.update((v, why) for v, why in self._break_cycles(forced).items()
                               if v not in new_forced)
+            checked = not (new or new_forced)
+            if checked:
+                # the joints are settled: now the paths into place (they change with every
+                # panel left out and every joint changed, so they are looked at last)
+                self._check_paths()
+                new = {(si, i): rec for si, i, *rec in self._blocked_panels()}
             if not (new or new_forced) or attempt == MAX_REBUILDS:
+                if not checked:
+                    self._check_paths()     # out of rebuilds: at least the clear directions
                 break
             for (si, i), (prefix, edge, node, why) in sorted(new.items()):
                 extra.setdefault(si, set()).add(i)
@@ -579,7 +772,8 @@ class FinSystem:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
                 f"against too obliquely to be trimmed (they lie along it and would overlap it), "
-                f"or cross another plate where no joint joins them: "
+                f"cross another plate where no joint joins them, or block a part's path into "
+                f"place: "
                 + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
@@ -599,6 +793,8 @@ class FinSystem:
         self._untrimmable: list[tuple] = []
         #: crossings an egg-crate cannot join (node -> reason): butted in the next build
         self._unslidable: dict[int, str] = {}
+        #: parts whose path into place is blocked: [(part, [(panel, plate, its panel, distance)])]
+        self._blocked_paths: list = []
         #: part name -> [unit normal of a plate it butts against, turned towards the part]
         self._walls: dict[str, list] = {}
         #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
@@ -899,9 +1095,9 @@ class FinSystem:
         self._slot_crossings(st, part_of_strip, joinery, cont)
         self.parts = ([p for parts in part_of_strip for p in parts]
                       + sorted(self._connectors, key=lambda p: p.id))
-        self._set_butt_directions()
         self.joints = [replace(j, depth=float(st.depth[j.node])) if j.node >= 0 else j
                        for j in self.joints]
+        self._set_butt_directions()
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
@@ -1091,15 +1287,9 @@ class FinSystem:
         quads = np.concatenate([p.panels for p in plates])
         nodes = np.concatenate([np.c_[p.nodes[:-1], p.nodes[1:]] for p in plates]).astype(int)
         pairs, dist = _near_panel_pairs(quads, nodes, self.thickness + self.clearance)
-        strip_len: dict[int, int] = {}
-        for p in plates:
-            si = self._strip_of[p.name]
-            strip_len[si] = strip_len.get(si, 0) + len(p.panels)
 
         def cost(k: int) -> tuple:
-            p, j = refs[k]
-            inside = 0 < j < len(p.panels) - 1
-            return inside, strip_len[self._strip_of[p.name]], p.name, j
+            return self._panel_cost(*refs[k])
 
         gone = {k for k, (p, j) in enumerate(refs) if (self._strip_of[p.name], p.span[0] + j) in leaving}
         out = []
@@ -1403,36 +1593,108 @@ class FinSystem:
 
     def _set_butt_directions(self) -> None:
         """Every part slides in along one direction: a family-1 plate with slots along its
-        slide direction (:meth:`_slide_plan`), any other butted part along the direction, of
-        those its butt joints allow (along each plate it meets, along the line where two of
-        them meet, or head on), that runs least into the plates it butts against. The butt
-        joints record it as their ``insert_direction``."""
+        slide direction (:meth:`_slide_plan`), any other butted part along the first direction,
+        of those its butt joints allow (:meth:`_butt_candidates`), that runs into none of the
+        plates it butts against. The butt joints record it as their ``insert_direction``;
+        :meth:`_check_paths` may pick a later one."""
         plan = getattr(self, "_plan", {})
         butted: dict[str, list[int]] = {}
         for k, j in enumerate(self.joints):
             if j.kind == JointKind.BUTT_BRACKET:
                 names = [n for n in j.parts if n != j.connector]
                 butted.setdefault(names[-1], []).append(k)
+        #: part name -> (its butt joints, the directions it may go in along, best first; None:
+        #: each joint keeps its own)
+        self._directions: dict[str, tuple] = {}
         for name, ks in butted.items():
             walls = self._walls.get(name, [])
             if name in plan:
-                d = plan[name][0]
+                cands = [plan[name][0]]
             elif not walls:
-                continue
+                cands = None
             else:
-                # the node axis of a butt joint first (it lies in both plates: the end slides
-                # along the plate it meets), then lines where two walls meet, then head on
-                cands = [self._node_axis(self.joints[k].node) for k in ks]
-                cands += [self.joints[k].insert_direction for k in ks]
-                cands += [_cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
-                cands.append(-np.sum(walls, axis=0))
-                cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
-                cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
-                run_in = [max(c @ n for n in walls) for c in cands]
-                ok = [c for c, r in zip(cands, run_in) if r <= 1e-3]
-                d = ok[0] if ok else cands[int(np.argmin(run_in))]
-            for k in ks:
+                cands = self._butt_candidates(ks, walls)
+            self._directions[name] = (ks, cands)
+            for k in ks if cands else ():
+                self.joints[k] = replace(self.joints[k], insert_direction=np.asarray(cands[0], float))
+        for name in sorted(set(plan) - set(butted)):      # slotted plates without butt joints
+            self._directions[name] = ([], [plan[name][0]])
+
+    def _check_paths(self) -> None:
+        """The path of every part into place (:class:`_PathCheck`): each part goes in along the
+        first of its directions (:meth:`_set_butt_directions`) whose path is clear, recorded in
+        its joints; a part with no clear path keeps the first and is listed in
+        ``_blocked_paths`` (panels are left out in the next build: :meth:`_blocked_panels`)."""
+        paths = _PathCheck(self)
+        self._blocked_paths = []
+        for name, (ks, cands) in self._directions.items():
+            p = paths.plates[paths.index[name]]
+            tries = cands if cands else [self.joints[ks[0]].insert_direction]
+            first = None
+            for d in tries:
+                h = paths.hits(p, d)
+                if not h:
+                    break
+                first = h if first is None else first
+            else:
+                d = tries[0]
+                self._blocked_paths.append((p, first))
+            for k in ks if cands else ():
                 self.joints[k] = replace(self.joints[k], insert_direction=np.asarray(d, float))
+
+    def _butt_candidates(self, ks: list[int], walls: list) -> list[np.ndarray]:
+        """Directions a part with butt joints ``ks`` and the faces ``walls`` it ends against
+        may slide in along, best first: those that run into none of those faces (the node axis
+        of a butt joint first: it lies in both plates, the end slides along the plate it meets;
+        then the lines where two faces meet, then head on), else the one that runs in least."""
+        cands = [self._node_axis(self.joints[k].node) for k in ks]
+        cands += [self.joints[k].insert_direction for k in ks]
+        cands += [_cross(a, b) for i, a in enumerate(walls) for b in walls[i + 1:]]
+        cands.append(-np.sum(walls, axis=0))
+        cands = [c / np.linalg.norm(c) for c in cands if np.linalg.norm(c) > 1e-9]
+        cands = [s_ * c for c in cands for s_ in (1.0, -1.0)]
+        run_in = [max(c @ n for n in walls) for c in cands]
+        ok = [c for c, r in zip(cands, run_in) if r <= 1e-3]
+        return ok if ok else [cands[int(np.argmin(run_in))]]
+
+    def _blocked_panels(self, *, leaving: set = frozenset()) -> list[tuple]:
+        """Panels to leave out so that every part can be put in (``_blocked_paths``: parts whose
+        path, along every direction their joints allow, comes too near a plate that may be in
+        place before them): of every such pair of panels the cheaper one (:meth:`_panel_cost`),
+        unless one of the two is in ``leaving`` ({(strip index, panel of the strip)}) already."""
+        gone = set(leaving)
+        out = []
+        for p, hits in self._blocked_paths:
+            for i, o, jo, d in hits:
+                mine = (self._strip_of[p.name], p.span[0] + i)
+                theirs = (self._strip_of[o.name], o.span[0] + jo)
+                if mine in gone or theirs in gone:
+                    continue
+                if self._panel_cost(p, i) <= self._panel_cost(o, jo):
+                    q, j, key = p, i, mine
+                    why = (f"its path into place comes within {d:.2f} {self.unit} of panel "
+                           f"{int(o.edges[jo])} of {o.name[:-4]}, which is in place before it")
+                else:
+                    q, j, key = o, jo, theirs
+                    why = (f"the path of {p.name} into place comes within {d:.2f} {self.unit} "
+                           f"of it")
+                gone.add(key)
+                out.append((key[0], key[1], q.name[:-4], int(q.edges[j]), int(q.nodes[j]), why))
+        return out
+
+    def _panel_cost(self, p: Part, j: int) -> tuple:
+        """What leaving out panel ``j`` of plate ``p`` costs, for sorting: a panel at an end of
+        its part (leaving it out splits nothing) before one inside it, then the panel of the
+        shorter strip, then by name."""
+        lengths = self.__dict__.get("_strip_len")
+        if lengths is None or lengths[0] is not self.parts:
+            count: dict[int, int] = {}
+            for q in self.parts:
+                si = self._strip_of.get(q.name)
+                if si is not None:
+                    count[si] = count.get(si, 0) + len(q.panels)
+            lengths = self._strip_len = (self.parts, count)
+        return 0 < j < len(p.panels) - 1, lengths[1][self._strip_of[p.name]], p.name, j
 
     def _resolve_slot_splits(self) -> None:
         """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot
