@@ -9,7 +9,7 @@ import pytest
 from fab_structures import (crossing_strips_structure, cylinder_structure, developable_strip, flat_structure,
                             sphere_structure)
 from torsal.fabrication import FamilySplit, FinSystem, JointKind, PartId, SlotSide, slot_width
-from torsal.fabrication.parts import _near_panel_pairs
+from torsal.fabrication.builder.proximity import _near_panel_pairs
 from torsal.geometry.support import SupportStructure
 
 
@@ -258,7 +258,7 @@ def test_near_panel_pairs_known_distances():
 
 
 def test_swept_distances_known_values():
-    from torsal.fabrication.parts import _swept_distances
+    from torsal.fabrication.builder.proximity import _swept_distances
 
     floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
     wall = np.array([[[3, -1, -1], [3, 2, -1], [3, 2, 1], [3, -1, 1]]], float)
@@ -278,7 +278,7 @@ def test_swept_distances_known_values():
 
 
 def test_slab_depths_known_values():
-    from torsal.fabrication.parts import _slab_depths
+    from torsal.fabrication.builder.proximity import _slab_depths
 
     # 1 x 1 plates 0.2 thick: a floor at z = 0 and one 0.5 above it, swept from 0.9 (apart by
     # 0.3: faces at 0.1 and 0.4) or from 0.1 (down to the floor's face: overlap 0.1)

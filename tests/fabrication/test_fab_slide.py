@@ -15,7 +15,7 @@ from fab_structures import blocked_slide_structure, grid_structure
 from torsal.fabrication import FinSystem, JointKind, check_assembly, joints_of, slot_width, verify_assembly
 from torsal.fabrication.assembly import AssemblyJoint, joint_groups
 from torsal.fabrication.joints import MAX_SLOT_SKEW
-from torsal.fabrication.parts import _cycles
+from torsal.fabrication.builder.paths import _cycles
 
 T, C = 3.0, 0.5
 
@@ -87,7 +87,7 @@ def test_butt_joint_groups_the_plate_it_butts_against():
 
 
 def test_quads_crossing_without_a_joint_are_found():
-    from torsal.fabrication.parts import _quads_cross
+    from torsal.fabrication.builder.proximity import _quads_cross
 
     floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
     post = np.array([[[0.5, 0.5, -1], [0.6, 0.5, -1], [0.6, 0.5, 1], [0.5, 0.5, 1]]], float)
@@ -99,7 +99,7 @@ def test_quads_crossing_without_a_joint_are_found():
 
 
 def test_fin_folded_back_onto_another_is_found():
-    from torsal.fabrication.parts import _quads_on
+    from torsal.fabrication.builder.proximity import _quads_on
 
     floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
     assert _quads_on(floor * 0.5 + [0.2, 0.2, 0.002], floor, 0.003)      # lies on it

@@ -1,0 +1,27 @@
+"""The builder behind :class:`~torsal.fabrication.parts.FinSystem`, one job per module (issue 15).
+
+:class:`~torsal.fabrication.parts.FinSystem` is the facade: it validates its options, runs
+the phases below on itself (each phase class takes the fin system under construction and
+fills its lists) and rebuilds until every end is trimmed and every path is clear.
+
+* :mod:`.strips` reads the structure's strips and cuts them into parts (:class:`StripCutter`);
+* :mod:`.ends` joins the part ends: butt + bracket, mitre + splice (:class:`EndJoiner`);
+* :mod:`.crossings` slots the egg-crate crossings and plans each family-1 plate's slide
+  (:class:`CrossingSlotter`);
+* :mod:`.clash` finds plates that run into each other without a joint (:class:`ClashFinder`);
+* :mod:`.paths` orders the parts, gives each butted part its direction and checks its path
+  into place (:class:`AssemblyPlanner`);
+* :mod:`.proximity` (panel distance kernels) and :mod:`.memo` (kernel results kept across
+  rebuilds) serve them.
+
+The modules import :mod:`torsal.fabrication.model`, :mod:`~torsal.fabrication.joints` and
+:mod:`~torsal.fabrication.unroll` and one another in that order, never
+:mod:`torsal.fabrication.parts`.
+"""
+from .clash import ClashFinder
+from .crossings import CrossingSlotter
+from .ends import EndJoiner
+from .paths import AssemblyPlanner
+from .strips import StripCutter
+
+__all__ = ["StripCutter", "EndJoiner", "CrossingSlotter", "ClashFinder", "AssemblyPlanner"]

@@ -1,0 +1,181 @@
+"""Egg-crate crossings: the slots and the direction each family-1 plate slides in along
+(issue 15; the rules are in :mod:`torsal.fabrication.joints`).
+
+:class:`CrossingSlotter` slots the crossings the joinery leaves to an egg-crate (family 0 from
+its ``b`` edge, family 1 from its ``a`` edge, or the other way round), plans the one direction
+every family-1 plate slides onto all its crossings along (:meth:`CrossingSlotter._slide_plan`),
+and makes slots that would cut a part in two shallower. Lengths in the fin system's ``unit``.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from ..joints import MAX_SLOT_SKEW, slot_width
+from ..model import Crossing, Joint, JointKind, Part, Slot, SlotSide, _cross
+from ..unroll import unroll
+from .strips import _Strips
+
+
+class CrossingSlotter:
+    """Slots the egg-crate crossings of a fin system ``fs`` under construction: fills the parts'
+    ``slots``, its ``crossings``, egg-crate ``joints``, ``slot_conflicts``, the slide plan of its
+    family-1 plates (``_plan``) and the crossings they cannot slide onto (``_unslidable``)."""
+
+    def __init__(self, fs):
+        self.fs = fs
+
+    def _slot_crossings(self, st: "_Strips", part_of_strip, joinery, cont) -> None:
+        """Egg-crate slots where both plates pass and the joinery allows it: family 0 from its
+        ``b`` edge, family 1 from its ``a`` edge, each as wide as :func:`~.joints.slot_width`
+        says for the crossing angle and folds there."""
+        fs = self.fs
+        t, c = fs.thickness, fs.clearance
+        at_node: dict[int, list[list[tuple[Part, int]]]] = {}
+        for strip, parts in zip(st.fins, part_of_strip):
+            for p in parts:
+                for pos, node in enumerate(p.nodes):
+                    node = int(node)
+                    x = joinery.get(node)
+                    if x is not None and x.kind == JointKind.EGG_CRATE and cont[0, node] and cont[1, node]:
+                        at_node.setdefault(node, [[], []])[strip.family].append((p, pos))
+        fs._plan = self._slide_plan(st, at_node)
+        for node in sorted(at_node):
+            l0, l1 = at_node[node]
+            if not l0 or not l1:
+                continue
+            x = joinery[node]
+            d = float(st.depth[node])
+            d0 = fs.slot_ratio * d
+            d1 = d - d0
+            # the family-1 plate slides along its own direction, a little off this node axis:
+            # both slots are wider by the sideways travel over the fin depth, on either side
+            direction, sense = fs._plan[l1[0][0].name]
+            ax = sense * (st.a[node] - st.b[node]) / d
+            skew = np.arctan2(np.linalg.norm(_cross(direction, ax)), direction @ ax)
+            extra = 2.0 * d * np.tan(skew)
+            w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
+                            fold_other=x.folds[1]) + extra
+            w1 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[1],
+                            fold_other=x.folds[0]) + extra
+            names0 = tuple(sorted({p.name for p, _ in l0}))
+            names1 = tuple(sorted({p.name for p, _ in l1}))
+            # family 0 slotted from its b edge and family 1 from its a edge (family 1 moves
+            # along a - b), or the other way round where family 1 slides in along b - a
+            side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
+            for p, pos in l0:
+                p.slots.append(Slot(node, pos, side0, d0, w0, "+".join(names1)))
+            for p, pos in l1:
+                p.slots.append(Slot(node, pos, side1, d1, w1, "+".join(names0)))
+            w = max(w0, w1)
+            fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
+                                           float(x.angle), float(max(x.folds))))
+            fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
+                                     direction, None, None, float(x.angle)))
+
+    def _slide_plan(self, st: "_Strips", at_node) -> dict:
+        """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
+        all its egg-crate crossings along one direction, the mean of their node axes
+        (``sense`` +1: along ``a - b``, slots open on its ``a`` edge; -1: along ``b - a``),
+        the sense in which its butted ends do not run into the plates they meet. A crossing
+        whose axis is more than :data:`~.joints.MAX_SLOT_SKEW` off that direction, or a plate
+        whose butted ends block it in both senses, is listed in ``_unslidable`` (butted in the
+        next build)."""
+        fs = self.fs
+        nodes_of: dict[str, list[int]] = {}
+        for node, (l0, l1) in sorted(at_node.items()):
+            if l0 and l1:
+                for p, _ in l1:
+                    nodes_of.setdefault(p.name, []).append(node)
+        plan = {}
+        for name, nodes in nodes_of.items():
+            axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
+            d = axes.sum(axis=0)
+            d = d / np.linalg.norm(d)
+            skew = np.degrees(np.arctan2(np.linalg.norm(_cross(axes, d), axis=1), axes @ d))
+            if skew.max() > MAX_SLOT_SKEW:
+                fs._unslidable[nodes[int(np.argmax(skew))]] = 1, (
+                    f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
+                    f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
+            walls = fs._walls.get(name, [])
+            sense = 1.0
+            if walls:
+                run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
+                sense = min(run_in, key=run_in.get)
+                # the butted end may close its gap (clearance / 2) over a travel of the depth
+                if run_in[sense] > 0.5 * fs.clearance / float(st.depth[nodes].max()):
+                    for v in nodes:
+                        fs._unslidable.setdefault(v, (1,
+                            f"{name} would run into a plate it butts against while sliding "
+                            f"along its node axes "
+                            f"({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"))
+            plan[name] = (sense * d, sense)
+        return plan
+
+    def _resolve_slot_splits(self) -> None:
+        """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot
+        band runs out of the panel) are made shallower, leaving a web of ``thickness``; the
+        partner's slot is deepened by as much where that keeps it whole, else the two plates
+        interfere there. A slot that cuts the part apart at any depth is left out. Each case
+        is listed in ``slot_conflicts`` and warned about."""
+        fs = self.fs
+
+        def whole(p: Part, slots) -> bool:
+            try:
+                unroll(p.panels, slots=list(slots), name=p.name)
+            except ValueError as e:
+                return "slots cut" not in str(e)
+            return True
+
+        conflicts: list[tuple[str, int, float, float, str]] = []
+        for p in fs.parts:
+            if not p.slots or whole(p, p.slots):
+                continue
+            for s in list(p.slots):
+                if whole(p, [s]):
+                    continue
+                i = p.slots.index(s)
+                lo, hi = 0.0, s.depth
+                if not whole(p, [replace(s, depth=1e-3 * s.depth)]):
+                    new = 0.0
+                else:
+                    for _ in range(12):
+                        mid = 0.5 * (lo + hi)
+                        lo, hi = (mid, hi) if whole(p, [replace(s, depth=mid)]) else (lo, mid)
+                    new = lo - fs.thickness
+                    if new <= 0.05 * s.depth:
+                        new = 0.0
+                if new > 0:
+                    p.slots[i] = replace(s, depth=new)
+                else:
+                    del p.slots[i]
+                # the partner(s) take the difference if they stay whole
+                lack = s.depth - new
+                notes = []
+                for o in fs.parts:
+                    if o.family == p.family or o.family not in (0, 1):
+                        continue
+                    for jo, so in enumerate(o.slots):
+                        if so.node != s.node:
+                            continue
+                        deeper = replace(so, depth=min(so.depth + lack, float(fs._fin_depth[s.node])))
+                        trial = o.slots[:jo] + [deeper] + o.slots[jo + 1:]
+                        if whole(o, trial):
+                            o.slots[jo] = deeper
+                            notes.append(f"{o.name} slotted {lack:.3g} deeper")
+                        else:
+                            notes.append(f"{o.name} cannot take it: the plates interfere by "
+                                         f"{lack:.3g} {fs.unit}")
+                conflicts.append((p.name, s.node, float(s.depth), float(new),
+                                  "; ".join(notes) or "no partner slot"))
+        fs.slot_conflicts = conflicts
+        if conflicts:
+            warnings.warn(
+                f"{len(conflicts)} egg-crate slots would cut their part in two (narrow or slanted "
+                f"panel at the node) and were made shallower or left out: "
+                + "; ".join(f"{n} at node {v}: depth {d0:.3g} -> {d1:.3g} {fs.unit} ({note})"
+                            for n, v, d0, d1, note in conflicts[:6])
+                + (" ..." if len(conflicts) > 6 else "") + "; see FinSystem.slot_conflicts",
+                stacklevel=4)
