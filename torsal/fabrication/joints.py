@@ -147,10 +147,9 @@ def _plate_fold(panels) -> float:
     """Fold (degrees) of a plate at a node: angle between its two panels' normals (0 if one)."""
     if len(panels) < 2:
         return 0.0
-    n0, n1 = panels[0][0], panels[1][0]
     v0, v1 = panels[0][1], panels[1][1]
-    # the panels lie on opposite sides of the node line: a flat plate has v0 = -v1, n0 = +-n1
-    # with the strip's consistent orientation n0 = n1; measure the dihedral from the directions
+    # the panels lie on opposite sides of the node line: a flat plate has v0 = -v1 (its normals
+    # may be either way round); measure the dihedral from the directions into the panels
     return float(180.0 - np.degrees(np.arccos(np.clip(v0 @ v1, -1.0, 1.0))))
 
 
@@ -310,7 +309,6 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2
         base = quad[cc] + s_req * u
         s_new = -np.inf
         pm, pp = base - h * m_end - pa, base + h * m_end - pa
-        behind = []                # end-face points beyond the fold line of every panel
         for nk, vk in panels:
             cos = u @ nk
             if cos < min_cos:
