@@ -3,8 +3,10 @@
 Every part is thickened about its mid-plane by ``thickness``: the plate is built directly as
 a closed polyhedral shell (top face ``p + t/2 m``, bottom ``p - t/2 m`` with the mitre
 vectors ``m`` of :class:`~.parts.Part`, side faces along the ``a`` and ``b`` edges, end caps)
-sewn into one solid: folds are mitred on the bisector plane, so no boolean fuse is needed and
-the plate volume equals ``sum(panel area) * thickness`` up to the twist of side faces.
+built as one B-rep shell (shared vertices and edges, each face on the plane of its corners; the
+faces are sewn only where corners nearly coincide): folds are mitred on the bisector plane, so
+no boolean fuse is needed and the plate volume equals ``sum(panel area) * thickness`` up to
+the twist of side faces.
 Egg-crate slots are then cut with one boolean per part (a box per panel touching the slot,
 centred on the node line, ``thickness + clearance`` wide, through the plate).
 
@@ -266,9 +268,139 @@ def slot_boxes(part: Part, thickness: float) -> list:
     return boxes
 
 
+def _plate_outlines(part: Part, thickness: float):
+    """Every face outline of a part's plate (F, 4, 3) and its orientation sign (F,): per panel
+    top (``p + t/2 m``), bottom (same diagonal as the top if warped; sign -1: it is oriented
+    inwards), the a side and the b side; then the start and end caps."""
+    q, m = part.panels, part.miters
+    k = len(q)
+    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
+    node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
+    top = q + 0.5 * thickness * m[node]
+    bot = q - 0.5 * thickness * m[node]
+    sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
+                      np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
+    caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],
+                     [top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]]])
+    return (np.concatenate([sides.reshape(-1, 4, 3), caps]),
+            np.r_[np.tile([1.0, -1.0, 1.0, 1.0], k), 1.0, 1.0])
+
+
+#: BRepBuilderAPI_Sewing's default tolerance: corners closer than this are one point when sewn
+_SEW_TOL = 1e-6
+
+
+def _fans(pts: np.ndarray, planar_tol: float) -> list:
+    """Index lists of the planar pieces of polygons with the same number of corners
+    (F, n, 3): the whole polygon if its corners are coplanar (:func:`_coplanar`), else a fan of
+    triangles from its first corner (as :func:`_face`)."""
+    n = pts.shape[1]
+    planar = np.ones(len(pts), bool) if n == 3 else _coplanar(pts, planar_tol)
+    fan = [[0, i, i + 1] for i in range(1, n - 1)]
+    return [[list(range(n))] if ok else fan for ok in planar]
+
+
+def _plate_direct(part: Part, thickness: float, planar_tol: float):
+    """The plate of a part built as a B-rep directly: one vertex per distinct corner, one edge
+    per pair of corners that bound a face (shared by its two faces), one planar face per
+    outline on the plane through its corners (a fan of triangles where the corners are not
+    coplanar, as :func:`_face`), all in one shell: no sewing and no shape healing, which find
+    nothing to do on these faces and took two thirds of a part's solid. Returns the OCC solid
+    (not yet validated) and the volume of the polyhedron (divergence theorem over its faces).
+    ValueError where this construction does not give a closed shell (:func:`_plate` then
+    sews the faces)."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import (BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeFace,
+                                    BRepBuilderAPI_MakeVertex)
+    from OCP.gp import gp_Dir, gp_Pln, gp_Pnt
+    from OCP.TopoDS import TopoDS, TopoDS_Shell, TopoDS_Solid, TopoDS_Wire
+
+    outlines, sign = _plate_outlines(part, thickness)
+    # the bottom turned round from its first corner (the fan's diagonal stays that of the top)
+    outlines[sign < 0] = outlines[sign < 0][:, [0, 3, 2, 1]]
+    # distinct corners: coincident points (collapsed corners of degenerate panels) are one vertex
+    flat = outlines.reshape(-1, 3)
+    if not np.abs(flat).max() < 1e6:
+        raise ValueError("coordinates too large for the vertex table")
+    _, first, ids = np.unique(np.round(flat / 1e-12).astype(np.int64), axis=0,
+                              return_index=True, return_inverse=True)
+    ids = ids.reshape(outlines.shape[:2])
+    points = flat[first]
+    gaps = np.linalg.norm(points[:, None] - points[None], axis=2)
+    np.fill_diagonal(gaps, np.inf)
+    if gaps.min() <= _SEW_TOL:       # nearly coincident corners: sewing merges them
+        raise ValueError("corners closer than the sewing tolerance")
+    # the faces as vertex loops: quads with four distinct corners in one go, the others alone
+    clean = (ids != np.roll(ids, -1, axis=1)).all(axis=1)
+    loops = [ids[f][piece] for f, pieces in zip(np.flatnonzero(clean),
+                                                _fans(outlines[clean], planar_tol))
+             for piece in pieces]
+    for f in np.flatnonzero(~clean):
+        loop = np.array([x for i, x in enumerate(ids[f]) if x != ids[f][i - 1]])
+        if len(loop) >= 3:
+            loops += [loop[piece] for piece in _fans(points[loop][None], planar_tol)[0]]
+    sizes = np.array([len(x) for x in loops])
+    normals, centres, volume = [], [], 0.0
+    for n in np.unique(sizes):                       # polygons of n corners (3 or 4)
+        pts = points[np.array([x for x in loops if len(x) == n])]          # (F, n, 3)
+        area = 0.5 * np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)   # Newell
+        normals.append(area)
+        centres.append(pts.mean(axis=1))
+        # divergence theorem: fan of triangles from the first corner
+        volume += float(np.einsum("fi,fki->", pts[:, 0], np.cross(pts[:, 1:-1], pts[:, 2:])) / 6.0)
+    order = np.concatenate([np.flatnonzero(sizes == n) for n in np.unique(sizes)])
+    normals, centres = np.concatenate(normals), np.concatenate(centres)
+    length = np.linalg.norm(normals, axis=1)
+    if not (length > 0).all():
+        raise ValueError("a degenerate face")
+    normals = normals / length[:, None]
+
+    builder = BRep_Builder()
+    vertices = [BRepBuilderAPI_MakeVertex(gp_Pnt(*map(float, x))).Vertex() for x in points]
+    edges: dict = {}
+
+    def edge(i: int, j: int):
+        """The edge i -> j (shared: built once, from the lower vertex id)."""
+        a, b = (i, j) if i < j else (j, i)
+        e = edges.get((a, b))
+        if e is None:
+            e = edges[(a, b)] = BRepBuilderAPI_MakeEdge(vertices[a], vertices[b]).Edge()
+        return e if i < j else TopoDS.Edge(e.Reversed())
+
+    shell = TopoDS_Shell()
+    builder.MakeShell(shell)
+    for f, n, c in zip(order, normals.tolist(), centres.tolist()):
+        loop = loops[f].tolist()
+        wire = TopoDS_Wire()
+        builder.MakeWire(wire)
+        for i, j in zip(loop, loop[1:] + loop[:1]):
+            builder.Add(wire, edge(i, j))
+        wire.Closed(True)
+        mk = BRepBuilderAPI_MakeFace(gp_Pln(gp_Pnt(*c), gp_Dir(*n)), wire, True)
+        if not mk.IsDone():
+            raise ValueError(f"a face is not made: {mk.Error()}")
+        builder.Add(shell, mk.Face())
+    if not BRep_Tool.IsClosed_s(shell):
+        raise ValueError("the faces do not close")
+    shell.Closed(True)
+    solid = TopoDS_Solid()
+    builder.MakeSolid(solid)
+    builder.Add(solid, shell)
+    return solid, volume
+
+
 def _plate(part: Part, thickness: float, planar_tol: float):
-    """The plate of a part as a closed, sewn OCC solid (not yet validated) and the volume of
-    the polyhedron it is built from (divergence theorem over its faces)."""
+    """The plate of a part as a closed OCC solid (not yet validated) and the volume of the
+    polyhedron it is built from (divergence theorem over its faces): built directly
+    (:func:`_plate_direct`), else its faces sewn."""
+    try:
+        return _plate_direct(part, thickness, planar_tol)
+    except ValueError:
+        return _plate_sewn(part, thickness, planar_tol)
+
+
+def _plate_sewn(part: Part, thickness: float, planar_tol: float):
+    """:func:`_plate` by sewing faces made one by one (:func:`_face`)."""
     from OCP.BRep import BRep_Tool
     from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
     from OCP.ShapeFix import ShapeFix_Solid
