@@ -497,12 +497,34 @@ def _part_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol
     if not abs(volume - expected) <= 0.05 * expected:
         raise InvalidSolidError([part.name], f"plate volume {volume:.6g} differs from panel "
                                 f"area x thickness {expected:.6g}: broken or self-intersecting panels")
-    plate_volume = volume
+    if not part.slots:
+        plate = _valid(solid, repair)
+        if plate is None:
+            raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
+        return plate
+    # the slots are cut into the plate as built and the result is checked (BRepCheck, volume,
+    # probes); the plate itself is checked only when that fails: a sound cut of a broken
+    # plate does not pass those checks, and checking both cost 15 % of a slotted part
+    try:
+        return _slotted(solid, part, thickness, volume, repair)
+    except SlotCutError as e:
+        failure = e
     plate = _valid(solid, repair)
     if plate is None:
         raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
-    if not part.slots:
-        return plate
+    if plate is not solid:           # repaired: cut the repaired plate (as it always was)
+        try:
+            return _slotted(plate, part, thickness, volume, repair)
+        except SlotCutError as e:
+            failure = e
+    failure.plate = plate
+    raise failure
+
+
+def _slotted(plate, part: Part, thickness: float, plate_volume: float, repair: bool):
+    """The plate (OCC solid of ``plate_volume``) with the part's slots cut, checked: valid,
+    a plausible volume, about slot area x thickness removed, every slot open and the web
+    beyond it kept. SlotCutError (``plate`` not set) otherwise."""
     nodes = sorted({s.node for s in part.slots})
     try:
         solid = _cut(plate, slot_boxes(part, thickness))
@@ -525,10 +547,10 @@ def _part_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol
                              f"{removed:.6g} (slot area x thickness)")
         _check_slots(solid, part)
     except InvalidSolidError as e:
-        raise SlotCutError([part.name], str(e), plate=plate, nodes=nodes) from None
+        raise SlotCutError([part.name], str(e), nodes=nodes) from None
     except Exception as e:     # OpenCascade failures
         raise SlotCutError([part.name], f"cutting the slots at nodes {nodes} failed: "
-                           f"{type(e).__name__}: {e}", plate=plate, nodes=nodes) from None
+                           f"{type(e).__name__}: {e}", nodes=nodes) from None
     return solid
 
 
@@ -663,10 +685,12 @@ def _from_bytes(data: bytes):
 def _build_chunk(args):
     """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
     worker never imports build123d)."""
-    parts, thickness, repair = args
+    parts, thickness, repair, mesh = args
     out = []
     for p in parts:
         status, shape, detail = _build_one(p, thickness, repair)
+        if shape is not None and mesh:       # the triangles travel with the BRep
+            _mesh(shape, MESH_TOLERANCE * thickness, threads=False)
         out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
     return out
 
@@ -685,11 +709,11 @@ class _Workers:
     """A pool of worker processes being started (from a thread: the first start waits seconds
     for the fork server to import OpenCascade), to build solids with later."""
 
-    def __init__(self, workers: int):
+    def __init__(self, workers: int, mesh: bool = False):
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
-        self.workers = workers
+        self.workers, self.mesh = workers, mesh
         # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can
         # deadlock in the child: workers are forked from a clean server that has imported
         # this module
@@ -727,17 +751,19 @@ def _ready() -> None:
 _prepared: _Workers | None = None
 
 
-def prepare_workers(n_parts: int, *, workers: int | None = None) -> int:
+def prepare_workers(n_parts: int, *, workers: int | None = None, mesh: bool = False) -> int:
     """Start the worker processes for about ``n_parts`` solids now (in the background), so
     that :func:`start_solids` finds them ready: the caller builds its parts meanwhile (the
-    fabrication stage: its FinSystem takes as long as the workers take to start). Returns
-    the number of processes started (0: the solids will be built in this process).
-    :func:`release_workers` stops them if no build comes."""
+    fabrication stage: its FinSystem takes as long as the workers take to start). With
+    ``mesh`` they also mesh every solid for the previews (3DM, glTF, STL at the default
+    tolerance), which then only read the triangles. Returns the number of processes started
+    (0: the solids will be built in this process). :func:`release_workers` stops them if no
+    build comes."""
     global _prepared
     release_workers()
     n = _workers_for(n_parts, workers)
     if n > 1:
-        _prepared = _Workers(n)
+        _prepared = _Workers(n, mesh)
     return n if n > 1 else 0
 
 
@@ -784,7 +810,8 @@ class PendingSolids:
             if self._workers.error is not None:
                 raise self._workers.error
             for c in chunks:
-                self._futures.append(self._pool.submit(_build_chunk, (c, self.thickness, self.repair)))
+                self._futures.append(self._pool.submit(
+                    _build_chunk, (c, self.thickness, self.repair, self._workers.mesh)))
         except BaseException as e:        # re-raised by result()
             self._error = e
 
@@ -1067,15 +1094,12 @@ def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
     ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer order, reversed
     faces' triangles turned round), without its per-vertex wrappers."""
     from OCP.BRep import BRep_Tool
-    from OCP.BRepMesh import BRepMesh_IncrementalMesh
-    from OCP.BRepTools import BRepTools
     from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopLoc import TopLoc_Location
     from OCP.TopoDS import TopoDS
 
-    if not BRepTools.Triangulation_s(shape, tolerance):
-        BRepMesh_IncrementalMesh(shape, tolerance, True, angular_tolerance, True)
+    _mesh(shape, tolerance, angular_tolerance)
     faces, exp = {}, TopExp_Explorer(shape, TopAbs_FACE)
     while exp.More():                        # each face once, in the order first met
         faces[hash(exp.Current())] = exp.Current()
@@ -1100,8 +1124,22 @@ def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
     return np.concatenate(verts), np.concatenate(tris)
 
 
+#: preview meshes (3DM, glTF, STL): deflection as a fraction of the plate thickness
+MESH_TOLERANCE = 0.05
+
+
+def _mesh(shape, tolerance: float, angular_tolerance: float = 0.1, *, threads: bool = True) -> None:
+    """Mesh an OCC shape (BRepMesh, deflection relative to the edge size; ``threads``: one per
+    face in parallel, the same triangles) unless it has a triangulation that fine."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+
+    if not BRepTools.Triangulation_s(shape, tolerance):
+        BRepMesh_IncrementalMesh(shape, tolerance, True, angular_tolerance, threads)
+
+
 def _tessellate(fin_system, tolerance: float | None):
-    tol = tolerance if tolerance is not None else 0.05 * fin_system.thickness
+    tol = tolerance if tolerance is not None else MESH_TOLERANCE * fin_system.thickness
     return {name: _triangles(shape, tol) for name, shape in solid_shapes(fin_system).items()}
 
 

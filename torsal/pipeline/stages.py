@@ -383,8 +383,8 @@ def run_fabrication(inp: StageInputs) -> dict:
     # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards. The
     # workers take seconds to start (each imports OpenCascade): they start while this
     # process builds the parts (about one per fin)
-    if solids:
-        prepare_workers(len(structure.edges))
+    if solids:         # the workers mesh the solids too when the 3DM needs them
+        prepare_workers(len(structure.edges), mesh=spec.outputs.rhino_3dm)
     written = {}
     try:
         fs = fin_system(spec, structure)
