@@ -1,25 +1,27 @@
-"""Solid parts (OpenCascade through build123d) and their export: STEP, STL/glTF, 3DM (issue 6).
+"""Solid parts (OpenCascade) and their export: STEP, STL/glTF, 3DM (issue 6).
 
-Every part is thickened about its mid-plane by ``thickness``: the plate is built directly as
-a closed polyhedral shell (top face ``p + t/2 m``, bottom ``p - t/2 m`` with the mitre
-vectors ``m`` of :class:`~.parts.Part`, side faces along the ``a`` and ``b`` edges, end caps)
-built as one B-rep shell (shared vertices and edges, each face on the plane of its corners; the
-faces are sewn only where corners nearly coincide): folds are mitred on the bisector plane, so
-no boolean fuse is needed and the plate volume equals ``sum(panel area) * thickness`` up to
-the twist of side faces.
-Egg-crate slots are then cut with one boolean per part (a box per panel touching the slot,
-centred on the node line, ``thickness + clearance`` wide, through the plate).
+Every part is thickened about its mid-plane by ``thickness``: the plate is a closed
+polyhedral shell (top face ``p + t/2 m``, bottom ``p - t/2 m`` with the mitre vectors ``m``
+of :class:`~.parts.Part`, side faces along the ``a`` and ``b`` edges, end caps) built as one
+B-rep (shared vertices and edges, each face on the plane of its corners; the faces are sewn
+only where corners nearly coincide): folds are mitred on the bisector plane, so no boolean
+fuse is needed and the plate volume equals ``sum(panel area) * thickness`` up to the twist of
+side faces. Egg-crate slots are then cut with one boolean per part (a box per panel touching
+the slot, centred on the node line, ``thickness + clearance`` wide, through the plate).
 
-Every solid is checked with ``is_valid``; an invalid one is repaired with ``ShapeFix`` and if it
-stays invalid an :class:`InvalidSolidError` names the part: nothing is written silently.
-The slots are checked too (the cut must remove the slot area of the unrolled part times the
-thickness); where OpenCascade cannot cut them (thin, oblique plates of real structures) the
-sound plate is kept without them, listed in ``FinSystem.unslotted_solids`` and warned about
-(the unrolled cutting outlines always have the slots).
+Every solid is checked with BRepCheck (build123d's ``is_valid``); an invalid one is repaired
+with ``ShapeFix`` and if it stays invalid an :class:`InvalidSolidError` names the part:
+nothing is written silently. The slots are checked too (the cut must remove the slot area of
+the unrolled part times the thickness); where OpenCascade cannot cut them (thin, oblique
+plates of real structures) the sound plate is kept without them, listed in
+``FinSystem.unslotted_solids`` and warned about (the unrolled cutting outlines always have
+the slots).
 
-The plates are built with OpenCascade directly (OCP: the same calls build123d makes, without
-its wrappers: about a third less CPU per part); build123d is used for the returned ``Solid``
-and the exporters. Worker processes (:func:`build_solids`) need OCP only and send back binary BReps.
+Everything here is OpenCascade through OCP directly (the calls build123d makes, without its
+wrappers): worker processes (:func:`start_solids`, :func:`prepare_workers`) build the solids
+and send them back as binary BReps, with their preview meshes if asked; the STEP, 3DM and
+mesh exports work on those shapes (:func:`solid_shapes`). build123d (2 s to import) is used
+only for the labelled ``Solid`` objects of :func:`build_solids` / ``FinSystem.solids()``.
 
 Units: the ``unit`` of the fin system (mm by default); STEP files are written in mm.
 """
@@ -572,6 +574,7 @@ def _cut(shape, tools: list):
     # 10 % more CPU on 7a's parts for the same shapes)
     op.SetRunParallel(False)
     op.SetUseOBB(True)          # oriented boxes: fewer face pairs intersected, same result
+    op.SetToFillHistory(False)  # which face came from which is never asked
     op.Build()
     if not op.IsDone():
         raise ValueError("the boolean cut failed")
@@ -739,7 +742,10 @@ class _Workers:
         self._starter.join()
 
     def shutdown(self, cancel: bool = False) -> None:
-        self._starter.join()
+        """Stop the pool: wait for its work, or (``cancel``) drop it and return at once (a
+        start still under way then fails quietly in its thread)."""
+        if not cancel:
+            self._starter.join()
         self.pool.shutdown(wait=not cancel, cancel_futures=cancel)
 
 
