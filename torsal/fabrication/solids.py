@@ -687,15 +687,18 @@ def _from_bytes(data: bytes):
 
 def _build_chunk(args):
     """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
-    worker never imports build123d)."""
+    worker never imports build123d), and the CPU seconds that took."""
+    import time
+
     parts, thickness, repair, mesh = args
+    cpu = time.process_time()
     out = []
     for p in parts:
         status, shape, detail = _build_one(p, thickness, repair)
         if shape is not None and mesh:       # the triangles travel with the BRep
             _mesh(shape, MESH_TOLERANCE * thickness, threads=False)
         out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
-    return out
+    return out, time.process_time() - cpu
 
 
 def default_workers(n_parts: int) -> int:
@@ -831,7 +834,9 @@ class PendingSolids:
         finally:
             self._pool.shutdown(wait=True)
         res = {}
-        for rows in done:
+        #: CPU seconds the workers spent building (what the caller's clock does not see)
+        self.cpu_seconds = sum(cpu for _, cpu in done)
+        for rows, _ in done:
             for name, status, data, detail in rows:
                 res[name] = (status, None if data is None else _from_bytes(data), detail)
         return [(p.name,) + res[p.name] for p in self.parts]
@@ -912,16 +917,22 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
     """``{part name: OCC solid}``: built here or by worker processes, or collected from
     ``pending``; sets ``fin_system.unslotted_solids`` (and warns); InvalidSolidError naming
     every invalid part."""
+    import time
+
     parts = list(fin_system.parts)
     t = fin_system.thickness
+    workers = _workers_for(len(parts), workers)
+    if pending is None and workers > 1:
+        pending = PendingSolids(parts, t, repair, workers)
     if pending is not None:
         rows = pending.result()
+        cpu = pending.cpu_seconds
     else:
-        workers = _workers_for(len(parts), workers)
-        if workers > 1:
-            rows = PendingSolids(parts, t, repair, workers).result()
-        else:
-            rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
+        cpu = time.process_time()
+        rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
+        cpu = time.process_time() - cpu
+    # CPU seconds of the last build, in whichever process it ran (for benchmarks)
+    fin_system.solids_cpu_seconds = cpu
     out, bad, detail, unslotted = {}, [], [], []
     for name, status, shape, info in rows:
         if status == "bad":
