@@ -409,20 +409,7 @@ def _plate_sewn(part: Part, thickness: float, planar_tol: float):
     from OCP.ShapeFix import ShapeFix_Solid
     from OCP.TopoDS import TopoDS
 
-    q, m = part.panels, part.miters
-    k = len(q)
-    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
-    node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
-    top = q + 0.5 * thickness * m[node]
-    bot = q - 0.5 * thickness * m[node]
-    # every face's outline (F, 4, 3), per panel: top, bottom (same diagonal as the top if
-    # warped), a side, b side; then the start and end caps; the bottom is oriented inwards
-    sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
-                      np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
-    caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],
-                     [top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]]])
-    outlines = np.concatenate([sides.reshape(-1, 4, 3), caps])
-    sign = np.r_[np.tile([1.0, -1.0, 1.0, 1.0], k), 1.0, 1.0]
+    outlines, sign = _plate_outlines(part, thickness)
     # outlines without repeated corners (all but degenerate twisted sides) in one go
     clean = (np.linalg.norm(outlines - np.roll(outlines, -1, axis=1), axis=2) > 1e-12).all(axis=1)
     planar = np.zeros(len(outlines), bool)
