@@ -732,11 +732,15 @@ class _Workers:
         self._starter.join()
 
     def shutdown(self, cancel: bool = False) -> None:
-        """Stop the pool: wait for its work, or (``cancel``) drop it and return at once (a
-        start still under way then fails quietly in its thread)."""
+        """Stop the pool: wait for its work, or (``cancel``) drop it and return at once: a
+        process still being started holds the pool's lock for seconds, so a thread waits for
+        it and shuts the pool down."""
         if not cancel:
             self._starter.join()
-        self.pool.shutdown(wait=not cancel, cancel_futures=cancel)
+            self.pool.shutdown(wait=True)
+            return
+        threading.Thread(target=self.pool.shutdown, kwargs={"wait": False, "cancel_futures": True},
+                         daemon=True).start()
 
 
 def _ready() -> None:
