@@ -284,3 +284,14 @@ def test_prepared_workers_mesh_the_solids_the_exports_read(sphere_fs, tmp_path):
         np.testing.assert_array_equal(f, f0)
         np.testing.assert_allclose(v, v0, rtol=0, atol=1e-9)
     S.release_workers()
+
+
+def test_slot_area_from_the_records_is_the_unrolled_one(sphere_fs):
+    """The slots' area from their records (width x depth, half at a part end), which the cut
+    is checked against, is what the unrolled outline loses (panels' area - outline area)."""
+    from torsal.fabrication import solids as S
+
+    slotted = [p for p in sphere_fs.parts if p.slots]
+    assert slotted
+    for p in slotted:
+        assert S._slot_record_area(p) == pytest.approx(S._slot_area(p), rel=1e-3)

@@ -530,7 +530,7 @@ def _slotted(plate, part: Part, thickness: float, plate_volume: float, repair: b
                              f"plate of {plate_volume:.6g}")
         # every slot is open where it should be and the web beyond it is kept (on folds the
         # boxes in both panel planes take a little more than slot area x thickness)
-        removed = _slot_area(part) * thickness
+        removed = _slot_record_area(part) * thickness
         if not 0.3 * removed <= plate_volume - volume <= 3.0 * removed + 1e-6 * plate_volume:
             raise ValueError(f"the slots removed {plate_volume - volume:.6g} instead of about "
                              f"{removed:.6g} (slot area x thickness)")
@@ -606,6 +606,15 @@ def _check_slots(solid, part: Part) -> None:
             cls.Perform(gp_Pnt(*map(float, x)), 1e-6)
             if cls.State() != want:
                 raise ValueError(f"the slot at node {s.node} {what}")
+
+
+def _slot_record_area(part: Part) -> float:
+    """Area the slots take out of the part from their records (``unit``^2): ``width x depth``
+    each, half of it at a part end (the slot is centred on the end edge). Equal to the
+    unrolled outline's (:func:`_slot_area`) to 1e-4 on example 7a's 152 slotted parts, without
+    unrolling the part (a tenth of a worker's time)."""
+    k = len(part.panels)
+    return float(sum(s.width * s.depth * (1.0 if 0 < s.position < k else 0.5) for s in part.slots))
 
 
 def _slot_area(part: Part) -> float:
