@@ -14,24 +14,25 @@ CPU seconds are less sensitive to it. ``CPU`` columns are this process's; ``soli
 ``workers CPU`` are the worker processes' (``FinSystem.solids_cpu_seconds``; when the stage
 builds the solids in this process, one worker, they are part of ``CPU s`` as well).
 
-Measured 2026-11-23 18:15-18:25 on the shared 2-core machine, ``nice -n 19``, other sessions
-running (load 2.2 to 4.4 at the rows; ``--no-verify-above 1000 --no-sheets-above 1000``)::
+Measured 2026-11-23 18:40-18:44 on the shared 2-core machine, ``nice -n 19``, other sessions
+running (load 4.3 to 5.4 at the rows; ``--no-verify-above 1000 --no-sheets-above 1000``)::
 
     | panels | parts | connectors | FinSystem s | solids 1p s | solids 1p CPU s | solids Np s | solids Np CPU s | N | STEP s | STEP CPU s | solids Np + STEP s | unroll s | nest s | DXF s | sheets | utilization | verify 1p s | verify 2p s | touching pairs | interfering | load |
     |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
-    | 112 | 98 | 64 | 0.24 | 0.53 | 0.52 | 2.68 | 0.61 | 2 | 0.27 | 0.20 | 2.95 | 0.05 | 0.19 | 0.42 | 3 | 0.555 | 3.12 | 2.34 | 270 | 0 | 2.23 |
-    | 1012 | 934 | 620 | 3.66 | 8.77 | 5.74 | 2.92 | 5.23 | 2 | 2.46 | 2.45 | 5.38 | 0.50 | 21.22 | 0.64 | 21 | 0.711 | 25.67 | 25.80 | 3127 | 0 | 2.63 |
-    | 5100 | 4820 | 3208 | 20.18 | 38.97 | 28.82 | 42.09 | 31.17 | 2 | 16.35 | 12.79 | 58.44 | - | - | - | - | - | - | - | - | - | 3.44 |
+    | 112 | 98 | 64 | 0.25 | 0.53 | 0.51 | 3.03 | 0.60 | 2 | 0.24 | 0.22 | 3.27 | 0.06 | 0.21 | 0.39 | 3 | 0.555 | 2.30 | 2.71 | 270 | 0 | 4.54 |
+    | 1012 | 934 | 620 | 3.17 | 5.43 | 5.33 | 6.96 | 5.88 | 2 | 2.79 | 2.39 | 9.75 | 0.51 | 17.57 | 0.58 | 21 | 0.711 | 25.66 | 28.17 | 3127 | 0 | 5.39 |
+    | 5100 | 4820 | 3208 | 21.29 | 27.32 | 26.65 | 30.07 | 28.45 | 2 | 13.33 | 12.58 | 43.40 | - | - | - | - | - | - | - | - | - | 4.32 |
 
     | design | parts | sheets | fabrication stage s | CPU s | workers CPU s | load |
     |---|---|---|---|---|---|---|
-    | 7a_facade_block | 453 | 50 | 16.81 | 5.53 | 5.32 | 4.40 |
+    | 7a_facade_block | 453 | 50 | 10.52 | 5.18 | 4.56 | 4.35 |
 
 Same day, before this round (commit 13e70fd: solids sewn face by face and labelled with
 build123d, STEP through build123d, SVG through ezdxf's drawing add-on): 5,100 panels solids +
 STEP 107 s (measured under load earlier that day, about 28 ms of OpenCascade per part, now
 6 ms); 7a's stage 23.8 s wall, 9.2 s CPU in this process plus 6.6 s for the solids (measured
-serially) at load 7.5, against 16.0 s wall, 5.4 + 5.2 s CPU after it at load 7.7.
+serially) at load 7.5, against 16.0 s wall, 5.4 + 5.2 s CPU after it at load 7.7 (one
+commit before the table above).
 At these loads the two workers get less than a core between them: ``solids Np`` is no faster
 than ``solids 1p``, and wall seconds say more about the other sessions than about this code.
 
