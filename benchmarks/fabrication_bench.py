@@ -10,7 +10,31 @@ per design file: the seconds (wall and CPU) of its ``fabrication`` stage, the up
 run once before and taken from the cache (target: example 7a under 10 s).
 
 Wall seconds depend on what else runs: the load average (``uptime``) is printed in every row;
-CPU seconds of the main process are less sensitive to it (worker processes not included).
+CPU seconds are less sensitive to it. ``CPU`` columns are this process's; ``solids Np CPU`` and
+``workers CPU`` are the worker processes' (``FinSystem.solids_cpu_seconds``; when the stage
+builds the solids in this process, one worker, they are part of ``CPU s`` as well).
+
+Measured 2026-11-23 18:40-18:44 on the shared 2-core machine, ``nice -n 19``, other sessions
+running (load 4.3 to 5.4 at the rows; ``--no-verify-above 1000 --no-sheets-above 1000``)::
+
+    | panels | parts | connectors | FinSystem s | solids 1p s | solids 1p CPU s | solids Np s | solids Np CPU s | N | STEP s | STEP CPU s | solids Np + STEP s | unroll s | nest s | DXF s | sheets | utilization | verify 1p s | verify 2p s | touching pairs | interfering | load |
+    |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
+    | 112 | 98 | 64 | 0.25 | 0.53 | 0.51 | 3.03 | 0.60 | 2 | 0.24 | 0.22 | 3.27 | 0.06 | 0.21 | 0.39 | 3 | 0.555 | 2.30 | 2.71 | 270 | 0 | 4.54 |
+    | 1012 | 934 | 620 | 3.17 | 5.43 | 5.33 | 6.96 | 5.88 | 2 | 2.79 | 2.39 | 9.75 | 0.51 | 17.57 | 0.58 | 21 | 0.711 | 25.66 | 28.17 | 3127 | 0 | 5.39 |
+    | 5100 | 4820 | 3208 | 21.29 | 27.32 | 26.65 | 30.07 | 28.45 | 2 | 13.33 | 12.58 | 43.40 | - | - | - | - | - | - | - | - | - | 4.32 |
+
+    | design | parts | sheets | fabrication stage s | CPU s | workers CPU s | load |
+    |---|---|---|---|---|---|---|
+    | 7a_facade_block | 453 | 50 | 10.52 | 5.18 | 4.56 | 4.35 |
+
+Same day, before this round (commit 13e70fd: solids sewn face by face and labelled with
+build123d, STEP through build123d, SVG through ezdxf's drawing add-on): 5,100 panels solids +
+STEP 107 s (measured under load earlier that day, about 28 ms of OpenCascade per part, now
+6 ms); 7a's stage 23.8 s wall, 9.2 s CPU in this process plus 6.6 s for the solids (measured
+serially) at load 7.5, against 16.0 s wall, 5.4 + 5.2 s CPU after it at load 7.7 (one
+commit before the table above).
+At these loads the two workers get less than a core between them: ``solids Np`` is no faster
+than ``solids 1p``, and wall seconds say more about the other sessions than about this code.
 
 The structure of table 1 is a lat/long grid on a sphere of radius 10 m with node lines through
 the centre (exactly planar fins), ~300 mm panels, 150 mm fins, 3 mm plate, parts of at most 8
@@ -82,25 +106,27 @@ def run(n: int, out: Path, solids: bool = True, max_panels: int = 8, verify: boo
 
 
 def time_solids(fs, step_path: Path) -> dict:
-    """Seconds to build the solids serially and in parallel (one process per core), and to
-    write the STEP file once."""
-    import build123d  # noqa: F401  (import time, ~5 s, is not part of the measurement)
+    """Seconds to build the solids serially and in parallel (one process per core; the CPU
+    column of the parallel build is the workers' CPU), and to write the STEP file once from
+    them: the OCC shapes the fabrication stage writes (``solid_shapes``; the build123d
+    ``Solid`` objects of ``FinSystem.solids()`` are not made)."""
+    from torsal.fabrication.solids import _build_one, default_workers, solid_shapes
 
-    from torsal.fabrication.solids import default_workers
-
+    _build_one(fs.parts[0], fs.thickness, True)      # imports OpenCascade: not measured
     row = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         row["workers"] = max(2, default_workers(len(fs.parts)))
         for key, workers in (("solids_1_s", 1), ("solids_par_s", row["workers"])):
-            fs._solids = None
-            t0, c0 = time.perf_counter(), time.process_time()
-            fs.solids(workers=workers)
+            fs._solids = fs._solid_shapes = None
+            t0 = time.perf_counter()
+            solid_shapes(fs, workers=workers)
             row[key] = time.perf_counter() - t0
-            row[key.replace("_s", "_cpu")] = time.process_time() - c0
-    t0 = time.perf_counter()
+            row[key.replace("_s", "_cpu")] = fs.solids_cpu_seconds
+    t0, c0 = time.perf_counter(), time.process_time()
     fs.export_step(step_path)
     row["step_s"] = time.perf_counter() - t0
+    row["step_cpu"] = time.process_time() - c0
     row["target_s"] = row["solids_par_s"] + row["step_s"]
     return row
 
@@ -130,7 +156,8 @@ def verification_times(fs, step_file: Path, workers=(1, 2)) -> dict:
 #: (key, header) of table 1
 COLUMNS = [("panels", "panels"), ("parts", "parts"), ("connectors", "connectors"),
            ("parts_s", "FinSystem s"), ("solids_1_s", "solids 1p s"), ("solids_1_cpu", "solids 1p CPU s"),
-           ("solids_par_s", "solids Np s"), ("workers", "N"), ("step_s", "STEP s"),
+           ("solids_par_s", "solids Np s"), ("solids_par_cpu", "solids Np CPU s"), ("workers", "N"),
+           ("step_s", "STEP s"), ("step_cpu", "STEP CPU s"),
            ("target_s", "solids Np + STEP s"), ("unroll_s", "unroll s"), ("nest_s", "nest s"),
            ("dxf_s", "DXF s"), ("sheets", "sheets"), ("util", "utilization"),
            ("verify_1p_s", "verify 1p s"), ("verify_2p_s", "verify 2p s"), ("touching", "touching pairs"),
@@ -154,7 +181,8 @@ def _print_header(columns) -> None:
 
 def design_stage_times(toml: Path, out: Path) -> dict:
     """Wall and CPU seconds of the ``fabrication`` stage of a design file: the stages up to it
-    run once (cached), then fabrication alone again from the cache."""
+    run once (cached), then fabrication alone again from the cache. CPU: this process's, and
+    the solid workers' (``FinSystem.solids_cpu_seconds``)."""
     from torsal.design import Design
     from torsal.pipeline import DEFAULT_PIPELINE, Stage, StageCache, fins
 
@@ -179,12 +207,14 @@ def design_stage_times(toml: Path, out: Path) -> dict:
         fins._last = None          # a new process: no fin system (with solids) of the warm run
         run = design.run(out / "run", cache=cache, pipeline=pipe)
     fabrication = run.report.get("fabrication", {})
+    timing["workers_cpu"] = getattr(fins._last[1], "solids_cpu_seconds", None) if fins._last else None
     return {"design": Path(toml).stem, "parts": fabrication.get("parts"),
             "sheets": fabrication.get("sheets"), **timing, "load": load_average()}
 
 
 DESIGN_COLUMNS = [("design", "design"), ("parts", "parts"), ("sheets", "sheets"),
                   ("fabrication_s", "fabrication stage s"), ("fabrication_cpu", "CPU s"),
+                  ("workers_cpu", "workers CPU s"),
                   ("load", "load")]
 
 

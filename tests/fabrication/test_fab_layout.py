@@ -155,3 +155,25 @@ def test_bill_of_materials(fs, tmp_path):
         assert int(r["fold_count"]) == u.fold_count
     with pytest.raises(ValueError, match="density"):
         fs.bill_of_materials(None, density=0.0)
+
+
+def test_svg_preview_shows_what_the_dxf_cuts(fs, tmp_path):
+    """The SVG preview of each sheet, parsed as XML: its CUT polygons are the DXF's CUT
+    outlines (same rings, same area to rounding), its ENGRAVE texts the part ids, its page
+    the sheet in mm."""
+    lay = fs.layout(sheet=(1250.0, 625.0), gap=5.0, margin=10.0)
+    ns = {"s": "http://www.w3.org/2000/svg"}
+    for path in lay.export_dxf(tmp_path / "fins.dxf"):
+        root = ET.parse(path.with_suffix(".svg")).getroot()
+        assert (root.get("width"), root.get("height")) == ("1250mm", "625mm")
+        cut = root.find(".//s:g[@id='CUT']", ns)
+        svg_areas = sorted(Polygon([tuple(map(float, xy.split(","))) for xy in
+                                    e.get("points").split()]).area
+                           for e in cut.findall("s:polygon", ns))
+        dxf = ezdxf.readfile(path).modelspace()
+        dxf_areas = sorted(Polygon([(x, y) for x, y in e.get_points("xy")]).area
+                           for e in dxf.query("LWPOLYLINE[layer=='CUT']"))
+        assert len(svg_areas) == len(dxf_areas) > 0
+        np.testing.assert_allclose(svg_areas, dxf_areas, rtol=1e-4)
+        labels = sorted(t.text for t in root.findall(".//s:g[@id='ENGRAVE']/s:text", ns))
+        assert labels == sorted(t.dxf.text for t in dxf.query("TEXT[layer=='ENGRAVE']"))

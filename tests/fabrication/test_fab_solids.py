@@ -254,3 +254,44 @@ def test_solids_started_in_the_background_are_the_same(sphere_fs):
     assert other.start_solids(workers=2)
     other.cancel_solids()
     assert list(other.solids(workers=1)) == list(serial)
+
+
+def test_prepared_workers_mesh_the_solids_the_exports_read(sphere_fs, tmp_path):
+    """Workers started ahead (prepare_workers, mesh=True) build the solids and mesh them: the
+    STEP written from those shapes re-reads as the serial build's solids, and the preview
+    triangles are the ones this process makes from a serial build (same vertices and
+    triangles), so the 3DM holds the same meshes."""
+    from torsal.fabrication import FinSystem
+    from torsal.fabrication import solids as S
+
+    serial = S.solid_shapes(FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness,
+                                      clearance=sphere_fs.clearance), workers=1)
+    fs = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
+    assert S.prepare_workers(len(fs.parts), workers=2, mesh=True) == 2
+    assert fs.start_solids(workers=2)
+    step = fs.export_step(tmp_path / "fins.step")
+    assert fs._solids is None                      # no build123d solids were needed
+    reread = dict(S.read_step(step))
+    assert sorted(reread) == sorted(serial)
+    from OCP.BRepTools import BRepTools
+
+    tol = S.MESH_TOLERANCE * fs.thickness
+    for name, shape in S.solid_shapes(fs).items():
+        assert BRepTools.Triangulation_s(shape, tol)        # meshed by the worker
+        assert S._volume(reread[name]) == pytest.approx(S._volume(serial[name]), rel=1e-9)
+        v, f = S._triangles(shape, tol)
+        v0, f0 = S._triangles(serial[name], tol)
+        np.testing.assert_array_equal(f, f0)
+        np.testing.assert_allclose(v, v0, rtol=0, atol=1e-9)
+    S.release_workers()
+
+
+def test_slot_area_from_the_records_is_the_unrolled_one(sphere_fs):
+    """The slots' area from their records (width x depth, half at a part end), which the cut
+    is checked against, is what the unrolled outline loses (panels' area - outline area)."""
+    from torsal.fabrication import solids as S
+
+    slotted = [p for p in sphere_fs.parts if p.slots]
+    assert slotted
+    for p in slotted:
+        assert S._slot_record_area(p) == pytest.approx(S._slot_area(p), rel=1e-3)

@@ -373,14 +373,25 @@ def run_fabrication(inp: StageInputs) -> dict:
     [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
     from ..fabrication import joints_of
 
+    from ..fabrication.solids import prepare_workers, release_workers
+
     spec, out = inp.spec, inp.out
     m = spec.material
-    fs = fin_system(spec, inp["support"]["structure"])
-    written = {}
+    structure = inp["support"]["structure"]
+    solids = spec.outputs.step or spec.outputs.rhino_3dm
     # the solids (most of the stage's work) are built by worker processes while this one
-    # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards
-    if spec.outputs.step or spec.outputs.rhino_3dm:
-        fs.start_solids()
+    # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards. The
+    # workers take seconds to start (each imports OpenCascade): they start while this
+    # process builds the parts (about one per fin)
+    if solids:         # the workers mesh the solids too when the 3DM needs them
+        prepare_workers(len(structure.edges), mesh=spec.outputs.rhino_3dm)
+    written = {}
+    try:
+        fs = fin_system(spec, structure)
+        if solids:
+            fs.start_solids()
+    finally:
+        release_workers()          # not taken by start_solids (fewer parts, or an error)
     try:
         layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
         if spec.outputs.dxf:

@@ -1,0 +1,95 @@
+"""The plate kernel of the solids (``solids._plate_direct``: a part's thickened panels as one
+B-rep shell built directly, no sewing) against volumes computed by hand, and against the
+sewn construction it replaces."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from torsal.fabrication.model import Part, PartId
+
+pytest.importorskip("OCP")
+from torsal.fabrication import solids  # noqa: E402
+
+
+def _volume_valid(shape):
+    return solids._volume(shape), solids._is_valid(shape)
+
+
+def _part(panels, miters):
+    panels = np.asarray(panels, float)
+    k = len(panels)
+    return Part(PartId(0, 0, 0), panels, np.full(k + 1, -1), np.full(k, -1),
+                miters=np.asarray(miters, float))
+
+
+def test_flat_rectangle_is_a_box_of_area_times_thickness():
+    w, h, t = 300.0, 150.0, 3.0
+    part = _part([[[0, 0, 0], [w, 0, 0], [w, h, 0], [0, h, 0]]], [[0, 0, 1], [0, 0, 1]])
+    shape, poly = solids._plate_direct(part, t, 1e-9)
+    vol, ok = _volume_valid(shape)
+    assert ok
+    assert abs(vol) == pytest.approx(w * h * t, rel=1e-12)
+    assert abs(poly) == pytest.approx(w * h * t, rel=1e-12)
+
+
+@pytest.mark.parametrize("fold_deg", [30.0, 90.0, 135.0])
+def test_mitred_fold_keeps_area_times_thickness(fold_deg):
+    """Two 200 x 100 panels folded by ``fold_deg`` about the y axis, offset along the mitre
+    vector (m.n = 1 on both sides): the wedge gained outside the fold is the one lost inside,
+    so the volume is exactly 2 * 200 * 100 * t."""
+    a, t, h = 200.0, 4.0, 100.0
+    phi = np.radians(fold_deg)
+    d = np.array([np.cos(phi), 0.0, np.sin(phi)])               # second panel's direction
+    p0, p1, p2 = np.zeros(3), np.array([a, 0, 0]), np.array([a, 0, 0]) + a * d
+    y = np.array([0, h, 0])
+    panels = [[p0, p1, p1 + y, p0 + y], [p1, p2, p2 + y, p1 + y]]
+    n1, n2 = np.array([0.0, 0, 1]), np.cross(y, d) / h          # unit normals of the panels
+    n2 *= np.sign(n2 @ np.cross(panels[1][1] - panels[1][0], panels[1][3] - panels[1][0]))
+    n1 *= np.sign(n1 @ np.cross(p1 - p0, y))
+    m = (n1 + n2) / (1 + n1 @ n2)
+    shape, _ = solids._plate_direct(_part(panels, [n1, m, n2]), t, 1e-9)
+    vol, ok = _volume_valid(shape)
+    assert ok
+    assert abs(vol) == pytest.approx(2 * a * h * t, rel=1e-9)
+
+
+def test_triangular_panel_with_a_collapsed_corner():
+    """A quad whose last two corners coincide (a triangle, legs 120 and 80): the side face
+    there collapses to an edge; volume = 120 * 80 / 2 * t."""
+    t = 3.0
+    q = [[0, 0, 0], [120, 0, 0], [0, 80, 0], [0, 80, 0]]
+    shape, poly = solids._plate_direct(_part([q], [[0, 0, 1], [0, 0, 1]]), t, 1e-9)
+    vol, ok = _volume_valid(shape)
+    assert ok
+    assert abs(vol) == pytest.approx(0.5 * 120 * 80 * t, rel=1e-12)
+    assert abs(poly) == pytest.approx(abs(vol), rel=1e-12)
+
+
+def test_warped_panel_is_split_like_the_sewn_plate():
+    """A quad lifted at one corner by 0.5 (not planar): top and bottom are split into two
+    triangles on the same diagonal; volume = (area of the two triangles) * t, as the sewn
+    construction gives it."""
+    t = 3.0
+    q = np.array([[0, 0, 0], [100, 0, 0], [100, 100, 0.5], [0, 100, 0]], float)
+    part = _part([q], [[0, 0, 1], [0, 0, 1]])
+    shape, poly = solids._plate_direct(part, t, 1e-9)
+    vol, ok = _volume_valid(shape)
+    assert ok
+    # top and bottom are the same two triangles (0 1 2, 0 2 3) shifted by t along z: the
+    # prism between them has the volume of their projection on xy times t
+    assert abs(vol) == pytest.approx(100 * 100 * t, rel=1e-9)
+    sewn, _ = solids._plate_sewn(part, t, 1e-9)
+    assert abs(vol) == pytest.approx(abs(solids._volume(sewn)), rel=1e-9)
+
+
+def test_corners_closer_than_the_sewing_tolerance_are_sewn():
+    """Corners 1e-8 apart are one point to the sewing; the direct construction declines them
+    (ValueError) and ``_plate`` falls back to sewing: still a solid of area * thickness."""
+    t = 3.0
+    q = [[0, 0, 0], [120, 0, 0], [0, 80, 0], [0, 80 + 1e-8, 0]]
+    part = _part([q], [[0, 0, 1], [0, 0, 1]])
+    with pytest.raises(ValueError):
+        solids._plate_direct(part, t, 1e-9)
+    shape, _ = solids._plate(part, t, 1e-9)
+    assert abs(solids._volume(shape)) == pytest.approx(0.5 * 120 * 80 * t, rel=1e-6)
