@@ -238,6 +238,7 @@ METHODS = {
     "cone": ("ipopt", lambda p: _formulation(p, "cone")),
     "split": ("ipopt", lambda p: _formulation(p, "split")),
     "elastic": ("ipopt", lambda p: _formulation(p, "split", 1e4)),
+    "lift": ("ipopt", lambda p: _formulation(p, "lift")),
     "lbfgs": ("lbfgs", lambda p: p),
 }
 

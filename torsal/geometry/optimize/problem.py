@@ -23,7 +23,8 @@ from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
                         _stroke_barycentric, _unit_rows, _var_index)
-from .forms import ANGLE_FORMS, torsal_angle_split_element
+from .forms import (ANGLE_FORMS, torsal_angle_anchored_element, torsal_angle_split_element,
+                    torsal_form_coordinates_element)
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
 from .lbfgs import lbfgs
@@ -31,6 +32,12 @@ from .measure import Measurement, measure, worst_missed
 from .nlp import Built, _renormalize
 from .result import OptimizationError, OptimizationResult
 from .working_set import _working_ids
+
+_COORDS = torsal_form_coordinates_element().fn     # (u, v, w) of a face's torsal form (.forms)
+
+#: anchored form: stop the outer rounds when no active face's anchor moves by this (radians)
+ANCHOR_TOL = 1e-3
+
 
 class CongruenceProblem:
     """An optimization problem over the line directions of a congruence (Wang et al. 2013, 4.1).
@@ -646,13 +653,16 @@ class CongruenceProblem:
             t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
                      np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
                      bound=float(alpha_deg))
-        else:   # two rows per face, +p and -p (see .forms)
+        elif form == "anchored":   # two rows per face, anchored at the start of every solve
             m = len(fi)
-            par = np.concatenate([np.tile([c, float(min_strength), 1.0], (m, 1)),
-                                  np.tile([c, float(min_strength), -1.0], (m, 1))])
-            t = Term("min_torsal_angle", True, torsal_angle_split_element(), _var_index(np.tile(fv, (2, 1)), 0),
+            par = np.concatenate([np.tile([c, float(min_strength), sg, 1.0, 0.0], (m, 1)) for sg in (1.0, -1.0)])
+            t = Term("min_torsal_angle", True, torsal_angle_anchored_element(), _var_index(np.tile(fv, (2, 1)), 0),
                      np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle",
                      bound=float(alpha_deg))
+        elif form == "lift":   # three rows per face, u, v, w = lifted variables (see .forms)
+            t = _lifted_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
+        else:
+            t = _split_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
         return self._add(t)
 
     def max_angle_to(self, d, theta_deg: float, vertices=None) -> "CongruenceProblem":
@@ -715,7 +725,8 @@ class CongruenceProblem:
         if t.kind != "hyperbolicity" or np.any(t.par[:, 0] > 0):
             return t
         covered = [a.elements for a in self._terms.values()
-                   if a.kind == "torsal_angle" and a.block == t.block and a.element.fn.name() == "c_ang_split"]
+                   if a.kind == "torsal_angle" and a.block == t.block
+                   and a.element.fn.name() in ("c_ang_split", "c_ang_lift", "c_ang_anchored")]
         if not covered:
             return t
         keep = ~np.isin(t.elements, np.concatenate(covered))
@@ -724,7 +735,8 @@ class CongruenceProblem:
         return replace(t, idx=t.idx[keep], data=t.data[keep], par=t.par[keep], elements=t.elements[keep])
 
     def _term_list(self, mode: str) -> list[Term]:
-        out = [(_penalty_term(t) if (mode == "penalty" and t.constraint) else self._implied_hyperbolic(t))
+        # the L-BFGS baseline has no variables but the directions: a lifted form as split rows
+        out = [(_penalty_term(_unlifted(t)) if (mode == "penalty" and t.constraint) else self._implied_hyperbolic(t))
                for t in self._terms.values()]
         out = [t for t in out if t is not None]
         nv = self.n_var // 3
@@ -770,7 +782,7 @@ class CongruenceProblem:
         key = mode + "/without-inequalities"
         if key in self._built:
             return self._built[key], 0.0
-        terms = [t for t in self._term_list(mode) if not (t.constraint and t.lower < t.upper)]
+        terms = [t for t in self._term_list(mode) if not (t.constraint and (t.lower < t.upper or t.lift))]
         self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(True))
         return self._built[key], self._built[key].seconds
 
@@ -845,6 +857,57 @@ class CongruenceProblem:
         congs = self._congruences(e) if cons else []
         return {t.name: measure(t, congs[t.block], self.delta, g_by.get(t.name), angle_tol_deg=angle_tol_deg,
                                 value_tol=constraint_tol) for t in cons}
+
+    def _anchored_terms(self) -> list[Term]:
+        return [t for t in self._terms.values()
+                if t.element is not None and t.element.fn.name() == "c_ang_anchored"]
+
+    def _anchor(self, e: np.ndarray, active: dict | None = None) -> float:
+        """Anchor every anchored torsal-angle term at the directions ``e`` (see :mod:`.forms`).
+
+        Sets each face's ``n`` to the orientation of ``(v, w)`` at ``e`` (kept where the face
+        is a bundle, ``|(v, w)| < 1e-12``). Returns the largest change of ``n`` (radians) over
+        the faces of ``active`` (``{name: bool mask over the term's faces}``; all if None):
+        0 means the last solve's answer is a KKT point of the unrestricted constraint.
+        """
+        moved = 0.0
+        for t in self._anchored_terms():
+            m = t.size // 2
+            x = np.asarray(e, float).ravel()[t.idx[:m]]
+            vw = np.stack([np.asarray(_COORDS.map(m)(x.T, t.data[:m].T, np.tile(np.r_[0, 0, k], (m, 1)).T)).ravel()
+                           for k in np.eye(3)[1:]], axis=1)
+            norm = np.linalg.norm(vw, axis=1)
+            n = np.where(norm[:, None] > 1e-12, vw / np.maximum(norm, 1e-300)[:, None], t.par[:m, 3:5])
+            change = np.arccos(np.clip(np.einsum("ij,ij->i", n, t.par[:m, 3:5]), -1.0, 1.0))
+            sel = np.ones(m, bool) if active is None else active.get(t.name, np.ones(m, bool))
+            moved = max(moved, float(change[sel].max(initial=0.0)))
+            t.par[:, 3:5] = np.tile(n, (2, 1))
+        return moved
+
+    def _anchored_rounds(self, strategy, b: Built, out, frames, limit: int):
+        """Outer rounds of the anchored torsal-angle form (sequential convex restriction).
+
+        Each IPOPT solve imposes the bound restricted to the anchors (:mod:`.forms`), a
+        subset of the true feasible set, so every answer holds the real bound. Re-anchored at
+        the answer, that answer is feasible for the next round and the objective can only
+        go down; when the anchors of the faces whose rows carry a multiplier no longer move
+        (< ``ANCHOR_TOL`` radians), the answer is a KKT point of the unrestricted bound.
+        """
+        while out.converged and out.lam_g is not None and out.iterations < limit:
+            e = b.unpack(out.x, frames)
+            active = {}
+            lam = np.abs(np.asarray(out.lam_g))
+            big = float(lam.max(initial=0.0))
+            for t, rows in zip(b.cons, b.g_slices):
+                if t.element is not None and t.element.fn.name() == "c_ang_anchored":
+                    act = (lam[rows] > 1e-4 * big).reshape(2, -1)
+                    active[t.name] = act[0] | act[1]
+            if self._anchor(e.ravel(), active) < ANCHOR_TOL:
+                break
+            p = b.parameters(self._current(), frames)
+            r = strategy.warm_pass(b, out.x, p, out.lam_g, limit - out.iterations)
+            out = r._replace(iterations=out.iterations + r.iterations)
+        return out
 
     def _off_the_apex(self, e: np.ndarray) -> np.ndarray:
         """The start moved off the line-bundle apex where a torsal-angle bound needs it.
@@ -995,6 +1058,8 @@ class CongruenceProblem:
             self._strategy = strategy
             try:
                 out = strategy.solve(b, mode, warm, lam_g0, x0, p, try_unconstrained)
+                if self._anchored_terms():
+                    out = self._anchored_rounds(strategy, b, out, frames, max_iter or 200)
             finally:
                 self._strategy = None
             build_s += strategy.build_seconds
@@ -1054,3 +1119,30 @@ class CongruenceProblem:
         if raise_on_failure and not ok:
             raise OptimizationError(f"congruence optimization failed: {status}", res)
         return res
+
+
+def _split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float, name: str = "min_torsal_angle") -> Term:
+    """c_ang in split form: two rows per face, ``+p`` and ``-p`` (see :mod:`.forms`)."""
+    m = len(fi)
+    par = np.concatenate([np.tile([c, s, 1.0], (m, 1)), np.tile([c, s, -1.0], (m, 1))])
+    return Term(name, True, torsal_angle_split_element(), _var_index(np.tile(fv, (2, 1)), 0),
+                np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle", bound=alpha_deg)
+
+
+def _lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float) -> Term:
+    """c_ang lifted: rows ``u``, ``v``, ``w`` per face, equal to lifted variables (``nlp.Built._lift``)."""
+    m = len(fi)
+    par = np.concatenate([np.tile(np.r_[c, s, k], (m, 1)) for k in np.eye(3)])
+    return Term("min_torsal_angle", True, torsal_form_coordinates_element(), _var_index(np.tile(fv, (3, 1)), 0),
+                np.tile(a, (3, 1)), par, np.tile(fi, 3), kind="torsal_angle", bound=alpha_deg,
+                lower=0.0, upper=0.0, lift=True)
+
+
+def _unlifted(t: Term) -> Term:
+    """A lifted or anchored torsal-angle term as the split form over the same faces (for L-BFGS)."""
+    if not (t.lift or (t.element is not None and t.element.fn.name() == "c_ang_anchored")):
+        return t
+    m = t.size // (3 if t.lift else 2)
+    return replace(_split_angle_term(t.elements[:m], t.idx[:m, ::3] // 3, t.data[:m], float(t.par[0, 0]),
+                                     float(t.par[0, 1]), t.bound, t.name), block=t.block,
+                   idx=np.tile(t.idx[:m], (2, 1)))
