@@ -1058,6 +1058,7 @@ class CongruenceProblem:
             self._strategy = strategy
             try:
                 out = strategy.solve(b, mode, warm, lam_g0, x0, p, try_unconstrained)
+                frames = strategy.frames     # re-centred when a pass started elsewhere
                 if self._anchored_terms():
                     out = self._anchored_rounds(strategy, b, out, frames, max_iter or 200)
             finally:
