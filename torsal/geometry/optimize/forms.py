@@ -16,6 +16,12 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
   faces (the inherent curvature of a norm), not ``1/s``. The apex (a line bundle, ``rho = p
   = 0``) stays infeasible, value ``(cos(alpha) - 1) s < 0``, and a feasible face has the same
   strength floor ``rho >= s tan(alpha)`` as the cone form.
+- ``"lift"`` (the default): the coordinates ``(u, v, w)`` of the form in an orthonormal frame
+  (:func:`torsal_form_coordinates_sx`, linear in ``g``) equal lifted variables
+  ``(cos(alpha) r t, r cos(phi), r sin(phi))``; the bound is ``r >= s``, ``|t| <= 1`` on
+  variables (assembled in :meth:`torsal.geometry.optimize.nlp.Built._lift`).
+- ``"anchored"``: rows linear in ``g`` with ``rho`` replaced by its projection on an anchor,
+  re-anchored in outer rounds (:func:`torsal_angle_anchored_element`).
 """
 from __future__ import annotations
 

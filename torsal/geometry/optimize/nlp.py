@@ -232,16 +232,17 @@ class Built:
         grad = scatter_dense(grad_parts, grad_rows, n_var, dense_grad)
         if n_lift:   # the objective does not depend on the lifted variables
             grad = ca.vertcat(grad, ca.MX.zeros(n_lift, 1))
-        g = ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
         n_main = self.n_main
         for t, go, lo in self.lifts:
             off = offsets[next(i for i, u in enumerate(terms) if u is t)]
             dg, jp, hp = self._lift(t, go, lo, x_all, p, lam_g, off)
-            g = g - dg
+            ci = next(i for i, u in enumerate(cons) if u is t)
+            g_parts[ci] = g_parts[ci] - dg
             for parts, (vals, rr, cc) in ((j_parts, jp), (h_parts, hp)):
                 parts.append(vals)
                 (j_rows if parts is j_parts else h_rows).append(rr)
                 (j_cols if parts is j_parts else h_cols).append(cc)
+        g = ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
         if j_parts:
             jr, jcol = np.concatenate(j_rows), np.concatenate(j_cols)
             ukey, S = _scatter(jcol * n_g + jr)

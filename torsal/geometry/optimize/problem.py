@@ -598,39 +598,56 @@ class CongruenceProblem:
         return self._add(t)
 
     def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
-                         min_strength: float = 1e-3, form: str = "split") -> "CongruenceProblem":
+                         min_strength: float = 1e-3, form: str = "lift") -> "CongruenceProblem":
         """Torsal directions at least ``alpha_deg`` apart on every face (c_ang, Wang et al. 2013, 4.1).
 
-        ``form="split"`` (default): two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
+        ``form="lift"`` (default): the torsal form's coordinates ``(u, v, w)`` in an
+        orthonormal frame of the face (:func:`~torsal.geometry.optimize.forms.torsal_form_coordinates_sx`,
+        ``u = p`` its isotropic part, ``sqrt(v^2 + w^2) = rho`` its strength) are lifted into
+        the NLP as three variables ``(r, t, phi)`` per face with three equality rows::
+
+            (u, v, w)(e) = (cos(alpha) r t, r cos(phi), r sin(phi)),   r >= s,  -1 <= t <= 1
+
+        The angle bound ``|p| <= cos(alpha) rho`` and the strength floor are bounds on
+        variables: no inequality row, nothing whose gradient vanishes at the apex ``g = 0``
+        (a line bundle, outside ``r >= s``), and the start needs not be feasible (pass 3
+        starts from the energies' optimum). Measured (benchmarks/optimize_bench.py): row 7c
+        358 iterations, converged, objective 0.4311 (split: 746 iterations, 0.4572); row 9 719
+        iterations, converged, 0.0160 (split: about 1,155, 0.0165).
+
+        ``form="split"``: two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0
 
-        ``form="cone"`` (the form before; one row per face,
+        ``form="cone"`` (one row per face,
         :func:`torsal.geometry.terms.torsal_angle_cone_element`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0
 
+        ``form="anchored"``: the split rows with ``rho`` replaced by ``(v, w) . n``, ``n`` the
+        orientation at the start of the round, re-anchored at each answer (outer rounds, an
+        inner convex-in-``g`` restriction; measured on row 7c: 500 iterations, 0.4498, not
+        converged: each round takes 100+ iterations).
+
         (``p``, ``rho``: isotropic part and strength of the torsal form, eq. (1), per edge
-        length; ``s = min_strength``). Both imply hyperbolicity, keep their gradient where
-        the printed polynomial c_ang loses it, and make a line bundle infeasible. The split
-        form needs no smoothing of ``|p|``, whose ``1/s`` curvature at ``p = 0`` the cone
-        form carries: measured on a 9 x 7 patch at 85 degrees with ``s = 1e-5``, split 19
-        IPOPT iterations, cone not converged in 400; on row 7c (500 iterations, neither
-        converged) objective 0.492 against 0.500. The strength floor:
+        length; ``s = min_strength``). All imply hyperbolicity and make a line bundle
+        infeasible. The split form needs no smoothing of ``|p|``, whose ``1/s`` curvature at
+        ``p = 0`` the cone form carries: measured on a 9 x 7 patch at 85 degrees with
+        ``s = 1e-5``, split 19 IPOPT iterations, cone not converged in 400. The strength floor:
 
         *Design choice*: a face that must have torsal directions at least ``alpha`` apart
         must have torsal directions, so the torsal form's strength is bounded below,
-        ``rho >= s tan(alpha)`` (radians of line rotation per edge length ``delta``; the
-        default ``1e-3`` is about a thousandth of a degree per edge: a fin pattern you
-        cannot see, but a face that is not a bundle). Set ``min_strength`` larger to keep
-        fins away from the parallel-line limit.
+        ``rho >= s`` (lift; ``s tan(alpha)`` split and cone; radians of line rotation per
+        edge length ``delta``; the default ``1e-3`` is about a thousandth of a degree per
+        edge: a fin pattern you cannot see, but a face that is not a bundle). Set
+        ``min_strength`` larger to keep fins away from the parallel-line limit.
 
         The result is measured, not trusted: ``OptimizationResult.max_violation`` gives how
         far the smallest measured torsal angle is below ``alpha_deg`` (degrees; a face without
         torsal directions counts as 0 degrees) and ``success`` is False beyond 0.1 degrees.
         The bound is imposed at ``alpha_deg + safety_deg``; IPOPT's constraint tolerance
         (1e-9) is worth at most ``1e-9 / (s tan(alpha) sin(alpha))`` radians (< 1e-4 degrees
-        for ``alpha >= 5``).
+        for ``alpha >= 5``; lift: ``1e-9 / (s sin(alpha))``).
 
         Examples
         --------
