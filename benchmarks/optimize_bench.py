@@ -170,6 +170,7 @@ def run_row(name, grid, T, problem_fn, solvers, lbfgs_iter):
         p = problem_fn(c, SUN)
         r1 = p.solve(solver=solver, max_iter=None if solver == "ipopt" else lbfgs_iter)
         first = time.perf_counter() - t0
+        no_td = (int(np.isnan(c.torsal_angle()).sum()), int(np.isnan(r1.congruence.torsal_angle()).sum()))
         sun = change(problem_fn, p, c)
         t1 = time.perf_counter()
         r2 = p.solve(solver=solver, max_iter=None if solver == "ipopt" else lbfgs_iter)
@@ -182,7 +183,7 @@ def run_row(name, grid, T, problem_fn, solvers, lbfgs_iter):
                         resolve=again, rebuild=r2.build_seconds, it2=r2.iterations, ok2=r2.success,
                         E0=r1.energies_before["total"], E1=r1.energies_after["total"],
                         E2=r2.energies_after["total"], worst=worst, perp=perp, hyp=hyp,
-                        status=r2.status))
+                        status=r2.status, no_td=no_td, note=r1.status))
     return out
 
 
@@ -312,8 +313,8 @@ def main():
     ap.add_argument("--lbfgs-iter", type=int, default=500)
     ap.add_argument("--rows", nargs="*", default=None)
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
-    ap.add_argument("--hessian", choices=["auto", "exact", "gauss-newton"], default=None,
-                    help="CongruenceProblem(hessian=...) of every row (default: the library's, exact)")
+    ap.add_argument("--hessian", choices=["guarded", "auto", "exact", "gauss-newton"], default=None,
+                    help="CongruenceProblem(hessian=...) of every row (default: the library's, guarded)")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
     if args.hessian:
@@ -327,7 +328,8 @@ def main():
         return
     head = (f"{'row':>5} {'|V|':>7} {'|F|':>7} {'T':>5} {'solver':>6} | {'build':>6} {'solve':>7} "
             f"{'it':>4} {'b+s':>7} {'all':>7} {'<2T':>4} | {'re-solve':>8} {'it':>4} {'<T':>4} | "
-            f"{'E start':>9} {'E first':>9} {'E re':>9} {'worst viol':>10} {'|<e,d>|':>8} {'hyp%':>5} ok")
+            f"{'E start':>9} {'E first':>9} {'E re':>9} {'worst viol':>10} {'|<e,d>|':>8} {'hyp%':>5} "
+            f"{'no td':>11} ok")
     print(head)
     print("-" * len(head))
     for name, grid, pv, pf, T, fn in ROWS:
@@ -346,6 +348,7 @@ def main():
                   f"{r['build']:6.2f} {r['solve']:7.2f} {r['it1']:>4} {bs:7.2f} {r['first']:7.2f} {t_ok:>4} | "
                   f"{r['resolve']:8.2f} {r['it2']:>4} {r_ok:>4} | {r['E0']:9.3e} {r['E1']:9.3e} "
                   f"{r['E2']:9.3e} {r['worst']:10.2e} {r['perp']:8.4f} {100 * r['hyp']:5.1f} "
+                  f"{'%d->%d' % r['no_td']:>11} "
                   f"{'ok' if r['ok1'] and r['ok2'] else 'FAIL: ' + r['status'][:60]}", flush=True)
 
 

@@ -75,6 +75,7 @@ class Built:
                  hessian: str = "exact", elastic: float = 0.0):
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
+        self.hessian = hessian
         tangent = mode == "tangent"
         dof = 2 if tangent else 3
         n_e = 3 * n_vertices

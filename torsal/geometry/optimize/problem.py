@@ -33,6 +33,13 @@ from .nlp import Built, _renormalize
 from .result import OptimizationError, OptimizationResult
 from .working_set import _working_ids
 
+#: the ``hessian`` options of :class:`CongruenceProblem` (the first is the default)
+HESSIANS = ("guarded", "exact", "gauss-newton", "auto")
+
+#: "guarded": a Gauss-Newton answer with more faces without torsal directions than the start,
+#: by more than this share of the faces, counts as collapsed (re-solved with the exact Hessian)
+COLLAPSE_SHARE = 0.02
+
 _COORDS = torsal_form_coordinates_element().fn     # (u, v, w) of a face's torsal form (.forms)
 
 #: anchored form: stop the outer rounds when no active face's anchor moves by this (radians)
@@ -59,28 +66,27 @@ class CongruenceProblem:
         ``"renormalize"``: the paper's way: no unit constraint; a penalty
         ``mean((||e_i||^2 - 1)^2)`` (weight 1) keeps lengths near 1 during a solve, and the
         directions are renormalized afterwards (and after every round of ``lbfgs``).
-    hessian : {"auto", "exact", "gauss-newton"}
+    hessian : {"guarded", "exact", "gauss-newton", "auto"}
         Hessian of the energies' part of the Lagrangian. ``"gauss-newton"``: ``2 J_r^T J_r`` for
         every energy that is a sum of squares (all built-in ones but ``fair``, which is
         quadratic and exact either way), no chart curvature for them; positive semidefinite,
         so IPOPT's inertia correction only meets the constraints' curvature (the constraints
-        keep their exact Hessian). ``"exact"`` (default): the exact Hessian. ``"auto"``:
-        Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP without them,
-        see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP. Measured
-        (benchmarks/optimize_bench.py, 2026-11-23): on row 11 (pass 1 answers, 20k
-        variables) the exact Hessian is indefinite away from the optimum, IPOPT regularizes
-        every iteration (damped steps, two or more factorizations each) and needs 21
-        iterations to 9.5e-9; Gauss-Newton 4 iterations to 1.8e-12, no line bundle either (the
-        energies are nearly zero-residual there, where Gauss-Newton converges quadratically);
-        row 13 16 iterations instead of 22, same objective. Not the default elsewhere: on a
-        facade with strokes (normal, fair, torsal_direction; tests/geometry/test_optimize.py)
-        its full steps land on a line bundle (objective 6e-16, no torsal directions), a
-        trivial zero of the stroke residual, where the exact Hessian keeps following the
-        strokes; with inequalities, row 7c: 500 iterations to 0.4788 against 0.4616 exact.
-        ``"auto"`` was the default for a day and was withdrawn, measured at full size: its
-        pass 1 turned example 10 into a near line bundle (116 faces without torsal
-        directions, minimum torsal angle 0.5 degrees, against 6 and 11.1 exact) and left a
-        face of this class's doctest non-hyperbolic; row 11 and 100k use it by choice.
+        keep their exact Hessian). ``"exact"``: the exact Hessian. ``"guarded"`` (default):
+        Gauss-Newton for a problem without constraints, checked: if its answer has more
+        faces without torsal directions than the start, by more than ``COLLAPSE_SHARE`` (2 %)
+        of the faces (:meth:`_collapse`), the solve is repeated from the same start with the
+        exact Hessian, which the problem then keeps; exact for a problem with constraints.
+        ``"auto"``: Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP
+        without them, see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP.
+        Measured (benchmarks/optimize_bench.py, 2026-11-23): Gauss-Newton converges in 2 to
+        4 iterations where the exact Hessian is indefinite and regularized every iteration
+        (row 11: 4 instead of 21; 100k vertices: 42 s instead of 123 s), but its full steps
+        can land on a trivial zero of the energies, close to a line bundle: on a facade with
+        boundary strokes (normal, fair, torsal_direction) 972 of 2048 faces without torsal
+        directions (exact: 0), on example 10 116 (exact: 6; the start: 0). The guard catches
+        both and returns the exact Hessian's answer. With inequalities, the Gauss-Newton
+        pass 1 (``"auto"``) turned example 10 into a near line bundle and left a face of this
+        class's doctest non-hyperbolic, so constrained solves stay exact.
     elastic : float, default 0
         ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
         ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
@@ -115,7 +121,7 @@ class CongruenceProblem:
     """
 
     def __init__(self, congruence: Congruence, weights: dict | None = None,
-                 normalize: str = "tangent", jit: bool = False, hessian: str = "exact",
+                 normalize: str = "tangent", jit: bool = False, hessian: str = "guarded",
                  elastic: float = 0.0):
         if not isinstance(congruence, Congruence):
             raise TypeError("CongruenceProblem needs a torsal Congruence (e.g. Congruence.from_normals(mesh))")
@@ -131,9 +137,10 @@ class CongruenceProblem:
         self.congruence = congruence
         self.normalize = normalize
         self.jit = bool(jit)
-        if hessian not in ("auto", "gauss-newton", "exact"):
-            raise ValueError(f"hessian must be 'auto', 'gauss-newton' or 'exact', got {hessian!r}")
+        if hessian not in HESSIANS:
+            raise ValueError(f"hessian must be one of {HESSIANS}, got {hessian!r}")
         self.hessian = hessian
+        self._exact_after_collapse = False     # "guarded": Gauss-Newton collapsed, see solve
         if not (np.isfinite(elastic) and elastic >= 0):
             raise ValueError(f"elastic must be a finite number >= 0 (0: off), got {elastic}")
         self.elastic = float(elastic)
@@ -172,6 +179,7 @@ class CongruenceProblem:
             return self   # only parameters / weight changed: keep the built solver
         self._built.clear()
         self._last = None
+        self._exact_after_collapse = False
         return self
 
     def _face_data(self, faces: np.ndarray, block: int = 0):
@@ -790,6 +798,9 @@ class CongruenceProblem:
     def _hessian_of(self, pass1: bool) -> str:
         """The energies' Hessian of an NLP (``hessian="auto"``: Gauss-Newton for pass 1 of a
         solve with inequalities, exact otherwise; see the class docstring)."""
+        if self.hessian == "guarded":
+            constrained = any(t.constraint for t in self._terms.values())
+            return "exact" if constrained or self._exact_after_collapse else "gauss-newton"
         if self.hessian != "auto":
             return self.hessian
         return "gauss-newton" if pass1 else "exact"
@@ -874,6 +885,23 @@ class CongruenceProblem:
         congs = self._congruences(e) if cons else []
         return {t.name: measure(t, congs[t.block], self.delta, g_by.get(t.name), angle_tol_deg=angle_tol_deg,
                                 value_tol=constraint_tol) for t in cons}
+
+    def _collapse(self, e_start: np.ndarray, e_end: np.ndarray) -> str | None:
+        """Why the answer ``e_end`` collapsed compared to ``e_start``, or None (``hessian="guarded"``).
+
+        Collapsed: on some aligned congruence, the faces without torsal directions (elliptic
+        faces and bundles, :meth:`Congruence.torsal_angle` NaN) grew by more than
+        ``COLLAPSE_SHARE`` of the faces. Measured (benchmarks/optimize_bench.py docstring):
+        Gauss-Newton on example 10 leaves 116 of 2048 faces without torsal directions (exact
+        6, start 0), on a facade with boundary strokes and no light term 972 (exact 0); on
+        the 100k-vertex row, 7a at 20k and row 11 it does not collapse.
+        """
+        for c0, c1 in zip(self._congruences(e_start), self._congruences(e_end)):
+            n0, n1 = (int(np.isnan(c.torsal_angle()).sum()) for c in (c0, c1))
+            if n1 - n0 > COLLAPSE_SHARE * len(c1.faces):
+                return (f"{n1} of {len(c1.faces)} faces without torsal directions (start {n0}), "
+                        "collapsed toward a line bundle")
+        return None
 
     def _anchored_terms(self) -> list[Term]:
         return [t for t in self._terms.values()
@@ -1093,6 +1121,20 @@ class CongruenceProblem:
         if self.normalize == "renormalize" or solver == "lbfgs":
             e = _renormalize(e.ravel()).reshape(-1, 3)
         finite = bool(np.isfinite(e).all())
+        collapsed = (self._collapse(e0, e) if finite and solver == "ipopt" and self.hessian == "guarded"
+                     and b.hessian == "gauss-newton" else None)
+        if collapsed is not None:
+            # the Gauss-Newton steps reached a trivial zero of the energies: solve again from
+            # the same start with the exact Hessian (kept for this problem's structure)
+            self._exact_after_collapse = True
+            self._built.pop(mode, None)
+            res = self.solve(solver, max_iter, tol, callback, warm_start=warm_start, initial=initial,
+                             raise_on_failure=raise_on_failure, verbose=verbose, constraint_tol=constraint_tol,
+                             angle_tol_deg=angle_tol_deg, penalty=penalty, ipopt_options=ipopt_options,
+                             try_unconstrained=try_unconstrained, max_seconds=max_seconds, keep_best=keep_best)
+            return replace(res, iterations=res.iterations + iters, build_seconds=res.build_seconds + build_s,
+                           solve_seconds=res.solve_seconds + solve_s,
+                           status=f"Gauss-Newton: {collapsed}; exact Hessian: {res.status}")
         meas = self.measure(e, **tols) if finite else {}
         holds = finite and all(m.holds for m in meas.values())
         from_iteration = None
