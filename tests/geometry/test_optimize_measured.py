@@ -165,7 +165,7 @@ def test_a_flat_facade_leaves_the_bundle_apex():
 def test_guarded_gauss_newton_falls_back_to_the_exact_hessian_when_it_collapses():
     """normal + fair + torsal_direction along the boundary of a facade: Gauss-Newton's full
     steps reach a trivial zero of the energies where about half the faces have no torsal
-    directions (the start has none without); the default hessian="guarded" measures that on
+    directions (the start has none without); hessian="guarded" measures that on
     the congruence and returns the exact Hessian's answer, from the same start, instead."""
     from torsal.geometry.mesh import edge_face_adjacency
 
@@ -180,7 +180,7 @@ def test_guarded_gauss_newton_falls_back_to_the_exact_hessian_when_it_collapses(
 
     none = lambda r: int(np.isnan(r.congruence.torsal_angle()).sum())     # noqa: E731
     assert int(np.isnan(c.torsal_angle()).sum()) == 0
-    gn, exact, guarded = solve(hessian="gauss-newton"), solve(hessian="exact"), solve()
+    gn, exact, guarded = solve(hessian="gauss-newton"), solve(), solve(hessian="guarded")
     assert gn.success and none(gn) > 0.2 * len(c.faces)
     assert exact.success and none(exact) == 0
     assert guarded.success and "collapsed" in guarded.status and none(guarded) == 0
@@ -192,7 +192,7 @@ def test_guarded_gauss_newton_is_kept_where_it_does_not_collapse(patch):
     """Where Gauss-Newton's answer keeps the torsal directions (here closeness makes the
     energies' minimum nonzero, away from the trivial zeros), "guarded" is Gauss-Newton."""
     gn = _shading(patch, hessian="gauss-newton").closeness(weight=0.1).solve()
-    guarded = _shading(patch).closeness(weight=0.1).solve()
+    guarded = _shading(patch, hessian="guarded").closeness(weight=0.1).solve()
     assert int(np.isnan(gn.congruence.torsal_angle()).sum()) == 0
     assert "collapsed" not in guarded.status and guarded.iterations == gn.iterations
     np.testing.assert_allclose(guarded.congruence.directions, gn.congruence.directions, atol=1e-12)
