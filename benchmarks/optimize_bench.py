@@ -92,9 +92,58 @@ Gauss-Newton lands on a line bundle, the trivial zero of normal + fair + torsal_
 not a bundle. At 100k each factorization is ~5 s CPU: the exact Hessian's 7 regularized
 iterations cost 69 s CPU in search directions, Gauss-Newton's 2 cost 11 s.)
 
+Measured 2026-11-23 (evening, load average 3 to 6.5 on 2 cores, nice 19): the lifted form
+of ``min_torsal_angle`` (now the default) against split, full solve (pass 1 + pass 3) with
+the design's ``max_iter``; wall and CPU of build + solve::
+
+     row  form      it   converged  wall    CPU     objective  min torsal angle  load
+      7c  split     500  no          73.1    49.5  0.46341    40.18             5.4
+      7c  lift      358  yes         34.3    37.0  0.43108    40.01             4.5
+      7c  anchored  500  no          79.9    54.1  0.4856     40.11             5.8
+       9  split    ~1155 (converged, 2026-11-22; 328 in 180 s at load 12: 0.0181)  0.0165
+       9  lift      719  yes        226.8   263.5  0.01600    60.01             3.2
+
+    bench table (--rows 7c --methods lift split --no-lbfgs, load 5.5 to 6.5):
+      7c  lift   total 67.6  it 358  to quality 18.6  re-solve  3.9  E 0.43108  min ang 40.01
+      7c  split  total 54.5  it 500  to quality  -    re-solve 57.4  E 0.46341  min ang 40.18
+
+What made the difference, measured on 7c: (1) lifting: the bound becomes ``r >= s``,
+``|t| <= 1`` on variables, so pass 3 can start from the energies' optimum (pass 1's answer)
+although it violates the bound on most faces (split from there: 500 iterations cost 300 s CPU,
+inertia corrections; lifted from the facade's normals: 500 iterations, 0.4983, not
+converged); (2) the gnomonic chart re-centred at that start (``IpoptStrategy._recentre``):
+before it, lines turned 60 to 80 degrees sat at ``|z|`` of 2 to 6 in the start's chart and
+the lifted solve took 500 iterations to 0.4522; after, 358 to 0.43108. The anchored form
+(rows linear in ``g``, re-anchored in outer rounds) did not help: each round takes 100 to 170
+IPOPT iterations even warm-started, so the cone's nonconvexity is not the whole cause. A
+larger strength floor (``min_strength`` 1e-2) made both lift and split worse (0.540 / 0.546
+after 500). ``mu_strategy`` monotone with lift: 500 iterations, 0.4561. The lifted solve
+still spends its last 250 iterations going from 0.4345 (within 1 %) to 0.43108: steps cut
+by the fraction-to-boundary rule with ``||d||`` 0.1 to 0.6, i.e. in ``phi`` and ``t`` of
+faces near the strength floor, where the orientation ``phi`` is nearly free.
+
+Gauss-Newton, measured the same evening (faces without torsal directions: NaN
+``Congruence.torsal_angle``; start 0 on every row)::
+
+     design                        gauss-newton          exact
+     facade + boundary strokes     972 of 2048, E 3e-13  0,  E 7.6e-7
+     example 10                    116 of 2048, E 2e-16  6,  E 2.5e-8
+     7a term set, 1089 vertices    133 of 2048, E 8e-12  1,  E 6.2e-9
+     20k vertices                  > 2 %                 318 of 39200
+     100k vertices                 > 2 %                 142 of 199712
+     row 11 (two congruences)      68 + 473, E 1.8e-12   0 + 0, E 9.3e-9
+
+Every zero-residual design collapses toward a trivial zero (many faces elliptic or bundles),
+so the 42 s at 100k and row 11's 10.7 s above were collapsed answers. ``hessian="guarded"``
+(Gauss-Newton, then the exact Hessian from the same start when the answer has more faces
+without torsal directions than the start by > 2 %) catches all of them, but then costs both
+solves and two builds (100k: 9 iterations, 420 s at load 6 to 7), so the exact Hessian stays
+the default and 100k stays a miss (exact: 120 s at load 2 to 3).
+
 Causes of the misses, measured:
 
-- 7c and 9 (constrained): IPOPT needs more than 500 (7c) and about 1,200 (9) iterations. The
+- 7c and 9 (constrained), before the lifted form (see above for after: 358 and 719
+  iterations, converged): IPOPT needs more than 500 (7c) and about 1,200 (9) iterations. The
   pass with all constraints starts from the facade's normals (objective 137 on 7c, 0.73 on 9;
   the energies' own optimum, 0.42 / 0.013, violates the angle bound on most faces and an
   infeasible or elastic start was measured worse: inertia regularization 1e6 to 1e9) and
@@ -108,7 +157,8 @@ Causes of the misses, measured:
 - 11 (unconstrained at the optimum): met since 2026-11-23 afternoon (10.7 s, re-solve 0.4 s,
   see above); before, 21 regularized exact-Hessian iterations and a doubled build.
 - 100k: with the default (exact) Hessian 7 regularized iterations, 120 s at load 2 to 3;
-  with ``hessian="gauss-newton"`` 42 s, re-solve 9.7 s (met), not the default for the reason above.
+  with ``hessian="gauss-newton"`` 42 s, re-solve 9.7 s, but a collapsed answer (see the
+  evening's Gauss-Newton table): a miss.
 - L-BFGS (the paper's method) ends infeasible as measured on 7c (faces without torsal
   directions) and far from IPOPT's energy on 11 and 13 within 500 iterations.
 """
