@@ -103,6 +103,10 @@ the design's ``max_iter``; wall and CPU of build + solve::
        9  split    ~1155 (converged, 2026-11-22; 328 in 180 s at load 12: 0.0181)  0.0165
        9  lift      719  yes        226.8   263.5  0.01600    60.01             3.2
 
+      7d  split     500  no          58.2    19.3  2.2319e-05 46.61             4.9
+      7d  lift       40  yes          9.0     2.2  1.2294e-07 40.01             3.9
+    (7d: the flat facade, 561 vertices, min_torsal_angle 40, from the twisted bundle start)
+
     bench table (--rows 7c --methods lift split --no-lbfgs, load 5.5 to 6.5):
       7c  lift   total 67.6  it 358  to quality 18.6  re-solve  3.9  E 0.43108  min ang 40.01
       7c  split  total 54.5  it 500  to quality  -    re-solve 57.4  E 0.46341  min ang 40.18
