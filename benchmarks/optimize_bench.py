@@ -120,6 +120,9 @@ before it, lines turned 60 to 80 degrees sat at ``|z|`` of 2 to 6 in the start's
 the lifted solve took 500 iterations to 0.4522; after, 358 to 0.43108. The anchored form
 (rows linear in ``g``, re-anchored in outer rounds) did not help: each round takes 100 to 170
 IPOPT iterations even warm-started, so the cone's nonconvexity is not the whole cause. A
+Cartesian lift
+(variables ``(r, t, a, b)``, rows ``v = a``, ``w = b``, ``a^2 + b^2 = r^2``: no angle variable)
+measured, not kept: 500 iterations, 0.43229, not converged. A
 larger strength floor (``min_strength`` 1e-2) made both lift and split worse (0.540 / 0.546
 after 500). ``mu_strategy`` monotone with lift: 500 iterations, 0.4561. The lifted solve
 still spends its last 250 iterations going from 0.4345 (within 1 %) to 0.43108: steps cut
