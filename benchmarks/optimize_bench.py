@@ -110,6 +110,8 @@ the design's ``max_iter``; wall and CPU of build + solve::
     bench table (--rows 7c --methods lift split --no-lbfgs, load 5.5 to 6.5):
       7c  lift   total 67.6  it 358  to quality 18.6  re-solve  3.9  E 0.43108  min ang 40.01
       7c  split  total 54.5  it 500  to quality  -    re-solve 57.4  E 0.46341  min ang 40.18
+    (--rows 9 --methods lift --no-lbfgs, load 3.8 to 4.3):
+       9  lift   total 261.9 it 719  to quality 120.6 re-solve 28.3  E 0.016000 min ang 60.01
 
 What made the difference, measured on 7c: (1) lifting: the bound becomes ``r >= s``,
 ``|t| <= 1`` on variables, so pass 3 can start from the energies' optimum (pass 1's answer)
