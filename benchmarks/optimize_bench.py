@@ -13,14 +13,17 @@ Two tables.
 2. Synthetic rows (7a term set on the facade patch, 20k and 100k vertices, unconstrained):
    build, solve and re-solve; target 100k in < 60 s.
 
-Methods of the Fig. 12 rows (``--methods``): ``cone``, the formulation before this change
-(``min_torsal_angle`` one row per face with ``|p|`` smoothed over the strength floor, plus every
-``hyperbolic`` row); ``split`` (the default now: two rows per face, linear in ``p``, and no
-``hyperbolic`` rows where they are implied); ``elastic`` (split with l1-exact slacks, rho 1e4);
-``lbfgs`` (the paper's baseline, constraints as penalties).
+Methods of the Fig. 12 rows (``--methods``): ``cone`` (``min_torsal_angle`` one row per face
+with ``|p|`` smoothed over the strength floor); ``split`` (two rows per face, linear in ``p``,
+no ``hyperbolic`` rows where they are implied); ``lift`` (the default since 2026-11-23
+evening: the torsal form's coordinates lifted into variables ``(r, t, phi)`` per face, the
+bound as variable bounds); ``anchored`` (rows linear in the torsal form, re-anchored in outer
+rounds); ``elastic`` (split with l1-exact slacks, rho 1e4); ``lbfgs`` (the paper's baseline,
+constraints as penalties).
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--rows 7c 9 11 13 7a 20k 100k]
-          [--methods cone split elastic lbfgs] [--no-lbfgs] [--hessian auto|exact|gauss-newton]
+          [--methods cone split lift anchored elastic lbfgs] [--no-lbfgs]
+          [--hessian exact|guarded|auto|gauss-newton]
 
 Note the machine load (``uptime``) next to the numbers: timings on a shared machine vary.
 
@@ -89,9 +92,67 @@ Gauss-Newton lands on a line bundle, the trivial zero of normal + fair + torsal_
 not a bundle. At 100k each factorization is ~5 s CPU: the exact Hessian's 7 regularized
 iterations cost 69 s CPU in search directions, Gauss-Newton's 2 cost 11 s.)
 
+Measured 2026-11-23 (evening, load average 3 to 6.5 on 2 cores, nice 19): the lifted form
+of ``min_torsal_angle`` (now the default) against split, full solve (pass 1 + pass 3) with
+the design's ``max_iter``; wall and CPU of build + solve::
+
+     row  form      it   converged  wall    CPU     objective  min torsal angle  load
+      7c  split     500  no          73.1    49.5  0.46341    40.18             5.4
+      7c  lift      358  yes         34.3    37.0  0.43108    40.01             4.5
+      7c  anchored  500  no          79.9    54.1  0.4856     40.11             5.8
+       9  split    ~1155 (converged, 2026-11-22; 328 in 180 s at load 12: 0.0181)  0.0165
+       9  lift      719  yes        226.8   263.5  0.01600    60.01             3.2
+
+      7d  split     500  no          58.2    19.3  2.2319e-05 46.61             4.9
+      7d  lift       40  yes          9.0     2.2  1.2294e-07 40.01             3.9
+    (7d: the flat facade, 561 vertices, min_torsal_angle 40, from the twisted bundle start)
+
+    bench table (--rows 7c --methods lift split --no-lbfgs, load 5.5 to 6.5):
+      7c  lift   total 67.6  it 358  to quality 18.6  re-solve  3.9  E 0.43108  min ang 40.01
+      7c  split  total 54.5  it 500  to quality  -    re-solve 57.4  E 0.46341  min ang 40.18
+    (--rows 9 --methods lift --no-lbfgs, load 3.8 to 4.3):
+       9  lift   total 261.9 it 719  to quality 120.6 re-solve 28.3  E 0.016000 min ang 60.01
+
+What made the difference, measured on 7c: (1) lifting: the bound becomes ``r >= s``,
+``|t| <= 1`` on variables, so pass 3 can start from the energies' optimum (pass 1's answer)
+although it violates the bound on most faces (split from there: 500 iterations cost 300 s CPU,
+inertia corrections; lifted from the facade's normals: 500 iterations, 0.4983, not
+converged); (2) the gnomonic chart re-centred at that start (``IpoptStrategy._recentre``):
+before it, lines turned 60 to 80 degrees sat at ``|z|`` of 2 to 6 in the start's chart and
+the lifted solve took 500 iterations to 0.4522; after, 358 to 0.43108. The anchored form
+(rows linear in ``g``, re-anchored in outer rounds) did not help: each round takes 100 to 170
+IPOPT iterations even warm-started, so the cone's nonconvexity is not the whole cause. A
+Cartesian lift
+(variables ``(r, t, a, b)``, rows ``v = a``, ``w = b``, ``a^2 + b^2 = r^2``: no angle variable)
+measured, not kept: 500 iterations, 0.43229, not converged. A
+larger strength floor (``min_strength`` 1e-2) made both lift and split worse (0.540 / 0.546
+after 500). ``mu_strategy`` monotone with lift: 500 iterations, 0.4561. The lifted solve
+still spends its last 250 iterations going from 0.4345 (within 1 %) to 0.43108: steps cut
+by the fraction-to-boundary rule with ``||d||`` 0.1 to 0.6, i.e. in ``phi`` and ``t`` of
+faces near the strength floor, where the orientation ``phi`` is nearly free.
+
+Gauss-Newton, measured the same evening (faces without torsal directions: NaN
+``Congruence.torsal_angle``; start 0 on every row)::
+
+     design                        gauss-newton          exact
+     facade + boundary strokes     972 of 2048, E 3e-13  0,  E 7.6e-7
+     example 10                    116 of 2048, E 2e-16  6,  E 2.5e-8
+     7a term set, 1089 vertices    133 of 2048, E 8e-12  1,  E 6.2e-9
+     20k vertices                  > 2 %                 318 of 39200
+     100k vertices                 > 2 %                 142 of 199712
+     row 11 (two congruences)      68 + 473, E 1.8e-12   0 + 0, E 9.3e-9
+
+Every zero-residual design collapses toward a trivial zero (many faces elliptic or bundles),
+so the 42 s at 100k and row 11's 10.7 s above were collapsed answers. ``hessian="guarded"``
+(Gauss-Newton, then the exact Hessian from the same start when the answer has more faces
+without torsal directions than the start by > 2 %) catches all of them, but then costs both
+solves and two builds (100k: 9 iterations, 420 s at load 6 to 7), so the exact Hessian stays
+the default and 100k stays a miss (exact: 120 s at load 2 to 3).
+
 Causes of the misses, measured:
 
-- 7c and 9 (constrained): IPOPT needs more than 500 (7c) and about 1,200 (9) iterations. The
+- 7c and 9 (constrained), before the lifted form (see above for after: 358 and 719
+  iterations, converged): IPOPT needs more than 500 (7c) and about 1,200 (9) iterations. The
   pass with all constraints starts from the facade's normals (objective 137 on 7c, 0.73 on 9;
   the energies' own optimum, 0.42 / 0.013, violates the angle bound on most faces and an
   infeasible or elastic start was measured worse: inertia regularization 1e6 to 1e9) and
@@ -105,7 +166,8 @@ Causes of the misses, measured:
 - 11 (unconstrained at the optimum): met since 2026-11-23 afternoon (10.7 s, re-solve 0.4 s,
   see above); before, 21 regularized exact-Hessian iterations and a doubled build.
 - 100k: with the default (exact) Hessian 7 regularized iterations, 120 s at load 2 to 3;
-  with ``hessian="gauss-newton"`` 42 s, re-solve 9.7 s (met), not the default for the reason above.
+  with ``hessian="gauss-newton"`` 42 s, re-solve 9.7 s, but a collapsed answer (see the
+  evening's Gauss-Newton table): a miss.
 - L-BFGS (the paper's method) ends infeasible as measured on 7c (faces without torsal
   directions) and far from IPOPT's energy on 11 and 13 within 500 iterations.
 """
@@ -170,6 +232,7 @@ def run_row(name, grid, T, problem_fn, solvers, lbfgs_iter):
         p = problem_fn(c, SUN)
         r1 = p.solve(solver=solver, max_iter=None if solver == "ipopt" else lbfgs_iter)
         first = time.perf_counter() - t0
+        no_td = (int(np.isnan(c.torsal_angle()).sum()), int(np.isnan(r1.congruence.torsal_angle()).sum()))
         sun = change(problem_fn, p, c)
         t1 = time.perf_counter()
         r2 = p.solve(solver=solver, max_iter=None if solver == "ipopt" else lbfgs_iter)
@@ -182,7 +245,7 @@ def run_row(name, grid, T, problem_fn, solvers, lbfgs_iter):
                         resolve=again, rebuild=r2.build_seconds, it2=r2.iterations, ok2=r2.success,
                         E0=r1.energies_before["total"], E1=r1.energies_after["total"],
                         E2=r2.energies_after["total"], worst=worst, perp=perp, hyp=hyp,
-                        status=r2.status))
+                        status=r2.status, no_td=no_td, note=r1.status))
     return out
 
 
@@ -231,13 +294,14 @@ def _formulation(p, form: str, elastic: float = 0.0):
     return p
 
 
-#: method -> (solver, how the problem is formulated). "cone": the formulation before this
-#: change (one row per face, |p| smoothed over the strength floor); "split": two rows per face,
-#: linear in p (the default now); "elastic": split with l1-exact slacks (rho 1e4).
+#: method -> (solver, how the problem is formulated): the forms of min_torsal_angle (see the
+#: module docstring; "lift" is the library's default); "elastic": split with l1-exact slacks.
 METHODS = {
     "cone": ("ipopt", lambda p: _formulation(p, "cone")),
     "split": ("ipopt", lambda p: _formulation(p, "split")),
     "elastic": ("ipopt", lambda p: _formulation(p, "split", 1e4)),
+    "lift": ("ipopt", lambda p: _formulation(p, "lift")),
+    "anchored": ("ipopt", lambda p: _formulation(p, "anchored")),
     "lbfgs": ("lbfgs", lambda p: p),
 }
 
@@ -305,13 +369,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--max-vertices", type=int, default=100_000)
     ap.add_argument("--no-lbfgs", action="store_true")
-    ap.add_argument("--methods", nargs="*", default=["cone", "split", "lbfgs"], choices=sorted(METHODS),
-                    help="formulations of the Fig. 12 rows (default: the old cone form, the new split "
-                         "form, the paper's L-BFGS)")
+    ap.add_argument("--methods", nargs="*", default=["split", "lift", "lbfgs"], choices=sorted(METHODS),
+                    help="formulations of the Fig. 12 rows (default: the split form, the lifted form "
+                         "(the library's default), the paper's L-BFGS)")
     ap.add_argument("--lbfgs-iter", type=int, default=500)
     ap.add_argument("--rows", nargs="*", default=None)
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
-    ap.add_argument("--hessian", choices=["auto", "exact", "gauss-newton"], default=None,
+    ap.add_argument("--hessian", choices=["guarded", "auto", "exact", "gauss-newton"], default=None,
                     help="CongruenceProblem(hessian=...) of every row (default: the library's, exact)")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
@@ -326,7 +390,8 @@ def main():
         return
     head = (f"{'row':>5} {'|V|':>7} {'|F|':>7} {'T':>5} {'solver':>6} | {'build':>6} {'solve':>7} "
             f"{'it':>4} {'b+s':>7} {'all':>7} {'<2T':>4} | {'re-solve':>8} {'it':>4} {'<T':>4} | "
-            f"{'E start':>9} {'E first':>9} {'E re':>9} {'worst viol':>10} {'|<e,d>|':>8} {'hyp%':>5} ok")
+            f"{'E start':>9} {'E first':>9} {'E re':>9} {'worst viol':>10} {'|<e,d>|':>8} {'hyp%':>5} "
+            f"{'no td':>11} ok")
     print(head)
     print("-" * len(head))
     for name, grid, pv, pf, T, fn in ROWS:
@@ -345,6 +410,7 @@ def main():
                   f"{r['build']:6.2f} {r['solve']:7.2f} {r['it1']:>4} {bs:7.2f} {r['first']:7.2f} {t_ok:>4} | "
                   f"{r['resolve']:8.2f} {r['it2']:>4} {r_ok:>4} | {r['E0']:9.3e} {r['E1']:9.3e} "
                   f"{r['E2']:9.3e} {r['worst']:10.2e} {r['perp']:8.4f} {100 * r['hyp']:5.1f} "
+                  f"{'%d->%d' % r['no_td']:>11} "
                   f"{'ok' if r['ok1'] and r['ok2'] else 'FAIL: ' + r['status'][:60]}", flush=True)
 
 

@@ -44,8 +44,10 @@ def test_assembled_gradient_and_hessian_match_finite_differences(facade, normali
     b = p._built[normalize]
     e = _noisy(c.directions, 20, rng)
     x0, fr = b.pack(e)
-    x0 = x0 + 0.05 * rng.standard_normal(x0.size)
     par = b.parameters(p._current(), fr)
+    x0 = b.full(x0, par)              # with the lifted variables of min_torsal_angle (3 per face)
+    assert x0.size == b.n_dir + 3 * len(c.faces)
+    x0 = x0 + 0.05 * rng.standard_normal(x0.size)
     lam_g = rng.standard_normal(b.n_g)
     f0, g0 = (np.asarray(v).ravel() for v in b.grad_f(x0, par))
     H = np.asarray(ca.densify(b.hess_lag(x0, par, 1.3, lam_g)))
@@ -53,7 +55,8 @@ def test_assembled_gradient_and_hessian_match_finite_differences(facade, normali
     _, J = b.jac_g(x0, par)
     J = np.asarray(ca.densify(J))
     h = 1e-6
-    for i in rng.choice(x0.size, 8, replace=False):
+    lifted = rng.choice(np.arange(b.n_dir, x0.size), 6, replace=False)
+    for i in np.concatenate([rng.choice(b.n_dir, 8, replace=False), lifted]):
         dx = np.zeros(x0.size)
         dx[i] = h
         fp, gp = (np.asarray(v).ravel() for v in b.grad_f(x0 + dx, par))
@@ -357,7 +360,7 @@ def test_first_hessian_regularization_is_the_analytic_curvature(nu, nv):
 
     c = Congruence.from_normals(flat_facade(nu=nu, nv=nv))       # all e_i = (0, -1, 0)
     w = 3.0
-    p = CongruenceProblem(c).perpendicular(SUN, weight=w)
+    p = CongruenceProblem(c, hessian="exact").perpendicular(SUN, weight=w)     # the exact Hessian's estimate
     r = p.solve()
     assert r.success and np.abs(r.congruence.directions @ SUN).max() < 1e-4
     cos = abs(SUN[1])

@@ -1,8 +1,10 @@
 """The formulations of the torsal-angle constraint reach the same optimum (issue 16).
 
 ``min_torsal_angle`` in split form (two rows per face, linear in the isotropic part ``p``; the
-default), in the previous cone form (``sqrt(p^2 + s^2)``), and the split form with elastic
-slacks (an l1-exact penalty) are different NLPs with the same feasible set up to the strength
+default), in the previous cone form (``sqrt(p^2 + s^2)``), the split form with elastic
+slacks (an l1-exact penalty), the lifted form (variables ``(r, t, phi)`` per face, the bound as
+variable bounds) and the anchored form (rows linear in the torsal form, re-anchored in outer
+rounds) are different NLPs with the same feasible set up to the strength
 floor. On a small doubly curved patch where the bound is active they must give the same
 directions and energy, and every face's torsal angle, measured with numpy from eq. (1), must
 hold the bound.
@@ -54,7 +56,8 @@ def solved():
         # closeness picks one of the many directions perpendicular to the sun
         return CongruenceProblem(c, elastic=elastic).normal().fair().perpendicular(SUN).closeness(weight=0.1)
 
-    for label, form, elastic in (("cone", "cone", 0.0), ("split", "split", 0.0), ("elastic", "split", 1e4)):
+    for label, form, elastic in (("cone", "cone", 0.0), ("split", "split", 0.0), ("elastic", "split", 1e4),
+                                 ("lift", "lift", 0.0), ("anchored", "anchored", 0.0)):
         out[label] = problem(elastic).min_torsal_angle(ALPHA, form=form, min_strength=FLOOR).solve(max_iter=400)
     return out, problem().solve()
 
@@ -65,7 +68,7 @@ def test_the_bound_is_active(solved):
     assert out["split"].objective > free.objective * (1 + 5e-4)
 
 
-@pytest.mark.parametrize("label", ["cone", "split", "elastic"])
+@pytest.mark.parametrize("label", ["cone", "split", "elastic", "lift", "anchored"])
 def test_every_form_holds_the_bound_as_measured_independently(solved, label):
     r = solved[0][label]
     # the cone form's 1/s curvature at p = 0 keeps IPOPT from converging in 400 iterations
@@ -76,7 +79,7 @@ def test_every_form_holds_the_bound_as_measured_independently(solved, label):
     np.testing.assert_allclose(ang, np.nan_to_num(r.congruence.torsal_angle()), atol=1e-6)
 
 
-@pytest.mark.parametrize("label", ["cone", "elastic"])
+@pytest.mark.parametrize("label", ["cone", "elastic", "lift", "anchored"])
 def test_the_forms_reach_the_same_optimum(solved, label):
     out, _ = solved
     ref, r = out["split"], out[label]
@@ -120,3 +123,24 @@ def test_hyperbolic_rows_implied_by_the_angle_bound_are_left_out_and_still_measu
     p.hyperbolic(margin=1e-4)
     p.build()
     assert len(p._built["tangent"].cons[0].elements) == len(c.faces)
+
+
+def test_lifted_coordinates_are_the_invariants():
+    """(u, v, w) of forms.torsal_form_coordinates_sx: u = p and v^2 + w^2 = rho^2 of
+    terms.torsal_form_invariants_sx, and |u| / sqrt(v^2 + w^2) is the cosine of the measured
+    torsal angle."""
+    from torsal.geometry.optimize.forms import torsal_form_coordinates_element
+
+    fn = torsal_form_coordinates_element().fn
+    rng = np.random.default_rng(3)
+    a = np.array([0, 0, 0, 1.1, 0.1, 0, 0.3, 0.9, 0.05])
+    for _ in range(20):
+        e = np.array([[0, 0, 1.0], [0, 0, 1.0], [0, 0, 1.0]]) + 0.2 * rng.standard_normal((3, 3))
+        e /= np.linalg.norm(e, axis=1, keepdims=True)
+        u, v, w = (float(fn(e.ravel(), a, [0.5, 1e-3, *k])) for k in np.eye(3))
+        c = Congruence(a.reshape(3, 3), np.array([[0, 1, 2]]), e)
+        ang = c.torsal_angle()[0]
+        if np.hypot(v, w) > abs(u) * (1 + 1e-9):
+            assert np.degrees(np.arccos(abs(u) / np.hypot(v, w))) == pytest.approx(ang, abs=1e-6)
+        else:
+            assert np.isnan(ang) or ang == pytest.approx(0.0, abs=1e-3)

@@ -31,9 +31,10 @@ Constraints are measured, not trusted: after every iterate and at the end, torsa
 hyperbolicity and angles to a direction are measured on the resulting congruence
 (:mod:`.measure`), ``OptimizationResult.max_violation`` is in each constraint's own units
 (degrees for angles), and a solve whose measured value misses a bound by more than 0.1
-degree is not ``success``. ``min_torsal_angle`` is imposed in a regular split form (two rows
-per face, :mod:`.forms`) with a documented lower bound on the torsal form's strength
-(:meth:`CongruenceProblem.min_torsal_angle`). One-sided inequalities can be made elastic
+degree is not ``success``. ``min_torsal_angle`` is imposed in a lifted form (the torsal form's
+coordinates as NLP variables ``(r, t, phi)`` per face, the angle bound and a documented lower
+bound on the torsal form's strength as variable bounds; :mod:`.forms`,
+:meth:`CongruenceProblem.min_torsal_angle`). One-sided inequalities can be made elastic
 (``CongruenceProblem(elastic=rho)``, l1-exact slacks).
 
 Package layout (one responsibility per module):

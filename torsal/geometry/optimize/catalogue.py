@@ -52,6 +52,7 @@ class Term:
     kind: str = "value"                  # how a constraint is measured (see measure.KINDS)
     bound: float = math.nan              # the user's bound, in the constraint's own units
     block: int = 0                       # the aligned congruence its elements belong to
+    lift: bool = False                   # rows k . (u, v, w) = lifted variables (nlp.Built._lift)
 
     @property
     def size(self) -> int:

@@ -16,6 +16,12 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
   faces (the inherent curvature of a norm), not ``1/s``. The apex (a line bundle, ``rho = p
   = 0``) stays infeasible, value ``(cos(alpha) - 1) s < 0``, and a feasible face has the same
   strength floor ``rho >= s tan(alpha)`` as the cone form.
+- ``"lift"`` (the default): the coordinates ``(u, v, w)`` of the form in an orthonormal frame
+  (:func:`torsal_form_coordinates_sx`, linear in ``g``) equal lifted variables
+  ``(cos(alpha) r t, r cos(phi), r sin(phi))``; the bound is ``r >= s``, ``|t| <= 1`` on
+  variables (assembled in :meth:`torsal.geometry.optimize.nlp.Built._lift`).
+- ``"anchored"``: rows linear in ``g`` with ``rho`` replaced by its projection on an anchor,
+  re-anchored in outer rounds (:func:`torsal_angle_anchored_element`).
 """
 from __future__ import annotations
 
@@ -24,7 +30,54 @@ import casadi as ca
 from .. import terms as T
 
 #: The forms :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` offers.
-ANGLE_FORMS = ("split", "cone")
+ANGLE_FORMS = ("anchored", "lift", "split", "cone")
+
+
+def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
+    """``(u, v, w)``: the torsal form in an orthonormal frame of the face, linear in ``g``.
+
+    With ``M = R^T R`` (Cholesky, ``R`` upper triangular) the form has matrix
+    ``S' = R^-T S R^-1 = [[u + v, w], [w, u - v]]`` in the orthonormal frame ``(a_u/|a_u|, ...)``
+    (Gram-Schmidt of the face edges). ``u = p`` is its isotropic part and ``v^2 + w^2 = rho^2``
+    its strength squared (:func:`torsal.geometry.terms.torsal_form_invariants_sx`): the torsal
+    directions are at least ``alpha`` apart iff ``|u| <= cos(alpha) sqrt(v^2 + w^2)``.
+    """
+    g0, g1, g2 = T.torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
+    E, F, G = ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+    r11 = ca.sqrt(E)
+    r12 = F / r11
+    r22 = ca.sqrt(E * G - F * F) / r11
+    # R^-1 = [[1/r11, -r12/(r11 r22)], [0, 1/r22]]; S' = R^-T S R^-1
+    i11, i12, i22 = 1.0 / r11, -r12 / (r11 * r22), 1.0 / r22
+    s11 = g0 * i11 * i11
+    s12 = i11 * (g0 * i12 + g1 * i22)
+    s22 = g0 * i12 * i12 + 2.0 * g1 * i12 * i22 + g2 * i22 * i22
+    return 0.5 * (s11 + s22), 0.5 * (s11 - s22), s12
+
+
+def torsal_form_coordinates_element() -> T.ElementTerm:
+    """One coordinate of the torsal form of a face, ``k . (u, v, w)`` (lifted form of c_ang).
+
+    ``x`` the face's 3 unit line directions (9), ``data`` its corners in units of ``delta``
+    (9), ``par = [cos alpha, s, k0, k1, k2]`` with ``k`` a unit vector selecting ``u``, ``v``
+    or ``w`` (:func:`torsal_form_coordinates_sx`); ``cos alpha`` and the strength floor ``s``
+    are read by the lifted variables' part of the NLP (:mod:`~torsal.geometry.optimize.nlp`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
+    >>> e = np.array([0, 0, 1, 0.1, 0, 1, 0, -0.1, 1.0])   # torsal directions at 90 deg
+    >>> fn = torsal_form_coordinates_element().fn
+    >>> u, v, w = (float(fn(e, a, [0.7, 1e-3] + list(k))) for k in np.eye(3))
+    >>> round(float(abs(u) / np.hypot(v, w)), 6)            # cos of the torsal angle
+    0.0
+    """
+    x, data, par = T.face_symbols(3, n_par=5)
+    a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
+    u, v, w = torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e_c)
+    c = par[2] * u + par[3] * v + par[4] * w
+    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_lift", [x, data, par], [c]), 3)
 
 
 def torsal_angle_split_element() -> T.ElementTerm:
@@ -52,3 +105,33 @@ def torsal_angle_split_element() -> T.ElementTerm:
     s = par[1]
     c = par[0] * ca.sqrt(rho2 + s * s) - s - par[2] * p
     return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_split", [x, data, par], [c]), 3)
+
+
+def torsal_angle_anchored_element() -> T.ElementTerm:
+    """One half of c_ang restricted to an anchored orientation: ``c ((v, w) . n - s) - sign * u >= 0``.
+
+    ``par = [cos alpha, s, sign, n1, n2]`` with ``n`` a unit vector of the ``(v, w)`` plane
+    (:func:`torsal_form_coordinates_sx`): the orientation of the torsal directions' bisector
+    at the anchor (twice its angle). Since ``(v, w) . n <= sqrt(v^2 + w^2) = rho``, both rows
+    imply ``|u| <= cos(alpha) rho`` and ``rho >= s``: the set is an inner, convex (in ``g``)
+    restriction of the exterior of the double cone, exact where ``(v, w)`` points along ``n``.
+    Both rows are linear in ``g``: no curvature of ``rho`` (``1/rho``) meets a multiplier.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
+    >>> e = np.array([0, 0, 1, 0.1, 0, 1, 0, -0.1, 1.0])   # torsal directions at 90 deg
+    >>> fn, co = torsal_angle_anchored_element().fn, torsal_form_coordinates_element().fn
+    >>> v, w = (float(co(e, a, [0.7, 1e-3] + list(k))) for k in np.eye(3)[1:])
+    >>> n = [v / np.hypot(v, w), w / np.hypot(v, w)]
+    >>> bool(min(float(fn(e, a, [0.7, 1e-3, s] + n)) for s in (1, -1)) > 0)
+    True
+    >>> bool(float(fn(e, a, [0.7, 1e-3, 1, -n[0], -n[1]])) < 0)   # the opposite anchor
+    True
+    """
+    x, data, par = T.face_symbols(3, n_par=5)
+    a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
+    u, v, w = torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e_c)
+    c = par[0] * (v * par[3] + w * par[4] - par[1]) - par[2] * u
+    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_anchored", [x, data, par], [c]), 3)

@@ -75,6 +75,7 @@ class Built:
                  hessian: str = "exact", elastic: float = 0.0):
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
+        self.hessian = hessian
         tangent = mode == "tangent"
         dof = 2 if tangent else 3
         n_e = 3 * n_vertices
@@ -86,10 +87,20 @@ class Built:
         self.elastic_rows = np.flatnonzero(el_rows)
         self.n_slack = int(self.elastic_rows.size)
         self.elastic = float(elastic)
-        self.n_dir = n_var
-        self.n_var = n_var + self.n_slack
+        # lifted torsal forms (see _lift): 3 variables (r, t, phi) per face of a lifted term,
+        # one per row; after the directions, before the elastic slacks
+        self.lifts = []
+        n_lift = 0
+        g_start = np.concatenate([[0], np.cumsum([c.size for c in cons])]).astype(np.int64)
+        for t, go in zip(cons, g_start):
+            if t.lift:
+                self.lifts.append((t, int(go), n_var + n_lift))
+                n_lift += t.size
+        self.n_dir, self.n_lift = n_var, n_lift
+        self.n_main = n_var + n_lift
+        self.n_var = self.n_main + self.n_slack
         x_all = ca.MX.sym("x", self.n_var)
-        x = x_all[0:n_var] if self.n_slack else x_all
+        x = x_all[0:n_var] if self.n_var > n_var else x_all
         n_fr = 9 * n_vertices if tangent else 0
         self.n_frames = n_fr
         offsets, n_p = [], n_fr
@@ -220,13 +231,25 @@ class Built:
             return out
 
         grad = scatter_dense(grad_parts, grad_rows, n_var, dense_grad)
+        if n_lift:   # the objective does not depend on the lifted variables
+            grad = ca.vertcat(grad, ca.MX.zeros(n_lift, 1))
+        n_main = self.n_main
+        for t, go, lo in self.lifts:
+            off = offsets[next(i for i, u in enumerate(terms) if u is t)]
+            dg, jp, hp = self._lift(t, go, lo, x_all, p, lam_g, off)
+            ci = next(i for i, u in enumerate(cons) if u is t)
+            g_parts[ci] = g_parts[ci] - dg
+            for parts, (vals, rr, cc) in ((j_parts, jp), (h_parts, hp)):
+                parts.append(vals)
+                (j_rows if parts is j_parts else h_rows).append(rr)
+                (j_cols if parts is j_parts else h_cols).append(cc)
         g = ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
         if j_parts:
             jr, jcol = np.concatenate(j_rows), np.concatenate(j_cols)
             ukey, S = _scatter(jcol * n_g + jr)
-            jac = ca.MX(_ccs(ukey, n_g, n_var), ca.mtimes(S, ca.vertcat(*j_parts)))
+            jac = ca.MX(_ccs(ukey, n_g, n_main), ca.mtimes(S, ca.vertcat(*j_parts)))
         else:
-            jac = ca.MX(n_g, n_var)
+            jac = ca.MX(n_g, n_main)
         if tangent:   # the chart's own curvature: sum_c (dL/de_c) d2 e_c / dz2, per vertex
             g_lag = scatter_dense(lag_parts, lag_rows, n_e, dense_lag)
             dz = chart_hess.map(n_vertices)(Z, FR, ca.reshape(g_lag, 3, n_vertices))   # (3, n)
@@ -236,11 +259,12 @@ class Built:
             h_cols.append(np.stack([base, base + 1, base + 1], 1).ravel())
         if h_parts:
             hr, hc = np.concatenate(h_rows), np.concatenate(h_cols)
-            ukey, S = _scatter(hc * n_var + hr)
-            hess = ca.MX(_ccs(ukey, n_var, n_var), ca.mtimes(S, ca.vertcat(*h_parts)))
+            ukey, S = _scatter(hc * n_main + hr)
+            hess = ca.MX(_ccs(ukey, n_main, n_main), ca.mtimes(S, ca.vertcat(*h_parts)))
         else:
-            hess = ca.MX(ca.Sparsity(n_var, n_var))
+            hess = ca.MX(ca.Sparsity(n_main, n_main))
         for coef, Qg in quad_h:
+            Qg.resize((n_main, n_main))
             hess = hess + coef * _to_casadi(Qg)
 
         self._evaluate = ca.Function("evaluate", [x_all, p],
@@ -261,8 +285,15 @@ class Built:
         self.cons = cons
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)
-        #: variable bounds: the directions are free, elastic slacks are >= 0
-        self.lbx = np.concatenate([np.full(self.n_dir, -np.inf), np.zeros(self.n_slack)])
+        #: variable bounds: the directions are free, elastic slacks are >= 0 (the lifted
+        #: variables' bounds depend on the parameters: see variable_bounds)
+        self.lbx = np.concatenate([np.full(self.n_main, -np.inf), np.zeros(self.n_slack)])
+        self.ubx = np.full(self.n_var, np.inf)
+        #: rows of inequality constraints, the lifted forms' included (their equality rows
+        #: impose inequalities through the lifted variables' bounds)
+        self.inequality_rows = self.lbg < self.ubg
+        for t, go, lo in self.lifts:
+            self.inequality_rows[go:go + t.size] = True
         self.solvers: dict = {}
         # first Hessian regularization per IPOPT objective scaling (see _hessian_shift)
         self.hessian_shifts: dict[tuple, float] = {}
@@ -282,7 +313,7 @@ class Built:
         is a KKT point of the elastic one with ``p = 0`` (exact penalty, Thierry and Biegler
         2020); a positive slack at the answer shows up as a measured violation.
         """
-        ns, nd = self.n_slack, self.n_dir
+        ns, nd = self.n_slack, self.n_main
         sl = x_all[nd:nd + ns]
         rho = p[self.n_par - 1] / max(self.n_vertices, 1)
         f = f + rho * ca.sum1(sl)
@@ -295,36 +326,107 @@ class Built:
         hess = ca.diagcat(hess, ca.MX(ns, ns))
         return f, grad, g, jac, hess
 
+    @staticmethod
+    def _lift(t: Term, go: int, lo: int, x_all, p, lam_g, off: int):
+        """The lifted variables' part of a lifted torsal-angle term (see :mod:`.forms`).
+
+        The term's ``3 m`` rows are ``G_k(e)``, the coordinates ``(u, v, w)`` of the torsal
+        form of its ``m`` faces (``k``-major: all ``u`` rows, then ``v``, then ``w``). With
+        variables ``(r, t, phi)`` per face they become the equality rows::
+
+            G(e) - H(y) = 0,    H(r, t, phi) = (cos(alpha) r t, r cos(phi), r sin(phi))
+
+        and the bounds ``r >= s``, ``-1 <= t <= 1`` (:meth:`variable_bounds`) say
+        ``|u| <= cos(alpha) sqrt(v^2 + w^2)`` (torsal angle >= alpha) and strength >= s.
+        The inequalities are bounds on variables, no constraint's gradient vanishes (the
+        apex ``g = 0`` is outside the bounds), and the nonconvexity of the cone's exterior
+        lives in the equality rows (``r cos(phi)``, ``r sin(phi)``). Returns ``H`` as a
+        column over the rows and the Jacobian and Hessian-of-the-Lagrangian entries (values,
+        rows, columns) in the lifted variables.
+        """
+        m = t.size // 3
+        Y = ca.reshape(x_all[lo:lo + 3 * m], 3, m)
+        r, tt, ph = Y[0, :], Y[1, :], Y[2, :]
+        c = ca.reshape(p[off + 1:off + 1 + t.size * t.par.shape[1]], t.par.shape[1], t.size)[0, 0:m]
+        cs, sn = ca.cos(ph), ca.sin(ph)
+        dg = ca.vertcat((c * r * tt).T, (r * cs).T, (r * sn).T)
+        f = np.arange(m)
+        ru, rv, rw = go + f, go + m + f, go + 2 * m + f
+        cr, ct, cp = lo + 3 * f, lo + 3 * f + 1, lo + 3 * f + 2
+        jv = ca.vertcat(-(c * tt).T, -(c * r).T, -cs.T, (r * sn).T, -sn.T, -(r * cs).T)
+        jr = np.concatenate([ru, ru, rv, rv, rw, rw])
+        jc = np.concatenate([cr, ct, cr, cp, cr, cp])
+        lu = ca.reshape(lam_g[go:go + m], 1, m)
+        lv = ca.reshape(lam_g[go + m:go + 2 * m], 1, m)
+        lw = ca.reshape(lam_g[go + 2 * m:go + 3 * m], 1, m)
+        hv = ca.vertcat(-(lu * c).T, (lv * sn - lw * cs).T, (r * (lv * cs + lw * sn)).T)
+        hr = np.concatenate([cr, cr, cp])
+        hc = np.concatenate([ct, cp, cp])
+        return dg, (jv, jr, jc), (hv, hr, hc)
+
+    def lifted_values(self, x_dir: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """The lifted variables ``(r, t, phi)`` per face that fit the directions' ``x_dir``:
+        ``r = max(sqrt(v^2 + w^2), s)``, ``phi = atan2(w, v)``, ``t = u / (cos(alpha) r)``
+        clipped to [-1, 1] (so the rows hold exactly where the bounds do)."""
+        y = np.zeros(self.n_lift)
+        g = np.asarray(self._evaluate(np.concatenate([x_dir, y, np.zeros(self.n_slack)]), p)[2]).ravel()
+        for t, go, lo in self.lifts:
+            m = t.size // 3
+            u, v, w = g[go:go + m], g[go + m:go + 2 * m], g[go + 2 * m:go + 3 * m]
+            off = self.p_offsets[next(i for i, u in enumerate(self.terms) if u is t)]
+            par = np.asarray(p, dtype=float)[off + 1:off + 1 + t.par.size].reshape(t.par.shape)
+            c, s = par[:m, 0], par[:m, 1]
+            r = np.maximum(np.hypot(v, w), s)
+            y[lo - self.n_dir:lo - self.n_dir + 3 * m] = np.stack(
+                [r, np.clip(u / (c * r), -1.0, 1.0), np.arctan2(w, v)], axis=1).ravel()
+        return y
+
+    def variable_bounds(self, current: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(lbx, ubx)``: lifted ``r >= s`` and ``-1 <= t <= 1`` (``s`` from the ``current``
+        terms by name), elastic slacks ``>= 0``, everything else free."""
+        lbx, ubx = self.lbx.copy(), self.ubx.copy()
+        for t, go, lo in self.lifts:
+            m = t.size // 3
+            src = (current or {}).get(t.name, t)
+            lbx[lo:lo + 3 * m:3] = src.par[:m, 1]
+            lbx[lo + 1:lo + 3 * m:3], ubx[lo + 1:lo + 3 * m:3] = -1.0, 1.0
+        return lbx, ubx
+
     def evaluate(self, x: np.ndarray, p: np.ndarray):
         """(energies, objective, c) at ``x`` without the elastic slacks and their penalty."""
-        return self._evaluate(self.full(x), p)
+        return self._evaluate(self.full(x, p), p)
 
-    def full(self, x: np.ndarray) -> np.ndarray:
-        """``x`` (directions only, or all variables) as all variables (slacks kept or 0)."""
+    def full(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
+        """``x`` (directions only, or all variables) as all variables: lifted variables from
+        the directions (:meth:`lifted_values`, needs ``p``), slacks kept or 0."""
         x = np.asarray(x, dtype=float).ravel()
-        return x if x.size == self.n_var else np.concatenate([x[:self.n_dir], np.zeros(self.n_slack)])
+        if x.size == self.n_var:
+            return x
+        y = self.lifted_values(x[:self.n_dir], p) if self.n_lift else np.zeros(0)
+        return np.concatenate([x[:self.n_dir], y, np.zeros(self.n_slack)])
 
     def with_slacks(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """All variables with the elastic slacks just large enough: ``p_j = max(l_j - c_j, 0)``."""
-        x = self.full(x)
+        x = self.full(x, p)
         if self.n_slack:
-            c = np.asarray(self._evaluate(np.concatenate([x[:self.n_dir], np.zeros(self.n_slack)]), p)[2]).ravel()
+            c = np.asarray(self._evaluate(np.concatenate([x[:self.n_main], np.zeros(self.n_slack)]), p)[2]).ravel()
             x = x.copy()
-            x[self.n_dir:] = np.maximum(self.lbg[self.elastic_rows] - c[self.elastic_rows], 0.0)
+            x[self.n_main:] = np.maximum(self.lbg[self.elastic_rows] - c[self.elastic_rows], 0.0)
         return x
 
     def penalty(self, x: np.ndarray, p: np.ndarray) -> float:
         """The elastic penalty ``rho / |V| * sum p_j`` at ``x`` (0 without slacks)."""
         if not self.n_slack:
             return 0.0
-        return float(p[self.n_par - 1] / max(self.n_vertices, 1) * np.sum(np.asarray(x).ravel()[self.n_dir:]))
+        return float(p[self.n_par - 1] / max(self.n_vertices, 1) * np.sum(np.asarray(x).ravel()[self.n_main:]))
 
     # conversions between directions e (n, 3) and the NLP's (x, frames)
     def pack(self, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The directions' variables (``n_dir``; see :meth:`full` for the others) and frames."""
         e = np.asarray(e, dtype=float).reshape(-1, 3)
         if self.mode == "tangent":
-            return np.zeros(self.n_var), tangent_frames(e)
-        return self.full(e.ravel()), np.zeros((0, 9))
+            return np.zeros(self.n_dir), tangent_frames(e)
+        return e.ravel().copy(), np.zeros((0, 9))
 
     def unpack(self, x: np.ndarray, frames: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float).ravel()[:self.n_dir]

@@ -23,7 +23,8 @@ from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
                         _stroke_barycentric, _unit_rows, _var_index)
-from .forms import ANGLE_FORMS, torsal_angle_split_element
+from .forms import (ANGLE_FORMS, torsal_angle_anchored_element, torsal_angle_split_element,
+                    torsal_form_coordinates_element)
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
 from .lbfgs import lbfgs
@@ -31,6 +32,19 @@ from .measure import Measurement, measure, worst_missed
 from .nlp import Built, _renormalize
 from .result import OptimizationError, OptimizationResult
 from .working_set import _working_ids
+
+#: the ``hessian`` options of :class:`CongruenceProblem` (the first is the default)
+HESSIANS = ("exact", "guarded", "gauss-newton", "auto")
+
+#: "guarded": a Gauss-Newton answer with more faces without torsal directions than the start,
+#: by more than this share of the faces, counts as collapsed (re-solved with the exact Hessian)
+COLLAPSE_SHARE = 0.02
+
+_COORDS = torsal_form_coordinates_element().fn     # (u, v, w) of a face's torsal form (.forms)
+
+#: anchored form: stop the outer rounds when no active face's anchor moves by this (radians)
+ANCHOR_TOL = 1e-3
+
 
 class CongruenceProblem:
     """An optimization problem over the line directions of a congruence (Wang et al. 2013, 4.1).
@@ -52,28 +66,32 @@ class CongruenceProblem:
         ``"renormalize"``: the paper's way: no unit constraint; a penalty
         ``mean((||e_i||^2 - 1)^2)`` (weight 1) keeps lengths near 1 during a solve, and the
         directions are renormalized afterwards (and after every round of ``lbfgs``).
-    hessian : {"auto", "exact", "gauss-newton"}
+    hessian : {"exact", "guarded", "gauss-newton", "auto"}
         Hessian of the energies' part of the Lagrangian. ``"gauss-newton"``: ``2 J_r^T J_r`` for
         every energy that is a sum of squares (all built-in ones but ``fair``, which is
         quadratic and exact either way), no chart curvature for them; positive semidefinite,
         so IPOPT's inertia correction only meets the constraints' curvature (the constraints
-        keep their exact Hessian). ``"exact"`` (default): the exact Hessian. ``"auto"``:
-        Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP without them,
-        see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP. Measured
-        (benchmarks/optimize_bench.py, 2026-11-23): on row 11 (pass 1 answers, 20k
-        variables) the exact Hessian is indefinite away from the optimum, IPOPT regularizes
-        every iteration (damped steps, two or more factorizations each) and needs 21
-        iterations to 9.5e-9; Gauss-Newton 4 iterations to 1.8e-12, no line bundle either (the
-        energies are nearly zero-residual there, where Gauss-Newton converges quadratically);
-        row 13 16 iterations instead of 22, same objective. Not the default elsewhere: on a
-        facade with strokes (normal, fair, torsal_direction; tests/geometry/test_optimize.py)
-        its full steps land on a line bundle (objective 6e-16, no torsal directions), a
-        trivial zero of the stroke residual, where the exact Hessian keeps following the
-        strokes; with inequalities, row 7c: 500 iterations to 0.4788 against 0.4616 exact.
-        ``"auto"`` was the default for a day and was withdrawn, measured at full size: its
-        pass 1 turned example 10 into a near line bundle (116 faces without torsal
-        directions, minimum torsal angle 0.5 degrees, against 6 and 11.1 exact) and left a
-        face of this class's doctest non-hyperbolic; row 11 and 100k use it by choice.
+        keep their exact Hessian). ``"exact"`` (default): the exact Hessian. ``"guarded"``:
+        Gauss-Newton for a problem without constraints, checked: if its answer has more
+        faces without torsal directions than the start, by more than ``COLLAPSE_SHARE`` (2 %)
+        of the faces (:meth:`_collapse`), the solve is repeated from the same start with the
+        exact Hessian, which the problem then keeps; exact for a problem with constraints.
+        ``"auto"``: Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP
+        without them, see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP.
+        Measured (benchmarks/optimize_bench.py, 2026-11-23): Gauss-Newton converges in 2 to
+        4 iterations where the exact Hessian is indefinite and regularized every iteration
+        (row 11: 4 instead of 21; 100k vertices: 42 s instead of 123 s), but its full steps
+        can land on a trivial zero of the energies, close to a line bundle: on a facade with
+        boundary strokes (normal, fair, torsal_direction) 972 of 2048 faces without torsal
+        directions (exact: 0), on example 10 116 (exact: 6; the start: 0), on the 7a term set
+        133 of 2048 and at 100k vertices more than 2 % (exact: 1 and 142), on row 11 68 and
+        473 on its two congruences (exact: 0, 0). The guard catches every one and returns
+        the exact Hessian's answer, but then costs the Gauss-Newton solve and a second build
+        on top (100k: 9 iterations and two builds), so it is not the default: every
+        zero-residual design measured collapses; it pays off where the energies' minimum is
+        not zero (e.g. with ``closeness``). With inequalities, the Gauss-Newton
+        pass 1 (``"auto"``) turned example 10 into a near line bundle and left a face of this
+        class's doctest non-hyperbolic, so constrained solves stay exact.
     elastic : float, default 0
         ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
         ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
@@ -124,9 +142,10 @@ class CongruenceProblem:
         self.congruence = congruence
         self.normalize = normalize
         self.jit = bool(jit)
-        if hessian not in ("auto", "gauss-newton", "exact"):
-            raise ValueError(f"hessian must be 'auto', 'gauss-newton' or 'exact', got {hessian!r}")
+        if hessian not in HESSIANS:
+            raise ValueError(f"hessian must be one of {HESSIANS}, got {hessian!r}")
         self.hessian = hessian
+        self._exact_after_collapse = False     # "guarded": Gauss-Newton collapsed, see solve
         if not (np.isfinite(elastic) and elastic >= 0):
             raise ValueError(f"elastic must be a finite number >= 0 (0: off), got {elastic}")
         self.elastic = float(elastic)
@@ -165,6 +184,7 @@ class CongruenceProblem:
             return self   # only parameters / weight changed: keep the built solver
         self._built.clear()
         self._last = None
+        self._exact_after_collapse = False
         return self
 
     def _face_data(self, faces: np.ndarray, block: int = 0):
@@ -591,39 +611,56 @@ class CongruenceProblem:
         return self._add(t)
 
     def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
-                         min_strength: float = 1e-3, form: str = "split") -> "CongruenceProblem":
+                         min_strength: float = 1e-3, form: str = "lift") -> "CongruenceProblem":
         """Torsal directions at least ``alpha_deg`` apart on every face (c_ang, Wang et al. 2013, 4.1).
 
-        ``form="split"`` (default): two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
+        ``form="lift"`` (default): the torsal form's coordinates ``(u, v, w)`` in an
+        orthonormal frame of the face (:func:`~torsal.geometry.optimize.forms.torsal_form_coordinates_sx`,
+        ``u = p`` its isotropic part, ``sqrt(v^2 + w^2) = rho`` its strength) are lifted into
+        the NLP as three variables ``(r, t, phi)`` per face with three equality rows::
+
+            (u, v, w)(e) = (cos(alpha) r t, r cos(phi), r sin(phi)),   r >= s,  -1 <= t <= 1
+
+        The angle bound ``|p| <= cos(alpha) rho`` and the strength floor are bounds on
+        variables: no inequality row, nothing whose gradient vanishes at the apex ``g = 0``
+        (a line bundle, outside ``r >= s``), and the start needs not be feasible (pass 3
+        starts from the energies' optimum). Measured (benchmarks/optimize_bench.py): row 7c
+        358 iterations, converged, objective 0.4311 (split: 746 iterations, 0.4572); row 9 719
+        iterations, converged, 0.0160 (split: about 1,155, 0.0165).
+
+        ``form="split"``: two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0
 
-        ``form="cone"`` (the form before; one row per face,
+        ``form="cone"`` (one row per face,
         :func:`torsal.geometry.terms.torsal_angle_cone_element`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0
 
+        ``form="anchored"``: the split rows with ``rho`` replaced by ``(v, w) . n``, ``n`` the
+        orientation at the start of the round, re-anchored at each answer (outer rounds, an
+        inner convex-in-``g`` restriction; measured on row 7c: 500 iterations, 0.4498, not
+        converged: each round takes 100+ iterations).
+
         (``p``, ``rho``: isotropic part and strength of the torsal form, eq. (1), per edge
-        length; ``s = min_strength``). Both imply hyperbolicity, keep their gradient where
-        the printed polynomial c_ang loses it, and make a line bundle infeasible. The split
-        form needs no smoothing of ``|p|``, whose ``1/s`` curvature at ``p = 0`` the cone
-        form carries: measured on a 9 x 7 patch at 85 degrees with ``s = 1e-5``, split 19
-        IPOPT iterations, cone not converged in 400; on row 7c (500 iterations, neither
-        converged) objective 0.492 against 0.500. The strength floor:
+        length; ``s = min_strength``). All imply hyperbolicity and make a line bundle
+        infeasible. The split form needs no smoothing of ``|p|``, whose ``1/s`` curvature at
+        ``p = 0`` the cone form carries: measured on a 9 x 7 patch at 85 degrees with
+        ``s = 1e-5``, split 19 IPOPT iterations, cone not converged in 400. The strength floor:
 
         *Design choice*: a face that must have torsal directions at least ``alpha`` apart
         must have torsal directions, so the torsal form's strength is bounded below,
-        ``rho >= s tan(alpha)`` (radians of line rotation per edge length ``delta``; the
-        default ``1e-3`` is about a thousandth of a degree per edge: a fin pattern you
-        cannot see, but a face that is not a bundle). Set ``min_strength`` larger to keep
-        fins away from the parallel-line limit.
+        ``rho >= s`` (lift; ``s tan(alpha)`` split and cone; radians of line rotation per
+        edge length ``delta``; the default ``1e-3`` is about a thousandth of a degree per
+        edge: a fin pattern you cannot see, but a face that is not a bundle). Set
+        ``min_strength`` larger to keep fins away from the parallel-line limit.
 
         The result is measured, not trusted: ``OptimizationResult.max_violation`` gives how
         far the smallest measured torsal angle is below ``alpha_deg`` (degrees; a face without
         torsal directions counts as 0 degrees) and ``success`` is False beyond 0.1 degrees.
         The bound is imposed at ``alpha_deg + safety_deg``; IPOPT's constraint tolerance
         (1e-9) is worth at most ``1e-9 / (s tan(alpha) sin(alpha))`` radians (< 1e-4 degrees
-        for ``alpha >= 5``).
+        for ``alpha >= 5``; lift: ``1e-9 / (s sin(alpha))``).
 
         Examples
         --------
@@ -646,13 +683,16 @@ class CongruenceProblem:
             t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
                      np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
                      bound=float(alpha_deg))
-        else:   # two rows per face, +p and -p (see .forms)
+        elif form == "anchored":   # two rows per face, anchored at the start of every solve
             m = len(fi)
-            par = np.concatenate([np.tile([c, float(min_strength), 1.0], (m, 1)),
-                                  np.tile([c, float(min_strength), -1.0], (m, 1))])
-            t = Term("min_torsal_angle", True, torsal_angle_split_element(), _var_index(np.tile(fv, (2, 1)), 0),
+            par = np.concatenate([np.tile([c, float(min_strength), sg, 1.0, 0.0], (m, 1)) for sg in (1.0, -1.0)])
+            t = Term("min_torsal_angle", True, torsal_angle_anchored_element(), _var_index(np.tile(fv, (2, 1)), 0),
                      np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle",
                      bound=float(alpha_deg))
+        elif form == "lift":   # three rows per face, u, v, w = lifted variables (see .forms)
+            t = _lifted_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
+        else:
+            t = _split_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
         return self._add(t)
 
     def max_angle_to(self, d, theta_deg: float, vertices=None) -> "CongruenceProblem":
@@ -715,7 +755,8 @@ class CongruenceProblem:
         if t.kind != "hyperbolicity" or np.any(t.par[:, 0] > 0):
             return t
         covered = [a.elements for a in self._terms.values()
-                   if a.kind == "torsal_angle" and a.block == t.block and a.element.fn.name() == "c_ang_split"]
+                   if a.kind == "torsal_angle" and a.block == t.block
+                   and a.element.fn.name() in ("c_ang_split", "c_ang_lift", "c_ang_anchored")]
         if not covered:
             return t
         keep = ~np.isin(t.elements, np.concatenate(covered))
@@ -724,7 +765,8 @@ class CongruenceProblem:
         return replace(t, idx=t.idx[keep], data=t.data[keep], par=t.par[keep], elements=t.elements[keep])
 
     def _term_list(self, mode: str) -> list[Term]:
-        out = [(_penalty_term(t) if (mode == "penalty" and t.constraint) else self._implied_hyperbolic(t))
+        # the L-BFGS baseline has no variables but the directions: a lifted form as split rows
+        out = [(_penalty_term(_unlifted(t)) if (mode == "penalty" and t.constraint) else self._implied_hyperbolic(t))
                for t in self._terms.values()]
         out = [t for t in out if t is not None]
         nv = self.n_var // 3
@@ -761,6 +803,9 @@ class CongruenceProblem:
     def _hessian_of(self, pass1: bool) -> str:
         """The energies' Hessian of an NLP (``hessian="auto"``: Gauss-Newton for pass 1 of a
         solve with inequalities, exact otherwise; see the class docstring)."""
+        if self.hessian == "guarded":
+            constrained = any(t.constraint for t in self._terms.values())
+            return "exact" if constrained or self._exact_after_collapse else "gauss-newton"
         if self.hessian != "auto":
             return self.hessian
         return "gauss-newton" if pass1 else "exact"
@@ -770,7 +815,7 @@ class CongruenceProblem:
         key = mode + "/without-inequalities"
         if key in self._built:
             return self._built[key], 0.0
-        terms = [t for t in self._term_list(mode) if not (t.constraint and t.lower < t.upper)]
+        terms = [t for t in self._term_list(mode) if not (t.constraint and (t.lower < t.upper or t.lift))]
         self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(True))
         return self._built[key], self._built[key].seconds
 
@@ -845,6 +890,74 @@ class CongruenceProblem:
         congs = self._congruences(e) if cons else []
         return {t.name: measure(t, congs[t.block], self.delta, g_by.get(t.name), angle_tol_deg=angle_tol_deg,
                                 value_tol=constraint_tol) for t in cons}
+
+    def _collapse(self, e_start: np.ndarray, e_end: np.ndarray) -> str | None:
+        """Why the answer ``e_end`` collapsed compared to ``e_start``, or None (``hessian="guarded"``).
+
+        Collapsed: on some aligned congruence, the faces without torsal directions (elliptic
+        faces and bundles, :meth:`Congruence.torsal_angle` NaN) grew by more than
+        ``COLLAPSE_SHARE`` of the faces. Measured (benchmarks/optimize_bench.py docstring):
+        Gauss-Newton on example 10 leaves 116 of 2048 faces without torsal directions (exact
+        6, start 0), on a facade with boundary strokes and no light term 972 (exact 0); on
+        the 100k-vertex row, 7a at 20k and row 11 it does not collapse.
+        """
+        for c0, c1 in zip(self._congruences(e_start), self._congruences(e_end)):
+            n0, n1 = (int(np.isnan(c.torsal_angle()).sum()) for c in (c0, c1))
+            if n1 - n0 > COLLAPSE_SHARE * len(c1.faces):
+                return (f"{n1} of {len(c1.faces)} faces without torsal directions (start {n0}), "
+                        "collapsed toward a line bundle")
+        return None
+
+    def _anchored_terms(self) -> list[Term]:
+        return [t for t in self._terms.values()
+                if t.element is not None and t.element.fn.name() == "c_ang_anchored"]
+
+    def _anchor(self, e: np.ndarray, active: dict | None = None) -> float:
+        """Anchor every anchored torsal-angle term at the directions ``e`` (see :mod:`.forms`).
+
+        Sets each face's ``n`` to the orientation of ``(v, w)`` at ``e`` (kept where the face
+        is a bundle, ``|(v, w)| < 1e-12``). Returns the largest change of ``n`` (radians) over
+        the faces of ``active`` (``{name: bool mask over the term's faces}``; all if None):
+        0 means the last solve's answer is a KKT point of the unrestricted constraint.
+        """
+        moved = 0.0
+        for t in self._anchored_terms():
+            m = t.size // 2
+            x = np.asarray(e, float).ravel()[t.idx[:m]]
+            vw = np.stack([np.asarray(_COORDS.map(m)(x.T, t.data[:m].T, np.tile(np.r_[0, 0, k], (m, 1)).T)).ravel()
+                           for k in np.eye(3)[1:]], axis=1)
+            norm = np.linalg.norm(vw, axis=1)
+            n = np.where(norm[:, None] > 1e-12, vw / np.maximum(norm, 1e-300)[:, None], t.par[:m, 3:5])
+            change = np.arccos(np.clip(np.einsum("ij,ij->i", n, t.par[:m, 3:5]), -1.0, 1.0))
+            sel = np.ones(m, bool) if active is None else active.get(t.name, np.ones(m, bool))
+            moved = max(moved, float(change[sel].max(initial=0.0)))
+            t.par[:, 3:5] = np.tile(n, (2, 1))
+        return moved
+
+    def _anchored_rounds(self, strategy, b: Built, out, frames, limit: int):
+        """Outer rounds of the anchored torsal-angle form (sequential convex restriction).
+
+        Each IPOPT solve imposes the bound restricted to the anchors (:mod:`.forms`), a
+        subset of the true feasible set, so every answer holds the real bound. Re-anchored at
+        the answer, that answer is feasible for the next round and the objective can only
+        go down; when the anchors of the faces whose rows carry a multiplier no longer move
+        (< ``ANCHOR_TOL`` radians), the answer is a KKT point of the unrestricted bound.
+        """
+        while out.converged and out.lam_g is not None and out.iterations < limit:
+            e = b.unpack(out.x, frames)
+            active = {}
+            lam = np.abs(np.asarray(out.lam_g))
+            big = float(lam.max(initial=0.0))
+            for t, rows in zip(b.cons, b.g_slices):
+                if t.element is not None and t.element.fn.name() == "c_ang_anchored":
+                    act = (lam[rows] > 1e-4 * big).reshape(2, -1)
+                    active[t.name] = act[0] | act[1]
+            if self._anchor(e.ravel(), active) < ANCHOR_TOL:
+                break
+            p = b.parameters(self._current(), frames)
+            r = strategy.warm_pass(b, out.x, p, out.lam_g, limit - out.iterations)
+            out = r._replace(iterations=out.iterations + r.iterations)
+        return out
 
     def _off_the_apex(self, e: np.ndarray) -> np.ndarray:
         """The start moved off the line-bundle apex where a torsal-angle bound needs it.
@@ -995,6 +1108,9 @@ class CongruenceProblem:
             self._strategy = strategy
             try:
                 out = strategy.solve(b, mode, warm, lam_g0, x0, p, try_unconstrained)
+                frames = strategy.frames     # re-centred when a pass started elsewhere
+                if self._anchored_terms():
+                    out = self._anchored_rounds(strategy, b, out, frames, max_iter or 200)
             finally:
                 self._strategy = None
             build_s += strategy.build_seconds
@@ -1010,6 +1126,20 @@ class CongruenceProblem:
         if self.normalize == "renormalize" or solver == "lbfgs":
             e = _renormalize(e.ravel()).reshape(-1, 3)
         finite = bool(np.isfinite(e).all())
+        collapsed = (self._collapse(e0, e) if finite and solver == "ipopt" and self.hessian == "guarded"
+                     and b.hessian == "gauss-newton" else None)
+        if collapsed is not None:
+            # the Gauss-Newton steps reached a trivial zero of the energies: solve again from
+            # the same start with the exact Hessian (kept for this problem's structure)
+            self._exact_after_collapse = True
+            self._built.pop(mode, None)
+            res = self.solve(solver, max_iter, tol, callback, warm_start=warm_start, initial=initial,
+                             raise_on_failure=raise_on_failure, verbose=verbose, constraint_tol=constraint_tol,
+                             angle_tol_deg=angle_tol_deg, penalty=penalty, ipopt_options=ipopt_options,
+                             try_unconstrained=try_unconstrained, max_seconds=max_seconds, keep_best=keep_best)
+            return replace(res, iterations=res.iterations + iters, build_seconds=res.build_seconds + build_s,
+                           solve_seconds=res.solve_seconds + solve_s,
+                           status=f"Gauss-Newton: {collapsed}; exact Hessian: {res.status}")
         meas = self.measure(e, **tols) if finite else {}
         holds = finite and all(m.holds for m in meas.values())
         from_iteration = None
@@ -1054,3 +1184,30 @@ class CongruenceProblem:
         if raise_on_failure and not ok:
             raise OptimizationError(f"congruence optimization failed: {status}", res)
         return res
+
+
+def _split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float, name: str = "min_torsal_angle") -> Term:
+    """c_ang in split form: two rows per face, ``+p`` and ``-p`` (see :mod:`.forms`)."""
+    m = len(fi)
+    par = np.concatenate([np.tile([c, s, 1.0], (m, 1)), np.tile([c, s, -1.0], (m, 1))])
+    return Term(name, True, torsal_angle_split_element(), _var_index(np.tile(fv, (2, 1)), 0),
+                np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle", bound=alpha_deg)
+
+
+def _lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float) -> Term:
+    """c_ang lifted: rows ``u``, ``v``, ``w`` per face, equal to lifted variables (``nlp.Built._lift``)."""
+    m = len(fi)
+    par = np.concatenate([np.tile(np.r_[c, s, k], (m, 1)) for k in np.eye(3)])
+    return Term("min_torsal_angle", True, torsal_form_coordinates_element(), _var_index(np.tile(fv, (3, 1)), 0),
+                np.tile(a, (3, 1)), par, np.tile(fi, 3), kind="torsal_angle", bound=alpha_deg,
+                lower=0.0, upper=0.0, lift=True)
+
+
+def _unlifted(t: Term) -> Term:
+    """A lifted or anchored torsal-angle term as the split form over the same faces (for L-BFGS)."""
+    if not (t.lift or (t.element is not None and t.element.fn.name() == "c_ang_anchored")):
+        return t
+    m = t.size // (3 if t.lift else 2)
+    return replace(_split_angle_term(t.elements[:m], t.idx[:m, ::3] // 3, t.data[:m], float(t.par[0, 0]),
+                                     float(t.par[0, 1]), t.bound, t.name), block=t.block,
+                   idx=np.tile(t.idx[:m], (2, 1)))
