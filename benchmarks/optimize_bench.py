@@ -15,9 +15,9 @@ Two tables.
 
 Methods of the Fig. 12 rows (``--methods``): ``cone`` (``min_torsal_angle`` one row per face
 with ``|p|`` smoothed over the strength floor); ``split`` (two rows per face, linear in ``p``,
-no ``hyperbolic`` rows where they are implied); ``lift`` (the default since 2026-11-23
-evening: the torsal form's coordinates lifted into variables ``(r, t, phi)`` per face, the
-bound as variable bounds); ``anchored`` (rows linear in the torsal form, re-anchored in outer
+no ``hyperbolic`` rows where they are implied; the library's default); ``lift`` (the
+torsal form's coordinates lifted into variables ``(r, t, phi)`` per face, the bound as
+variable bounds; the default for one evening, withdrawn, see below); ``anchored`` (rows linear in the torsal form, re-anchored in outer
 rounds); ``elastic`` (split with l1-exact slacks, rho 1e4); ``lbfgs`` (the paper's baseline,
 constraints as penalties).
 
@@ -93,7 +93,7 @@ not a bundle. At 100k each factorization is ~5 s CPU: the exact Hessian's 7 regu
 iterations cost 69 s CPU in search directions, Gauss-Newton's 2 cost 11 s.)
 
 Measured 2026-11-23 (evening, load average 3 to 6.5 on 2 cores, nice 19): the lifted form
-of ``min_torsal_angle`` (now the default) against split, full solve (pass 1 + pass 3) with
+of ``min_torsal_angle`` against split, full solve (pass 1 + pass 3) with
 the design's ``max_iter``; wall and CPU of build + solve::
 
      row  form      it   converged  wall    CPU     objective  min torsal angle  load
@@ -130,6 +130,21 @@ after 500). ``mu_strategy`` monotone with lift: 500 iterations, 0.4561. The lift
 still spends its last 250 iterations going from 0.4345 (within 1 %) to 0.43108: steps cut
 by the fraction-to-boundary rule with ``||d||`` 0.1 to 0.6, i.e. in ``phi`` and ``t`` of
 faces near the strength floor, where the orientation ``phi`` is nearly free.
+
+Why lift is not the default (measured the same evening with ``examples/run_all.py``, full
+pipeline, the same code but the form): the lifted form's lower optimum has a torsal field in
+patches (angles jumping between 60 and 90 degrees from block to block, a tangle at the
+centre of 9), and the support structure remeshed from it runs through itself::
+
+     example  form   T congruence  fin panels left out  sun blocked  parts
+      7c      split  42.6 s (500 it, not converged)   49    90 %   550
+      7c      lift   35.4 s (converged)               66    83 %   561
+       9      split  180.1 s (budget, best iterate)  231    58 %   768
+       9      lift   175.9 s (719 it, converged)     457    34 %   327
+
+A lower objective of eq. (9) is not a better design here: the energies do not see what
+the remeshing needs. 7d converges with lift in 1.7 s (split: 500 iterations) at 87 % blocked
+against 89 %; the design file's ``constraints.torsal_angle_form`` chooses per design.
 
 Gauss-Newton, measured the same evening (faces without torsal directions: NaN
 ``Congruence.torsal_angle``; start 0 on every row)::
@@ -295,7 +310,7 @@ def _formulation(p, form: str, elastic: float = 0.0):
 
 
 #: method -> (solver, how the problem is formulated): the forms of min_torsal_angle (see the
-#: module docstring; "lift" is the library's default); "elastic": split with l1-exact slacks.
+#: module docstring; "split" is the library's default); "elastic": split with l1-exact slacks.
 METHODS = {
     "cone": ("ipopt", lambda p: _formulation(p, "cone")),
     "split": ("ipopt", lambda p: _formulation(p, "split")),
@@ -370,8 +385,8 @@ def main():
     ap.add_argument("--max-vertices", type=int, default=100_000)
     ap.add_argument("--no-lbfgs", action="store_true")
     ap.add_argument("--methods", nargs="*", default=["split", "lift", "lbfgs"], choices=sorted(METHODS),
-                    help="formulations of the Fig. 12 rows (default: the split form, the lifted form "
-                         "(the library's default), the paper's L-BFGS)")
+                    help="formulations of the Fig. 12 rows (default: the split form (the library's "
+                         "default), the lifted form, the paper's L-BFGS)")
     ap.add_argument("--lbfgs-iter", type=int, default=500)
     ap.add_argument("--rows", nargs="*", default=None)
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")

@@ -124,3 +124,25 @@ def test_design_api_from_toml(tmp_path):
     d = Design.from_toml(_write(tmp_path, GOOD))
     assert d.spec.name == "test"
     assert Path(d.source).name == "d.toml"
+
+
+@pytest.mark.parametrize("form, lifted", [(None, False), ("split", False), ("lift", True)])
+def test_torsal_angle_form_reaches_the_optimizer(tmp_path, form, lifted):
+    from torsal.geometry.surfaces import facade_patch
+    from torsal.pipeline import congruence_problem
+
+    extra = "" if form is None else f'\ntorsal_angle_form = "{form}"'
+    spec = load_design_file(_write(tmp_path, GOOD + f"[constraints]\nmin_torsal_angle = 40{extra}\n"))
+    v, f = facade_patch(nu=9, nv=5)
+    p = congruence_problem(spec, v, f, np.array([[0.0, -0.8, 0.6]]), np.ones(1))
+    term = p._terms["min_torsal_angle"]
+    # lift: 3 rows per face tied to lifted variables; split: 2 inequality rows per face
+    assert term.lift is lifted
+    assert len(term.elements) == (3 if lifted else 2) * len(f)
+
+
+def test_unknown_torsal_angle_form_names_the_choices(tmp_path):
+    p = _write(tmp_path, GOOD + '[constraints]\nmin_torsal_angle = 40\ntorsal_angle_form = "cones"\n')
+    with pytest.raises(DesignFileError) as exc:
+        load_design_file(p)
+    assert "constraints.torsal_angle_form" in str(exc.value) and "lift" in str(exc.value)

@@ -44,6 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from .core.errors import TorsalError
 from .core.inputs import read_input
 from .core.units import UNIT_TO_M
+from .geometry.optimize import TorsalAngleForm
 from .geometry.support import PLANARITY_TOL
 
 __all__ = [
@@ -290,6 +291,9 @@ class ConstraintsSpec(_Spec):
     hyperbolic: bool = True
     hyperbolic_margin: float = Field(0.0, ge=0)
     min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees")
+    torsal_angle_form: TorsalAngleForm | None = Field(
+        None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
+        "or lift (half the iterations, a patchier torsal field), see CongruenceProblem.min_torsal_angle")
     max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
                           "limit is kept (its status says so)")
     jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "

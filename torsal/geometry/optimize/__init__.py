@@ -31,10 +31,11 @@ Constraints are measured, not trusted: after every iterate and at the end, torsa
 hyperbolicity and angles to a direction are measured on the resulting congruence
 (:mod:`.measure`), ``OptimizationResult.max_violation`` is in each constraint's own units
 (degrees for angles), and a solve whose measured value misses a bound by more than 0.1
-degree is not ``success``. ``min_torsal_angle`` is imposed in a lifted form (the torsal form's
-coordinates as NLP variables ``(r, t, phi)`` per face, the angle bound and a documented lower
-bound on the torsal form's strength as variable bounds; :mod:`.forms`,
-:meth:`CongruenceProblem.min_torsal_angle`). One-sided inequalities can be made elastic
+degree is not ``success``. ``min_torsal_angle`` is imposed in a split form (two rows per face,
+linear in the torsal form's isotropic part, with a documented lower bound on its strength;
+:class:`TorsalAngleForm`, :mod:`.forms`, :meth:`CongruenceProblem.min_torsal_angle`); a lifted
+form (the torsal form's coordinates as NLP variables, the bound on variables) converges in
+half the iterations but to a patchy torsal field. One-sided inequalities can be made elastic
 (``CongruenceProblem(elastic=rho)``, l1-exact slacks).
 
 Package layout (one responsibility per module):
@@ -50,10 +51,11 @@ Package layout (one responsibility per module):
 - :mod:`.history`, :mod:`.result`: per-iteration history, best feasible iterate, the result.
 """
 from .catalogue import DEFAULT_WEIGHTS
+from .forms import TorsalAngleForm
 from .measure import Measurement
 from .nlp import tangent_frames
 from .problem import CongruenceProblem
 from .result import IterationRecord, OptimizationError, OptimizationResult
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
-           "IterationRecord", "Measurement", "tangent_frames"]
+           "IterationRecord", "Measurement", "TorsalAngleForm", "tangent_frames"]

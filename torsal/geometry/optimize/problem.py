@@ -23,7 +23,7 @@ from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
                         _stroke_barycentric, _unit_rows, _var_index)
-from .forms import (ANGLE_FORMS, torsal_angle_anchored_element, torsal_angle_split_element,
+from .forms import (ANGLE_FORMS, TorsalAngleForm, torsal_angle_anchored_element, torsal_angle_split_element,
                     torsal_form_coordinates_element)
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
@@ -611,10 +611,15 @@ class CongruenceProblem:
         return self._add(t)
 
     def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
-                         min_strength: float = 1e-3, form: str = "lift") -> "CongruenceProblem":
+                         min_strength: float = 1e-3,
+                         form: TorsalAngleForm | str = TorsalAngleForm.SPLIT) -> "CongruenceProblem":
         """Torsal directions at least ``alpha_deg`` apart on every face (c_ang, Wang et al. 2013, 4.1).
 
-        ``form="lift"`` (default): the torsal form's coordinates ``(u, v, w)`` in an
+        ``form="split"`` (default): two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
+
+            cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0
+
+        ``form="lift"``: the torsal form's coordinates ``(u, v, w)`` in an
         orthonormal frame of the face (:func:`~torsal.geometry.optimize.forms.torsal_form_coordinates_sx`,
         ``u = p`` its isotropic part, ``sqrt(v^2 + w^2) = rho`` its strength) are lifted into
         the NLP as three variables ``(r, t, phi)`` per face with three equality rows::
@@ -626,11 +631,11 @@ class CongruenceProblem:
         (a line bundle, outside ``r >= s``), and the start needs not be feasible (pass 3
         starts from the energies' optimum). Measured (benchmarks/optimize_bench.py): row 7c
         358 iterations, converged, objective 0.4311 (split: 746 iterations, 0.4572); row 9 719
-        iterations, converged, 0.0160 (split: about 1,155, 0.0165).
-
-        ``form="split"``: two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
-
-            cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0
+        iterations, converged, 0.0160 (split: about 1,155, 0.0165). Not the default: that
+        lower optimum's torsal field breaks into patches, and on example 9 the support
+        structure extracted from it runs through itself (457 of 841 fin panels cannot be
+        built, 34 % of the sun blocked, against 231 and 58 % from split's
+        best iterate at the design's 180 s budget).
 
         ``form="cone"`` (one row per face,
         :func:`torsal.geometry.terms.torsal_angle_cone_element`)::
@@ -676,20 +681,21 @@ class CongruenceProblem:
             raise ValueError(f"min_strength must be a finite number > 0, got {min_strength}")
         if form not in ANGLE_FORMS:
             raise ValueError(f"form must be one of {ANGLE_FORMS}, got {form!r}")
+        form = TorsalAngleForm(form)
         fi = _as_index(faces, len(self.congruence.faces), "faces")
         fv, a = self._face_data(fi)
         c = math.cos(math.radians(min(alpha_deg + safety_deg, 89.999)))
-        if form == "cone":
+        if form is TorsalAngleForm.CONE:
             t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
                      np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
                      bound=float(alpha_deg))
-        elif form == "anchored":   # two rows per face, anchored at the start of every solve
+        elif form is TorsalAngleForm.ANCHORED:   # two rows per face, anchored at the start of every solve
             m = len(fi)
             par = np.concatenate([np.tile([c, float(min_strength), sg, 1.0, 0.0], (m, 1)) for sg in (1.0, -1.0)])
             t = Term("min_torsal_angle", True, torsal_angle_anchored_element(), _var_index(np.tile(fv, (2, 1)), 0),
                      np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle",
                      bound=float(alpha_deg))
-        elif form == "lift":   # three rows per face, u, v, w = lifted variables (see .forms)
+        elif form is TorsalAngleForm.LIFT:   # three rows per face, u, v, w = lifted variables (see .forms)
             t = _lifted_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
         else:
             t = _split_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
