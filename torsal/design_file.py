@@ -293,7 +293,7 @@ class ConstraintsSpec(_Spec):
     min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees")
     torsal_angle_form: TorsalAngleForm | None = Field(
         None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
-        "or lift (half the iterations, a patchier torsal field), see CongruenceProblem.min_torsal_angle")
+        "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
     max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
                           "limit is kept (its status says so)")
     jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "

@@ -35,7 +35,7 @@ degree is not ``success``. ``min_torsal_angle`` is imposed in a split form (two 
 linear in the torsal form's isotropic part, with a documented lower bound on its strength;
 :class:`TorsalAngleForm`, :mod:`.forms`, :meth:`CongruenceProblem.min_torsal_angle`); a lifted
 form (the torsal form's coordinates as NLP variables, the bound on variables) converges in
-half the iterations but to a patchy torsal field. One-sided inequalities can be made elastic
+half the iterations but to rougher lines. One-sided inequalities can be made elastic
 (``CongruenceProblem(elastic=rho)``, l1-exact slacks).
 
 Package layout (one responsibility per module):

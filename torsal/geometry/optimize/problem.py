@@ -632,8 +632,8 @@ class CongruenceProblem:
         starts from the energies' optimum). Measured (benchmarks/optimize_bench.py): row 7c
         358 iterations, converged, objective 0.4311 (split: 746 iterations, 0.4572); row 9 719
         iterations, converged, 0.0160 (split: about 1,155, 0.0165). Not the default: that
-        lower optimum's torsal field breaks into patches, and on example 9 the support
-        structure extracted from it runs through itself (457 of 841 fin panels cannot be
+        lower optimum is rougher (the lines' fairness energy 0.0030 against 0.0017 on
+        example 9), and the support structure extracted from it runs through itself (457 of 841 fin panels cannot be
         built, 34 % of the sun blocked, against 231 and 58 % from split's
         best iterate at the design's 180 s budget).
 
