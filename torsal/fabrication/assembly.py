@@ -388,48 +388,214 @@ def solid_distance(s1, s2) -> float:
     return dist
 
 
+#: unit: how far a triangle may reach into a convex prism and the prism still count as clear of
+#: it (OpenCascade's confusion tolerance, the precision of its booleans themselves)
+CLEAR_TOLERANCE = 1e-7
+
+
+def hull_clear_of_triangles(points, triangles, *, eps: float = CLEAR_TOLERANCE) -> bool:
+    """Whether no triangle reaches into the convex hull of ``points`` by more than ``eps``.
+
+    A separating-axis test: a triangle is apart from the hull when their projections on one
+    axis overlap by at most ``eps`` (times the axis length). The axes are the triangle's normal,
+    the normal of the points' best plane, and the cross products of the points' difference
+    vectors along the hull's edges with the triangle's edges. Any axis that separates proves
+    the pair apart, so the answer ``True`` is exact (up to ``eps``); ``False`` means
+    *undecided* (the exact boolean decides). For the prism of a planar face swept along ``v``
+    the hull's edge directions are the face's edges and ``v`` (give them as ``edges``, see
+    :func:`prism_clear`); here every pair of points gives one (small point sets only).
+
+    Parameters
+    ----------
+    points : (m, 3) array
+    triangles : (t, 3, 3) array
+        Corners of each triangle.
+    eps : float
+
+    >>> import numpy as np
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    >>> tri = np.array([[[0.5, 0.5, 1.0], [3, 0.5, 1.0], [0.5, 3, 1.0]]])   # on the top face
+    >>> hull_clear_of_triangles(cube, tri), hull_clear_of_triangles(cube, tri - [0, 0, 0.01])
+    (True, False)
+    """
+    p = np.asarray(points, float)
+    i, j = np.triu_indices(len(p), 1)
+    return _hull_clear(p, p[j] - p[i], _plane_normal(p),
+                       np.asarray(triangles, float).reshape(-1, 3, 3), eps)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Broadcast cross product over the last axis (numpy's np.cross costs more on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _plane_normal(points: np.ndarray) -> np.ndarray:
+    """Unit normal of the best-fit plane of (m, 3) points."""
+    return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][-1]
+
+
+def _hull_clear(p: np.ndarray, edges: np.ndarray, plane: np.ndarray, tri: np.ndarray,
+                eps: float) -> bool:
+    """:func:`hull_clear_of_triangles` with the hull's edge directions ``edges`` (k, 3) and
+    one more axis ``plane`` (3,)."""
+    if not len(tri):
+        return True
+    c = p.mean(axis=0)
+    q = p - c                                     # centred: smaller round-off in projections
+    t = tri - c
+    te = t[:, [1, 2, 0]] - t                       # (t, 3, 3) triangle edges
+    tn = _cross(te[:, 0], te[:, 1])                # (t, 3)
+    cross = _cross(edges[None, :, None, :], te[:, None, :, :]).reshape(len(t), -1, 3)
+    axes = np.concatenate([tn[:, None], np.broadcast_to(plane, (len(t), 1, 3)), cross], axis=1)
+    norm = np.sqrt((axes * axes).sum(axis=2))      # (t, a)
+    scale = max(float(np.abs(q).max()), float(np.abs(t).max()), 1.0)
+    ok = norm > 1e-9 * scale * scale               # parallel edges give no axis
+    pp = axes @ q.T                                # (t, a, m)
+    tp = axes @ t.transpose(0, 2, 1)               # (t, a, 3)
+    gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
+    sep = ok & (gap >= -eps * norm)
+    return bool(sep.any(axis=1).all())
+
+
+def _inside_by_ray(point, triangles) -> bool | None:
+    """Whether ``point`` lies inside the closed triangulated surface ``triangles`` (t, 3, 3):
+    the parity of the crossings of one ray (Moller-Trumbore); None when that is not certain
+    (the point on the surface, the ray grazing an edge or running in a triangle's plane)."""
+    d = np.array([0.5773, 0.5871, 0.5675])          # a direction no face of a model shares
+    a = triangles[:, 0] - point
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    h = _cross(d, e2)
+    det = (e1 * h).sum(axis=1)
+    n = _cross(e1, e2)
+    nn = np.sqrt((n * n).sum(axis=1))
+    good = np.abs(det) > 1e-9 * nn
+    tol = 1e-9
+    if (~good & (np.abs((n * a).sum(axis=1)) <= tol * nn)).any():
+        return None                                  # the ray runs in a triangle's plane
+    inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+    u = -(a * h).sum(axis=1) * inv
+    q = _cross(-a, e1)
+    v = (q @ d) * inv
+    w = (e2 * q).sum(axis=1) * inv                   # distance along the ray
+    within = good & (u > -tol) & (v > -tol) & (u + v < 1 + tol)
+    edge = (np.abs(u) < tol) | (np.abs(v) < tol) | (np.abs(u + v - 1) < tol)
+    if (within & ((np.abs(w) < tol) | (edge & (w > -tol)))).any():
+        return None              # on the surface, or the ray grazes an edge or a corner
+    return bool((within & (w > 0)).sum() % 2)
+
+
+class _Face(NamedTuple):
+    """A face of a moving solid: its OCC face, vertices (k, 3), edge directions (k, 3)."""
+
+    face: object
+    points: np.ndarray
+    edges: np.ndarray
+    normal: np.ndarray
+
+
+def _face_records(shape) -> list[_Face]:
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    for f in _faces(shape):
+        edges = []
+        ex = TopExp_Explorer(f, TopAbs_EDGE)
+        while ex.More():
+            e = TopoDS.Edge(ex.Current())
+            a, b = BRep_Tool.Pnt_s(TopExp.FirstVertex_s(e)), BRep_Tool.Pnt_s(TopExp.LastVertex_s(e))
+            edges.append((b.X() - a.X(), b.Y() - a.Y(), b.Z() - a.Z()))
+            ex.Next()
+        pts = _vertices(f)
+        out.append(_Face(f, pts, np.asarray(edges, float).reshape(-1, 3), _plane_normal(pts)))
+    return out
+
+
+_TRIANGLES: dict = {}
+
+
+def _boundary_triangles(shape) -> np.ndarray:
+    """(t, 3, 3) corners of the triangles of a meshed shape's boundary (exact for planar
+    faces), kept per shape for the run."""
+    key = id(shape)
+    got = _TRIANGLES.get(key)
+    if got is None or got[0] is not shape:
+        from OCP.BRepTools import BRepTools
+
+        from .solids import _triangles
+
+        if not BRepTools.Triangulation_s(shape, 0.1):
+            _mesh([shape], 1.0)           # serially (check_assembly meshes before any fork)
+        v, f = _triangles(shape, 0.1)
+        got = _TRIANGLES[key] = (shape, v[f].reshape(-1, 3, 3))
+    return got[1]
+
+
+def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.ndarray,
+                *, eps: float = CLEAR_TOLERANCE, triangle_boxes=None) -> bool:
+    """Whether the prism that ``face`` sweeps from ``-vector`` to its place provably has no
+    volume in common with the solid bounded by ``other_triangles`` (t, 3, 3) whose box is
+    ``other_box`` (2, 3) (True: exact, within ``eps``; False: undecided). The prism lies in the
+    convex hull of the face's corners and their translates, whose edges run along the face's
+    edges and ``vector``: no boundary triangle of the other reaching into that hull
+    (:func:`hull_clear_of_triangles`), and the hull not inside the other (one point, ray
+    parity), leave them apart. ``triangle_boxes``: the triangles' (min, max) corners, if known."""
+    v = np.asarray(vector, float)
+    pts = np.concatenate([face.points, face.points - v])
+    lo, hi = pts.min(axis=0) - eps, pts.max(axis=0) + eps
+    tri = other_triangles
+    tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
+    near = (tmin <= hi).all(axis=1) & (tmax >= lo).all(axis=1)
+    if near.any() and not _hull_clear(pts, np.concatenate([face.edges, v[None]]), face.normal,
+                                      tri[near], eps):
+        return False
+    if (lo < other_box[0]).any() or (hi > other_box[1]).any():
+        return True                        # sticks out of the other's box: not inside it
+    return _inside_by_ray(pts.mean(axis=0), tri) is False
+
+
 def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf) -> list[float]:
     """Volume that ``moving`` sweeps on its way from ``position - vector`` to its place and that
     lies inside each of ``others`` (unit^3, one per other; an upper bound: the sum over the
     prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly). With
     ``stop_above`` the sum for one other stops once it exceeds that (a collision is known).
 
+    A prism that :func:`prism_clear` proves apart from an other adds 0 without a boolean (the
+    others must be meshed, as :func:`check_assembly` does).
+
     >>> from build123d import Box, Pos
     >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
     [2.0]
     """
-    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
-    from OCP.gp import gp_Vec
-
-    from OCP.BRepGProp import BRepGProp
-    from OCP.BRepLib import BRepLib
-    from OCP.GProp import GProp_GProps
-    from OCP.TopoDS import TopoDS
-
     v = np.asarray(vector, float)
-    length = float(np.linalg.norm(v))
-    back = gp_Vec(*map(float, -v))
-    prisms = []
-    for f in _faces(_shape(moving)):
-        props = GProp_GProps()
-        BRepGProp.SurfaceProperties_s(f, props)
-        pr = TopoDS.Solid(BRepPrimAPI_MakePrism(f, back, True).Shape())
-        # faces along the path sweep no volume (numerically a sliver of either sign: skip it)
-        if abs(_signed_volume(pr)) <= 1e-9 * props.Mass() * length:
-            continue
-        # a face swept against its normal gives an inside-out solid; the boolean would take
-        # its complement: orient it
-        BRepLib.OrientClosedSolid_s(pr)
-        prisms.append(pr)
-    pboxes = [_bbox(pr) for pr in prisms]
-    _mesh(prisms, 1.0)
+    faces = _face_records(_shape(moving))
+    prisms: dict[int, object] = {}           # face index -> oriented prism (None: no volume)
     out = []
     for o in others:
-        ob = _bbox(_shape(o))
+        oshape = _shape(o)
+        ob = _bbox(oshape)
+        tris = None
         total = 0.0
-        for pr, pb in zip(prisms, pboxes):
-            if (pb[0] > ob[1]).any() or (ob[0] > pb[1]).any() or not _near(pr, _shape(o), 1e-3):
+        for n, face in enumerate(faces):
+            plo = np.minimum(face.points.min(axis=0), (face.points - v).min(axis=0))
+            phi = np.maximum(face.points.max(axis=0), (face.points - v).max(axis=0))
+            if (plo > ob[1]).any() or (ob[0] > phi).any():
                 continue                      # apart: nothing in common
+            if tris is None:
+                tris = _boundary_triangles(oshape)
+                tboxes = tris.min(axis=1), tris.max(axis=1)
+            if prism_clear(face, v, tris, ob, triangle_boxes=tboxes):
+                continue                      # proved apart: nothing in common
+            if n not in prisms:
+                prisms[n] = _face_prism(face.face, v)
+            pr = prisms[n]
+            if pr is None or (_bbox(pr)[0] > ob[1]).any() or (ob[0] > _bbox(pr)[1]).any() \
+                    or not _near(pr, oshape, 1e-3):
+                continue
             try:
                 total += common_volume(pr, o)
             except RuntimeError:
@@ -438,6 +604,29 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
                 break
         out.append(total)
     return out
+
+
+def _face_prism(face, v: np.ndarray):
+    """The oriented, meshed solid ``face`` sweeps along ``-v`` (None: the face runs along
+    ``v`` and sweeps no volume)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.BRepLib import BRepLib
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.GProp import GProp_GProps
+    from OCP.TopoDS import TopoDS
+    from OCP.gp import gp_Vec
+
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    pr = TopoDS.Solid(BRepPrimAPI_MakePrism(face, gp_Vec(*map(float, -v)), True).Shape())
+    # faces along the path sweep no volume (numerically a sliver of either sign: skip it)
+    if abs(_signed_volume(pr)) <= 1e-9 * props.Mass() * float(np.linalg.norm(v)):
+        return None
+    # a face swept against its normal gives an inside-out solid; the boolean would take its
+    # complement: orient it
+    BRepLib.OrientClosedSolid_s(pr)
+    _mesh([pr], 1.0)
+    return pr
 
 
 # ---------------------------------------------------------------------------- parallel map
