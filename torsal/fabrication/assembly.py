@@ -419,9 +419,12 @@ def hull_clear_of_triangles(points, triangles, *, eps: float = CLEAR_TOLERANCE) 
     (True, False)
     """
     p = np.asarray(points, float)
+    tri = np.asarray(triangles, float).reshape(-1, 3, 3)
+    if not len(tri):
+        return True
     i, j = np.triu_indices(len(p), 1)
-    return _hull_clear(p, p[j] - p[i], _plane_normal(p),
-                       np.asarray(triangles, float).reshape(-1, 3, 3), eps)
+    return bool(_sat_clear(p[None], (p[j] - p[i])[None], _plane_normal(p)[None], tri,
+                           np.ones((1, len(tri)), bool), eps)[0])
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -434,29 +437,6 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _plane_normal(points: np.ndarray) -> np.ndarray:
     """Unit normal of the best-fit plane of (m, 3) points."""
     return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][-1]
-
-
-def _hull_clear(p: np.ndarray, edges: np.ndarray, plane: np.ndarray, tri: np.ndarray,
-                eps: float) -> bool:
-    """:func:`hull_clear_of_triangles` with the hull's edge directions ``edges`` (k, 3) and
-    one more axis ``plane`` (3,)."""
-    if not len(tri):
-        return True
-    c = p.mean(axis=0)
-    q = p - c                                     # centred: smaller round-off in projections
-    t = tri - c
-    te = t[:, [1, 2, 0]] - t                       # (t, 3, 3) triangle edges
-    tn = _cross(te[:, 0], te[:, 1])                # (t, 3)
-    cross = _cross(edges[None, :, None, :], te[:, None, :, :]).reshape(len(t), -1, 3)
-    axes = np.concatenate([tn[:, None], np.broadcast_to(plane, (len(t), 1, 3)), cross], axis=1)
-    norm = np.sqrt((axes * axes).sum(axis=2))      # (t, a)
-    scale = max(float(np.abs(q).max()), float(np.abs(t).max()), 1.0)
-    ok = norm > 1e-9 * scale * scale               # parallel edges give no axis
-    pp = axes @ q.T                                # (t, a, m)
-    tp = axes @ t.transpose(0, 2, 1)               # (t, a, 3)
-    gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
-    sep = ok & (gap >= -eps * norm)
-    return bool(sep.any(axis=1).all())
 
 
 def _inside_by_ray(point, triangles) -> bool | None:
@@ -535,6 +515,64 @@ def _boundary_triangles(shape) -> np.ndarray:
     return got[1]
 
 
+def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
+                 other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                 triangle_boxes=None) -> np.ndarray:
+    """:func:`prism_clear` of many face prisms against one other solid at once: ``vectors``
+    (p, 3) or (3,), one per face or shared. Returns (p,) bool (True: proved apart)."""
+    nf = len(faces)
+    if not nf:
+        return np.zeros(0, bool)
+    v = np.broadcast_to(np.asarray(vectors, float), (nf, 3))
+    m = max(len(f.points) for f in faces)
+    k = max(len(f.edges) for f in faces) + 1
+    pts = np.empty((nf, 2 * m, 3))
+    edges = np.zeros((nf, k, 3))                 # zero rows give no axis (masked below)
+    for n, f in enumerate(faces):
+        fp = np.concatenate([f.points, f.points[:1].repeat(m - len(f.points), axis=0)])
+        pts[n, :m], pts[n, m:] = fp, fp - v[n]   # repeated corners leave the hull as it is
+        edges[n, :len(f.edges)] = f.edges
+        edges[n, len(f.edges)] = v[n]
+    normals = np.array([f.normal for f in faces])
+    lo, hi = pts.min(axis=1) - eps, pts.max(axis=1) + eps
+    tri = other_triangles
+    tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
+    near = ((tmin[None] <= hi[:, None]).all(axis=2) & (tmax[None] >= lo[:, None]).all(axis=2))
+    clear = np.ones(nf, bool)
+    used = near.any(axis=0)
+    if used.any():
+        clear = _sat_clear(pts, edges, normals, tri[used], near[:, used], eps)
+    # clear of the boundary: apart unless wholly inside (a hull sticking out of the box is not)
+    inside_box = (lo >= other_box[0]).all(axis=1) & (hi <= other_box[1]).all(axis=1)
+    for n in np.flatnonzero(clear & inside_box):
+        clear[n] = _inside_by_ray(pts[n].mean(axis=0), tri) is False
+    return clear
+
+
+def _sat_clear(pts, edges, normals, tri, near, eps) -> np.ndarray:
+    """(p,) whether no near triangle reaches ``eps`` into the hull of each point set ``pts``
+    (p, m, 3) with edge directions ``edges`` (p, k, 3), axis ``normals`` (p, 3); ``near``
+    (p, t) selects the triangles (t, 3, 3) each is tested against (only those pairs are)."""
+    pi, ti = np.nonzero(near)
+    c = pts.mean(axis=1)                               # (p, 3): centred, smaller round-off
+    q = (pts - c[:, None])[pi]                         # (n, m, 3)
+    t = tri[ti] - c[pi][:, None]                       # (n, 3, 3)
+    te = t[:, [1, 2, 0]] - t                           # (n, 3, 3) triangle edges
+    tn = _cross(te[:, 0], te[:, 1])                    # (n, 3)
+    cross = _cross(edges[pi][:, :, None, :], te[:, None, :, :]).reshape(len(pi), -1, 3)
+    axes = np.concatenate([tn[:, None], normals[pi][:, None], cross], axis=1)   # (n, a, 3)
+    norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
+    scale = max(float(np.abs(q).max(initial=0.0)), float(np.abs(t).max(initial=0.0)), 1.0)
+    ok = norm > 1e-9 * scale * scale                   # parallel edges give no axis
+    pp = axes @ q.transpose(0, 2, 1)                   # (n, a, m)
+    tp = axes @ t.transpose(0, 2, 1)                   # (n, a, 3)
+    gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
+    sep = (ok & (gap >= -eps * norm)).any(axis=1)      # (n,)
+    clear = np.ones(len(pts), bool)
+    clear[pi[~sep]] = False
+    return clear
+
+
 def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.ndarray,
                 *, eps: float = CLEAR_TOLERANCE, triangle_boxes=None) -> bool:
     """Whether the prism that ``face`` sweeps from ``-vector`` to its place provably has no
@@ -544,18 +582,59 @@ def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.
     edges and ``vector``: no boundary triangle of the other reaching into that hull
     (:func:`hull_clear_of_triangles`), and the hull not inside the other (one point, ray
     parity), leave them apart. ``triangle_boxes``: the triangles' (min, max) corners, if known."""
-    v = np.asarray(vector, float)
-    pts = np.concatenate([face.points, face.points - v])
-    lo, hi = pts.min(axis=0) - eps, pts.max(axis=0) + eps
-    tri = other_triangles
-    tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
-    near = (tmin <= hi).all(axis=1) & (tmax >= lo).all(axis=1)
-    if near.any() and not _hull_clear(pts, np.concatenate([face.edges, v[None]]), face.normal,
-                                      tri[near], eps):
+    return bool(prisms_clear([face], vector, other_triangles, other_box, eps=eps,
+                             triangle_boxes=triangle_boxes)[0])
+
+
+def _outward_normals(shape, faces: list[_Face]) -> np.ndarray | None:
+    """(f, 3) outward unit normals of the planar faces of a closed solid (None: a face is not
+    planar)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    out = []
+    for f in faces:
+        surf = BRepAdaptor_Surface(f.face)
+        if surf.GetType() != GeomAbs_Plane:
+            return None
+        d = surf.Plane().Axis().Direction()
+        n = np.array([d.X(), d.Y(), d.Z()])
+        out.append(-n if f.face.Orientation() == TopAbs_REVERSED else n)
+    # a shell oriented inside out has a negative volume: its faces point in
+    return np.asarray(out).reshape(-1, 3) * (1.0 if _signed_volume(shape) >= 0 else -1.0)
+
+
+def solid_cover(shape, faces: list[_Face] | None = None) -> list[tuple[_Face, np.ndarray]]:
+    """Prisms that cover a closed planar-faced solid: ``(face, vector)``, each face with
+    ``n . w > 0`` swept back along ``vector = L w`` (a point of the solid leaves it along
+    ``w`` through such a face within the solid's extent ``L`` along ``w``); ``w`` is the
+    outward face normal along which the solid is thinnest (a flat plate: its thickness, one
+    prism per face). Empty when a face is not planar (no cover)."""
+    faces = _face_records(shape) if faces is None else faces
+    normals = _outward_normals(shape, faces)
+    if normals is None or not len(faces):
+        return []
+    verts = np.concatenate([f.points for f in faces])
+    proj = verts @ normals.T
+    ext = proj.max(axis=0) - proj.min(axis=0)
+    k = int(np.argmin(ext))
+    w = normals[k] * float(ext[k])
+    return [(f, w) for f, n in zip(faces, normals) if n @ normals[k] > 0]
+
+
+def solid_clear(cover: list[tuple[_Face, np.ndarray]], other_triangles: np.ndarray,
+                other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                triangle_boxes=None) -> bool:
+    """Whether the solid covered by the prisms ``cover`` (:func:`solid_cover`) provably has no
+    volume in common with the solid bounded by ``other_triangles`` (t, 3, 3), box
+    ``other_box`` (True: exact within ``eps``; False: undecided): every prism is clear of it
+    (:func:`prism_clear`)."""
+    if not cover:
         return False
-    if (lo < other_box[0]).any() or (hi > other_box[1]).any():
-        return True                        # sticks out of the other's box: not inside it
-    return _inside_by_ray(pts.mean(axis=0), tri) is False
+    return bool(prisms_clear([f for f, _ in cover], np.array([w for _, w in cover]),
+                             other_triangles, other_box, eps=eps,
+                             triangle_boxes=triangle_boxes).all())
 
 
 def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf) -> list[float]:
@@ -573,23 +652,21 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     """
     v = np.asarray(vector, float)
     faces = _face_records(_shape(moving))
+    fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
+               np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, object] = {}           # face index -> oriented prism (None: no volume)
     out = []
     for o in others:
         oshape = _shape(o)
         ob = _bbox(oshape)
-        tris = None
         total = 0.0
-        for n, face in enumerate(faces):
-            plo = np.minimum(face.points.min(axis=0), (face.points - v).min(axis=0))
-            phi = np.maximum(face.points.max(axis=0), (face.points - v).max(axis=0))
-            if (plo > ob[1]).any() or (ob[0] > phi).any():
-                continue                      # apart: nothing in common
-            if tris is None:
-                tris = _boundary_triangles(oshape)
-                tboxes = tris.min(axis=1), tris.max(axis=1)
-            if prism_clear(face, v, tris, ob, triangle_boxes=tboxes):
-                continue                      # proved apart: nothing in common
+        meets = [n for n, (plo, phi) in enumerate(fboxes)
+                 if not ((plo > ob[1]).any() or (ob[0] > phi).any())]     # else apart
+        if meets:
+            clear = prisms_clear([faces[n] for n in meets], v, _boundary_triangles(oshape), ob)
+            meets = [n for n, c in zip(meets, clear) if not c]            # else proved apart
+        for n in meets:
+            face = faces[n]
             if n not in prisms:
                 prisms[n] = _face_prism(face.face, v)
             pr = prisms[n]
@@ -643,6 +720,25 @@ def _near(s1, s2, tol: float) -> bool:
     return not p.IsDone() or p.OverlapSubShapes1().Size() > 0
 
 
+_COVERS: dict = {}
+
+
+def _cover_of(k: int) -> list:
+    """:func:`solid_cover` of ``_SHAPES[k]``, made once per process."""
+    if k not in _COVERS or _COVERS[k][0] is not _SHAPES[k]:
+        _COVERS[k] = (_SHAPES[k], solid_cover(_SHAPES[k]))
+    return _COVERS[k][1]
+
+
+def _triangles_of(k: int) -> tuple:
+    """``(triangles, box, triangle_boxes)`` of ``_SHAPES[k]`` for :func:`solid_clear`."""
+    key = ("t", k)
+    if key not in _COVERS or _COVERS[key][0] is not _SHAPES[k]:
+        tri = _boundary_triangles(_SHAPES[k])
+        _COVERS[key] = (_SHAPES[k], (tri, _bbox(_SHAPES[k]), (tri.min(axis=1), tri.max(axis=1))))
+    return _COVERS[key][1]
+
+
 def _pair_job(job):
     i, j, tol = job
     try:
@@ -650,7 +746,12 @@ def _pair_job(job):
         if not _near(a, b, tol) and not (_inside(a, b) or _inside(b, a)):
             return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside the other
         # within the tolerance on the triangulations (exact for planar faces): touching;
-        # the exact distance (solid_distance) would cost ten booleans a pair
+        # the exact distance (solid_distance) would cost ten booleans a pair. A pair that
+        # the cheap exact test proves apart has nothing in common; the others get the boolean
+        (ta, ba, tba), (tb, bb, tbb) = _triangles_of(i), _triangles_of(j)
+        if solid_clear(_cover_of(i), tb, bb, triangle_boxes=tbb) or \
+                solid_clear(_cover_of(j), ta, ba, triangle_boxes=tba):
+            return i, j, 0.0, 0.0, ""
         return i, j, 0.0, common_volume(a, b), ""
     except Exception as e:       # OpenCascade failures: reported per pair, never assumed clear
         return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
