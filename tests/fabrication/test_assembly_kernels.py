@@ -115,3 +115,47 @@ def test_swept_overlap_of_a_tilted_plate_known_by_hand():
     # the block sits in the plate's section, so a ray-parity or separating-axis slip would
     # show: moved 1 aside (beyond the side face) it is clear again
     assert swept_overlap(plate, 10 * d, [Pos(*side) * block]) == [0.0]
+
+
+def _clear(a, b):
+    """solid_clear of build123d solids a (covered) against b (its triangles)."""
+    from torsal.fabrication.assembly import _bbox, _mesh, solid_clear, solid_cover
+
+    a, b = getattr(a, "wrapped", a), getattr(b, "wrapped", b)
+    _mesh([a, b], 1.0)
+    return solid_clear(solid_cover(a), _boundary_triangles(b), _bbox(b))
+
+
+def test_solid_cover_is_a_cover_of_the_solid():
+    from torsal.fabrication.assembly import _face_prism, solid_cover
+
+    # a bent (L-shaped) plate: the prisms of its exit faces over its extent hold all of it,
+    # so the sum of their common volumes with the solid is at least its volume
+    ell = (_box(10, 1, 4) + _box(1, 8, 4)).wrapped
+    cover = solid_cover(ell)
+    got = sum(common_volume(_face_prism(f.face, w), ell) for f, w in cover
+              if _face_prism(f.face, w) is not None)
+    assert got >= (10 * 1 * 4 + 1 * 7 * 4) * (1 - 1e-9)
+
+
+def test_solid_clear_against_known_overlaps_and_contacts():
+    from build123d import Pos
+
+    a = _box(10, 10, 10)
+    assert not _clear(a, _box(10, 10, 10, at=(8, 0, 0)))          # 200 in common
+    assert not _clear(_box(2, 2, 2, at=(4, 4, 4)), a)                # wholly inside
+    assert _clear(a, _box(5, 5, 5, at=(10, 0, 0)))                   # face to face
+    assert _clear(a, _box(5, 5, 5, at=(10, 10, 10)))                 # corner to corner
+    # tilted: a plate turned 30 degrees about z and a block beyond the plane of its side face
+    plate = _box(10, 1, 4, rotate_z=30.0)
+    side = np.array([-np.sin(np.pi / 6), np.cos(np.pi / 6), 0.0])    # the face at y' = 1
+    assert _clear(plate, Pos(*side) * _box(3, 1, 4, at=(2, 0, 0), rotate_z=30.0))
+    assert _clear(Pos(*side) * _box(3, 1, 4, at=(2, 0, 0), rotate_z=30.0), plate)
+    assert not _clear(plate, Pos(*(0.999 * side)) * _box(3, 1, 4, at=(2, 0, 0), rotate_z=30.0))
+    # a bent plate and a block in its inner corner, touching both legs: apart (the block's
+    # cover is itself); pushed 0.01 into one leg: not. The bent plate's own cover (its L-shaped
+    # top face swept down, the hull of the L) holds the corner: undecided, the boolean decides
+    ell = _box(10, 1, 4) + _box(1, 8, 4)
+    assert _clear(_box(3, 3, 4, at=(1, 1, 0)), ell)
+    assert not _clear(_box(3, 3, 4, at=(0.99, 1, 0)), ell)
+    assert not _clear(ell, _box(3, 3, 4, at=(1, 1, 0)))
