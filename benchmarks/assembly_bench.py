@@ -47,6 +47,57 @@ def verdicts(check) -> dict:
     }
 
 
+def fixture_verdicts() -> dict:
+    """Verdicts of check_assembly on the constructed cases of tests/fabrication: buildable,
+    interfering (a crossing kept) and blocked (the path check off) ones."""
+    import warnings
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "fabrication"))
+    from fab_structures import (blocked_slide_structure, crossing_strips_structure,
+                                cylinder_structure, sphere_structure)
+
+    from torsal.fabrication import FinSystem, check_assembly
+
+    def fs(structure, **kw):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return FinSystem(structure, **({"thickness": 3.0, "clearance": 0.5} | kw))
+
+    cases = {
+        "sphere": lambda: fs(sphere_structure(nu=4, nv=3, step=0.12)),
+        "cylinder-closed": lambda: fs(cylinder_structure(nu=6, nv=3, closed=True)),
+        "cylinder-mitred": lambda: fs(cylinder_structure(nu=6, nv=1), max_panels=2, fit_sheet=None),
+        "crossing-strips": lambda: fs(crossing_strips_structure()),
+        "blocked-slide": lambda: fs(blocked_slide_structure()),
+        "blocked-slide-behind": lambda: fs(blocked_slide_structure(behind=True)),
+    }
+    out = {}
+    t0 = time.process_time()
+    for name, make in cases.items():
+        f = make()
+        out[name] = verdicts(check_assembly(f.solids(workers=1), joints=f.joints, workers=1))
+    # controls that the checks must find: a clash kept, paths left unchecked by the builder
+    orig_clash, orig_paths = FinSystem._clashing_panels, FinSystem._check_paths
+    try:
+        FinSystem._clashing_panels = lambda self, **kw: []
+        f = fs(crossing_strips_structure())
+        out["crossing-strips-kept"] = verdicts(check_assembly(f.solids(workers=1),
+                                                              joints=f.joints, workers=1))
+        FinSystem._clashing_panels = orig_clash
+        FinSystem._check_paths = lambda self: None
+        for behind in (False, True):
+            f = fs(blocked_slide_structure(behind=behind))
+            out[f"blocked-slide-unchecked-{behind}"] = verdicts(
+                check_assembly(f.solids(workers=1), joints=f.joints, workers=1))
+    finally:
+        FinSystem._clashing_panels, FinSystem._check_paths = orig_clash, orig_paths
+    for name, v in out.items():
+        print(f"{name}: {v['pairs_checked']} pairs, {len(v['interfering'])} interfering, "
+              f"{len(v['blocked'])} blocked, {len(v['order'])} steps")
+    print(f"{time.process_time() - t0:.1f} s CPU")
+    return out
+
+
 def _close(a, b, rel):
     return abs(a - b) <= rel * max(abs(a), abs(b)) or a == b
 
@@ -83,9 +134,17 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--profile", type=Path, help="write cProfile stats here (workers=1)")
     ap.add_argument("--compare", nargs=2, type=Path)
+    ap.add_argument("--fixtures", action="store_true",
+                    help="the test-size cases of tests/fabrication instead of OUT (--json: one "
+                         "record per case)")
     args = ap.parse_args(argv)
     if args.compare:
         a, b = (json.loads(p.read_text()) for p in args.compare)
+        if "order" not in a:                 # --fixtures records: one per case
+            bad = [f"{k}: {x}" for k in sorted(set(a) | set(b))
+                   for x in (compare(a[k], b[k]) if k in a and k in b else ["missing"])]
+            print("\n".join(bad[:20]) if bad else f"identical: {len(a)} cases")
+            return 1 if bad else 0
         bad = compare(a, b)
         print("\n".join(bad[:20]) if bad else
               f"identical: {a['pairs_checked']} pairs checked, {len(a['interfering'])} "
@@ -94,6 +153,12 @@ def main(argv=None) -> int:
     import os
 
     from torsal.fabrication import check_assembly
+
+    if args.fixtures:
+        got = fixture_verdicts()
+        if args.json:
+            args.json.write_text(json.dumps(got, indent=0))
+        return 0
 
     t0w = time.perf_counter()
     solids, joints, load_cpu = load(args.out)
