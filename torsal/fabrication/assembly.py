@@ -500,7 +500,7 @@ _TRIANGLES: dict = {}
 
 def _boundary_triangles(shape) -> np.ndarray:
     """(t, 3, 3) corners of the triangles of a meshed shape's boundary (exact for planar
-    faces), kept per shape for the run."""
+    faces), kept per shape while a check runs (:func:`check_assembly` empties the store)."""
     key = id(shape)
     got = _TRIANGLES.get(key)
     if got is None or got[0] is not shape:
@@ -511,7 +511,9 @@ def _boundary_triangles(shape) -> np.ndarray:
         if not BRepTools.Triangulation_s(shape, 0.1):
             _mesh([shape], 1.0)           # serially (check_assembly meshes before any fork)
         v, f = _triangles(shape, 0.1)
-        got = _TRIANGLES[key] = (shape, v[f].reshape(-1, 3, 3))
+        got = (shape, v[f].reshape(-1, 3, 3))
+        if _SHAPES:                       # during a check only: nothing is kept after it
+            _TRIANGLES[key] = got
     return got[1]
 
 
@@ -637,21 +639,22 @@ def solid_clear(cover: list[tuple[_Face, np.ndarray]], other_triangles: np.ndarr
                              triangle_boxes=triangle_boxes).all())
 
 
-def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf) -> list[float]:
+def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf,
+                  faces: list[_Face] | None = None) -> list[float]:
     """Volume that ``moving`` sweeps on its way from ``position - vector`` to its place and that
     lies inside each of ``others`` (unit^3, one per other; an upper bound: the sum over the
     prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly). With
     ``stop_above`` the sum for one other stops once it exceeds that (a collision is known).
 
-    A prism that :func:`prism_clear` proves apart from an other adds 0 without a boolean (the
-    others must be meshed, as :func:`check_assembly` does).
+    A prism that :func:`prism_clear` proves apart from an other adds 0 without a boolean.
+    ``faces``: the face records of ``moving`` (``_face_records``), if made already.
 
     >>> from build123d import Box, Pos
     >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
     [2.0]
     """
     v = np.asarray(vector, float)
-    faces = _face_records(_shape(moving))
+    faces = _face_records(_shape(moving)) if faces is None else faces
     fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
                np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, object] = {}           # face index -> oriented prism (None: no volume)
@@ -723,10 +726,18 @@ def _near(s1, s2, tol: float) -> bool:
 _COVERS: dict = {}
 
 
+def _faces_of(k: int) -> list[_Face]:
+    """Face records of ``_SHAPES[k]``, made once per process."""
+    key = ("f", k)
+    if key not in _COVERS or _COVERS[key][0] is not _SHAPES[k]:
+        _COVERS[key] = (_SHAPES[k], _face_records(_SHAPES[k]))
+    return _COVERS[key][1]
+
+
 def _cover_of(k: int) -> list:
     """:func:`solid_cover` of ``_SHAPES[k]``, made once per process."""
     if k not in _COVERS or _COVERS[k][0] is not _SHAPES[k]:
-        _COVERS[k] = (_SHAPES[k], solid_cover(_SHAPES[k]))
+        _COVERS[k] = (_SHAPES[k], solid_cover(_SHAPES[k], _faces_of(k)))
     return _COVERS[k][1]
 
 
@@ -759,7 +770,8 @@ def _pair_job(job):
 
 def _sweep_job(job):
     k, vector, others, stop_above = job
-    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others], stop_above=stop_above)
+    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others],
+                            stop_above=stop_above, faces=_faces_of(k))
 
 
 def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> list:
@@ -953,6 +965,8 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
         order = _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progress)
     finally:
         _SHAPES = []
+        _TRIANGLES.clear()
+        _COVERS.clear()
     kinds = Counter(j.kind for j in joints)
     # connector parts (brackets, splice plates) by the kind of joint they fasten
     connectors = Counter(j.kind for j in {j.connector: j for j in joints if j.connector}.values())
