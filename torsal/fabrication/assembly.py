@@ -14,7 +14,14 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
 2. **Interference.** For every touching pair the common volume is computed with an exact
    OpenCascade boolean (``BRepAlgoAPI_Common``); a common volume above ``min_volume``
    (1 mm^3) is an interference. A boolean that fails is listed in ``failed_pairs`` and the
-   design is not called buildable (nothing is assumed).
+   design is not called buildable (nothing is assumed). Most touching plates only touch: a
+   cheap exact test proves them apart first and skips the boolean (:func:`solid_clear`): one
+   solid is covered by convex prisms (its exit faces swept back over its extent along its
+   thinnest face normal, :func:`solid_cover`; a flat plate: its panels), and a prism is
+   apart from the other solid when no triangle of the other's boundary reaches into it
+   (separating axes, :func:`hull_clear_of_triangles`) and it is not wholly inside it (ray
+   parity). Triangles may touch a prism or reach ``CLEAR_TOLERANCE`` (1e-7, OpenCascade's
+   own confusion tolerance) into it; an undecided pair gets the boolean.
 3. **Assembly order.** Parts are placed one by one in an order that follows the joints (the
    parts a joint lists first are placed first: for an egg-crate crossing the family-0
    plate(s), then the family-1 plate(s); for a butt joint the parts of the plate butted
@@ -32,7 +39,8 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    ``min_volume``: the swept volume is the union of the prisms that every face of the solid
    sweeps (``BRepPrimAPI_MakePrism``), each intersected exactly with the placed parts near the
    path; the sum of those common volumes (an upper bound of the swept overlap) is the
-   collision volume. A part with no clear path is *blocked*.
+   collision volume (a prism that :func:`prism_clear` proves apart from a part adds 0
+   without the boolean). A part with no clear path is *blocked*.
 
 A design is ``buildable`` when no pair interferes, no boolean failed and no part is blocked.
 
@@ -69,7 +77,8 @@ from torsal.core.parallel import usable_workers
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
            "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
-           "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME"]
+           "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME", "CLEAR_TOLERANCE",
+           "hull_clear_of_triangles", "prism_clear", "prisms_clear", "solid_cover", "solid_clear"]
 
 #: unit^3 (mm^3): a common volume above this is an interference (below it: round-off of the
 #: booleans on plates that touch)
