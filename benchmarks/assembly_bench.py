@@ -9,6 +9,21 @@ fabrication stage's joint records). The verdicts written are the interfering pai
 volumes, the failed pairs, ``pairs_checked``, the assembly order (part, direction, travel,
 partners, collision volumes) and the blocked parts. ``--compare`` exits 1 when any verdict
 differs (volumes within 1e-6 relative, directions and travels within 1e-9).
+
+Example 7a at full size (453 solids, 398 joints; 2026-11-23, 2 cores shared, load in
+brackets), CPU including the worker processes:
+
+=====================================  ===================  ===================
+check_assembly                         before (da2aa42)     after
+=====================================  ===================  ===================
+workers=1                              21.5 s CPU (2.6)     12.8 s CPU (2.9)
+workers=2 (default)                    23.9 s CPU, 12.7 s   14.6 s CPU, 9.4 s
+                                       wall (1.7)           wall (2.9)
+booleans: touching pairs / path prisms 2,442 / 5,069        290 / 607
+=====================================  ===================  ===================
+
+Loading (fins.step re-read, joints from the stage cache): 3.7 s CPU, unchanged. Verdicts
+identical before and after on 7a and on the 9 cases of ``--fixtures``.
 """
 from __future__ import annotations
 
