@@ -14,7 +14,14 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
 2. **Interference.** For every touching pair the common volume is computed with an exact
    OpenCascade boolean (``BRepAlgoAPI_Common``); a common volume above ``min_volume``
    (1 mm^3) is an interference. A boolean that fails is listed in ``failed_pairs`` and the
-   design is not called buildable (nothing is assumed).
+   design is not called buildable (nothing is assumed). Most touching plates only touch: a
+   cheap exact test proves them apart first and skips the boolean (:func:`solid_clear`): one
+   solid is covered by convex prisms (its exit faces swept back over its extent along its
+   thinnest face normal, :func:`solid_cover`; a flat plate: its panels), and a prism is
+   apart from the other solid when no triangle of the other's boundary reaches into it
+   (separating axes, :func:`hull_clear_of_triangles`) and it is not wholly inside it (ray
+   parity). Triangles may touch a prism or reach ``CLEAR_TOLERANCE`` (1e-7, OpenCascade's
+   own confusion tolerance) into it; an undecided pair gets the boolean.
 3. **Assembly order.** Parts are placed one by one in an order that follows the joints (the
    parts a joint lists first are placed first: for an egg-crate crossing the family-0
    plate(s), then the family-1 plate(s); for a butt joint the parts of the plate butted
@@ -32,7 +39,8 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    ``min_volume``: the swept volume is the union of the prisms that every face of the solid
    sweeps (``BRepPrimAPI_MakePrism``), each intersected exactly with the placed parts near the
    path; the sum of those common volumes (an upper bound of the swept overlap) is the
-   collision volume. A part with no clear path is *blocked*.
+   collision volume (a prism that :func:`prism_clear` proves apart from a part adds 0
+   without the boolean). A part with no clear path is *blocked*.
 
 A design is ``buildable`` when no pair interferes, no boolean failed and no part is blocked.
 
@@ -69,7 +77,8 @@ from torsal.core.parallel import usable_workers
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
            "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
-           "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME"]
+           "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME", "CLEAR_TOLERANCE",
+           "hull_clear_of_triangles", "prism_clear", "prisms_clear", "solid_cover", "solid_clear"]
 
 #: unit^3 (mm^3): a common volume above this is an interference (below it: round-off of the
 #: booleans on plates that touch)
@@ -388,48 +397,294 @@ def solid_distance(s1, s2) -> float:
     return dist
 
 
-def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf) -> list[float]:
+#: unit: how far a triangle may reach into a convex prism and the prism still count as clear of
+#: it (OpenCascade's confusion tolerance, the precision of its booleans themselves)
+CLEAR_TOLERANCE = 1e-7
+
+
+def hull_clear_of_triangles(points, triangles, *, eps: float = CLEAR_TOLERANCE) -> bool:
+    """Whether no triangle reaches into the convex hull of ``points`` by more than ``eps``.
+
+    A separating-axis test: a triangle is apart from the hull when their projections on one
+    axis overlap by at most ``eps`` (times the axis length). The axes are the triangle's normal,
+    the normal of the points' best plane, and the cross products of the points' difference
+    vectors along the hull's edges with the triangle's edges. Any axis that separates proves
+    the pair apart, so the answer ``True`` is exact (up to ``eps``); ``False`` means
+    *undecided* (the exact boolean decides). For the prism of a planar face swept along ``v``
+    the hull's edge directions are the face's edges and ``v`` (give them as ``edges``, see
+    :func:`prism_clear`); here every pair of points gives one (small point sets only).
+
+    Parameters
+    ----------
+    points : (m, 3) array
+    triangles : (t, 3, 3) array
+        Corners of each triangle.
+    eps : float
+
+    >>> import numpy as np
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    >>> tri = np.array([[[0.5, 0.5, 1.0], [3, 0.5, 1.0], [0.5, 3, 1.0]]])   # on the top face
+    >>> hull_clear_of_triangles(cube, tri), hull_clear_of_triangles(cube, tri - [0, 0, 0.01])
+    (True, False)
+    """
+    p = np.asarray(points, float)
+    tri = np.asarray(triangles, float).reshape(-1, 3, 3)
+    if not len(tri):
+        return True
+    i, j = np.triu_indices(len(p), 1)
+    return bool(_sat_clear(p[None], (p[j] - p[i])[None], _plane_normal(p)[None], tri,
+                           np.ones((1, len(tri)), bool), eps)[0])
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Broadcast cross product over the last axis (numpy's np.cross costs more on small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _plane_normal(points: np.ndarray) -> np.ndarray:
+    """Unit normal of the best-fit plane of (m, 3) points."""
+    return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][-1]
+
+
+def _inside_by_ray(point, triangles) -> bool | None:
+    """Whether ``point`` lies inside the closed triangulated surface ``triangles`` (t, 3, 3):
+    the parity of the crossings of one ray (Moller-Trumbore); None when that is not certain
+    (the point on the surface, the ray grazing an edge or running in a triangle's plane)."""
+    d = np.array([0.5773, 0.5871, 0.5675])          # a direction no face of a model shares
+    a = triangles[:, 0] - point
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    h = _cross(d, e2)
+    det = (e1 * h).sum(axis=1)
+    n = _cross(e1, e2)
+    nn = np.sqrt((n * n).sum(axis=1))
+    good = np.abs(det) > 1e-9 * nn
+    tol = 1e-9
+    if (~good & (np.abs((n * a).sum(axis=1)) <= tol * nn)).any():
+        return None                                  # the ray runs in a triangle's plane
+    inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+    u = -(a * h).sum(axis=1) * inv
+    q = _cross(-a, e1)
+    v = (q @ d) * inv
+    w = (e2 * q).sum(axis=1) * inv                   # distance along the ray
+    within = good & (u > -tol) & (v > -tol) & (u + v < 1 + tol)
+    edge = (np.abs(u) < tol) | (np.abs(v) < tol) | (np.abs(u + v - 1) < tol)
+    if (within & ((np.abs(w) < tol) | (edge & (w > -tol)))).any():
+        return None              # on the surface, or the ray grazes an edge or a corner
+    return bool((within & (w > 0)).sum() % 2)
+
+
+class _Face(NamedTuple):
+    """A face of a moving solid: its OCC face, vertices (k, 3), edge directions (k, 3)."""
+
+    face: object
+    points: np.ndarray
+    edges: np.ndarray
+    normal: np.ndarray
+
+
+def _face_records(shape) -> list[_Face]:
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    for f in _faces(shape):
+        edges = []
+        ex = TopExp_Explorer(f, TopAbs_EDGE)
+        while ex.More():
+            e = TopoDS.Edge(ex.Current())
+            a, b = BRep_Tool.Pnt_s(TopExp.FirstVertex_s(e)), BRep_Tool.Pnt_s(TopExp.LastVertex_s(e))
+            edges.append((b.X() - a.X(), b.Y() - a.Y(), b.Z() - a.Z()))
+            ex.Next()
+        pts = _vertices(f)
+        out.append(_Face(f, pts, np.asarray(edges, float).reshape(-1, 3), _plane_normal(pts)))
+    return out
+
+
+_TRIANGLES: dict = {}
+
+
+def _boundary_triangles(shape) -> np.ndarray:
+    """(t, 3, 3) corners of the triangles of a meshed shape's boundary (exact for planar
+    faces), kept per shape while a check runs (:func:`check_assembly` empties the store)."""
+    key = id(shape)
+    got = _TRIANGLES.get(key)
+    if got is None or got[0] is not shape:
+        from OCP.BRepTools import BRepTools
+
+        from .solids import _triangles
+
+        if not BRepTools.Triangulation_s(shape, 0.1):
+            _mesh([shape], 1.0)           # serially (check_assembly meshes before any fork)
+        v, f = _triangles(shape, 0.1)
+        got = (shape, v[f].reshape(-1, 3, 3))
+        if _SHAPES:                       # during a check only: nothing is kept after it
+            _TRIANGLES[key] = got
+    return got[1]
+
+
+def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
+                 other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                 triangle_boxes=None) -> np.ndarray:
+    """:func:`prism_clear` of many face prisms against one other solid at once: ``vectors``
+    (p, 3) or (3,), one per face or shared. Returns (p,) bool (True: proved apart)."""
+    nf = len(faces)
+    if not nf:
+        return np.zeros(0, bool)
+    v = np.broadcast_to(np.asarray(vectors, float), (nf, 3))
+    m = max(len(f.points) for f in faces)
+    k = max(len(f.edges) for f in faces) + 1
+    pts = np.empty((nf, 2 * m, 3))
+    edges = np.zeros((nf, k, 3))                 # zero rows give no axis (masked below)
+    for n, f in enumerate(faces):
+        fp = np.concatenate([f.points, f.points[:1].repeat(m - len(f.points), axis=0)])
+        pts[n, :m], pts[n, m:] = fp, fp - v[n]   # repeated corners leave the hull as it is
+        edges[n, :len(f.edges)] = f.edges
+        edges[n, len(f.edges)] = v[n]
+    normals = np.array([f.normal for f in faces])
+    lo, hi = pts.min(axis=1) - eps, pts.max(axis=1) + eps
+    tri = other_triangles
+    tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
+    near = ((tmin[None] <= hi[:, None]).all(axis=2) & (tmax[None] >= lo[:, None]).all(axis=2))
+    clear = np.ones(nf, bool)
+    used = near.any(axis=0)
+    if used.any():
+        clear = _sat_clear(pts, edges, normals, tri[used], near[:, used], eps)
+    # clear of the boundary: apart unless wholly inside (a hull sticking out of the box is not)
+    inside_box = (lo >= other_box[0]).all(axis=1) & (hi <= other_box[1]).all(axis=1)
+    for n in np.flatnonzero(clear & inside_box):
+        clear[n] = _inside_by_ray(pts[n].mean(axis=0), tri) is False
+    return clear
+
+
+def _sat_clear(pts, edges, normals, tri, near, eps) -> np.ndarray:
+    """(p,) whether no near triangle reaches ``eps`` into the hull of each point set ``pts``
+    (p, m, 3) with edge directions ``edges`` (p, k, 3), axis ``normals`` (p, 3); ``near``
+    (p, t) selects the triangles (t, 3, 3) each is tested against (only those pairs are)."""
+    pi, ti = np.nonzero(near)
+    c = pts.mean(axis=1)                               # (p, 3): centred, smaller round-off
+    q = (pts - c[:, None])[pi]                         # (n, m, 3)
+    t = tri[ti] - c[pi][:, None]                       # (n, 3, 3)
+    te = t[:, [1, 2, 0]] - t                           # (n, 3, 3) triangle edges
+    tn = _cross(te[:, 0], te[:, 1])                    # (n, 3)
+    cross = _cross(edges[pi][:, :, None, :], te[:, None, :, :]).reshape(len(pi), -1, 3)
+    axes = np.concatenate([tn[:, None], normals[pi][:, None], cross], axis=1)   # (n, a, 3)
+    norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
+    scale = max(float(np.abs(q).max(initial=0.0)), float(np.abs(t).max(initial=0.0)), 1.0)
+    ok = norm > 1e-9 * scale * scale                   # parallel edges give no axis
+    pp = axes @ q.transpose(0, 2, 1)                   # (n, a, m)
+    tp = axes @ t.transpose(0, 2, 1)                   # (n, a, 3)
+    gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
+    sep = (ok & (gap >= -eps * norm)).any(axis=1)      # (n,)
+    clear = np.ones(len(pts), bool)
+    clear[pi[~sep]] = False
+    return clear
+
+
+def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.ndarray,
+                *, eps: float = CLEAR_TOLERANCE, triangle_boxes=None) -> bool:
+    """Whether the prism that ``face`` sweeps from ``-vector`` to its place provably has no
+    volume in common with the solid bounded by ``other_triangles`` (t, 3, 3) whose box is
+    ``other_box`` (2, 3) (True: exact, within ``eps``; False: undecided). The prism lies in the
+    convex hull of the face's corners and their translates, whose edges run along the face's
+    edges and ``vector``: no boundary triangle of the other reaching into that hull
+    (:func:`hull_clear_of_triangles`), and the hull not inside the other (one point, ray
+    parity), leave them apart. ``triangle_boxes``: the triangles' (min, max) corners, if known."""
+    return bool(prisms_clear([face], vector, other_triangles, other_box, eps=eps,
+                             triangle_boxes=triangle_boxes)[0])
+
+
+def _outward_normals(shape, faces: list[_Face]) -> np.ndarray | None:
+    """(f, 3) outward unit normals of the planar faces of a closed solid (None: a face is not
+    planar)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    out = []
+    for f in faces:
+        surf = BRepAdaptor_Surface(f.face)
+        if surf.GetType() != GeomAbs_Plane:
+            return None
+        d = surf.Plane().Axis().Direction()
+        n = np.array([d.X(), d.Y(), d.Z()])
+        out.append(-n if f.face.Orientation() == TopAbs_REVERSED else n)
+    # a shell oriented inside out has a negative volume: its faces point in
+    return np.asarray(out).reshape(-1, 3) * (1.0 if _signed_volume(shape) >= 0 else -1.0)
+
+
+def solid_cover(shape, faces: list[_Face] | None = None) -> list[tuple[_Face, np.ndarray]]:
+    """Prisms that cover a closed planar-faced solid: ``(face, vector)``, each face with
+    ``n . w > 0`` swept back along ``vector = L w`` (a point of the solid leaves it along
+    ``w`` through such a face within the solid's extent ``L`` along ``w``); ``w`` is the
+    outward face normal along which the solid is thinnest (a flat plate: its thickness, one
+    prism per face). Empty when a face is not planar (no cover)."""
+    faces = _face_records(shape) if faces is None else faces
+    normals = _outward_normals(shape, faces)
+    if normals is None or not len(faces):
+        return []
+    verts = np.concatenate([f.points for f in faces])
+    proj = verts @ normals.T
+    ext = proj.max(axis=0) - proj.min(axis=0)
+    k = int(np.argmin(ext))
+    w = normals[k] * float(ext[k])
+    return [(f, w) for f, n in zip(faces, normals) if n @ normals[k] > 0]
+
+
+def solid_clear(cover: list[tuple[_Face, np.ndarray]], other_triangles: np.ndarray,
+                other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                triangle_boxes=None) -> bool:
+    """Whether the solid covered by the prisms ``cover`` (:func:`solid_cover`) provably has no
+    volume in common with the solid bounded by ``other_triangles`` (t, 3, 3), box
+    ``other_box`` (True: exact within ``eps``; False: undecided): every prism is clear of it
+    (:func:`prism_clear`)."""
+    if not cover:
+        return False
+    return bool(prisms_clear([f for f, _ in cover], np.array([w for _, w in cover]),
+                             other_triangles, other_box, eps=eps,
+                             triangle_boxes=triangle_boxes).all())
+
+
+def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf,
+                  faces: list[_Face] | None = None) -> list[float]:
     """Volume that ``moving`` sweeps on its way from ``position - vector`` to its place and that
     lies inside each of ``others`` (unit^3, one per other; an upper bound: the sum over the
     prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly). With
     ``stop_above`` the sum for one other stops once it exceeds that (a collision is known).
 
+    A prism that :func:`prism_clear` proves apart from an other adds 0 without a boolean.
+    ``faces``: the face records of ``moving`` (``_face_records``), if made already.
+
     >>> from build123d import Box, Pos
     >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
     [2.0]
     """
-    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
-    from OCP.gp import gp_Vec
-
-    from OCP.BRepGProp import BRepGProp
-    from OCP.BRepLib import BRepLib
-    from OCP.GProp import GProp_GProps
-    from OCP.TopoDS import TopoDS
-
     v = np.asarray(vector, float)
-    length = float(np.linalg.norm(v))
-    back = gp_Vec(*map(float, -v))
-    prisms = []
-    for f in _faces(_shape(moving)):
-        props = GProp_GProps()
-        BRepGProp.SurfaceProperties_s(f, props)
-        pr = TopoDS.Solid(BRepPrimAPI_MakePrism(f, back, True).Shape())
-        # faces along the path sweep no volume (numerically a sliver of either sign: skip it)
-        if abs(_signed_volume(pr)) <= 1e-9 * props.Mass() * length:
-            continue
-        # a face swept against its normal gives an inside-out solid; the boolean would take
-        # its complement: orient it
-        BRepLib.OrientClosedSolid_s(pr)
-        prisms.append(pr)
-    pboxes = [_bbox(pr) for pr in prisms]
-    _mesh(prisms, 1.0)
+    faces = _face_records(_shape(moving)) if faces is None else faces
+    fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
+               np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
+    prisms: dict[int, object] = {}           # face index -> oriented prism (None: no volume)
     out = []
     for o in others:
-        ob = _bbox(_shape(o))
+        oshape = _shape(o)
+        ob = _bbox(oshape)
         total = 0.0
-        for pr, pb in zip(prisms, pboxes):
-            if (pb[0] > ob[1]).any() or (ob[0] > pb[1]).any() or not _near(pr, _shape(o), 1e-3):
-                continue                      # apart: nothing in common
+        meets = [n for n, (plo, phi) in enumerate(fboxes)
+                 if not ((plo > ob[1]).any() or (ob[0] > phi).any())]     # else apart
+        if meets:
+            clear = prisms_clear([faces[n] for n in meets], v, _boundary_triangles(oshape), ob)
+            meets = [n for n, c in zip(meets, clear) if not c]            # else proved apart
+        for n in meets:
+            face = faces[n]
+            if n not in prisms:
+                prisms[n] = _face_prism(face.face, v)
+            pr = prisms[n]
+            if pr is None or (_bbox(pr)[0] > ob[1]).any() or (ob[0] > _bbox(pr)[1]).any() \
+                    or not _near(pr, oshape, 1e-3):
+                continue
             try:
                 total += common_volume(pr, o)
             except RuntimeError:
@@ -438,6 +693,29 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
                 break
         out.append(total)
     return out
+
+
+def _face_prism(face, v: np.ndarray):
+    """The oriented, meshed solid ``face`` sweeps along ``-v`` (None: the face runs along
+    ``v`` and sweeps no volume)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.BRepLib import BRepLib
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.GProp import GProp_GProps
+    from OCP.TopoDS import TopoDS
+    from OCP.gp import gp_Vec
+
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    pr = TopoDS.Solid(BRepPrimAPI_MakePrism(face, gp_Vec(*map(float, -v)), True).Shape())
+    # faces along the path sweep no volume (numerically a sliver of either sign: skip it)
+    if abs(_signed_volume(pr)) <= 1e-9 * props.Mass() * float(np.linalg.norm(v)):
+        return None
+    # a face swept against its normal gives an inside-out solid; the boolean would take its
+    # complement: orient it
+    BRepLib.OrientClosedSolid_s(pr)
+    _mesh([pr], 1.0)
+    return pr
 
 
 # ---------------------------------------------------------------------------- parallel map
@@ -454,6 +732,33 @@ def _near(s1, s2, tol: float) -> bool:
     return not p.IsDone() or p.OverlapSubShapes1().Size() > 0
 
 
+_COVERS: dict = {}
+
+
+def _faces_of(k: int) -> list[_Face]:
+    """Face records of ``_SHAPES[k]``, made once per process."""
+    key = ("f", k)
+    if key not in _COVERS or _COVERS[key][0] is not _SHAPES[k]:
+        _COVERS[key] = (_SHAPES[k], _face_records(_SHAPES[k]))
+    return _COVERS[key][1]
+
+
+def _cover_of(k: int) -> list:
+    """:func:`solid_cover` of ``_SHAPES[k]``, made once per process."""
+    if k not in _COVERS or _COVERS[k][0] is not _SHAPES[k]:
+        _COVERS[k] = (_SHAPES[k], solid_cover(_SHAPES[k], _faces_of(k)))
+    return _COVERS[k][1]
+
+
+def _triangles_of(k: int) -> tuple:
+    """``(triangles, box, triangle_boxes)`` of ``_SHAPES[k]`` for :func:`solid_clear`."""
+    key = ("t", k)
+    if key not in _COVERS or _COVERS[key][0] is not _SHAPES[k]:
+        tri = _boundary_triangles(_SHAPES[k])
+        _COVERS[key] = (_SHAPES[k], (tri, _bbox(_SHAPES[k]), (tri.min(axis=1), tri.max(axis=1))))
+    return _COVERS[key][1]
+
+
 def _pair_job(job):
     i, j, tol = job
     try:
@@ -461,7 +766,12 @@ def _pair_job(job):
         if not _near(a, b, tol) and not (_inside(a, b) or _inside(b, a)):
             return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside the other
         # within the tolerance on the triangulations (exact for planar faces): touching;
-        # the exact distance (solid_distance) would cost ten booleans a pair
+        # the exact distance (solid_distance) would cost ten booleans a pair. A pair that
+        # the cheap exact test proves apart has nothing in common; the others get the boolean
+        (ta, ba, tba), (tb, bb, tbb) = _triangles_of(i), _triangles_of(j)
+        if solid_clear(_cover_of(i), tb, bb, triangle_boxes=tbb) or \
+                solid_clear(_cover_of(j), ta, ba, triangle_boxes=tba):
+            return i, j, 0.0, 0.0, ""
         return i, j, 0.0, common_volume(a, b), ""
     except Exception as e:       # OpenCascade failures: reported per pair, never assumed clear
         return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
@@ -469,7 +779,8 @@ def _pair_job(job):
 
 def _sweep_job(job):
     k, vector, others, stop_above = job
-    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others], stop_above=stop_above)
+    return k, swept_overlap(_SHAPES[k], vector, [_SHAPES[o] for o in others],
+                            stop_above=stop_above, faces=_faces_of(k))
 
 
 def _map(fn, jobs: list, workers: int, progress: Callable | None, what: str) -> list:
@@ -663,6 +974,8 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
         order = _assembly_order(names, boxes, joints, tolerance, min_volume, workers, progress)
     finally:
         _SHAPES = []
+        _TRIANGLES.clear()
+        _COVERS.clear()
     kinds = Counter(j.kind for j in joints)
     # connector parts (brackets, splice plates) by the kind of joint they fasten
     connectors = Counter(j.kind for j in {j.connector: j for j in joints if j.connector}.values())
