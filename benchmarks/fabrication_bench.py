@@ -14,6 +14,20 @@ CPU seconds are less sensitive to it. ``CPU`` columns are this process's; ``soli
 ``workers CPU`` are the worker processes' (``FinSystem.solids_cpu_seconds``; when the stage
 builds the solids in this process, one worker, they are part of ``CPU s`` as well).
 
+Measured 2026-11-23 19:31-19:35 (evening, commit 9c4bb54, nothing else running: load 0.1 to
+1.7, ``nice -n 5``, ``--no-verify-above 1000 --no-sheets-above 1000``). Both targets met:
+5,100 panels solids + STEP 25.6 s (< 60 s), 7a's fabrication stage 7.95 s (< 10 s)::
+
+    | panels | parts | connectors | FinSystem s | solids 1p s | solids 1p CPU s | solids Np s | solids Np CPU s | N | STEP s | STEP CPU s | solids Np + STEP s | unroll s | nest s | DXF s | sheets | utilization | verify 1p s | verify 2p s | touching pairs | interfering | load |
+    |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
+    | 112 | 98 | 64 | 0.43 | 0.50 | 0.49 | 2.36 | 0.63 | 2 | 0.25 | 0.23 | 2.61 | 0.05 | 0.21 | 0.38 | 3 | 0.555 | 1.52 | 1.33 | 270 | 0 | 0.31 |
+    | 1012 | 934 | 620 | 4.39 | 5.49 | 5.48 | 4.55 | 6.02 | 2 | 2.42 | 2.39 | 6.98 | 0.49 | 16.59 | 0.56 | 21 | 0.711 | 18.64 | 14.99 | 3127 | 0 | 1.07 |
+    | 5100 | 4820 | 3208 | 27.97 | 25.88 | 25.87 | 13.21 | 24.82 | 2 | 12.41 | 12.38 | 25.62 | - | - | - | - | - | - | - | - | - | 1.28 |
+
+    | design | parts | sheets | fabrication stage s | CPU s | workers CPU s | load |
+    |---|---|---|---|---|---|---|
+    | 7a_facade_block | 453 | 50 | 7.95 | 5.72 | 4.42 | 1.72 |
+
 Measured 2026-11-23 18:40-18:44 on the shared 2-core machine, ``nice -n 19``, other sessions
 running (load 4.3 to 5.4 at the rows; ``--no-verify-above 1000 --no-sheets-above 1000``)::
 
