@@ -33,20 +33,21 @@ def _noisy(n, max_deg, rng):
 
 
 # ----------------------------------------------------------------------- assembly is exact
+@pytest.mark.parametrize("form", ["split", "lift"])
 @pytest.mark.parametrize("normalize", ["tangent", "constraint"])
-def test_assembled_gradient_and_hessian_match_finite_differences(facade, normalize):
+def test_assembled_gradient_and_hessian_match_finite_differences(facade, normalize, form):
     v, f = facade_patch(nu=5, nv=4)
     c = Congruence.from_normals((v, f))
     rng = np.random.default_rng(3)
     p = (CongruenceProblem(c, normalize=normalize).normal().fair().fair_torsal()
-         .perpendicular(SUN).torsal_direction([1, 4], [1.0, 0, 0.2]).hyperbolic().min_torsal_angle(30))
+         .perpendicular(SUN).torsal_direction([1, 4], [1.0, 0, 0.2]).hyperbolic().min_torsal_angle(30, form=form))
     p.build()
     b = p._built[normalize]
     e = _noisy(c.directions, 20, rng)
     x0, fr = b.pack(e)
     par = b.parameters(p._current(), fr)
-    x0 = b.full(x0, par)              # with the lifted variables of min_torsal_angle (3 per face)
-    assert x0.size == b.n_dir + 3 * len(c.faces)
+    x0 = b.full(x0, par)              # lift: with the lifted variables (3 per face)
+    assert x0.size == b.n_dir + (3 * len(c.faces) if form == "lift" else 0)
     x0 = x0 + 0.05 * rng.standard_normal(x0.size)
     lam_g = rng.standard_normal(b.n_g)
     f0, g0 = (np.asarray(v).ravel() for v in b.grad_f(x0, par))
@@ -55,7 +56,7 @@ def test_assembled_gradient_and_hessian_match_finite_differences(facade, normali
     _, J = b.jac_g(x0, par)
     J = np.asarray(ca.densify(J))
     h = 1e-6
-    lifted = rng.choice(np.arange(b.n_dir, x0.size), 6, replace=False)
+    lifted = rng.choice(np.arange(b.n_dir, x0.size), 6, replace=False) if form == "lift" else np.zeros(0, int)
     for i in np.concatenate([rng.choice(b.n_dir, 8, replace=False), lifted]):
         dx = np.zeros(x0.size)
         dx[i] = h
