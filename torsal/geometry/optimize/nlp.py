@@ -3,10 +3,15 @@
 :class:`Built` maps every term's element kernels over its elements and scatters the local
 derivatives into the global sparse matrices with constant 0/1 scatter matrices (linear in the
 mesh size). See the package docstring for why the Hessian is assembled by hand.
+
+The steps: :class:`_Layout` places the variables, parameters and constraint rows;
+:class:`_Assembly` adds each term's value and derivative pieces (:class:`_Parts`) and
+scatters them; :class:`Built` turns the result into casadi Functions and bounds.
 """
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -63,6 +68,271 @@ def _from_tangent(z: np.ndarray, frames: np.ndarray) -> np.ndarray:
     return e / np.sqrt(1.0 + (z * z).sum(axis=1))[:, None]
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """Sizes and offsets of one NLP (internal to :class:`Built`).
+
+    Variables: the directions (``n_dir``: ``dof`` per vertex), then the lifted variables
+    (``n_lift``: ``(r, t, phi)`` per face of a lifted term, see :meth:`Built._lift`), then the
+    elastic slacks (``n_slack``, see :meth:`Built._elastic`). Parameters: the tangent frames
+    (``n_frames``), then per term its weight and its ``par`` (from ``p_offsets``), then the
+    elastic penalty weight when there are slacks. Constraint rows: the constraint terms'
+    rows in order (from ``g_offsets``).
+    """
+    n_vertices: int
+    tangent: bool
+    cons: list            # the constraint terms, in row order
+    g_offsets: np.ndarray
+    elastic_rows: np.ndarray
+    lifts: list           # (term, first row, first lifted variable) per lifted term
+    n_lift: int
+    p_offsets: list
+    n_par: int
+
+    @classmethod
+    def of(cls, terms: list[Term], n_vertices: int, tangent: bool, elastic: float) -> "_Layout":
+        dof = 2 if tangent else 3
+        cons = [t for t in terms if t.constraint]
+        g_offsets = np.concatenate([[0], np.cumsum([t.size for t in cons])]).astype(np.int64)
+        # elastic rows: the one-sided inequalities c >= lower (see Built._elastic)
+        el_rows = np.concatenate([np.full(t.size, np.isfinite(t.lower) and not np.isfinite(t.upper))
+                                  for t in cons]) if cons and elastic > 0 else np.zeros(0, bool)
+        # lifted variables: one per row of a lifted term, after the directions
+        lifts, n_lift = [], 0
+        for t, go in zip(cons, g_offsets):
+            if t.lift:
+                lifts.append((t, int(go), dof * n_vertices + n_lift))
+                n_lift += t.size
+        p_offsets, n_p = [], 9 * n_vertices if tangent else 0
+        for t in terms:
+            p_offsets.append(n_p)
+            n_p += 1 + t.par.size
+        n_p += 1 if el_rows.any() else 0      # the elastic penalty weight, last
+        return cls(n_vertices, tangent, cons, g_offsets, np.flatnonzero(el_rows), lifts, n_lift,
+                   p_offsets, n_p)
+
+    @property
+    def dof(self) -> int:
+        return 2 if self.tangent else 3
+
+    @property
+    def n_dir(self) -> int:
+        return self.dof * self.n_vertices
+
+    @property
+    def n_slack(self) -> int:
+        return int(self.elastic_rows.size)
+
+    @property
+    def n_main(self) -> int:
+        return self.n_dir + self.n_lift
+
+    @property
+    def n_var(self) -> int:
+        return self.n_main + self.n_slack
+
+    @property
+    def n_frames(self) -> int:
+        return 9 * self.n_vertices if self.tangent else 0
+
+    @property
+    def n_g(self) -> int:
+        return int(self.g_offsets[-1])
+
+
+class _Parts:
+    """Entries of a sparse matrix (or vector: no columns) as pieces ``(values, rows, cols)``;
+    entries at the same position are summed when scattered (:func:`_scatter`), so each term
+    adds its local derivatives without knowing the others'."""
+
+    def __init__(self):
+        self.values, self.rows, self.cols = [], [], []
+
+    def add(self, values, rows: np.ndarray, cols: np.ndarray | None = None) -> None:
+        self.values.append(values)
+        self.rows.append(rows)
+        if cols is not None:
+            self.cols.append(cols)
+
+    def vector(self, n: int, dense: list) -> ca.MX:
+        """The dense ``(n, 1)`` sum of the pieces plus the ``dense`` columns."""
+        out = ca.MX.zeros(n, 1)
+        if self.values:
+            ukey, S = _scatter(np.concatenate(self.rows))
+            out = ca.densify(ca.MX(_ccs(ukey, n, 1), ca.mtimes(S, ca.vertcat(*self.values))))
+        for d in dense:
+            out = out + d
+        return out
+
+    def matrix(self, nrow: int, ncol: int) -> ca.MX:
+        """The sparse ``(nrow, ncol)`` sum of the pieces (structural zeros elsewhere)."""
+        if not self.values:
+            return ca.MX(ca.Sparsity(nrow, ncol))
+        rows, cols = np.concatenate(self.rows), np.concatenate(self.cols)
+        ukey, S = _scatter(cols * nrow + rows)
+        return ca.MX(_ccs(ukey, nrow, ncol), ca.mtimes(S, ca.vertcat(*self.values)))
+
+
+class _Assembly:
+    """The symbolic NLP while its terms are added one by one (internal to :class:`Built`).
+
+    Holds the symbols (``x_all``, ``p``, ``lam_f``, ``lam_g``), the directions ``e_all`` as
+    expressions of the variables (the chart in tangent mode) and the accumulated objective,
+    energies, constraint rows and derivative pieces; :meth:`finish` scatters the pieces.
+    The Hessian is that of the Lagrangian ``lam_f f + lam_g^T g``, upper triangle.
+    """
+
+    def __init__(self, lay: _Layout, jit: bool, hessian: str):
+        self.lay, self.jit, self.hessian = lay, jit, hessian
+        self.x_all = ca.MX.sym("x", lay.n_var)
+        # the directions' variables (the lifted variables and slacks come after them)
+        self.x = self.x_all[0:lay.n_dir] if lay.n_var > lay.n_dir else self.x_all
+        self.p = ca.MX.sym("p", lay.n_par)
+        self.lam_f = ca.MX.sym("lam_f")
+        self.lam_g = ca.MX.sym("lam_g", lay.n_g)
+        self.f = ca.MX(0)
+        self.e_vals, self.g_parts = [], []
+        self.grad, self.dense_grad = _Parts(), []   # gradient in x (dense: quadratic terms)
+        self.lag, self.dense_lag = _Parts(), []     # Lagrangian gradient in e (tangent: chart curvature)
+        self.jac, self.hess = _Parts(), _Parts()
+        self.quad_h = []       # (coefficient, upper triangle of Q) of the plain-mode quadratic terms
+        self.local: dict = {}  # element kernels, shared by the terms with the same function
+        if lay.tangent:
+            self._chart()
+        else:
+            self.e_all = self.x
+
+    def _chart(self) -> None:
+        """Tangent mode: ``e = chart(z, frame)`` per vertex and its 3x2 Jacobian, mapped once."""
+        n = self.lay.n_vertices
+        self.Z = ca.reshape(self.x, 2, n)
+        self.FR = ca.reshape(self.p[0:self.lay.n_frames], 9, n)
+        chart, *derivs = _chart_functions()
+        self.chart_jac, self.chart_hess, self.chart_jtg, self.pair_jj = (
+            (_jit(f) for f in derivs) if self.jit else derivs)
+        self.e_all = ca.vec(chart.map(n)(self.Z, self.FR))
+        self.JV = self.chart_jac.map(n)(self.Z, self.FR)          # (6, n): 3x2 per vertex, column-major
+        self.jv_all = ca.vec(self.JV)
+
+    def _energy(self, val, w) -> None:
+        self.e_vals.append(val)
+        self.f += w * val
+
+    def quadratic(self, t: Term, off: int) -> None:
+        """An energy ``scale * e^T Q e`` (``t.matrix``: Q over the term's coordinates)."""
+        n_e, lam_f = 3 * self.lay.n_vertices, self.lam_f
+        Q = sp.coo_matrix(t.matrix)
+        Qg = sp.csc_matrix((Q.data, (Q.row + t.offset, Q.col + t.offset)), shape=(n_e, n_e))
+        w = self.p[off]
+        qe = ca.mtimes(_to_casadi(Qg), self.e_all)
+        self._energy(t.scale * ca.dot(self.e_all, qe), w)
+        ge = 2.0 * t.scale * w * qe
+        coef = 2.0 * t.scale * w * lam_f
+        if not self.lay.tangent:   # constant Hessian: added as a whole in finish
+            self.dense_grad.append(ge)
+            self.quad_h.append((coef, sp.triu(Qg).tocsc()))
+            return
+        self.dense_grad.append(ca.vec(self.chart_jtg.map(self.lay.n_vertices)(
+            self.JV, ca.reshape(ge, 3, self.lay.n_vertices))))
+        if self.hessian == "exact":   # Gauss-Newton: J^T Q J only, no chart curvature
+            self.dense_lag.append(lam_f * ge)
+        self._quadratic_in_z(t, coef)
+
+    def _quadratic_in_z(self, t: Term, coef) -> None:
+        """``coef * J^T Q J`` in the tangent coordinates: Q = Q1 (x) I3 couples vertices i, j
+        by q_ij I3, so their 2x2 block is q_ij J_i^T J_j (upper triangle kept)."""
+        Q1 = sp.coo_matrix(t.matrix[0::3, 0::3])
+        vo = t.offset // 3
+        up = Q1.row <= Q1.col
+        vi, vj, q = Q1.row[up] + vo, Q1.col[up] + vo, Q1.data[up]
+        JI = ca.reshape(self.jv_all[(6 * vi[:, None] + np.arange(6)).ravel().tolist()], 6, len(vi))
+        JJ = ca.reshape(self.jv_all[(6 * vj[:, None] + np.arange(6)).ravel().tolist()], 6, len(vj))
+        blocks = self.pair_jj.map(len(vi))(JI, JJ, ca.DM(q).T * 1.0) * coef   # (4, m): (00, 10, 01, 11)
+        # local entries (a, b) -> z ids (2 vi + a, 2 vj + b); keep the upper triangle
+        R = 2 * vi[:, None] + np.array([0, 1, 0, 1])
+        C = 2 * vj[:, None] + np.array([0, 0, 1, 1])
+        sel = np.flatnonzero((R <= C).ravel())
+        self.hess.add(ca.vec(blocks)[sel.tolist()], R.ravel()[sel], C.ravel()[sel])
+
+    def _kernels(self, t: Term) -> Local:
+        """The element kernels of ``t`` (Gauss-Newton ones for a least-squares energy when
+        asked), compiled once per element function."""
+        el = t.element
+        gn = self.hessian == "gauss-newton" and not t.constraint and el.residual is not None
+        key = (id(el.fn), self.lay.tangent, gn)
+        if key not in self.local:
+            self.local[key] = Local(el.fn, el.k, self.lay.tangent,
+                                    self.jit and not el.fn.name().startswith("custom_"),
+                                    t.constraint, residual=el.residual if gn else None)
+        return self.local[key]
+
+    def _element_args(self, t: Term, off: int):
+        """The kernels' mapped arguments ``(X, D, P, JL)`` over the term's ``m`` elements, and
+        the variable ids ``(m, k dof)`` of each element's local derivatives."""
+        m, r, dof = t.size, t.element.n_par, self.lay.dof
+        verts = t.idx[:, ::3] // 3
+        xidx = (dof * verts[:, :, None] + np.arange(dof)).reshape(m, -1)
+        X = ca.reshape(self.e_all[t.idx.ravel().tolist()], t.idx.shape[1], m)
+        D = ca.DM(np.ascontiguousarray(t.data.T)) if t.element.n_data else ca.DM(0, m)
+        P = ca.reshape(self.p[off + 1:off + 1 + m * r], r, m) if r else ca.MX(0, m)
+        if self.lay.tangent:   # each element's vertices' chart Jacobians
+            jidx = (6 * verts[:, :, None] + np.arange(6)).reshape(m, -1)
+            JL = ca.reshape(self.jv_all[jidx.ravel().tolist()], jidx.shape[1], m)
+        else:
+            JL = ca.MX(0, m)
+        return (X, D, P, JL), xidx
+
+    def element(self, t: Term, off: int, go: int | None) -> None:
+        """An element term: energy (``go`` None) or constraint rows from ``go`` on."""
+        L = self._kernels(t)
+        args, xidx = self._element_args(t, off)
+        m = t.size
+        if not t.constraint:
+            w = self.p[off]
+            self._energy(t.scale * ca.sum2(L.val.map(m)(*args)), w)
+            self.grad.add(t.scale * w * ca.vec(L.grad.map(m)(*args)), xidx.ravel())
+            coef = ca.repmat(t.scale * w * self.lam_f, 1, m)
+        else:
+            self.g_parts.append(ca.vec(L.val.map(m)(*args)))
+            self.jac.add(ca.vec(L.jac.map(m)(*args)), np.repeat(go + np.arange(m), len(L.j_cols)),
+                         xidx[:, L.j_cols].ravel())
+            coef = ca.reshape(self.lam_g[go:go + m], 1, m)
+        if len(L.h_rows):
+            hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
+            self.hess.add(ca.vec(L.hess.map(m)(*args, coef)), np.minimum(hr, hc), np.maximum(hr, hc))
+        if self.lay.tangent and not L.gauss_newton:
+            self.lag.add(ca.vec(L.lag_e.map(m)(*args, coef)), t.idx.ravel())
+
+    def lifted(self, t: Term, go: int, lo: int, off: int, row_term: int) -> None:
+        """The lifted variables' part of a lifted term (``row_term``: its index among the
+        constraint terms): its rows become ``G(e) - H(y)``."""
+        dg, jp, hp = Built._lift(t, go, lo, self.x_all, self.p, self.lam_g, off)
+        self.g_parts[row_term] = self.g_parts[row_term] - dg
+        self.jac.add(*jp)
+        self.hess.add(*hp)
+
+    def finish(self):
+        """``(grad, g, jac, hess)``: the pieces scattered into the global vectors and matrices."""
+        lay = self.lay
+        grad = self.grad.vector(lay.n_dir, self.dense_grad)
+        if lay.n_lift:   # the objective does not depend on the lifted variables
+            grad = ca.vertcat(grad, ca.MX.zeros(lay.n_lift, 1))
+        g = ca.vertcat(*self.g_parts) if self.g_parts else ca.MX(0, 1)
+        jac = self.jac.matrix(lay.n_g, lay.n_main)
+        if lay.tangent:   # the chart's own curvature: sum_c (dL/de_c) d2 e_c / dz2, per vertex
+            n = lay.n_vertices
+            g_lag = self.lag.vector(3 * n, self.dense_lag)
+            dz = self.chart_hess.map(n)(self.Z, self.FR, ca.reshape(g_lag, 3, n))   # (3, n)
+            base = 2 * np.arange(n)
+            self.hess.add(ca.vec(dz), np.stack([base, base, base + 1], 1).ravel(),
+                          np.stack([base, base + 1, base + 1], 1).ravel())
+        hess = self.hess.matrix(lay.n_main, lay.n_main)
+        for coef, Qg in self.quad_h:
+            Qg.resize((lay.n_main, lay.n_main))
+            hess = hess + coef * _to_casadi(Qg)
+        return grad, g, jac, hess
+
+
 class Built:
     """The assembled NLP of one problem structure (internal).
 
@@ -76,213 +346,61 @@ class Built:
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
         self.hessian = hessian
-        tangent = mode == "tangent"
-        dof = 2 if tangent else 3
-        n_e = 3 * n_vertices
-        n_var = dof * n_vertices
-        cons = [t for t in terms if t.constraint]
-        # elastic rows: the one-sided inequalities c >= lower (see _elastic)
-        el_rows = np.concatenate([np.full(t.size, np.isfinite(t.lower) and not np.isfinite(t.upper))
-                                  for t in cons]) if cons and elastic > 0 else np.zeros(0, bool)
-        self.elastic_rows = np.flatnonzero(el_rows)
-        self.n_slack = int(self.elastic_rows.size)
         self.elastic = float(elastic)
-        # lifted torsal forms (see _lift): 3 variables (r, t, phi) per face of a lifted term,
-        # one per row; after the directions, before the elastic slacks
-        self.lifts = []
-        n_lift = 0
-        g_start = np.concatenate([[0], np.cumsum([c.size for c in cons])]).astype(np.int64)
-        for t, go in zip(cons, g_start):
-            if t.lift:
-                self.lifts.append((t, int(go), n_var + n_lift))
-                n_lift += t.size
-        self.n_dir, self.n_lift = n_var, n_lift
-        self.n_main = n_var + n_lift
-        self.n_var = self.n_main + self.n_slack
-        x_all = ca.MX.sym("x", self.n_var)
-        x = x_all[0:n_var] if self.n_var > n_var else x_all
-        n_fr = 9 * n_vertices if tangent else 0
-        self.n_frames = n_fr
-        offsets, n_p = [], n_fr
-        for t in terms:
-            offsets.append(n_p)
-            n_p += 1 + t.par.size
-        n_p += 1 if self.n_slack else 0      # the elastic penalty weight, last
-        self.p_offsets, self.n_par = offsets, n_p
-        p = ca.MX.sym("p", n_p)
-        lam_f = ca.MX.sym("lam_f")
-        g_sizes = [t.size for t in cons]
-        self.g_offsets = np.concatenate([[0], np.cumsum(g_sizes)]).astype(np.int64)
-        self.g_slices = [slice(int(o), int(o) + n) for o, n in zip(self.g_offsets, g_sizes)]
-        n_g = int(sum(g_sizes))
-        self.n_g = n_g
-        lam_g = ca.MX.sym("lam_g", n_g)
+        lay = _Layout.of(terms, n_vertices, mode == "tangent", elastic)
+        self.cons, self.elastic_rows, self.lifts = lay.cons, lay.elastic_rows, lay.lifts
+        self.n_slack, self.n_dir, self.n_lift = lay.n_slack, lay.n_dir, lay.n_lift
+        self.n_main, self.n_var, self.n_frames = lay.n_main, lay.n_var, lay.n_frames
+        self.p_offsets, self.n_par = lay.p_offsets, lay.n_par
+        self.g_offsets, self.n_g = lay.g_offsets, lay.n_g
+        self.g_slices = [slice(int(o), int(o) + t.size) for o, t in zip(lay.g_offsets, lay.cons)]
+        self._functions(self._assemble(lay, jit))
+        self._bounds()
+        self.solvers: dict = {}
+        # first Hessian regularization per IPOPT objective scaling (see _hessian_shift)
+        self.hessian_shifts: dict[tuple, float] = {}
+        self.seconds = time.perf_counter() - t0
 
-        if tangent:   # e = chart(z, frame) per vertex, mapped once
-            Z = ca.reshape(x, 2, n_vertices)
-            FR = ca.reshape(p[0:n_fr], 9, n_vertices)
-            chart, *derivs = _chart_functions()
-            chart_jac, chart_hess, chart_jtg, pair_jj = (_jit(f) for f in derivs) if jit else derivs
-            e_all = ca.vec(chart.map(n_vertices)(Z, FR))
-            JV = chart_jac.map(n_vertices)(Z, FR)          # (6, n): 3x2 per vertex, column-major
-            jv_all = ca.vec(JV)
-        else:
-            e_all = x
-
-        f = ca.MX(0)
-        e_vals, g_parts = [], []
-        grad_parts, grad_rows = [], []
-        dense_grad = []                 # dense (n_var,) gradient parts (quadratic terms)
-        lag_parts, lag_rows = [], []    # Lagrangian gradient in e (tangent: chart curvature)
-        dense_lag = []
-        h_parts, h_rows, h_cols = [], [], []
-        j_parts, j_rows, j_cols = [], [], []
-        quad_h = []
-        local: dict = {}
+    def _assemble(self, lay: _Layout, jit: bool) -> _Assembly:
+        """Every term's pieces, then the lifted terms' variables."""
+        asm = _Assembly(lay, jit, self.hessian)
         ci = 0
-        for t, off in zip(terms, offsets):
-            if t.matrix is not None:      # quadratic energy scale * e^T Q e
-                Q = sp.coo_matrix(t.matrix)
-                Qg = sp.csc_matrix((Q.data, (Q.row + t.offset, Q.col + t.offset)), shape=(n_e, n_e))
-                w = p[off]
-                qe = ca.mtimes(_to_casadi(Qg), e_all)
-                val = t.scale * ca.dot(e_all, qe)
-                e_vals.append(val)
-                f += w * val
-                ge = 2.0 * t.scale * w * qe
-                coef = 2.0 * t.scale * w * lam_f
-                if not tangent:
-                    dense_grad.append(ge)
-                    quad_h.append((coef, sp.triu(Qg).tocsc()))
-                    continue
-                dense_grad.append(ca.vec(chart_jtg.map(n_vertices)(JV, ca.reshape(ge, 3, n_vertices))))
-                if hessian == "exact":   # Gauss-Newton: J^T Q J only, no chart curvature
-                    dense_lag.append(lam_f * ge)
-                # J^T Q J: Q = Q1 (x) I3 couples vertices i, j by q_ij I3 -> q_ij J_i^T J_j
-                Q1 = sp.coo_matrix(t.matrix[0::3, 0::3])
-                vo = t.offset // 3
-                up = Q1.row <= Q1.col
-                vi, vj, q = Q1.row[up] + vo, Q1.col[up] + vo, Q1.data[up]
-                JI = ca.reshape(jv_all[(6 * vi[:, None] + np.arange(6)).ravel().tolist()], 6, len(vi))
-                JJ = ca.reshape(jv_all[(6 * vj[:, None] + np.arange(6)).ravel().tolist()], 6, len(vj))
-                blocks = pair_jj.map(len(vi))(JI, JJ, ca.DM(q).T * 1.0) * coef   # (4, m): (00, 10, 01, 11)
-                # local entries (a, b) -> z ids (2 vi + a, 2 vj + b); keep the upper triangle
-                ra = np.array([0, 1, 0, 1])
-                rb = np.array([0, 0, 1, 1])
-                R = 2 * vi[:, None] + ra
-                C = 2 * vj[:, None] + rb
-                keep = R <= C
-                sel = np.flatnonzero(keep.ravel())
-                h_parts.append(ca.vec(blocks)[sel.tolist()])
-                h_rows.append(R.ravel()[sel])
-                h_cols.append(C.ravel()[sel])
-                continue
-            el = t.element
-            m, r = t.size, el.n_par
-            gn = hessian == "gauss-newton" and not t.constraint and el.residual is not None
-            key = (id(el.fn), tangent, gn)
-            if key not in local:
-                local[key] = Local(el.fn, el.k, tangent, jit and not el.fn.name().startswith("custom_"),
-                                   t.constraint, residual=el.residual if gn else None)
-            L = local[key]
-            verts = t.idx[:, ::3] // 3
-            xidx = (dof * verts[:, :, None] + np.arange(dof)).reshape(m, -1)
-            X = ca.reshape(e_all[t.idx.ravel().tolist()], t.idx.shape[1], m)
-            D = ca.DM(np.ascontiguousarray(t.data.T)) if el.n_data else ca.DM(0, m)
-            P = ca.reshape(p[off + 1:off + 1 + m * r], r, m) if r else ca.MX(0, m)
-            if tangent:
-                jidx = (6 * verts[:, :, None] + np.arange(6)).reshape(m, -1)
-                JL = ca.reshape(jv_all[jidx.ravel().tolist()], jidx.shape[1], m)
-            else:
-                JL = ca.MX(0, m)
-            args = (X, D, P, JL)
-            if not t.constraint:
-                w = p[off]
-                val = t.scale * ca.sum2(L.val.map(m)(*args))
-                e_vals.append(val)
-                f += w * val
-                grad_parts.append(t.scale * w * ca.vec(L.grad.map(m)(*args)))
-                grad_rows.append(xidx.ravel())
-                coef = ca.repmat(t.scale * w * lam_f, 1, m)
-            else:
-                go = int(self.g_offsets[ci])
+        for t, off in zip(self.terms, lay.p_offsets):
+            if t.matrix is not None:
+                asm.quadratic(t, off)
+            elif t.constraint:
+                asm.element(t, off, int(lay.g_offsets[ci]))
                 ci += 1
-                g_parts.append(ca.vec(L.val.map(m)(*args)))
-                j_parts.append(ca.vec(L.jac.map(m)(*args)))
-                j_rows.append(np.repeat(go + np.arange(m), len(L.j_cols)))
-                j_cols.append(xidx[:, L.j_cols].ravel())
-                coef = ca.reshape(lam_g[go:go + m], 1, m)
-            if len(L.h_rows):
-                h_parts.append(ca.vec(L.hess.map(m)(*args, coef)))
-                hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
-                h_rows.append(np.minimum(hr, hc))
-                h_cols.append(np.maximum(hr, hc))
-            if tangent and not L.gauss_newton:
-                lag_parts.append(ca.vec(L.lag_e.map(m)(*args, coef)))
-                lag_rows.append(t.idx.ravel())
+            else:
+                asm.element(t, off, None)
+        for t, go, lo in lay.lifts:
+            off = lay.p_offsets[next(i for i, u in enumerate(self.terms) if u is t)]
+            asm.lifted(t, go, lo, off, next(i for i, u in enumerate(lay.cons) if u is t))
+        return asm
 
-        def scatter_dense(parts, rows, n, dense):
-            out = ca.MX.zeros(n, 1)
-            if parts:
-                ukey, S = _scatter(np.concatenate(rows))
-                out = ca.densify(ca.MX(_ccs(ukey, n, 1), ca.mtimes(S, ca.vertcat(*parts))))
-            for d in dense:
-                out = out + d
-            return out
-
-        grad = scatter_dense(grad_parts, grad_rows, n_var, dense_grad)
-        if n_lift:   # the objective does not depend on the lifted variables
-            grad = ca.vertcat(grad, ca.MX.zeros(n_lift, 1))
-        n_main = self.n_main
-        for t, go, lo in self.lifts:
-            off = offsets[next(i for i, u in enumerate(terms) if u is t)]
-            dg, jp, hp = self._lift(t, go, lo, x_all, p, lam_g, off)
-            ci = next(i for i, u in enumerate(cons) if u is t)
-            g_parts[ci] = g_parts[ci] - dg
-            for parts, (vals, rr, cc) in ((j_parts, jp), (h_parts, hp)):
-                parts.append(vals)
-                (j_rows if parts is j_parts else h_rows).append(rr)
-                (j_cols if parts is j_parts else h_cols).append(cc)
-        g = ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
-        if j_parts:
-            jr, jcol = np.concatenate(j_rows), np.concatenate(j_cols)
-            ukey, S = _scatter(jcol * n_g + jr)
-            jac = ca.MX(_ccs(ukey, n_g, n_main), ca.mtimes(S, ca.vertcat(*j_parts)))
-        else:
-            jac = ca.MX(n_g, n_main)
-        if tangent:   # the chart's own curvature: sum_c (dL/de_c) d2 e_c / dz2, per vertex
-            g_lag = scatter_dense(lag_parts, lag_rows, n_e, dense_lag)
-            dz = chart_hess.map(n_vertices)(Z, FR, ca.reshape(g_lag, 3, n_vertices))   # (3, n)
-            h_parts.append(ca.vec(dz))
-            base = 2 * np.arange(n_vertices)
-            h_rows.append(np.stack([base, base, base + 1], 1).ravel())
-            h_cols.append(np.stack([base, base + 1, base + 1], 1).ravel())
-        if h_parts:
-            hr, hc = np.concatenate(h_rows), np.concatenate(h_cols)
-            ukey, S = _scatter(hc * n_main + hr)
-            hess = ca.MX(_ccs(ukey, n_main, n_main), ca.mtimes(S, ca.vertcat(*h_parts)))
-        else:
-            hess = ca.MX(ca.Sparsity(n_main, n_main))
-        for coef, Qg in quad_h:
-            Qg.resize((n_main, n_main))
-            hess = hess + coef * _to_casadi(Qg)
-
+    def _functions(self, asm: _Assembly) -> None:
+        """The casadi Functions of the NLP (with the elastic slacks) and of the plain values."""
+        x_all, p, f = asm.x_all, asm.p, asm.f
+        grad, g, jac, hess = asm.finish()
         self._evaluate = ca.Function("evaluate", [x_all, p],
-                                     [ca.vertcat(*e_vals) if e_vals else ca.MX(0, 1), f, g])
+                                     [ca.vertcat(*asm.e_vals) if asm.e_vals else ca.MX(0, 1), f, g])
         if self.n_slack:
             f, grad, g, jac, hess = self._elastic(x_all, p, f, grad, g, jac, hess)
         self.x, self.p = x_all, p
         self.f_expr, self.g_expr = f, g
         self.grad_f = ca.Function("nlp_grad_f", [x_all, p], [f, grad], ["x", "p"], ["f", "grad"])
         self.jac_g = ca.Function("nlp_jac_g", [x_all, p], [g, jac], ["x", "p"], ["g", "jac"])
-        self.hess_lag = ca.Function("nlp_hess_l", [x_all, p, lam_f, lam_g], [hess],
+        self.hess_lag = ca.Function("nlp_hess_l", [x_all, p, asm.lam_f, asm.lam_g], [hess],
                                     ["x", "p", "lam_f", "lam_g"], ["hess"])
+
+    def _bounds(self) -> None:
+        """Constraint and variable bounds and the flags the solvers read."""
+        terms, cons = self.terms, self.cons
         self.energy_names = [t.name for t in terms if not t.constraint]
         #: the Lagrangian Hessian is positive semidefinite by construction: no constraint rows
         #: and every energy quadratic (PSD Q) or Gauss-Newton with the chart curvature left out
-        self.psd = n_g == 0 and hessian == "gauss-newton" and all(
+        self.psd = self.n_g == 0 and self.hessian == "gauss-newton" and all(
             t.matrix is not None or (t.element.residual is not None) for t in terms)
-        self.cons = cons
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)
         #: variable bounds: the directions are free, elastic slacks are >= 0 (the lifted
@@ -294,10 +412,6 @@ class Built:
         self.inequality_rows = self.lbg < self.ubg
         for t, go, lo in self.lifts:
             self.inequality_rows[go:go + t.size] = True
-        self.solvers: dict = {}
-        # first Hessian regularization per IPOPT objective scaling (see _hessian_shift)
-        self.hessian_shifts: dict[tuple, float] = {}
-        self.seconds = time.perf_counter() - t0
 
     def _elastic(self, x_all, p, f, grad, g, jac, hess):
         """The elastic (l1-exact penalty) form of the one-sided inequalities ``c_j >= l_j``.
