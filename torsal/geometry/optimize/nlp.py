@@ -33,9 +33,6 @@ def _bound_violation(g: np.ndarray, lower, upper) -> np.ndarray:
     return np.maximum(np.maximum(lower - g, g - upper), 0.0)
 
 
-# pass 2 of a solve (see CongruenceProblem._solve_ipopt) is tried when at most this share of the
-# inequality constraints is violated without them: then the answer is close to feasible and
-
 def _scatter(keys: np.ndarray) -> tuple[np.ndarray, ca.DM]:
     """Unique sorted keys and the 0/1 matrix summing entries with equal keys (CCS order)."""
     ukey, pos = np.unique(keys, return_inverse=True)
