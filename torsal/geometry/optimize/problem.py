@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -44,6 +44,33 @@ _COORDS = torsal_form_coordinates_element().fn     # (u, v, w) of a face's torsa
 
 #: anchored form: stop the outer rounds when no active face's anchor moves by this (radians)
 ANCHOR_TOL = 1e-3
+
+
+class _Start(NamedTuple):
+    """Where :meth:`CongruenceProblem.solve` starts (:meth:`CongruenceProblem._start`)."""
+
+    e0: np.ndarray                  # (N, 3) stacked start directions
+    lam_g0: np.ndarray | None       # IPOPT's constraint multipliers of the last solve (warm start)
+    warm: bool                      # IPOPT starts warm from ``lam_g0``
+    before: dict                    # energies at ``e0`` (:meth:`CongruenceProblem.energies`)
+    x0: np.ndarray                  # ``e0`` packed as the NLP's variables
+    frames: np.ndarray              # (n, 9) tangent frames of ``Built.pack`` ((0, 9) if unused)
+    p: np.ndarray                   # the NLP's parameters at the start
+
+
+class _Run(NamedTuple):
+    """How the solver ran (:meth:`CongruenceProblem._run`), before measuring the answer."""
+
+    x: np.ndarray                   # the answer as the NLP's variables
+    lam_g: np.ndarray | None        # IPOPT's constraint multipliers (None for L-BFGS)
+    iterations: int
+    status: str
+    ok: bool                        # the solver converged
+    active: bool | None             # ``OptimizationResult.constraints_active``
+    working: np.ndarray | None      # pass 2's working-set mask over ``g``, else None
+    frames: np.ndarray              # the frames to unpack ``x`` with (re-centred by IPOPT's passes)
+    build_seconds: float            # NLPs built during the run (IPOPT's passes)
+    solve_seconds: float
 
 
 class CongruenceProblem:
@@ -1084,6 +1111,47 @@ class CongruenceProblem:
         build_s += self.build("ipopt")    # the main NLP also evaluates energies and constraints
         mode = self._mode(solver)
         b = self._built[mode]
+        start = self._start(solver, b, initial, warm_start)
+        tols = dict(angle_tol_deg=float(angle_tol_deg), constraint_tol=float(constraint_tol))
+
+        def worst(e):
+            m = self.measure(e, **tols).values()
+            return max((x.worst / x.tolerance if x.tolerance > 0 else x.worst for x in m), default=0.0)
+
+        monitor = SolveMonitor(worst, callback, max_seconds, t0=t_call)
+        run = self._run(solver, b, mode, start, monitor, max_iter=max_iter, tol=tol, verbose=verbose,
+                        ipopt_options=ipopt_options, try_unconstrained=try_unconstrained, penalty=penalty)
+        build_s += run.build_seconds
+        if monitor.timed_out:
+            run = run._replace(status=f"time limit of {max_seconds:g} s reached", ok=False)
+        e = b.unpack(run.x, run.frames)
+        if self.normalize == "renormalize" or solver == "lbfgs":
+            e = _renormalize(e.ravel()).reshape(-1, 3)
+        finite = bool(np.isfinite(e).all())
+        collapsed = (self._collapse(start.e0, e) if finite and solver == "ipopt" and self.hessian == "guarded"
+                     and b.hessian == "gauss-newton" else None)
+        if collapsed is not None:
+            # the Gauss-Newton steps reached a trivial zero of the energies: solve again from
+            # the same start with the exact Hessian (kept for this problem's structure)
+            self._exact_after_collapse = True
+            self._built.pop(mode, None)
+            res = self.solve(solver, max_iter, tol, callback, warm_start=warm_start, initial=initial,
+                             raise_on_failure=raise_on_failure, verbose=verbose, constraint_tol=constraint_tol,
+                             angle_tol_deg=angle_tol_deg, penalty=penalty, ipopt_options=ipopt_options,
+                             try_unconstrained=try_unconstrained, max_seconds=max_seconds, keep_best=keep_best)
+            return replace(res, iterations=res.iterations + run.iterations,
+                           build_seconds=res.build_seconds + build_s,
+                           solve_seconds=res.solve_seconds + run.solve_seconds,
+                           status=f"Gauss-Newton: {collapsed}; exact Hessian: {res.status}")
+        res = self._package(solver, b, e, run, monitor, before=start.before, build_seconds=build_s,
+                            keep_best=keep_best, tols=tols)
+        if raise_on_failure and not res.success:
+            raise OptimizationError(f"congruence optimization failed: {res.status}", res)
+        return res
+
+    def _start(self, solver: str, b: Built, initial, warm_start: bool) -> _Start:
+        """Where :meth:`solve` starts: ``initial``, the last answer (warm start) or the
+        congruence's directions (moved off the line-bundle apex, :meth:`_off_the_apex`)."""
         e0, lam_g0, warm = self._directions(), None, False
         if initial is not None:
             init = np.asarray(initial, dtype=float)
@@ -1099,53 +1167,43 @@ class CongruenceProblem:
         before = self._evaluate(e0)[0]
         x0, frames = b.pack(e0)
         p = b.parameters(self._current(), frames)
-        tols = dict(angle_tol_deg=float(angle_tol_deg), constraint_tol=float(constraint_tol))
+        return _Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p)
 
-        def worst(e):
-            m = self.measure(e, **tols).values()
-            return max((x.worst / x.tolerance if x.tolerance > 0 else x.worst for x in m), default=0.0)
-
-        monitor = SolveMonitor(worst, callback, max_seconds, t0=t_call)
+    def _run(self, solver: str, b: Built, mode: str, start: _Start, monitor: SolveMonitor, *,
+             max_iter: int | None, tol: float, verbose: bool, ipopt_options: dict | None,
+             try_unconstrained: bool, penalty: float) -> _Run:
+        """Run IPOPT (its passes, then the anchored form's outer rounds) or L-BFGS from ``start``."""
         t0 = time.perf_counter()
-        active = working = lam_g = None
-        if solver == "ipopt":
-            strategy = IpoptStrategy(self, monitor, frames, limit=max_iter or 200, tol=tol, verbose=verbose,
-                                     options=ipopt_options)
-            self._strategy = strategy
-            try:
-                out = strategy.solve(b, mode, warm, lam_g0, x0, p, try_unconstrained)
-                frames = strategy.frames     # re-centred when a pass started elsewhere
-                if self._anchored_terms():
-                    out = self._anchored_rounds(strategy, b, out, frames, max_iter or 200)
-            finally:
-                self._strategy = None
-            build_s += strategy.build_seconds
-            solve_s = time.perf_counter() - t0 - strategy.build_seconds
-            x, lam_g, iters, status, ok, active, working = out
-        else:
-            r = lbfgs(b, x0, p, monitor, max_iter=max_iter or 1000, tol=tol, penalty=penalty)
-            solve_s = time.perf_counter() - t0
-            x, status, ok, iters = r
-        if monitor.timed_out:
-            status, ok = f"time limit of {max_seconds:g} s reached", False
-        e = b.unpack(x, frames)
-        if self.normalize == "renormalize" or solver == "lbfgs":
-            e = _renormalize(e.ravel()).reshape(-1, 3)
+        if solver != "ipopt":
+            r = lbfgs(b, start.x0, start.p, monitor, max_iter=max_iter or 1000, tol=tol, penalty=penalty)
+            return _Run(x=r.x, lam_g=None, iterations=r.iterations, status=r.status, ok=r.converged,
+                        active=None, working=None, frames=start.frames, build_seconds=0.0,
+                        solve_seconds=time.perf_counter() - t0)
+        strategy = IpoptStrategy(self, monitor, start.frames, limit=max_iter or 200, tol=tol, verbose=verbose,
+                                 options=ipopt_options)
+        self._strategy = strategy
+        try:
+            out = strategy.solve(b, mode, start.warm, start.lam_g0, start.x0, start.p, try_unconstrained)
+            frames = strategy.frames     # re-centred when a pass started elsewhere
+            if self._anchored_terms():
+                out = self._anchored_rounds(strategy, b, out, frames, max_iter or 200)
+        finally:
+            self._strategy = None
+        solve_s = time.perf_counter() - t0 - strategy.build_seconds
+        return _Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
+                    active=out.constraints_active, working=out.working, frames=frames,
+                    build_seconds=strategy.build_seconds, solve_seconds=solve_s)
+
+    def _package(self, solver: str, b: Built, e: np.ndarray, run: _Run, monitor: SolveMonitor, *,
+                 before: dict, build_seconds: float, keep_best: bool, tols: dict) -> OptimizationResult:
+        """The :class:`OptimizationResult` of the answer ``e`` (stacked (N, 3)), measured.
+
+        Falls back to the monitor's best feasible iterate (``keep_best``), writes the misses
+        into the status and keeps the answer (and a converged solve's multipliers) for a
+        warm start.
+        """
+        status, ok, lam_g, working = run.status, run.ok, run.lam_g, run.working
         finite = bool(np.isfinite(e).all())
-        collapsed = (self._collapse(e0, e) if finite and solver == "ipopt" and self.hessian == "guarded"
-                     and b.hessian == "gauss-newton" else None)
-        if collapsed is not None:
-            # the Gauss-Newton steps reached a trivial zero of the energies: solve again from
-            # the same start with the exact Hessian (kept for this problem's structure)
-            self._exact_after_collapse = True
-            self._built.pop(mode, None)
-            res = self.solve(solver, max_iter, tol, callback, warm_start=warm_start, initial=initial,
-                             raise_on_failure=raise_on_failure, verbose=verbose, constraint_tol=constraint_tol,
-                             angle_tol_deg=angle_tol_deg, penalty=penalty, ipopt_options=ipopt_options,
-                             try_unconstrained=try_unconstrained, max_seconds=max_seconds, keep_best=keep_best)
-            return replace(res, iterations=res.iterations + iters, build_seconds=res.build_seconds + build_s,
-                           solve_seconds=res.solve_seconds + solve_s,
-                           status=f"Gauss-Newton: {collapsed}; exact Hessian: {res.status}")
         meas = self.measure(e, **tols) if finite else {}
         holds = finite and all(m.holds for m in meas.values())
         from_iteration = None
@@ -1160,8 +1218,6 @@ class CongruenceProblem:
         else:
             after, fval = {}, math.nan
             status += "; the solution contains NaN"
-        viol = {k: m.worst for k, m in meas.items()}
-        violated = {k: m.missed for k, m in meas.items()}
         worst_c = worst_missed(meas)
         if not finite:
             worst_c = ("NaN", -1, math.inf)
@@ -1175,21 +1231,19 @@ class CongruenceProblem:
             # multipliers only from a converged solve: a warm start (mu_init 1e-6) from an
             # unconverged iterate's multipliers was slower than a cold one (bench row 7c:
             # re-solve 152 s after a 90 s first solve)
-            self._last = {"e": e, "lam_g": lam_g if ok else None, "active": active,
+            self._last = {"e": e, "lam_g": lam_g if ok else None, "active": run.active,
                           "working": working if ok else None}
         else:
             congs = list(self._blocks)
-        res = OptimizationResult(congruence=congs[0], success=ok, status=status, iterations=iters,
-                                 build_seconds=build_s, solve_seconds=solve_s, energies_before=before,
-                                 energies_after=after, max_violation=viol, worst_constraint=worst_c,
-                                 congruences=tuple(congs), solver=solver, objective=float(fval),
-                                 constraints_active=active,
-                                 working_set=None if working is None else _working_ids(b, working),
-                                 violated=violated, measured=meas, history=monitor.history,
-                                 from_iteration=from_iteration)
-        if raise_on_failure and not ok:
-            raise OptimizationError(f"congruence optimization failed: {status}", res)
-        return res
+        return OptimizationResult(congruence=congs[0], success=ok, status=status, iterations=run.iterations,
+                                  build_seconds=build_seconds, solve_seconds=run.solve_seconds,
+                                  energies_before=before, energies_after=after,
+                                  max_violation={k: m.worst for k, m in meas.items()}, worst_constraint=worst_c,
+                                  congruences=tuple(congs), solver=solver, objective=float(fval),
+                                  constraints_active=run.active,
+                                  working_set=None if working is None else _working_ids(b, working),
+                                  violated={k: m.missed for k, m in meas.items()}, measured=meas,
+                                  history=monitor.history, from_iteration=from_iteration)
 
 
 def _split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float, name: str = "min_torsal_angle") -> Term:
