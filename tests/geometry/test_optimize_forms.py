@@ -144,3 +144,19 @@ def test_lifted_coordinates_are_the_invariants():
             assert np.degrees(np.arccos(abs(u) / np.hypot(v, w))) == pytest.approx(ang, abs=1e-6)
         else:
             assert np.isnan(ang) or ang == pytest.approx(0.0, abs=1e-3)
+
+
+@pytest.mark.parametrize("form", ["lift", "anchored"])
+def test_lbfgs_baseline_penalizes_every_form_as_its_split_rows(form):
+    """The paper's L-BFGS has only the directions as variables: a lifted or anchored bound is
+    penalized as the split rows over the same faces, so it walks exactly as with split
+    (before the fix, the lifted term's 3 rows per face were fed as parameters of 2: an error)."""
+    c = Congruence.from_normals(facade_patch(nu=7, nv=6))
+
+    def solve(f):
+        p = CongruenceProblem(c).normal().fair().perpendicular(SUN).min_torsal_angle(40, form=f)
+        return p.solve(solver="lbfgs", max_iter=30)
+
+    ref, r = solve("split"), solve(form)
+    assert r.iterations == ref.iterations and r.objective == ref.objective
+    np.testing.assert_array_equal(r.congruence.directions, ref.congruence.directions)

@@ -859,8 +859,8 @@ class CongruenceProblem:
         # the terms as the NLP has them (hyperbolic without the rows min_torsal_angle implies)
         cur = {k: (self._implied_hyperbolic(t) or t) for k, t in self._terms.items()}
         for k, t in self._terms.items():
-            if t.constraint:
-                cur["penalty:" + k] = t
+            if t.constraint:   # penalties of lifted / anchored forms are their split rows
+                cur["penalty:" + k] = _unlifted(t)
         return cur
 
     def _evaluate(self, e: np.ndarray):
