@@ -214,8 +214,14 @@ def test_design_on_an_obj_with_uv_seams_runs_on_the_merged_mesh(tmp_path, capsys
     assert surface["vertices"] == len(v) and surface["faces"] == len(f)
     assert surface["mesh_file"]["file_vertices"] == 3 * len(f)
     assert surface["mesh_file"]["merged"] == 3 * len(f) - len(v)
+    said = capsys.readouterr().out
     assert (f"surface: {len(v)} vertices from {3 * len(f)} in the file "
-            f"({3 * len(f) - len(v)} merged at the same position" in capsys.readouterr().out)
+            f"({3 * len(f) - len(v)} merged at the same position" in said)
+    # the verdict of the assembly check, with the numbers of the report
+    a = json.loads((tmp_path / "o" / "report.json").read_text())["fabrication"]["assembly"]
+    assert a["buildable"]
+    assert (f"assembly: buildable, 0 of {a['pairs_checked']} touching part pairs interfere; "
+            f"{a['steps']} assembly steps" in said)
 
 
 def test_analyze_reports_the_merge_and_ends_with_a_newline(tmp_path, capsys):

@@ -186,6 +186,9 @@ def _design(args, ui: _Terminal) -> int:
         if gate and gate.get("message"):
             ui.note(f"joinery: {gate['message']}")
     asm = fa.get("assembly")
+    if asm is not None and asm["buildable"]:
+        ui.line(f"assembly: buildable, 0 of {asm['pairs_checked']} touching part pairs interfere; "
+                f"{asm['steps']} assembly steps in {out / 'assembly.csv'}")
     if asm is not None and not asm["buildable"]:
         from .pipeline.assembly import unbuildable_message
 

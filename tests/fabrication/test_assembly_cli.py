@@ -55,7 +55,9 @@ def test_interfering_design_exits_3_naming_the_parts(tmp_path, capsys):
     assert len(rows) == report["fabrication"]["parts"]
     # accepted explicitly: exit 0, still not reported as buildable
     assert main(["design", str(design), "--out", str(out), "--accept-unbuildable"]) == 0
-    assert "NOT BUILDABLE" in re.sub(r"\s+", " ", capsys.readouterr().err)
+    said = capsys.readouterr()
+    assert "NOT BUILDABLE" in re.sub(r"\s+", " ", said.err)
+    assert "assembly: buildable" not in said.out
 
 
 def test_congruence_gate_names_faces_with_oblique_torsal_planes():
