@@ -75,6 +75,10 @@ import numpy as np
 from torsal.core.atomic import atomic_path
 from torsal.core.parallel import usable_workers
 
+# the fin model's vector helper (np.cross bit for bit, cheaper on small arrays): a data-model
+# kernel, not the joint builder's code, so the check stays independent of the builder
+from .model import _cross
+
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "check_assembly",
            "verify_assembly", "joints_of", "face_polygons", "common_volume", "solid_distance",
            "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME", "CLEAR_TOLERANCE",
@@ -434,13 +438,6 @@ def hull_clear_of_triangles(points, triangles, *, eps: float = CLEAR_TOLERANCE) 
     i, j = np.triu_indices(len(p), 1)
     return bool(_sat_clear(p[None], (p[j] - p[i])[None], _plane_normal(p)[None], tri,
                            np.ones((1, len(tri)), bool), eps)[0])
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Broadcast cross product over the last axis (numpy's np.cross costs more on small arrays)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _plane_normal(points: np.ndarray) -> np.ndarray:

@@ -372,7 +372,6 @@ def run_fabrication(inp: StageInputs) -> dict:
     """Parts, joints and solids; STEP / 3DM / nested DXF sheets / parts list as the design's
     [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
     from ..fabrication import joints_of
-
     from ..fabrication.solids import prepare_workers, release_workers
 
     spec, out = inp.spec, inp.out

@@ -375,14 +375,14 @@ def _hessian_shift(b: Built, x0: np.ndarray, p: np.ndarray, ip: dict) -> float:
     if b.n_var == 0 or b.psd:    # nothing to estimate (the Lanczos search would not converge)
         return 0.0
     try:
+        x0 = b.full(x0, p)       # with the lifted variables, if any
         scale = float(ip.get("obj_scaling_factor", 1.0))
         if ip.get("nlp_scaling_method", "gradient-based") == "gradient-based":
-            g = np.asarray(b.grad_f(b.full(x0, p), p)[1]).ravel()
+            g = np.asarray(b.grad_f(x0, p)[1]).ravel()
             gmax = float(np.max(np.abs(g))) if g.size else 0.0
             limit = float(ip.get("nlp_scaling_max_gradient", 100.0))
             if gmax > limit:
                 scale *= max(limit / gmax, float(ip.get("nlp_scaling_min_value", 1e-8)))
-        x0 = b.full(x0, p)
         h = b.hess_lag(x0, p, scale, np.zeros(b.n_g)).sparse()      # upper triangle
         h = (h + sp.triu(h, 1).T).tocsc()
         if b.n_var <= 200:

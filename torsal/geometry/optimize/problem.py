@@ -943,7 +943,7 @@ class CongruenceProblem:
 
     def _anchored_terms(self) -> list[Term]:
         return [t for t in self._terms.values()
-                if t.element is not None and t.element.fn.name() == "c_ang_anchored"]
+                if _is_anchored(t)]
 
     def _anchor(self, e: np.ndarray, active: dict | None = None) -> float:
         """Anchor every anchored torsal-angle term at the directions ``e`` (see :mod:`.forms`).
@@ -982,7 +982,7 @@ class CongruenceProblem:
             lam = np.abs(np.asarray(out.lam_g))
             big = float(lam.max(initial=0.0))
             for t, rows in zip(b.cons, b.g_slices):
-                if t.element is not None and t.element.fn.name() == "c_ang_anchored":
+                if _is_anchored(t):
                     act = (lam[rows] > 1e-4 * big).reshape(2, -1)
                     active[t.name] = act[0] | act[1]
             if self._anchor(e.ravel(), active) < ANCHOR_TOL:
@@ -1263,9 +1263,14 @@ def _lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float) -> Term:
                 lower=0.0, upper=0.0, lift=True)
 
 
+def _is_anchored(t: Term) -> bool:
+    """Whether ``t`` is a torsal-angle term in the anchored form (its rows re-anchored in rounds)."""
+    return t.element is not None and t.element.fn.name() == "c_ang_anchored"
+
+
 def _unlifted(t: Term) -> Term:
     """A lifted or anchored torsal-angle term as the split form over the same faces (for L-BFGS)."""
-    if not (t.lift or (t.element is not None and t.element.fn.name() == "c_ang_anchored")):
+    if not (t.lift or _is_anchored(t)):
         return t
     m = t.size // (3 if t.lift else 2)
     return replace(_split_angle_term(t.elements[:m], t.idx[:m, ::3] // 3, t.data[:m], float(t.par[0, 0]),
