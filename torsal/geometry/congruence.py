@@ -312,6 +312,32 @@ class Congruence:
         v = np.array(vertices, dtype=float)
         f = np.array(faces, dtype=np.int64)
         validate_mesh(v, f)
+        v.flags.writeable = f.flags.writeable = False
+        self._v, self._f = v, f
+        self._set_directions(directions)
+        self.bundle_rtol = float(bundle_rtol)
+
+    def with_directions(self, directions) -> "Congruence":
+        """The congruence on the same mesh with other ``directions`` (n, 3).
+
+        The mesh is shared, not validated again (an optimizer measures every iterate this
+        way); the directions are checked as in the constructor.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> c = Congruence.from_normals(facade_patch(nu=4, nv=3))
+        >>> c.with_directions(-c.directions).vertices is c.vertices
+        True
+        """
+        out = object.__new__(type(self))
+        out._v, out._f, out.bundle_rtol = self._v, self._f, self.bundle_rtol
+        out.__dict__["delta"] = self.delta       # a property of the mesh alone (cached)
+        out._set_directions(directions)
+        return out
+
+    def _set_directions(self, directions) -> None:
+        v = self._v
         d = np.array(directions, dtype=float)
         if d.shape != v.shape:
             raise ValueError(
@@ -325,10 +351,8 @@ class Congruence:
             raise ValueError(
                 f"directions of vertices {zero[:10].tolist()} are zero vectors; a line needs a direction"
             )
-        for arr in (v, f, d):
-            arr.flags.writeable = False
-        self._v, self._f, self._d = v, f, d
-        self.bundle_rtol = float(bundle_rtol)
+        d.flags.writeable = False
+        self._d = d
 
     # ------------------------------------------------------------------ constructors
     @classmethod
