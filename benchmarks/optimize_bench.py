@@ -393,7 +393,7 @@ def main():
     ap.add_argument("--lbfgs-iter", type=int, default=500)
     ap.add_argument("--rows", nargs="*", default=None)
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
-    ap.add_argument("--hessian", choices=["guarded", "auto", "exact", "gauss-newton"], default=None,
+    ap.add_argument("--hessian", choices=["guarded", "auto", "exact", "gauss-newton", "projected"], default=None,
                     help="CongruenceProblem(hessian=...) of every row (default: the library's, exact)")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit

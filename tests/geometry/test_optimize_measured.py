@@ -31,8 +31,8 @@ def _shading(c, **kw):
 @pytest.mark.parametrize("alpha", [20.0, 40.0, 60.0, 80.0])
 def test_min_torsal_angle_holds_as_measured_or_the_result_says_where_not(patch, alpha):
     free = _shading(patch).solve()
-    if alpha >= 40:
-        assert _measured_angles(free.congruence).min() < alpha      # the bound is active
+    if alpha >= 60:   # the energies' own optimum misses the bound (48 degrees here)
+        assert _measured_angles(free.congruence).min() < alpha
     res = _shading(patch).min_torsal_angle(alpha).solve(max_iter=300)
     ang = _measured_angles(res.congruence)
     below = np.flatnonzero(ang < alpha - 0.1)
@@ -180,7 +180,7 @@ def test_guarded_gauss_newton_falls_back_to_the_exact_hessian_when_it_collapses(
 
     none = lambda r: int(np.isnan(r.congruence.torsal_angle()).sum())     # noqa: E731
     assert int(np.isnan(c.torsal_angle()).sum()) == 0
-    gn, exact, guarded = solve(hessian="gauss-newton"), solve(), solve(hessian="guarded")
+    gn, exact, guarded = solve(hessian="gauss-newton"), solve(hessian="exact"), solve(hessian="guarded")
     assert gn.success and none(gn) > 0.2 * len(c.faces)
     assert exact.success and none(exact) == 0
     assert guarded.success and "collapsed" in guarded.status and none(guarded) == 0
@@ -196,3 +196,77 @@ def test_guarded_gauss_newton_is_kept_where_it_does_not_collapse(patch):
     assert int(np.isnan(gn.congruence.torsal_angle()).sum()) == 0
     assert "collapsed" not in guarded.status and guarded.iterations == gn.iterations
     np.testing.assert_allclose(guarded.congruence.directions, gn.congruence.directions, atol=1e-12)
+
+
+def test_psd_projection_clamps_negative_eigenvalues_only():
+    """The nearest positive semidefinite matrix of a symmetric Q diag(l) Q^T is
+    Q diag(max(l, 0)) Q^T; a positive semidefinite one comes back unchanged."""
+    from torsal.geometry.optimize.projected import psd_projection
+
+    rng = np.random.default_rng(2)
+    q, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    lam = np.array([3.0, 0.5, -1.0, -4.0])
+    a = q @ np.diag(lam) @ q.T
+    spd = q @ np.diag([2.0, 1.0, 0.5, 0.1]) @ q.T
+    out = psd_projection(np.stack([a, spd]))
+    np.testing.assert_allclose(out[0], q @ np.diag(np.maximum(lam, 0)) @ q.T, atol=1e-12)
+    np.testing.assert_allclose(out[1], spd, atol=1e-12)
+    # nearest: any other PSD matrix (here a random one) is at least as far from a
+    b = rng.standard_normal((4, 4))
+    assert np.linalg.norm(a - out[0]) <= np.linalg.norm(a - b @ b.T)
+
+
+def test_projected_hessian_is_psd_and_dominates_the_exact_one(patch):
+    """hessian="projected": each energy element's Hessian and each vertex's chart curvature
+    with negative eigenvalues clamped. The sum is positive semidefinite, and exact minus
+    projected is the sum of the clamped negative parts, so projected - exact is positive
+    semidefinite too; the gradient is the exact one. Switched off (as after
+    PROJECTED_ITERATIONS of an IPOPT run) it is the exact Hessian."""
+    import casadi as ca
+
+    rng = np.random.default_rng(5)
+    e = patch.directions + 0.3 * rng.standard_normal(patch.directions.shape)
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+
+    def built(hessian):
+        p = CongruenceProblem(patch, hessian=hessian).normal().fair().fair_torsal().perpendicular(SUN)
+        p.build()
+        b = p._built["tangent"]
+        x, fr = b.pack(e)
+        return b, x + 0.1, b.parameters(p._current(), fr)
+
+    def hess(b, x, par):
+        H = np.asarray(ca.densify(b.hess_lag(x, par, 1.0, np.zeros(b.n_g))))
+        return np.triu(H) + np.triu(H, 1).T
+
+    bp, x, par = built("projected")
+    be, xe, pare = built("exact")
+    hp, he = hess(bp, x, par), hess(be, xe, pare)
+    assert bp.psd and bp.hessian == "projected"
+    assert np.linalg.eigvalsh(he).min() < -1e-6                    # what it replaces
+    assert np.linalg.eigvalsh(hp).min() > -1e-9
+    assert np.linalg.eigvalsh(hp - he).min() > -1e-9
+    np.testing.assert_array_equal(np.asarray(bp.grad_f(x, par)[1]), np.asarray(be.grad_f(xe, pare)[1]))
+    bp.hess_lag.project = False
+    np.testing.assert_allclose(hess(bp, x, par), he, atol=1e-12 * np.abs(he).max())
+
+
+def test_projected_newton_reaches_the_exact_hessians_answer_without_collapsing():
+    """normal + fair + torsal_direction along the boundary (where Gauss-Newton collapses to
+    a near bundle, see above): the projected Hessian converges to energies as low as the
+    exact one's and keeps every face's torsal directions."""
+    from torsal.geometry.mesh import edge_face_adjacency
+
+    c = Congruence.from_normals(facade_patch(nu=9, nv=9))
+    edges, ef = edge_face_adjacency(c.faces)
+    bd = ef[:, 1] < 0
+    faces, keep = np.unique(ef[bd, 0], return_index=True)
+    dirs = c.vertices[edges[bd][keep][:, 1]] - c.vertices[edges[bd][keep][:, 0]]
+
+    def solve(hessian):
+        return CongruenceProblem(c, hessian=hessian).normal().fair().torsal_direction(faces, dirs).solve()
+
+    proj, exact = solve("projected"), solve("exact")
+    assert proj.success and exact.success
+    assert int(np.isnan(proj.congruence.torsal_angle()).sum()) == 0
+    assert proj.energies_after["total"] <= exact.energies_after["total"] + 1e-7

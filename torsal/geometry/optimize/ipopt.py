@@ -13,9 +13,11 @@ from typing import NamedTuple
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
+from threadpoolctl import threadpool_limits
 
 from .history import SolveMonitor
 from .nlp import Built, _bound_violation
+from .projected import PROJECTED_ITERATIONS, ProjectedHessian
 from .working_set import _WORKING_SET_MAX_SHARE, _near_bounds
 
 
@@ -106,7 +108,10 @@ class IpoptStrategy:
         inf = float(np.max(_bound_violation(g, b.lbg, b.ubg))) if g.size else 0.0
         # the objective of eq. (9): without the elastic penalty (0 where every constraint holds)
         f = float(arg[ca.nlpsol_out().index("f")]) - b.penalty(x, self.p)
-        return self.monitor.iterate(b.unpack(x, self.frames), f, inf)
+        stop = self.monitor.iterate(b.unpack(x, self.frames), f, inf)
+        if isinstance(b.hess_lag, ProjectedHessian):   # projected first, exact after
+            b.hess_lag.project = self.monitor.phase_iteration < PROJECTED_ITERATIONS
+        return stop
 
     # ------------------------------------------------------------------ solvers
     def solver(self, b: Built, warm: bool, x0: np.ndarray, p: np.ndarray):
@@ -167,7 +172,14 @@ class IpoptStrategy:
         else:           # lifted variables from the directions (a start from another NLP: its directions)
             args = {**args, "x0": b.full(args["x0"], args["p"]), "lbx": lbx, "ubx": ubx}
         self.monitor.start_pass(cap)
-        r = s(**args)
+        if isinstance(b.hess_lag, ProjectedHessian):
+            b.hess_lag.project = True
+        # numpy's BLAS threads (the iteration reports' and the projected Hessian's small
+        # products) spin between calls: measured on row 7c, 26 s of system time per 28 s solve
+        # with two threads, 3 s with one, same wall time on an idle machine; on a busy one
+        # the spinning thread takes a core from other work
+        with threadpool_limits(limits=1, user_api="blas"):
+            r = s(**args)
         stats = s.stats()
         capped = self.monitor.capped
         self.monitor.cap = None

@@ -19,6 +19,7 @@ import scipy.sparse as sp
 
 from .catalogue import Term
 from .kernels import Local, _chart_functions, _jit
+from .projected import Block, ProjectedHessian
 
 def _to_casadi(m: sp.spmatrix) -> ca.DM:
     m = sp.csc_matrix(m)
@@ -192,6 +193,7 @@ class _Assembly:
         self.grad, self.dense_grad = _Parts(), []   # gradient in x (dense: quadratic terms)
         self.lag, self.dense_lag = _Parts(), []     # Lagrangian gradient in e (tangent: chart curvature)
         self.jac, self.hess = _Parts(), _Parts()
+        self.blocks: list[Block] = []   # hessian="projected": element Hessians, projected at evaluation
         self.quad_h = []       # (coefficient, upper triangle of Q) of the plain-mode quadratic terms
         self.local: dict = {}  # element kernels, shared by the terms with the same function
         if lay.tangent:
@@ -231,7 +233,7 @@ class _Assembly:
             return
         self.dense_grad.append(ca.vec(self.chart_jtg.map(self.lay.n_vertices)(
             self.JV, ca.reshape(ge, 3, self.lay.n_vertices))))
-        if self.hessian == "exact":   # Gauss-Newton: J^T Q J only, no chart curvature
+        if self.hessian != "gauss-newton":   # Gauss-Newton: J^T Q J only, no chart curvature
             self.dense_lag.append(lam_f * ge)
         self._quadratic_in_z(t, coef)
 
@@ -295,8 +297,12 @@ class _Assembly:
                          xidx[:, L.j_cols].ravel())
             coef = ca.reshape(self.lam_g[go:go + m], 1, m)
         if len(L.h_rows):
+            hv = L.hess.map(m)(*args, coef)      # (nh, m)
             hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
-            self.hess.add(ca.vec(L.hess.map(m)(*args, coef)), np.minimum(hr, hc), np.maximum(hr, hc))
+            if self.projected and not t.constraint:
+                self.blocks.append(Block(hv, L.h_rows, L.h_cols, xidx))
+            else:
+                self.hess.add(ca.vec(hv), np.minimum(hr, hc), np.maximum(hr, hc))
         if self.lay.tangent and not L.gauss_newton:
             self.lag.add(ca.vec(L.lag_e.map(m)(*args, coef)), t.idx.ravel())
 
@@ -307,6 +313,10 @@ class _Assembly:
         self.g_parts[row_term] = self.g_parts[row_term] - dg
         self.jac.add(*jp)
         self.hess.add(*hp)
+
+    @property
+    def projected(self) -> bool:
+        return self.hessian == "projected"
 
     def finish(self):
         """``(grad, g, jac, hess)``: the pieces scattered into the global vectors and matrices."""
@@ -321,8 +331,12 @@ class _Assembly:
             g_lag = self.lag.vector(3 * n, self.dense_lag)
             dz = self.chart_hess.map(n)(self.Z, self.FR, ca.reshape(g_lag, 3, n))   # (3, n)
             base = 2 * np.arange(n)
-            self.hess.add(ca.vec(dz), np.stack([base, base, base + 1], 1).ravel(),
-                          np.stack([base, base + 1, base + 1], 1).ravel())
+            if self.projected:
+                self.blocks.append(Block(dz, np.array([0, 0, 1]), np.array([0, 1, 1]),
+                                         np.stack([base, base + 1], 1)))
+            else:
+                self.hess.add(ca.vec(dz), np.stack([base, base, base + 1], 1).ravel(),
+                              np.stack([base, base + 1, base + 1], 1).ravel())
         hess = self.hess.matrix(lay.n_main, lay.n_main)
         for coef, Qg in self.quad_h:
             Qg.resize((lay.n_main, lay.n_main))
@@ -387,8 +401,11 @@ class Built:
         self.f_expr, self.g_expr = f, g
         self.grad_f = ca.Function("nlp_grad_f", [x_all, p], [f, grad], ["x", "p"], ["f", "grad"])
         self.jac_g = ca.Function("nlp_jac_g", [x_all, p], [g, jac], ["x", "p"], ["g", "jac"])
-        self.hess_lag = ca.Function("nlp_hess_l", [x_all, p, asm.lam_f, asm.lam_g], [hess],
-                                    ["x", "p", "lam_f", "lam_g"], ["hess"])
+        symbols = [x_all, p, asm.lam_f, asm.lam_g]
+        if asm.projected:
+            self.hess_lag = ProjectedHessian("nlp_hess_l", symbols, hess, asm.blocks, self.n_var)
+        else:
+            self.hess_lag = ca.Function("nlp_hess_l", symbols, [hess], ["x", "p", "lam_f", "lam_g"], ["hess"])
 
     def _bounds(self) -> None:
         """Constraint and variable bounds and the flags the solvers read."""
@@ -396,8 +413,8 @@ class Built:
         self.energy_names = [t.name for t in terms if not t.constraint]
         #: the Lagrangian Hessian is positive semidefinite by construction: no constraint rows
         #: and every energy quadratic (PSD Q) or Gauss-Newton with the chart curvature left out
-        self.psd = self.n_g == 0 and self.hessian == "gauss-newton" and all(
-            t.matrix is not None or (t.element.residual is not None) for t in terms)
+        self.psd = self.n_g == 0 and (self.hessian == "projected" or self.hessian == "gauss-newton" and all(
+            t.matrix is not None or (t.element.residual is not None) for t in terms))
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)
         #: variable bounds: the directions are free, elastic slacks are >= 0 (the lifted
