@@ -264,3 +264,22 @@ def test_parallel_lines_are_a_bundle_at_infinity():
     c = Congruence(v, f, np.tile([0.1, 0.2, 1.0], (len(v), 1)))
     assert c.is_bundle().all()
     assert np.isposinf(c.focal_parameters()).all()
+
+
+def test_with_directions_shares_the_mesh_and_checks_the_directions():
+    """Same mesh (not copied, not validated again), new directions checked as in the
+    constructor; every derived quantity is that of a congruence built from scratch."""
+    from torsal.geometry.surfaces import facade_patch
+
+    c = Congruence.from_normals(facade_patch(nu=6, nv=5))
+    d = c.directions + np.random.default_rng(1).normal(scale=0.2, size=c.directions.shape)
+    w = c.with_directions(d)
+    fresh = Congruence(c.vertices, c.faces, d)
+    assert w.vertices is c.vertices and w.faces is c.faces and w.delta == c.delta
+    np.testing.assert_array_equal(w.torsal_angle(), fresh.torsal_angle())
+    np.testing.assert_array_equal(w.hyperbolicity(), fresh.hyperbolicity())
+    d[3] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        c.with_directions(d)
+    with pytest.raises(ValueError, match="one row per vertex"):
+        c.with_directions(d[:-1])
