@@ -13,7 +13,12 @@ insertion axes); it shares no code with the joint builder, so a mistake there sh
    distance of a pair, ten times slower).
 2. **Interference.** For every touching pair the common volume is computed with an exact
    OpenCascade boolean (``BRepAlgoAPI_Common``); a common volume above ``min_volume``
-   (1 mm^3) is an interference. A boolean that fails is listed in ``failed_pairs`` and the
+   (1 mm^3) is an interference. The booleans leave the solids unchanged (non-destructive:
+   OpenCascade's default may change their tolerances, and then erred, and later booleans
+   depended on what ran before in the process), and a common above 1 mm^3 is measured again
+   in the other order and with a fuzzy tolerance, the median of the three counting
+   (:func:`common_volume`; the swept paths of 3. alike). A
+   boolean that fails is listed in ``failed_pairs`` and the
    design is not called buildable (nothing is assumed). Most touching plates only touch: a
    cheap exact test proves them apart first and skips the boolean (:func:`solid_clear`): one
    solid is covered by convex prisms (its exit faces swept back over its extent along its
@@ -337,25 +342,53 @@ def face_polygons(solid) -> list[np.ndarray]:
 def common_volume(s1, s2) -> float:
     """Volume of the intersection of two solids (exact OpenCascade boolean), unit^3.
 
+    The boolean runs non-destructively: by default OpenCascade may widen the tolerances of
+    its arguments' vertices while it works (to about 1 mm, seen on a slotted plate crossing
+    another at an egg-crate), and then got this very common wrong (``a & b`` reported all of
+    ``b``, more than ``b``'s own volume, where ``b & a`` gave 0 and no point of ``b`` lies
+    inside ``a``),
+    and later booleans on the changed solids came out differently in one process than in
+    another (a path blocked or clear by the worker count). An overlap above
+    :data:`MIN_INTERFERENCE_VOLUME` is confirmed too: measured again in the other order and
+    with a fuzzy tolerance, the median of the three is returned, so that one wrong boolean in
+    the first order cannot make an interference (a wrong 0 there is not looked at again: that
+    would triple the cost of every boolean).
+
     Raises RuntimeError when the boolean fails even with a fuzzy tolerance.
 
     >>> from build123d import Box, Pos
     >>> round(common_volume(Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2)), 6)
     4.0
     """
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
-
     a, b = _shape(s1), _shape(s2)
-    for fuzzy in (0.0, 1e-6):
-        op = BRepAlgoAPI_Common(a, b) if fuzzy == 0.0 else _fuzzy_common(a, b, fuzzy)
+    first = _common(a, b)
+    if not first > MIN_INTERFERENCE_VOLUME:
+        return first
+    return float(np.median([first, _common(b, a), _common(a, b, fuzzy=_FUZZY)]))
+
+
+#: unit: fuzzy tolerance of the boolean that confirms an overlap or retries a failed one
+_FUZZY = 1e-6
+
+
+def _common(a, b, *, fuzzy: float = 0.0) -> float:
+    """Volume of ``a & b`` (TopoDS shapes, left unchanged); a failed exact boolean is tried
+    again with the fuzzy tolerance :data:`_FUZZY` (RuntimeError if that fails too)."""
+    for f in ((0.0, _FUZZY) if fuzzy == 0.0 else (fuzzy,)):
+        op = _boolean_common(a, b, f)
         if op.IsDone():
             return _volume(op.Shape())
     raise RuntimeError("BRepAlgoAPI_Common failed")
 
 
-def _fuzzy_common(a, b, fuzzy: float):
+def _boolean_common(a, b, fuzzy: float):
+    """The built ``BRepAlgoAPI_Common`` of ``a`` and ``b``: non-destructive (the arguments
+    keep their tolerances), with ``fuzzy`` (unit; 0: exact)."""
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
-    from OCP.TopTools import TopTools_ListOfShape
+    try:
+        from OCP.TopTools import TopTools_ListOfShape
+    except ImportError:           # OCP >= 7.8 has the list type in OCP.collections only
+        from OCP.collections import List_TopoDS_Shape as TopTools_ListOfShape
 
     op = BRepAlgoAPI_Common()
     la, lb = TopTools_ListOfShape(), TopTools_ListOfShape()
@@ -363,7 +396,9 @@ def _fuzzy_common(a, b, fuzzy: float):
     lb.Append(b)
     op.SetArguments(la)
     op.SetTools(lb)
-    op.SetFuzzyValue(fuzzy)
+    op.SetNonDestructive(True)
+    if fuzzy > 0.0:
+        op.SetFuzzyValue(fuzzy)
     op.Build()
     return op
 
