@@ -16,7 +16,18 @@ def common_volume(a, b) -> float:
 
     a = getattr(a, "wrapped", a)
     b = getattr(b, "wrapped", b)
-    op = BRepAlgoAPI_Common(a, b)
+    from OCP.collections import List_TopoDS_Shape as TopTools_ListOfShape
+
+    # non-destructive: OpenCascade's default widens the arguments' vertex tolerances, and
+    # later booleans on the same solids then disagree (the 7d egg-crate pair, see
+    # torsal.fabrication.assembly.common_volume)
+    op = BRepAlgoAPI_Common()
+    la, lb = TopTools_ListOfShape(), TopTools_ListOfShape()
+    la.Append(a)
+    lb.Append(b)
+    op.SetArguments(la)
+    op.SetTools(lb)
+    op.SetNonDestructive(True)
     op.Build()
     props = GProp_GProps()
     BRepGProp.VolumeProperties_s(op.Shape(), props)
