@@ -1,4 +1,4 @@
-"""Congruence optimization timings: IPOPT (exact Hessian, MUMPS) vs the paper's L-BFGS baseline.
+"""Congruence optimization timings: IPOPT (MUMPS) against the paper's L-BFGS baseline and its T.
 
 Two tables.
 
@@ -17,177 +17,80 @@ Methods of the Fig. 12 rows (``--methods``): ``cone`` (``min_torsal_angle`` one 
 with ``|p|`` smoothed over the strength floor); ``split`` (two rows per face, linear in ``p``,
 no ``hyperbolic`` rows where they are implied; the library's default); ``lift`` (the
 torsal form's coordinates lifted into variables ``(r, t, phi)`` per face, the bound as
-variable bounds; the default for one evening, withdrawn, see below); ``anchored`` (rows linear in the torsal form, re-anchored in outer
+variable bounds); ``anchored`` (rows linear in the torsal form, re-anchored in outer
 rounds); ``elastic`` (split with l1-exact slacks, rho 1e4); ``lbfgs`` (the paper's baseline,
-constraints as penalties).
+constraints as penalties). ``--hessian`` sets ``CongruenceProblem(hessian=...)`` of every row.
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--rows 7c 9 11 13 7a 20k 100k]
           [--methods cone split lift anchored elastic lbfgs] [--no-lbfgs]
-          [--hessian exact|guarded|auto|gauss-newton]
+          [--hessian projected|exact|guarded|auto|gauss-newton]
 
 Note the machine load (``uptime``) next to the numbers: timings on a shared machine vary.
 
-Measured 2026-11-23 on 2 cores shared with three other agents (load average 8 to 13, so wall
-times are 3 to 5 times a quiet machine's; the iteration counts and energies are not)::
+Measured 2026-11-23 night (quiet machine, load average 1.2 to 1.4 on 2 cores, commit after
+the projected Hessian; ``--no-lbfgs``)::
 
      row    |V|    |F|     T  method |   total    it to qual.  <=T | re-solve <=T/5 |          E     E best min ang
-      7c   1089   2048   3.7    cone |   201.1   500        -   NO |    355.2    NO | 5.0036e-01 4.9232e-01   40.01
-      7c   1089   2048   3.7   split |   379.4   500    378.0   NO |     60.0    NO | 4.9232e-01 4.9232e-01   40.37
-      7c   1089   2048   3.7   lbfgs |    20.5   370        -   NO |     37.8    NO | 4.5804e-01 4.9232e-01    0.00 (infeasible)
-      13   2145   4096  17.0    cone |    18.1    22     13.3  yes |      1.0   yes | 7.0693e-02 7.0693e-02       -
-      13   2145   4096  17.0   split |    11.5    22      8.3  yes |      1.2   yes | 7.0693e-02 7.0693e-02       -
-      13   2145   4096  17.0   lbfgs |    65.6   500        -   NO |     30.6    NO | 7.3005e-02 7.0693e-02       -
-      11   5041   9800  11.0   split |   118.8    21    118.8   NO |      2.3    NO | 9.4827e-09 9.4827e-09       -
+      7c   1089   2048   3.7   split |    41.4   500        -   NO |     39.2    NO | 4.6326e-01 4.3142e-01   40.19
+      7c   1089   2048   3.7    lift |    37.9   415      9.2   NO |      1.6    NO | 4.3142e-01 4.3142e-01   40.01
+       9   2601   5000  29.0   split |   171.3   929    138.1   NO |     30.6    NO | 1.6518e-02 1.6515e-02   60.21
+      11   5041   9800  11.0   split |    10.1     8     10.1  yes |      1.6   yes | 6.9049e-08 6.9049e-08       -
+      11   5041   9800  11.0    lift |     9.6     8      9.6  yes |      1.6   yes | 6.9049e-08 6.9049e-08       -
+      13   2145   4096  17.0   split |     3.2    16      1.8  yes |      0.4   yes | 7.0693e-02 7.0693e-02       -
+      13   2145   4096  17.0    lift |     3.1    16      1.8  yes |      0.4   yes | 7.0693e-02 7.0693e-02       -
 
-(The 7c ``split`` row above still had every ``hyperbolic`` row; with the implied ones left out,
-same load: 500 iterations in 88.8 s, objective 0.4616, and with ``max_iter`` 1500 IPOPT
-converges, for the first time on this row: 746 iterations, objective 0.45722, min torsal
-angle 40.17, 624 s at load 13 to 15. Row 9 with it, load 12: 328 iterations in 180 s,
-objective 0.0181 against 0.0165 converged (the form before: 0.459 in 180 s, 121 iterations).
-100k vertices at load 12 to 18: build 40.5 s + solve 164.5 s (7 iterations), re-solve 192.8 s.) This morning's code, load 2.5 to 9:
-7c ipopt 122.0 s, 500 iterations, E 0.5004, re-solve 100.6 s; 7c lbfgs 14.9 s (infeasible);
-11 ipopt 105.1 s (21 iterations), re-solve 9.7 s; 11 lbfgs 222.8 s (E 2.6e-5 against
-9.5e-9); 13 ipopt 5.2 s (to quality 4.0 s), re-solve 0.6 s; 13 lbfgs 79.5 s; 100k vertices
-build 83.6 s + solve 249.1 s (7 iterations) = 337 s, re-solve 163.7 s (load 10).
+     synthetic (7a term set, unconstrained)    projected (default)              exact (--hessian exact)
+      row     |V|   build  solve  it   all  re-solve  no td       build  solve  it   all  re-solve  no td
+       7a    1089    0.17   0.16   6   0.35   0.07      0          0.19   0.40  14   0.60   0.14      1
+      20k   19881    2.70   1.41   2   4.29   0.92    173          2.87   6.43   9   9.47   6.07    318
+     100k  100489   19.24  12.38   2  33.09   7.02    542         21.43  38.87   7  61.24  29.90    142
 
-Measured 2026-11-23 (afternoon, load average 1.4 to 2.9 on 2 cores, nice 19), ``--methods
-split --no-lbfgs``; before = commit edcb249, after = ``hessian="auto"`` (Gauss-Newton for
-pass 1), the bounded Hessian-shift estimate and the main solver built only when needed::
+("no td": faces without torsal directions in the answer, of 2,048 / 39,200 / 199,712; the
+start has none.) Targets met: 11 and 13 (time to quality and re-solve), 100k in 33 s
+(< 60 s). Missed: 7c and 9. L-BFGS (the paper's method; measured 2026-11-23 at load 8 to
+13): 7c ends infeasible as measured (faces without torsal directions), 13 takes 500
+iterations to 3 % above IPOPT's energy, 11 does not get within 1 % in 500.
 
-     row  |V|     before: total  it  re-solve  E          after: total  it  re-solve  E
-      11  5041            38.0   21    2.6    9.4827e-09          10.7    4    0.4    1.7984e-12
-      13  2145             4.8   22    0.5    7.0693e-02           3.4   16    0.6    7.0693e-02
-      7a  1089   (build+solve 0.57 s, 14 it, E 6.19e-09: unchanged, unconstrained, exact Hessian)
-     20k 19881   (build 4.1 + solve 12.5 s, 9 it, E 1.17e-06: unchanged, exact Hessian)
-      7c  1089            53.9  500   49.7    4.6341e-01          64.6  500   49.6    4.6924e-01
+Causes, measured:
 
-(7c, load 1 to 3, not converged either way: pass 1 with Gauss-Newton ends at another
-minimizer of the energies, which violates the angle bound too; pass 3 starts there and
-after 500 iterations is 1.3 % higher. Iteration counts, not load, decide this row.)
+- **7c and 9 (constrained):** the iteration count and the cost per iteration together. The
+  lifted form needs 358 to 415 IPOPT iterations on 7c (the split form, the default, does not
+  converge in 500) and 719 on 9 (split: 923 to 960). Per iteration, 7c costs 75 to 85 ms:
+  about 25 ms in function evaluations (the fairness and angle kernels over 3,008 and 2,048
+  elements) and about 50 ms in MUMPS, because the Lagrangian's Hessian is indefinite
+  (IPOPT's inertia correction, ``lg(rg)`` 1 to 4, two or more factorizations per iteration)
+  and the KKT matrix of a 2-ring coupled mesh fills in (SuperLU with COLAMD: 2.1 M factor
+  entries for 6,274 rows, 125 ms). Tried and measured worse: the projected Hessian on the
+  constrained NLP (energies only: 421 iterations; with the constraints' curvature: 0.530 /
+  0.475 after 500 instead of 0.431 / 0.463), ``mu_oracle`` probing and loqo (500
+  iterations, not converged, either form), MUMPS without scaling (415 to 463 iterations),
+  SPRAL (6 times slower per factorization). The lifted form reaches quality on 7c in 9.2 s
+  (T 3.7 s) and is not the default for a design reason (below).
+- **Re-solve of 7c and 9:** warm-started lifted form 1.6 s on 7c (T/5 0.74 s), 28 s on 9.
 
-Row 11's cause, measured with ``print_timing_statistics`` (21 iterations, 37.7 s in IPOPT,
-of which 30.2 s computing search directions and 6.7 s function evaluations; Hessian 598k
-nonzeros, 20k variables, METIS ordering already the fastest of AMD/AMF/METIS/auto): the
-exact Hessian is indefinite away from the optimum, IPOPT regularized every iteration
-(``lg(rg)`` 0.7 down to -6.6, damped steps and two or more MUMPS factorizations per
-iteration). The energies are nearly zero-residual at the answer, where Gauss-Newton
-(``2 J^T J``, positive semidefinite) converges quadratically: 4 iterations, one
-factorization each, 2.8 s in IPOPT, the same kind of answer (bundle deviation 5/50/95th
-percentiles 0.135/0.347/0.599 against 0.129/0.321/0.586 exact; all energies 0 to 6 digits). Build 25.8 s before: main NLP 8.6 s, pass-1 NLP 3.7 s, two nlpsol for the main
-NLP (unused when pass 1 answers) and two ARPACK Hessian-shift estimates, 2.7 s each (and
-with a positive semidefinite Hessian ARPACK ran > 20 min: restarts are now capped at 40,
-and a PSD-by-construction Hessian is not estimated).
+Row 11 and 100k, what changed (``hessian="projected"``, the default): the exact Hessian is
+indefinite away from the optimum (the sphere's chart curvature and the fairness energies'
+second-order terms), so IPOPT regularized every iteration (row 11: 23 iterations, ``lg(rg)``
+from 1 down to -6, 600 ms each). Projected Newton clamps each element's negative eigenvalues
+instead: one factorization per iteration and undamped steps, 8 iterations on row 11, 2 at
+100k. After 10 iterations a run switches to the exact Hessian (projected Newton is linear
+where the energies' minimum is not zero: row 9's pass without inequalities took 300
+iterations more without the switch). Gauss-Newton (``2 J^T J``, measured before) was as fast
+but collapses toward line bundles on zero-residual designs (over 2 % of the faces without
+torsal directions at 100k; projected: 0.27 %, exact 0.07 %; row 11: 0 for projected and exact).
 
-Unconstrained rows with ``--hessian gauss-newton`` (same load; the default stays exact for
-them, see ``CongruenceProblem``'s ``hessian``: on a stroke-following test facade
-Gauss-Newton lands on a line bundle, the trivial zero of normal + fair + torsal_direction)::
+History (2026-11-23, worth keeping):
 
-     row    |V|  exact: build  solve  it  total   E           gauss-newton: build solve it total  re-solve  E
-      7a   1089         0.23   0.46  14   0.72   6.19e-09                   0.27  0.12  4   0.42   0.04   8.19e-12
-     20k  19881         4.35  11.89   9  16.49   1.17e-06                   3.69  2.22  2   6.25   1.36   1.53e-09
-    100k 100489       33.0   87.0    7 122.6   1.12e-07                  25.22 14.71  2  42.02   9.73   6.41e-12
-
-(100k exact: re-solve 69.3 s (5 iterations), CPU 191 s for both solves; Gauss-Newton CPU
-61 s for the three rows; the bundle deviation median 0.285 / 0.283,
-not a bundle. At 100k each factorization is ~5 s CPU: the exact Hessian's 7 regularized
-iterations cost 69 s CPU in search directions, Gauss-Newton's 2 cost 11 s.)
-
-Measured 2026-11-23 (evening, load average 3 to 6.5 on 2 cores, nice 19): the lifted form
-of ``min_torsal_angle`` against split, full solve (pass 1 + pass 3) with
-the design's ``max_iter``; wall and CPU of build + solve::
-
-     row  form      it   converged  wall    CPU     objective  min torsal angle  load
-      7c  split     500  no          73.1    49.5  0.46341    40.18             5.4
-      7c  lift      358  yes         34.3    37.0  0.43108    40.01             4.5
-      7c  anchored  500  no          79.9    54.1  0.4856     40.11             5.8
-       9  split    ~1155 (converged, 2026-11-22; 328 in 180 s at load 12: 0.0181)  0.0165
-       9  lift      719  yes        226.8   263.5  0.01600    60.01             3.2
-
-      7d  split     500  no          58.2    19.3  2.2319e-05 46.61             4.9
-      7d  lift       40  yes          9.0     2.2  1.2294e-07 40.01             3.9
-    (7d: the flat facade, 561 vertices, min_torsal_angle 40, from the twisted bundle start)
-
-    bench table (--rows 7c --methods lift split --no-lbfgs, load 5.5 to 6.5):
-      7c  lift   total 67.6  it 358  to quality 18.6  re-solve  3.9  E 0.43108  min ang 40.01
-      7c  split  total 54.5  it 500  to quality  -    re-solve 57.4  E 0.46341  min ang 40.18
-    (--rows 9 --methods lift --no-lbfgs, load 3.8 to 4.3):
-       9  lift   total 261.9 it 719  to quality 120.6 re-solve 28.3  E 0.016000 min ang 60.01
-
-What made the difference, measured on 7c: (1) lifting: the bound becomes ``r >= s``,
-``|t| <= 1`` on variables, so pass 3 can start from the energies' optimum (pass 1's answer)
-although it violates the bound on most faces (split from there: 500 iterations cost 300 s CPU,
-inertia corrections; lifted from the facade's normals: 500 iterations, 0.4983, not
-converged); (2) the gnomonic chart re-centred at that start (``IpoptStrategy._recentre``):
-before it, lines turned 60 to 80 degrees sat at ``|z|`` of 2 to 6 in the start's chart and
-the lifted solve took 500 iterations to 0.4522; after, 358 to 0.43108. The anchored form
-(rows linear in ``g``, re-anchored in outer rounds) did not help: each round takes 100 to 170
-IPOPT iterations even warm-started, so the cone's nonconvexity is not the whole cause. A
-Cartesian lift
-(variables ``(r, t, a, b)``, rows ``v = a``, ``w = b``, ``a^2 + b^2 = r^2``: no angle variable)
-measured, not kept: 500 iterations, 0.43229, not converged. A
-larger strength floor (``min_strength`` 1e-2) made both lift and split worse (0.540 / 0.546
-after 500). ``mu_strategy`` monotone with lift: 500 iterations, 0.4561. The lifted solve
-still spends its last 250 iterations going from 0.4345 (within 1 %) to 0.43108: steps cut
-by the fraction-to-boundary rule with ``||d||`` 0.1 to 0.6, i.e. in ``phi`` and ``t`` of
-faces near the strength floor, where the orientation ``phi`` is nearly free.
-
-Why lift is not the default (measured the same evening with ``examples/run_all.py``, full
-pipeline, the same code but the form): both forms' answers have torsal fields in patches
-(angles jumping between 60 and 90 degrees from block to block, where the 60 degree bound
-is active), but the lifted form's lower optimum is rougher (example 9: fairness energy
-0.0030 against 0.0017, 213 strips folded at crossings against 163, delta_pl after
-extraction 0.58 against 0.30), and the support structure remeshed from it runs through
-itself more often::
-
-     example  form   T congruence  fin panels left out  sun blocked  parts
-      7c      split  42.6 s (500 it, not converged)   49    90 %   550
-      7c      lift   35.4 s (converged)               66    83 %   561
-       9      split  180.1 s (budget, best iterate)  231    58 %   768
-       9      lift   175.9 s (719 it, converged)     457    34 %   327
-
-A lower objective of eq. (9) is not a better design here: the energies do not see what
-the remeshing needs. 7d converges with lift in 1.7 s (split: 500 iterations) at 87 % blocked
-against 89 %; the design file's ``constraints.torsal_angle_form`` chooses per design.
-
-Gauss-Newton, measured the same evening (faces without torsal directions: NaN
-``Congruence.torsal_angle``; start 0 on every row)::
-
-     design                        gauss-newton          exact
-     facade + boundary strokes     972 of 2048, E 3e-13  0,  E 7.6e-7
-     example 10                    116 of 2048, E 2e-16  6,  E 2.5e-8
-     7a term set, 1089 vertices    133 of 2048, E 8e-12  1,  E 6.2e-9
-     20k vertices                  > 2 %                 318 of 39200
-     100k vertices                 > 2 %                 142 of 199712
-     row 11 (two congruences)      68 + 473, E 1.8e-12   0 + 0, E 9.3e-9
-
-Every zero-residual design collapses toward a trivial zero (many faces elliptic or bundles),
-so the 42 s at 100k and row 11's 10.7 s above were collapsed answers. ``hessian="guarded"``
-(Gauss-Newton, then the exact Hessian from the same start when the answer has more faces
-without torsal directions than the start by > 2 %) catches all of them, but then costs both
-solves and two builds (100k: 9 iterations, 420 s at load 6 to 7), so the exact Hessian stays
-the default and 100k stays a miss (exact: 120 s at load 2 to 3).
-
-Causes of the misses, measured:
-
-- 7c and 9 (constrained), before the lifted form (see above for after: 358 and 719
-  iterations, converged): IPOPT needs more than 500 (7c) and about 1,200 (9) iterations. The
-  pass with all constraints starts from the facade's normals (objective 137 on 7c, 0.73 on 9;
-  the energies' own optimum, 0.42 / 0.013, violates the angle bound on most faces and an
-  infeasible or elastic start was measured worse: inertia regularization 1e6 to 1e9) and
-  walks to the optimum in steps cut by the fraction-to-boundary rule, with Hessian
-  regularizations of 1e2 to 1e5. Their source is geometric, not the form: the multiplier
-  times the curvature of ``rho`` (the torsal form's strength, a norm) is ``f_rho / rho`` on
-  faces near the strength floor, in any reparameterization of the constraint. The split form
-  removes the cone form's extra ``1/s`` at ``p = 0`` and leaving out implied ``hyperbolic``
-  rows removes gradient-free rows: on 7c, 500 iterations reach 0.4616 (split, implied rows
-  out) against 0.4923 (split) and 0.5004 (cone). Not converged either way.
-- 11 (unconstrained at the optimum): met since 2026-11-23 afternoon (10.7 s, re-solve 0.4 s,
-  see above); before, 21 regularized exact-Hessian iterations and a doubled build.
-- 100k: with the default (exact) Hessian 7 regularized iterations, 120 s at load 2 to 3;
-  with ``hessian="gauss-newton"`` 42 s, re-solve 9.7 s, but a collapsed answer (see the
-  evening's Gauss-Newton table): a miss.
-- L-BFGS (the paper's method) ends infeasible as measured on 7c (faces without torsal
-  directions) and far from IPOPT's energy on 11 and 13 within 500 iterations.
+- The split form is the default over the lifted one because the full pipeline gave worse
+  designs with lift (example 9: 457 of 841 fin panels could not be built, 34 % of the sun
+  blocked, against 231 and 58 % with split; 7c: 83 % against 90 %): lift's lower optimum has
+  rougher lines (fairness 0.0030 against 0.0017). A lower eq. (9) objective is not a better
+  design here. Example 7d's design file chooses lift (40 iterations against 500).
+- Lifting made pass 3 start from the energies' optimum possible (the bound becomes bounds
+  on variables), and re-centring the gnomonic chart there took lift on 7c from 500
+  iterations (0.4522) to 358 (0.43108). The anchored form and a Cartesian lift were measured
+  worse (500 iterations, not converged).
+- Before today, row 11 took 105 to 119 s and 100k vertices 337 s (load 8 to 13); 7c 122 s.
 """
 from __future__ import annotations
 
@@ -394,7 +297,7 @@ def main():
     ap.add_argument("--rows", nargs="*", default=None)
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
     ap.add_argument("--hessian", choices=["guarded", "auto", "exact", "gauss-newton", "projected"], default=None,
-                    help="CongruenceProblem(hessian=...) of every row (default: the library's, exact)")
+                    help="CongruenceProblem(hessian=...) of every row (default: the library's default, projected)")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
     if args.hessian:

@@ -103,8 +103,8 @@ class CongruenceProblem:
         use the exact Hessian. The projected sum is positive semidefinite, so IPOPT factors
         once per iteration instead of searching for a regularization, and only the elements
         that curve down are flattened. Measured (benchmarks/optimize_bench.py, 2026-11-23,
-        quiet machine): row 11 8 iterations and 12 s instead of 23 and 24 s, 100k vertices
-        2 iterations and 40 s instead of 7 and 120 s, with 0 faces without torsal directions
+        quiet machine): row 11 8 iterations and 10 s instead of 23 and 24 s, 100k vertices
+        2 iterations and 33 s instead of 7 and 61 s, with 0 faces without torsal directions
         on row 11 (exact: 0) and 0.27 % at 100k (exact: 0.07 %; Gauss-Newton: over 2 %);
         projected throughout (no switch) cost row 9 300 iterations more, as projected Newton
         converges linearly where the energies' minimum is not zero; projecting the
