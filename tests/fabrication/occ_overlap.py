@@ -9,29 +9,14 @@ import itertools
 
 
 def common_volume(a, b) -> float:
-    """Volume (unit^3) of the boolean common of two OCC shapes (TopoDS or build123d)."""
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
+    """Volume (unit^3) of the boolean common of two OCC shapes (TopoDS or build123d): one
+    exact, non-destructive boolean (the assembly check's, which shares no code with the
+    joint builder either; without its confirmation of overlaps, so a test sees the raw
+    boolean)."""
+    from torsal.fabrication.assembly import _boolean_common, _volume
 
-    a = getattr(a, "wrapped", a)
-    b = getattr(b, "wrapped", b)
-    from OCP.collections import List_TopoDS_Shape as TopTools_ListOfShape
-
-    # non-destructive: OpenCascade's default widens the arguments' vertex tolerances, and
-    # later booleans on the same solids then disagree (the 7d egg-crate pair, see
-    # torsal.fabrication.assembly.common_volume)
-    op = BRepAlgoAPI_Common()
-    la, lb = TopTools_ListOfShape(), TopTools_ListOfShape()
-    la.Append(a)
-    lb.Append(b)
-    op.SetArguments(la)
-    op.SetTools(lb)
-    op.SetNonDestructive(True)
-    op.Build()
-    props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(op.Shape(), props)
-    return abs(props.Mass())
+    op = _boolean_common(getattr(a, "wrapped", a), getattr(b, "wrapped", b), 0.0)
+    return _volume(op.Shape())
 
 
 def interfering_pairs(solids: dict, limit: float = 1.0) -> list[tuple[str, str, float]]:

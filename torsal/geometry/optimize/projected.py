@@ -101,7 +101,6 @@ class ProjectedHessian(ca.Callback):
     def __init__(self, name: str, symbols: list, rest: ca.MX, blocks: list[Block], n_var: int):
         ca.Callback.__init__(self)
         self.blocks = blocks
-        self.n_var = n_var
         self._pieces = ca.Function(name + "_pieces", symbols, [rest] + [b.values for b in blocks])
         self._in = [s.sparsity() for s in symbols]
         # global positions: the rest's nonzeros, then every block's full local upper triangle
