@@ -186,7 +186,7 @@ LIGHT_TERMS = ("perpendicular", "parallel", "torsal_plane", "reflect")
 
 def example_problem(design: str):
     """The eq. (9) problem of an example design, as the pipeline builds it (oriented mesh A)."""
-    from torsal.design_file import load_design_file
+    from torsal.pipeline.design_file import load_design_file
     from torsal.geometry.mesh import area_vector
     from torsal.pipeline.problem import congruence_problem
     from torsal.pipeline.stages import sun_directions, surface_mesh

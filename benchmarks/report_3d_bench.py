@@ -19,11 +19,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-import torsal.report  # noqa: E402
+import torsal.pipeline.report  # noqa: E402
 from torsal.design import Design  # noqa: E402
 from torsal.geometry.support import SupportStructure  # noqa: E402
 from torsal.pipeline.stages import sun_directions  # noqa: E402
-from torsal.report_3d import design_view_html  # noqa: E402
+from torsal.pipeline.report_3d import design_view_html  # noqa: E402
 
 
 def plotlyjs_bytes() -> int:
@@ -62,20 +62,20 @@ def run_design(name: str, full: bool) -> None:
     d = Design(d.spec.model_copy(update={"outputs": d.spec.outputs.model_copy(
         update={"step": False, "rhino_3dm": False, "dxf": False})}))
     seen = {}
-    write = torsal.report.write_design_report
+    write = torsal.pipeline.report.write_design_report
 
     def capture(out, spec, report, congruence, structure, light_map, surface, layout, **kw):
         kw.setdefault("sun", sun_directions(spec))  # the pipeline does not pass it yet
         seen.update(surface=surface, structure=structure, sun=kw["sun"])
         return write(out, spec, report, congruence, structure, light_map, surface, layout, **kw)
 
-    torsal.report.write_design_report = capture
+    torsal.pipeline.report.write_design_report = capture
     try:
         with tempfile.TemporaryDirectory() as tmp:
             d.run(tmp)
             size = (Path(tmp) / "report.html").stat().st_size
     finally:
-        torsal.report.write_design_report = write
+        torsal.pipeline.report.write_design_report = write
     row(name, seen["surface"], seen["structure"], seen["sun"], size)
 
 

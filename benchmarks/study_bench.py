@@ -84,7 +84,7 @@ def warm_up() -> None:
 
     import torsal.fabrication  # noqa: F401
     import torsal.light  # noqa: F401
-    import torsal.report  # noqa: F401
+    import torsal.pipeline.report  # noqa: F401
 
 
 def serial_run(study: Study, out: Path):

@@ -10,7 +10,7 @@ import argparse
 import time
 from pathlib import Path
 
-from torsal._io import atomic_path, write_json
+from torsal.core.atomic import atomic_path, write_json
 from torsal.design import Design
 
 HERE = Path(__file__).resolve().parent

@@ -1,6 +1,6 @@
 """A generated corpus of bad and unusual inputs, each run through the command line.
 
-Every case writes its own small files (nothing big is stored) and runs ``torsal.cli.main``
+Every case writes its own small files (nothing big is stored) and runs ``torsal.pipeline.cli.main``
 in-process; a few run the installed ``torsal`` as a subprocess to show that no traceback
 reaches stderr. A bad input must exit 2 with a message naming the problem, no traceback, and
 leave no result file; an unusual but valid input must exit 0 with the right answer (counts and
@@ -33,8 +33,8 @@ from annotated_types import Ge, Gt, Le, Lt
 from pydantic import BaseModel
 
 import mesh_cases as mc
-from torsal.cli import main
-from torsal.design_file import DesignSpec, Region
+from torsal.pipeline.cli import main
+from torsal.pipeline.design_file import DesignSpec, Region
 from torsal.geometry.congruence import Congruence
 from torsal.light.sun import write_synthetic_epw
 
@@ -839,7 +839,7 @@ def test_mutated_mesh_files_load_or_fail_cleanly(tmp_path):
 def test_mutated_design_files_load_or_fail_cleanly(tmp_path):
     """400 random mutations of a valid design file: each loads or raises a TorsalError."""
     from torsal.core.errors import TorsalError
-    from torsal.design_file import load_design_file
+    from torsal.pipeline.design_file import load_design_file
 
     base = design_text(FULL).encode()
     rng = np.random.default_rng(18)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from torsal.cli import main
+from torsal.pipeline.cli import main
 from torsal.geometry.surfaces import facade_patch
 
 ROOT = Path(__file__).resolve().parents[1]

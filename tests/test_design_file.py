@@ -5,9 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from torsal.cli import main
+from torsal.pipeline.cli import main
 from torsal.design import Design, dominant_light_direction, select_faces, select_vertices
-from torsal.design_file import DesignFileError, Region, load_design_file
+from torsal.pipeline.design_file import DesignFileError, Region, load_design_file
 
 GOOD = """
 name = "test"

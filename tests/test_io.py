@@ -1,7 +1,7 @@
 """The one atomic-write helper: a failed write leaves the previous file and no temporary."""
 import pytest
 
-from torsal._io import atomic_path
+from torsal.core.atomic import atomic_path
 
 
 def test_failed_write_leaves_previous_file_and_no_temporary(tmp_path):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from torsal.design import STAGES, Design, DesignError
-from torsal.design_file import DesignSpec, WeightsSpec
+from torsal.pipeline.design_file import DesignSpec, WeightsSpec
 from torsal.geometry.optimize import DEFAULT_WEIGHTS
 from torsal.pipeline import (DEFAULT_PIPELINE, Pipeline, Stage, StageCache, run_stages,
                              stage_keys, term_weights)
@@ -140,7 +140,7 @@ def test_limit_workers_caps_nested_and_restores():
 
 def test_serial_study_executor_runs_its_tasks_on_one_process():
     from torsal.core.parallel import usable_workers
-    from torsal.pipeline.study_tasks import SerialExecutor
+    from torsal.study.study_tasks import SerialExecutor
 
     ex = SerialExecutor()
     job = ex.submit(usable_workers, 4)

@@ -1,8 +1,8 @@
 """The README's design-file key reference is what the schema generates, and covers every key."""
 from pathlib import Path
 
-from torsal.design_file import DesignSpec
-from torsal.design_reference import readme_section, reference_markdown
+from torsal.pipeline.design_file import DesignSpec
+from torsal.pipeline.design_reference import readme_section, reference_markdown
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -10,7 +10,7 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 def test_readme_section_is_generated_from_the_schema():
     assert readme_section(README) == reference_markdown(), (
         "README.md design-file keys differ from the schema; run "
-        "`.venv/bin/python -m torsal.design_reference` and commit README.md")
+        "`.venv/bin/python -m torsal.pipeline.design_reference` and commit README.md")
 
 
 def _json_schema_keys(schema, node, prefix=""):

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from torsal.geometry.support import SupportStructure
-from torsal.report import design_report_html
-from torsal.report_3d import (FAMILY_COLOURS, SunRays, design_view_figure, design_view_html,
+from torsal.pipeline.report import design_report_html
+from torsal.pipeline.report_3d import (FAMILY_COLOURS, SunRays, design_view_figure, design_view_html,
                               representative_sun)
 
 

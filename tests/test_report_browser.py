@@ -165,13 +165,13 @@ def browser(tmp_path_factory):
 def design_out(tmp_path_factory):
     """Example 7a at test size, run through the whole pipeline (report.html included); the
     STEP, 3dm and DXF files, slow to write, play no part in the report's 3D view."""
-    import torsal.report
+    import torsal.pipeline.report
 
     out = tmp_path_factory.mktemp("7a-small")
     d = small(Design.from_toml(next(p for p in EXAMPLES if p.name.startswith("7a"))))
     d = Design(d.spec.model_copy(update={"outputs": d.spec.outputs.model_copy(
         update={"step": False, "rhino_3dm": False, "dxf": False})}))
-    write = torsal.report.write_design_report
+    write = torsal.pipeline.report.write_design_report
     passed = {}
 
     def with_sun(out, spec, *args, **kw):
@@ -179,7 +179,7 @@ def design_out(tmp_path_factory):
         return write(out, spec, *args, **kw)
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(torsal.report, "write_design_report", with_sun)
+        mp.setattr(torsal.pipeline.report, "write_design_report", with_sun)
         d.run(out)
     return out, d, passed
 
@@ -216,7 +216,7 @@ def _hue_share(png: bytes, hex_colour: str, tol: int = 6) -> float:
 
 
 def test_report_renders_the_3d_view_with_no_errors(browser, design_out):
-    from torsal.report_3d import FAMILY_COLOURS, SUN_COLOUR
+    from torsal.pipeline.report_3d import FAMILY_COLOURS, SUN_COLOUR
 
     out = design_out[0]
     browser.errors.clear()

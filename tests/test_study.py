@@ -12,7 +12,7 @@ import pytest
 import tomli_w
 
 from torsal import Study, StudyFileError
-from torsal.cli import main
+from torsal.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 AXES = {"fins.spacing": [1.5, 2.0], "fins.depth": [0.3, 0.5], "weights.perp": [1, 10]}
@@ -226,7 +226,7 @@ def test_a_study_runs_on_an_existing_scheduler(tmp_path):
 
 def test_a_lost_task_is_a_failed_variant(tmp_path):
     """A task that does not come back (its worker died) is recorded as failed, not fatal."""
-    from torsal.pipeline import study_tasks
+    from torsal.study import study_tasks
 
     class Crashing(study_tasks.SerialExecutor):
         def result(self, job):
@@ -237,7 +237,7 @@ def test_a_lost_task_is_a_failed_variant(tmp_path):
     path = _study(tmp_path, {"fins.depth": [0.3, 0.5]}, renders=False, dxf=False, bom=False)
     study = Study.from_toml(path)
     orig = study_tasks.SerialExecutor
-    import torsal.pipeline.study as study_module
+    import torsal.study.study as study_module
 
     study_module.SerialExecutor = Crashing
     try:
@@ -260,7 +260,7 @@ def _table(torsal, devices):
 
 
 def test_verdict_beyond_and_behind_by_hand():
-    from torsal.pipeline.study_report import verdict
+    from torsal.study.study_report import verdict
 
     # devices (0.9, 0.5), (0.6, 0.8); torsal (0.7, 0.9): beyond by min(max(-0.2, 0.4),
     # max(0.1, 0.1)) = 0.1; torsal (0.5, 0.4): behind (0.9, 0.5) by max(-0.4, -0.1) = -0.1 ...

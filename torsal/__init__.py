@@ -1,11 +1,11 @@
 """torsal: discrete line congruences for shading and lighting (Wang et al. 2013).
 
 From a design surface and the path of the sun to buildable planar fins.
-"""
-__version__ = "0.1.0"   # before the imports: design.py keys its stage cache with it
 
-from .design import Design, DesignError
-from .pipeline import Study, StudyFileError
+The package root only re-exports the public names; nothing inside the package imports it
+(the version lives in :mod:`torsal._version`).
+"""
+from ._version import __version__
 from .geometry import (
     Congruence,
     CongruenceProblem,
@@ -19,6 +19,8 @@ from .geometry import (
     remesh_torsal,
     trace_torsal_curve,
 )
+from .pipeline import Design, DesignError
+from .study import Study, StudyFileError
 
 
 __all__ = ["Congruence", "CongruenceProblem", "OptimizationResult", "OptimizationError",

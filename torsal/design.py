@@ -1,6 +1,6 @@
 """The pipeline's public names where they have always been; the code lives in
-:mod:`torsal.pipeline` (stages as functions, the stage cache, :class:`Design`)."""
-from .design_file import DesignFileError
+:mod:`torsal.pipeline` (stages as functions, the stage cache, :class:`Design`, the design file)."""
+from .pipeline.design_file import DesignFileError
 from .pipeline import (
     DEFAULT_PIPELINE,
     JIT_MIN_VERTICES,

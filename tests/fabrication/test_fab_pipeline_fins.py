@@ -6,7 +6,7 @@ import tomllib
 
 import numpy as np
 from fab_structures import sphere_structure
-from torsal.design_file import DesignSpec
+from torsal.pipeline.design_file import DesignSpec
 from torsal.pipeline.fins import fin_system
 
 SPEC = DesignSpec.model_validate(tomllib.loads("""

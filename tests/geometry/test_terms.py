@@ -9,7 +9,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from torsal.geometry import terms as T
+from torsal.geometry.optimize import terms as T
 from torsal.geometry.congruence import face_frame, focal_coefficients, normality_residual, torsal_coefficients
 
 RNG = np.random.default_rng(20131)

@@ -15,8 +15,8 @@ from .problem import JIT_MIN_VERTICES, congruence_problem, term_weights
 from .regions import dominant_light_direction, select_faces, select_vertices
 from .stage import Pipeline, Stage, StageInputs, StageRun, run_stages, stage_keys
 from .stages import DEFAULT_PIPELINE, STAGES
-from .study import Study, StudyProgress, StudyResult
-from .study_file import StudyFileError
+# studies live in their own room (torsal.study), re-exported here where they have always been
+from ..study import Study, StudyFileError, StudyProgress, StudyResult
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError", "Design", "DesignResult",
            "DesignError", "Progress", "StageCache", "stage_key", "Pipeline", "Stage",

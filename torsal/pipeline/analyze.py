@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import write_json
+from ..core.atomic import write_json
 from ..core.errors import TorsalError
 from ..core.inputs import check_input, read_input
 from ..core.outputs import output_folder
@@ -134,7 +134,7 @@ def _analyze(mesh_path: Path, directions, out: Path | None, plot: bool) -> Analy
     if out is not None:
         files["json"] = str(write_json(out / "analysis.json", summary))
         if plot:
-            from ..report import plot_torsal_field
+            from .report import plot_torsal_field
 
             files["png"] = str(plot_torsal_field(
                 c, out / "torsal_field.png",

@@ -92,7 +92,7 @@ def run_assembly(inp: StageInputs) -> dict:
     files = {"assembly": check.write_csv(inp.out / "assembly.csv").name}
     report = check.report()
     if inp.spec.outputs.renders:
-        from ..report import plot_assembly
+        from .report import plot_assembly
 
         files["assembly_png"] = plot_assembly(solids, check, inp.out / "assembly.png").name
         report["picture"] = files["assembly_png"]

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from .._io import atomic_path
+from .._version import __version__
+from ..core.atomic import atomic_path
 
 __all__ = ["CACHE_VERSION", "MISSING", "StageCache", "stage_key"]
 

@@ -10,7 +10,7 @@ design file and mesh A alone (no stage runs), and :func:`check_size` stops above
 Examples
 --------
 >>> from torsal.geometry.surfaces import facade_patch
->>> from torsal.design_file import DesignSpec
+>>> from torsal.pipeline.design_file import DesignSpec
 >>> spec = DesignSpec.model_validate({"surface": {"generator": "facade_patch"},
 ...     "sun": {"vectors": [[0, -1, 1]]}, "fins": {"spacing": 0.005, "depth": 0.3}})
 >>> est = estimate_size(spec, *facade_patch(nu=9, nv=9))
@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..design_file import DesignSpec
+from .design_file import DesignSpec
 from ..geometry.mesh import edge_face_adjacency, face_areas
 from .errors import DesignError
 

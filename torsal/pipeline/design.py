@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.outputs import output_folder
-from ..design_file import DesignSpec, load_design_file
+from .design_file import DesignSpec, load_design_file
 from .assembly import UnbuildableDesignError, unbuildable_message
 from .cache import StageCache
 from .errors import Progress, quiet
@@ -53,7 +53,7 @@ class Design:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Design":
-        """Read and validate a design file (see :mod:`torsal.design_file`)."""
+        """Read and validate a design file (see :mod:`torsal.pipeline.design_file`)."""
         return cls(load_design_file(path), source=path)
 
     def _surface(self) -> tuple[np.ndarray, np.ndarray]:

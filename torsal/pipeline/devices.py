@@ -7,7 +7,7 @@ seeded sample points, sun directions and weights, view rays).
 """
 from __future__ import annotations
 
-from ..design_file import DesignSpec
+from .design_file import DesignSpec
 from .stage import Stage, StageInputs
 from .stages import DEFAULT_PIPELINE, measure_fins
 

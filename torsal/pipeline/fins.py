@@ -12,7 +12,7 @@ from __future__ import annotations
 import hashlib
 import pickle
 
-from ..design_file import DesignSpec
+from .design_file import DesignSpec
 
 __all__ = ["fin_system"]
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_path
+from ..core.atomic import atomic_path
 from ..geometry.congruence import Congruence
 
 __all__ = ["write_geometry", "write_structure_obj", "target_patch"]

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..design_file import DesignSpec, WeightsSpec
+from .design_file import DesignSpec, WeightsSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import average_edge_length, edge_face_adjacency
 from ..geometry.optimize import DEFAULT_WEIGHTS, CongruenceProblem

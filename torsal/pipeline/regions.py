@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..design_file import Region
+from .design_file import Region
 
 __all__ = ["select_vertices", "select_faces", "dominant_light_direction"]
 

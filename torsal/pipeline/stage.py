@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
 
-from ..design_file import DesignSpec
+from .design_file import DesignSpec
 from .cache import MISSING, StageCache, stage_key
 from ..core.errors import TorsalError, raised_in_torsal
 from .errors import DesignError, Progress, quiet

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..design_file import DesignSpec
+from .design_file import DesignSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
@@ -431,7 +431,7 @@ def run_report(inp: StageInputs) -> dict:
     """Geometry files (congruence PLY, support OBJ), ``report.json`` and, with
     ``outputs.renders``, the figures and ``report.html``; cheap, so always written fresh.
     Returns ``files`` and, as the report's ``design`` section, the design as run."""
-    from ..report import write_design_report
+    from .report import write_design_report
 
     spec, out = inp.spec, inp.out
     congruence = optimized_congruence(inp)
@@ -440,7 +440,7 @@ def run_report(inp: StageInputs) -> dict:
     if "substructure" in inp:
         write_structure_obj(out / "substructure.obj", inp["substructure"]["structure"])
         files["substructure"] = "substructure.obj"
-    from .._io import write_json
+    from ..core.atomic import write_json
 
     # the design as run (validated, defaults filled in): a report says what it measured
     design = spec.model_dump(mode="json")

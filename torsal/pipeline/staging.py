@@ -28,7 +28,7 @@ import os
 import shutil
 from pathlib import Path
 
-from .._io import write_json
+from ..core.atomic import write_json
 from .stage import _flat  # the file paths in a stage's nested "files"
 
 __all__ = ["Staging", "RESULTS_LIST", "STAGING_FOLDER"]

@@ -8,7 +8,7 @@ each over a vertex, face or edge subset, and :meth:`CongruenceProblem.solve` min
     f = sum_t w_t f_t(e)    subject to   c_j(e) >= 0,   ||e_i|| = 1
 
 Assembly. Every term is one casadi ``SX`` function of one element
-(:mod:`torsal.geometry.terms`) mapped over its elements with ``Function.map``. Value,
+(:mod:`torsal.geometry.optimize.terms`) mapped over its elements with ``Function.map``. Value,
 gradient, constraint Jacobian and the exact Hessian of the Lagrangian are assembled from
 the mapped per-element derivatives (gradient, Jacobian rows, upper triangle of the local
 Hessian) by constant sparse scatter matrices, and handed to IPOPT through ``nlpsol``'s

@@ -1,7 +1,7 @@
 """The term catalogue: default weights, one term's data (:class:`Term`) and input checks.
 
 Every energy and constraint that :class:`~torsal.geometry.optimize.CongruenceProblem` offers
-is a :class:`Term`: an element function of :mod:`torsal.geometry.terms` with the variable
+is a :class:`Term`: an element function of :mod:`torsal.geometry.optimize.terms` with the variable
 indices, mesh data and NLP parameters of its elements.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import terms as T
+from . import terms as T
 
 #: Default weight per energy (Wang et al. 2013, Fig. 12; see the module docstring).
 DEFAULT_WEIGHTS: dict[str, float] = {

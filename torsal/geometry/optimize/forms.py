@@ -2,10 +2,10 @@
 
 The constraint "torsal directions at least ``alpha`` apart" is ``|p| <= cos(alpha) rho`` in
 the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
-:func:`torsal.geometry.terms.torsal_form_invariants_sx`). Two smooth ways to impose it:
+:func:`torsal.geometry.optimize.terms.torsal_form_invariants_sx`). Two smooth ways to impose it:
 
 - ``"cone"``: one row per face, ``cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0``
-  (:func:`torsal.geometry.terms.torsal_angle_cone_element`). ``sqrt(p^2 + s^2)`` smooths the
+  (:func:`torsal.geometry.optimize.terms.torsal_angle_cone_element`). ``sqrt(p^2 + s^2)`` smooths the
   kink of ``|p|`` over a width ``s`` (the strength floor, 1e-3 by default), so its curvature
   is ``1/s`` at ``p = 0``: exactly where a face has orthogonal torsal directions, the best
   case. Times the constraint's multiplier, that curvature is what IPOPT's inertia correction
@@ -35,7 +35,7 @@ from enum import Enum
 
 import casadi as ca
 
-from .. import terms as T
+from . import terms as T
 
 
 class TorsalAngleForm(str, Enum):
@@ -61,7 +61,7 @@ def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
     With ``M = R^T R`` (Cholesky, ``R`` upper triangular) the form has matrix
     ``S' = R^-T S R^-1 = [[u + v, w], [w, u - v]]`` in the orthonormal frame ``(a_u/|a_u|, ...)``
     (Gram-Schmidt of the face edges). ``u = p`` is its isotropic part and ``v^2 + w^2 = rho^2``
-    its strength squared (:func:`torsal.geometry.terms.torsal_form_invariants_sx`): the torsal
+    its strength squared (:func:`torsal.geometry.optimize.terms.torsal_form_invariants_sx`): the torsal
     directions are at least ``alpha`` apart iff ``|u| <= cos(alpha) sqrt(v^2 + w^2)``.
     """
     g0, g1, g2 = T.torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)

@@ -1,7 +1,7 @@
 """The problem builder: :class:`CongruenceProblem` (Wang et al. 2013, 4.1, eq. (9)).
 
 Energies and constraints are added by chaining methods (the term catalogue of
-:mod:`~torsal.geometry.optimize.catalogue` and :mod:`torsal.geometry.terms`); :meth:`solve`
+:mod:`~torsal.geometry.optimize.catalogue` and :mod:`torsal.geometry.optimize.terms`); :meth:`solve`
 assembles the NLP (:mod:`~torsal.geometry.optimize.nlp`), runs IPOPT
 (:mod:`~torsal.geometry.optimize.ipopt`) or the L-BFGS baseline
 (:mod:`~torsal.geometry.optimize.lbfgs`), and measures the constraints on the answer
@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import terms as T
+from . import terms as T
 from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
@@ -155,7 +155,7 @@ class CongruenceProblem:
     ...) are exact and every kernel is independent of the mesh (compiled once with
     ``jit=True``). For f_fair/t this means ``B = A/delta + e`` in the projection condition
     (its zero set does not depend on the distance of B; see
-    :func:`torsal.geometry.terms.fair_torsal_residual_sx`).
+    :func:`torsal.geometry.optimize.terms.fair_torsal_residual_sx`).
 
     Examples
     --------
@@ -296,7 +296,7 @@ class CongruenceProblem:
         """f_fair/t: no jump of torsal planes across interior edges (Wang et al. 2013, 4.1).
 
         ``1/|E_int| sum ||r||^2`` with the residual of
-        :func:`torsal.geometry.terms.fair_torsal_residual_sx` (barycentric-coordinate condition,
+        :func:`torsal.geometry.optimize.terms.fair_torsal_residual_sx` (barycentric-coordinate condition,
         denominators cleared, divided by ``delta^4``).
 
         Examples
@@ -436,7 +436,7 @@ class CongruenceProblem:
         """f_dir: prescribed torsal directions (design strokes), Wang et al. 2013, 4.1 and eq. (9).
 
         ``1/|F'| sum ([a_p2 - a_p1, e_p1, e_p2] / delta)^2``: the lines through the stroke's
-        endpoints are coplanar (see :func:`torsal.geometry.terms.torsal_direction_residual_sx`
+        endpoints are coplanar (see :func:`torsal.geometry.optimize.terms.torsal_direction_residual_sx`
         for why this replaces the printed ``[e_p1, e_p2, e_c]``). Each stroke only gives a
         direction: it is re-centred at the face barycenter (the paper requires ``c`` on
         ``p1 p2``) and extended to the triangle's boundary; ``e_p`` is interpolated linearly.
@@ -499,7 +499,7 @@ class CongruenceProblem:
 
         Wang et al. 2013, 4.3 (Fig. 11): ``1/|F| sum (||g_L x g_L'|| / delta^2)^2`` with
         ``g = (gamma_0, 2 gamma_1, gamma_2)`` (see
-        :func:`torsal.geometry.terms.torsal_alignment_element` for the typesetting choice).
+        :func:`torsal.geometry.optimize.terms.torsal_alignment_element` for the typesetting choice).
         ``other`` must have the same faces (its vertices may differ, e.g. an offset). Its terms
         and constraints at the time of this call are copied in under ``"<label>.<name>"``;
         the result's ``congruences[1]`` is the optimized ``other``.
@@ -680,7 +680,7 @@ class CongruenceProblem:
         best iterate at the design's 180 s budget).
 
         ``form="cone"`` (one row per face,
-        :func:`torsal.geometry.terms.torsal_angle_cone_element`)::
+        :func:`torsal.geometry.optimize.terms.torsal_angle_cone_element`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0
 

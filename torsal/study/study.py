@@ -1,7 +1,7 @@
 """Design studies: many variants of one design as Dask tasks, one table, a Pareto plot
 against the standard shading devices.
 
-:class:`Study` reads a study file (:mod:`torsal.pipeline.study_file`), makes one design per
+:class:`Study` reads a study file (:mod:`torsal.study.study_file`), makes one design per
 combination of the axes (or lets optuna propose them, with ``[search]``) and runs each
 variant's pipeline as a task on a ``distributed.LocalCluster`` (embedded) or an existing
 Dask scheduler. Variants share one stage cache (``OUT/.torsal-cache``, keys from the design
@@ -22,13 +22,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
-from .. import __version__
-from .._io import atomic_path, write_json
-from .cache import StageCache
-from .devices import DEVICES_PIPELINE
+from .._version import __version__
+from ..core.atomic import atomic_path, write_json
+from ..pipeline.cache import StageCache
+from ..pipeline.devices import DEVICES_PIPELINE
 from .search import run_search
-from .stage import stage_keys
-from .stages import DEFAULT_PIPELINE
+from ..pipeline.stage import stage_keys
+from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_file import StudyFileError, StudySpec, Variant, grid_variants, load_study_file
 from .study_report import results_table, write_study_html
 from .study_tasks import (SHARED_STAGE, DaskExecutor, SerialExecutor, StudyProgress,

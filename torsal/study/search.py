@@ -8,9 +8,9 @@ import json
 from pathlib import Path
 
 
-from .._io import write_json
-from .stage import stage_keys
-from .stages import DEFAULT_PIPELINE
+from ..core.atomic import write_json
+from ..pipeline.stage import stage_keys
+from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_tasks import SHARED_STAGE, StudyProgress, flatten, material_kg, run_variant
 from .study_file import AxisRange, Variant, design_with
 

@@ -10,15 +10,15 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import __version__
+from .._version import __version__
 from ..core.parallel import limit_workers
-from .._io import atomic_path, write_json
-from .cache import StageCache
-from .design import Design
-from .devices import DEVICES_PIPELINE
-from .errors import DesignError
-from .stage import StageRun, run_stages, stage_keys
-from .stages import DEFAULT_PIPELINE
+from ..core.atomic import atomic_path, write_json
+from ..pipeline.cache import StageCache
+from ..pipeline.design import Design
+from ..pipeline.devices import DEVICES_PIPELINE
+from ..pipeline.errors import DesignError
+from ..pipeline.stage import StageRun, run_stages, stage_keys
+from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_file import Variant
 
 __all__ = ["SHARED_STAGE", "StudyProgress", "flatten", "material_kg", "run_variant", "lost_outcome", "measure_devices",

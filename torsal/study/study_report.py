@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import atomic_path
+from ..core.atomic import atomic_path
 from .study_tasks import flatten, material_kg
 
 __all__ = ["results_table", "pareto_front", "lead_over", "verdict", "write_study_html",
@@ -88,8 +88,8 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
 
 
 def _device_key(spec) -> str:
-    from .devices import DEVICES_PIPELINE
-    from .stage import stage_keys
+    from ..pipeline.devices import DEVICES_PIPELINE
+    from ..pipeline.stage import stage_keys
 
     return stage_keys(DEVICES_PIPELINE, spec)["devices"]
 
@@ -197,7 +197,7 @@ def _figure(table, axes):
     ok = table[table["status"] == "done"].dropna(subset=[X_KEY, Y_KEY])
     t = ok[ok["kind"] == "torsal"]
     cmin, cmax = float(ok["material_kg"].min()), float(ok["material_kg"].max())
-    from .devices import DEVICES
+    from ..pipeline.devices import DEVICES
 
     symbols = {"horizontal louvers": "triangle-up", "vertical fins": "triangle-right",
                "egg-crate": "square"}

@@ -37,7 +37,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..design_file import DesignFileError, DesignSpec, _format_errors, load_design_file
+from ..pipeline.design_file import DesignFileError, DesignSpec, _format_errors, load_design_file
 
 __all__ = ["StudyFileError", "StudySpec", "AxisRange", "RunSpec", "SearchSpec", "Variant",
            "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS"]
@@ -129,7 +129,7 @@ def check_axis(key: str) -> None:
     >>> check_axis("fins.dpeth")
     Traceback (most recent call last):
     ...
-    torsal.pipeline.study_file.StudyFileError: axes."fins.dpeth": 'dpeth' is not a key of [fins] (keys: depth, developable_levels, max_fold_at_crossing, optimize, planarity_tol, spacing)
+    torsal.study.study_file.StudyFileError: axes."fins.dpeth": 'dpeth' is not a key of [fins] (keys: depth, developable_levels, max_fold_at_crossing, optimize, planarity_tol, spacing)
     """
     model: Any = DesignSpec
     parts = key.split(".")
@@ -220,8 +220,7 @@ def load_study_file(path: str | Path) -> tuple[StudySpec, dict, Path]:
         spec = StudySpec.model_validate(data)
     except ValidationError as exc:
         raise StudyFileError(_format_errors(exc, str(path)).replace(
-            "the design file", "the study file").replace(
-            "torsal/design_file.py", "torsal/pipeline/study_file.py")) from None
+            "the design file", "the study file")) from None
     base_path = spec.base if spec.base.is_absolute() else path.resolve().parent / spec.base
     try:
         load_design_file(base_path)      # the base alone must be a good design

@@ -1,0 +1,440 @@
+"""The design file: a small TOML that says what to build, validated with pydantic.
+
+Every key is checked: an unknown key, a wrong type or a value out of range gives a
+:class:`DesignFileError` whose message names the key (``fins.spacing``) and what is allowed.
+Lengths are in the design's ``units`` (model units); sheet sizes and thickness in millimetres.
+
+Example (``examples/7a_facade_block.toml``)::
+
+    name = "7a facade blocking the afternoon sun"
+    units = "m"
+
+    [surface]
+    generator = "facade_patch"
+    params = { nu = 33, nv = 33 }
+
+    [site]
+    latitude = 48.21
+    longitude = 16.37
+    timezone = "Europe/Vienna"
+
+    [sun]
+    start = "2026-06-01"
+    end = "2026-08-31"
+    hours = [13, 17]
+
+    [goals]
+    block = true
+    boundary_aligned = true
+
+    [fins]
+    spacing = 0.6
+    depth = 0.35
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import tomllib
+from enum import Enum
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from ..core.errors import TorsalError
+from ..core.inputs import read_input
+from ..core.units import UNIT_TO_M
+from ..geometry.optimize import TorsalAngleForm
+from ..geometry.support import PLANARITY_TOL
+
+__all__ = [
+    "DesignFileError",
+    "DesignSpec",
+    "Region",
+    "load_design_file",
+]
+
+_GENERATORS = ("facade_patch", "canopy", "sphere_patch", "cylinder_patch", "flat_facade")
+
+
+class DesignFileError(TorsalError, ValueError):
+    """A design file that cannot be used; the message names the key or stage and the fix."""
+
+
+class _Spec(BaseModel):
+    # nan and inf (valid TOML floats) are never a sensible length, angle or weight
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+Vec3 = tuple[float, float, float]
+
+
+class Region(_Spec):
+    """A part of the surface: an axis-aligned box (model units) and/or explicit indices.
+
+    A vertex is inside if its position is in the box (each given axis range, ends included);
+    a face if its barycenter is. ``vertices`` / ``faces`` list indices directly.
+    """
+
+    x: tuple[float, float] | None = None
+    y: tuple[float, float] | None = None
+    z: tuple[float, float] | None = None
+    vertices: list[int] | None = None
+    faces: list[int] | None = None
+
+    @model_validator(mode="after")
+    def _not_empty(self):
+        if all(v is None for v in (self.x, self.y, self.z, self.vertices, self.faces)):
+            raise ValueError("a region needs at least one of x, y, z (ranges) or vertices/faces (indices)")
+        for name in ("x", "y", "z"):
+            r = getattr(self, name)
+            if r is not None and r[0] > r[1]:
+                raise ValueError(f"range {name} = {list(r)} must be [min, max]")
+        return self
+
+
+class SurfaceSpec(_Spec):
+    """Mesh A: a mesh file in model units, or a named generator with parameters."""
+
+    mesh: Path | None = None
+    generator: Literal["facade_patch", "canopy", "sphere_patch", "cylinder_patch", "flat_facade"] | None = None
+    params: dict[str, float | int] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _generator_params(self):
+        if self.generator is None:
+            return self
+        import inspect
+
+        from ..geometry.surfaces import GENERATORS
+
+        allowed = [n for n, p in inspect.signature(GENERATORS[self.generator]).parameters.items()
+                   if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        unknown = sorted(set(self.params) - set(allowed))
+        if unknown:
+            raise ValueError(f"surface.params {unknown} do not fit generator '{self.generator}'; "
+                             f"it takes {', '.join(allowed)}")
+        for name in ("nu", "nv"):
+            if name in self.params:
+                val = self.params[name]
+                if val != int(val) or val < 3:
+                    raise ValueError(f"surface.params.{name} = {val} must be a whole number of grid "
+                                     "vertices, at least 3")
+        return self
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        if (self.mesh is None) == (self.generator is None):
+            raise ValueError("give exactly one of surface.mesh (a file) or surface.generator "
+                             f"(one of {', '.join(_GENERATORS)})")
+        if self.mesh is not None and self.params:
+            raise ValueError("surface.params only apply to a generator")
+        return self
+
+
+class SiteSpec(_Spec):
+    latitude: float = Field(ge=-90, le=90, description="degrees north")
+    longitude: float = Field(ge=-180, le=180, description="degrees east")
+    timezone: str = "UTC"
+    elevation: float = Field(0.0, description="metres above sea level")
+    north_angle: float = Field(0.0, description="degrees; rotates true north counter-clockwise from +y")
+
+    @field_validator("timezone")
+    @classmethod
+    def _tz(cls, v):
+        import zoneinfo
+
+        try:
+            zoneinfo.ZoneInfo(v)
+        except Exception:
+            raise ValueError(f"unknown time zone {v!r}; use an IANA name like 'Europe/Vienna'") from None
+        return v
+
+
+#: the shortest sun.step: a minute already gives 525 600 sun positions a year
+MIN_SUN_STEP = "1min"
+
+
+def _check_step(v: str) -> str:
+    """A positive pandas time step of at least :data:`MIN_SUN_STEP` ("1h", "30min", "15min")."""
+    import pandas as pd
+
+    try:
+        td = pd.Timedelta(pd.tseries.frequencies.to_offset(v))
+    except (ValueError, TypeError):
+        raise ValueError(f"sun.step = {v!r} is not a time step; write e.g. '1h', '30min' or "
+                         "'15min'") from None
+    if td < pd.Timedelta(MIN_SUN_STEP):
+        raise ValueError(f"sun.step = {v!r} must be at least {MIN_SUN_STEP} (and not zero or "
+                         "negative); '1h' is plenty for a sun path")
+    return v
+
+
+def _check_directions(v):
+    """Sun directions (site -> sun, z up): at least one, each of non-zero length, none below
+    the horizon."""
+    if v is None:
+        return v
+    if len(v) == 0:
+        raise ValueError("the list of sun vectors is empty; give at least one [x, y, z]")
+    zero = [k for k, d in enumerate(v) if sum(x * x for x in d) == 0]
+    if zero:
+        raise ValueError(f"sun vectors {zero[:10]} have zero length; a direction needs a "
+                         "non-zero [x, y, z] (site -> sun)")
+    below = [k for k, d in enumerate(v) if d[2] < 0]
+    if below:
+        # the model frame has z up: such a sun never shines; usually light directions were given
+        raise ValueError(f"sun vectors {below[:10]} point below the horizon (z < 0); give "
+                         "directions from the site towards the sun (the light travels the other way)")
+    return v
+
+
+class SunSpec(_Spec):
+    """When the sun matters: a date range with a daily window of local hours, an EPW weather
+    file with a hot-hour rule, or explicit sun vectors (site -> sun, model frame)."""
+
+    start: _dt.date | None = None
+    end: _dt.date | None = None
+    hours: tuple[float, float] = (13.0, 17.0)
+    step: str = "1h"
+    months: list[int] | None = None
+    epw: Path | None = None
+    min_temperature: float = 26.0
+    min_dni: float = 300.0
+    vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame (z up); "
+                                        "any length but zero, z >= 0")
+
+    @field_validator("step")
+    @classmethod
+    def _step(cls, v):
+        return _check_step(v)
+
+    @field_validator("vectors")
+    @classmethod
+    def _vectors(cls, v):
+        return _check_directions(v)
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        sources = [self.start is not None or self.end is not None, self.epw is not None,
+                   self.vectors is not None]
+        if sum(sources) != 1:
+            raise ValueError("give exactly one of: sun.start + sun.end (date range), sun.epw "
+                             "(weather file), or sun.vectors (explicit directions)")
+        if sources[0] and (self.start is None or self.end is None or self.start > self.end):
+            raise ValueError("sun.start and sun.end must both be dates with start <= end")
+        if not 0 <= self.hours[0] <= self.hours[1] <= 24:
+            raise ValueError(f"sun.hours = {list(self.hours)} must be [h0, h1] with 0 <= h0 <= h1 <= 24")
+        if self.months is not None and not all(1 <= m <= 12 for m in self.months):
+            raise ValueError("sun.months must be numbers 1..12")
+        return self
+
+
+class SeeThrough(_Spec):
+    """Lines over ``region`` pass through ``target`` (Fig. 7c): objects stay visible."""
+
+    target: Vec3
+    region: Region
+
+
+class Stroke(_Spec):
+    """A designer's stroke: torsal directions of the faces it crosses follow it (Fig. 7b)."""
+
+    points: list[Vec3] = Field(min_length=2)
+    width: float | None = Field(None, gt=0, description="faces within this distance follow it")
+
+
+class Reflect(_Spec):
+    """Reflect sunlight from the fins onto a target point (Fig. 13)."""
+
+    target: Vec3
+    region: Region | None = None
+
+
+class SunRegion(_Spec):
+    """A region with its own sun directions (Fig. 7d)."""
+
+    region: Region
+    vectors: list[Vec3]
+
+    @field_validator("vectors")
+    @classmethod
+    def _vectors(cls, v):
+        return _check_directions(v)
+
+
+class GoalsSpec(_Spec):
+    block: bool = True
+    let_through: Region | None = Field(None, description="lines parallel to the light here (Fig. 9)")
+    see_through: list[SeeThrough] = Field(default_factory=list)
+    reflect: Reflect | None = None
+    strokes: list[Stroke] = Field(default_factory=list)
+    boundary_aligned: bool = Field(False, description="torsal directions follow the boundary (Fig. 7a)")
+    sun_regions: list[SunRegion] = Field(default_factory=list)
+
+
+class WeightsSpec(_Spec):
+    """Energy weights of eq. (9); unset ones take the paper's Fig. 12 defaults."""
+
+    norm: float | None = Field(None, ge=0)
+    fair: float | None = Field(None, ge=0)
+    fair_torsal: float | None = Field(None, ge=0)
+    perp: float | None = Field(None, ge=0)
+    par: float | None = Field(None, ge=0)
+    plane: float | None = Field(None, ge=0)
+    dir: float | None = Field(None, ge=0)
+    through: float | None = Field(None, ge=0)
+    closeness: float | None = Field(None, ge=0)
+
+
+class ConstraintsSpec(_Spec):
+    hyperbolic: bool = True
+    hyperbolic_margin: float = Field(0.0, ge=0)
+    min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees")
+    torsal_angle_form: TorsalAngleForm | None = Field(
+        None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
+        "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
+    max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
+                          "limit is kept (its status says so)")
+    jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "
+                             "(once per machine, cached); default: for surfaces of 500 vertices or more")
+    max_seconds: float | None = Field(None, gt=0, description="wall-time budget of the congruence "
+                                      "solve; at the limit the best iterate whose constraints hold "
+                                      "as measured is kept (its status says so)")
+
+
+class FinsSpec(_Spec):
+    spacing: float = Field(gt=0, description="fin spacing, model units")
+    depth: float = Field(gt=0, description="fin depth along the lines, model units")
+    optimize: bool = True
+    planarity_tol: float = Field(PLANARITY_TOL, gt=0)
+    max_fold_at_crossing: float | None = Field(
+        None, gt=0, lt=180, description="degrees: a strip folding more than this where a strip "
+        "of the other family crosses it is named in report.json (support.joinery) and split "
+        "there with a connector instead of slotted; default: the joinery's limit "
+        "(MAX_CROSSING_FOLD, 10 degrees)")
+    developable_levels: int = Field(0, ge=0, le=3)
+
+
+class FamilySplitName(str, Enum):
+    egg_crate = "egg-crate"
+    family0_continuous = "family0-continuous"
+
+
+class MaterialSpec(_Spec):
+    name: str = "aluminium"
+    thickness_mm: float = Field(3.0, gt=0)
+    density: float = Field(2700.0, gt=0, description="kg/m^3")
+    sheet_mm: tuple[float, float] = (2500.0, 1250.0)
+    gap_mm: float = Field(5.0, ge=0)
+    clearance_mm: float = Field(0.5, ge=0)
+    family_split: FamilySplitName = FamilySplitName.egg_crate
+
+    @field_validator("sheet_mm")
+    @classmethod
+    def _sheet(cls, v):
+        if min(v) <= 0:
+            raise ValueError("sheet_mm must be two positive lengths [width, height]")
+        return v
+
+
+class OutputsSpec(_Spec):
+    step: bool = True
+    rhino_3dm: bool = True
+    dxf: bool = True
+    bom: bool = True
+    renders: bool = True
+    light_samples: int = Field(1500, ge=2, description="sample points of the light measurement "
+                               "(half of them for the view)")
+
+
+class SubstructureSpec(_Spec):
+    """A second, aligned congruence (Fig. 11): a steel substructure on a surface offset
+    behind A whose torsal directions coincide with the fins' (f_extra)."""
+
+    offset: float = Field(0.3, gt=0, description="distance behind A along -normal, model units")
+    weight: float | None = Field(None, ge=0, description="w_extra; unset: the optimizer's "
+                                 "default (torsal.geometry.optimize.DEFAULT_WEIGHTS['align'])")
+    depth: float = Field(0.15, gt=0, description="beam depth along its lines, model units")
+
+
+class DesignSpec(_Spec):
+    """A whole design file."""
+
+    name: str = "torsal design"
+    units: Literal["m", "cm", "mm", "ft", "in"] = "m"
+    surface: SurfaceSpec
+    site: SiteSpec | None = None
+    sun: SunSpec
+    goals: GoalsSpec = Field(default_factory=GoalsSpec)
+    weights: WeightsSpec = Field(default_factory=WeightsSpec)
+    constraints: ConstraintsSpec = Field(default_factory=ConstraintsSpec)
+    fins: FinsSpec
+    material: MaterialSpec = Field(default_factory=MaterialSpec)
+    outputs: OutputsSpec = Field(default_factory=OutputsSpec)
+    substructure: SubstructureSpec | None = None
+
+    @model_validator(mode="after")
+    def _site_for_dates(self):
+        if self.sun.start is not None and self.site is None:
+            raise ValueError("a [site] (latitude, longitude, timezone) is needed to place the sun "
+                             "for sun.start/sun.end")
+        return self
+
+    @property
+    def metres_per_unit(self) -> float:
+        return UNIT_TO_M[self.units]
+
+
+def _format_errors(exc: ValidationError, source: str) -> str:
+    lines = [f"{source}: {exc.error_count()} problem(s) in the design file"]
+    for err in exc.errors():
+        key = ".".join(str(p) for p in err["loc"]) or "(top level)"
+        msg = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key (check the spelling; the README lists every key)"
+        if err["type"] == "missing":
+            lines.append(f"  {key}: missing (required)")
+        elif isinstance(err.get("input"), dict):  # a table-level rule: the message names the keys
+            lines.append(f"  {key}: {msg}")
+        else:
+            lines.append(f"  {key}: {msg} (got {err.get('input')!r})")
+    return "\n".join(lines)
+
+
+def load_design_file(path: str | Path) -> DesignSpec:
+    """Read and validate a TOML design file; relative file paths in it are resolved against
+    the file's folder.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist (a :class:`~torsal.core.inputs.MissingInputError`).
+    InputFileError
+        The path is a folder or cannot be read.
+    DesignFileError
+        Invalid TOML or an invalid key/value; the message names each offending key.
+    """
+    path = Path(path)
+    text = read_input(path, "design file", text=True)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise DesignFileError(f"{path}: not valid TOML ({exc})") from None
+    try:
+        spec = DesignSpec.model_validate(data)
+    except ValidationError as exc:
+        raise DesignFileError(_format_errors(exc, str(path))) from None
+    base = path.resolve().parent
+
+    def resolve(p):
+        return p if p is None or p.is_absolute() else (base / p)
+
+    surface = spec.surface.model_copy(update={"mesh": resolve(spec.surface.mesh)})
+    sun = spec.sun.model_copy(update={"epw": resolve(spec.sun.epw)})
+    spec = spec.model_copy(update={"surface": surface, "sun": sun})
+    if spec.surface.mesh is not None and not spec.surface.mesh.exists():
+        raise DesignFileError(f"{path}: surface.mesh: file not found: {spec.surface.mesh}")
+    if spec.sun.epw is not None and not spec.sun.epw.exists():
+        raise DesignFileError(f"{path}: sun.epw: file not found: {spec.sun.epw}")
+    return spec

@@ -1,0 +1,506 @@
+"""Figures and reports: PNG figures with matplotlib (Agg, no screen needed), JSON summaries."""
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+
+from ..core.atomic import atomic_path
+from ..geometry.mesh import area_vector
+from .report_3d import design_view_html
+
+__all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
+           "design_report_html", "write_design_report", "plot_assembly"]
+
+
+def principal_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centroid and orthonormal axes (3, 3) of a point cloud, largest spread first (PCA).
+
+    The first two axes span the plane a facade or canopy is best seen in.
+    """
+    p = np.asarray(points, float)
+    c = p.mean(axis=0)
+    _, _, vt = np.linalg.svd(p - c, full_matrices=False)
+    return c, vt
+
+
+def _view_frame(v: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`principal_plane` oriented so the surface's mean normal points at the viewer."""
+    center, axes = principal_plane(v)
+    if area_vector(v, f) @ axes[2] < 0:
+        axes = axes * [[1], [-1], [-1]]
+    return center, axes
+
+
+def _torsal_field_panel(fig, ax, congruence, max_segments: int) -> None:
+    """Left panel of :func:`plot_torsal_field`: mesh A in its principal plane, faces coloured
+    by the torsal angle, short segments along both torsal directions."""
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    v, f = congruence.vertices, congruence.faces
+    center, axes = _view_frame(v, f)
+    uv = (v - center) @ axes[:2].T
+    t = congruence.torsal_directions()
+    ang = congruence.torsal_angle()
+    bc2 = (congruence.barycenters() - center) @ axes[:2].T
+    valid = np.isfinite(t).all(axis=(1, 2))
+    pc = PolyCollection(uv[f], array=np.where(valid, ang, np.nan), cmap="viridis",
+                        edgecolors=(0.6, 0.6, 0.6, 0.35), linewidths=0.3)
+    pc.set_clim(0, 90)
+    ax.add_collection(pc)
+    cb = fig.colorbar(pc, ax=ax, shrink=0.8)
+    cb.set_label("angle between torsal directions (deg)")
+    idx = np.flatnonzero(valid)
+    if idx.size > max_segments:
+        idx = idx[np.linspace(0, idx.size - 1, max_segments).astype(int)]
+    half = 0.35 * congruence.delta * max(1.0, np.sqrt(len(f) / max(idx.size, 1)))
+    d2 = t[idx] @ axes[:2].T  # (k, 2, 2)
+    d2 /= np.maximum(np.linalg.norm(d2, axis=2, keepdims=True), 1e-300)
+    # the index t of eq. (1)'s solutions follows the focal-parameter order, which can swap
+    # between neighbours; for a readable picture colour by the direction nearer axis 1
+    first = np.abs(d2[:, 0, 0]) >= np.abs(d2[:, 1, 0])
+    along = np.where(first[:, None], d2[:, 0], d2[:, 1])
+    across = np.where(first[:, None], d2[:, 1], d2[:, 0])
+    for d, colour, label in ((along, "tab:red", "torsal direction nearer axis 1"),
+                             (across, "tab:blue", "torsal direction nearer axis 2")):
+        segs = np.stack([bc2[idx] - half * d, bc2[idx] + half * d], axis=1)
+        ax.add_collection(LineCollection(segs, colors=colour, linewidths=1.0, label=label))
+    bad = ~valid
+    if bad.any():
+        ax.plot(bc2[bad, 0], bc2[bad, 1], "x", color="0.3", ms=3,
+                label=f"no torsal directions ({int(bad.sum())} faces)")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_xlabel("principal axis 1 (model units)")
+    ax.set_ylabel("principal axis 2 (model units)")
+    ax.set_title("torsal direction fields (paper eq. 1)")
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
+
+
+def _congruence_lines_panel(ax3, congruence) -> None:
+    """Right panel of :func:`plot_torsal_field`: mesh A in 3D and (at most ~600 of) its lines
+    a_i -> a_i + 2 delta e_i / |e_i|."""
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
+
+    v, f = congruence.vertices, congruence.faces
+    ax3.add_collection3d(Poly3DCollection(v[f], facecolor=(0.8, 0.82, 0.86, 0.6),
+                                          edgecolor=(0.5, 0.5, 0.5, 0.2), linewidths=0.2))
+    step = max(1, len(v) // 600)
+    a = v[::step]
+    e = congruence.directions[::step]
+    e = e / np.linalg.norm(e, axis=1, keepdims=True) * 2 * congruence.delta
+    ax3.add_collection3d(Line3DCollection(np.stack([a, a + e], axis=1), colors="tab:orange",
+                                          linewidths=0.6, label="lines of the congruence"))
+    _cube_limits(ax3, v)
+    ax3.set_xlabel("x")
+    ax3.set_ylabel("y")
+    ax3.set_zlabel("z")
+    ax3.set_title("mesh A and lines a_i + lambda e_i")
+    ax3.legend(loc="upper right", fontsize=8)
+
+
+def plot_torsal_field(congruence, path: str | Path, *, title: str | None = None,
+                      max_segments: int = 900) -> Path:
+    """Draw mesh A with its two torsal direction fields and write a PNG (atomically).
+
+    Left: the mesh seen in its principal plane, faces coloured by the angle between the two
+    torsal directions, two short segments per face along the torsal directions (red: the one
+    nearer the view's first axis, blue: the other),
+    grey crosses on faces that are not hyperbolic or are line bundles. Right: a 3D view with
+    the line congruence (segments a_i -> b_i). Axes in model units.
+
+    Parameters
+    ----------
+    congruence : torsal.geometry.Congruence
+    path : str or Path
+        Output PNG.
+    max_segments : int
+        At most this many faces get direction segments (evenly subsampled) to keep the
+        figure readable for large meshes.
+
+    Examples
+    --------
+    >>> plot_torsal_field(Congruence.from_normals(mesh), "out/torsal_field.png")  # doctest: +SKIP
+    """
+    fig = _figure((14, 6.5))
+    _torsal_field_panel(fig, fig.add_subplot(1, 2, 1), congruence, max_segments)
+    _congruence_lines_panel(fig.add_subplot(1, 2, 2, projection="3d"), congruence)
+    if title:
+        fig.suptitle(title)
+    path = Path(path)
+    _save(fig, path)
+    return path
+
+
+# ====================================================================== design report
+def _figure(figsize):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=110)
+
+
+def _save(fig, path: Path) -> str:
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    return path.name
+
+
+def _cube_limits(ax, points: np.ndarray) -> None:
+    """Equal axis ranges around the finite ones of ``points`` (n, 3): a degenerate fin or a
+    solid's face with a non-finite corner must not leave the whole picture without limits."""
+    p = np.asarray(points, float).reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    if not len(p):
+        return
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    mid, rad = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-9)
+    ax.set_xlim(mid[0] - rad, mid[0] + rad)
+    ax.set_ylim(mid[1] - rad, mid[1] + rad)
+    ax.set_zlim(mid[2] - rad, mid[2] + rad)
+
+
+def plot_fins(structure, surface, path: str | Path, *, title: str = "") -> Path:
+    """3D view of the fins over the surface, each fin coloured by its planarity (Fig. 12's
+    measure: distance of the diagonals / their mean length, log scale), seen from outside."""
+    from matplotlib.colors import LogNorm
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    v, f = surface
+    quads = structure.fin_quads()
+    pl = np.maximum(structure.planarity(), 1e-9)
+    fig = _figure((11, 7.5))
+    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    ax.add_collection3d(Poly3DCollection(v[f], facecolor=(0.75, 0.78, 0.82, 0.35),
+                                         edgecolor=(0.6, 0.6, 0.6, 0.08), linewidths=0.2))
+    norm = LogNorm(vmin=1e-6, vmax=max(1e-2, float(pl.max())))
+    pc = Poly3DCollection(quads, array=pl, cmap="plasma", norm=norm, edgecolor=(0, 0, 0, 0.25),
+                          linewidths=0.15)
+    ax.add_collection3d(pc)
+    cb = fig.colorbar(pc, ax=ax, shrink=0.7, pad=0.08)
+    cb.set_label("fin planarity: diagonal distance / mean diagonal (log)")
+    _cube_limits(ax, np.concatenate([v, structure.vertices_b]))
+    n = area_vector(v, f)
+    n /= np.linalg.norm(n)
+    ax.view_init(elev=float(np.clip(np.degrees(np.arcsin(n[2])), 15, 60)),
+                 azim=float(np.degrees(np.arctan2(n[1], n[0]))) + 25)
+    ax.set_xlabel("x (east)")
+    ax.set_ylabel("y (north)")
+    ax.set_zlabel("z (up)")
+    ax.set_title(title or f"{len(quads)} fins, delta_pl = {structure.delta_pl:.2e}")
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str = "") -> Path:
+    """Map of the blocked share of direct sun at the sample points, seen in the surface's
+    principal plane (0 = all sun gets through, 1 = fully shaded)."""
+    from matplotlib.collections import PolyCollection
+
+    v, f = surface
+    c, axes = _view_frame(v, f)
+    uv = (v - c) @ axes[:2].T
+    p2 = (np.asarray(points) - c) @ axes[:2].T
+    fig = _figure((11, 5.5))
+    ax = fig.add_subplot(1, 1, 1)
+    ax.add_collection(PolyCollection(uv[f], facecolor=(0.92, 0.92, 0.92), edgecolor=(0.7, 0.7, 0.7, 0.3),
+                                     linewidths=0.2))
+    ok = np.isfinite(per_point)
+    sc = ax.scatter(p2[ok, 0], p2[ok, 1], c=per_point[ok], cmap="RdYlGn", vmin=0, vmax=1, s=9)
+    if (~ok).any():
+        ax.scatter(p2[~ok, 0], p2[~ok, 1], c="0.6", s=4, marker="x", label="no direct sun")
+        ax.legend(loc="upper right", fontsize=8)
+    cb = fig.colorbar(sc, ax=ax)
+    cb.set_label("share of direct sun blocked by the fins")
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    ax.set_xlabel("along the surface, principal axis 1 (model units)")
+    ax.set_ylabel("principal axis 2 (model units)")
+    ax.set_title(title or "blocked direct sun at the design hours")
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def plot_sheets(layout, path: str | Path, *, max_sheets: int = 6) -> Path:
+    """The nested cutting sheets: part outlines (cut), fold lines (dashed) and part ids."""
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.patches import Rectangle
+
+    k = min(layout.n_sheets, max_sheets)
+    cols = min(k, 2)
+    rows = (k + cols - 1) // cols
+    W, H = layout.sheet
+    fig = _figure((7 * cols, 3.8 * rows + 0.4))
+    for s in range(k):
+        ax = fig.add_subplot(rows, cols, s + 1)
+        ax.add_patch(Rectangle((0, 0), W, H, fill=False, edgecolor="k", linewidth=1.2))
+        placed = list(layout.on_sheet(s))
+        # one collection per sheet, not one artist per part: hundreds of parts draw at once
+        ax.add_collection(PolyCollection(
+            [np.column_stack(pl.polygon.exterior.xy) for pl in placed],
+            facecolor=(0.55, 0.7, 0.9, 0.6), edgecolor="tab:blue", linewidth=0.6))
+        folds = [np.column_stack(line.xy) for pl in placed for line, _angle in pl.folds]
+        if folds:
+            ax.add_collection(LineCollection(folds, colors="tab:red", linestyles="--",
+                                             linewidths=0.5))
+        for pl in placed:
+            ax.text(pl.label[0], pl.label[1], pl.name, fontsize=4, ha="center", va="center")
+        ax.set_xlim(-0.02 * W, 1.02 * W)
+        ax.set_ylim(-0.02 * H, 1.02 * H)
+        ax.set_aspect("equal")
+        ax.set_title(f"sheet {s + 1} of {layout.n_sheets}: {100 * layout.sheet_utilization[s]:.0f}% used",
+                     fontsize=9)
+        ax.set_xlabel(f"{layout.unit}")
+        ax.set_ylabel(f"{layout.unit}")
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def plot_assembly(solids, check, path, *, title: str | None = None) -> Path:
+    """3D view of every part (family 0 orange, family 1 blue, connectors green, grey
+    otherwise) with interfering parts red and parts that cannot be inserted magenta."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from ..fabrication import face_polygons
+
+    items = list(solids.items()) if hasattr(solids, "items") else list(solids)
+    bad = set(check.interfering_parts)
+    blocked = {s.part for s in check.blocked}
+    fig = _figure((9, 7))
+    ax = fig.add_subplot(projection="3d")
+    polys, colors = [], []
+    for name, solid in items:
+        if name in bad:
+            col = (0.85, 0.05, 0.05, 1.0)
+        elif name in blocked:
+            col = (0.8, 0.0, 0.8, 1.0)
+        elif name.startswith("F0"):
+            col = (0.93, 0.55, 0.14, 0.35)
+        elif name.startswith("F1"):
+            col = (0.16, 0.45, 0.78, 0.35)
+        elif name.startswith("C"):
+            col = (0.30, 0.65, 0.30, 0.6)
+        else:
+            col = (0.5, 0.5, 0.5, 0.35)
+        for poly in face_polygons(solid):
+            polys.append(poly)
+            colors.append(col)
+    keep = [k for k, q in enumerate(polys) if np.isfinite(q).all()]
+    if keep:
+        ax.add_collection3d(Poly3DCollection([polys[k] for k in keep],
+                                             facecolors=[colors[k] for k in keep],
+                                             edgecolors="none"), autolim=False)
+        _cube_limits(ax, np.concatenate([polys[k] for k in keep]))
+    ax.set_xlabel(f"x ({check.unit})")
+    ax.set_ylabel(f"y ({check.unit})")
+    ax.set_zlabel(f"z ({check.unit})")
+    verdict = ("buildable" if check.buildable else
+               f"NOT buildable: {check.interfering_pairs} interfering pairs (red, "
+               f"{len(bad)} parts), {len(blocked)} parts blocked (magenta)")
+    ax.set_title(title or f"{len(items)} parts, {check.pairs_checked} touching pairs checked; "
+                 f"{verdict}", fontsize=9)
+    return Path(path).parent / _save(fig, Path(path))
+
+
+_HTML = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<style>
+body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }}
+table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}
+td, th {{ border: 1px solid #ccc; padding: 0.3em 0.8em; text-align: left; }}
+th {{ background: #f2f2f2; }} td.num {{ text-align: right; font-variant-numeric: tabular-nums; }}
+img {{ max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }}
+.bad {{ color: #b00; font-weight: bold; }} .ok {{ color: #070; font-weight: bold; }}
+</style></head><body>
+<h1>{title}</h1>
+<p>torsal design report. Method: Wang et al. 2013, <i>Discrete Line Congruences for Shading and
+Lighting</i>. Units: {units}. All numbers below are measured on this design.</p>
+{sections}
+</body></html>
+"""
+
+
+def _table(rows, header=("quantity", "value")) -> str:
+    def cell(x):
+        if isinstance(x, float):
+            return f'<td class="num">{x:.4g}</td>'
+        return f"<td>{x}</td>"
+
+    body = "".join("<tr>" + "".join(cell(c) for c in r) + "</tr>" for r in rows)
+    return "<table><tr>" + "".join(f"<th>{h}</th>" for h in header) + "</tr>" + body + "</table>"
+
+
+def _constraints_state(c: dict) -> str:
+    """How the congruence solve met its inequality constraints, in a few words."""
+    ws = c.get("working_set")
+    if c.get("constraints_active") and ws:
+        n = ", ".join(f"{k} on {v}" for k, v in ws.items())
+        return (f"active, imposed where needed ({html.escape(n)} of {c['faces']} faces); "
+                "the rest hold with slack")
+    return {True: "active (solved with them)", False: "inactive (met without them)"}.get(
+        c.get("constraints_active"), "none")
+
+
+def _measured_constraint_rows(c: dict) -> list:
+    """One row per constraint as measured on the optimized congruence (issue 16): bound,
+    measured worst value, and the faces that miss the bound beyond its tolerance."""
+    rows = []
+    for name, m in (c.get("constraints") or {}).items():
+        unit = " deg" if m["unit"] == "deg" else ""
+        ok = m["n_missing"] == 0
+        worst = "n/a" if m["measured"] is None else f"{m['measured']:.4g}{unit}"
+        state = "holds" if ok else f"missed on {m['n_missing']} elements (e.g. {m['elements_missing'][:5]})"
+        rows.append((f"{html.escape(name)} (measured; bound {m['bound']:g}{unit})",
+                     f'<span class="{"ok" if ok else "bad"}">{html.escape(worst)}: {html.escape(state)}</span>'))
+    return rows
+
+
+def _gate_rows(gate: dict | None, what: str, count_key: str) -> list:
+    """Table rows of a joinery quality gate (see :mod:`torsal.pipeline.assembly`)."""
+    if not gate:
+        return []
+    label = what.format(**gate)
+    if not gate[count_key]:
+        return [(label, '<span class="ok">none</span>')]
+    return [(label, f'<span class="bad">{gate[count_key]}</span>: {html.escape(gate["message"])}')]
+
+
+def _left_out_cell(fa: dict) -> str:
+    """The fin panels the fabrication left out, named (the light section measures without
+    them)."""
+    n = fa.get("panels_left_out", 0)
+    if not n:
+        return "0"
+    named = "; ".join(html.escape(f"{d['strip']} edge {d['edge']}"
+                                  + (f" at node {d['node']}" if d["node"] is not None else "")
+                                  + f": {d['reason']}")
+                      for d in fa.get("panels_left_out_list", [])[:12])
+    more = " ..." if n > 12 else ""
+    return (f'<span class="bad">{n}</span> (not built, not counted in the light measurement): '
+            f"{named}{more}")
+
+
+def _assembly_html(a: dict, max_steps: int = 300) -> str:
+    """Section 5: the assembly check (verdict, numbers, picture) and the assembly sequence."""
+    verdict = ('<span class="ok">buildable</span>' if a["buildable"] else
+               '<span class="bad">NOT BUILDABLE</span>')
+    inter = "; ".join(f"{html.escape(x['parts'][0])} / {html.escape(x['parts'][1])} "
+                      f"({x['volume_mm3']:.3g} mm&sup3;)" for x in a.get("interfering", [])[:30])
+    rows = [("verdict", verdict), ("touching pairs checked (exact boolean)", a["pairs_checked"]),
+            ("interfering pairs (common volume &gt; 1 mm&sup3;)", a["interfering_pairs"]),
+            ("worst overlap (mm&sup3;)", float(a["worst_overlap_mm3"])),
+            ("parts that cannot be inserted", ", ".join(map(html.escape, a.get("blocked_parts", [])))
+             or "none"),
+            ("joints", ", ".join(f"{k}: {v}" for k, v in a["joints"].items()) or "none"),
+            ("connectors", ", ".join(f"{k}: {v}" for k, v in a["connectors"].items()) or "none")]
+    if inter:
+        rows.append(("interfering parts", inter + (" ..." if len(a["interfering"]) > 30 else "")))
+    out = ["<h2>5. Assembly check</h2>", _table(rows)]
+    if a.get("picture"):
+        out.append(f'<img src="{a["picture"]}" alt="parts, interfering ones in red">')
+    seq = a.get("sequence", [])
+    if seq:
+        def direction(d):
+            return "set in place" if d is None else "(" + ", ".join(f"{x:+.2f}" for x in d) + ")"
+
+        srows = [(st["step"], html.escape(st["part"]), direction(st["insert_direction"]),
+                  html.escape(" ".join(st["joints"])), html.escape(" ".join(st["partners"])),
+                  '<span class="ok">clear</span>' if st["clear"] else '<span class="bad">collides</span>')
+                 for st in seq[:max_steps]]
+        csv = a.get("csv", "assembly.csv")
+        out.append(f'<h3>Assembly sequence ({len(seq)} steps, <a href="{csv}">{csv}</a>)</h3>'
+                   + _table(srows, ("step", "part", "insert along", "joints", "joins", "path")))
+        if len(seq) > max_steps:
+            out.append(f"<p>... {len(seq) - max_steps} more steps in {csv}</p>")
+    return "\n".join(out)
+
+
+def design_report_html(report: dict, images: dict, title: str, *, view3d: str | None = None) -> str:
+    """The HTML report: tables of every figure in ``report`` and the PNGs next to it, and the
+    interactive 3D view ``view3d`` (an HTML fragment, see :mod:`torsal.pipeline.report_3d`) if given."""
+    c, s, li, fa = (report.get(k, {}) for k in ("congruence", "support", "light", "fabrication"))
+    secs = []
+    if c:
+        rows = [("vertices / faces", f"{c['vertices']} / {c['faces']}"),
+                ("solver status", html.escape(str(c["status"]))),
+                ("build / solve time (s)", f"{c['build_s']:.2f} / {c['solve_s']:.2f}"),
+                ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
+                ("inequality constraints", _constraints_state(c)),
+                ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
+                 is not None else "n/a")]
+        rows += _measured_constraint_rows(c)
+        rows += [(f"energy {k} (before &rarr; after)",
+                  f"{c['energies_before'].get(k, float('nan')):.4g} &rarr; {v:.4g}")
+                 for k, v in c["energies"].items()]
+        rows += _gate_rows(c.get("joinery"), "torsal planes crossing at less than "
+                           "{min_crossing_angle_deg:g}&deg; (joinery limit)", "faces_below")
+        secs.append("<h2>1. Optimized line congruence (paper 4.1)</h2>" + _table(rows))
+        if "torsal_field" in images:
+            secs.append(f'<img src="{images["torsal_field"]}" alt="torsal direction fields">')
+    if s:
+        ok = s["delta_pl_optimized"] <= 1e-4
+        rows = [("faces of A~ (quads)", f"{s['faces']} ({s['quads']})"), ("fins (edges)", s["edges"]),
+                ("delta_pl after extraction", s["delta_pl_extracted"]),
+                ("delta_pl after optimization",
+                 f'<span class="{"ok" if ok else "bad"}">{s["delta_pl_optimized"]:.2e}</span>'),
+                ("support optimization (s)", s["solve_s"]), ("status", html.escape(s["status"]))]
+        rows += _gate_rows(s.get("joinery"), "crossings where a strip folds more than "
+                           "{max_fold_at_crossing_deg:g}&deg;", "nodes_above")
+        secs.append("<h2>2. Torsion-free support structure (paper 4.2, eq. 8)</h2>" + _table(rows))
+        if "fins" in images:
+            secs.append(f'<img src="{images["fins"]}" alt="fins coloured by planarity">')
+    if view3d:
+        secs.append("<h2>The design in 3D</h2><p>Drag to rotate, scroll to zoom, click a legend "
+                    "entry to hide or show it. Sun rays come in from the sky towards the surface; "
+                    "the heavier directions are drawn thicker.</p>" + view3d)
+    if li:
+        b = li["baseline_louvers"]
+        built = (f"fins of this design as built ({li['fins_measured']} fins)"
+                 if "fins_measured" in li else "fins of this design")
+        rows = [(built, li["blocked_share"], li["transparency"], li["transparency_cone"]),
+                ("horizontal louvers, same depth and spacing", b["blocked_share"], b["transparency"],
+                 b["transparency_cone"])]
+        secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>"
+                    + _table(rows, ("design", "direct sun blocked", "view clear along normal",
+                                    "view clear over 60&deg; cone")))
+        if "blocked_sun" in images:
+            secs.append(f'<img src="{images["blocked_sun"]}" alt="blocked sun map">')
+    if fa:
+        dxf = fa.get("dxf") or []
+        rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
+                ("sheet utilization", fa["utilization"]),
+                ("fin panels left out", _left_out_cell(fa)),
+                ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
+                ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
+        secs.append("<h2>4. Fabrication</h2>" + _table(rows))
+        if "sheets" in images:
+            secs.append(f'<img src="{images["sheets"]}" alt="nested cutting sheets">')
+        if fa.get("assembly"):
+            secs.append(_assembly_html(fa["assembly"]))
+    return _HTML.format(title=html.escape(title), units=html.escape(str(report.get("units", ""))),
+                        sections="\n".join(secs))
+
+
+def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,
+                        surface, layout, *, sun=None) -> dict:
+    """Write the PNG renders and ``report.html`` for a design run; returns {kind: file name}.
+
+    ``sun`` (vectors (S, 3) site -> sun, weights (S,)): the design's sun directions, drawn in
+    the report's interactive 3D view (without them the view shows the surface and fins only).
+    """
+    out = Path(out)
+    images = {
+        "torsal_field": plot_torsal_field(congruence, out / "torsal_field.png",
+                                          title=f"{spec.name}: optimized congruence").name,
+        "fins": plot_fins(structure, surface, out / "fins.png").name,
+        "blocked_sun": plot_blocked_sun(light_map["points"], light_map["per_point"], surface,
+                                        out / "blocked_sun.png").name,
+    }
+    if layout is not None and layout.n_sheets:
+        images["sheets"] = plot_sheets(layout, out / "sheets.png").name
+    with atomic_path(out / "report.html") as tmp:
+        tmp.write_text(design_report_html(report, images, spec.name,
+                                          view3d=design_view_html(surface, structure, sun,
+                                                                  title=spec.name)))
+    return {**images, "report_html": "report.html"}
