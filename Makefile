@@ -7,7 +7,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.torsal-installed
 
-.PHONY: demo test bench clean install chromium
+.PHONY: demo test bench clean install chromium freecad
 
 install: $(STAMP)
 
@@ -31,7 +31,7 @@ demo: $(STAMP)
 	$(VENV)/bin/torsal analyze examples/facade_patch.obj --out out/
 	$(VENV)/bin/torsal design examples/7a_facade_block.toml --out out/7a
 
-test: $(STAMP) chromium
+test: $(STAMP) chromium freecad
 	$(PY) -m pytest -n 2
 
 # the report's 3D view is checked in a real headless browser: Debian's chromium, installed
@@ -44,6 +44,20 @@ chromium:
 	      || echo "could not install chromium with apt-get: the report's browser test will be skipped"; \
 	  else \
 	    echo "chromium is missing, so the report's browser test will be skipped. Install it with:  sudo apt-get install -y chromium"; \
+	  fi; \
+	fi
+
+# the parametric FreeCAD object is tested in a real headless FreeCAD (freecadcmd): Debian's
+# freecad-python3 (FreeCAD 0.20, the same Python 3.11 as the venv), installed if missing and we can
+# (root + apt-get); else the FreeCAD tests are skipped and say why
+freecad:
+	@if ! command -v freecadcmd >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "the FreeCAD tests need freecadcmd: installing freecad-python3 with apt-get"; \
+	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends freecad-python3 >/dev/null) \
+	      || echo "could not install freecad-python3 with apt-get: the FreeCAD tests will be skipped"; \
+	  else \
+	    echo "freecadcmd is missing, so the FreeCAD tests will be skipped. Install it with:  sudo apt-get install -y freecad-python3"; \
 	  fi; \
 	fi
 

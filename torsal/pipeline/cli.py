@@ -135,6 +135,7 @@ def _build_parser() -> argparse.ArgumentParser:
     _add_analyze(sub, common)
     _add_design(sub, common)
     _add_study(sub, common)
+    _add_freecad(sub, common)
     return p
 
 
@@ -153,7 +154,35 @@ def _add_study(sub, common) -> None:
                    help="run variants again that failed in an earlier run of this folder")
 
 
+def _add_freecad(sub, common) -> None:
+    f = sub.add_parser("freecad", parents=[common],
+                       help="install or remove the torsal workbench (a parametric fins object) "
+                            "in FreeCAD")
+    f.add_argument("action", choices=["install", "uninstall"])
+    f.add_argument("--mod-dir", metavar="DIR", default=None,
+                   help="FreeCAD's folder of user Mods (default: asked of freecadcmd, else "
+                        "~/.local/share/FreeCAD/Mod)")
+
+
 # ---------------------------------------------------------------------- commands
+def _freecad(args, ui: _Terminal) -> int:
+    from ..hosts.freecad.install import install_workbench, uninstall_workbench
+
+    if args.action == "uninstall":
+        folder = uninstall_workbench(args.mod_dir)
+        ui.line(f"removed the torsal workbench from {folder}" if folder else
+                "no torsal workbench was installed there")
+        return EXIT_OK
+    folder = install_workbench(args.mod_dir)
+    ui.line(f"installed the torsal workbench in {folder} (for torsal's Python {sys.executable})")
+    ui.line("restart FreeCAD; then, in its Python console or a macro:")
+    ui.line("    from torsal.freecad import make_fins")
+    ui.line("    fins = make_fins(App.ActiveDocument, 'design.toml'); App.ActiveDocument.recompute()")
+    ui.line(f"remove it with:  torsal freecad uninstall{' --mod-dir ' + args.mod_dir if args.mod_dir else ''}"
+            f"   (or: rm -r {folder})")
+    return EXIT_OK
+
+
 def _design(args, ui: _Terminal) -> int:
     from ..core.outputs import output_folder
     from .assembly import UnbuildableDesignError
@@ -387,7 +416,7 @@ class _StudyProgress:
 
 
 #: subcommand name -> handler(args, ui) -> exit status
-_COMMANDS = {"analyze": _analyze, "design": _design, "study": _study}
+_COMMANDS = {"analyze": _analyze, "design": _design, "study": _study, "freecad": _freecad}
 
 
 # ---------------------------------------------------------------------- errors
