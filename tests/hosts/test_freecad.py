@@ -195,7 +195,7 @@ def test_a_bad_property_is_reported_by_key(tmp_path):
     design = tmp_path / "d.toml"
     design.write_text(DESIGN)
     job = FinsJob(design=str(design), folder=str(tmp_path / "job"), sun_hours=[18, 9])
-    with pytest.raises(FinsError, match=r"bad input.*sun"):
+    with pytest.raises(FinsError, match=r"(?s)bad input.*sun.hours = \[18.0, 9.0\]"):
         run_in_torsal(job)
     assert not (tmp_path / "job" / "out").exists()
 

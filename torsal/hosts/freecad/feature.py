@@ -127,7 +127,7 @@ def job_folder(obj) -> Path:
 
 
 def run_in_torsal(job: FinsJob, *, log=None) -> FinsOutcome:
-    """Run ``job`` with :func:`torsal_python` (``python -m torsal.hosts.freecad.job``); ``log``
+    """Run ``job`` with :func:`torsal_python` (``python -m torsal.hosts.freecad``); ``log``
     gets each progress line. Raises :class:`FinsError` with torsal's message on bad input."""
     folder = Path(job.folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -135,7 +135,7 @@ def run_in_torsal(job: FinsJob, *, log=None) -> FinsOutcome:
     (folder / "result.json").unlink(missing_ok=True)
     # FreeCAD's own Python settings must not leak into torsal's Python
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONHOME", "PYTHONPATH")}
-    proc = subprocess.Popen([torsal_python(), "-m", "torsal.hosts.freecad.job", str(path)],
+    proc = subprocess.Popen([torsal_python(), "-m", "torsal.hosts.freecad", str(path)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     for line in proc.stdout:
         if log is not None:

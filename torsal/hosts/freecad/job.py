@@ -4,7 +4,7 @@ FreeCAD and torsal each load an OpenCascade (FreeCAD's system OCC 7.6, build123d
 and their own numpy and matplotlib; in one process they clash (measured: the assembly
 stage's plot fails on FreeCAD's ``mpl_toolkits``), and a crash in a stage would take the user's
 unsaved document with it. So :class:`~torsal.hosts.freecad.feature.FinsFeature` writes a
-:class:`FinsJob` and runs ``python -m torsal.hosts.freecad.job JOB.json`` with the Python of
+:class:`FinsJob` and runs ``python -m torsal.hosts.freecad JOB.json`` with the Python of
 torsal's environment; FreeCAD only reads the STEP back (``Part.read``).
 
 A job folder holds ``design.toml`` (the design file with the object's properties applied:
@@ -221,11 +221,11 @@ def run_job(job: FinsJob, *, progress=None) -> FinsOutcome:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m torsal.hosts.freecad.job JOB.json``: run the job, write ``result.json``
+    """``python -m torsal.hosts.freecad JOB.json``: run the job, write ``result.json``
     beside it; exit status 0, 2 (bad input) or 1 (a bug)."""
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 1:
-        print("usage: python -m torsal.hosts.freecad.job JOB.json", file=sys.stderr)
+        print("usage: python -m torsal.hosts.freecad JOB.json", file=sys.stderr)
         return 2
     path = Path(argv[0])
 
@@ -248,6 +248,3 @@ def main(argv: list[str] | None = None) -> int:
     write_json(path.with_name("result.json"), asdict(outcome))
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())
