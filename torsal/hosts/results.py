@@ -14,7 +14,8 @@ from pathlib import Path
 
 from ..core.errors import TorsalError
 
-__all__ = ["PartGroup", "PartRow", "FinsFolder", "fins_folder", "read_parts", "GROUP_COLORS"]
+__all__ = ["PartGroup", "PartRow", "FinsFolder", "FinsFolderError", "fins_folder", "read_parts",
+           "GROUP_COLORS"]
 
 
 class PartGroup(str, Enum):
