@@ -7,7 +7,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.torsal-installed
 
-.PHONY: demo test bench clean install chromium freecad
+.PHONY: demo test bench clean install chromium freecad freecad-screenshot
 
 install: $(STAMP)
 
@@ -60,6 +60,17 @@ freecad:
 	    echo "freecadcmd is missing, so the FreeCAD tests will be skipped. Install it with:  sudo apt-get install -y freecad-python3"; \
 	  fi; \
 	fi
+
+# examples/hosts/freecad.png: FreeCAD's GUI with a fins object, on a virtual screen (Xvfb);
+# the workbench is installed in a scratch HOME, so your own FreeCAD is left alone
+freecad-screenshot: $(STAMP) freecad
+	@command -v xvfb-run >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends xvfb xauth >/dev/null; } || \
+	  { echo "the screenshot needs xvfb-run:  sudo apt-get install -y xvfb"; exit 1; }
+	rm -rf out/freecad-home && mkdir -p out/freecad-home
+	HOME=$(CURDIR)/out/freecad-home $(VENV)/bin/torsal freecad install
+	HOME=$(CURDIR)/out/freecad-home TORSAL_EXAMPLES=$(CURDIR)/examples/hosts QTWEBENGINE_DISABLE_SANDBOX=1 \
+	  xvfb-run -a -s "-screen 0 1600x900x24" freecad examples/hosts/freecad_screenshot.py
 
 bench: $(STAMP)
 	$(PY) benchmarks/congruence_bench.py

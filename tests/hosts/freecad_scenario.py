@@ -42,32 +42,16 @@ def _recompute(doc, obj):
     return _record(obj, time.time() - t)
 
 
-def _facade_face():
-    """A doubly curved B-spline facade in the x-z plane (mm), bulging to -y, saddle-shaped like
-    torsal's facade_patch (anticlastic, so its normal congruence is hyperbolic)."""
-    import FreeCAD
-    import Part
-
-    pts = []
-    for i in range(5):
-        s = -0.5 + i / 4
-        row = []
-        for j in range(4):
-            t = -0.5 + j / 3
-            y = -900 * (1 - 4 * s * s) - 400 * 4 * t * t - 600 * s * t
-            row.append(FreeCAD.Vector(s * 12000, y, (t + 0.5) * 6000))
-        pts.append(row)
-    surf = Part.BSplineSurface()
-    surf.interpolate(pts)
-    return surf.toShape()
-
-
 def main():
+    import sys
+
     import FreeCAD
-    import Part
 
     from torsal.freecad import make_fins
     from torsal.hosts.freecad.feature import FinsFeature
+
+    sys.path.insert(0, os.environ["TORSAL_EXAMPLES"])
+    from bspline_facade import facade_face     # the example's B-spline facade (12 m x 6 m)
 
     out = {}
     design, folder = os.environ["TORSAL_SCENARIO_DESIGN"], os.environ["TORSAL_SCENARIO_DIR"]
@@ -86,7 +70,7 @@ def main():
     out["spacing"] = _recompute(doc, fins)
 
     face = doc.addObject("Part::Feature", "Facade")
-    face.Shape = _facade_face()
+    face.Shape = facade_face()
     fins.Surface = (face, ["Face1"])
     out["surface"] = _recompute(doc, fins)
     f = face.Shape.Faces[0]

@@ -26,30 +26,9 @@ HERE = Path(__file__).parent
 FREECADCMD = shutil.which("freecadcmd")
 TORSAL = Path(sys.executable).with_name("torsal")
 
-# test size: 45 vertices, about a hundred parts; no DXF, 3DM or renders (FreeCAD reads the STEP)
-DESIGN = """
-name = "FreeCAD test facade"
-units = "m"
-[surface]
-generator = "facade_patch"
-params = { nu = 9, nv = 5 }
-[site]
-latitude = 48.21
-longitude = 16.37
-timezone = "Europe/Vienna"
-[sun]
-start = "2026-06-01"
-end = "2026-06-07"
-hours = [13, 17]
-[fins]
-spacing = 1.5
-depth = 0.4
-[outputs]
-dxf = false
-rhino_3dm = false
-renders = false
-light_samples = 200
-"""
+# the hosts' test-size facade: 45 vertices, about 150 parts; no DXF, 3DM or renders
+EXAMPLES = HERE.parents[1] / "examples" / "hosts"
+DESIGN = (EXAMPLES / "facade.toml").read_text()
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +50,7 @@ def scenario(tmp_path_factory):
     design.write_text(DESIGN)
     out = tmp / "scenario.json"
     env.update(TORSAL_SCENARIO_DESIGN=str(design), TORSAL_SCENARIO_DIR=str(tmp),
-               TORSAL_SCENARIO_OUT=str(out))
+               TORSAL_SCENARIO_OUT=str(out), TORSAL_EXAMPLES=str(EXAMPLES))
     code = (f"import runpy; runpy.run_path({str(HERE / 'freecad_scenario.py')!r}, "
             "run_name='__main__')")
     run = subprocess.run([FREECADCMD, "-c", code], env=env, capture_output=True, text=True,
