@@ -3,7 +3,7 @@
 the function, so this file imports anywhere."""
 
 
-def facade_face(width: float = 12000.0, height: float = 6000.0):
+def facade_face(width: float = 9000.0, height: float = 4500.0):
     """A doubly curved facade in the x-z plane bulging to -y (south), saddle-shaped like
     torsal's ``facade_patch`` (anticlastic, so its normal congruence is hyperbolic): a
     ``Part.Face`` on a B-spline surface through 5 x 4 points."""
