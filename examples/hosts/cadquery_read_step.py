@@ -12,12 +12,8 @@ import cadquery as cq
 def read_fins(path: str) -> dict[str, "cq.Solid"]:
     """Every part of a torsal STEP file by name (the names of parts.csv), in mm."""
     assy = cq.Assembly.importStep(path)             # cadquery >= 2.5: names and colours kept
-    parts = {}
-    for name, node in assy.objects.items():
-        solids = [s for obj in node.shapes for s in obj.Solids()]
-        if solids and not node.children:            # a leaf: one part
-            parts[name] = solids[0]
-    return parts
+    return {name: node.shapes[0].Solids()[0] for name, node in assy.objects.items()
+            if node.shapes and not node.children}  # part name -> cq.Solid, in mm
 
 
 if __name__ == "__main__":

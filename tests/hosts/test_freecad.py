@@ -194,3 +194,15 @@ def test_install_refuses_a_folder_that_is_not_its_own(tmp_path):
     compile((folder / "InitGui.py").read_text(), "InitGui.py", "exec")
     assert uninstall_workbench(other) == folder and not folder.exists()
     assert uninstall_workbench(other) is None
+
+
+def test_the_cli_names_a_mod_folder_it_cannot_use(tmp_path, capsys):
+    from torsal.pipeline.cli import main
+
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    assert main(["freecad", "install", "--mod-dir", str(blocker)]) == 2
+    err = capsys.readouterr().err
+    assert "cannot create" in err and str(blocker) in err and "Traceback" not in err
+    assert main(["freecad", "uninstall", "--mod-dir", str(tmp_path)]) == 0
+    assert "no torsal workbench was installed there" in capsys.readouterr().out
