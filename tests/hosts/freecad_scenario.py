@@ -92,6 +92,11 @@ def main():
                        "surface_link": [fins.Surface[0].Name, list(fins.Surface[1])]}
     fins.touch()
     out["after_reopen"] = _recompute(doc, fins)
+
+    # a bad value: the object is marked invalid with torsal's message, its solids stay
+    fins.SunHours = [18.0, 9.0]
+    doc.recompute()
+    out["bad"] = {"state": list(fins.State), "n": len(fins.Shape.Solids)}
     with open(os.environ["TORSAL_SCENARIO_OUT"], "w") as fh:
         json.dump(out, fh)
 

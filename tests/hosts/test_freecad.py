@@ -57,6 +57,7 @@ def scenario(tmp_path_factory):
                          timeout=900, cwd=tmp)
     assert run.returncode == 0 and out.exists(), run.stdout[-3000:] + run.stderr[-3000:]
     return {"data": json.loads(out.read_text()), "install": installed.stdout, "home": home,
+            "output": run.stdout + run.stderr,
             "tmp": tmp, "env": env}
 
 
@@ -142,6 +143,13 @@ def test_the_document_saves_and_reopens_with_the_fins(scenario):
     assert again["state"] == ["Up-to-date"] and again["n"] == s["n"]
     assert {"congruence", "fabrication", "assembly"} <= set(again["stages_cached"])
     np.testing.assert_allclose(again["volumes"], s["volumes"], rtol=1e-9)
+
+
+def test_a_bad_value_marks_the_object_invalid_and_keeps_its_solids(scenario):
+    bad = scenario["data"]["bad"]
+    assert "Invalid" in bad["state"]
+    assert bad["n"] == scenario["data"]["after_reopen"]["n"]
+    assert "sun.hours = [18.0, 9.0]" in scenario["output"]
 
 
 # ------------------------------------------------------------------ without FreeCAD

@@ -185,9 +185,14 @@ class FinsFeature:
         def log(line):
             try:
                 ev = json.loads(line)
-                FreeCAD.Console.PrintLog(f"torsal: {ev.get('stage')} {ev.get('event')}\n")
             except ValueError:
                 FreeCAD.Console.PrintMessage(f"torsal: {line}\n")
+                return
+            if ev.get("event") in ("done", "cached"):   # one line a stage; the rest to the log
+                took = f" ({ev['seconds']:.1f} s)" if "seconds" in ev else ""
+                FreeCAD.Console.PrintMessage(f"torsal: {ev['stage']} {ev['event']}{took}\n")
+            else:
+                FreeCAD.Console.PrintLog(f"torsal: {ev.get('stage')} {ev.get('event')}\n")
 
         outcome = run_in_torsal(self.job(obj), log=log)
         shape = Part.read(outcome.step)
