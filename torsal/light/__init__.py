@@ -1,4 +1,5 @@
-"""Light as a measured part of torsal: sun directions (pvlib) and ray-cast shading measurements.
+"""Light as a measured part of torsal: sun directions (pvlib), ray-cast shading measurements
+and where reflected sunlight lands.
 
 Imports only :mod:`torsal.geometry.mesh` from torsal (and the leaf helper
 :mod:`torsal.geometry._atomic` for atomic file output); never the optimizer or fabrication.
@@ -11,18 +12,28 @@ from torsal.light.baselines import (
     section_fins,
     vertical_fins,
 )
-from torsal.light.shading import (
+from torsal.light.reflection import (
+    CeilingTarget,
+    MirrorAim,
+    ReflectionBound,
+    ReflectionRays,
     ReflectionResult,
+    TargetSide,
+    best_mirror_normals,
+    ideal_mirror_bound,
+    incidence_plane_normals,
+    mirror_normals,
+    reflect,
+    reflected_hits,
+)
+from torsal.light.shading import (
     SeeThroughResult,
     ShadingResult,
     TransparencyResult,
     compare,
     direct_sun_blocked,
-    mirror_normals,
     ray_hits,
     rays_blocked,
-    reflect,
-    reflected_hits,
     see_through,
     transparency,
 )
@@ -41,5 +52,7 @@ __all__ = [
     "rays_blocked", "ray_hits", "direct_sun_blocked", "transparency", "see_through",
     "mirror_normals", "reflect", "reflected_hits", "compare",
     "ShadingResult", "TransparencyResult", "SeeThroughResult", "ReflectionResult",
+    "CeilingTarget", "TargetSide", "ReflectionRays", "MirrorAim", "ReflectionBound",
+    "best_mirror_normals", "ideal_mirror_bound", "incidence_plane_normals",
     "horizontal_louvers", "vertical_fins", "egg_crate", "section_fins", "grid_normal_fins", "baselines",
 ]
