@@ -317,8 +317,10 @@ def built_structure(structure, left_out):
 def run_light(inp: StageInputs) -> dict:
     """Sun blocked over the sun hours and view clear, for the fins as built (without the
     panels the fabrication left out) and for horizontal louvers of the same depth and
-    spacing (:func:`measure_fins`). Returns the ``report`` section and ``map`` (``points``
-    (p, 3), ``per_point`` (p,) blocked share) for the figure."""
+    spacing (:func:`measure_fins`); with ``goals.reflect``, where they send the sunlight
+    (:func:`~torsal.pipeline.reflection.measure_reflection`). Returns the ``report`` section
+    and ``map`` (``points`` (p, 3), ``per_point`` (p,) blocked share, and ``reflection``, the
+    ceiling picture's data) for the figures."""
     from ..light import horizontal_louvers
 
     spec = inp.spec
@@ -331,13 +333,14 @@ def run_light(inp: StageInputs) -> dict:
     report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit)
     louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
     lr, _ = measure_fins(louvers, (v, f), sun, n, m_per_unit)
-    extra = {}
-    if spec.goals.reflect is not None:
-        from ..light import reflected_hits
+    extra, picture = {}, {}
+    if spec.goals.reflect is not None:  # where the fins as built send the sunlight (Fig. 13)
+        from .reflection import measure_reflection
 
-        extra["reflected_to_target"] = float(reflected_hits(
-            fins, sun["vectors"], target_patch(spec.goals.reflect.target, v),
-            weights=sun["weights"], resolution=128).share)
+        refl, picture["reflection"] = measure_reflection(
+            spec, built_structure(inp["support"]["structure"], left_out), sun, v,
+            metres_per_unit=m_per_unit)
+        extra = {"reflected_to_target": refl["on_target"], "reflection": refl}
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
@@ -345,7 +348,7 @@ def run_light(inp: StageInputs) -> dict:
         **report,
         "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
                                                  "transparency_cone")}},
-        "map": {"points": blocked.points, "per_point": blocked.per_point}}
+        "map": {"points": blocked.points, "per_point": blocked.per_point, **picture}}
 
 
 # ------------------------------------------------------------------ substructure (Fig. 11)
