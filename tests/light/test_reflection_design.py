@@ -133,3 +133,24 @@ def test_the_report_shows_the_reflection_and_a_picture_of_the_ceiling(small_desi
                               {"ceiling_light": png.name}, "t")
     assert "3b. Reflection onto the ceiling" in page and 'src="ceiling_light.png"' in page
     assert f"{100 * r['on_target']:.1f}%" in page
+
+
+def test_no_planar_fin_could_land_80_percent_on_the_old_target_of_example_13():
+    """Example 13 aimed at a 4 m square at (0, 6, 5.5) (its default size: a third of the
+    facade's 12 m) until issue 26. One plane per point cannot gather the 11, 12 and 13 h sun
+    into it: reflected towards a ceiling only 0.5 to 5.5 m above the fin, the spots of the
+    three hours spread further than 4 m (more the closer the fin is to the ceiling), and the
+    fins above 5.5 m cannot light its underside at all. The best plane at every point of the
+    facade lands little more than half the light: a physical bound below the 80% goal."""
+    spec = DesignSpec.model_validate({**SPEC, "surface": {"generator": "facade_patch",
+                                                          "params": {"nu": 25, "nv": 13}}})
+    v, f = surface_mesh(spec)
+    sun, w = sun_directions(spec)
+    bc = v[f].mean(axis=1)
+    from torsal.light import CeilingTarget, best_mirror_normals
+
+    old = best_mirror_normals(bc, sun, CeilingTarget((0.0, 6.0, 5.5), (4.0, 4.0)), weights=w)
+    assert 0.5 < old.share.mean() < 0.65
+    assert (old.share[bc[:, 2] > 5.5] == 0).all()
+    new = best_mirror_normals(bc, sun, CeilingTarget((0.0, 4.0, 6.5), (8.0, 6.0)), weights=w)
+    assert new.share.mean() > 0.95
