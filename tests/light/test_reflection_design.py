@@ -154,3 +154,18 @@ def test_no_planar_fin_could_land_80_percent_on_the_old_target_of_example_13():
     assert (old.share[bc[:, 2] > 5.5] == 0).all()
     new = best_mirror_normals(bc, sun, CeilingTarget((0.0, 4.0, 6.5), (8.0, 6.0)), weights=w)
     assert new.share.mean() > 0.95
+
+
+@pytest.mark.parametrize("size,message", [([0, 3], "two positive lengths"),
+                                          ([-2, 3], "two positive lengths"),
+                                          ([1, 2, 3], "size")])
+def test_a_bad_target_size_is_named_in_the_design_file_error(size, message, tmp_path):
+    from torsal.pipeline.design_file import DesignFileError, load_design_file
+
+    text = (f'name = "t"\nunits = "m"\n[surface]\ngenerator = "facade_patch"\n'
+            f'[sun]\nvectors = [[0, -1, 1]]\n[goals.reflect]\ntarget = [0, 4, 7]\nsize = {size}\n'
+            f'[fins]\nspacing = 1\ndepth = 0.5\n')
+    (tmp_path / "d.toml").write_text(text)
+    with pytest.raises(DesignFileError, match=message) as err:
+        load_design_file(tmp_path / "d.toml")
+    assert "goals.reflect.size" in str(err.value)
