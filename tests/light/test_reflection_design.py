@@ -169,3 +169,16 @@ def test_a_bad_target_size_is_named_in_the_design_file_error(size, message, tmp_
     with pytest.raises(DesignFileError, match=message) as err:
         load_design_file(tmp_path / "d.toml")
     assert "goals.reflect.size" in str(err.value)
+
+
+def test_parallel_lines_get_a_bounded_weight():
+    """On a flat facade the starting lines (its normals) are parallel: no line turns, and a
+    plane energy divided by the turning would weigh without bound. The floor is a tenth of
+    a one-radian turn over the surface's extent."""
+    from torsal.geometry.surfaces import flat_facade
+
+    c = Congruence.from_normals(flat_facade(width=12.0, height=6.0, nu=9, nv=5))
+    faces = np.arange(len(c.faces))
+    q = torsal_plane_params(c, faces, np.tile([0.0, 0.3, 0.95], (len(faces), 1)))
+    assert np.isfinite(q).all()
+    np.testing.assert_allclose(q[:, 6], 12.0 / 0.1)

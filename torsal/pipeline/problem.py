@@ -108,9 +108,12 @@ def torsal_plane_params(congruence: Congruence, faces: np.ndarray, normals: np.n
     ec /= np.linalg.norm(ec, axis=1, keepdims=True)
     dte = np.einsum("mi,mij->mj", g, e)
     s0 = np.linalg.norm(dte - (dte * ec).sum(1, keepdims=True) * ec, axis=1)
-    # a face whose lines hardly turn (near a bundle) would weigh without bound
-    s0 = np.maximum(s0, 0.1 * np.median(s0) if len(s0) else 1.0)
-    return np.c_[normals, g, 1.0 / np.maximum(s0, 1e-12)]
+    # a face whose lines hardly turn (near a bundle; everywhere on a flat surface's normals)
+    # would weigh without bound: at least a tenth of the median, or of a turn of one radian
+    # over the surface's extent
+    extent = float(np.ptp(v, axis=0).max())
+    floor = max(0.1 * float(np.median(s0)) if len(s0) else 0.0, 0.1 / max(extent, 1e-300))
+    return np.c_[normals, g, 1.0 / np.maximum(s0, floor)]
 
 
 def _torsal_plane_energy(e, a, q):
