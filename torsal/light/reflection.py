@@ -406,6 +406,15 @@ def reflected_hits(fins: trimesh.Trimesh, sun, target_region: trimesh.Trimesh, *
     Returns
     -------
     ReflectionResult
+
+    Examples
+    --------
+    >>> floor = trimesh.Trimesh([[0, -1, 0], [1, -1, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    >>> wall = trimesh.Trimesh([[0, -1, 0], [0, 1, 0], [0, 1, 1], [0, -1, 1]], [[0, 1, 2], [0, 2, 3]])
+    >>> r = reflected_hits(trimesh.util.concatenate([floor, wall]), [[1, 1, 1]],
+    ...                    CeilingTarget((9.0, -9.0, 9.0), (9.0, 9.0)).mesh(), resolution=64)
+    >>> bool(r.landed_by_bounces[0, 1] == r.landed_area[0] > 0)   # up after floor and wall
+    True
     """
     s_all, w = _sun_input(sun, weights)
     if not isinstance(target_region, trimesh.Trimesh) or len(target_region.faces) == 0:
@@ -645,6 +654,16 @@ def ideal_mirror_bound(result: ReflectionResult, target: CeilingTarget, *,
     Returns
     -------
     ReflectionBound
+
+    Examples
+    --------
+    >>> t = CeilingTarget((0.0, 5.0, 6.5), (4.0, 4.0))
+    >>> shelf = trimesh.Trimesh([[-1, -0.5, 2], [1, -0.5, 2], [1, 0, 2], [-1, 0, 2]],
+    ...                         [[0, 1, 2], [0, 2, 3]])       # a flat light shelf
+    >>> sun = [[0.3, -0.7, 0.65], [0.0, -0.75, 0.66], [-0.3, -0.7, 0.65]]
+    >>> r = reflected_hits(shelf, sun, t.mesh(), resolution=32, lit_side=TargetSide.FRONT)
+    >>> round(r.share, 2), round(ideal_mirror_bound(r, t).share, 2)   # flat; tilted best
+    (0.64, 1.0)
     """
     rng = np.random.default_rng(seed)
     pts, owner = [], []

@@ -92,6 +92,11 @@ def torsal_plane_params(congruence: Congruence, faces: np.ndarray, normals: np.n
     the torsal plane misses ``n``, on a coarse mesh as on a fine one; ``f_dir / delta``
     shrinks with the mesh's ``delta`` and the lines' curvature, so a paper-size mesh would
     meet the planes only to several degrees.
+
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> c = Congruence.from_normals(facade_patch(nu=5, nv=5))
+    >>> torsal_plane_params(c, np.arange(4), np.tile([0.0, 0.1, 1.0], (4, 1))).shape
+    (4, 7)
     """
     v, f = congruence.vertices, congruence.faces[faces]
     a = v[f]
@@ -131,7 +136,15 @@ def add_reflect_terms(p: CongruenceProblem, planes: ReflectPlanes, weight: float
     """The reflection goal's two energies (paper 4.3, Fig. 13) over ``planes.faces``:
     ``reflect``, one family of torsal planes are the mirror planes, and ``reflect_incidence``,
     the other family's are the planes of incidence (edge-on to the light arriving and
-    leaving), both with ``weight`` (``weights.plane``, Fig. 12's w_plane)."""
+    leaving), both with ``weight`` (``weights.plane``, Fig. 12's w_plane).
+
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> c = Congruence.from_normals(facade_patch(nu=5, nv=5))
+    >>> planes = ReflectPlanes(np.arange(4), np.tile([0.0, 0.1, 1.0], (4, 1)) / np.sqrt(1.01),
+    ...                        np.tile([1.0, 0, 0], (4, 1)), np.array([0.0, 0.7, -0.7]), np.ones(4))
+    >>> sorted(add_reflect_terms(CongruenceProblem(c), planes, 5000.0).terms)
+    ['reflect', 'reflect_incidence']
+    """
     c = p.congruence
     p.add_term("reflect", weight, _torsal_plane_energy, over="faces", elements=planes.faces,
                params=torsal_plane_params(c, planes.faces, planes.mirror))

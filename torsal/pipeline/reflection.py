@@ -47,7 +47,14 @@ DEFINITION = (
 
 def reflection_target(spec: DesignSpec, vertices: np.ndarray) -> CeilingTarget:
     """The design's target region: ``goals.reflect.target`` as centre, ``goals.reflect.size``
-    (default: a square a third of the surface's extent)."""
+    (default: a square a third of the surface's extent).
+
+    >>> spec = DesignSpec.model_validate({"name": "t", "surface": {"generator": "canopy"},
+    ...     "sun": {"vectors": [[0, -1, 1]]}, "goals": {"reflect": {"target": [0, 6, 5]}},
+    ...     "fins": {"spacing": 1, "depth": 0.5}})
+    >>> reflection_target(spec, np.array([[0, 0, 0], [12, 3, 0.0]]))
+    CeilingTarget(centre=(0.0, 6.0, 5.0), size=(4.0, 4.0))
+    """
     r = spec.goals.reflect
     if r.size is not None:
         size = tuple(r.size)
