@@ -1,5 +1,4 @@
-"""Light as a measured part of torsal: sun directions (pvlib), ray-cast shading measurements
-and where reflected sunlight lands.
+"""Light as a measured part of torsal: sun directions (pvlib) and ray-cast shading measurements.
 
 Imports only :mod:`torsal.geometry.mesh` from torsal (and the leaf helper
 :mod:`torsal.geometry._atomic` for atomic file output); never the optimizer or fabrication.
@@ -12,30 +11,30 @@ from torsal.light.baselines import (
     section_fins,
     vertical_fins,
 )
-from torsal.light.reflection import (
-    CeilingTarget,
-    MirrorAim,
-    ReflectionBound,
-    ReflectionRays,
-    ReflectionResult,
-    TargetSide,
-    best_mirror_normals,
-    ideal_mirror_bound,
-    incidence_plane_normals,
-    mirror_normals,
-    reflect,
-    reflected_hits,
-)
 from torsal.light.shading import (
+    ReflectionResult,
     SeeThroughResult,
     ShadingResult,
     TransparencyResult,
     compare,
     direct_sun_blocked,
+    mirror_normals,
     ray_hits,
     rays_blocked,
+    reflect,
+    reflected_hits,
     see_through,
     transparency,
+)
+from torsal.light.reflection import (
+    CeilingTarget,
+    MirrorAim,
+    ReflectionBound,
+    ReflectionRays,
+    TargetSide,
+    best_mirror_normals,
+    ideal_mirror_bound,
+    incidence_plane_normals,
 )
 from torsal.light.sun import (
     SunDirections,

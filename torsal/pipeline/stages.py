@@ -317,10 +317,8 @@ def built_structure(structure, left_out):
 def run_light(inp: StageInputs) -> dict:
     """Sun blocked over the sun hours and view clear, for the fins as built (without the
     panels the fabrication left out) and for horizontal louvers of the same depth and
-    spacing (:func:`measure_fins`); with ``goals.reflect``, where they send the sunlight
-    (:func:`~torsal.pipeline.reflection.measure_reflection`). Returns the ``report`` section
-    and ``map`` (``points`` (p, 3), ``per_point`` (p,) blocked share, and ``reflection``, the
-    ceiling picture's data) for the figures."""
+    spacing (:func:`measure_fins`). Returns the ``report`` section and ``map`` (``points``
+    (p, 3), ``per_point`` (p,) blocked share) for the figure."""
     from ..light import horizontal_louvers
 
     spec = inp.spec
@@ -333,14 +331,15 @@ def run_light(inp: StageInputs) -> dict:
     report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit)
     louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
     lr, _ = measure_fins(louvers, (v, f), sun, n, m_per_unit)
-    extra, picture = {}, {}
-    if spec.goals.reflect is not None:  # where the fins as built send the sunlight (Fig. 13)
+    extra = {}
+    if spec.goals.reflect is not None:
+        # where the fins as built send the sunlight (Fig. 13); map["reflection"]: the picture
         from .reflection import measure_reflection
 
-        refl, picture["reflection"] = measure_reflection(
+        extra["reflection"], picture = measure_reflection(
             spec, built_structure(inp["support"]["structure"], left_out), sun, v,
             metres_per_unit=m_per_unit)
-        extra = {"reflected_to_target": refl["on_target"], "reflection": refl}
+        extra["reflected_to_target"] = extra["reflection"]["on_target"]
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
@@ -348,7 +347,8 @@ def run_light(inp: StageInputs) -> dict:
         **report,
         "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
                                                  "transparency_cone")}},
-        "map": {"points": blocked.points, "per_point": blocked.per_point, **picture}}
+        "map": {"points": blocked.points, "per_point": blocked.per_point,
+                **({"reflection": picture} if extra else {})}}
 
 
 # ------------------------------------------------------------------ substructure (Fig. 11)
