@@ -22,6 +22,8 @@ Definitions (used in report.json ``light.reflection``)
 - *Trapped*: still between fins after ``max_bounces`` reflections (counted separately).
 
 Shares are ``sum_k w_k area_k(outcome) / sum_k w_k area_k(struck)`` over sun directions k.
+The design surface is not an obstacle (glazing) and the room is not modelled: light that
+leaves the fins travels on until it meets the target or nothing.
 
 Conventions: lengths in model units; sun vectors point from the site towards the sun, light
 propagates along ``-sun``; the target's face normals point to its lit side.
