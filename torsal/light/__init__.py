@@ -26,6 +26,16 @@ from torsal.light.shading import (
     see_through,
     transparency,
 )
+from torsal.light.reflection import (
+    CeilingTarget,
+    MirrorAim,
+    ReflectionBound,
+    ReflectionRays,
+    TargetSide,
+    best_mirror_normals,
+    ideal_mirror_bound,
+    incidence_plane_normals,
+)
 from torsal.light.sun import (
     SunDirections,
     hot_hours,
@@ -41,5 +51,7 @@ __all__ = [
     "rays_blocked", "ray_hits", "direct_sun_blocked", "transparency", "see_through",
     "mirror_normals", "reflect", "reflected_hits", "compare",
     "ShadingResult", "TransparencyResult", "SeeThroughResult", "ReflectionResult",
+    "CeilingTarget", "TargetSide", "ReflectionRays", "MirrorAim", "ReflectionBound",
+    "best_mirror_normals", "ideal_mirror_bound", "incidence_plane_normals",
     "horizontal_louvers", "vertical_fins", "egg_crate", "section_fins", "grid_normal_fins", "baselines",
 ]

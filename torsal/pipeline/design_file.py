@@ -245,10 +245,22 @@ class Stroke(_Spec):
 
 
 class Reflect(_Spec):
-    """Reflect sunlight from the fins onto a target point (Fig. 13)."""
+    """Reflect sunlight from the fins onto a target region on a ceiling (Fig. 13): a
+    horizontal rectangle centred at ``target``, ``size = [w, h]`` along the model's x and y,
+    lit from below (default: a square a third of the surface's extent)."""
 
     target: Vec3
+    size: tuple[float, float] | None = Field(
+        None, description="[w, h] of the target rectangle along x and y on the ceiling, lit "
+        "from below (default: a square a third of the surface's extent)")
     region: Region | None = None
+
+    @field_validator("size")
+    @classmethod
+    def _size(cls, v):
+        if v is not None and not all(x > 0 for x in v):
+            raise ValueError(f"goals.reflect.size = {list(v)} must be two positive lengths [w, h]")
+        return v
 
 
 class SunRegion(_Spec):

@@ -333,11 +333,13 @@ def run_light(inp: StageInputs) -> dict:
     lr, _ = measure_fins(louvers, (v, f), sun, n, m_per_unit)
     extra = {}
     if spec.goals.reflect is not None:
-        from ..light import reflected_hits
+        # where the fins as built send the sunlight (Fig. 13); map["reflection"]: the picture
+        from .reflection import measure_reflection
 
-        extra["reflected_to_target"] = float(reflected_hits(
-            fins, sun["vectors"], target_patch(spec.goals.reflect.target, v),
-            weights=sun["weights"], resolution=128).share)
+        extra["reflection"], picture = measure_reflection(
+            spec, built_structure(inp["support"]["structure"], left_out), sun, v,
+            metres_per_unit=m_per_unit)
+        extra["reflected_to_target"] = extra["reflection"]["on_target"]
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
@@ -345,7 +347,8 @@ def run_light(inp: StageInputs) -> dict:
         **report,
         "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
                                                  "transparency_cone")}},
-        "map": {"points": blocked.points, "per_point": blocked.per_point}}
+        "map": {"points": blocked.points, "per_point": blocked.per_point,
+                **({"reflection": picture} if extra else {})}}
 
 
 # ------------------------------------------------------------------ substructure (Fig. 11)
