@@ -314,14 +314,21 @@ def test_seams_normals_and_unused_vertices_give_the_merged_analysis(tmp_path, la
 
 
 def test_obj_fast_reader_agrees_with_the_line_reader():
-    from torsal.geometry.mesh_files import _obj_fast, _obj_lines
+    from torsal.geometry.mesh_files import _obj_fast, _obj_lines, _read_obj
 
     v, f = mc.grid(9, 7)
     for text in (mc.obj_text(v, f), mc.obj_text(v, f, normals="face", uv=True),
-                 mc.obj_text(v, f).replace("\n", "\r\n"), mc.obj_text(v, f, unused=[[1, 2, 3]])):
-        fast, slow = _obj_fast(text), _obj_lines(text)
-        assert fast is not None
+                 mc.obj_text(v, f).replace("\n", "\r\n"), mc.obj_text(v, f).replace("\n", "\r"),
+                 mc.obj_text(v, f, unused=[[1, 2, 3]])):
+        fast, slow = _read_obj(text.encode()), _read_obj(text.encode(), lines=True)
+        assert fast.face_lines is None and slow.face_lines is not None  # the fast reader read it
         assert np.array_equal(fast.vertices, slow.vertices) and np.array_equal(fast.faces, slow.faces)
+        assert np.array_equal(fast.vertices[:len(v)], v) and np.array_equal(fast.faces, f)
+        # the line of every face: 'f' lines counted independently
+        f_lines = [k + 1 for k, ln in enumerate(text.replace("\r\n", "\n").replace("\r", "\n")
+                                                .split("\n")) if ln.startswith("f ")]
+        assert slow.face_lines.tolist() == f_lines
+    assert _obj_fast(mc.obj_text(v, f).replace("f 1 ", "f 1.0 ", 1)) is None   # not an index
     # anything unusual goes to the line reader
     assert _obj_fast(mc.obj_text(v, f).replace("f 1 ", "f -1 ", 1)) is None   # a relative index
     assert _obj_fast(mc.obj_text(v, f) + "f 1 2\n") is None                    # a short face
