@@ -24,6 +24,7 @@ __all__ = [
     "load_mesh",
     "merge_vertices",
     "drop_duplicate_faces",
+    "rows_per_vertex",
     "read_mesh_file",
     "validate_mesh",
     "edge_face_adjacency",
@@ -192,22 +193,60 @@ class MeshMerge:
                 f"{what}: {k} rows, but the mesh has {self.vertices} vertices"
                 + (f" ({self.file_vertices} in the file before merging); give one row per vertex "
                    "of either" if not self.identity else "; give one row per vertex"))
-        used = np.flatnonzero(self.file_to_merged >= 0)
-        target = self.file_to_merged[used]
-        out = np.empty((self.vertices,) + values.shape[1:], dtype=values.dtype)
-        out[target[::-1]] = values[used[::-1]]  # the first file vertex of each group wins
-        scale = float(np.nanmax(np.abs(values[used]))) if used.size else 0.0
-        diff = np.abs(values[used] - out[target]).reshape(len(used), -1).max(axis=1)
-        bad = np.flatnonzero(~(diff <= rtol * max(scale, 1e-300)))
-        if bad.size:
-            f = used[bad[0]]
-            first = int(np.flatnonzero(self.file_to_merged == self.file_to_merged[f])[0])
-            raise MeshError(
-                f"{what}: rows {first} and {f} belong to file vertices at the same position "
-                f"(mesh vertex {self.file_to_merged[f]}) but differ ({_listed(used[bad])} "
-                "disagree); give the same row to vertices at one position, or one row per "
-                f"merged vertex ({self.vertices})")
+        out = rows_per_vertex(
+            values, self.file_to_merged, self.vertices, what=what, rtol=rtol,
+            same="file vertices at the same position",
+            fix=f"give the same row to vertices at one position, or one row per merged vertex "
+                f"({self.vertices})")
         return out, "file vertex"
+
+
+def rows_per_vertex(values, row_vertex, n_vertices: int, *, what: str = "values",
+                    same: str = "the same vertex", fix: str = "give one row per vertex",
+                    rtol: float = 1e-6) -> np.ndarray:
+    """Rows that each name a mesh vertex -> one row per vertex; rows of one vertex must agree.
+
+    Parameters
+    ----------
+    values : (k, ...) array
+    row_vertex : (k,) int
+        The mesh vertex of each row; -1: the row is ignored.
+    n_vertices : int
+        Every vertex ``0 .. n_vertices - 1`` needs at least one row.
+    what, same, fix : str
+        For messages: what the rows are, what rows of one vertex have in common, what to do.
+    rtol : float
+        Rows of one vertex agree to ``rtol`` times the largest value.
+
+    Returns
+    -------
+    (n_vertices, ...) array
+        The first row of each vertex.
+
+    Examples
+    --------
+    >>> rows_per_vertex(np.array([[1.], [2.], [1.]]), np.array([1, 0, 1]), 2).ravel().tolist()
+    [2.0, 1.0]
+    """
+    values = np.asarray(values)
+    row_vertex = np.asarray(row_vertex, dtype=np.int64)
+    used = np.flatnonzero(row_vertex >= 0)
+    target = row_vertex[used]
+    missing = np.setdiff1d(np.arange(n_vertices), target)
+    if missing.size:
+        raise MeshError(f"{what}: mesh vertices {_listed(missing)} have no row; {fix}")
+    out = np.empty((n_vertices,) + values.shape[1:], dtype=values.dtype)
+    out[target[::-1]] = values[used[::-1]]  # the first row of each vertex wins
+    scale = float(np.nanmax(np.abs(values[used]))) if used.size else 0.0
+    diff = np.abs(values[used] - out[target]).reshape(len(used), -1).max(axis=1)
+    bad = np.flatnonzero(~(diff <= rtol * max(scale, 1e-300)))
+    if bad.size:
+        r = used[bad[0]]
+        first = int(np.flatnonzero(row_vertex == row_vertex[r])[0])
+        raise MeshError(
+            f"{what}: rows {first} and {r} belong to {same} (mesh vertex {row_vertex[r]}) but "
+            f"differ ({_listed(used[bad])} disagree); {fix}")
+    return out
 
 
 #: Coordinates beyond this (any unit) are a broken file, not a building: squared, they overflow.

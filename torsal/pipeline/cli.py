@@ -175,10 +175,12 @@ def _design(args, ui: _Terminal) -> int:
         return EXIT_NOT_BUILDABLE
     r = res.report
     mf = r.get("surface", {}).get("mesh_file")
-    if mf and (mf["merged"] or mf["unused"] or mf["polygons_triangulated"]):
+    if mf and (mf["merged"] or mf["unused"] or mf["polygons_triangulated"]
+               or mf.get("duplicate_faces_dropped")):
         ui.line(f"surface: {mf['vertices']} vertices from {mf['file_vertices']} in the file "
                 f"({mf['merged']} merged at the same position, {mf['unused']} unused, "
-                f"{mf['polygons_triangulated']} polygons triangulated)")
+                f"{mf['polygons_triangulated']} polygons triangulated, "
+                f"{mf.get('duplicate_faces_dropped', 0)} duplicate faces dropped)")
     s, li, fa = r["support"], r["light"], r["fabrication"]
     ui.line(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
             f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
@@ -296,12 +298,16 @@ def _analyze(args, ui: _Terminal) -> int:
 
     mf = s.get("mesh_file")
     row("vertices / faces", f"{s['vertices']} / {s['faces']}")
-    if mf and (mf["file_vertices"] != s["vertices"] or mf["polygons_triangulated"]):
+    if mf and (mf["file_vertices"] != s["vertices"] or mf["polygons_triangulated"]
+               or mf.get("duplicate_faces_dropped")):
         row("in the file", f"{mf['file_vertices']} vertices ({mf['merged']} merged, "
                            f"{mf['unused']} unused), {mf['polygons_triangulated']} polygons "
-                           "triangulated")
+                           "triangulated"
+                           + (f", {mf['duplicate_faces_dropped']} duplicate faces dropped"
+                              if mf.get("duplicate_faces_dropped") else ""))
     if "directions_rows" in s:
         row("directions rows", s["directions_rows"])
+        row("row order", s["directions_row_order"])
     row("average edge length", f"{s['average_edge_length']:.4g}")
     row("hyperbolic faces", f"{s['hyperbolic_faces']} ({100 * s['hyperbolic_share']:.1f}%)")
     row("line-bundle faces", str(s["bundle_faces"]))
