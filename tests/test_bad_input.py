@@ -620,6 +620,8 @@ def _epw_files(kind):
                 lines[0] = "LOCATION,Here,-,-,-,0,north,east,1,100"
             elif kind == "latitude-200":
                 lines[0] = "LOCATION,Here,-,-,-,0,200,16,1,100"
+            elif kind == "sub-hourly":
+                lines[7] = "DATA PERIODS,1,4,Data,Sunday, 1/ 1,12/31"
             elif kind == "text-in-temperature":
                 f = lines[100].split(",")
                 f[6] = "hot"
@@ -632,6 +634,7 @@ EPW_CASES = {"empty": "not an EPW weather file.*empty", "garbage": "not an EPW w
              "binary": "not an EPW weather file", "header-only": "no hourly data rows",
              "truncated": "line 501: .*truncated", "bad-location": "line 1: latitude",
              "latitude-200": "out of range", "text-in-temperature": "line 101: temperature 'hot'",
+             "sub-hourly": "line 8: 4 records per hour; torsal reads hourly EPW files",
              "folder": "is a folder"}
 for kind, msg in EPW_CASES.items():
     data = copy.deepcopy(FULL)
