@@ -639,7 +639,7 @@ def _stl_ascii(data: bytes) -> RawMesh:
     polys: list[list[int]] = []
     poly_lines: list[int] = []
     loop: list[int] | None = None
-    loop_line = 0
+    loop_line = facet_line = 0
     in_solid = False
     for k, line in enumerate(lines):
         t, n, last = line.split(), k + 1, k + 1 == len(lines)
@@ -652,10 +652,12 @@ def _stl_ascii(data: bytes) -> RawMesh:
             if loop is not None:
                 raise _LineError(f"line {n}: 'endsolid' inside an unfinished facet")
             in_solid = False
-        elif key == "facet" or key == "endfacet":
-            pass
+        elif key == "facet":
+            facet_line = n
+        elif key == "endfacet":
+            facet_line = 0
         elif key == "outer":
-            loop, loop_line = [], n
+            loop, loop_line = [], facet_line or n  # a facet is where its 'facet' line is
         elif key == "vertex":
             if loop is None or len(t) != 4:
                 raise _LineError(f"line {n}: expected 'vertex x y z' inside 'outer loop', got "
