@@ -272,7 +272,7 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
 _FACE_LISTS = ("vertex_indices", "vertex_index")
 # 'ply' on the first line, in any case (COMPAS writes 'PLY'), with any line end
 _PLY_MAGIC = re.compile(rb"[ \t]*ply[ \t]*(?:\r\n|\r|\n)", re.I)
-_PLY_END = re.compile(rb"^[ \t]*end_header[ \t]*(?:\r\n|\r|\n|\Z)", re.I | re.M)
+_PLY_END = re.compile(rb"(?:^|(?<=\r))[ \t]*end_header[ \t]*(?:\r\n|\r|\n|\Z)", re.I | re.M)
 
 
 @dataclass
