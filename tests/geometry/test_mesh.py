@@ -446,3 +446,18 @@ def test_merged_vertex_row_order_is_said_in_words(tmp_path):
     p.write_text(mc.obj_text(v, f))
     merge = load_mesh(p).metadata["merge"]
     assert merge.vertex_order == "as in the file" and merge.as_dict()["vertex_order"] == "as in the file"
+
+
+def test_compas_sample_dialect_200_vertices_342_faces(tmp_path):
+    """The dialect of COMPAS' sample meshes ('PLY', CRLF, three decimals) at the size of the
+    one the issue names (trimesh: 200 vertices, 342 faces): torsal and trimesh agree."""
+    v, f = mc.grid(10, 20, bend=0.05)                     # 200 vertices, 2 * 9 * 19 = 342 faces
+    data, written = mc.ply_dialect(v * 10, f, magic="PLY", newline="\r\n", digits=3)
+    assert data.startswith(b"PLY\r\nformat ascii 1.0\r\n") and b"\r\nend_header\r\n" in data
+    p = tmp_path / "tubemesh-like.ply"
+    p.write_bytes(data)
+    m = load_mesh(p)
+    t = trimesh.load(p, process=False, force="mesh")
+    assert (len(m.vertices), len(m.faces)) == (len(t.vertices), len(t.faces)) == (200, 342)
+    assert np.array_equal(m.vertices, written) and np.array_equal(m.faces, f)
+    assert np.allclose(t.vertices, written, atol=1e-5)  # trimesh keeps 'float' as float32

@@ -248,14 +248,15 @@ def analyze(mesh: str | Path, *, directions: str | Path | None = None,
     mesh : path
         OBJ/PLY/STL/OFF triangle mesh A in model units.
     directions : path, optional
-        Per-vertex line directions (see :func:`read_directions`), one row per vertex of the
-        file or per vertex after merging (see :func:`~torsal.geometry.mesh.load_mesh`; the
-        summary's ``directions_rows`` says which); default the normal congruence of A
-        (area-weighted vertex normals).
+        Per-vertex line directions (see :func:`read_direction_rows`), one row per vertex of the
+        file, per vertex after merging (see :func:`~torsal.geometry.mesh.load_mesh`) or with
+        its position ``x y z dx dy dz`` (:func:`directions_for_mesh`); the summary's
+        ``directions_rows`` says which and ``directions_row_order`` what row ``i`` is; default
+        the normal congruence of A (area-weighted vertex normals).
     out_dir : path, optional
-        Where to write ``analysis.json`` and ``torsal_field.png`` (together, replacing
-        earlier runs; a failed analysis leaves neither, see
-        :class:`~torsal.pipeline.staging.Staging`). Nothing is written when omitted.
+        Where to write ``analysis.json`` and ``torsal_field.png`` (together, replacing the
+        earlier analysis only when this one succeeds; a failed analysis leaves the folder as
+        it was, see :class:`~torsal.pipeline.staging.Staging`). Nothing is written when omitted.
     plot : bool
         Also draw the PNG.
 
