@@ -122,7 +122,10 @@ def _floats(tokens, line_no: int, what: str, last: bool) -> list[float]:
     try:
         return [float(t) for t in tokens]
     except ValueError:
+        comma = any("," in t for t in tokens)  # a locale's decimal comma: '1,5'
         raise _LineError(f"line {line_no}: {what} {' '.join(tokens)!r} is not numbers"
+                         + (" (decimal commas? mesh files write 1.5, not 1,5: export again "
+                            "with a point as the decimal mark)" if comma else "")
                          + _truncated_hint(last)) from None
 
 
