@@ -330,8 +330,9 @@ dialect_case("stl-two-solids-in-one-file", "two.stl",
              (_two_solids, np.array([[float(f"{x:.9e}") for x in r] for r in GRID_V])[GRID_F.ravel()]),
              GRID_F)
 mesh_case("stl-both-sides", "both.stl", mc.stl_ascii(GRID_V, np.vstack([GRID_F, GRID_F[:, ::-1]])), 2,
-          r"faces \[0, 1, 2, .* are the same triangles twice with opposite windings: the file "
-          r"holds both sides of the surface .* export one side .*; file lines 2, 9, 16")
+          r"faces \[0, 1, 2, .* are the same triangles twice with opposite windings: the "
+          r"surface lies on itself there \(both sides of it exported, or a fold\); export one side"
+          r".*; file lines 2, 9, 16")
 mesh_case("stl-binary-both-sides", "both.stl", mc.stl_binary(GRID_V, np.vstack([GRID_F, GRID_F[:, ::-1]])),
           2, r"opposite windings.*; facets \[0, 1, 2, .* of the file, counted from 0")
 mesh_case("obj-face-written-twice", "d.obj", mc.obj_text(GRID_V, np.vstack([GRID_F, GRID_F[:3]])), 0,

@@ -342,8 +342,8 @@ def drop_duplicate_faces(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (``(0, 1, 2)``, ``(1, 2, 0)``); the first in the file is kept. Slicers and some STL
     exporters write every facet twice; after :func:`merge_vertices` those are such duplicates.
     The same triangle with the opposite winding is the two sides of a surface (a double-sided
-    export): that raises :class:`MeshError` naming both faces, since which side is meant is not
-    in the file.
+    export) or a fold onto itself: that raises :class:`MeshError` naming both faces, since which
+    side is meant is not in the file.
 
     Parameters
     ----------
@@ -380,8 +380,8 @@ def drop_duplicate_faces(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if bad:
             raise MeshError(
                 f"faces {_listed(bad)} are the same triangles twice with opposite windings: the "
-                "file holds both sides of the surface (a double-sided export); export one side "
-                "(one face per triangle)", faces=bad)
+                "surface lies on itself there (both sides of it exported, or a fold); export one "
+                "side, one face per triangle", faces=bad)
     return f[kept], kept
 
 

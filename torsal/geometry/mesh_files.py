@@ -174,6 +174,7 @@ _OBJ_V = re.compile(r"^[ \t]*v[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.M)
 _OBJ_C = r"(\d+)(?:/\d*){0,2}"
 _OBJ_TRI = re.compile(rf"^[ \t]*f[ \t]+{_OBJ_C}[ \t]+{_OBJ_C}[ \t]+{_OBJ_C}[ \t]*(?:#.*)?$", re.M)
 _OBJ_CORNER = re.compile(r"(-?\d+)(?:/(?:-?\d+)?){0,2}")
+_OBJ_CONTINUED = re.compile(r"\\[ \t]*$", re.M)  # a backslash ending a line (not in a Windows path)
 
 
 def _read_obj(data: bytes, *, lines: bool = False) -> RawMesh:
@@ -182,7 +183,7 @@ def _read_obj(data: bytes, *, lines: bool = False) -> RawMesh:
     if "\r" in text:
         text = text.replace("\r\n", "\n").replace("\r", "\n")
     # continuation lines (a backslash at the end) go to the line reader, which keeps line numbers
-    fast = None if lines or "\\" in text else _obj_fast(text)
+    fast = None if lines or _OBJ_CONTINUED.search(text) else _obj_fast(text)
     return fast if fast is not None else _obj_lines(text)
 
 
