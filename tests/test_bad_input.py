@@ -1065,7 +1065,7 @@ def test_input(c: Case, tmp_path, capsys, monkeypatch, earlier_results):
     assert not (tmp_path / "report.html").exists() and not (tmp_path / "analysis.json").exists()
 
 
-def test_the_failing_reruns_leave_the_earlier_results(earlier_results):
+def test_failing_reruns_include_failures_inside_the_run():
     """The seeded cases above: every failing analyze and design of the corpus, among them
     failures inside the run (a stage, after the earlier results were staged)."""
     seeded = [c for c in CASES if c.code != 0 and c.id.split("-")[0] in ("mesh", "directions", "design")]
