@@ -2,13 +2,17 @@
 
 Every case writes its own small files (nothing big is stored) and runs ``torsal.pipeline.cli.main``
 in-process; a few run the installed ``torsal`` as a subprocess to show that no traceback
-reaches stderr. A bad input must exit 2 with a message naming the problem, no traceback, and
-leave no result file; an unusual but valid input must exit 0 with the right answer (counts and
-hyperbolic faces computed here independently of torsal's readers).
+reaches stderr. A bad input must exit 2 with a message naming the problem (and the line, for a
+line of a file), no traceback, and no result of its own; an unusual but valid input must exit 0
+with the right answer (counts and hyperbolic faces computed here independently of torsal's
+readers, vertices compared with the records the file holds). A failing ``analyze`` or ``design``
+runs into a folder holding a real earlier design and analysis, which must stay byte for byte.
 
 Kinds: mesh files (truncated, lying headers, garbage, broken geometry, unusual but valid
-layouts in every format), directions files, design files (a bad value for every key of the
-schema, missing and unknown keys, sun, EPW, mesh and size problems) and command lines.
+layouts in every format, the dialects of VTK, Open3D, MeshLab, COMPAS, Rhino, Blender, slicers
+and OFF writers), directions files (magnitudes, rows with positions, row order), design files
+(a bad value for every key of the schema, missing and unknown keys, sun, EPW, mesh and size
+problems) and command lines.
 """
 from __future__ import annotations
 
