@@ -89,3 +89,21 @@ def test_a_good_run_replaces_only_its_own_results(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [".torsal-results.json", "analysis_json",
                                                      "report_json"]
     assert (out / "report_json").read_text() == "r2" and (out / "analysis_json").read_text() == "x1"
+
+
+def test_a_failed_run_into_a_new_folder_leaves_no_folder(tmp_path, capsys):
+    from torsal.pipeline.cli import main
+
+    (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1.0 2.0 3.0\n")
+    assert main(["analyze", str(tmp_path / "bad.obj"), "--out", str(tmp_path / "new" / "out")]) == 2
+    assert "line 4: face corner '1.0'" in capsys.readouterr().err
+    assert not (tmp_path / "new" / "out").exists()
+    (tmp_path / "d.toml").write_text('[surface]\nmesh = "bad.obj"\n[sun]\nvectors = [[0, -1, 1]]\n'
+                                     '[fins]\nspacing = 1.0\ndepth = 0.5\n')
+    assert main(["design", str(tmp_path / "d.toml"), "--out", str(tmp_path / "d_out")]) == 2
+    assert "stage 'surface' failed" in capsys.readouterr().err
+    assert not (tmp_path / "d_out").exists()
+    # a folder that was there stays, even empty
+    (tmp_path / "mine").mkdir()
+    assert main(["analyze", str(tmp_path / "bad.obj"), "--out", str(tmp_path / "mine")]) == 2
+    assert (tmp_path / "mine").is_dir()

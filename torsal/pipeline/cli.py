@@ -156,16 +156,15 @@ def _add_study(sub, common) -> None:
 
 # ---------------------------------------------------------------------- commands
 def _design(args, ui: _Terminal) -> int:
-    from ..core.outputs import output_folder
+    from ..core.outputs import new_output_folder
     from .assembly import UnbuildableDesignError
     from .design import Design
     from .stages import STAGES
 
     design = Design.from_toml(args.file)
-    out = output_folder(args.out)
     progress = _DesignProgress(ui, design, STAGES)
     try:
-        with progress:
+        with new_output_folder(args.out) as out, progress:
             res = design.run(out, progress=progress, use_cache=not args.no_cache,
                              size_limit=not args.no_size_limit,
                              accept_unbuildable=args.accept_unbuildable)
@@ -281,14 +280,17 @@ def _analyze(args, ui: _Terminal) -> int:
     from rich.table import Table
     from rich.text import Text
 
-    from ..core.outputs import output_folder
+    import contextlib
+
+    from ..core.outputs import new_output_folder
     from .analyze import analyze
 
-    out = output_folder(args.out) if args.out is not None else None
-    t0 = time.perf_counter()
-    if not ui.interactive:
-        ui.line(f"analyzing {args.mesh} ...")
-    res = analyze(args.mesh, directions=args.directions, out_dir=out, plot=not args.no_plot)
+    with (new_output_folder(args.out) if args.out is not None
+          else contextlib.nullcontext()) as out:
+        t0 = time.perf_counter()
+        if not ui.interactive:
+            ui.line(f"analyzing {args.mesh} ...")
+        res = analyze(args.mesh, directions=args.directions, out_dir=out, plot=not args.no_plot)
     s = res.summary
     table = Table(title=Text(f"congruence of {args.mesh} ({s['directions']})"), show_header=False)
     table.add_column()
