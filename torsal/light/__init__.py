@@ -38,6 +38,7 @@ from torsal.light.reflection import (
 )
 from torsal.light.sun import (
     SunDirections,
+    epw_hours,
     hot_hours,
     light_directions,
     sun_directions,
@@ -47,7 +48,7 @@ from torsal.light.sun import (
 
 __all__ = [
     "SunDirections", "sun_directions", "sun_path", "hot_hours", "light_directions",
-    "write_synthetic_epw",
+    "write_synthetic_epw", "epw_hours",
     "rays_blocked", "ray_hits", "direct_sun_blocked", "transparency", "see_through",
     "mirror_normals", "reflect", "reflected_hits", "compare",
     "ShadingResult", "TransparencyResult", "SeeThroughResult", "ReflectionResult",

@@ -93,8 +93,8 @@ class Design:
             says so: ``report["fabrication"]["assembly"]["buildable"]`` is False).
 
         Result files appear in ``out_dir`` together, when every stage succeeded
-        (:class:`~torsal.pipeline.staging.Staging`); a failed run leaves none, not even the
-        earlier run's, and keeps the stage cache.
+        (:class:`~torsal.pipeline.staging.Staging`); a failed run leaves the folder as it found
+        it, the earlier run's results included, and keeps the stage cache.
 
         Raises
         ------

@@ -34,6 +34,7 @@ Example (``examples/7a_facade_block.toml``)::
 from __future__ import annotations
 
 import datetime as _dt
+import math
 import tomllib
 from enum import Enum
 from pathlib import Path
@@ -44,6 +45,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..core.errors import TorsalError
 from ..core.inputs import read_input
 from ..core.units import UNIT_TO_M
+from ..geometry.congruence import ZERO_DIRECTION_RTOL
+from ..geometry.mesh import MAX_COORDINATE
 from ..geometry.optimize import TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 
@@ -177,10 +180,18 @@ def _check_directions(v):
         return v
     if len(v) == 0:
         raise ValueError("the list of sun vectors is empty; give at least one [x, y, z]")
-    zero = [k for k, d in enumerate(v) if sum(x * x for x in d) == 0]
+    huge = [k for k, d in enumerate(v) if max(map(abs, d), default=0.0) > MAX_COORDINATE]
+    if huge:  # squared they overflow: not a zero length, out of range
+        raise ValueError(f"sun vectors {huge[:10]} have components beyond {MAX_COORDINATE:g}: "
+                         "their squares overflow; give directions of ordinary size, e.g. unit "
+                         "vectors (site -> sun)")
+    length = [math.hypot(*d) for d in v]  # without squaring: 1e-300 is short, not zero
+    zero = [k for k, n in enumerate(length) if n <= ZERO_DIRECTION_RTOL * max(1.0, max(length))]
     if zero:
-        raise ValueError(f"sun vectors {zero[:10]} have zero length; a direction needs a "
-                         "non-zero [x, y, z] (site -> sun)")
+        what = ("have zero length" if not any(length[k] for k in zero) else
+                f"are zero to working precision (length {max(length[k] for k in zero):.3g})")
+        raise ValueError(f"sun vectors {zero[:10]} {what}; a direction needs a non-zero "
+                         "[x, y, z] (site -> sun)")
     below = [k for k, d in enumerate(v) if d[2] < 0]
     if below:
         # the model frame has z up: such a sun never shines; usually light directions were given
