@@ -213,7 +213,7 @@ class SunSpec(_Spec):
     min_temperature: float = 26.0
     min_dni: float = 300.0
     vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame (z up); "
-                                        "any length but zero, z >= 0")
+                                        "any length but zero (components up to 1e30), z >= 0")
 
     @field_validator("step")
     @classmethod
