@@ -12,10 +12,10 @@ import numpy as np
 from torsal.core.atomic import atomic_path
 
 from .model import CONNECTOR_FAMILY
-from .plates import MESH_TOLERANCE, _triangles
+from .plates import MESH_TOLERANCE, _face_triangles, _triangles
 from .workers import solid_shapes
 
-__all__ = ["export_step", "write_step", "read_step", "export_mesh", "export_3dm"]
+__all__ = ["export_step", "write_step", "read_step", "export_mesh", "export_3dm", "brep_of"]
 
 
 def export_step(fin_system, path) -> Path:
@@ -196,8 +196,12 @@ def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | 
 
 
 def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
-    """Rhino 3DM (through rhino3dm): one named mesh object per part on a layer per family
-    (``family 0``, ``family 1``, ``connectors``), coloured by family, model units set to ``unit``."""
+    """Rhino 3DM (through rhino3dm): one closed, valid Brep per part (:func:`brep_of`), named
+    with the part id (as in parts.csv), on a layer per family (``family 0``, ``family 1``,
+    ``developable``) and, for connectors, a sublayer of ``connectors`` per joint kind
+    (``connectors::butt-bracket``, ...), coloured by family; model units set to ``unit``.
+    ``tolerance``: the deflection of the curved faces (fastener holes), default
+    :data:`~.plates.MESH_TOLERANCE` x thickness; plane faces are exact."""
     import rhino3dm
 
     model = rhino3dm.File3dm()
@@ -205,30 +209,107 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
           "m": rhino3dm.UnitSystem.Meters, "in": rhino3dm.UnitSystem.Inches,
           "ft": rhino3dm.UnitSystem.Feet}[fin_system.unit]
     model.Settings.ModelUnitSystem = us
-    layers = {}
-    for p in fin_system.parts:
-        if p.family not in layers:
+    tol = tolerance if tolerance is not None else MESH_TOLERANCE * fin_system.thickness
+    model.Settings.ModelAbsoluteTolerance = float(min(0.01, tol))
+    kind_of = {j.connector: j.kind.value for j in getattr(fin_system, "joints", []) if j.connector}
+    layers: dict = {}
+
+    def layer(name: str, colour, parent: str | None = None) -> int:
+        key = (parent, name)
+        if key not in layers:
             lay = rhino3dm.Layer()
-            lay.Name = (f"family {p.family}" if p.family >= 0 else
-                        "connectors" if p.family == CONNECTOR_FAMILY else "developable")
-            lay.Color = tuple(int(255 * c) for c in p.color) + (255,)
-            layers[p.family] = model.Layers.Add(lay)
-    meshes = _tessellate(fin_system, tolerance)
+            lay.Name = name
+            lay.Color = tuple(int(255 * c) for c in colour) + (255,)
+            if parent is not None:
+                lay.ParentLayerId = model.Layers.FindIndex(layers[(None, parent)]).Id
+            layers[key] = model.Layers.Add(lay)
+        return layers[key]
+
+    shapes = solid_shapes(fin_system)
     for p in fin_system.parts:
-        v, f = meshes[p.name]
-        mesh = rhino3dm.Mesh()
-        for x in v:
-            mesh.Vertices.Add(float(x[0]), float(x[1]), float(x[2]))
-        for t in f:
-            mesh.Faces.AddFace(int(t[0]), int(t[1]), int(t[2]))
-        mesh.Normals.ComputeNormals()
+        if p.family == CONNECTOR_FAMILY:
+            layer("connectors", p.color)
+            index = layer(kind_of.get(p.name, "connector"), p.color, parent="connectors")
+        else:
+            index = layer(f"family {p.family}" if p.family >= 0 else "developable", p.color)
+        brep = brep_of(shapes[p.name], tol)
+        if not (brep.IsSolid and brep.IsValid):
+            raise RuntimeError(f"part {p.name}: rhino3dm made no valid closed Brep of its solid")
         attr = rhino3dm.ObjectAttributes()
         attr.Name = p.name
-        attr.LayerIndex = layers[p.family]
+        attr.LayerIndex = index
         attr.ColorSource = rhino3dm.ObjectColorSource.ColorFromLayer
-        model.Objects.AddMesh(mesh, attr)
+        model.Objects.AddBrep(brep, attr)
 
     with atomic_path(path) as tmp:
         if not model.Write(str(tmp), 7):
             raise RuntimeError(f"rhino3dm could not write {path}")
     return Path(path)
+
+
+def brep_of(shape, tolerance: float):
+    """A closed rhino3dm ``Brep`` of an OCC solid: one Brep face per plane face of the solid
+    with four corners (a planar quad, exact), the others (faces with slot notches, curved
+    hole walls) as the planar triangles of their mesh (curved faces within ``tolerance``),
+    joined along shared edges (rhino3dm's ``Brep.CreateFromMesh`` on the welded faces).
+
+    rhino3dm leaves the edges' tolerance unset (openNURBS's ON_UNSET_VALUE), which makes
+    ``IsValid`` false although each edge lies exactly on both of its faces (they are built
+    from the same vertices): the tolerance is set to 0 in the Brep's openNURBS record (the only
+    doubles with that value, one per edge) when that makes the Brep valid."""
+    import rhino3dm
+
+    faces = _face_triangles(shape, tolerance)
+    pts = np.concatenate([v for v, _ in faces]) if faces else np.zeros((0, 3))
+    scale = max(1.0, float(np.abs(pts).max(initial=0.0)))
+    _, first, ids = np.unique(np.round(pts / (1e-9 * scale)).astype(np.int64), axis=0,
+                              return_index=True, return_inverse=True)
+    ids = ids.ravel()
+    mesh = rhino3dm.Mesh()
+    for x in pts[first]:
+        mesh.Vertices.Add(float(x[0]), float(x[1]), float(x[2]))
+    offset = 0
+    for v, t in faces:
+        g = ids[offset:offset + len(v)][t]           # the face's triangles, welded ids
+        offset += len(v)
+        quad = _quad(g) if len(v) == 4 and len(t) == 2 else None
+        if quad is not None:
+            mesh.Faces.AddFace(*map(int, quad))
+        else:
+            for a, b, c in g:
+                mesh.Faces.AddFace(int(a), int(b), int(c))
+    brep = rhino3dm.Brep.CreateFromMesh(mesh, True)
+    if brep is None or brep.IsValid:
+        return brep
+    return _with_edge_tolerances(brep)
+
+
+def _quad(tris: np.ndarray):
+    """The quad (4,) of two triangles (2, 3) that share an edge (in opposite directions), in
+    their order, or None."""
+    a, b = [list(map(int, t)) for t in tris]
+    for i in range(3):
+        u, v, w = a[i], a[(i + 1) % 3], a[(i + 2) % 3]
+        for j in range(3):
+            if b[j] == v and b[(j + 1) % 3] == u:
+                x = b[(j + 2) % 3]
+                return (u, x, v, w)
+    return None
+
+
+def _with_edge_tolerances(brep):
+    """The Brep with its unset edge tolerances set to 0 (see :func:`brep_of`), if that makes it
+    valid; else the Brep as it was."""
+    import base64
+    import struct
+
+    import rhino3dm
+
+    unset = struct.pack("<d", -1.23432101234321e+308)       # openNURBS's ON_UNSET_VALUE
+    enc = brep.Encode()
+    data = base64.b64decode(enc["data"])
+    if data.count(unset) != len(brep.Edges):
+        return brep
+    enc = dict(enc, data=base64.b64encode(data.replace(unset, struct.pack("<d", 0.0))).decode())
+    fixed = rhino3dm.CommonObject.Decode(enc)
+    return fixed if fixed is not None and fixed.IsValid and fixed.IsSolid else brep

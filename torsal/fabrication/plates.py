@@ -646,10 +646,10 @@ def _build_one(part: Part, thickness: float, repair: bool):
         return "bad", None, f"{part.name}: {type(e).__name__}: {e}"
 
 
-def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
-    """Vertices (n, 3) and triangles (m, 3) of an OCC shape, meshed as build123d's
-    ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer order, reversed
-    faces' triangles turned round), without its per-vertex wrappers."""
+def _face_triangles(shape, tolerance: float, angular_tolerance: float = 0.1) -> list:
+    """``[(vertices (k, 3), triangles (m, 3) into them)]`` per face of an OCC shape, meshed as
+    build123d's ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer
+    order, reversed faces' triangles turned round, so every triangle faces out)."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
     from OCP.TopExp import TopExp_Explorer
@@ -661,7 +661,7 @@ def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
     while exp.More():                        # each face once, in the order first met
         faces[hash(exp.Current())] = exp.Current()
         exp.Next()
-    verts, tris, offset = [], [], 0
+    out = []
     for f in faces.values():
         face = TopoDS.Face(f)
         loc = TopLoc_Location()
@@ -670,15 +670,23 @@ def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
         if not loc.IsIdentity():
             trsf = loc.Transformation()
             pts = [p.Transformed(trsf) for p in pts]
-        verts.append(np.array([(p.X(), p.Y(), p.Z()) for p in pts], float).reshape(-1, 3))
+        v = np.array([(p.X(), p.Y(), p.Z()) for p in pts], float).reshape(-1, 3)
         # one triangle at a time: poly.Triangles() copies the whole array on every call
         t = np.array([poly.Triangle(i).Get() for i in range(1, poly.NbTriangles() + 1)],
-                     dtype=np.int64).reshape(-1, 3) + (offset - 1)
-        tris.append(t[:, [0, 2, 1]] if face.Orientation() == TopAbs_REVERSED else t)
-        offset += len(verts[-1])
-    if not verts:
+                     dtype=np.int64).reshape(-1, 3) - 1
+        out.append((v, t[:, [0, 2, 1]] if face.Orientation() == TopAbs_REVERSED else t))
+    return out
+
+
+def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
+    """Vertices (n, 3) and triangles (m, 3) of an OCC shape: its faces' triangles
+    (:func:`_face_triangles`) in one array, vertices not shared between faces."""
+    faces = _face_triangles(shape, tolerance, angular_tolerance)
+    if not faces:
         return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
-    return np.concatenate(verts), np.concatenate(tris)
+    offsets = np.cumsum([0] + [len(v) for v, _ in faces[:-1]])
+    return (np.concatenate([v for v, _ in faces]),
+            np.concatenate([t + o for (_, t), o in zip(faces, offsets)]))
 
 
 #: preview meshes (3DM, glTF, STL): deflection as a fraction of the plate thickness
