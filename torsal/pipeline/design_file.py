@@ -46,6 +46,8 @@ from ..core.inputs import read_input
 from ..core.units import UNIT_TO_M
 from ..geometry.optimize import TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
+from ..fabrication.cutting import Process as CuttingProcess, Relief
+from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, Nester
 
 __all__ = [
     "DesignFileError",
@@ -338,6 +340,34 @@ class MaterialSpec(_Spec):
         return v
 
 
+class CuttingSpec(_Spec):
+    """How the sheets are cut: the DXF's CUT layer is the toolpath for this process
+    (defaults per process in :mod:`torsal.fabrication.cutting`)."""
+
+    process: CuttingProcess = CuttingProcess.LASER
+    kerf_mm: float | None = Field(None, ge=0, description="width of the cut; unset: the "
+                                  "process's (laser 0.2, waterjet 1.0, router the tool diameter)")
+    tool_diameter_mm: float | None = Field(None, gt=0, description="diameter of the beam, jet or "
+                                           "bit; unset: the process's (laser 0.2, waterjet 1.0, "
+                                           "router 3.175)")
+    relief: Relief | None = Field(None, description="relief at inner slot corners; unset: "
+                                  "dogbone for a router, none otherwise")
+
+
+class NestingSpec(_Spec):
+    """How the parts are nested on the sheets."""
+
+    nester: Nester = Nester.SPARROW
+    time_limit_s: float = Field(DEFAULT_TIME_LIMIT, ge=3, description="wall clock the sparrow "
+                                "nester may take; when spent, the parts left are nested by the "
+                                "fast nester")
+    seed: int = Field(DEFAULT_SEED, ge=0, description="the sparrow nester's seed")
+    rotation_step_deg: float | None = Field(None, gt=0, le=360, description="degrees; parts "
+                                            "turn in steps of this; unset: any rotation")
+    margin_mm: float = Field(10.0, ge=0, description="sheet left between the cuts and the "
+                             "sheet edge")
+
+
 class OutputsSpec(_Spec):
     step: bool = True
     rhino_3dm: bool = True
@@ -371,6 +401,8 @@ class DesignSpec(_Spec):
     constraints: ConstraintsSpec = Field(default_factory=ConstraintsSpec)
     fins: FinsSpec
     material: MaterialSpec = Field(default_factory=MaterialSpec)
+    cutting: CuttingSpec = Field(default_factory=CuttingSpec)
+    nesting: NestingSpec = Field(default_factory=NestingSpec)
     outputs: OutputsSpec = Field(default_factory=OutputsSpec)
     substructure: SubstructureSpec | None = None
 

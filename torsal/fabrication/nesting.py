@@ -1,0 +1,396 @@
+"""Nesting for yield: true shapes, free rotation, sheet by sheet, in a time budget.
+
+:func:`nest_for_yield` fills one sheet at a time with sparrow (Gardeyn & Wauters' strip-packing
+heuristic, through the ``spyrrow`` wheel), which places true shapes at any rotation with
+collision detection on the exact outlines. Sparrow minimises the length of one strip of fixed
+height; a workshop needs whole sheets, and cutting a dense strip into sheet lengths loses the
+parts that cross every cut (measured on example 7a: a 30 s strip at 80 % density gave windows
+of one sheet length only 28 % full on average, the parts are strips up to a sheet long). So
+each sheet is a strip problem of its own:
+
+1. **Choose** the parts for the sheet from those left: the large ones by a row model (parts
+   are long strips: rows of them across the sheet, each row no taller than its first part,
+   filled along the sheet by each part's area over its width), up to ``target`` of the sheet's
+   area, then small ones (brackets) up to the same target, at most their share per sheet.
+2. **Pack** them into a strip of the sheet's height with sparrow.
+3. **Keep** them if the strip is no longer than the sheet; else keep the parts inside the
+   sheet (valid as placed) when they are most of the set, or try once more without the
+   crossing part that reaches furthest. The parts not kept go back to the pool. The target
+   rises after a sheet that fitted and drops after one that did not.
+4. Every kept part is checked with shapely (inside the margins, ``gap`` from every other
+   part's cut): a part that is not goes back to the pool.
+
+Spacing: sparrow gets each outline grown by half the distance two outlines must keep
+(``gap + 2 kerf``, :func:`~.layout.spacing`) with a mitre join (narrow slots close), simplified
+conservatively (grown ``s`` more, then simplified by ``s``), oriented counter-clockwise, and
+centred on its centroid (sparrow mis-places clockwise rings and items far from their
+reference point).
+
+Time: ``time_limit`` seconds in all (wall clock), split over the expected solves (sparrow
+takes whole seconds: at least 2 s of exploration and 1 of compression per sheet). When the
+budget is spent the parts left are nested by the fast nesters (:func:`~.layout.nest` for the
+large ones, :func:`~.layout.shelf_pack` for the small ones) and counted in
+:attr:`NestStats.fallback_parts`.
+
+Determinism: every sparrow solve gets ``seed`` and one thread, the sheets are filled in a
+fixed order, so a run repeats exactly where each solve converges within its seconds (small
+sheets, an unloaded machine); under load a solve explores less in the same seconds and the
+sheets may differ. The report names the seed and the seconds.
+
+Units: those of the outlines (``unit``).
+
+Example
+-------
+>>> from shapely.geometry import box
+>>> parts = {f"p{i}": box(0, 0, 300 + 20 * i, 100) for i in range(6)}
+>>> lay = nest_for_yield(parts, sheet=(1000, 500), gap=5, margin=10, time_limit=5)
+>>> lay.n_sheets, lay.stats.method
+(1, 'sparrow')
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import shapely
+from shapely import affinity
+from shapely.geometry import Polygon
+from shapely.geometry.polygon import orient
+
+from .cutting import Cutting
+from .layout import (Layout, _as_items, _turned_shapes, check_fits, merge_layouts, nest,
+                     placement_of, shelf_pack, spacing)
+
+__all__ = ["nest_for_yield", "nest_parts", "Nester", "NestStats", "DEFAULT_TIME_LIMIT", "DEFAULT_SEED"]
+
+#: seconds the nester may take by default
+DEFAULT_TIME_LIMIT = 60.0
+#: sparrow's seed by default
+DEFAULT_SEED = 0
+#: parts smaller than this share of the usable sheet are fillers (brackets), not row parts
+_SMALL = 0.02
+#: first target fill of a sheet (share of its usable area), and its bounds
+_TARGET, _TARGET_MIN, _TARGET_MAX = 0.86, 0.6, 0.95
+
+
+class Nester(str, Enum):
+    """Which nester places the parts."""
+
+    #: sparrow sheet by sheet, true shapes, free rotation, in a time budget (:func:`nest_for_yield`)
+    SPARROW = "sparrow"
+    #: the fast bottom-left fill (:func:`~.layout.nest`), connectors in rows after the plates
+    BOTTOM_LEFT = "bottom-left"
+
+
+@dataclass
+class NestStats:
+    """How a nesting went (for the report).
+
+    ``seconds`` wall clock, ``cpu_seconds`` of this process; ``solves`` sparrow calls;
+    ``area_bound`` parts' area / sheet area (the sheets a perfect nest would need);
+    ``fallback_parts`` parts nested by the bottom-left nester after the budget ran out.
+    """
+
+    method: str
+    seconds: float
+    cpu_seconds: float
+    area_bound: float
+    solves: int = 0
+    seed: int | None = None
+    time_limit: float | None = None
+    fallback_parts: int = 0
+    rotation: str = "free"
+    sheet_fill: list = field(default_factory=list)
+
+
+def _grown(outline: Polygon, half: float) -> Polygon:
+    """The outline grown by ``half`` (mitre join: slots narrower than ``2 half`` close),
+    simplified without shrinking below that, without holes, counter-clockwise."""
+    s = max(0.05 * half, 1e-3 * np.sqrt(outline.area), 1e-9)
+    g = outline.buffer(half + s, join_style="mitre", mitre_limit=2.0).simplify(s)
+    if g.geom_type != "Polygon":
+        g = g.convex_hull
+    return orient(Polygon(g.exterior), 1.0)
+
+
+def _min_width(p: Polygon) -> float:
+    """The minimum width of a polygon (rotating calipers over its convex hull)."""
+    h = np.asarray(p.convex_hull.exterior.coords)[:-1]
+    e = np.roll(h, -1, axis=0) - h
+    length = np.linalg.norm(e, axis=1)
+    ok = length > 0
+    n = np.stack([-e[ok, 1], e[ok, 0]], axis=1) / length[ok, None]      # edge normals (k, 2)
+    d = n @ h.T                                                          # (k, corners)
+    return float((d.max(axis=1) - d.min(axis=1)).min())
+
+
+class _Sparrow:
+    """One sparrow strip solve per call, on the grown, centred shapes."""
+
+    def __init__(self, shapes: dict, height: float, seed: int, rotation_step: float | None):
+        import spyrrow
+
+        self.spyrrow = spyrrow
+        self.shapes, self.height, self.seed = shapes, height, seed
+        if rotation_step is None:
+            self.orientations = None
+        else:
+            self.orientations = [float(a) for a in np.arange(0.0, 360.0, rotation_step)]
+        self.calls = 0
+
+    def solve(self, names: list, explore: int, compress: int) -> tuple[float, dict]:
+        """Strip length and ``{name: (rotation deg, (tx, ty))}`` of the centred shapes."""
+        sp = self.spyrrow
+        items = [sp.Item(n, list(self.shapes[n].exterior.coords)[:-1], demand=1,
+                         allowed_orientations=self.orientations) for n in names]
+        cfg = sp.StripPackingConfig(early_termination=True, total_computation_time=None,
+                                    exploration_time=int(explore), compression_time=int(compress),
+                                    num_workers=1, seed=int(self.seed))
+        sol = sp.StripPackingInstance("sheet", strip_height=float(self.height), items=items).solve(cfg)
+        self.calls += 1
+        return float(sol.width), {p.id: (float(p.rotation), tuple(map(float, p.translation)))
+                                  for p in sol.placed_items}
+
+
+def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
+                   margin: float = 10.0, unit: str = "mm", cutting: Cutting | None = None,
+                   time_limit: float = DEFAULT_TIME_LIMIT, seed: int = DEFAULT_SEED,
+                   rotation_step: float | None = None,
+                   progress: Callable[[int, int], None] | None = None) -> Layout:
+    """Nest flat parts on as few sheets as the time allows (see the module docstring).
+
+    Parameters
+    ----------
+    outlines : sequence of Unrolled, of (name, Polygon), of Polygon, or {name: Polygon}
+        Flat parts in ``unit``.
+    sheet : (width, height)
+        Sheet size, ``unit``.
+    gap, margin : float
+        Sheet left between the cuts of two parts, and between a cut and the sheet edge
+        (``unit``; see :func:`~.layout.spacing`).
+    cutting : Cutting, optional
+        The cutting process (kerf, reliefs); None: cut on the outline.
+    time_limit : float
+        Seconds (wall clock) for the whole nesting; at least 1.
+    seed : int
+        Sparrow's seed.
+    rotation_step : float, optional
+        Allowed rotations in steps of this many degrees; None: any rotation.
+    progress : callable, optional
+        ``progress(sheets done, parts left)`` after each sheet.
+
+    Returns
+    -------
+    Layout
+        With :attr:`~.layout.Layout.stats` a :class:`NestStats`.
+
+    Raises
+    ------
+    PartTooLargeError
+        If a part fits the sheet in no rotation.
+    """
+    t0, c0 = time.perf_counter(), time.process_time()
+    w, h = map(float, sheet)
+    if w <= 0 or h <= 0:
+        raise ValueError(f"sheet must have positive size, got {sheet}")
+    if gap < 0 or margin < 0:
+        raise ValueError("gap and margin must be >= 0")
+    if not time_limit >= 1:
+        raise ValueError(f"time_limit must be at least 1 s, got {time_limit}")
+    if rotation_step is not None and not 0 < rotation_step <= 360:
+        raise ValueError(f"rotation_step must be in (0, 360] degrees, got {rotation_step}")
+    items = _as_items(outlines, cutting)
+    sep, edge = spacing(gap, margin, cutting)
+    check_fits(items, [_turned_shapes(it, (0, 90, 180, 270)) for it in items], w, h, edge,
+               (0, 90, 180, 270), unit)
+    by_name = {it.name: it for it in items}
+    usable = (w - 2 * edge) * (h - 2 * edge)
+    # centred true shapes (what is placed) and grown ones (what sparrow packs)
+    centre = {it.name: np.asarray(it.outline.centroid.coords[0]) for it in items}
+    true = {n: affinity.translate(it.outline, *(-centre[n])) for n, it in by_name.items()}
+    shapes = {n: _grown(p, 0.5 * sep) for n, p in true.items()}
+    area = {n: p.area for n, p in true.items()}
+    solver = _Sparrow(shapes, h - 2 * edge + sep, seed, rotation_step)
+    chooser = _Chooser(true, area, (w - 2 * edge, h - 2 * edge), sep)
+    total = sum(area.values())
+    placed: list = []                  # (name, sheet, rotation, (dx, dy)) of the original outline
+    fill: list[float] = []
+    target = _TARGET
+    pool = chooser.order(list(by_name))
+    while pool:
+        left = time_limit - (time.perf_counter() - t0)
+        n_left = max(1.0, sum(area[n] for n in pool) / (target * usable))
+        per = left / (1.2 * n_left)
+        # sparrow needs about 2 s of exploration and 1 of compression to pack a sheet well
+        # (measured on 7a: 1 + 0 s left sheets half empty)
+        explore, compress = (int(0.6 * per), int(0.4 * per)) if per >= 5 else (2, 1)
+        if left < explore + compress:
+            break
+        sheet_no = len(fill)
+        names = chooser.choose(pool, target, n_left)
+        kept = None
+        for attempt in range(2):
+            length, where = solver.solve(names, explore, compress)
+            inside = _inside(where, true, w, h, edge, sep)
+            set_area = sum(area[n] for n in names)
+            kept_area = sum(area[n] for n in inside)
+            if length <= w - 2 * edge + sep + 1e-6 and len(inside) == len(names):
+                kept = inside
+                target = min(_TARGET_MAX, target + 0.01)
+                break
+            target = max(_TARGET_MIN, target - 0.03)
+            if attempt == 1 or kept_area >= 0.9 * set_area or len(names) == 1 or \
+                    time_limit - (time.perf_counter() - t0) < explore + compress:
+                kept = inside
+                break
+            # once more without the crossing part that reaches furthest
+            out = [n for n in names if n not in inside]
+            far = max(out, key=lambda n: (_reach(where[n], true[n]), area[n], n))
+            names = [n for n in names if n != far]
+        if not kept:
+            break                      # sparrow placed nothing inside: the fallback takes over
+        for n, (rot, (tx, ty)) in kept.items():
+            c = centre[n]
+            cr = np.array([[np.cos(np.radians(rot)), -np.sin(np.radians(rot))],
+                           [np.sin(np.radians(rot)), np.cos(np.radians(rot))]]) @ c
+            # placed = rotate(outline - c) + t + shift = rotate(outline) - R c + t + shift
+            shift = edge - 0.5 * sep
+            placed.append((n, sheet_no, rot, (tx + shift - cr[0], ty + shift - cr[1])))
+        fill.append(sum(area[n] for n in kept) / (w * h))
+        pool = [n for n in pool if n not in kept]
+        if progress is not None:
+            progress(len(fill), len(pool))
+    placements = [placement_of(by_name[n], s, rot, dx, dy) for n, s, rot, (dx, dy) in placed]
+    fallback = 0
+    if pool:                           # the budget is spent: the fast nesters take the rest
+        rest = merge_layouts(
+            nest([(n, by_name[n].outline) for n in pool if n not in chooser.small], sheet=sheet,
+                 gap=gap, margin=margin, unit=unit, cutting=cutting),
+            shelf_pack([(n, by_name[n].outline) for n in pool if n in chooser.small],
+                       sheet=sheet, gap=gap, margin=margin, unit=unit, cutting=cutting))
+        for p in rest.placements:
+            placements.append(placement_of(by_name[p.name], p.sheet + len(fill), p.rotation, *p.offset))
+        fill += list(rest.sheet_utilization)
+        fallback = len(rest.placements)
+    placements.sort(key=lambda p: (p.sheet, p.name))
+    stats = NestStats("sparrow", time.perf_counter() - t0, time.process_time() - c0,
+                      total / (w * h), solver.calls, seed, float(time_limit), fallback,
+                      "free" if rotation_step is None else f"{rotation_step:g} deg steps", fill)
+    return Layout((w, h), placements, len(fill), unit=unit, gap=gap, margin=margin,
+                  cutting=cutting, stats=stats)
+
+
+def _reach(where: tuple, shape: Polygon) -> float:
+    """How far along the strip a placed (centred) shape reaches."""
+    rot, (tx, _) = where
+    return affinity.rotate(shape, rot, origin=(0, 0)).bounds[2] + tx
+
+
+def _inside(where: dict, true: dict, w: float, h: float, edge: float, sep: float) -> dict:
+    """The placements (of the centred true shapes, in sparrow's strip) that lie inside the
+    sheet's margins and keep ``sep`` from each other, checked with shapely."""
+    shift = edge - 0.5 * sep
+    polys = {}
+    for n, (rot, (tx, ty)) in where.items():
+        polys[n] = affinity.translate(affinity.rotate(true[n], rot, origin=(0, 0)), tx + shift, ty + shift)
+    tol = 1e-6 * max(w, h)
+    ok = {n: p for n, p in polys.items()
+          if p.bounds[0] >= edge - tol and p.bounds[1] >= edge - tol
+          and p.bounds[2] <= w - edge + tol and p.bounds[3] <= h - edge + tol}
+    names = sorted(ok, key=lambda n: (-ok[n].area, n))
+    tree = shapely.STRtree([ok[n] for n in names])
+    bad: set = set()
+    for i, n in enumerate(names):
+        if n in bad:
+            continue
+        for j in tree.query(ok[n], predicate="dwithin", distance=sep - 1e-6 * sep):
+            m = names[j]
+            if j > i and m not in bad and ok[n].distance(ok[m]) < sep - 1e-6 * max(sep, 1.0):
+                bad.add(m)             # the smaller part goes back to the pool
+    return {n: where[n] for n in names if n not in bad}
+
+
+class _Chooser:
+    """Which parts to offer sparrow for one sheet (the row model of the module docstring)."""
+
+    def __init__(self, true: dict, area: dict, usable: tuple[float, float], sep: float):
+        self.area, self.sep = area, sep
+        self.length_u, self.height_u = usable
+        self.usable = usable[0] * usable[1]
+        self.small = {n for n, a in area.items() if a < _SMALL * self.usable}
+        #: a part's row height (its minimum width) and length along the row (area / width),
+        #: both with the spacing
+        self.height = {n: _min_width(p) + sep for n, p in true.items()}
+        self.length = {n: area[n] / (self.height[n] - sep) + sep for n in true}
+
+    def order(self, names: list) -> list:
+        """Large parts first, by the area of their row footprint; small ones after."""
+        return sorted(names, key=lambda n: (n in self.small, -self.height[n] * self.length[n], n))
+
+    def choose(self, pool: list, target: float, sheets_left: float) -> list:
+        """Parts for the next sheet: large ones in rows up to ``target`` of the sheet's area,
+        then small ones up to the same target, at most 1.5 times their share per sheet."""
+        cap = target * self.usable
+        rows: list[list[float]] = []          # [height, filled length]
+        used_h, sel, a = 0.0, [], 0.0
+        for n in pool:
+            if n in self.small or (sel and a + self.area[n] > cap):
+                continue
+            hn, ln = self.height[n], self.length[n]
+            for r in rows:
+                if hn <= r[0] + 1e-9 and r[1] + ln <= self.length_u + self.sep:
+                    r[1] += ln
+                    break
+            else:
+                if sel and used_h + hn > self.height_u + self.sep:
+                    continue
+                rows.append([hn, ln])
+                used_h += hn
+            sel.append(n)
+            a += self.area[n]
+        small = [n for n in pool if n in self.small]
+        share = 1.5 * sum(self.area[n] for n in small) / max(1.0, sheets_left)
+        s_used = 0.0
+        for n in small:
+            if sel and (a + self.area[n] > cap or s_used + self.area[n] > share):
+                break
+            sel.append(n)
+            a += self.area[n]
+            s_used += self.area[n]
+        return sel or pool[:1]
+
+
+def nest_parts(unrolled: Mapping, *, connectors=frozenset(), sheet: tuple[float, float] = (2500.0, 1250.0),
+               gap: float = 5.0, margin: float = 10.0, unit: str = "mm",
+               cutting: Cutting | None = None, nester: Nester | str = Nester.BOTTOM_LEFT,
+               rotations: Sequence[float] = (0, 90, 180, 270),
+               time_limit: float = DEFAULT_TIME_LIMIT, seed: int = DEFAULT_SEED,
+               rotation_step: float | None = None,
+               progress: Callable[[int, int], None] | None = None) -> Layout:
+    """The sheets of a fin system's unrolled parts ``{name: Unrolled}``: with
+    :attr:`Nester.SPARROW` all parts together (the connectors fill the gaps between the
+    plates; :func:`nest_for_yield`), with :attr:`Nester.BOTTOM_LEFT` the plates by
+    :func:`~.layout.nest` (``rotations``) and the ``connectors`` (names) in rows on the sheets
+    after them (:func:`~.layout.shelf_pack`). :class:`~.cutting.CuttingError` if the
+    cutting process cannot cut the slots."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    if cutting is not None:
+        cutting.check_slots(unrolled.values())
+    if Nester(nester) == Nester.SPARROW:
+        return nest_for_yield(list(unrolled.values()), sheet=sheet, gap=gap, margin=margin,
+                              unit=unit, cutting=cutting, time_limit=time_limit, seed=seed,
+                              rotation_step=rotation_step, progress=progress)
+    plates = nest([u for n, u in unrolled.items() if n not in connectors], sheet=sheet, gap=gap,
+                  margin=margin, rotations=rotations, unit=unit, cutting=cutting)
+    lay = plates
+    if connectors:
+        kit = shelf_pack([u for n, u in unrolled.items() if n in connectors], sheet=sheet, gap=gap,
+                         margin=margin, unit=unit, first_sheet=plates.n_sheets, cutting=cutting)
+        lay = merge_layouts(plates, kit)
+    lay.stats = NestStats(Nester.BOTTOM_LEFT.value, time.perf_counter() - t0,
+                          time.process_time() - c0, lay.area_bound,
+                          rotation=f"{len(rotations)} rotations", sheet_fill=lay.sheet_utilization)
+    return lay
