@@ -266,8 +266,8 @@ def brep_of(shape, tolerance: float):
                               return_index=True, return_inverse=True)
     ids = ids.ravel()
     mesh = rhino3dm.Mesh()
-    for x in pts[first]:
-        mesh.Vertices.Add(float(x[0]), float(x[1]), float(x[2]))
+    for x in pts[first]:             # double precision (Add keeps single precision)
+        mesh.Vertices.AddPoint3d(float(x[0]), float(x[1]), float(x[2]))
     offset = 0
     for v, t in faces:
         g = ids[offset:offset + len(v)][t]           # the face's triangles, welded ids

@@ -609,7 +609,7 @@ def read_dxf_parts(path, *, layer: str | None = None) -> tuple[list[Polygon], li
         if not e.closed:
             raise ValueError(f"{path}: open {layer} polyline {e.dxf.handle}")
         rings.append(Polygon([p[:2] for p in e.get_points("xy")]))
-    rings += [Point(e.dxf.center[:2]).buffer(e.dxf.radius, quad_segs=32)
+    rings += [Point(e.dxf.center.x, e.dxf.center.y).buffer(e.dxf.radius, quad_segs=32)
               for e in msp.query(f"CIRCLE[layer=='{layer}']")]
     rings.sort(key=lambda p: -p.area)
     outers: list[list] = []

@@ -266,11 +266,11 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     placements = [placement_of(by_name[n], s, rot, dx, dy) for n, s, rot, (dx, dy) in placed]
     fallback = 0
     if pool:                           # the budget is spent: the fast nesters take the rest
-        rest = merge_layouts(
-            nest([(n, by_name[n].outline) for n in pool if n not in chooser.small], sheet=sheet,
-                 gap=gap, margin=margin, unit=unit, cutting=cutting),
-            shelf_pack([(n, by_name[n].outline) for n in pool if n in chooser.small],
-                       sheet=sheet, gap=gap, margin=margin, unit=unit, cutting=cutting))
+        large = nest([(n, by_name[n].outline) for n in pool if n not in chooser.small],
+                     sheet=sheet, gap=gap, margin=margin, unit=unit, cutting=cutting)
+        rest = merge_layouts(large, shelf_pack(
+            [(n, by_name[n].outline) for n in pool if n in chooser.small], sheet=sheet, gap=gap,
+            margin=margin, unit=unit, cutting=cutting, first_sheet=large.n_sheets))
         for p in rest.placements:
             placements.append(placement_of(by_name[p.name], p.sheet + len(fill), p.rotation, *p.offset))
         fill += list(rest.sheet_utilization)
