@@ -271,6 +271,9 @@ def _as_items(outlines, cutting: Cutting | None = None) -> list[_Item]:
     if isinstance(outlines, Mapping):
         outlines = [(k, v) for k, v in outlines.items()]
     for i, o in enumerate(outlines):
+        if isinstance(o, _Item):          # prepared already (a nester handing parts on)
+            items.append(o)
+            continue
         if isinstance(o, tuple):
             name, poly = o
             items.append(_Item(str(name), Polygon(poly) if not isinstance(poly, Polygon) else poly, [],

@@ -19,6 +19,9 @@ each sheet is a strip problem of its own:
    rises after a sheet that fitted and drops after one that did not.
 4. Every kept part is checked with shapely (inside the margins, ``gap`` from every other
    part's cut): a part that is not goes back to the pool.
+5. The fast nester's layout (:func:`~.layout.nest` and :func:`~.layout.shelf_pack`) is made
+   too (up to 1,500 parts) and kept if it needs fewer sheets: the result is never worse than
+   the fast nester's (the stats' ``method`` says which one it is).
 
 Spacing: sparrow gets each outline grown by half the distance two outlines must keep
 (``gap + 2 kerf``, :func:`~.layout.spacing`) with a mitre join (narrow slots close), simplified
@@ -67,11 +70,13 @@ from .layout import (Layout, _as_items, _turned_shapes, check_fits, merge_layout
 __all__ = ["nest_for_yield", "nest_parts", "Nester", "NestStats", "DEFAULT_TIME_LIMIT", "DEFAULT_SEED"]
 
 #: seconds the nester may take by default
-DEFAULT_TIME_LIMIT = 60.0
+DEFAULT_TIME_LIMIT = 120.0
 #: sparrow's seed by default
 DEFAULT_SEED = 0
 #: parts smaller than this share of the usable sheet are fillers (brackets), not row parts
 _SMALL = 0.02
+#: the fast nester's layout is made too, and kept if it needs fewer sheets, up to this many parts
+_SAFETY_PARTS = 1500
 #: first target fill of a sheet (share of its usable area), and its bounds
 _TARGET, _TARGET_MIN, _TARGET_MAX = 0.86, 0.6, 0.95
 
@@ -104,6 +109,7 @@ class NestStats:
     fallback_parts: int = 0
     rotation: str = "free"
     sheet_fill: list = field(default_factory=list)
+    solve_seconds: float = 0.0
 
 
 def _grown(outline: Polygon, half: float) -> Polygon:
@@ -140,6 +146,8 @@ class _Sparrow:
         else:
             self.orientations = [float(a) for a in np.arange(0.0, 360.0, rotation_step)]
         self.calls = 0
+        self.seconds = 0.0             # wall seconds the solves took
+        self.asked = 0.0               # and the seconds they were given
 
     def solve(self, names: list, explore: int, compress: int) -> tuple[float, dict]:
         """Strip length and ``{name: (rotation deg, (tx, ty))}`` of the centred shapes."""
@@ -149,7 +157,10 @@ class _Sparrow:
         cfg = sp.StripPackingConfig(early_termination=True, total_computation_time=None,
                                     exploration_time=int(explore), compression_time=int(compress),
                                     num_workers=1, seed=int(self.seed))
+        t0 = time.perf_counter()
         sol = sp.StripPackingInstance("sheet", strip_height=float(self.height), items=items).solve(cfg)
+        self.seconds += time.perf_counter() - t0
+        self.asked += explore + compress
         self.calls += 1
         return float(sol.width), {p.id: (float(p.rotation), tuple(map(float, p.translation)))
                                   for p in sol.placed_items}
@@ -223,33 +234,37 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     while pool:
         left = time_limit - (time.perf_counter() - t0)
         n_left = max(1.0, sum(area[n] for n in pool) / (target * usable))
-        per = left / (1.2 * n_left)
+        # a solve takes longer than the seconds it is given (setting up; a loaded machine):
+        # plan with the ratio measured so far
+        ratio = max(1.0, solver.seconds / solver.asked) if solver.calls else 1.0
+        per = left / (1.2 * n_left * ratio)
         # sparrow needs about 2 s of exploration and 1 of compression to pack a sheet well
         # (measured on 7a: 1 + 0 s left sheets half empty)
         explore, compress = (int(0.6 * per), int(0.4 * per)) if per >= 5 else (2, 1)
-        if left < explore + compress:
+        if left < (explore + compress) * ratio:
             break
         sheet_no = len(fill)
         names = chooser.choose(pool, target, n_left)
-        kept = None
+        kept, best = None, {}
         for attempt in range(2):
-            length, where = solver.solve(names, explore, compress)
+            _, where = solver.solve(names, explore, compress)
             inside = _inside(where, true, w, h, edge, sep)
-            set_area = sum(area[n] for n in names)
-            kept_area = sum(area[n] for n in inside)
-            if length <= w - 2 * edge + sep + 1e-6 and len(inside) == len(names):
+            if len(inside) == len(names):
                 kept = inside
                 target = min(_TARGET_MAX, target + 0.01)
                 break
             target = max(_TARGET_MIN, target - 0.03)
-            if attempt == 1 or kept_area >= 0.9 * set_area or len(names) == 1 or \
-                    time_limit - (time.perf_counter() - t0) < explore + compress:
-                kept = inside
+            if sum(area[n] for n in inside) > sum(area[n] for n in best):
+                best = inside
+            if attempt == 1 or sum(area[n] for n in inside) >= 0.9 * sum(area[n] for n in names) \
+                    or len(names) == 1 or \
+                    time_limit - (time.perf_counter() - t0) < (explore + compress) * ratio:
                 break
-            # once more without the crossing part that reaches furthest
+            # once more without the part that reaches furthest out of the sheet
             out = [n for n in names if n not in inside]
             far = max(out, key=lambda n: (_reach(where[n], true[n]), area[n], n))
             names = [n for n in names if n != far]
+        kept = kept if kept is not None else best
         if not kept:
             break                      # sparrow placed nothing inside: the fallback takes over
         for n, (rot, (tx, ty)) in kept.items():
@@ -266,19 +281,43 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     placements = [placement_of(by_name[n], s, rot, dx, dy) for n, s, rot, (dx, dy) in placed]
     fallback = 0
     if pool:                           # the budget is spent: the fast nesters take the rest
-        large = nest([(n, by_name[n].outline) for n in pool if n not in chooser.small],
+        large = nest([by_name[n] for n in pool if n not in chooser.small],
                      sheet=sheet, gap=gap, margin=margin, unit=unit, cutting=cutting)
         rest = merge_layouts(large, shelf_pack(
-            [(n, by_name[n].outline) for n in pool if n in chooser.small], sheet=sheet, gap=gap,
+            [by_name[n] for n in pool if n in chooser.small], sheet=sheet, gap=gap,
             margin=margin, unit=unit, cutting=cutting, first_sheet=large.n_sheets))
         for p in rest.placements:
-            placements.append(placement_of(by_name[p.name], p.sheet + len(fill), p.rotation, *p.offset))
-        fill += list(rest.sheet_utilization)
+            p.sheet += len(fill)
+            placements.append(p)
+        fill += [0.0] * rest.n_sheets          # measured below
         fallback = len(rest.placements)
+    # never worse than the fast nester: where it needs fewer sheets (a loaded machine gives
+    # sparrow too little of each second), its layout is kept (for up to _SAFETY_PARTS parts:
+    # beyond, the fast nester itself takes minutes)
+    fast = None
+    if len(items) <= _SAFETY_PARTS:
+        large = nest([it for it in items if it.name not in chooser.small], sheet=sheet, gap=gap,
+                     margin=margin, unit=unit, cutting=cutting)
+        fast = merge_layouts(large, shelf_pack(
+            [it for it in items if it.name in chooser.small], sheet=sheet, gap=gap, margin=margin,
+            unit=unit, cutting=cutting, first_sheet=large.n_sheets))
+    # sheets numbered 0.. in order of use (none left empty)
+    renumber = {s: i for i, s in enumerate(sorted({p.sheet for p in placements}))}
+    for p in placements:
+        p.sheet = renumber[p.sheet]
+    fill = [0.0] * len(renumber)
+    for p in placements:
+        fill[p.sheet] += area[p.name] / (w * h)
     placements.sort(key=lambda p: (p.sheet, p.name))
     stats = NestStats("sparrow", time.perf_counter() - t0, time.process_time() - c0,
                       total / (w * h), solver.calls, seed, float(time_limit), fallback,
-                      "free" if rotation_step is None else f"{rotation_step:g} deg steps", fill)
+                      "free" if rotation_step is None else f"{rotation_step:g} deg steps", fill,
+                      solver.seconds)
+    if fast is not None and fast.n_sheets < len(fill):
+        stats.method = f"{Nester.BOTTOM_LEFT.value} (sparrow: {len(fill)} sheets)"
+        stats.sheet_fill = fast.sheet_utilization
+        fast.stats = stats
+        return fast
     return Layout((w, h), placements, len(fill), unit=unit, gap=gap, margin=margin,
                   cutting=cutting, stats=stats)
 
