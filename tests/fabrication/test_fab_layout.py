@@ -243,8 +243,8 @@ def test_sparrow_nest_is_repeatable_for_a_seed():
 
     # 9 trapezoids that pair up head to tail
     parts = {f"t{i}": Polygon([(0, 0), (560, 0), (500, 180), (60, 180)]) for i in range(9)}
-    runs = [nest_for_yield(parts, sheet=(1250, 625), gap=5, margin=10, time_limit=5, seed=7)
-            for _ in range(2)]
+    runs = [nest_for_yield(parts, sheet=(1250, 625), gap=5, margin=10, time_limit=5, seed=7,
+                           compare_fast=False) for _ in range(2)]
     a, b = ([(p.name, p.sheet, round(p.rotation, 6), np.round(p.offset, 6).tolist())
              for p in r.placements] for r in runs)
     assert a == b

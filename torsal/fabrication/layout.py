@@ -5,11 +5,17 @@
   candidate corners of the parts already there, then slid down and left as far as it stays
   free; the placement with the lowest top edge wins; a new sheet is opened when nothing fits.
   Overlap checks keep ``gap`` between parts and ``margin`` to the sheet edge.
-* :meth:`Layout.export_dxf` writes one DXF (R2010, ezdxf) per sheet: layers ``CUT`` (closed
-  LWPOLYLINE outlines and holes), ``FOLD`` (fold lines and their angle as TEXT, ``M``/``V`` for
-  mountain/valley seen from the top), ``ENGRAVE`` (part id TEXT), ``SHEET`` (sheet border, not
-  to be cut); ``$INSUNITS`` set from the unit; plus an SVG preview of each sheet
-  (:func:`sheet_svg`, the same drawing as SVG elements).
+* :meth:`Layout.export_dxf` writes one DXF (R2010, ezdxf) per sheet: layers ``CUT`` (the
+  toolpath of the layout's :class:`~.cutting.Cutting` process: each outline offset by half
+  the kerf, slots and holes compensated, reliefs at inner slot corners; the outline itself
+  when there is no process), ``NOMINAL`` (the parts as designed, holes as circles; not cut),
+  ``DRILL`` (holes narrower than the tool), ``FOLD`` (fold lines and their angle as TEXT,
+  ``M``/``V`` for mountain/valley seen from the top), ``ENGRAVE`` (part id TEXT), ``SHEET``
+  (sheet border, not to be cut); ``$INSUNITS`` set from the unit; plus an SVG preview of each
+  sheet (:func:`sheet_svg`, the same drawing as SVG elements).
+* Spacing: ``gap`` and ``margin`` are the sheet left between two cuts and between a cut and
+  the sheet edge; the outlines keep ``gap + 2 kerf`` and ``margin + kerf`` (:func:`spacing`).
+  :func:`~.nesting.nest_for_yield` nests for fewer sheets in a time budget.
 * :func:`bill_of_materials` writes the parts list as CSV.
 
 Units: sheet sizes, gaps and all coordinates in the fin system's ``unit`` (mm by default).

@@ -46,7 +46,7 @@ Example
 -------
 >>> from shapely.geometry import box
 >>> parts = {f"p{i}": box(0, 0, 300 + 20 * i, 100) for i in range(6)}
->>> lay = nest_for_yield(parts, sheet=(1000, 500), gap=5, margin=10, time_limit=5)
+>>> lay = nest_for_yield(parts, sheet=(1000, 500), gap=5, margin=10, time_limit=5, compare_fast=False)
 >>> lay.n_sheets, lay.stats.method
 (1, 'sparrow')
 """
@@ -169,7 +169,7 @@ class _Sparrow:
 def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
                    margin: float = 10.0, unit: str = "mm", cutting: Cutting | None = None,
                    time_limit: float = DEFAULT_TIME_LIMIT, seed: int = DEFAULT_SEED,
-                   rotation_step: float | None = None,
+                   rotation_step: float | None = None, compare_fast: bool = True,
                    progress: Callable[[int, int], None] | None = None) -> Layout:
     """Nest flat parts on as few sheets as the time allows (see the module docstring).
 
@@ -190,6 +190,8 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
         Sparrow's seed.
     rotation_step : float, optional
         Allowed rotations in steps of this many degrees; None: any rotation.
+    compare_fast : bool
+        Make the fast nester's layout too and keep it where it needs no more sheets (step 5).
     progress : callable, optional
         ``progress(sheets done, parts left)`` after each sheet.
 
@@ -231,8 +233,26 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     fill: list[float] = []
     target = _TARGET
     pool = chooser.order(list(by_name))
+    # never worse than the fast nester: its layout is made first (up to _SAFETY_PARTS parts:
+    # beyond, it takes minutes) and kept where sparrow needs as many sheets or more (a loaded
+    # machine gives sparrow too little of each second); sparrow does not start where it is
+    # at the area bound's ceiling already, and stops as soon as it can no longer beat it
+    fast = None
+    if compare_fast and len(items) <= _SAFETY_PARTS:
+        large = nest([it for it in items if it.name not in chooser.small], sheet=sheet, gap=gap,
+                     margin=margin, unit=unit, cutting=cutting)
+        fast = merge_layouts(large, shelf_pack(
+            [it for it in items if it.name in chooser.small], sheet=sheet, gap=gap, margin=margin,
+            unit=unit, cutting=cutting, first_sheet=large.n_sheets))
+    beaten = (lambda sheets_so_far, left_area: fast is not None and
+              sheets_so_far + np.ceil(left_area / usable - 1e-9) >= fast.n_sheets)
+    at_bound = beaten(0, total)
+    if at_bound:
+        pool = []                      # the fast layout is as good as any can be
     while pool:
         left = time_limit - (time.perf_counter() - t0)
+        if beaten(len(fill), sum(area[n] for n in pool)):
+            break
         n_left = max(1.0, sum(area[n] for n in pool) / (target * usable))
         # a solve takes longer than the seconds it is given (setting up; a loaded machine):
         # plan with the ratio measured so far
@@ -280,7 +300,8 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
             progress(len(fill), len(pool))
     placements = [placement_of(by_name[n], s, rot, dx, dy) for n, s, rot, (dx, dy) in placed]
     fallback = 0
-    if pool:                           # the budget is spent: the fast nesters take the rest
+    pool_left = bool(pool) and fast is not None     # the fast layout is kept: no fallback needed
+    if pool and not pool_left:                           # the budget is spent: the fast nesters take the rest
         large = nest([by_name[n] for n in pool if n not in chooser.small],
                      sheet=sheet, gap=gap, margin=margin, unit=unit, cutting=cutting)
         rest = merge_layouts(large, shelf_pack(
@@ -291,16 +312,6 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
             placements.append(p)
         fill += [0.0] * rest.n_sheets          # measured below
         fallback = len(rest.placements)
-    # never worse than the fast nester: where it needs fewer sheets (a loaded machine gives
-    # sparrow too little of each second), its layout is kept (for up to _SAFETY_PARTS parts:
-    # beyond, the fast nester itself takes minutes)
-    fast = None
-    if len(items) <= _SAFETY_PARTS:
-        large = nest([it for it in items if it.name not in chooser.small], sheet=sheet, gap=gap,
-                     margin=margin, unit=unit, cutting=cutting)
-        fast = merge_layouts(large, shelf_pack(
-            [it for it in items if it.name in chooser.small], sheet=sheet, gap=gap, margin=margin,
-            unit=unit, cutting=cutting, first_sheet=large.n_sheets))
     # sheets numbered 0.. in order of use (none left empty)
     renumber = {s: i for i, s in enumerate(sorted({p.sheet for p in placements}))}
     for p in placements:
@@ -313,8 +324,11 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
                       total / (w * h), solver.calls, seed, float(time_limit), fallback,
                       "free" if rotation_step is None else f"{rotation_step:g} deg steps", fill,
                       solver.seconds)
-    if fast is not None and fast.n_sheets < len(fill):
-        stats.method = f"{Nester.BOTTOM_LEFT.value} (sparrow: {len(fill)} sheets)"
+    if fast is not None and (at_bound or pool_left or fast.n_sheets <= len(fill)):
+        why = ("at the area bound" if at_bound else
+               "sparrow could not use fewer sheets in the time" if pool_left else
+               f"sparrow: {len(fill)} sheets")
+        stats.method = f"{Nester.BOTTOM_LEFT.value} ({why})"
         stats.sheet_fill = fast.sheet_utilization
         fast.stats = stats
         return fast
