@@ -62,8 +62,9 @@ def sheets_cell(fa: dict) -> str:
         return "- | -"
     util = n.get("utilization_dxf")
     util = n["utilization"] if util is None else util
+    nester = n["nester"].split(" (")[0] + (" kept" if "(" in n["nester"] else "")
     return (f"{n['sheets']} / {n['area_bound_sheets']:.1f} | {100 * util:.0f}% "
-            f"({n['nester']}, {n['seconds']:.0f} s)")
+            f"({nester}, {n['seconds']:.0f} s)")
 
 
 def min_torsal_angle(c: dict) -> str:
