@@ -67,9 +67,12 @@ from .cutting import Cutting
 from .layout import (Layout, _as_items, _turned_shapes, check_fits, merge_layouts, nest,
                      placement_of, shelf_pack, spacing)
 
-__all__ = ["nest_for_yield", "nest_parts", "Nester", "NestStats", "DEFAULT_TIME_LIMIT", "DEFAULT_SEED"]
+__all__ = ["nest_for_yield", "nest_parts", "Nester", "NestStats", "DEFAULT_TIME_LIMIT",
+           "SECONDS_PER_SHEET", "DEFAULT_SEED"]
 
-#: seconds the nester may take by default
+#: seconds the nester may take by default: this many per sheet the parts' area needs...
+SECONDS_PER_SHEET = 4.0
+#: ... and at most this many
 DEFAULT_TIME_LIMIT = 120.0
 #: sparrow's seed by default
 DEFAULT_SEED = 0
@@ -168,7 +171,7 @@ class _Sparrow:
 
 def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
                    margin: float = 10.0, unit: str = "mm", cutting: Cutting | None = None,
-                   time_limit: float = DEFAULT_TIME_LIMIT, seed: int = DEFAULT_SEED,
+                   time_limit: float | None = None, seed: int = DEFAULT_SEED,
                    rotation_step: float | None = None, compare_fast: bool = True,
                    progress: Callable[[int, int], None] | None = None) -> Layout:
     """Nest flat parts on as few sheets as the time allows (see the module docstring).
@@ -184,8 +187,10 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
         (``unit``; see :func:`~.layout.spacing`).
     cutting : Cutting, optional
         The cutting process (kerf, reliefs); None: cut on the outline.
-    time_limit : float
-        Seconds (wall clock) for the whole nesting; at least 1.
+    time_limit : float, optional
+        Seconds (wall clock) for the whole nesting, at least 1; default
+        :data:`SECONDS_PER_SHEET` per sheet the parts' area needs, at most
+        :data:`DEFAULT_TIME_LIMIT`.
     seed : int
         Sparrow's seed.
     rotation_step : float, optional
@@ -211,7 +216,7 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
         raise ValueError(f"sheet must have positive size, got {sheet}")
     if gap < 0 or margin < 0:
         raise ValueError("gap and margin must be >= 0")
-    if not time_limit >= 1:
+    if time_limit is not None and not time_limit >= 1:
         raise ValueError(f"time_limit must be at least 1 s, got {time_limit}")
     if rotation_step is not None and not 0 < rotation_step <= 360:
         raise ValueError(f"rotation_step must be in (0, 360] degrees, got {rotation_step}")
@@ -229,6 +234,8 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     solver = _Sparrow(shapes, h - 2 * edge + sep, seed, rotation_step)
     chooser = _Chooser(true, area, (w - 2 * edge, h - 2 * edge), sep)
     total = sum(area.values())
+    if time_limit is None:
+        time_limit = min(DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET * max(1.0, np.ceil(total / usable)))
     placed: list = []                  # (name, sheet, rotation, (dx, dy)) of the original outline
     fill: list[float] = []
     target = _TARGET
@@ -247,11 +254,18 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     beaten = (lambda sheets_so_far, left_area: fast is not None and
               sheets_so_far + np.ceil(left_area / usable - 1e-9) >= fast.n_sheets)
     at_bound = beaten(0, total)
+    fill_area = 0.0
     if at_bound:
         pool = []                      # the fast layout is as good as any can be
     while pool:
         left = time_limit - (time.perf_counter() - t0)
-        if beaten(len(fill), sum(area[n] for n in pool)):
+        left_area = sum(area[n] for n in pool)
+        if beaten(len(fill), left_area):
+            break
+        # after two sheets, sparrow's own fill so far projects its sheets: stop where that
+        # cannot beat the fast layout (a starved solver packs loosely; go on where it packs well)
+        if fast is not None and len(fill) >= 2 and fill_area > 0 and \
+                len(fill) + np.ceil(left_area / (fill_area / len(fill))) >= fast.n_sheets:
             break
         n_left = max(1.0, sum(area[n] for n in pool) / (target * usable))
         # a solve takes longer than the seconds it is given (setting up; a loaded machine):
@@ -295,6 +309,7 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
             shift = edge - 0.5 * sep
             placed.append((n, sheet_no, rot, (tx + shift - cr[0], ty + shift - cr[1])))
         fill.append(sum(area[n] for n in kept) / (w * h))
+        fill_area += sum(area[n] for n in kept)
         pool = [n for n in pool if n not in kept]
         if progress is not None:
             progress(len(fill), len(pool))
@@ -420,7 +435,7 @@ def nest_parts(unrolled: Mapping, *, connectors=frozenset(), sheet: tuple[float,
                gap: float = 5.0, margin: float = 10.0, unit: str = "mm",
                cutting: Cutting | None = None, nester: Nester | str = Nester.BOTTOM_LEFT,
                rotations: Sequence[float] = (0, 90, 180, 270),
-               time_limit: float = DEFAULT_TIME_LIMIT, seed: int = DEFAULT_SEED,
+               time_limit: float | None = None, seed: int = DEFAULT_SEED,
                rotation_step: float | None = None,
                progress: Callable[[int, int], None] | None = None) -> Layout:
     """The sheets of a fin system's unrolled parts ``{name: Unrolled}``: with

@@ -47,7 +47,7 @@ from ..core.units import UNIT_TO_M
 from ..geometry.optimize import TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
-from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, Nester
+from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
 
 __all__ = [
     "DesignFileError",
@@ -358,9 +358,10 @@ class NestingSpec(_Spec):
     """How the parts are nested on the sheets."""
 
     nester: Nester = Nester.SPARROW
-    time_limit_s: float = Field(DEFAULT_TIME_LIMIT, ge=3, description="wall clock the sparrow "
-                                "nester may take; when spent, the parts left are nested by the "
-                                "fast nester")
+    time_limit_s: float | None = Field(None, ge=3, description="wall clock the sparrow nester "
+                                       f"may take; unset: {SECONDS_PER_SHEET:g} s per sheet the "
+                                       f"parts' area needs, at most {DEFAULT_TIME_LIMIT:g} s; the "
+                                       "fast nester's layout is kept where sparrow does not beat it")
     seed: int = Field(DEFAULT_SEED, ge=0, description="the sparrow nester's seed")
     rotation_step_deg: float | None = Field(None, gt=0, le=360, description="degrees; parts "
                                             "turn in steps of this; unset: any rotation")
