@@ -49,6 +49,8 @@ from ..geometry.congruence import ZERO_DIRECTION_RTOL
 from ..geometry.mesh import MAX_COORDINATE
 from ..geometry.optimize import TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
+from ..fabrication.cutting import Process as CuttingProcess, Relief
+from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
 
 __all__ = [
     "DesignFileError",
@@ -361,6 +363,35 @@ class MaterialSpec(_Spec):
         return v
 
 
+class CuttingSpec(_Spec):
+    """How the sheets are cut: the DXF's CUT layer is the toolpath for this process
+    (defaults per process in :mod:`torsal.fabrication.cutting`)."""
+
+    process: CuttingProcess = CuttingProcess.LASER
+    kerf_mm: float | None = Field(None, ge=0, description="width of the cut; unset: the "
+                                  "process's (laser 0.2, waterjet 1.0, router the tool diameter)")
+    tool_diameter_mm: float | None = Field(None, gt=0, description="diameter of the beam, jet or "
+                                           "bit; unset: the process's (laser 0.2, waterjet 1.0, "
+                                           "router 3.175)")
+    relief: Relief | None = Field(None, description="relief at inner slot corners; unset: "
+                                  "dogbone for a router, none otherwise")
+
+
+class NestingSpec(_Spec):
+    """How the parts are nested on the sheets."""
+
+    nester: Nester = Nester.SPARROW
+    time_limit_s: float | None = Field(None, ge=3, description="wall clock the sparrow nester "
+                                       f"may take; unset: {SECONDS_PER_SHEET:g} s per sheet the "
+                                       f"parts' area needs, at most {DEFAULT_TIME_LIMIT:g} s; the "
+                                       "fast nester's layout is kept where sparrow does not beat it")
+    seed: int = Field(DEFAULT_SEED, ge=0, description="the sparrow nester's seed")
+    rotation_step_deg: float | None = Field(None, gt=0, le=360, description="degrees; parts "
+                                            "turn in steps of this; unset: any rotation")
+    margin_mm: float = Field(10.0, ge=0, description="sheet left between the cuts and the "
+                             "sheet edge")
+
+
 class OutputsSpec(_Spec):
     step: bool = True
     rhino_3dm: bool = True
@@ -394,6 +425,8 @@ class DesignSpec(_Spec):
     constraints: ConstraintsSpec = Field(default_factory=ConstraintsSpec)
     fins: FinsSpec
     material: MaterialSpec = Field(default_factory=MaterialSpec)
+    cutting: CuttingSpec = Field(default_factory=CuttingSpec)
+    nesting: NestingSpec = Field(default_factory=NestingSpec)
     outputs: OutputsSpec = Field(default_factory=OutputsSpec)
     substructure: SubstructureSpec | None = None
 

@@ -586,6 +586,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
         dxf = fa.get("dxf") or []
         rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
                 ("sheet utilization", fa["utilization"]),
+                *_nesting_rows(fa.get("nesting"), fa.get("cutting")),
                 ("fin panels left out", _left_out_cell(fa)),
                 ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
                 ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
@@ -596,6 +597,27 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
             secs.append(_assembly_html(fa["assembly"]))
     return _HTML.format(title=html.escape(title), units=html.escape(str(report.get("units", ""))),
                         sections="\n".join(secs))
+
+
+def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
+    """Report rows of the nesting (sheets against the area bound, utilization read back from
+    the DXF, time) and the cutting process."""
+    rows = []
+    if nest:
+        dxf = nest.get("utilization_dxf")
+        rows += [("sheets / area bound (parts' area / sheet area)",
+                  f"{nest['sheets']} / {nest['area_bound_sheets']:.1f}"),
+                 ("utilization, DXF read back", "-" if dxf is None else f"{100 * dxf:.1f}%"),
+                 ("nesting", f"{nest['nester']}, {nest['seconds']:.0f} s"
+                  + (f" of {nest['time_limit_s']:g} s, seed {nest['seed']}"
+                     if nest.get("time_limit_s") else "")
+                  + (f", {nest['fallback_parts']} parts by the fast nester"
+                     if nest.get("fallback_parts") else ""))]
+    if cut:
+        rows.append(("cutting (DXF layer CUT)",
+                     f"{cut['process']}, kerf {cut['kerf_mm']:g} mm, tool {cut['tool_diameter_mm']:g} mm, "
+                     f"reliefs: {cut['relief']} ({cut['reliefs']})"))
+    return rows
 
 
 def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,

@@ -395,7 +395,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
     try:
-        layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
+        layout = _nest(inp, fs)
         if spec.outputs.dxf:
             paths = layout.export_dxf(out / "sheets" / "fins.dxf")
             written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
@@ -420,6 +420,8 @@ def run_fabrication(inp: StageInputs) -> dict:
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
+        "nesting": _nesting_report(layout, out / "sheets" if spec.outputs.dxf else None),
+        "cutting": _cutting_report(layout),
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
         "files": written, "layout": layout,
@@ -427,6 +429,59 @@ def run_fabrication(inp: StageInputs) -> dict:
         "left_out_edges": sorted({d["edge"] for d in left_out}),
         # for the assembly stage: which parts each joint joins, and along which axis
         "joints": joints_of(fs)}
+
+
+def _nest(inp: StageInputs, fs):
+    """The design's sheets: its [cutting] process and [nesting] options."""
+    from ..fabrication.cutting import Cutting
+
+    spec, m = inp.spec, inp.spec.material
+    c, n = spec.cutting, spec.nesting
+    cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
+                                  relief=c.relief, unit=fs.unit)
+    return fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                     nester=n.nester, time_limit=n.time_limit_s, seed=n.seed,
+                     rotation_step=n.rotation_step_deg,
+                     progress=lambda done, left: inp.progress(
+                         "progress", {"phase": "nesting sheets", "done": done,
+                                      "total": done + left}))
+
+
+def _nesting_report(layout, sheets_dir) -> dict:
+    """Sheets used, the area bound, utilization (of the layout, and of the DXF files read back
+    with ezdxf when written) and the nester's time."""
+    from ..fabrication.layout import read_dxf_parts
+
+    st = layout.stats
+    sheet_area = layout.sheet[0] * layout.sheet[1]
+    rep = {"nester": st.method, "sheets": int(layout.n_sheets),
+           "area_bound_sheets": float(layout.area_bound),
+           "utilization": float(layout.utilization), "utilization_dxf": None,
+           "seconds": float(st.seconds), "cpu_seconds": float(st.cpu_seconds),
+           "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
+           "fallback_parts": int(st.fallback_parts), "rotation": st.rotation}
+    if sheets_dir is not None and layout.n_sheets:
+        area = 0.0
+        for s in range(layout.n_sheets):
+            polys, _, _ = read_dxf_parts(sheets_dir / f"fins_sheet{s + 1:02d}.dxf")
+            area += sum(p.area for p in polys)
+        rep["utilization_dxf"] = float(area / (layout.n_sheets * sheet_area))
+    return rep
+
+
+def _cutting_report(layout) -> dict | None:
+    """The cutting process the DXF's CUT layer is compensated for, and its reliefs and holes."""
+    c = layout.cutting
+    if c is None:
+        return None
+    from ..core.units import UNIT_TO_MM
+
+    f = UNIT_TO_MM[c.unit]
+    holes = [d for p in layout.placements for _, d in p.holes]
+    return {"process": c.process.value, "kerf_mm": c.kerf * f, "tool_diameter_mm": c.tool_diameter * f,
+            "relief": c.relief.value, "reliefs": int(sum(len(p.reliefs) for p in layout.placements)),
+            "holes_cut": int(sum(c.hole_path(d)[0] == "cut" for d in holes)),
+            "holes_drilled": int(sum(c.hole_path(d)[0] == "drill" for d in holes))}
 
 
 # ------------------------------------------------------------------ report
@@ -512,7 +567,8 @@ def _has_substructure(spec):
 
 
 def _fabrication_key(spec):
-    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units)
+    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units,
+            spec.cutting.model_dump(mode="json"), spec.nesting.model_dump(mode="json"))
 
 
 def _assembly_key(spec):
