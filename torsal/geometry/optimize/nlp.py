@@ -299,7 +299,7 @@ class _Assembly:
         if len(L.h_rows):
             hv = L.hess.map(m)(*args, coef)      # (nh, m)
             hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
-            if self.projected and not t.constraint:
+            if self.projected and (not t.constraint or self.hessian == "projected-all"):
                 self.blocks.append(Block(hv, L.h_rows, L.h_cols, xidx))
             else:
                 self.hess.add(ca.vec(hv), np.minimum(hr, hc), np.maximum(hr, hc))
@@ -316,7 +316,9 @@ class _Assembly:
 
     @property
     def projected(self) -> bool:
-        return self.hessian == "projected"
+        # "projected-all" (the augmented Lagrangian's NLP, :mod:`.alm`): the constraints'
+        # element Hessians times their multipliers are projected too
+        return self.hessian in ("projected", "projected-all")
 
     def finish(self):
         """``(grad, g, jac, hess)``: the pieces scattered into the global vectors and matrices."""
@@ -413,7 +415,7 @@ class Built:
         self.energy_names = [t.name for t in terms if not t.constraint]
         #: the Lagrangian Hessian is positive semidefinite by construction: no constraint rows
         #: and every energy quadratic (PSD Q) or Gauss-Newton with the chart curvature left out
-        self.psd = self.n_g == 0 and (self.hessian == "projected" or self.hessian == "gauss-newton" and all(
+        self.psd = self.n_g == 0 and (self.hessian in ("projected", "projected-all") or self.hessian == "gauss-newton" and all(
             t.matrix is not None or (t.element.residual is not None) for t in terms))
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)

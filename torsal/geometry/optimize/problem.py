@@ -27,11 +27,18 @@ from .forms import (ANGLE_FORMS, TorsalAngleForm, torsal_angle_anchored_element,
                     torsal_form_coordinates_element)
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
+from .alm import AlmRun, AugmentedLagrangian
 from .lbfgs import lbfgs
 from .measure import Measurement, measure, worst_missed
 from .nlp import Built, _renormalize
 from .result import OptimizationError, OptimizationResult
 from .working_set import _working_ids
+
+#: the ``solver`` options of :meth:`CongruenceProblem.solve` (the first is the default)
+SOLVERS = ("auto", "alm", "ipopt", "lbfgs")
+
+#: Newton steps of the augmented Lagrangian when ``max_iter`` is not given
+ALM_MAX_STEPS = 500
 
 #: the ``hessian`` options of :class:`CongruenceProblem` (the first is the default)
 HESSIANS = ("projected", "exact", "guarded", "gauss-newton", "auto")
@@ -56,6 +63,7 @@ class _Start(NamedTuple):
     x0: np.ndarray                  # ``e0`` packed as the NLP's variables
     frames: np.ndarray              # (n, 9) tangent frames of ``Built.pack`` ((0, 9) if unused)
     p: np.ndarray                   # the NLP's parameters at the start
+    resume: bool = False            # starts from the last answer (its multipliers, penalties)
 
 
 class _Run(NamedTuple):
@@ -71,6 +79,7 @@ class _Run(NamedTuple):
     frames: np.ndarray              # the frames to unpack ``x`` with (re-centred by IPOPT's passes)
     build_seconds: float            # NLPs built during the run (IPOPT's passes)
     solve_seconds: float
+    alm: AlmRun | None = None       # the augmented Lagrangian's run (state for a warm re-solve)
 
 
 class CongruenceProblem:
@@ -834,20 +843,28 @@ class CongruenceProblem:
     def build(self, solver: str = "ipopt") -> float:
         """Assemble the NLP (done by :meth:`solve` when needed); returns the seconds it took.
 
-        The built NLP is kept until a term's element subset changes (parameters and weights
-        can change freely).
+        ``solver``: ``"ipopt"`` (the NLP IPOPT solves), ``"alm"`` (the same NLP with every
+        element Hessian projected, see :mod:`.alm`) or ``"lbfgs"`` (constraints as
+        penalties). The built NLP is kept until a term's element subset changes (parameters
+        and weights can change freely).
         """
-        if solver not in ("ipopt", "lbfgs"):
-            raise ValueError(f"solver must be 'ipopt' or 'lbfgs', got {solver!r}")
-        mode = self._mode(solver)
-        if mode in self._built:
+        if solver not in ("ipopt", "lbfgs", "alm"):
+            raise ValueError(f"solver must be 'ipopt', 'alm' or 'lbfgs', got {solver!r}")
+        key = self._key(solver)
+        if key in self._built:
             return 0.0
         if not self._terms:
             raise ValueError("the problem has no terms; add energies (e.g. .normal().fair()) before solving")
+        mode = self._mode(solver)
         terms = self._term_list(mode)
-        self._built[mode] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(False, terms),
-                                  elastic=self.elastic if mode != "penalty" else 0.0)
-        return self._built[mode].seconds
+        hessian = "projected-all" if solver == "alm" else self._hessian_of(False, terms)
+        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, hessian,
+                                 elastic=self.elastic if mode != "penalty" and solver != "alm" else 0.0)
+        return self._built[key].seconds
+
+    def _key(self, solver: str) -> str:
+        """The key of ``solver``'s NLP in ``self._built``."""
+        return self._mode(solver) + ("/alm" if solver == "alm" else "")
 
     def _hessian_of(self, pass1: bool, terms: list) -> str:
         """The energies' Hessian of the NLP of ``terms`` (``hessian="auto"``: Gauss-Newton for
@@ -883,9 +900,12 @@ class CongruenceProblem:
         return cur
 
     def _evaluate(self, e: np.ndarray):
-        """(energies dict, objective, g, built) at stacked directions ``e`` with the main NLP."""
-        self.build("ipopt")
-        b = self._built[self.normalize]
+        """(energies dict, objective, g, built) at stacked directions ``e`` with the main NLP
+        (IPOPT's, or the augmented Lagrangian's when only that one is built: same values)."""
+        b = self._built.get(self.normalize) or self._built.get(self._key("alm"))
+        if b is None:
+            self.build("ipopt")
+            b = self._built[self.normalize]
         x, fr = b.pack(e)
         ev, f, g = b.evaluate(x, b.parameters(self._current(), fr))
         out = {k: float(v) for k, v in zip(b.energy_names, np.asarray(ev).ravel())}
@@ -1044,7 +1064,7 @@ class CongruenceProblem:
         """IPOPT's iteration callback (cached with the solver) -> the solve in progress."""
         return self._strategy.report(arg) if self._strategy is not None else False
 
-    def solve(self, solver: str = "ipopt", max_iter: int | None = None, tol: float = 1e-4,
+    def solve(self, solver: str = SOLVERS[0], max_iter: int | None = None, tol: float = 1e-4,
               callback: Callable | None = None, *, warm_start: bool = True, initial=None,
               raise_on_failure: bool = False, verbose: bool = False, constraint_tol: float = 1e-6,
               angle_tol_deg: float = 0.1, penalty: float = 1e3, ipopt_options: dict | None = None,
@@ -1126,10 +1146,12 @@ class CongruenceProblem:
             ``success`` needs a converged solver *and* every constraint holding as measured.
         """
         t_call = time.perf_counter()
+        solver = self._route(solver)
         build_s = self.build(solver)
-        build_s += self.build("ipopt")    # the main NLP also evaluates energies and constraints
+        if solver != "alm":
+            build_s += self.build("ipopt")    # the main NLP also evaluates energies and constraints
         mode = self._mode(solver)
-        b = self._built[mode]
+        b = self._built[self._key(solver)]
         start = self._start(solver, b, initial, warm_start)
         tols = dict(angle_tol_deg=float(angle_tol_deg), constraint_tol=float(constraint_tol))
 
@@ -1138,6 +1160,7 @@ class CongruenceProblem:
             return max((x.worst / x.tolerance if x.tolerance > 0 else x.worst for x in m), default=0.0)
 
         monitor = SolveMonitor(worst, callback, max_seconds, t0=t_call)
+        monitor.tolerances = tols
         run = self._run(solver, b, mode, start, monitor, max_iter=max_iter, tol=tol, verbose=verbose,
                         ipopt_options=ipopt_options, try_unconstrained=try_unconstrained, penalty=penalty)
         build_s += run.build_seconds
@@ -1171,7 +1194,7 @@ class CongruenceProblem:
     def _start(self, solver: str, b: Built, initial, warm_start: bool) -> _Start:
         """Where :meth:`solve` starts: ``initial``, the last answer (warm start) or the
         congruence's directions (moved off the line-bundle apex, :meth:`_off_the_apex`)."""
-        e0, lam_g0, warm = self._directions(), None, False
+        e0, lam_g0, warm, resume = self._directions(), None, False, False
         if initial is not None:
             init = np.asarray(initial, dtype=float)
             if init.size != self.n_var or not np.isfinite(init).all():
@@ -1179,6 +1202,7 @@ class CongruenceProblem:
             e0 = init.reshape(-1, 3)
         elif warm_start and self._last is not None:
             e0 = self._last["e"]
+            resume = True
             lam_g0 = self._last.get("lam_g") if solver == "ipopt" else None
             warm = lam_g0 is not None and lam_g0.size == b.n_g and b.n_g > 0
         if not warm and initial is None:
@@ -1186,13 +1210,15 @@ class CongruenceProblem:
         before = self._evaluate(e0)[0]
         x0, frames = b.pack(e0)
         p = b.parameters(self._current(), frames)
-        return _Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p)
+        return _Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p, resume=resume)
 
     def _run(self, solver: str, b: Built, mode: str, start: _Start, monitor: SolveMonitor, *,
              max_iter: int | None, tol: float, verbose: bool, ipopt_options: dict | None,
              try_unconstrained: bool, penalty: float) -> _Run:
         """Run IPOPT (its passes, then the anchored form's outer rounds) or L-BFGS from ``start``."""
         t0 = time.perf_counter()
+        if solver == "alm":
+            return self._run_alm(b, start, monitor, max_iter=max_iter, tol=tol, t0=t0)
         if solver != "ipopt":
             r = lbfgs(b, start.x0, start.p, monitor, max_iter=max_iter or 1000, tol=tol, penalty=penalty)
             return _Run(x=r.x, lam_g=None, iterations=r.iterations, status=r.status, ok=r.converged,
@@ -1212,6 +1238,51 @@ class CongruenceProblem:
         return _Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
                     active=out.constraints_active, working=out.working, frames=frames,
                     build_seconds=strategy.build_seconds, solve_seconds=solve_s)
+
+    def _route(self, solver: str) -> str:
+        """The strategy of ``solve(solver=...)``: ``"auto"`` is the augmented Lagrangian where
+        the NLP has inequality rows it can solve (tangent chart, no lifted variables or
+        slacks), IPOPT otherwise (see :meth:`solve`)."""
+        if solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+        if solver in ("ipopt", "lbfgs"):
+            return solver
+        why = self._alm_unsupported()
+        if solver == "alm" and why:
+            raise ValueError(f"solver='alm' cannot solve this problem: {why}; use solver='ipopt'")
+        if solver == "auto":
+            has_rows = any(t.constraint for t in self._term_list(self.normalize))
+            return "alm" if has_rows and not why else "ipopt"
+        return "alm"
+
+    def _alm_unsupported(self) -> str | None:
+        """Why the augmented Lagrangian cannot solve this problem, or None."""
+        if self.normalize != "tangent":
+            return f"normalize={self.normalize!r} (it works in the tangent chart)"
+        if self.elastic:
+            return "elastic slacks"
+        if any(t.lift for t in self._terms.values()):
+            return "a lifted min_torsal_angle form (bounds on lifted variables)"
+        if self._anchored_terms():
+            return "the anchored min_torsal_angle form"
+        return None
+
+    def _run_alm(self, b: Built, start: _Start, monitor: SolveMonitor, *, max_iter: int | None, tol: float,
+                 t0: float) -> _Run:
+        """The augmented Lagrangian from ``start`` (:mod:`.alm`), warm from the last answer's
+        multipliers and penalties when there are some."""
+        tols = monitor.tolerances
+
+        def feasible(e):
+            return all(m.holds for m in self.measure(e, **tols).values())
+
+        warm = (self._last or {}).get("alm") if start.resume else None
+        a = AugmentedLagrangian(b, start.p, monitor, feasible, max_steps=max_iter or ALM_MAX_STEPS, tol=tol)
+        r = a.solve(start.e0, warm)
+        x, frames = b.pack(r.e)
+        return _Run(x=x, lam_g=r.lam_g, iterations=r.iterations, status=r.status, ok=r.converged, active=True,
+                    working=None, frames=frames, build_seconds=0.0, solve_seconds=time.perf_counter() - t0,
+                    alm=r)
 
     def _package(self, solver: str, b: Built, e: np.ndarray, run: _Run, monitor: SolveMonitor, *,
                  before: dict, build_seconds: float, keep_best: bool, tols: dict) -> OptimizationResult:
@@ -1251,7 +1322,8 @@ class CongruenceProblem:
             # unconverged iterate's multipliers was slower than a cold one (bench row 7c:
             # re-solve 152 s after a 90 s first solve)
             self._last = {"e": e, "lam_g": lam_g if ok else None, "active": run.active,
-                          "working": working if ok else None}
+                          "working": working if ok else None,
+                          "alm": run.alm.state if run.alm is not None and from_iteration is None else None}
         else:
             congs = list(self._blocks)
         return OptimizationResult(congruence=congs[0], success=ok, status=status, iterations=run.iterations,
