@@ -64,16 +64,20 @@ LAM_MAX = 1e8
 RHO_MAX = 1e10
 #: first penalty, relative to the energies' curvature per variable
 RHO_START = 10.0
-#: complementarity / violation tolerance of the scaled rows
-VTOL = 1e-6
-#: first inner tolerance (gradient of L_A, inf-norm, scaled units)
-EPS_START = 1e-1
+#: complementarity / violation tolerance of the scaled rows (~ radians of line rotation)
+VTOL = 1e-4
+#: the relative Newton decrement that ends a solve, per unit of ``solve(tol=...)`` (1e-4 -> 1e-7)
+DECREMENT_PER_TOL = 1e-3
+#: first inner tolerance (Newton decrement relative to |L_A|)
+EPS_START = 1e-3
 #: Newton steps per inner minimization
 INNER_MAX = 40
 #: largest turn of one line in one Newton step (gnomonic coordinate, ~ radians)
 MAX_TURN = 0.5
 _DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
 
+#: the exact Hessian is tried after a full projected step that turned no line by more than this
+TURN_EXACT = 0.05
 #: Armijo's sufficient decrease
 ARMIJO = 1e-4
 
@@ -222,7 +226,8 @@ class AugmentedLagrangian:
             raise ValueError("the augmented Lagrangian needs the tangent NLP without lifted variables or slacks")
         self.b, self.monitor, self.feasible = b, monitor, feasible
         self.p = np.array(p0, dtype=float)
-        self.max_steps, self.tol = int(max_steps), float(tol)
+        # the final inner tolerance: L_A within tol * DECREMENT_PER_TOL (relative) of its minimum
+        self.max_steps, self.tol = int(max_steps), float(tol) * DECREMENT_PER_TOL
         self.sF = float(max(b.n_vertices, 1))
         if not hasattr(b, "alm_cache"):
             b.alm_cache = {}
@@ -234,7 +239,8 @@ class AugmentedLagrangian:
         b.hess_lag.mode = projection
         b.hess_lag.project = True
         self.lo, self.hi = b.lbg, b.ubg
-        self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "backend": self.sys.chol.backend}
+        self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
+                       "backend": self.sys.chol.backend}
 
     # ------------------------------------------------------------------ evaluations
     def _point(self, e: np.ndarray):
@@ -252,121 +258,146 @@ class AugmentedLagrangian:
         return float(f[0]) * self.sF, g
 
     def _hessian(self, mu_unscaled: np.ndarray) -> np.ndarray:
+        """The projected Lagrangian Hessian's nonzeros (multipliers ``mu_unscaled``)."""
+        return self._hessians(mu_unscaled, exact=False)[1]
+
+    def _hessians(self, mu_unscaled: np.ndarray, exact: bool) -> tuple[np.ndarray | None, np.ndarray]:
+        """``(exact or None, projected)`` Lagrangian Hessians from one evaluation of the blocks."""
         x = np.zeros(self.b.n_var)
-        return self.b.hess_lag.nonzeros([x, self.p, np.array([self.sF]), mu_unscaled])
+        h = self.b.hess_lag
+        rest, mats = h.pieces([x, self.p, np.array([self.sF]), mu_unscaled])
+        return (h.combine(rest, mats, False) if exact else None), h.combine(rest, mats, True)
 
     # ------------------------------------------------------------------ the solve
+    def _initial(self, jac: np.ndarray, warm: AlmState | None) -> AlmState:
+        """Multipliers, penalties and row scales of a cold start (or the warm ones)."""
+        b, sys = self.b, self.sys
+        if warm is not None and warm.lam.size == b.n_g:
+            return AlmState(e=warm.e, lam=warm.lam.copy(), rho=warm.rho.copy(), scale=warm.scale,
+                            delta=warm.delta)
+        s = _row_scales(b, jac, sys)
+        # rows scaled to unit gradients: a penalty curvature RHO_START times the energies'
+        # typical curvature per variable (median of the projected Hessian's diagonal)
+        h0 = sys.values(self._hessian(np.zeros(b.n_g)), jac, np.zeros(b.n_g), 0.0)[sys.diag_pos]
+        r0 = RHO_START * max(float(np.median(h0)), 1e-6)
+        return AlmState(e=np.zeros((0, 3)), lam=np.zeros(b.n_g), rho=np.full(b.n_g, r0), scale=s, delta=1e-8)
+
+    def _direction(self, gl, jac, mu, w, try_exact: bool) -> tuple[np.ndarray | None, bool]:
+        """The Newton direction ``-K^-1 grad L_A``: with the exact Hessian when asked and it is
+        positive definite (one factorization), else the projected one (one factorization,
+        more only if rounding makes it fail: then with a larger shift)."""
+        sys = self.sys
+        exact_h, hess = self._hessians(mu, exact=try_exact)
+        for h, exact in ((exact_h, True), (hess, False)):
+            if h is None:
+                continue
+            base = sys.values(h, jac, w, 0.0)
+            scale = max(1.0, float(np.mean(np.abs(base[sys.diag_pos]))))
+            for _ in range(1 if exact else 8):
+                k = base.copy()
+                k[sys.diag_pos] += self.rel * scale
+                self.counts["factorizations"] += 1
+                try:
+                    sys.chol.factor(k)
+                except NotPositiveDefinite:
+                    self.counts["indefinite" if exact else "shifted"] += 1
+                    if not exact:
+                        self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
+                    continue
+                d = -sys.chol.solve(gl)
+                if np.all(np.isfinite(d)):
+                    self.counts["exact"] += int(exact)
+                    return d, exact
+        return None, False
+
+    def _line_search(self, d, slope, LA, lam, rho, s, lo, hi) -> float | None:
+        """Backtracking Armijo on ``L_A`` along ``d`` (halving): the step, or None."""
+        alpha = 1.0
+        for _ in range(30):
+            self.counts["trials"] += 1
+            Ft, gt = self._values(alpha * d)
+            if np.isfinite(Ft) and Ft + _phr(s * gt, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
+                return alpha
+            alpha *= 0.5
+        return None
+
     def solve(self, e0: np.ndarray, warm: AlmState | None) -> AlmRun:
+        """Outer PHR iterations around inner Newton minimizations, from ``e0`` (or ``warm``)."""
         b, sys = self.b, self.sys
         e = np.asarray(e0, dtype=float).reshape(-1, 3)
         frames, F, grad, g, jac = self._point(e)
-        if warm is not None and warm.lam.size == b.n_g:
-            s, lam, rho, rel = warm.scale, warm.lam.copy(), warm.rho.copy(), warm.delta
-        else:
-            s = _row_scales(b, jac, sys)
-            lam = np.zeros(b.n_g)
-            # rows scaled to unit gradients: a penalty curvature RHO_START times the energies'
-            # typical curvature per variable (median of the projected Hessian's diagonal)
-            h0 = sys.values(self._hessian(np.zeros(b.n_g)), jac, np.zeros(b.n_g), 0.0)[sys.diag_pos]
-            r0 = RHO_START * max(float(np.median(h0)), 1e-6)
-            rho, rel = np.full(b.n_g, r0), 1e-8
+        st = self._initial(jac, warm)
+        s, lam, rho, self.rel = st.scale, st.lam, st.rho, st.delta
         lo, hi = s * self.lo, s * self.hi
-        eps = EPS_START if warm is None else max(self.tol, 1e-3)
+        # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
+        eps = EPS_START if warm is None else 10 * self.tol
         v_prev = np.full(b.n_g, np.inf)
         steps = outer = 0
-        status, converged = "", False
+        wait, backoff, near = 0, 1, False     # when to try the exact Hessian
+        status, converged, dec = "", False, np.inf
         self.monitor.start_pass(None)
-        while True:
-            # ---------------- inner minimization of L_A(., lam, rho) to eps
-            inner = 0
-            while True:
+        while not status:
+            for inner in range(INNER_MAX):      # ---- inner minimization of L_A(., lam, rho)
+                if steps >= self.max_steps:
+                    break
                 m = _phr(s * g, lam, rho, lo, hi)
                 LA = F + m.value
                 gl = grad + sys.jt(jac, s * m.mu)
-                gnorm = float(np.abs(gl).max(initial=0.0))
-                if gnorm <= eps or inner >= INNER_MAX or steps >= self.max_steps:
-                    break
-                hess = self._hessian(s * m.mu)
                 w = np.where(m.active, rho * s * s, 0.0)
-                base = sys.values(hess, jac, w, 0.0)
-                scale = max(1.0, float(np.mean(base[sys.diag_pos])))
-                d = None
-                for _ in range(8):       # one factorization, unless rounding needs a shift
-                    k = base.copy()
-                    k[sys.diag_pos] += rel * scale
-                    try:
-                        sys.chol.factor(k)
-                        self.counts["factorizations"] += 1
-                        d = -sys.chol.solve(gl)
-                        break
-                    except NotPositiveDefinite:
-                        self.counts["shifted"] += 1
-                        rel = max(rel * 100.0, 1e-8)
-                if d is None or not np.all(np.isfinite(d)):
+                d, exact = self._direction(gl, jac, s * m.mu, w, wait == 0 and near)
+                wait = max(wait - 1, 0)
+                if d is None:
                     status = "the Newton matrix could not be factored"
+                    break
+                slope = float(gl @ d)
+                dec = -0.5 * slope / max(abs(LA), abs(F), 1e-300)
+                if dec <= eps:
                     break
                 turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
                 if turn > MAX_TURN:
-                    d *= MAX_TURN / turn
-                slope = float(gl @ d)
-                if slope >= 0:        # not a descent direction (rounding): shift more
-                    rel = max(rel * 100.0, 1e-8)
-                    inner += 1
-                    steps += 1
-                    continue
-                alpha, accepted = 1.0, False
-                for _ in range(30):
-                    self.counts["trials"] += 1
-                    Ft, gt = self._values(alpha * d)
-                    mt = _phr(s * gt, lam, rho, lo, hi)
-                    if np.isfinite(Ft) and Ft + mt.value <= LA + ARMIJO * alpha * slope:
-                        accepted = True
-                        break
-                    alpha *= 0.5
+                    d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
+                alpha = self._line_search(d, slope, LA, lam, rho, s, lo, hi)
                 steps += 1
-                inner += 1
-                if not accepted:
-                    rel = min(rel * 100.0, 1e4)
-                    if rel >= 1e4:
+                if alpha is None:
+                    self.rel = min(self.rel * 100.0, 1e4)
+                    if self.rel >= 1e4:
                         status = "the line search found no decrease"
-                        break
                     continue
+                if exact and (alpha < 1.0 or turn > MAX_TURN):
+                    wait, backoff = backoff, min(2 * backoff, 16)   # not yet Newton's region
+                elif exact:
+                    backoff = 1
+                near = alpha == 1.0 and turn < TURN_EXACT
+                self.rel = (max(self.rel * 0.1, 1e-10) if alpha == 1.0
+                            else min(self.rel * 10.0, 1e4) if alpha < 0.25 else self.rel)
                 if _DEBUG:
-                    print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {F:.6e} |g| {gnorm:.2e} eps {eps:.1e} "
-                          f"alpha {alpha:.3g} rel {rel:.1e} act {int(m.active.sum())} rho {np.median(rho):.1e}/{rho.max():.1e}")
-                rel = max(rel * 0.1, 1e-10) if alpha == 1.0 else (min(rel * 10.0, 1e4) if alpha < 0.25 else rel)
+                    print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {F:.6e} dec {dec:.1e} eps {eps:.1e} "
+                          f"alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} act {int(m.active.sum())} "
+                          f"rho {np.median(rho):.1e}/{rho.max():.1e}")
                 e = _from_tangent(alpha * d, frames)
                 frames, F, grad, g, jac = self._point(e)
                 inf = float(np.max(np.maximum(np.maximum(self.lo - g, g - self.hi), 0.0), initial=0.0))
                 if self.monitor.iterate(e, F / self.sF, inf):
-                    status = ("time limit (safety net) reached" if self.monitor.timed_out
-                              else "stopped by callback")
-                    break
-                if abs(LA - (F + _phr(s * g, lam, rho, lo, hi).value)) <= 1e-15 * max(1.0, abs(LA)):
+                    status = "time limit (safety net) reached" if self.monitor.timed_out else "stopped by callback"
                     break
             if status:
                 break
-            # ---------------- outer update
+            # ---- outer update: multipliers, and the penalties of rows that did not improve
             outer += 1
             m = _phr(s * g, lam, rho, lo, hi)
             lam = np.clip(m.mu, -LAM_MAX, LAM_MAX)
-            sg = s * g
-            v = sg - np.clip(sg + lam / rho, lo, hi)
+            v = s * g - np.clip(s * g + lam / rho, lo, hi)
             vmax = float(np.abs(v).max(initial=0.0))
-            gl = grad + sys.jt(jac, s * lam)
-            gnorm = float(np.abs(gl).max(initial=0.0))
-            if eps <= self.tol and gnorm <= self.tol and vmax <= VTOL and self.feasible(e):
-                status, converged = f"converged: measured feasible, KKT residual {gnorm:.1e}", True
-                break
-            if steps >= self.max_steps:
+            if eps <= self.tol and dec <= self.tol and vmax <= VTOL and self.feasible(e):
+                status, converged = f"converged: measured feasible, Newton decrement {dec:.1e}", True
+            elif steps >= self.max_steps:
                 status = f"Maximum_Iterations_Exceeded ({steps} Newton steps)"
-                break
             grow = (np.abs(v) > TAU * np.abs(v_prev)) & (np.abs(v) > VTOL)
-            rho = np.where(grow, np.minimum(rho * GAMMA, RHO_MAX), rho)
+            rho = np.where(grow & ~converged, np.minimum(rho * GAMMA, RHO_MAX), rho)
             v_prev = v
             eps = max(self.tol, 0.1 * eps)
         lam_g = s * lam / self.sF           # IPOPT's multipliers: grad f + J^T lam_g = 0
-        state = AlmState(e=e.copy(), lam=lam, rho=rho, scale=s, delta=rel)
+        state = AlmState(e=e.copy(), lam=lam, rho=rho, scale=s, delta=self.rel)
         return AlmRun(e, lam_g, steps, outer, self.counts["factorizations"], status, converged, state,
                       dict(self.counts))
 

@@ -178,20 +178,38 @@ class ProjectedHessian(ca.Callback):
         """The output's sparsity (upper triangle, column-compressed)."""
         return self._out
 
-    def nonzeros(self, args: list[np.ndarray]) -> np.ndarray:
-        """The output's nonzeros (in :attr:`sparsity` order) at ``(x, p, lam_f, lam_g)`` (numpy)."""
+    def pieces(self, args: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The rest's nonzeros and every block's element matrices (m, n, n) at ``(x, p, lam_f, lam_g)``."""
         # kept alive during the call (casadi holds raw pointers); an empty input has no buffer
         keep = [np.ascontiguousarray(a, dtype=float) if sp_.nnz() else _EMPTY for a, sp_ in zip(args, self._in)]
         for i, a in enumerate(keep):
             self._buffer.set_arg(i, memoryview(a))
         self._eval_pieces()
-        vals = [self._res[0]]
-        for b, (iu, ju), v in zip(self.blocks, self._upper, self._res[1:]):
+        mats = []
+        for b, v in zip(self.blocks, self._res[1:]):
             a = np.zeros((v.shape[0], b.n, b.n))     # v: (m, nh), element-major (casadi column-major)
             a[:, b.rows, b.cols] = v
             a[:, b.cols, b.rows] = v
-            vals.append((psd_projection(a, mode=self.mode) if self.project else a)[:, iu, ju].ravel())
+            mats.append(a)
+        return self._res[0].copy(), mats
+
+    def combine(self, rest: np.ndarray, mats: list[np.ndarray], project: bool) -> np.ndarray:
+        """The output's nonzeros (in :attr:`sparsity` order) from :meth:`pieces`: the blocks
+        projected (``project``) or summed as they are (the exact Hessian)."""
+        vals = [rest]
+        for (iu, ju), a in zip(self._upper, mats):
+            if project:
+                # elements whose matrix is zero (constraint rows without a multiplier) stay zero
+                live = np.flatnonzero(np.abs(a).reshape(len(a), -1).max(axis=1, initial=0.0) > 0)
+                a = a.copy()
+                a[live] = psd_projection(a[live], mode=self.mode)
+            vals.append(a[:, iu, ju].ravel())
         return self._scatter @ np.concatenate(vals)
+
+    def nonzeros(self, args: list[np.ndarray]) -> np.ndarray:
+        """The output's nonzeros (in :attr:`sparsity` order) at ``(x, p, lam_f, lam_g)`` (numpy)."""
+        rest, mats = self.pieces(args)
+        return self.combine(rest, mats, self.project)
 
     def eval_buffer(self, arg, res):
         # kept alive during the call; an empty input (no constraint rows) has no buffer
