@@ -66,6 +66,8 @@ RHO_MAX = 1e10
 RHO_START = 10.0
 #: complementarity / violation tolerance of the scaled rows (~ radians of line rotation)
 VTOL = 1e-4
+#: the projected Newton matrix carries the constraints' projected curvature (else only rho J^T J)
+CONSTRAINT_CURVATURE = False
 #: the relative Newton decrement that ends a solve, per unit of ``solve(tol=...)`` (1e-4 -> 1e-7)
 DECREMENT_PER_TOL = 1e-3
 #: first inner tolerance (Newton decrement relative to |L_A|)
@@ -78,6 +80,8 @@ _DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
 
 #: the exact Hessian is tried after a full projected step that turned no line by more than this
 TURN_EXACT = 0.05
+#: re-centre the chart when a line has moved this far from the centre (gnomonic coordinate)
+RECENTRE = 0.25
 #: Armijo's sufficient decrease
 ARMIJO = 1e-4
 
@@ -198,6 +202,16 @@ class NewtonSystem:
         return np.bincount(self.jac_cols, weights=jac * v[self.jac_rows], minlength=self.n)
 
 
+class _Point(NamedTuple):
+    """One evaluated iterate in the current chart."""
+
+    z: np.ndarray             # chart coordinates
+    F: float                  # |V| f
+    grad: np.ndarray          # grad F
+    g: np.ndarray             # constraint rows (unscaled)
+    jac: np.ndarray           # their Jacobian's nonzeros
+
+
 class _Merit(NamedTuple):
     value: float              # L_A
     mu: np.ndarray            # (n_g,) multiplier estimates rho (t - P(t))
@@ -233,37 +247,35 @@ class AugmentedLagrangian:
             b.alm_cache = {}
         key = ("system", backend)
         if key not in b.alm_cache:
-            b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.grad_f), _Numeric(b.jac_g),
-                                _Numeric(b._evaluate))
-        self.sys, self._grad, self._jac, self._eval = b.alm_cache[key]
+            b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.point))
+        self.sys, self._pt = b.alm_cache[key]
         b.hess_lag.mode = projection
         b.hess_lag.project = True
+        b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
         self.lo, self.hi = b.lbg, b.ubg
         self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
                        "backend": self.sys.chol.backend}
 
     # ------------------------------------------------------------------ evaluations
-    def _point(self, e: np.ndarray):
-        """Re-centre the chart at ``e``: the frames, and F, grad F, c, J at ``z = 0``."""
+    def _recentre(self, e: np.ndarray) -> np.ndarray:
+        """Frames of the chart at the directions ``e`` (``z = 0`` there); returns the frames."""
         frames = tangent_frames(e)
         self.p[:self.b.n_frames] = frames.ravel()
-        x = np.zeros(self.b.n_var)
-        f, grad = self._grad(x, self.p)
-        g, jac = self._jac(x, self.p)
-        return frames, float(f[0]) * self.sF, grad * self.sF, g, jac
+        return frames
 
-    def _values(self, z: np.ndarray) -> tuple[float, np.ndarray]:
-        """``(F, c)`` at chart coordinates ``z`` (frames of the current iterate)."""
-        _, f, g = self._eval(z, self.p)
-        return float(f[0]) * self.sF, g
+    def _point(self, z: np.ndarray) -> _Point:
+        """``F``, ``grad F``, ``c``, ``J``'s nonzeros at chart coordinates ``z`` (one evaluation)."""
+        f, grad, g, jac = self._pt(z, self.p)
+        return _Point(z, float(f[0]) * self.sF, grad * self.sF, g, jac)
 
     def _hessian(self, mu_unscaled: np.ndarray) -> np.ndarray:
         """The projected Lagrangian Hessian's nonzeros (multipliers ``mu_unscaled``)."""
         return self._hessians(mu_unscaled, exact=False)[1]
 
-    def _hessians(self, mu_unscaled: np.ndarray, exact: bool) -> tuple[np.ndarray | None, np.ndarray]:
-        """``(exact or None, projected)`` Lagrangian Hessians from one evaluation of the blocks."""
-        x = np.zeros(self.b.n_var)
+    def _hessians(self, mu_unscaled: np.ndarray, exact: bool, z: np.ndarray | None = None
+                  ) -> tuple[np.ndarray | None, np.ndarray]:
+        """``(exact or None, projected)`` Lagrangian Hessians at ``z`` from one evaluation of the blocks."""
+        x = np.zeros(self.b.n_var) if z is None else z
         h = self.b.hess_lag
         rest, mats = h.pieces([x, self.p, np.array([self.sF]), mu_unscaled])
         return (h.combine(rest, mats, False) if exact else None), h.combine(rest, mats, True)
@@ -282,12 +294,12 @@ class AugmentedLagrangian:
         r0 = RHO_START * max(float(np.median(h0)), 1e-6)
         return AlmState(e=np.zeros((0, 3)), lam=np.zeros(b.n_g), rho=np.full(b.n_g, r0), scale=s, delta=1e-8)
 
-    def _direction(self, gl, jac, mu, w, try_exact: bool) -> tuple[np.ndarray | None, bool]:
+    def _direction(self, z, gl, jac, mu, w, try_exact: bool) -> tuple[np.ndarray | None, bool]:
         """The Newton direction ``-K^-1 grad L_A``: with the exact Hessian when asked and it is
         positive definite (one factorization), else the projected one (one factorization,
         more only if rounding makes it fail: then with a larger shift)."""
         sys = self.sys
-        exact_h, hess = self._hessians(mu, exact=try_exact)
+        exact_h, hess = self._hessians(mu, exact=try_exact, z=z)
         for h, exact in ((exact_h, True), (hess, False)):
             if h is None:
                 continue
@@ -310,14 +322,15 @@ class AugmentedLagrangian:
                     return d, exact
         return None, False
 
-    def _line_search(self, d, slope, LA, lam, rho, s, lo, hi) -> float | None:
-        """Backtracking Armijo on ``L_A`` along ``d`` (halving): the step, or None."""
+    def _line_search(self, pt: _Point, d, slope, LA, lam, rho, s, lo, hi) -> tuple[float, _Point] | None:
+        """Backtracking Armijo on ``L_A`` along ``d`` from ``pt`` (halving): the step and the
+        new point, or None."""
         alpha = 1.0
         for _ in range(30):
             self.counts["trials"] += 1
-            Ft, gt = self._values(alpha * d)
-            if np.isfinite(Ft) and Ft + _phr(s * gt, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
-                return alpha
+            q = self._point(pt.z + alpha * d)
+            if np.isfinite(q.F) and q.F + _phr(s * q.g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
+                return alpha, q
             alpha *= 0.5
         return None
 
@@ -325,8 +338,9 @@ class AugmentedLagrangian:
         """Outer PHR iterations around inner Newton minimizations, from ``e0`` (or ``warm``)."""
         b, sys = self.b, self.sys
         e = np.asarray(e0, dtype=float).reshape(-1, 3)
-        frames, F, grad, g, jac = self._point(e)
-        st = self._initial(jac, warm)
+        frames = self._recentre(e)
+        pt = self._point(np.zeros(b.n_var))
+        st = self._initial(pt.jac, warm)
         s, lam, rho, self.rel = st.scale, st.lam, st.rho, st.delta
         lo, hi = s * self.lo, s * self.hi
         # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
@@ -340,29 +354,30 @@ class AugmentedLagrangian:
             for inner in range(INNER_MAX):      # ---- inner minimization of L_A(., lam, rho)
                 if steps >= self.max_steps:
                     break
-                m = _phr(s * g, lam, rho, lo, hi)
-                LA = F + m.value
-                gl = grad + sys.jt(jac, s * m.mu)
+                m = _phr(s * pt.g, lam, rho, lo, hi)
+                LA = pt.F + m.value
+                gl = pt.grad + sys.jt(pt.jac, s * m.mu)
                 w = np.where(m.active, rho * s * s, 0.0)
-                d, exact = self._direction(gl, jac, s * m.mu, w, wait == 0 and near)
+                d, exact = self._direction(pt.z, gl, pt.jac, s * m.mu, w, wait == 0 and near)
                 wait = max(wait - 1, 0)
                 if d is None:
                     status = "the Newton matrix could not be factored"
                     break
                 slope = float(gl @ d)
-                dec = -0.5 * slope / max(abs(LA), abs(F), 1e-300)
+                dec = -0.5 * slope / max(abs(LA), abs(pt.F), 1e-300)
                 if dec <= eps:
                     break
                 turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
                 if turn > MAX_TURN:
                     d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
-                alpha = self._line_search(d, slope, LA, lam, rho, s, lo, hi)
+                found = self._line_search(pt, d, slope, LA, lam, rho, s, lo, hi)
                 steps += 1
-                if alpha is None:
+                if found is None:
                     self.rel = min(self.rel * 100.0, 1e4)
                     if self.rel >= 1e4:
                         status = "the line search found no decrease"
                     continue
+                alpha, pt = found
                 if exact and (alpha < 1.0 or turn > MAX_TURN):
                     wait, backoff = backoff, min(2 * backoff, 16)   # not yet Newton's region
                 elif exact:
@@ -371,22 +386,24 @@ class AugmentedLagrangian:
                 self.rel = (max(self.rel * 0.1, 1e-10) if alpha == 1.0
                             else min(self.rel * 10.0, 1e4) if alpha < 0.25 else self.rel)
                 if _DEBUG:
-                    print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {F:.6e} dec {dec:.1e} eps {eps:.1e} "
+                    print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {pt.F:.6e} dec {dec:.1e} eps {eps:.1e} "
                           f"alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} act {int(m.active.sum())} "
                           f"rho {np.median(rho):.1e}/{rho.max():.1e}")
-                e = _from_tangent(alpha * d, frames)
-                frames, F, grad, g, jac = self._point(e)
-                inf = float(np.max(np.maximum(np.maximum(self.lo - g, g - self.hi), 0.0), initial=0.0))
-                if self.monitor.iterate(e, F / self.sF, inf):
+                e = _from_tangent(pt.z, frames)
+                if float(np.abs(pt.z).max(initial=0.0)) > RECENTRE:     # keep the chart near its centre
+                    frames = self._recentre(e)
+                    pt = self._point(np.zeros(b.n_var))
+                inf = float(np.max(np.maximum(np.maximum(self.lo - pt.g, pt.g - self.hi), 0.0), initial=0.0))
+                if self.monitor.iterate(e, pt.F / self.sF, inf):
                     status = "time limit (safety net) reached" if self.monitor.timed_out else "stopped by callback"
                     break
             if status:
                 break
             # ---- outer update: multipliers, and the penalties of rows that did not improve
             outer += 1
-            m = _phr(s * g, lam, rho, lo, hi)
+            m = _phr(s * pt.g, lam, rho, lo, hi)
             lam = np.clip(m.mu, -LAM_MAX, LAM_MAX)
-            v = s * g - np.clip(s * g + lam / rho, lo, hi)
+            v = s * pt.g - np.clip(s * pt.g + lam / rho, lo, hi)
             vmax = float(np.abs(v).max(initial=0.0))
             if eps <= self.tol and dec <= self.tol and vmax <= VTOL and self.feasible(e):
                 status, converged = f"converged: measured feasible, Newton decrement {dec:.1e}", True

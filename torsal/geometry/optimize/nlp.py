@@ -262,7 +262,8 @@ class _Assembly:
         if key not in self.local:
             self.local[key] = Local(el.fn, el.k, self.lay.tangent,
                                     self.jit and not el.fn.name().startswith("custom_"),
-                                    t.constraint, residual=el.residual if gn else None)
+                                    t.constraint, residual=el.residual if gn else None,
+                                    jit_values=self.hessian == "projected-all")
         return self.local[key]
 
     def _element_args(self, t: Term, off: int):
@@ -300,7 +301,7 @@ class _Assembly:
             hv = L.hess.map(m)(*args, coef)      # (nh, m)
             hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
             if self.projected and (not t.constraint or self.hessian == "projected-all"):
-                self.blocks.append(Block(hv, L.h_rows, L.h_cols, xidx))
+                self.blocks.append(Block(hv, L.h_rows, L.h_cols, xidx, constraint=t.constraint))
             else:
                 self.hess.add(ca.vec(hv), np.minimum(hr, hc), np.maximum(hr, hc))
         if self.lay.tangent and not L.gauss_newton:
@@ -403,6 +404,9 @@ class Built:
         self.f_expr, self.g_expr = f, g
         self.grad_f = ca.Function("nlp_grad_f", [x_all, p], [f, grad], ["x", "p"], ["f", "grad"])
         self.jac_g = ca.Function("nlp_jac_g", [x_all, p], [g, jac], ["x", "p"], ["g", "jac"])
+        #: everything of a point at once (the augmented Lagrangian's evaluation: one pass
+        #: over the shared chart and gathers)
+        self.point = ca.Function("nlp_point", [x_all, p], [f, grad, g, jac], ["x", "p"], ["f", "grad", "g", "jac"])
         symbols = [x_all, p, asm.lam_f, asm.lam_g]
         if asm.projected:
             self.hess_lag = ProjectedHessian("nlp_hess_l", symbols, hess, asm.blocks, self.n_var)

@@ -107,6 +107,7 @@ class Block:
     rows: np.ndarray
     cols: np.ndarray
     ids: np.ndarray
+    constraint: bool = False     # a constraint's element Hessians times its multipliers
 
     @property
     def n(self) -> int:
@@ -129,6 +130,10 @@ class ProjectedHessian(ca.Callback):
     project: bool = True
     #: how a block is made positive semidefinite (:func:`psd_projection`)
     mode: str = "clamp"
+    #: projected: the constraints' curvature (times their multipliers) projected (True) or
+    #: left out (False: the augmented Lagrangian's penalty supplies the curvature across
+    #: the constraints, ``rho J^T J``)
+    constraint_curvature: bool = True
 
     def __init__(self, name: str, symbols: list, rest: ca.MX, blocks: list[Block], n_var: int):
         ca.Callback.__init__(self)
@@ -197,7 +202,10 @@ class ProjectedHessian(ca.Callback):
         """The output's nonzeros (in :attr:`sparsity` order) from :meth:`pieces`: the blocks
         projected (``project``) or summed as they are (the exact Hessian)."""
         vals = [rest]
-        for (iu, ju), a in zip(self._upper, mats):
+        for blk, (iu, ju), a in zip(self.blocks, self._upper, mats):
+            if project and blk.constraint and not self.constraint_curvature:
+                vals.append(np.zeros(a.shape[0] * iu.size))
+                continue
             if project:
                 # elements whose matrix is zero (constraint rows without a multiplier) stay zero
                 live = np.flatnonzero(np.abs(a).reshape(len(a), -1).max(axis=1, initial=0.0) > 0)
