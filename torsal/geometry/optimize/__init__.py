@@ -56,6 +56,7 @@ from .measure import Measurement
 from .nlp import tangent_frames
 from .problem import CongruenceProblem
 from .result import IterationRecord, OptimizationError, OptimizationResult
+from .solve import SOLVERS, Solver
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
-           "IterationRecord", "Measurement", "TorsalAngleForm", "tangent_frames"]
+           "IterationRecord", "Measurement", "TorsalAngleForm", "tangent_frames", "Solver", "SOLVERS"]

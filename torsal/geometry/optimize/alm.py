@@ -68,8 +68,8 @@ RHO_START = 10.0
 VTOL = 1e-4
 #: the projected Newton matrix carries the constraints' projected curvature (else only rho J^T J)
 CONSTRAINT_CURVATURE = False
-#: the relative Newton decrement that ends a solve, per unit of ``solve(tol=...)`` (1e-4 -> 1e-7)
-DECREMENT_PER_TOL = 1e-3
+#: the relative Newton decrement that ends a solve, per unit of ``solve(tol=...)`` (1e-4 -> 1e-6)
+DECREMENT_PER_TOL = 1e-2
 #: first inner tolerance (Newton decrement relative to |L_A|)
 EPS_START = 1e-3
 #: Newton steps per inner minimization
@@ -80,6 +80,10 @@ _DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
 
 #: the exact Hessian is tried after a full projected step that turned no line by more than this
 TURN_EXACT = 0.05
+#: a step shorter than this raises the Levenberg-Marquardt shift
+SHORT_STEP = 0.1
+#: how the energies' element Hessians are made positive semidefinite (:func:`.projected.psd_projection`)
+PROJECTION = "clamp"
 #: re-centre the chart when a line has moved this far from the centre (gnomonic coordinate)
 RECENTRE = 0.25
 #: Armijo's sufficient decrease
@@ -235,7 +239,7 @@ class AugmentedLagrangian:
     """
 
     def __init__(self, b: Built, p0: np.ndarray, monitor: SolveMonitor, feasible: Callable[[np.ndarray], bool],
-                 *, max_steps: int, tol: float, backend: str | None = None, projection: str = "clamp"):
+                 *, max_steps: int, tol: float, backend: str | None = None, projection: str | None = None):
         if b.mode != "tangent" or b.n_lift or b.n_slack:
             raise ValueError("the augmented Lagrangian needs the tangent NLP without lifted variables or slacks")
         self.b, self.monitor, self.feasible = b, monitor, feasible
@@ -249,7 +253,7 @@ class AugmentedLagrangian:
         if key not in b.alm_cache:
             b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.point))
         self.sys, self._pt = b.alm_cache[key]
-        b.hess_lag.mode = projection
+        b.hess_lag.mode = projection or PROJECTION
         b.hess_lag.project = True
         b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
         self.lo, self.hi = b.lbg, b.ubg
@@ -317,9 +321,14 @@ class AugmentedLagrangian:
                         self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
                     continue
                 d = -sys.chol.solve(gl)
-                if np.all(np.isfinite(d)):
+                # a descent direction, or the factorization was not what it claimed
+                if np.all(np.isfinite(d)) and (float(gl @ d) < 0 or not np.any(gl)):
                     self.counts["exact"] += int(exact)
                     return d, exact
+                self.counts["indefinite" if exact else "shifted"] += 1
+                if exact:
+                    break
+                self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
         return None, False
 
     def _line_search(self, pt: _Point, d, slope, LA, lam, rho, s, lo, hi) -> tuple[float, _Point] | None:
@@ -383,8 +392,10 @@ class AugmentedLagrangian:
                 elif exact:
                     backoff = 1
                 near = alpha == 1.0 and turn < TURN_EXACT
-                self.rel = (max(self.rel * 0.1, 1e-10) if alpha == 1.0
-                            else min(self.rel * 10.0, 1e4) if alpha < 0.25 else self.rel)
+                # Levenberg-Marquardt: less shift after a long step, more after a very short one
+                # (a short step at a kink of the penalty's active set is not the shift's fault)
+                self.rel = (max(self.rel * 0.1, 1e-10) if alpha >= 0.5
+                            else min(self.rel * 10.0, 1e-2) if alpha < SHORT_STEP else self.rel)
                 if _DEBUG:
                     print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {pt.F:.6e} dec {dec:.1e} eps {eps:.1e} "
                           f"alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} act {int(m.active.sum())} "

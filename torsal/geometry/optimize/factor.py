@@ -113,9 +113,9 @@ class SparseCholesky:
             self.analyses += 1
         else:
             self._impl.update(a, upper=True)
-        # LDL^T of a quasi-definite solver: positive definite iff every pivot of D is positive
-        d = getattr(self._impl, "D", None)
-        if d is not None and np.any(np.asarray(d) <= 0):
+        # LDL^T without pivoting (a quasi-definite solver): positive definite iff every pivot
+        # of D is positive (factors() returns L, D and the ordering)
+        if np.any(np.asarray(self._impl.factors()[1]) <= 0):
             raise NotPositiveDefinite("a pivot of the LDL^T factorization is not positive")
 
     def _solve_qdldl(self, rhs):

@@ -232,7 +232,6 @@ class IpoptStrategy:
                 return PassOutcome(r1.x, None, iters, status, True, False, None)
             # (not with lifted forms: their rows tie the lifted variables to the directions)
             if r1.converged and not b.n_lift and viol[ineq].mean() <= _WORKING_SET_MAX_SHARE:
-                p = self._anchored(b, r1.x, p)
                 g1 = np.asarray(b.evaluate(r1.x, p)[2]).ravel()
                 viol = _bound_violation(g1, b.lbg, b.ubg) > feas_tol
                 ws = _near_bounds(g1, b) | viol | ~ineq
@@ -254,7 +253,6 @@ class IpoptStrategy:
             warm = False
         if not warm:
             x0, p = self._recentre(b, x0, p)
-            p = self._anchored(b, x0, p)
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
         if warm:
             args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
@@ -277,15 +275,9 @@ class IpoptStrategy:
         p[:b.n_frames] = self.frames.ravel()
         return x, p
 
-    def _anchored(self, b: Built, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """The parameters with anchored torsal-angle rows anchored at ``x`` (see ``.forms``)."""
-        if not self.problem._anchored_terms():
-            return p
-        self.problem._anchor(b.unpack(b.full(x, p), self.frames).ravel())
-        return b.parameters(self.problem._current(), self.frames)
-
     def warm_pass(self, b: Built, x: np.ndarray, p: np.ndarray, lam_g: np.ndarray, cap: int) -> PassOutcome:
-        """All constraints, warm-started at ``x`` with multipliers ``lam_g`` (anchored rounds)."""
+        """All constraints, warm-started at ``x`` with multipliers ``lam_g`` (the certification of
+        the augmented Lagrangian's answer, :mod:`.solve`)."""
         sw = self.solver(b, True, x, p)
         r = self.call(sw, b, dict(x0=x, p=p, lbg=b.lbg, ubg=b.ubg, lam_g0=lam_g, lam_x0=np.zeros(b.n_var)), cap)
         return PassOutcome(r.x, r.lam_g, r.iterations, r.status, r.converged, True, None)
