@@ -70,6 +70,9 @@ VTOL = 1e-4
 CONSTRAINT_CURVATURE = False
 #: the relative Newton decrement that ends a solve, per unit of ``solve(tol=...)`` (1e-4 -> 1e-6)
 DECREMENT_PER_TOL = 1e-2
+#: the Newton decrement is relative to |L_A|, or to this share of the start's objective where
+#: that is larger (a design whose energies reach zero)
+FLOOR = 1e-8
 #: first inner tolerance (Newton decrement relative to |L_A|)
 EPS_START = 1e-3
 #: Newton steps per inner minimization
@@ -349,6 +352,7 @@ class AugmentedLagrangian:
         e = np.asarray(e0, dtype=float).reshape(-1, 3)
         frames = self._recentre(e)
         pt = self._point(np.zeros(b.n_var))
+        floor = FLOOR * max(abs(pt.F), 1.0)
         st = self._initial(pt.jac, warm)
         s, lam, rho, self.rel = st.scale, st.lam, st.rho, st.delta
         lo, hi = s * self.lo, s * self.hi
@@ -373,7 +377,8 @@ class AugmentedLagrangian:
                     status = "the Newton matrix could not be factored"
                     break
                 slope = float(gl @ d)
-                dec = -0.5 * slope / max(abs(LA), abs(pt.F), 1e-300)
+                # relative to |L_A|, or to a floor of the start's objective (zero-residual designs)
+                dec = -0.5 * slope / max(abs(LA), abs(pt.F), floor)
                 if dec <= eps:
                     break
                 turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
@@ -387,6 +392,8 @@ class AugmentedLagrangian:
                         status = "the line search found no decrease"
                     continue
                 alpha, pt = found
+                if alpha * turn < 1e-12:      # rounding: no step left to take
+                    break
                 if exact and (alpha < 1.0 or turn > MAX_TURN):
                     wait, backoff = backoff, min(2 * backoff, 16)   # not yet Newton's region
                 elif exact:

@@ -6,12 +6,16 @@ Newton step, always over the same sparsity pattern (the union of every row's pat
 symbolic factorization are computed once per pattern and kept with the NLP, so a warm
 re-solve pays only numeric factorizations.
 
-Backends (:data:`BACKENDS`, chosen by measurement, see ``benchmarks/optimize_bench.py
---factorizations``): ``"cholmod"`` (SuiteSparse CHOLMOD, supernodal, METIS/AMD ordering,
-through ``sksparse``), ``"qdldl"`` (LDL^T with AMD, ``Solver.update`` on the same pattern),
-``"csparse"`` (casadi's own ``csparsecholesky``: symbolic analysis once, then numeric
-factorizations; no dependency beyond casadi), ``"splu"`` (scipy's SuperLU, a fallback that
-always works: it refactors from scratch).
+Backends (:data:`BACKENDS`, the first available is the default; chosen by measurement on
+the Newton matrices of the Fig. 12 rows, ``benchmarks/optimize_bench.py --tables factor``):
+``"qdldl"`` (LDL^T with AMD ordering, ``Solver.update`` refactors on the same pattern: the
+symbolic analysis is done once; a dependency of torsal), ``"cholmod"`` (SuiteSparse CHOLMOD,
+supernodal, through ``sksparse`` where it is installed), ``"csparse"`` (casadi's own
+``csparsecholesky``: symbolic analysis once, then numeric factorizations; up-looking, no
+supernodes, so slower on these matrices), ``"splu"`` (scipy's SuperLU, a fallback that
+always works: it refactors from scratch). The wheels that bundle CHOLMOD without a
+refactorization call (cholespy, sksparse-minimal) repeat the analysis at every step and
+were no faster than qdldl's update.
 """
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 #: the backends in order of preference (the first that imports is the default)
-BACKENDS = ("cholmod", "qdldl", "csparse", "splu")
+BACKENDS = ("qdldl", "cholmod", "csparse", "splu")
 
 
 class NotPositiveDefinite(ArithmeticError):

@@ -9,7 +9,7 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
   kink of ``|p|`` over a width ``s`` (the strength floor, 1e-3 by default), so its curvature
   is ``1/s`` at ``p = 0``: exactly where a face has orthogonal torsal directions, the best
   case. Times the constraint's multiplier, that curvature is what IPOPT's inertia correction
-  met (measured on row 7c: regularizations of 1e4 to 1e6 for hundreds of iterations).
+  met: large regularizations for hundreds of iterations on row 7c.
 - ``"split"`` (the default): two rows per face, ``cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0``
   (:func:`torsal_angle_split_element`): each is linear in ``p``, so ``|p|`` needs no
   smoothing. Their curvature is that of ``sqrt(rho^2 + s^2)`` alone, ``<= 1/rho`` on feasible
@@ -19,13 +19,10 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
 - ``"lift"``: the coordinates ``(u, v, w)`` of the form in an orthonormal frame
   (:func:`torsal_form_coordinates_sx`, linear in ``g``) equal lifted variables
   ``(cos(alpha) r t, r cos(phi), r sin(phi))``; the bound is ``r >= s``, ``|t| <= 1`` on
-  variables (assembled in :meth:`torsal.geometry.optimize.nlp.Built._lift`). It converges
-  in about half the iterations of split, to a lower energy (row 7c: 358 against 746; row 9:
-  719 against about 1,155), but a rougher one: on example 9 the lines' fairness energy is
-  0.0030 against split's 0.0017, 213 strips fold at crossings against 163, the extracted
-  structure's delta_pl is 0.58 against 0.30, and 457 of 841 fin panels cannot be built
-  (34 % of the sun blocked) against 231 (58 %) from split's best iterate at the design's
-  180 s budget (2026-11-23). So split stays the default; lift is an option per design.
+  variables (assembled in :meth:`torsal.geometry.optimize.nlp.Built._lift`). IPOPT converges
+  in fewer iterations with it, to a lower energy but rougher lines (on example 9 the
+  extracted structure could not be built where split's could), so split stays the default;
+  lift is an option per design (IPOPT only: the augmented Lagrangian has no lifted variables).
 """
 from __future__ import annotations
 

@@ -18,7 +18,7 @@ from threadpoolctl import threadpool_limits
 from .history import SolveMonitor
 from .nlp import Built, _bound_violation
 from .projected import PROJECTED_ITERATIONS, ProjectedHessian
-from .working_set import _WORKING_SET_MAX_SHARE, _near_bounds
+from .working_set import _WORKING_SET_MAX_SHARE, PassOutcome, _near_bounds, working_set_pass
 
 
 class IpoptRun(NamedTuple):
@@ -29,23 +29,6 @@ class IpoptRun(NamedTuple):
     iterations: int
     status: str
     converged: bool
-
-
-class PassOutcome(NamedTuple):
-    """The answer of the pass that ended a solve.
-
-    ``constraints_active``: False when pass 1 (no inequalities) met them all, True when
-    inequalities were imposed, None without inequalities. ``working``: the working-set mask
-    over ``g`` when pass 2 answered, else None.
-    """
-
-    x: np.ndarray
-    lam_g: np.ndarray | None
-    iterations: int
-    status: str
-    converged: bool
-    constraints_active: bool | None
-    working: np.ndarray | None
 
 
 class _IterationCallback(ca.Callback):
@@ -212,7 +195,7 @@ class IpoptStrategy:
         iters, status = 0, ""
         if warm and prev_ws is not None and prev_ws.size == b.n_g:
             # the designer's re-solve after a working-set solve: same set, warm multipliers
-            out = self.working_set(sw, cold(), b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
+            out = working_set_pass(self, sw, cold(), b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
             if out.converged or self._stopped(out.status):
                 return out
             iters, status = out.iterations, out.status
@@ -236,7 +219,7 @@ class IpoptStrategy:
                 viol = _bound_violation(g1, b.lbg, b.ubg) > feas_tol
                 ws = _near_bounds(g1, b) | viol | ~ineq
                 s = cold()
-                out = self.working_set(s, s, b, r1.x, p, ws, None, (limit - iters) // 2, feas_tol)
+                out = working_set_pass(self, s, s, b, r1.x, p, ws, None, (limit - iters) // 2, feas_tol)
                 iters += out.iterations
                 if out.converged or self._stopped(out.status):
                     return out._replace(iterations=iters)
@@ -285,35 +268,6 @@ class IpoptStrategy:
     def _stopped(self, status: str) -> bool:
         """The monitor stopped IPOPT (the user's callback or the time limit), not a cap."""
         return status == "User_Requested_Stop" and (self.monitor.stopped_by_user or self.monitor.timed_out)
-
-    def working_set(self, s_warm, s_cold, b: Built, x, p, ws: np.ndarray, lam_g, budget: int,
-                    feas_tol: float) -> PassOutcome:
-        """Pass 2: IPOPT with the inequalities outside ``ws`` unbounded, adding those the answer
-        violates (and their near-active companions) until it violates none.
-
-        An inequality left out and met with slack has a zero multiplier, so the answer is a
-        KKT point of the whole problem; IPOPT meanwhile carries barrier terms (and their
-        indefinite curvature) only for the few elements that matter.
-        """
-        iters, status, ok = 0, "", False
-        ws = ws.copy()
-        while budget - iters > 0:
-            args = dict(x0=x, p=p, lbg=np.where(ws, b.lbg, -np.inf), ubg=np.where(ws, b.ubg, np.inf))
-            if lam_g is not None:
-                args.update(lam_g0=np.where(ws, lam_g, 0.0), lam_x0=np.zeros(b.n_var))
-            r = self.call(s_warm if lam_g is not None else s_cold, b, args, budget - iters)
-            x, lam_g, status, ok = r.x, r.lam_g, r.status, r.converged
-            iters += r.iterations
-            if not ok:
-                break
-            g = np.asarray(b.evaluate(x, p)[2]).ravel()
-            new = (_bound_violation(g, b.lbg, b.ubg) > feas_tol) & ~ws
-            if not new.any():
-                break
-            ws |= _near_bounds(g, b) | new
-            lam_g, ok = None, False          # cold: the new elements have no multipliers yet
-        return PassOutcome(x, lam_g, iters, status, ok, True, ws)
-
 
 #: Threads of the BLAS under IPOPT's MUMPS (casadi's own OpenBLAS); ``$TORSAL_BLAS_THREADS``
 #: overrides. One: MUMPS's fronts on these meshes are small, and a second BLAS thread spins

@@ -61,14 +61,12 @@ class CongruenceProblem:
         ``PROJECTED_ITERATIONS`` (10) IPOPT iterations, then exact; NLPs with constraint rows
         use the exact Hessian. The projected sum is positive semidefinite, so IPOPT factors
         once per iteration instead of searching for a regularization, and only the elements
-        that curve down are flattened. Measured (benchmarks/optimize_bench.py, 2026-11-23,
-        quiet machine): row 11 8 iterations and 10 s instead of 23 and 24 s, 100k vertices
-        2 iterations and 33 s instead of 7 and 61 s, with 0 faces without torsal directions
-        on row 11 (exact: 0) and 0.27 % at 100k (exact: 0.07 %; Gauss-Newton: over 2 %);
-        projected throughout (no switch) cost row 9 300 iterations more, as projected Newton
-        converges linearly where the energies' minimum is not zero; projecting the
-        constraints' curvature too made row 7c worse (0.530 / 0.475 after 500 iterations
-        against 0.431 / 0.463). ``"gauss-newton"``: ``2 J_r^T J_r`` for
+        that curve down are flattened (fewer iterations than the exact Hessian on the
+        unconstrained Fig. 12 rows and at 100k vertices, ``benchmarks/optimize_bench.py``);
+        it switches to exact because projected Newton converges linearly where the
+        energies' minimum is not zero. The augmented Lagrangian (``solve(solver="alm")``)
+        builds its own NLP with every element projected (:mod:`~torsal.geometry.optimize.alm`).
+        ``"gauss-newton"``: ``2 J_r^T J_r`` for
         every energy that is a sum of squares (all built-in ones but ``fair``, which is
         quadratic and exact either way), no chart curvature for them; positive semidefinite,
         so IPOPT's inertia correction only meets the constraints' curvature (the constraints
@@ -79,28 +77,18 @@ class CongruenceProblem:
         exact Hessian, which the problem then keeps; exact for a problem with constraints.
         ``"auto"``: Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP
         without them, see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP.
-        Measured (benchmarks/optimize_bench.py, 2026-11-23): Gauss-Newton converges in 2 to
-        4 iterations where the exact Hessian is indefinite and regularized every iteration
-        (row 11: 4 instead of 21; 100k vertices: 42 s instead of 123 s), but its full steps
-        can land on a trivial zero of the energies, close to a line bundle: on a facade with
-        boundary strokes (normal, fair, torsal_direction) 972 of 2048 faces without torsal
-        directions (exact: 0), on example 10 116 (exact: 6; the start: 0), on the 7a term set
-        133 of 2048 and at 100k vertices more than 2 % (exact: 1 and 142), on row 11 68 and
-        473 on its two congruences (exact: 0, 0). The guard catches every one and returns
-        the exact Hessian's answer, but then costs the Gauss-Newton solve and a second build
-        on top (100k: 9 iterations and two builds), so it is not the default: every
-        zero-residual design measured collapses; it pays off where the energies' minimum is
-        not zero (e.g. with ``closeness``). With inequalities, the Gauss-Newton
-        pass 1 (``"auto"``) turned example 10 into a near line bundle and left a face of this
-        class's doctest non-hyperbolic, so constrained solves stay exact.
+        Gauss-Newton converges in a few iterations where the exact Hessian is indefinite,
+        but its full steps can land on a trivial zero of the energies, close to a line
+        bundle (faces without torsal directions); the guard catches that and returns the
+        exact Hessian's answer at the cost of a second solve, so it is not the default: it
+        pays off where the energies' minimum is not zero (e.g. with ``closeness``).
     elastic : float, default 0
         ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
         ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
         :meth:`~torsal.geometry.optimize.nlp.Built._elastic`): LICQ holds everywhere, every
-        start is feasible, multipliers are bounded by ``rho``. 0 (default): off. Measured on
-        row 7c, it did not converge faster than the plain split form (rho 1e2: infeasible
-        after 500 iterations; 1e3: objective 0.69 against 0.49), so it is an option, not the
-        default; on small patches it reaches the same optimum (tests/geometry/test_optimize_forms.py).
+        start is feasible, multipliers are bounded by ``rho``. 0 (default): off. An option for
+        IPOPT, not the default (it did not converge faster on row 7c); on small patches it
+        reaches the same optimum (tests/geometry/test_optimize_forms.py).
     jit : bool, default False
         Compile the per-element kernels to C with the system compiler (casadi codegen; cached
         on disk in ``~/.cache/torsal/kernels`` or ``$TORSAL_KERNEL_CACHE``, so only the first
@@ -630,13 +618,10 @@ class CongruenceProblem:
         The angle bound ``|p| <= cos(alpha) rho`` and the strength floor are bounds on
         variables: no inequality row, nothing whose gradient vanishes at the apex ``g = 0``
         (a line bundle, outside ``r >= s``), and the start needs not be feasible (pass 3
-        starts from the energies' optimum). Measured (benchmarks/optimize_bench.py): row 7c
-        358 iterations, converged, objective 0.4311 (split: 746 iterations, 0.4572); row 9 719
-        iterations, converged, 0.0160 (split: about 1,155, 0.0165). Not the default: that
-        lower optimum is rougher (the lines' fairness energy 0.0030 against 0.0017 on
-        example 9), and the support structure extracted from it runs through itself (457 of 841 fin panels cannot be
-        built, 34 % of the sun blocked, against 231 and 58 % from split's
-        best iterate at the design's 180 s budget).
+        starts from the energies' optimum). IPOPT converges in fewer iterations with it than
+        with split, but not the default: its lower optimum has rougher lines, and the
+        support structure extracted from example 9's ran through itself. The augmented
+        Lagrangian has no lifted variables: it solves split (and cone) only.
 
         ``form="cone"`` (one row per face,
         :func:`torsal.geometry.optimize.terms.torsal_angle_cone_element`)::

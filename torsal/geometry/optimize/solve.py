@@ -22,7 +22,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 from enum import Enum
-from typing import TYPE_CHECKING, Callable, NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -35,9 +35,6 @@ from .measure import worst_missed
 from .nlp import Built, _renormalize
 from .result import OptimizationError, OptimizationResult
 from .working_set import _working_ids
-
-if TYPE_CHECKING:
-    from .problem import CongruenceProblem
 
 class Solver(str, Enum):
     """The strategies of :meth:`~torsal.geometry.optimize.CongruenceProblem.solve` (a ``str``
