@@ -371,8 +371,11 @@ class AugmentedLagrangian:
                 LA = pt.F + m.value
                 gl = pt.grad + sys.jt(pt.jac, s * m.mu)
                 w = np.where(m.active, rho * s * s, 0.0)
-                d, exact = self._direction(pt.z, gl, pt.jac, s * m.mu, w, wait == 0 and near)
+                tried = wait == 0 and near
+                d, exact = self._direction(pt.z, gl, pt.jac, s * m.mu, w, tried)
                 wait = max(wait - 1, 0)
+                if tried and not exact:        # indefinite: back off before the next try
+                    wait, backoff = backoff, min(2 * backoff, 32)
                 if d is None:
                     status = "the Newton matrix could not be factored"
                     break
@@ -395,7 +398,7 @@ class AugmentedLagrangian:
                 if alpha * turn < 1e-12:      # rounding: no step left to take
                     break
                 if exact and (alpha < 1.0 or turn > MAX_TURN):
-                    wait, backoff = backoff, min(2 * backoff, 16)   # not yet Newton's region
+                    wait, backoff = backoff, min(2 * backoff, 32)   # not yet Newton's region
                 elif exact:
                     backoff = 1
                 near = alpha == 1.0 and turn < TURN_EXACT
