@@ -24,7 +24,10 @@ Tables (``--tables``, default all but ``synthetic``):
    facades and canopies, several suns) x ``min_torsal_angle`` 20, 40, 60, 80 at full size
    (``--family-size``): the share that ends measured-feasible and converged (target >= 95 %),
    the failures with their faces named.
-5. ``synthetic``: the 7a term set at 1k, 20k and 100k vertices (no constraint rows, IPOPT's
+5. ``factor``: the sparse Cholesky backends (:mod:`torsal.geometry.optimize.factor`) on the
+   augmented Lagrangian's Newton matrix of rows 7c and 9 at their start: numeric
+   factorization + solve per step (the symbolic analysis is reused where the backend can).
+6. ``synthetic``: the 7a term set at 1k, 20k and 100k vertices (no constraint rows, IPOPT's
    projected-Newton passes): build, solve, re-solve; target 100k in < 60 s.
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family synthetic]
@@ -336,10 +339,47 @@ def print_family(size: int, n: int):
         print(f"  {name} at {angle} deg: {r.solver}, {r.status[:100]}; faces {faces}")
 
 
+def print_factor(rows):
+    from torsal.geometry.optimize.alm import NewtonSystem
+    from torsal.geometry.optimize.factor import BACKENDS, SparseCholesky, available
+    from torsal.geometry.optimize.nlp import tangent_frames
+
+    print("Sparse Cholesky of the augmented Lagrangian's Newton matrix (per step: factor + solve)")
+    print(_load())
+    print(f"{'row':>4} {'n':>6} {'nnz(K)':>8} | " + " ".join(f"{b:>9}" for b in BACKENDS) + "   (ms, processor time)")
+    for name, design, _ in FIG12:
+        if name not in (rows or ["7c", "9"]):
+            continue
+        spec, make, _, _ = example_problem(design)
+        p = _split_form(make())
+        p.build("alm")
+        b = p._built["tangent/alm"]
+        par = b.parameters(p._current(), tangent_frames(p.congruence.directions))
+        x = np.zeros(b.n_var)
+        sys_ = NewtonSystem.of(b, "splu")
+        h = b.hess_lag.nonzeros([x, par, np.array([float(b.n_vertices)]), np.zeros(b.n_g)])
+        jac = np.asarray(b.jac_g(x, par)[1].nonzeros())
+        k = sys_.values(h, jac, np.full(b.n_g, 10.0), 1e-6 * float(np.mean(h)))
+        rhs = np.ones(b.n_var)
+        cells = []
+        for backend in BACKENDS:
+            if not available(backend):
+                cells.append(f"{'n/a':>9}")
+                continue
+            f = SparseCholesky(sys_.chol.upper(k), backend)
+            f.factor(k)
+            c0 = time.process_time()
+            for _ in range(10):
+                f.factor(k)
+                f.solve(rhs)
+            cells.append(f"{100 * (time.process_time() - c0):9.1f}")
+        print(f"{name:>4} {b.n_var:>6} {sys_.chol.nnz:>8} | " + " ".join(cells), flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", nargs="*", default=["fig12", "resolve", "facade", "family"],
-                    choices=["fig12", "resolve", "facade", "family", "synthetic"])
+                    choices=["fig12", "resolve", "facade", "family", "factor", "synthetic"])
     ap.add_argument("--methods", nargs="*", default=list(METHODS), choices=list(METHODS))
     ap.add_argument("--rows", nargs="*", default=None, help="Fig. 12 rows (default all)")
     ap.add_argument("--lbfgs-iter", type=int, default=500)
@@ -360,6 +400,9 @@ def main():
         print()
     if "family" in args.tables:
         print_family(args.family_size, args.family_n)
+        print()
+    if "factor" in args.tables:
+        print_factor(args.rows)
         print()
     if "synthetic" in args.tables:
         print_synthetic(args.max_vertices)

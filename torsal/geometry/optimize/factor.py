@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 
 #: the backends in order of preference (the first that imports is the default)
-BACKENDS = ("qdldl", "cholmod", "csparse", "splu")
+BACKENDS = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 
 
 class NotPositiveDefinite(ArithmeticError):
@@ -86,10 +86,10 @@ class SparseCholesky:
         Raises :class:`NotPositiveDefinite` if a pivot is not positive.
         """
         self.factorizations += 1
-        getattr(self, "_factor_" + self.backend)(np.asarray(data, dtype=float))
+        getattr(self, "_factor_" + self.backend.replace("-", "_"))(np.asarray(data, dtype=float))
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        return np.asarray(getattr(self, "_solve_" + self.backend)(np.asarray(rhs, dtype=float))).ravel()
+        return np.asarray(getattr(self, "_solve_" + self.backend.replace("-", "_"))(np.asarray(rhs, dtype=float))).ravel()
 
     # ------------------------------------------------------------------ CHOLMOD (sksparse)
     def _factor_cholmod(self, data):
@@ -106,6 +106,22 @@ class SparseCholesky:
 
     def _solve_cholmod(self, rhs):
         return self._impl(rhs)
+
+    # ------------------------------------------------------------------ CHOLMOD (sksparse-minimal)
+    def _factor_cholmod_minimal(self, data):
+        # no refactorization call in this wheel: ordering and symbolic analysis every time
+        from sksparse_minimal import SparseCholesky as Chol
+
+        try:
+            self._impl = Chol(self.full(data))
+            inv_d = self._impl.solve_D(np.ones(self.n))     # 1 / D of LDL^T (1 for LL^T)
+        except Exception as exc:      # CHOLMOD's "not positive definite"
+            raise NotPositiveDefinite(str(exc)) from None
+        if not np.all(np.isfinite(inv_d) & (inv_d > 0)):
+            raise NotPositiveDefinite("a pivot of CHOLMOD's factorization is not positive")
+
+    def _solve_cholmod_minimal(self, rhs):
+        return self._impl.solve_A(rhs)
 
     # ------------------------------------------------------------------ QDLDL
     def _factor_qdldl(self, data):
@@ -170,6 +186,8 @@ def available(backend: str) -> bool:
     try:
         if backend == "cholmod":
             import sksparse.cholmod  # noqa: F401
+        elif backend == "cholmod-minimal":
+            import sksparse_minimal  # noqa: F401
         elif backend == "qdldl":
             import qdldl  # noqa: F401
         elif backend == "csparse":
