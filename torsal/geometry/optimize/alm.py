@@ -73,6 +73,9 @@ DECREMENT_PER_TOL = 1e-2
 #: the Newton decrement is relative to |L_A|, or to this share of the start's objective where
 #: that is larger (a design whose energies reach zero)
 FLOOR = 1e-8
+#: a warm re-solve: penalties capped at this multiple of a cold start's, first inner tolerance
+WARM_RHO_CAP = 100.0
+WARM_EPS = 1e-5
 #: first inner tolerance (Newton decrement relative to |L_A|)
 EPS_START = 1e-3
 #: Newton steps per inner minimization
@@ -291,14 +294,16 @@ class AugmentedLagrangian:
     def _initial(self, jac: np.ndarray, warm: AlmState | None) -> AlmState:
         """Multipliers, penalties and row scales of a cold start (or the warm ones)."""
         b, sys = self.b, self.sys
-        if warm is not None and warm.lam.size == b.n_g:
-            return AlmState(e=warm.e, lam=warm.lam.copy(), rho=warm.rho.copy(), scale=warm.scale,
-                            delta=warm.delta)
-        s = _row_scales(b, jac, sys)
         # rows scaled to unit gradients: a penalty curvature RHO_START times the energies'
         # typical curvature per variable (median of the projected Hessian's diagonal)
         h0 = sys.values(self._hessian(np.zeros(b.n_g)), jac, np.zeros(b.n_g), 0.0)[sys.diag_pos]
         r0 = RHO_START * max(float(np.median(h0)), 1e-6)
+        if warm is not None and warm.lam.size == b.n_g:
+            # the multipliers carry over; penalties that grew for the old problem's hard rows
+            # are capped, so the changed problem's first steps are not stiff
+            return AlmState(e=warm.e, lam=warm.lam.copy(), rho=np.minimum(warm.rho, WARM_RHO_CAP * r0),
+                            scale=warm.scale, delta=warm.delta)
+        s = _row_scales(b, jac, sys)
         return AlmState(e=np.zeros((0, 3)), lam=np.zeros(b.n_g), rho=np.full(b.n_g, r0), scale=s, delta=1e-8)
 
     def _direction(self, z, gl, jac, mu, w, try_exact: bool) -> tuple[np.ndarray | None, bool]:
@@ -357,7 +362,7 @@ class AugmentedLagrangian:
         s, lam, rho, self.rel = st.scale, st.lam, st.rho, st.delta
         lo, hi = s * self.lo, s * self.hi
         # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
-        eps = EPS_START if warm is None else 10 * self.tol
+        eps = EPS_START if warm is None else max(WARM_EPS, self.tol)
         v_prev = np.full(b.n_g, np.inf)
         steps = outer = 0
         wait, backoff, near = 0, 1, False     # when to try the exact Hessian
