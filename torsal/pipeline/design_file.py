@@ -47,7 +47,7 @@ from ..core.inputs import read_input
 from ..core.units import UNIT_TO_M
 from ..geometry.congruence import ZERO_DIRECTION_RTOL
 from ..geometry.mesh import MAX_COORDINATE
-from ..geometry.optimize import TorsalAngleForm
+from ..geometry.optimize import Solver, TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
 from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
@@ -319,13 +319,21 @@ class ConstraintsSpec(_Spec):
     torsal_angle_form: TorsalAngleForm | None = Field(
         None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
         "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
-    max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
-                          "limit is kept (its status says so)")
+    solver: Solver = Field(Solver.AUTO, description="the congruence optimizer: auto (the augmented "
+                           "Lagrangian for a design with inequality constraints, IPOPT otherwise), alm, "
+                           "ipopt (the solver of record) or lbfgs (the paper's baseline); report.json "
+                           "says which one produced the design")
+    certify: bool = Field(False, description="IPOPT certifies the augmented Lagrangian's answer as a "
+                          "KKT point (all constraints, warm start from its answer and multipliers)")
+    max_iter: int = Field(500, gt=0, description="iteration limit: Newton steps of the augmented "
+                          "Lagrangian, IPOPT iterations; counts, not time, decide the result; a "
+                          "feasible iterate at the limit is kept (its status says so)")
     jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "
                              "(once per machine, cached); default: for surfaces of 500 vertices or more")
-    max_seconds: float | None = Field(None, gt=0, description="wall-time budget of the congruence "
-                                      "solve; at the limit the best iterate whose constraints hold "
-                                      "as measured is kept (its status says so)")
+    max_seconds: float | None = Field(None, gt=0, description="a safety net only: wall-time limit "
+                                      "of the congruence solve; at the limit the best iterate whose "
+                                      "constraints hold as measured is kept and report.json says the "
+                                      "result depends on the machine's load (congruence.time_limited)")
 
 
 class FinsSpec(_Spec):

@@ -137,7 +137,8 @@ def run_orient(inp: StageInputs) -> dict:
 
 # ------------------------------------------------------------------ congruence (4.1)
 def run_congruence(inp: StageInputs) -> dict:
-    """Optimize the congruence (eq. 9, IPOPT). Returns ``directions`` (n, 3), the
+    """Optimize the congruence (eq. 9; the augmented Lagrangian or IPOPT, ``constraints.solver``).
+    Returns ``directions`` (n, 3), ``optimum`` (the warm start of a re-solve), the
     ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
     ``substructure_directions`` (n, 3)."""
     from .problem import congruence_problem
@@ -146,7 +147,8 @@ def run_congruence(inp: StageInputs) -> dict:
     v, f = inp["orient"]["vertices"], inp["orient"]["faces"]
     sun = inp["sun"]
     p = congruence_problem(spec, v, f, sun["vectors"], sun["weights"])
-    r = p.solve(max_iter=spec.constraints.max_iter, max_seconds=spec.constraints.max_seconds,
+    C = spec.constraints
+    r = p.solve(solver=C.solver.value, certify=C.certify, max_iter=C.max_iter, max_seconds=C.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
                 constraint_tol=CONSTRAINT_TOL)
     c = r.congruence
@@ -165,10 +167,20 @@ def run_congruence(inp: StageInputs) -> dict:
     return {
         **extra,
         "directions": np.asarray(c.directions),
+        # the optimum with its multipliers and penalties: a warm re-solve after a small change
+        # (CongruenceProblem.warm_start_from), kept in the stage cache's entry
+        "optimum": p.optimum,
         "report": {
             "vertices": int(len(v)), "faces": int(len(f)),
             "build_s": float(r.build_seconds), "solve_s": float(r.solve_seconds),
             "status": str(r.status), "iterations": int(r.iterations),
+            # which solver produced the design, the seconds of each part, and the counts
+            # (Newton steps, factorizations) that decide the result instead of time
+            "solver": str(r.solver),
+            "timings_s": {k: float(x) for k, x in r.timings.items()},
+            "counts": {k: (x if isinstance(x, str) else int(x)) for k, x in r.counts.items()},
+            # True: the safety net constraints.max_seconds cut the solve (load-dependent)
+            "time_limited": bool(r.time_limited),
             "energies": {k: float(x) for k, x in r.energies_after.items()},
             "energies_before": {k: float(x) for k, x in r.energies_before.items()},
             "max_violation": {k: float(x) for k, x in r.max_violation.items()},
