@@ -318,7 +318,9 @@ class SolveCall:
                   working=None, frames=frames, build_seconds=0.0, solve_seconds=t_alm, alm=r, solver="alm",
                   timings={"alm": t_alm})
         stopped = monitor.timed_out or monitor.stopped_by_user
-        rescue = opts.solver == "auto" and not (r.converged or feasible(r.e))
+        # not converged (measured infeasible, or feasible but stopped by its step limit): IPOPT
+        # continues from it, warm, so "auto" ends at a KKT point whenever one is in reach
+        rescue = opts.solver == "auto" and not r.converged
         if stopped or not (opts.certify or rescue):
             return run
         return self._certify(run, r, monitor, rescue)
