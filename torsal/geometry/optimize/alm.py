@@ -72,7 +72,7 @@ CONSTRAINT_CURVATURE = False
 DECREMENT_PER_TOL = 1e-2
 #: the Newton decrement is relative to |L_A|, or to this share of the start's objective where
 #: that is larger (a design whose energies reach zero)
-FLOOR = 1e-5
+FLOOR = 1e-8
 #: a warm re-solve: penalties capped at this multiple of a cold start's, first inner tolerance
 WARM_RHO_CAP = 100.0
 WARM_EPS = 1e-5
@@ -80,10 +80,9 @@ WARM_EPS = 1e-5
 EPS_START = 1e-3
 #: Newton steps per inner minimization
 INNER_MAX = 40
-#: multiplier updates per solve (each is cheap, but a solve must end)
+#: multiplier updates per solve: a row stuck at a bound it cannot reach (zero gradient, e.g.
+#: hyperbolicity exactly 0 under a margin) takes no Newton step, so only this ends the solve
 OUTER_MAX = 60
-#: multiplier updates without a Newton step on a settled, measured-infeasible point that end a solve
-STALL_UPDATES = 3
 #: largest turn of one line in one Newton step (gnomonic coordinate, ~ radians)
 MAX_TURN = 0.5
 _DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
@@ -368,7 +367,7 @@ class AugmentedLagrangian:
         # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
         eps = EPS_START if warm is None else max(WARM_EPS, self.tol)
         v_prev = np.full(b.n_g, np.inf)
-        steps = outer = steps_before = idle = 0
+        steps = outer = 0
         wait, backoff, near = 0, 1, False     # when to try the exact Hessian
         status, converged, dec = "", False, np.inf
         self.monitor.start_pass(None)
@@ -445,12 +444,6 @@ class AugmentedLagrangian:
                 status = f"Maximum_Iterations_Exceeded ({outer} multiplier updates)"
             grow = (np.abs(v) > TAU * np.abs(v_prev)) & (np.abs(v) > VTOL)
             rho = np.where(grow & ~converged, np.minimum(rho * GAMMA, RHO_MAX), rho)
-            # settled rows, no Newton step left, and the geometry still misses a bound (finer
-            # than VTOL): more multiplier updates change nothing, so IPOPT takes over
-            idle = idle + 1 if (settled and not measured and steps == steps_before) else 0
-            if not status and idle >= STALL_UPDATES:
-                status = "stalled: the rows are settled but the geometry misses a bound"
-            steps_before = steps
             v_prev = v
             eps = max(self.tol, 0.1 * eps)
         lam_g = s * lam / self.sF           # IPOPT's multipliers: grad f + J^T lam_g = 0

@@ -110,7 +110,10 @@ def measure(term, c: Congruence, delta: float, g: np.ndarray | None, *, angle_to
         viol, tol = np.maximum(term.bound - vals, 0.0), angle_tol_deg
     elif term.kind == "hyperbolicity":
         vals = c.hyperbolicity()[el] / delta**2
-        viol, tol = np.maximum(term.bound - vals, 0.0), value_tol
+        # a margin is asked so that faces stay off 0 (parabolic: no torsal planes); a tolerance
+        # as large as the margin would let them sit at 0, so it is at most half the margin
+        tol = min(value_tol, 0.5 * term.bound) if term.bound > 0 else value_tol
+        viol = np.maximum(term.bound - vals, 0.0)
     elif term.kind == "angle_to":
         vals = angle_to_deg(c, el, term.par[:, 0:3])
         viol, tol = np.maximum(vals - term.bound, 0.0), angle_tol_deg
