@@ -388,7 +388,9 @@ class CuttingSpec(_Spec):
 class NestingSpec(_Spec):
     """How the parts are nested on the sheets."""
 
-    nester: Nester = Nester.SPARROW
+    # unset: the yield nester only where cutting sheets are written (it takes seconds to
+    # minutes); without DXF the fast layout's sheet count is an estimate, and says so
+    nester: Nester | None = None
     time_limit_s: float | None = Field(None, ge=3, description="wall clock the sparrow nester "
                                        f"may take; unset: {SECONDS_PER_SHEET:g} s per sheet the "
                                        f"parts' area needs, at most {DEFAULT_TIME_LIMIT:g} s; the "

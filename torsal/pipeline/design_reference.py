@@ -100,7 +100,8 @@ KEY_NOTES: dict[str, tuple[str, str]] = {
     "cutting.tool_diameter_mm": ("mm", ""),
     "nesting": ("", "how the parts are nested on the sheets"),
     "nesting.nester": ("", "sparrow: true shapes, free rotation, sheet by sheet in the time limit; "
-                           "bottom-left: fast"),
+                           "bottom-left: fast; unset: sparrow when outputs.dxf writes cutting sheets, "
+                           "else bottom-left (the sheet count is then an estimate)"),
     "nesting.time_limit_s": ("s", ""),
     "nesting.margin_mm": ("mm", ""),
     "outputs": ("", "which files to write"),

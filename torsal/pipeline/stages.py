@@ -446,13 +446,15 @@ def run_fabrication(inp: StageInputs) -> dict:
 def _nest(inp: StageInputs, fs):
     """The design's sheets: its [cutting] process and [nesting] options."""
     from ..fabrication.cutting import Cutting
+    from ..fabrication.nesting import Nester
 
     spec, m = inp.spec, inp.spec.material
     c, n = spec.cutting, spec.nesting
     cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
                                   relief=c.relief, unit=fs.unit)
+    nester = n.nester or (Nester.SPARROW if spec.outputs.dxf else Nester.BOTTOM_LEFT)
     return fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
-                     nester=n.nester, time_limit=n.time_limit_s, seed=n.seed,
+                     nester=nester, time_limit=n.time_limit_s, seed=n.seed,
                      rotation_step=n.rotation_step_deg,
                      progress=lambda done, left: inp.progress(
                          "progress", {"phase": "nesting sheets", "done": done,
