@@ -1,0 +1,143 @@
+"""The one light measurement every fin set of a design or a study gets, and the standard
+devices it is compared with (the ``devices`` stage).
+
+:func:`measure_fins` measures torsal's fins and every standard device alike: the same seeded
+sample points on A, the same sun directions and weights, the same view rays and occupant eye
+points. :func:`run_devices` makes the standard devices of the design's fin depth and spacing
+on the oriented surface (:func:`torsal.light.devices.standard_devices`: a device that cannot
+be made there is reported not applicable with its reason, never measured as 0 %).
+"""
+from __future__ import annotations
+
+from .design_file import DesignSpec
+from .stage import StageInputs
+
+__all__ = ["measure_fins", "run_devices", "devices_key", "view_clear_key", "VIEW_KEYS",
+           "light_summary", "devices_summary"]
+
+#: the report key of each view measure (``view.measure`` in the design file)
+VIEW_KEYS = {"occupant": "view_out", "normal": "transparency"}
+
+
+def view_clear_key(spec: DesignSpec) -> str:
+    """The ``light`` report key of the design's chosen view measure."""
+    return VIEW_KEYS[spec.view.measure.value]
+
+
+def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float, *,
+                 view=None, view_measure: str = "occupant") -> tuple[dict, object]:
+    """Sun blocked and view clear of a fin set over mesh A.
+
+    Parameters
+    ----------
+    fins : trimesh.Trimesh
+        Thin-surface fins.
+    surface : (vertices (n, 3), faces (m, 3))
+        Mesh A, normals towards the sun.
+    sun : dict
+        The sun stage's result: ``vectors`` (k, 3), ``weights`` (k,).
+    samples : int
+        Points for the sun rays; half as many for the view rays along the normal.
+    metres_per_unit : float
+    view : torsal.light.view.ViewField, optional
+        Occupant eye points and sight lines, model units (default: the defaults in metres).
+    view_measure : {"occupant", "normal"}
+        Which measure is ``view_clear``.
+
+    Returns
+    -------
+    report : dict
+        ``blocked_share`` (weighted share of direct sun rays blocked), ``transparency``
+        (share of points with a free view along the normal), ``transparency_cone`` (free
+        share over a 60 degree cone), ``view_out`` (occupant view out, see
+        :mod:`torsal.light.view`) with ``view_out_detail``, ``view_measure`` and
+        ``view_clear`` (the chosen one), ``fin_area_m2`` (one side).
+    blocked : ShadingResult
+        Per point, for the figure.
+    """
+    from ..light import direct_sun_blocked, transparency
+    from ..light.view import ViewField, view_out
+
+    if view is None:
+        view = ViewField().in_units(metres_per_unit)
+    blocked = direct_sun_blocked(fins, surface, sun["vectors"], samples=samples,
+                                 weights=sun["weights"])
+    clear = transparency(fins, surface, samples=samples // 2)
+    out = view_out(fins, surface, view)
+    report = {"blocked_share": float(blocked.share), "transparency": float(clear.along_normal),
+              "transparency_cone": float(clear.cone), "view_out": out.share,
+              "view_out_detail": {k: x for k, x in out.summary().items() if k != "share"},
+              "view_measure": view_measure,
+              "fin_area_m2": float(fins.area) * metres_per_unit ** 2}
+    report["view_clear"] = report[VIEW_KEYS[view_measure]]
+    return report, blocked
+
+
+def run_devices(inp: StageInputs) -> dict:
+    """The standard devices of the design's fin depth and spacing, measured.
+
+    Returns ``measured``: {device name: ``applicable``, ``reason``, ``plane_normals``,
+    ``stand_out_deg`` (and ``orientation`` for the optimized ones) and, when applicable,
+    every figure of :func:`measure_fins`}; in :data:`torsal.light.devices.DEVICE_NAMES` order.
+    """
+    from ..light.devices import standard_devices
+
+    spec = inp.spec
+    o, sun = inp["orient"], inp["sun"]
+    v, f = o["vertices"], o["faces"]
+    devices = standard_devices(v, f, spec.fins.depth, spec.fins.spacing, sun=sun["vectors"],
+                               weights=sun["weights"])
+    view = spec.view.field(spec.metres_per_unit)
+    measured = {}
+    for name, d in devices.items():
+        row = d.as_dict()
+        if d.applicable:
+            row.update(measure_fins(d.fins, (v, f), sun, spec.outputs.light_samples,
+                                    spec.metres_per_unit, view=view,
+                                    view_measure=spec.view.measure.value)[0])
+        measured[name] = row
+    return {"measured": measured}
+
+
+def devices_key(spec: DesignSpec) -> tuple:
+    """What the devices depend on besides the surface and the sun."""
+    return (spec.fins.depth, spec.fins.spacing, spec.outputs.light_samples, spec.units,
+            spec.view.model_dump(mode="json"))
+
+
+def _view_name(m: dict) -> str:
+    return "view out" if m.get("view_measure", "occupant") == "occupant" else "view along the normal"
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.1f}%"
+
+
+def light_summary(light: dict) -> str:
+    """The fins' measured light in a few words (the report's ``light`` section), e.g.
+    ``sun blocked 93.1%, view out 70.2%``."""
+    return (f"sun blocked {_pct(light['blocked_share'])}, {_view_name(light)} "
+            f"{_pct(light.get('view_clear', light.get('transparency')))}")
+
+
+def devices_summary(light: dict) -> str:
+    """One line on the standard devices of ``light["devices"]``: each made one's sun blocked
+    and view, and the ones that cannot be made on the surface, with the first reason.
+
+    >>> devices_summary({"devices": {"egg-crate": {"applicable": False, "reason": "a canopy"},
+    ...     "optimized parallel fins": {"applicable": True, "blocked_share": 0.5,
+    ...                                 "view_clear": 0.75, "view_measure": "occupant"}}})
+    'standard devices, same depth and spacing (sun blocked / view out): optimized parallel fins 50.0% / 75.0%; not applicable: egg-crate (a canopy)'
+    """
+    devices = light.get("devices") or {}
+    made = [(n, d) for n, d in devices.items() if d["applicable"]]
+    text = "standard devices, same depth and spacing"
+    if made:
+        text += (f" (sun blocked / {_view_name(made[0][1])}): "
+                 + ", ".join(f"{n} {_pct(d['blocked_share'])} / {_pct(d['view_clear'])}"
+                             for n, d in made))
+    missing = [(n, d["reason"]) for n, d in devices.items() if not d["applicable"]]
+    if missing:
+        text += ("; " if made else ": ") + "not applicable: " + ", ".join(n for n, _ in missing)
+        text += f" ({missing[0][1]})"
+    return text
