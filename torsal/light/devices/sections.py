@@ -117,14 +117,21 @@ class SurfaceSections:
             return empty_fins()
         level, edge_pairs, m, ml = level[ok], edge_pairs[ok], m[ok], ml[ok]
         m = m / ml[:, None]
-        # one cut point per (edge, level): neighbouring fin quads share it exactly (no leaks)
-        key = edge_pairs * len(levels) + level[:, None]
-        ids, inv = np.unique(key.ravel(), return_inverse=True)
-        inv = inv.reshape(-1, 2)
-        e, lv = self.edges[ids // len(levels)], levels[ids % len(levels)]
+        # one cut point per (edge, level), or per (vertex, level) where a plane passes through
+        # a vertex: neighbouring fin quads share it exactly (no leaks)
+        nl = len(levels)
+        ids, inv = np.unique((edge_pairs * nl + level[:, None]).ravel(), return_inverse=True)
+        e, lv = self.edges[ids // nl], ids % nl
         ha, hb = h[e[:, 0]], h[e[:, 1]]
-        t = (lv - ha) / (hb - ha)                    # the cut edges' ends lie on both sides
+        t = (levels[lv] - ha) / (hb - ha)            # the cut edges' ends lie on both sides
+        # within rounding of a vertex (levels k * spacing are rounded too): the vertex itself
+        at = np.where(t <= 1e-9, e[:, 0], np.where(t >= 1.0 - 1e-9, e[:, 1], -1))
+        where = np.where(at >= 0, at, len(v) + ids // nl)
+        pid, first, back = np.unique(where * nl + lv, return_index=True, return_inverse=True)
+        inv = back[inv].reshape(-1, 2)
+        e, t, at = e[first], np.clip(t[first], 0.0, 1.0), at[first]
         pts = v[e[:, 0]] + t[:, None] * (v[e[:, 1]] - v[e[:, 0]])
+        pts[at >= 0] = v[at[at >= 0]]
         dirs = np.zeros_like(pts)
         np.add.at(dirs, inv.ravel(), np.repeat(m, 2, axis=0))
         dl = np.linalg.norm(dirs, axis=1)
