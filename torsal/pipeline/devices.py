@@ -19,5 +19,7 @@ __all__ = ["DEVICES", "run_devices", "DEVICES_PIPELINE"]
 DEVICES = DEVICE_NAMES
 
 #: surface, sun and orientation shared with the designs (one cache), then the devices: the
-#: devices stage of every design run, so a study's devices and its variants' are the same
-DEVICES_PIPELINE = DEFAULT_PIPELINE.until("devices")
+#: devices stage of every design run (the same keys), so a study's devices and its variants'
+#: are one computation
+DEVICES_PIPELINE = DEFAULT_PIPELINE.until("orient").insert(DEFAULT_PIPELINE["devices"],
+                                                           after="orient")

@@ -492,14 +492,14 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("estimate", run_estimate, inputs=("surface",), key=_estimate_key, cache=False),
     Stage("sun", run_sun, key=_sun_key),
     Stage("orient", run_orient, inputs=("surface", "sun"), cache=False, section="surface"),
-    # the standard devices of the fins' depth and spacing (measured into light.devices)
-    Stage("devices", run_devices, inputs=("orient", "sun"), key=devices_key),
     Stage("congruence", run_congruence, inputs=("orient", "sun"), key=_congruence_key),
     Stage("remesh", run_remesh, inputs=("orient", "congruence"), key=_remesh_key),
     Stage("support", run_support, inputs=("orient", "remesh"), key=_fins_key),
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
+    # the standard devices of the fins' depth and spacing (measured into light.devices)
+    Stage("devices", run_devices, inputs=("orient", "sun"), key=devices_key),
     # after the fabrication: it measures the fins that are built
     Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication", "devices"),
           key=_light_key),

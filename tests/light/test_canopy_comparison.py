@@ -1,0 +1,164 @@
+"""A canopy, as a user brings one: a small hyperbolic paraboloid (OBJ) and the sun from an EPW
+file, both written here; ``torsal design`` compares the fins with every standard device. Each
+device blocks some sun or is reported not applicable with its reason; no warning reaches the
+terminal and no NaN or infinity reaches a report."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torsal.light.devices import DEVICE_NAMES
+from torsal.light.sun import write_synthetic_epw
+
+FACADE_DEVICES = ("horizontal louvers", "vertical fins", "egg-crate")
+
+
+def write_hypar(path: Path, n: int = 11, size: float = 6.0, k: float = 0.12) -> Path:
+    """A hyperbolic paraboloid z = 3 + k x y over a size x size square, as an OBJ of quads."""
+    x = np.linspace(-size / 2, size / 2, n)
+    lines = [f"v {a:.6f} {b:.6f} {3.0 + k * a * b:.6f}" for a in x for b in x]
+    for i in range(n - 1):
+        for j in range(n - 1):
+            c = i * n + j + 1
+            lines.append(f"f {c} {c + n} {c + n + 1} {c + 1}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_canopy_design(folder: Path, **outputs) -> Path:
+    """The hypar canopy in Vienna with the hot summer hours of a synthetic EPW."""
+    folder.mkdir(parents=True, exist_ok=True)
+    write_hypar(folder / "hypar.obj")
+    write_synthetic_epw(folder / "site.epw", 48.21, 16.37, tz_hours=1.0)
+    opts = {"step": False, "rhino_3dm": False, "dxf": False, "bom": False, "renders": True,
+            "light_samples": 400, **outputs}
+    out = "\n".join(f"{k} = {json.dumps(v)}" for k, v in opts.items())
+    (folder / "canopy.toml").write_text(f"""name = "hypar canopy"
+units = "m"
+[surface]
+mesh = "hypar.obj"
+[sun]
+epw = "site.epw"
+min_temperature = 26
+min_dni = 300
+months = [6, 7, 8]
+[goals]
+block = true
+[constraints]
+max_iter = 300
+[fins]
+spacing = 1.5
+depth = 0.5
+[outputs]
+{out}
+""")
+    return folder / "canopy.toml"
+
+
+def _strict(text: str) -> dict:
+    def refuse(name):
+        raise ValueError(f"report.json holds {name}")
+    return json.loads(text, parse_constant=refuse)
+
+
+@pytest.fixture(scope="module")
+def canopy_run(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("canopy")
+    design = write_canopy_design(folder)
+    exe = Path(sys.executable).with_name("torsal")
+    res = subprocess.run([str(exe), "design", str(design), "--out", str(folder / "out"),
+                          "--accept-unbuildable"], capture_output=True, text=True, timeout=900,
+                         cwd=folder)
+    return folder / "out", res
+
+
+def test_every_device_blocks_sun_or_says_why_not(canopy_run):
+    out, res = canopy_run
+    assert res.returncode == 0, res.stderr
+    report = _strict((out / "report.json").read_text())
+    light = report["light"]
+    assert list(light["devices"]) == list(DEVICE_NAMES)
+    for name, d in light["devices"].items():
+        if d["applicable"]:
+            assert d["blocked_share"] > 0.05, name
+            assert 0 < d["view_out"] <= 1 and d["fin_area_m2"] > 0
+        else:
+            assert d["reason"] and "blocked_share" not in d, name
+    for name in FACADE_DEVICES:                 # on a canopy: named, with the reason
+        assert not light["devices"][name]["applicable"]
+        assert "canopy" in light["devices"][name]["reason"]
+    assert light["devices"]["optimized parallel fins"]["applicable"]
+    assert light["devices"]["optimized egg-crate"]["applicable"]
+    assert light["baseline_louvers"] == {"applicable": False,
+                                         "reason": light["devices"]["horizontal louvers"]["reason"]}
+    # the view out of the fins themselves, from eye points under the canopy
+    assert light["view_measure"] == "occupant" and light["view_clear"] == light["view_out"]
+    assert light["view_out_detail"]["eye_points"] > 0
+
+
+def test_the_terminal_and_the_report_name_the_devices_and_no_warning(canopy_run):
+    out, res = canopy_run
+    text = res.stdout + res.stderr
+    assert "Warning" not in text and "invalid value" not in text
+    assert "louvers 0.0%" not in text
+    assert "not applicable: horizontal louvers, vertical fins, egg-crate" in res.stdout
+    assert "optimized parallel fins" in res.stdout
+    page = (out / "report.html").read_text()
+    assert page.count("not applicable:") == 3 and "optimized egg-crate" in page
+    for name in ("report.json",):
+        raw = (out / name).read_text()
+        assert "NaN" not in raw and "Infinity" not in raw
+    for p in out.rglob("*.json"):               # every JSON the run wrote
+        _strict(p.read_text())
+    assert not any(math.isnan(x) for x in [report_value for report_value in
+                                             _numbers(_strict((out / "report.json").read_text()))])
+
+
+def _numbers(x):
+    if isinstance(x, dict):
+        for v in x.values():
+            yield from _numbers(v)
+    elif isinstance(x, list):
+        for v in x:
+            yield from _numbers(v)
+    elif isinstance(x, float):
+        yield x
+
+
+def test_a_light_study_of_the_canopy_has_every_device_in_its_table(tmp_path):
+    """``torsal study`` over two fin depths with ``[run] fabrication = false``: each depth has
+    its five device rows, the facade ones "not applicable" with the reason, the others
+    measured like the torsal variants (and the verdict says which cannot be made)."""
+    from torsal import Study
+    from torsal.study.study_report import NOT_APPLICABLE, X_KEY, Y_KEY
+
+    write_canopy_design(tmp_path, renders=False)
+    study = tmp_path / "study.toml"
+    study.write_text('name = "canopy depths"\nbase = "canopy.toml"\n[axes]\n"fins.depth" = [0.4, 0.6]\n'
+                     "[run]\nworkers = 1\nfabrication = false\n")
+    res = Study.from_toml(study).run(tmp_path / "out", serial=True)
+    t = res.table
+    torsal, base = t[t["kind"] == "torsal"], t[t["kind"] == "baseline"]
+    assert (torsal["status"] == "done").all() and len(torsal) == 2
+    assert "fabrication.parts" not in t.columns           # no parts were made
+    assert len(base) == 2 * len(DEVICE_NAMES)
+    for depth, g in base.groupby("fins.depth"):
+        g = g.set_index("device")
+        for name in FACADE_DEVICES:
+            assert g.loc[name, "status"] == NOT_APPLICABLE and "canopy" in g.loc[name, "note"]
+            assert np.isnan(g.loc[name, Y_KEY])               # never a measured 0 %
+        for name in ("optimized parallel fins", "optimized egg-crate"):
+            assert g.loc[name, "status"] == "done" and g.loc[name, Y_KEY] > 0.05
+            assert 0 < g.loc[name, X_KEY] <= 1
+    assert "cannot be made on this surface" in res.verdict
+    assert "horizontal louvers" in res.verdict and "optimized egg-crate" in res.verdict
+    page = (tmp_path / "out" / "study.html").read_text()
+    assert page.count(NOT_APPLICABLE) >= 6
+    for p in (tmp_path / "out").rglob("*.json"):
+        _strict(p.read_text())
