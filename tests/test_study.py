@@ -14,7 +14,7 @@ import tomli_w
 from torsal import Study, StudyFileError
 from torsal.light.devices import DEVICE_NAMES
 from torsal.pipeline.cli import main
-from torsal.study.study_report import X_KEY
+from torsal.study.study_report import X_KEY, Y_KEY
 
 ROOT = Path(__file__).resolve().parents[1]
 AXES = {"fins.spacing": [1.5, 2.0], "fins.depth": [0.3, 0.5], "weights.perp": [1, 10]}
@@ -121,8 +121,10 @@ def test_table_files_and_page(grid):
     # the verdict's number, computed independently: the additive epsilon indicator
     ok = res.table[res.table["status"] == "done"]
     t, b = ok[ok["kind"] == "torsal"], ok[ok["kind"] == "baseline"]
-    lead = max(min(max(x - bx, y - by) for bx, by in zip(b[X_KEY], b["light.blocked_share"]))
-               for x, y in zip(t[X_KEY], t["light.blocked_share"]))
+    # (the sun axis is the sun as asked: blocked, the design has no let-through region)
+    assert (ok[Y_KEY] == ok["light.blocked_share"]).all()
+    lead = max(min(max(x - bx, y - by) for bx, by in zip(b[X_KEY], b[Y_KEY]))
+               for x, y in zip(t[X_KEY], t[Y_KEY]))
     assert f"{100 * abs(lead):.1f} percentage points" in res.verdict
     assert ("lie beyond" in res.verdict) == (lead > 0)
 
@@ -264,10 +266,10 @@ def test_a_lost_task_is_a_failed_variant(tmp_path):
 def _table(torsal, devices):
     rows = [{"id": f"{k:03d}", "kind": "torsal", "device": "torsal", "status": "done",
              "fins.depth": 0.3, "fins.spacing": 0.6, X_KEY: x,
-             "light.blocked_share": y, "material_kg": 100.0} for k, (x, y) in enumerate(torsal)]
+             Y_KEY: y, "material_kg": 100.0} for k, (x, y) in enumerate(torsal)]
     rows += [{"id": f"b{k}", "kind": "baseline", "device": "horizontal louvers", "status": "done",
               "fins.depth": 0.3, "fins.spacing": 0.6, X_KEY: x,
-              "light.blocked_share": y, "material_kg": 80.0} for k, (x, y) in enumerate(devices)]
+              Y_KEY: y, "material_kg": 80.0} for k, (x, y) in enumerate(devices)]
     return pd.DataFrame(rows)
 
 

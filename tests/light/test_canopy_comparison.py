@@ -162,3 +162,30 @@ def test_a_light_study_of_the_canopy_has_every_device_in_its_table(tmp_path):
     assert page.count(NOT_APPLICABLE) >= 6
     for p in (tmp_path / "out").rglob("*.json"):
         _strict(p.read_text())
+
+
+def test_the_sun_as_asked_counts_light_let_through_where_the_design_wants_it():
+    """A flat roof, its left half a let-through region: a solid plate above blocks everything
+    (as asked on the right half only); no fins let everything through (as asked on the left
+    half only). With the sample points split by area, each scores its half."""
+    import trimesh
+
+    from torsal.geometry.surfaces import grid_faces
+    from torsal.pipeline.measure import measure_fins
+
+    x = np.linspace(-2.0, 2.0, 9)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    v, f = np.c_[X.ravel(), Y.ravel(), np.zeros(X.size)], grid_faces(9, 9)
+    left = np.flatnonzero(v[f].mean(axis=1)[:, 0] < 0)
+    sun = {"vectors": np.array([[0.1, 0.2, 1.0]]) / np.linalg.norm([0.1, 0.2, 1.0]),
+           "weights": np.ones(1)}
+    roof = trimesh.Trimesh([[-9, -9, 1], [9, -9, 1], [9, 9, 1], [-9, 9, 1]], [[0, 1, 2], [0, 2, 3]])
+    full, res = measure_fins(roof, (v, f), sun, 2000, 1.0, let_through_faces=left)
+    inside = res.points[:, 0] < 0
+    assert full["blocked_share"] == 1.0
+    assert full["goal_share"] == pytest.approx(1.0 - inside.mean(), abs=1e-12)
+    assert full["let_through"]["passed_inside"] == 0.0 and full["let_through"]["blocked_outside"] == 1.0
+    none, _ = measure_fins(trimesh.Trimesh(), (v, f), sun, 2000, 1.0, let_through_faces=left)
+    assert none["goal_share"] == pytest.approx(inside.mean(), abs=1e-12)
+    plain, _ = measure_fins(roof, (v, f), sun, 2000, 1.0)
+    assert plain["goal_share"] == plain["blocked_share"] and "let_through" not in plain

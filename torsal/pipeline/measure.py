@@ -13,7 +13,7 @@ from .design_file import DesignSpec
 from .stage import StageInputs
 
 __all__ = ["measure_fins", "run_devices", "devices_key", "view_clear_key", "VIEW_KEYS",
-           "light_summary", "devices_summary"]
+           "light_summary", "devices_summary", "goal_region_faces"]
 
 #: the report key of each view measure (``view.measure`` in the design file)
 VIEW_KEYS = {"occupant": "view_out", "normal": "transparency"}
@@ -24,8 +24,42 @@ def view_clear_key(spec: DesignSpec) -> str:
     return VIEW_KEYS[spec.view.measure.value]
 
 
+def goal_region_faces(spec: DesignSpec, vertices, faces):
+    """The faces of ``goals.let_through`` (where the sun should come through), or None."""
+    if spec.goals.let_through is None:
+        return None
+    from .regions import select_faces
+
+    return select_faces(spec.goals.let_through, vertices, faces)
+
+
+def _goal(blocked, surface, let_through_faces) -> dict:
+    """The sun as the goals ask: blocked, except over the let-through faces, where it should
+    pass. ``goal_share`` is the weighted share of incident sun rays that do what is asked."""
+    import numpy as np
+    import trimesh
+
+    w = blocked.weights[None, :] * blocked.incident
+    total = float(w.sum())
+    if let_through_faces is None or total <= 0:
+        return {"goal_share": float(blocked.share)}
+    v, f = surface
+    mesh = trimesh.Trimesh(v, f, process=False)
+    _, _, tri = trimesh.proximity.closest_point(mesh, blocked.points)
+    inside = np.isin(tri, np.asarray(let_through_faces))[:, None]
+    good = np.where(inside, ~blocked.blocked, blocked.blocked)
+    w_in, w_out = float((w * inside).sum()), float((w * ~inside).sum())
+    return {"goal_share": float((w * good).sum() / total),
+            "let_through": {
+                "points_inside": int(inside.sum()),
+                "passed_inside": float((w * inside * ~blocked.blocked).sum() / w_in) if w_in else None,
+                "blocked_outside": float((w * ~inside * blocked.blocked).sum() / w_out)
+                if w_out else None}}
+
+
 def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float, *,
-                 view=None, view_measure: str = "occupant") -> tuple[dict, object]:
+                 view=None, view_measure: str = "occupant",
+                 let_through_faces=None) -> tuple[dict, object]:
     """Sun blocked and view clear of a fin set over mesh A.
 
     Parameters
@@ -43,6 +77,8 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float,
         Occupant eye points and sight lines, model units (default: the defaults in metres).
     view_measure : {"occupant", "normal"}
         Which measure is ``view_clear``.
+    let_through_faces : (r,) int, optional
+        Faces of A where the design asks the sun to come through (``goals.let_through``).
 
     Returns
     -------
@@ -51,7 +87,10 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float,
         (share of points with a free view along the normal), ``transparency_cone`` (free
         share over a 60 degree cone), ``view_out`` (occupant view out, see
         :mod:`torsal.light.view`) with ``view_out_detail``, ``view_measure`` and
-        ``view_clear`` (the chosen one), ``fin_area_m2`` (one side).
+        ``view_clear`` (the chosen one), ``goal_share`` (the weighted share of sun rays that
+        do what the goals ask: blocked, but passing over ``let_through_faces``; equal to
+        ``blocked_share`` without them) with ``let_through`` (``passed_inside``,
+        ``blocked_outside``) when given, ``fin_area_m2`` (one side).
     blocked : ShadingResult
         Per point, for the figure.
     """
@@ -70,6 +109,7 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float,
               "view_measure": view_measure,
               "fin_area_m2": float(fins.area) * metres_per_unit ** 2}
     report["view_clear"] = report[VIEW_KEYS[view_measure]]
+    report.update(_goal(blocked, surface, let_through_faces))
     return report, blocked
 
 
@@ -88,21 +128,25 @@ def run_devices(inp: StageInputs) -> dict:
     devices = standard_devices(v, f, spec.fins.depth, spec.fins.spacing, sun=sun["vectors"],
                                weights=sun["weights"])
     view = spec.view.field(spec.metres_per_unit)
+    region = goal_region_faces(spec, v, f)
     measured = {}
     for name, d in devices.items():
         row = d.as_dict()
         if d.applicable:
             row.update(measure_fins(d.fins, (v, f), sun, spec.outputs.light_samples,
                                     spec.metres_per_unit, view=view,
-                                    view_measure=spec.view.measure.value)[0])
+                                    view_measure=spec.view.measure.value,
+                                    let_through_faces=region)[0])
         measured[name] = row
     return {"measured": measured}
 
 
 def devices_key(spec: DesignSpec) -> tuple:
     """What the devices depend on besides the surface and the sun."""
+    let_through = spec.goals.let_through
     return (spec.fins.depth, spec.fins.spacing, spec.outputs.light_samples, spec.units,
-            spec.view.model_dump(mode="json"))
+            spec.view.model_dump(mode="json"),
+            None if let_through is None else let_through.model_dump(mode="json"))
 
 
 def _view_name(m: dict) -> str:
@@ -116,8 +160,14 @@ def _pct(x) -> str:
 def light_summary(light: dict) -> str:
     """The fins' measured light in a few words (the report's ``light`` section), e.g.
     ``sun blocked 93.1%, view out 70.2%``."""
-    return (f"sun blocked {_pct(light['blocked_share'])}, {_view_name(light)} "
+    text = (f"sun blocked {_pct(light['blocked_share'])}, {_view_name(light)} "
             f"{_pct(light.get('view_clear', light.get('transparency')))}")
+    lt = light.get("let_through")
+    if lt:
+        text += (f"; sun as asked {_pct(light['goal_share'])} (let through "
+                 f"{_pct(lt['passed_inside'])} over goals.let_through, blocked "
+                 f"{_pct(lt['blocked_outside'])} elsewhere)")
+    return text
 
 
 def devices_summary(light: dict) -> str:

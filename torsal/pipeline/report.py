@@ -434,13 +434,16 @@ def _light_html(li: dict, view: dict | None = None) -> str:
     named with the reason, never shown as 0 %."""
     built = (f"torsal fins as built ({li['fins_measured']} fins)" if "fins_measured" in li
              else "torsal fins")
-    head = ("<tr><th>design</th><th>direct sun blocked</th><th>view out (occupants)</th>"
-            "<th>view clear along normal</th><th>over 60&deg; cone</th><th>fin area (m&sup2;)</th>"
-            "<th>note</th></tr>")
+    asked = "let_through" in li           # the design lets the sun through somewhere
+    head = ("<tr><th>design</th><th>direct sun blocked</th>"
+            + ("<th>sun as asked (let through over goals.let_through)</th>" if asked else "")
+            + "<th>view out (occupants)</th><th>view clear along normal</th>"
+            "<th>over 60&deg; cone</th><th>fin area (m&sup2;)</th><th>note</th></tr>")
 
     def row(name, m, note=""):
-        return (f"<tr><td>{html.escape(name)}</td>{_pct(m['blocked_share'])}{_pct(m.get('view_out'))}"
-                f"{_pct(m['transparency'])}{_pct(m['transparency_cone'])}"
+        return (f"<tr><td>{html.escape(name)}</td>{_pct(m['blocked_share'])}"
+                + (_pct(m.get("goal_share")) if asked else "")
+                + f"{_pct(m.get('view_out'))}{_pct(m['transparency'])}{_pct(m['transparency_cone'])}"
                 f'<td class="num">{m["fin_area_m2"]:.1f}</td><td>{note}</td></tr>')
 
     rows = [row(built, li)]
@@ -448,7 +451,7 @@ def _light_html(li: dict, view: dict | None = None) -> str:
         if d["applicable"]:
             rows.append(row(f"{name}, same depth and spacing", d, _device_note(d)))
         else:
-            rows.append(f"<tr><td>{html.escape(name)}</td><td colspan=\"6\">not applicable: "
+            rows.append(f"<tr><td>{html.escape(name)}</td><td colspan=\"{6 + asked}\">not applicable: "
                         f"{html.escape(d['reason'])}</td></tr>")
     detail = li.get("view_out_detail") or {}
     levels = detail.get("en17037") or {}

@@ -74,7 +74,7 @@ class RunSpec(_Spec):
 #: report figures a search may optimize (flattened report.json keys), and the study's own
 OBJECTIVE_KEYS = (
     "light.blocked_share", "light.transparency", "light.transparency_cone", "light.fin_area_m2",
-    "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
+    "light.view_out", "light.view_clear", "light.goal_share", "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
     "fabrication.utilization", "support.delta_pl_optimized", "support.edges",
     "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "material_kg", "wall_s",
 )

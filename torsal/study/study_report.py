@@ -21,12 +21,22 @@ __all__ = ["results_table", "pareto_front", "lead_over", "verdict", "write_study
            "write_pareto_png", "view_label", "X_KEY", "Y_KEY", "NOT_APPLICABLE"]
 
 X_KEY = "light.view_clear"        # view clear: the design's view measure (view.measure)
-Y_KEY = "light.blocked_share"     # sun blocked (weighted share of direct sun rays)
+# the sun as the design asks: blocked (weighted share of direct sun rays), and let through
+# over goals.let_through; without that goal it is light.blocked_share exactly
+Y_KEY = "light.goal_share"
 NOT_APPLICABLE = "not applicable"  # the status of a device that cannot be made on the surface
 _FIRST = ["id", "kind", "device", "status", "note"]
 _SYMBOLS = {"horizontal louvers": ("triangle-up", "^"), "vertical fins": ("triangle-right", ">"),
             "egg-crate": ("square", "s"), "optimized parallel fins": ("diamond", "D"),
             "optimized egg-crate": ("x", "X")}
+
+
+def sun_label(study) -> str:
+    """The sun axis's name: sun blocked, or the sun as asked where a design lets it through."""
+    if any(v.spec.goals.let_through is not None for v in study.variants):
+        return ("sun as asked (blocked, let through over goals.let_through; weighted share of "
+                "design-hour sun rays)")
+    return "sun blocked (weighted share of design-hour sun rays)"
 
 
 def view_label(study) -> str:
@@ -147,13 +157,19 @@ def _axes_text(row, axes) -> str:
                      for k in axes if k in row and row[k] is not None)
 
 
+def _sun_words(study) -> str:
+    return ("of the sun as asked" if any(v.spec.goals.let_through is not None
+                                         for v in study.variants) else "of the sun blocked")
+
+
 def _and(names) -> str:
     names = list(names)
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
-def verdict(table, axes) -> tuple[str, dict]:
-    """The sentence at the top of study.html, computed from the table, and its numbers."""
+def verdict(table, axes, *, sun_words: str = "of the sun blocked") -> tuple[str, dict]:
+    """The sentence at the top of study.html, computed from the table, and its numbers
+    (``sun_words`` names the sun axis: "of the sun blocked", or "of the sun as asked")."""
     ok = table[(table["status"] == "done")].dropna(subset=[X_KEY, Y_KEY])
     t = ok[ok["kind"] == "torsal"]
     b = ok[ok["kind"] == "baseline"]
@@ -168,13 +184,13 @@ def verdict(table, axes) -> tuple[str, dict]:
 
     def point(k):
         r = t.iloc[k]
-        return (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% of the sun blocked, "
+        return (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% {sun_words}, "
                 f"{100 * r[X_KEY]:.1f}% of the view clear, {r['material_kg']:.0f} kg)")
 
     def device(k):
         d = b.iloc[leads[k][1]]
         return (f"{d['device']} at depth {d['fins.depth']:.3g}, spacing {d['fins.spacing']:.3g}: "
-                f"{100 * d[Y_KEY]:.1f}% blocked, {100 * d[X_KEY]:.1f}% clear, "
+                f"{100 * d[Y_KEY]:.1f}% {sun_words.split()[-1]}, {100 * d[X_KEY]:.1f}% clear, "
                 f"{d['material_kg']:.0f} kg")
 
     names = [n for n in _SYMBOLS if n in set(b["device"])] + sorted(
@@ -221,7 +237,7 @@ the view clear. Colour: sheet material (kg). Click a torsal point to open its re
 """
 
 
-def _figure(table, axes, xlabel: str):
+def _figure(table, axes, xlabel: str, ylabel: str):
     import plotly.graph_objects as go
 
     fig = go.Figure()
@@ -261,7 +277,7 @@ def _figure(table, axes, xlabel: str):
                   f"{r.get('fabrication.parts', float('nan')):.0f} parts" for _, r in t.iterrows()],
             hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
     fig.update_layout(xaxis_title=xlabel,
-                      yaxis_title="sun blocked (weighted share of design-hour sun rays)",
+                      yaxis_title=ylabel,
                       xaxis_tickformat=".0%", yaxis_tickformat=".0%", height=620,
                       legend={"orientation": "h", "y": -0.15}, margin={"t": 20})
     return fig
@@ -299,8 +315,8 @@ def _html_table(table, axes) -> str:
 def write_study_html(path: Path, study, table) -> str:
     """Write study.html (plotly inlined: works offline); returns the verdict sentence."""
     axes = list(study.spec.axes)
-    text, _ = verdict(table, axes)
-    fig = _figure(table, axes, view_label(study))
+    text, _ = verdict(table, axes, sun_words=_sun_words(study))
+    fig = _figure(table, axes, view_label(study), sun_label(study))
     plot = fig.to_html(full_html=False, include_plotlyjs=True, div_id="pareto",
                        post_script=_CLICK.replace("{plot_id}", "pareto"))
     page = _PAGE.format(title=html.escape(study.spec.name), verdict=html.escape(text),
@@ -353,7 +369,7 @@ def write_pareto_png(path: Path, study, table) -> Path:
     ax.xaxis.set_major_formatter(lambda x, _: f"{100 * x:.0f}%")
     ax.yaxis.set_major_formatter(lambda y, _: f"{100 * y:.0f}%")
     ax.set_xlabel(view_label(study), fontsize=9)
-    ax.set_ylabel("sun blocked (weighted share of design-hour sun rays)", fontsize=9)
+    ax.set_ylabel(sun_label(study), fontsize=9)
     ax.set_title(study.spec.name, fontsize=10)
     ax.grid(alpha=0.3)
     fig.tight_layout()
