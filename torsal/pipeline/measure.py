@@ -24,6 +24,12 @@ def view_clear_key(spec: DesignSpec) -> str:
     return VIEW_KEYS[spec.view.measure.value]
 
 
+def _finite(x) -> float | None:
+    import math
+
+    return float(x) if x is not None and math.isfinite(x) else None
+
+
 def goal_region_faces(spec: DesignSpec, vertices, faces):
     """The faces of ``goals.let_through`` (where the sun should come through), or None."""
     if spec.goals.let_through is None:
@@ -42,7 +48,7 @@ def _goal(blocked, surface, let_through_faces) -> dict:
     w = blocked.weights[None, :] * blocked.incident
     total = float(w.sum())
     if let_through_faces is None or total <= 0:
-        return {"goal_share": float(blocked.share)}
+        return {"goal_share": _finite(blocked.share)}
     v, f = surface
     mesh = trimesh.Trimesh(v, f, process=False)
     _, _, tri = trimesh.proximity.closest_point(mesh, blocked.points)
@@ -103,8 +109,9 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float,
                                  weights=sun["weights"])
     clear = transparency(fins, surface, samples=samples // 2)
     out = view_out(fins, surface, view)
-    report = {"blocked_share": float(blocked.share), "transparency": float(clear.along_normal),
-              "transparency_cone": float(clear.cone), "view_out": out.share,
+    # None, never NaN, where a share has nothing to count (no sun strikes A's outside)
+    report = {"blocked_share": _finite(blocked.share), "transparency": _finite(clear.along_normal),
+              "transparency_cone": _finite(clear.cone), "view_out": out.share,
               "view_out_detail": {k: x for k, x in out.summary().items() if k != "share"},
               "view_measure": view_measure,
               "fin_area_m2": float(fins.area) * metres_per_unit ** 2}

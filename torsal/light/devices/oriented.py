@@ -162,7 +162,7 @@ def optimize_fin_orientation(surface_vertices, surface_faces, sun, depth: float,
             res = direct_sun_blocked(fins, surface, s, samples=samples if pts is None else pts,
                                      weights=w, seed=seed, offset=offset)
             pts = (res.points, res.normals)
-            seen[key] = float(res.share)
+            seen[key] = float(np.nan_to_num(res.share))    # no sun on A: nothing to block
         return seen[key]
 
     tilts = np.arange(0.0, max_tilt + 1e-9, _COARSE_STEP)
