@@ -71,6 +71,15 @@ def _cell(r) -> str:
             f"(d {r['fins.depth']:g}, s {r['fins.spacing']:g})")
 
 
+CRATES = ("egg-crate", "optimized egg-crate")
+
+
+def _leads(tv, dv) -> np.ndarray:
+    """Each torsal variant's lead over the front of the devices ``dv`` (positive: beyond)."""
+    bx, by = dv[X_KEY].to_numpy(), dv[Y_KEY].to_numpy()
+    return np.array([lead_over(x, y, bx, by)[0] for x, y in zip(tv[X_KEY], tv[Y_KEY])])
+
+
 def summarize(key: str) -> dict:
     """Best torsal variant, best device of each kind, and the verdict's numbers of a study."""
     t = pd.read_csv(RESULTS / f"{key}.csv")
@@ -92,35 +101,41 @@ def summarize(key: str) -> dict:
         else:
             out[name] = _cell(d.loc[d.apply(balanced, axis=1).idxmax()])
     if not tv.empty and not dv.empty:
-        bx, by = dv[X_KEY].to_numpy(), dv[Y_KEY].to_numpy()
-        leads = np.array([lead_over(x, y, bx, by)[0] for x, y in zip(tv[X_KEY], tv[Y_KEY])])
+        leads = _leads(tv, dv)
         out["beyond"], out["n"] = int((leads > 0).sum()), int(len(leads))
         out["lead"] = float(leads.max())
-        # where the torsal front lies beyond: the blocking range of the variants beyond
+        # where the torsal front lies beyond: the sun range of the variants beyond
         beyond = tv[leads > 0]
-        out["beyond_blocked"] = (float(beyond[Y_KEY].min()), float(beyond[Y_KEY].max())) \
+        out["beyond_sun"] = (float(beyond[Y_KEY].min()), float(beyond[Y_KEY].max())) \
             if not beyond.empty else None
-        # the devices' best blocking and the torsal best blocking
-        out["max_blocked"] = (float(tv[Y_KEY].max()), float(dv[Y_KEY].max()))
+        out["max_sun"] = (float(tv[Y_KEY].max()), float(dv[Y_KEY].max()))
         front = dv.iloc[pareto_front(dv[X_KEY], dv[Y_KEY])]
-        out["front_devices"] = sorted(set(front["device"]))
+        out["front_devices"] = [n for n in DEVICE_NAMES if n in set(front["device"])]
+        # like for like: torsal's fins are two crossing families, as an egg-crate's are
+        crates = dv[dv["device"].isin(CRATES)]
+        out["lead_crates"] = float(_leads(tv, crates).max()) if not crates.empty else None
     return out
 
 
 def verdict(s: dict) -> str:
     """One sentence from the numbers: does any torsal variant lie beyond every device's front,
-    by how much, and which devices hold the front."""
+    by how much, which devices hold the front, and how torsal does against the egg-crates."""
     if "lead" not in s:
         return "no comparison (a study did not finish)"
     held = ", ".join(s["front_devices"])
+    crates = s.get("lead_crates")
+    like = "" if crates is None else (
+        f"; against the egg-crates alone (two crossing families, like torsal's fins) it is "
+        + (f"ahead by up to {100 * crates:.1f} points" if crates > 0
+           else f"{100 * -crates:.1f} points behind too"))
     if s["beyond"]:
-        lo, hi = s["beyond_blocked"]
-        return (f"**torsal wins** where it blocks {100 * lo:.0f}-{100 * hi:.0f}% of the sun: "
-                f"{s['beyond']} of {s['n']} variants lie beyond every device's front, by up to "
+        lo, hi = s["beyond_sun"]
+        return (f"**torsal wins** at {100 * lo:.0f}-{100 * hi:.0f}% sun: {s['beyond']} of "
+                f"{s['n']} variants lie beyond every device's front, by up to "
                 f"{100 * s['lead']:.1f} points (front of the devices: {held})")
-    return (f"**torsal loses**: no variant reaches the devices' front; the closest is "
-            f"{100 * -s['lead']:.1f} points behind it (front: {held}; most sun blocked: torsal "
-            f"{100 * s['max_blocked'][0]:.0f}%, devices {100 * s['max_blocked'][1]:.0f}%)")
+    return (f"**torsal loses**: no variant reaches the devices' front, the closest is "
+            f"{100 * -s['lead']:.1f} points behind (front: {held}; most sun: torsal "
+            f"{100 * s['max_sun'][0]:.0f}%, devices {100 * s['max_sun'][1]:.0f}%){like}")
 
 
 def table_markdown(keys=KEYS) -> str:

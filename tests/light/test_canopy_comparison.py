@@ -171,7 +171,7 @@ def test_the_sun_as_asked_counts_light_let_through_where_the_design_wants_it():
     import trimesh
 
     from torsal.geometry.surfaces import grid_faces
-    from torsal.pipeline.measure import measure_fins
+    from torsal.pipeline.measure import SunGoals, measure_fins
 
     x = np.linspace(-2.0, 2.0, 9)
     X, Y = np.meshgrid(x, x, indexing="ij")
@@ -180,12 +180,47 @@ def test_the_sun_as_asked_counts_light_let_through_where_the_design_wants_it():
     sun = {"vectors": np.array([[0.1, 0.2, 1.0]]) / np.linalg.norm([0.1, 0.2, 1.0]),
            "weights": np.ones(1)}
     roof = trimesh.Trimesh([[-9, -9, 1], [9, -9, 1], [9, 9, 1], [-9, 9, 1]], [[0, 1, 2], [0, 2, 3]])
-    full, res = measure_fins(roof, (v, f), sun, 2000, 1.0, let_through_faces=left)
+    full, res = measure_fins(roof, (v, f), sun, 2000, 1.0, goals=SunGoals(let_through=left))
     inside = res.points[:, 0] < 0
     assert full["blocked_share"] == 1.0
     assert full["goal_share"] == pytest.approx(1.0 - inside.mean(), abs=1e-12)
     assert full["let_through"]["passed_inside"] == 0.0 and full["let_through"]["blocked_outside"] == 1.0
-    none, _ = measure_fins(trimesh.Trimesh(), (v, f), sun, 2000, 1.0, let_through_faces=left)
+    none, _ = measure_fins(trimesh.Trimesh(), (v, f), sun, 2000, 1.0, goals=SunGoals(let_through=left))
     assert none["goal_share"] == pytest.approx(inside.mean(), abs=1e-12)
     plain, _ = measure_fins(roof, (v, f), sun, 2000, 1.0)
     assert plain["goal_share"] == plain["blocked_share"] and "let_through" not in plain
+
+
+def test_a_sun_region_is_measured_against_its_own_sun():
+    """Fig. 7d's kind of goal on a flat wall with louvers (depth D, spacing S): the left half
+    asks to block a high sun (tan profile 0.9: D 0.9 / S = 75% blocked), the rest the design
+    sun (tan 0.3: 25%); the sun as asked weighs each point's own sun."""
+    import trimesh
+
+    from torsal.geometry.surfaces import grid_faces
+    from torsal.light.devices import horizontal_louvers
+    from torsal.pipeline.measure import SunGoals, goal_suns, measure_fins
+
+    x, z = np.linspace(-6.0, 6.0, 25), np.linspace(0.0, 6.0, 13)
+    X, Z = np.meshgrid(x, z, indexing="ij")
+    v, f = np.c_[X.ravel(), np.zeros(X.size), Z.ravel()], grid_faces(25, 13)
+    D, S = 0.5, 0.6
+    louvers = horizontal_louvers(v, f, D, S)
+    design = np.array([[0.0, -1.0, 0.3]]) / np.linalg.norm([0.0, -1.0, 0.3])
+    high = np.array([[0.0, -1.0, 0.9]]) / np.linalg.norm([0.0, -1.0, 0.9])
+    left = np.flatnonzero(v[f].mean(axis=1)[:, 0] < 0)
+    sun = {"vectors": design, "weights": np.ones(1)}
+    m, res = measure_fins(louvers, (v, f), sun, 4000, 1.0, goals=SunGoals(regions=((left, high),)))
+    inside = res.points[:, 0] < 0
+    # points above the top louver (z > 5.4) see the sun whatever its height: 1/10 of the wall
+    below = res.points[:, 2] < 5.4
+    expect_in = 0.75 * (below & inside).sum() / inside.sum()
+    expect_out = 0.25 * (below & ~inside).sum() / (~inside).sum()
+    assert m["sun_regions"][0]["blocked_inside"] == pytest.approx(expect_in, abs=0.03)
+    assert m["blocked_share"] == pytest.approx(0.25 * below.mean(), abs=0.03)
+    assert m["goal_share"] == pytest.approx(expect_in * inside.mean() + expect_out * (~inside).mean(),
+                                            abs=0.03)
+    # the devices are oriented for both suns, each over its share of the wall (half each)
+    vec, w = goal_suns(SunGoals(regions=((left, high),)), v, f, sun)
+    np.testing.assert_allclose(vec, [high[0], design[0]])
+    np.testing.assert_allclose(w, [0.5, 0.5])

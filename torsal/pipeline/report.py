@@ -434,9 +434,10 @@ def _light_html(li: dict, view: dict | None = None) -> str:
     named with the reason, never shown as 0 %."""
     built = (f"torsal fins as built ({li['fins_measured']} fins)" if "fins_measured" in li
              else "torsal fins")
-    asked = "let_through" in li           # the design lets the sun through somewhere
+    # the design lets the sun through somewhere, or blocks another sun in some regions
+    asked = "let_through" in li or "sun_regions" in li
     head = ("<tr><th>design</th><th>direct sun blocked</th>"
-            + ("<th>sun as asked (let through over goals.let_through)</th>" if asked else "")
+            + ("<th>sun as asked (goals.let_through, goals.sun_regions)</th>" if asked else "")
             + "<th>view out (occupants)</th><th>view clear along normal</th>"
             "<th>over 60&deg; cone</th><th>fin area (m&sup2;)</th><th>note</th></tr>")
 

@@ -16,7 +16,7 @@ from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
 from .fins import fin_system
-from .measure import devices_key, goal_region_faces, measure_fins, run_devices
+from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
 from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
@@ -295,7 +295,7 @@ def run_light(inp: StageInputs) -> dict:
     report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit,
                                    view=spec.view.field(m_per_unit),
                                    view_measure=spec.view.measure.value,
-                                   let_through_faces=goal_region_faces(spec, v, f))
+                                   goals=sun_goals(spec, v, f))
     devices = inp["devices"]["measured"]
     lr = devices["horizontal louvers"]
     extra = {}

@@ -31,11 +31,18 @@ _SYMBOLS = {"horizontal louvers": ("triangle-up", "^"), "vertical fins": ("trian
             "optimized egg-crate": ("x", "X")}
 
 
+def _asks(study) -> bool:
+    """Does a design ask the sun for more than being blocked (let through, region suns)?"""
+    return any(v.spec.goals.let_through is not None or v.spec.goals.sun_regions
+               for v in study.variants)
+
+
 def sun_label(study) -> str:
-    """The sun axis's name: sun blocked, or the sun as asked where a design lets it through."""
-    if any(v.spec.goals.let_through is not None for v in study.variants):
-        return ("sun as asked (blocked, let through over goals.let_through; weighted share of "
-                "design-hour sun rays)")
+    """The sun axis's name: sun blocked, or the sun as asked where a design lets it through
+    or gives regions their own sun."""
+    if _asks(study):
+        return ("sun as asked (blocked; let through over goals.let_through, each region's own "
+                "sun in goals.sun_regions; weighted share of sun rays)")
     return "sun blocked (weighted share of design-hour sun rays)"
 
 
@@ -158,8 +165,7 @@ def _axes_text(row, axes) -> str:
 
 
 def _sun_words(study) -> str:
-    return ("of the sun as asked" if any(v.spec.goals.let_through is not None
-                                         for v in study.variants) else "of the sun blocked")
+    return "of the sun as asked" if _asks(study) else "of the sun blocked"
 
 
 def _and(names) -> str:
