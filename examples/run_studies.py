@@ -47,7 +47,13 @@ def run(key: str, out: Path, workers: int) -> dict:
     wall = time.perf_counter() - t0
     print()
     RESULTS.mkdir(parents=True, exist_ok=True)
-    res.table.to_csv(RESULTS / f"{key}.csv", index=False)
+    # the columns the README table reads, and the ones a reader checks it with
+    keep = ["id", "kind", "device", "status", "note", *study.spec.axes, "fins.depth",
+            "fins.spacing", Y_KEY, X_KEY, "light.blocked_share", "light.view_out",
+            "light.transparency", "light.let_through.passed_inside",
+            "light.let_through.blocked_outside", "material_kg", "wall_s", "failed_stage", "error"]
+    table = res.table[[c for c in dict.fromkeys(keep) if c in res.table]]
+    table.to_csv(RESULTS / f"{key}.csv", index=False, float_format="%.6g")
     shutil.copyfile(res.files["png"], STUDIES / f"{key}_pareto.png")
     ran = res.table[(res.table["kind"] == "torsal")]
     timing = {"key": key, "wall_s": wall, "variants": int(len(ran)), "solves": res.solves,
