@@ -220,6 +220,13 @@ def test_a_sun_region_is_measured_against_its_own_sun():
     assert m["blocked_share"] == pytest.approx(0.25 * below.mean(), abs=0.03)
     assert m["goal_share"] == pytest.approx(expect_in * inside.mean() + expect_out * (~inside).mean(),
                                             abs=0.03)
+    # two regions (Fig. 7d has two): the right half asks for the design sun as its own
+    right = np.flatnonzero(v[f].mean(axis=1)[:, 0] >= 0)
+    two, _ = measure_fins(louvers, (v, f), sun, 4000, 1.0,
+                          goals=SunGoals(regions=((left, high), (right, design))))
+    assert [r["blocked_inside"] for r in two["sun_regions"]] == pytest.approx(
+        [expect_in, expect_out], abs=0.03)
+    assert two["goal_share"] == pytest.approx(m["goal_share"], abs=1e-12)
     # the devices are oriented for both suns, each over its share of the wall (half each)
     vec, w = goal_suns(SunGoals(regions=((left, high),)), v, f, sun)
     np.testing.assert_allclose(vec, [high[0], design[0]])

@@ -2,8 +2,12 @@
 of sight lines, the share of them that pass the fins.
 
 Two view measures are reported for every fin set. **Along the normal**
-(:func:`~torsal.light.shading.transparency`) asks, at points on A, whether the line along A's
-normal is free: a property of the fins alone, blind to where people are. **View out** (this
+(:func:`~torsal.light.shading.transparency`) asks, at seeded points on A, whether the line
+along A's normal is free (and, as ``transparency_cone``, the share of free lines in a 60 degree
+cone about it): the system seen head-on, the sense in which the paper calls well placed fins
+"shallow and transparent" (Wang et al. 2013, Fig. 1) and a screen "almost transparent when
+viewed from the inside" (Fig. 13b). It is a property of the fins alone, blind to where people
+are: fins square to A hide nothing along the normal however dense they are. **View out** (this
 module) asks what occupants see:
 
 Eye points (:func:`eye_points`)
@@ -29,7 +33,7 @@ The measure (:func:`view_out`)
     lines through A that pass the fins, and the share of eye points reaching EN 17037's
     thresholds for it, 14 / 28 / 54 degrees (minimum / medium / high).
 
-Sources. EN 17037:2018 *Daylight in buildings*, view out: assessed from occupants' positions
+Sources of the view out. EN 17037:2018 *Daylight in buildings*, view out: assessed from occupants' positions
 in the utilised area, by the horizontal sight angle (14 / 28 / 54 degrees for the minimum,
 medium and high level), the outside distance of the view and the layers seen (sky,
 landscape, ground). LEED v4 EQ credit *Quality Views*: a direct line of sight to the outdoors

@@ -113,6 +113,7 @@ def _goal(blocked, fins, surface, goals: SunGoals) -> dict:
             "passed_inside": float((w * inside * ~blocked.blocked).sum() / w_in) if w_in else None,
             "blocked_outside": float((w * ~inside * blocked.blocked).sum() / w_out) if w_out else None}
     num, den = (w * good), w.copy()
+    extra_num = extra_den = 0.0                      # the regions' own suns
     taken = np.zeros(len(tri), bool)
     regions = []
     for faces_r, vec_r in goals.regions:
@@ -126,12 +127,13 @@ def _goal(blocked, fins, surface, goals: SunGoals) -> dict:
                                    blocked.weights.sum() / len(vec_r)))
             wr = r.weights[None, :] * r.incident
             num_r, den_r = float((wr * r.blocked).sum()), float(wr.sum())
-            num, den = np.append(num, num_r), np.append(den, den_r)
+            extra_num, extra_den = extra_num + num_r, extra_den + den_r
             row["blocked_inside"] = num_r / den_r if den_r else None
         regions.append(row)
     if regions:
         out["sun_regions"] = regions
-    out["goal_share"] = _finite(float(num.sum()) / float(den.sum())) if den.sum() > 0 else None
+    total = float(den.sum()) + extra_den
+    out["goal_share"] = _finite((float(num.sum()) + extra_num) / total) if total > 0 else None
     return out
 
 
