@@ -40,9 +40,8 @@ def _asks(study) -> bool:
 def sun_label(study) -> str:
     """The sun axis's name: sun blocked, or the sun as asked where a design lets it through
     or gives regions their own sun."""
-    if _asks(study):
-        return ("sun as asked (blocked; let through over goals.let_through, each region's own "
-                "sun in goals.sun_regions; weighted share of sun rays)")
+    if _asks(study):    # blocked; let through over goals.let_through; a region's own sun
+        return "sun as the goals ask (weighted share of sun rays)"
     return "sun blocked (weighted share of design-hour sun rays)"
 
 
