@@ -29,8 +29,19 @@ from torsal.light.shading import (
     see_through,
     transparency,
 )
+from torsal.light.reflection import (
+    CeilingTarget,
+    MirrorAim,
+    ReflectionBound,
+    ReflectionRays,
+    TargetSide,
+    best_mirror_normals,
+    ideal_mirror_bound,
+    incidence_plane_normals,
+)
 from torsal.light.sun import (
     SunDirections,
+    epw_hours,
     hot_hours,
     light_directions,
     sun_directions,
@@ -41,10 +52,12 @@ from torsal.light.view import ViewField, ViewOutResult, view_out
 
 __all__ = [
     "SunDirections", "sun_directions", "sun_path", "hot_hours", "light_directions",
-    "write_synthetic_epw",
+    "write_synthetic_epw", "epw_hours",
     "rays_blocked", "ray_hits", "direct_sun_blocked", "transparency", "see_through",
     "mirror_normals", "reflect", "reflected_hits", "compare",
     "ShadingResult", "TransparencyResult", "SeeThroughResult", "ReflectionResult",
+    "CeilingTarget", "TargetSide", "ReflectionRays", "MirrorAim", "ReflectionBound",
+    "best_mirror_normals", "ideal_mirror_bound", "incidence_plane_normals",
     "horizontal_louvers", "vertical_fins", "egg_crate", "section_fins", "grid_normal_fins", "baselines",
     "standard_devices", "Device", "DeviceKind", "DEVICE_NAMES", "view_out", "ViewField",
     "ViewOutResult",

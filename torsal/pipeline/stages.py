@@ -138,7 +138,8 @@ def run_orient(inp: StageInputs) -> dict:
 
 # ------------------------------------------------------------------ congruence (4.1)
 def run_congruence(inp: StageInputs) -> dict:
-    """Optimize the congruence (eq. 9, IPOPT). Returns ``directions`` (n, 3), the
+    """Optimize the congruence (eq. 9; the augmented Lagrangian or IPOPT, ``constraints.solver``).
+    Returns ``directions`` (n, 3), ``optimum`` (the warm start of a re-solve), the
     ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
     ``substructure_directions`` (n, 3)."""
     from .problem import congruence_problem
@@ -147,7 +148,8 @@ def run_congruence(inp: StageInputs) -> dict:
     v, f = inp["orient"]["vertices"], inp["orient"]["faces"]
     sun = inp["sun"]
     p = congruence_problem(spec, v, f, sun["vectors"], sun["weights"])
-    r = p.solve(max_iter=spec.constraints.max_iter, max_seconds=spec.constraints.max_seconds,
+    C = spec.constraints
+    r = p.solve(solver=C.solver.value, certify=C.certify, max_iter=C.max_iter, max_seconds=C.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
                 constraint_tol=CONSTRAINT_TOL)
     c = r.congruence
@@ -166,10 +168,20 @@ def run_congruence(inp: StageInputs) -> dict:
     return {
         **extra,
         "directions": np.asarray(c.directions),
+        # the optimum with its multipliers and penalties: a warm re-solve after a small change
+        # (CongruenceProblem.warm_start_from), kept in the stage cache's entry
+        "optimum": p.optimum,
         "report": {
             "vertices": int(len(v)), "faces": int(len(f)),
             "build_s": float(r.build_seconds), "solve_s": float(r.solve_seconds),
             "status": str(r.status), "iterations": int(r.iterations),
+            # which solver produced the design, the seconds of each part, and the counts
+            # (Newton steps, factorizations) that decide the result instead of time
+            "solver": str(r.solver),
+            "timings_s": {k: float(x) for k, x in r.timings.items()},
+            "counts": {k: (x if isinstance(x, str) else int(x)) for k, x in r.counts.items()},
+            # True: the safety net constraints.max_seconds cut the solve (load-dependent)
+            "time_limited": bool(r.time_limited),
             "energies": {k: float(x) for k, x in r.energies_after.items()},
             "energies_before": {k: float(x) for k, x in r.energies_before.items()},
             "max_violation": {k: float(x) for k, x in r.max_violation.items()},
@@ -300,11 +312,13 @@ def run_light(inp: StageInputs) -> dict:
     lr = devices["horizontal louvers"]
     extra = {}
     if spec.goals.reflect is not None:
-        from ..light import reflected_hits
+        # where the fins as built send the sunlight (Fig. 13); map["reflection"]: the picture
+        from .reflection import measure_reflection
 
-        extra["reflected_to_target"] = float(reflected_hits(
-            fins, sun["vectors"], target_patch(spec.goals.reflect.target, v),
-            weights=sun["weights"], resolution=128).share)
+        extra["reflection"], picture = measure_reflection(
+            spec, built_structure(inp["support"]["structure"], left_out), sun, v,
+            metres_per_unit=m_per_unit)
+        extra["reflected_to_target"] = extra["reflection"]["on_target"]
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
@@ -315,7 +329,8 @@ def run_light(inp: StageInputs) -> dict:
                                                  "transparency_cone")} if lr["applicable"]
         else {"applicable": False, "reason": lr["reason"]},
         "devices": devices},
-        "map": {"points": blocked.points, "per_point": blocked.per_point}}
+        "map": {"points": blocked.points, "per_point": blocked.per_point,
+                **({"reflection": picture} if extra else {})}}
 
 
 # ------------------------------------------------------------------ substructure (Fig. 11)
@@ -362,7 +377,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
     try:
-        layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
+        layout = _nest(inp, fs)
         if spec.outputs.dxf:
             paths = layout.export_dxf(out / "sheets" / "fins.dxf")
             written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
@@ -387,6 +402,8 @@ def run_fabrication(inp: StageInputs) -> dict:
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
+        "nesting": _nesting_report(layout, out / "sheets" if spec.outputs.dxf else None),
+        "cutting": _cutting_report(layout),
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
         "files": written, "layout": layout,
@@ -394,6 +411,59 @@ def run_fabrication(inp: StageInputs) -> dict:
         "left_out_edges": sorted({d["edge"] for d in left_out}),
         # for the assembly stage: which parts each joint joins, and along which axis
         "joints": joints_of(fs)}
+
+
+def _nest(inp: StageInputs, fs):
+    """The design's sheets: its [cutting] process and [nesting] options."""
+    from ..fabrication.cutting import Cutting
+
+    spec, m = inp.spec, inp.spec.material
+    c, n = spec.cutting, spec.nesting
+    cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
+                                  relief=c.relief, unit=fs.unit)
+    return fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                     nester=n.nester, time_limit=n.time_limit_s, seed=n.seed,
+                     rotation_step=n.rotation_step_deg,
+                     progress=lambda done, left: inp.progress(
+                         "progress", {"phase": "nesting sheets", "done": done,
+                                      "total": done + left}))
+
+
+def _nesting_report(layout, sheets_dir) -> dict:
+    """Sheets used, the area bound, utilization (of the layout, and of the DXF files read back
+    with ezdxf when written) and the nester's time."""
+    from ..fabrication.layout import read_dxf_parts
+
+    st = layout.stats
+    sheet_area = layout.sheet[0] * layout.sheet[1]
+    rep = {"nester": st.method, "sheets": int(layout.n_sheets),
+           "area_bound_sheets": float(layout.area_bound),
+           "utilization": float(layout.utilization), "utilization_dxf": None,
+           "seconds": float(st.seconds), "cpu_seconds": float(st.cpu_seconds),
+           "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
+           "fallback_parts": int(st.fallback_parts), "rotation": st.rotation}
+    if sheets_dir is not None and layout.n_sheets:
+        area = 0.0
+        for s in range(layout.n_sheets):
+            polys, _, _ = read_dxf_parts(sheets_dir / f"fins_sheet{s + 1:02d}.dxf")
+            area += sum(p.area for p in polys)
+        rep["utilization_dxf"] = float(area / (layout.n_sheets * sheet_area))
+    return rep
+
+
+def _cutting_report(layout) -> dict | None:
+    """The cutting process the DXF's CUT layer is compensated for, and its reliefs and holes."""
+    c = layout.cutting
+    if c is None:
+        return None
+    from ..core.units import UNIT_TO_MM
+
+    f = UNIT_TO_MM[c.unit]
+    holes = [d for p in layout.placements for _, d in p.holes]
+    return {"process": c.process.value, "kerf_mm": c.kerf * f, "tool_diameter_mm": c.tool_diameter * f,
+            "relief": c.relief.value, "reliefs": int(sum(len(p.reliefs) for p in layout.placements)),
+            "holes_cut": int(sum(c.hole_path(d)[0] == "cut" for d in holes)),
+            "holes_drilled": int(sum(c.hole_path(d)[0] == "drill" for d in holes))}
 
 
 # ------------------------------------------------------------------ report
@@ -480,7 +550,8 @@ def _has_substructure(spec):
 
 
 def _fabrication_key(spec):
-    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units)
+    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units,
+            spec.cutting.model_dump(mode="json"), spec.nesting.model_dump(mode="json"))
 
 
 def _assembly_key(spec):

@@ -33,6 +33,7 @@ class SolveMonitor:
         self.callback = callback
         self.max_seconds = max_seconds
         self.t0 = time.perf_counter() if t0 is None else t0     # the solve() call's start
+        self.cpu0 = time.process_time()
         self.iteration = 0
         self.phase_iteration = 0
         self.cap: int | None = None
@@ -58,7 +59,8 @@ class SolveMonitor:
         worst = self.measure(e) if np.isfinite(e).all() else math.inf
         seconds = time.perf_counter() - self.t0
         feasible = bool(worst <= 1.0)
-        self.history.append(IterationRecord(self.iteration, seconds, float(objective), float(worst), feasible))
+        self.history.append(IterationRecord(self.iteration, seconds, float(objective), float(worst), feasible,
+                                            time.process_time() - self.cpu0))
         if feasible and np.isfinite(objective) and (self.best is None or objective < self.best.objective):
             self.best = BestIterate(float(objective), np.array(e, dtype=float), self.iteration)
         if self.max_seconds is not None and seconds > self.max_seconds:
