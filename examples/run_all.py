@@ -47,11 +47,17 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
             f"{r['wall_s']:.0f} | {s['delta_pl_extracted']:.1e} | {s['delta_pl_optimized']:.1e} | "
-            f"{100 * li['blocked_share']:.0f}% ({100 * li['baseline_louvers']['blocked_share']:.0f}%) | "
-            f"{100 * li['transparency']:.0f}% ({100 * li['baseline_louvers']['transparency']:.0f}%) | "
+            f"{100 * li['blocked_share']:.0f}% ({louvers(li, 'blocked_share')}) | "
+            f"{100 * li['transparency']:.0f}% ({louvers(li, 'transparency')}) | "
             f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {sheets_cell(fa)} | "
             f"{min_torsal_angle(c)} | "
             f"{interfering_cell(fa.get('assembly'))}{left_out_cell(fa)} | {paper} |")
+
+
+def louvers(li: dict, key: str) -> str:
+    """Horizontal louvers' figure, or "n/a" where they cannot be made (a canopy)."""
+    b = li["baseline_louvers"]
+    return f"{100 * b[key]:.0f}%" if b.get("applicable", True) else "n/a"
 
 
 def sheets_cell(fa: dict) -> str:

@@ -159,10 +159,10 @@ def test_changing_only_the_material_reruns_only_fabrication_and_what_measures_it
     assert first.cached == []
     again = d.run(tmp_path, accept_unbuildable=True)
     assert set(again.cached) == {"surface", "sun", "congruence", "remesh", "support", "light",
-                                 "fabrication", "assembly"}
+                                 "fabrication", "assembly", "devices"}
     thicker = Design(d.spec.model_copy(update={"material": d.spec.material.model_copy(
         update={"thickness_mm": 5.0})}))
     third = thicker.run(tmp_path, accept_unbuildable=True)
     assert "fabrication" not in third.cached and "assembly" not in third.cached
     # the light is measured on the fins as built, which the plate thickness can change
-    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support"}
+    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support", "devices"}

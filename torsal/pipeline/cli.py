@@ -188,6 +188,7 @@ def _design(args, ui: _Terminal) -> int:
     from ..core.outputs import new_output_folder
     from .assembly import UnbuildableDesignError
     from .design import Design
+    from .measure import devices_summary, light_summary
     from .stages import STAGES
 
     design = Design.from_toml(args.file)
@@ -212,9 +213,9 @@ def _design(args, ui: _Terminal) -> int:
                 f"{mf.get('duplicate_faces_dropped', 0)} duplicate faces dropped)")
     s, li, fa = r["support"], r["light"], r["fabrication"]
     ui.line(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
-            f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
-            f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
+            f"{s['delta_pl_optimized']:.2e}; {light_summary(li)}; "
             f"{fa['parts']} parts on {fa['sheets']} sheets")
+    ui.line(devices_summary(li))
     for gate in (r["congruence"].get("joinery"), s.get("joinery")):
         if gate and gate.get("message"):
             ui.note(f"joinery: {gate['message']}")

@@ -51,6 +51,7 @@ from ..geometry.optimize import Solver, TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
 from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
+from ..light.view import ViewField
 
 __all__ = [
     "DesignFileError",
@@ -412,6 +413,59 @@ class OutputsSpec(_Spec):
                                "(half of them for the view)")
 
 
+class ViewMeasure(str, Enum):
+    occupant = "occupant"
+    normal = "normal"
+
+
+_VIEW = ViewField()     # the view measure's defaults: one source (torsal.light.view)
+
+
+class ViewSpec(_Spec):
+    """How the view out is measured: the report's ``light.view_clear`` and a study's x axis
+    (both measures are always reported; see torsal.light.view for the definitions)."""
+
+    measure: ViewMeasure = Field(ViewMeasure.occupant, description="occupant: share of the "
+                                 "sight lines from occupant eye points behind A that pass the "
+                                 "fins (view out); normal: share of points on A with a free "
+                                 "line along the normal")
+    eye_height_m: float = Field(_VIEW.eye_height, gt=0, description="metres; eye height above "
+                                "the foot of a facade and of each storey (seated)")
+    storey_height_m: float = Field(_VIEW.storey_height, gt=0, description="metres; floor to "
+                                   "floor: a row of eye points per storey of a facade")
+    distances_m: list[float] = Field(list(_VIEW.distances), min_length=1, description="metres; "
+                                     "how far behind A the eye points are (below a canopy)")
+    grid_m: float = Field(_VIEW.grid, gt=0, description="metres; eye points every this far "
+                          "across A")
+    azimuth_deg: float = Field(_VIEW.azimuth, gt=0, le=90, description="degrees; half width "
+                               "of the field of sight lines about the view axis")
+    elevation_deg: tuple[float, float] = Field(_VIEW.elevation, description="degrees; "
+                                               "[low, high] of the field, from the horizon")
+    step_deg: float = Field(_VIEW.step, gt=0, le=30, description="degrees; cell size of the "
+                            "field of sight lines")
+
+    @field_validator("distances_m")
+    @classmethod
+    def _distances(cls, v):
+        if not all(d > 0 for d in v):
+            raise ValueError(f"view.distances_m = {v} must all be positive")
+        return v
+
+    @model_validator(mode="after")
+    def _elevation(self):
+        lo, hi = self.elevation_deg
+        if not -90 <= lo < hi <= 90:
+            raise ValueError(f"view.elevation_deg = {list(self.elevation_deg)} must be [low, high] "
+                             "with -90 <= low < high <= 90")
+        return self
+
+    def field(self, metres_per_unit: float) -> ViewField:
+        """The :class:`~torsal.light.view.ViewField` in model units."""
+        return ViewField(self.eye_height_m, self.storey_height_m, tuple(self.distances_m),
+                         self.grid_m, self.azimuth_deg, tuple(self.elevation_deg),
+                         self.step_deg).in_units(metres_per_unit)
+
+
 class SubstructureSpec(_Spec):
     """A second, aligned congruence (Fig. 11): a steel substructure on a surface offset
     behind A whose torsal directions coincide with the fins' (f_extra)."""
@@ -438,6 +492,8 @@ class DesignSpec(_Spec):
     cutting: CuttingSpec = Field(default_factory=CuttingSpec)
     nesting: NestingSpec = Field(default_factory=NestingSpec)
     outputs: OutputsSpec = Field(default_factory=OutputsSpec)
+    view: ViewSpec = Field(default_factory=ViewSpec, description="how the view out is measured "
+                           "(report light.view_clear, a study's x axis)")
     substructure: SubstructureSpec | None = None
 
     @model_validator(mode="after")

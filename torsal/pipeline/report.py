@@ -528,6 +528,67 @@ def _assembly_html(a: dict, max_steps: int = 300) -> str:
     return "\n".join(out)
 
 
+def _pct(x) -> str:
+    return '<td class="num">-</td>' if x is None else f'<td class="num">{100 * x:.1f}%</td>'
+
+
+def _device_note(d: dict) -> str:
+    o = d.get("orientation")
+    if o:
+        return (f"planes optimized for the sun: rotation {o['rotation_deg']:.1f}&deg;, tilt "
+                f"{o['tilt_deg']:.1f}&deg; ({o['evaluations']} orientations tried)")
+    return ""
+
+
+def _light_html(li: dict, view: dict | None = None) -> str:
+    """Section 3's comparison: the fins as built and every standard device of the same depth
+    and spacing, measured with the same rays; devices that cannot be made on the surface are
+    named with the reason, never shown as 0 %."""
+    built = (f"torsal fins as built ({li['fins_measured']} fins)" if "fins_measured" in li
+             else "torsal fins")
+    # the design lets the sun through somewhere, or blocks another sun in some regions
+    asked = "let_through" in li or "sun_regions" in li
+    head = ("<tr><th>design</th><th>direct sun blocked</th>"
+            + ("<th>sun as asked (goals.let_through, goals.sun_regions)</th>" if asked else "")
+            + "<th>view out (occupants)</th><th>view clear along normal</th>"
+            "<th>over 60&deg; cone</th><th>fin area (m&sup2;)</th><th>note</th></tr>")
+
+    def row(name, m, note=""):
+        return (f"<tr><td>{html.escape(name)}</td>{_pct(m['blocked_share'])}"
+                + (_pct(m.get("goal_share")) if asked else "")
+                + f"{_pct(m.get('view_out'))}{_pct(m['transparency'])}{_pct(m['transparency_cone'])}"
+                f'<td class="num">{m["fin_area_m2"]:.1f}</td><td>{note}</td></tr>')
+
+    rows = [row(built, li)]
+    for name, d in li.get("devices", {}).items():
+        if d["applicable"]:
+            rows.append(row(f"{name}, same depth and spacing", d, _device_note(d)))
+        else:
+            rows.append(f"<tr><td>{html.escape(name)}</td><td colspan=\"{6 + asked}\">not applicable: "
+                        f"{html.escape(d['reason'])}</td></tr>")
+    detail = li.get("view_out_detail") or {}
+    levels = detail.get("en17037") or {}
+    measure = ("view out from occupant eye points" if li.get("view_measure", "occupant") ==
+               "occupant" else "view along the normal")
+    where = ""
+    if view:
+        where = (f" ({', '.join(f'{d:g}' for d in view['distances_m'])} m behind the surface, "
+                 f"every {view['grid_m']:g} m across it, {view['eye_height_m']:g} m above each "
+                 f"storey's floor on a facade; sight lines &plusmn;{view['azimuth_deg']:g}&deg; "
+                 f"about the view axis, {view['elevation_deg'][0]:g} to "
+                 f"{view['elevation_deg'][1]:g}&deg; elevation, {view['step_deg']:g}&deg; cells)")
+    text = (f"<p>The design's view measure (<code>view.measure</code>) is the {measure}. View out: "
+            f"the share of sight lines from {detail.get('eye_points', 0)} occupant eye points"
+            f"{where} that pass through the surface and past the fins (after EN 17037's view "
+            "out and LEED v4's quality views; definitions and sources in "
+            "<code>torsal.light.view</code>)."
+            + (f" Eye points reaching EN 17037's clear horizontal sight angle: "
+               f"{100 * levels['minimum']:.0f}% at 14&deg;, {100 * levels['medium']:.0f}% at "
+               f"28&deg;, {100 * levels['high']:.0f}% at 54&deg;." if levels.get("high")
+               is not None else "") + "</p>")
+    return f"<table>{head}{''.join(rows)}</table>" + text
+
+
 def design_report_html(report: dict, images: dict, title: str, *, view3d: str | None = None) -> str:
     """The HTML report: tables of every figure in ``report`` and the PNGs next to it, and the
     interactive 3D view ``view3d`` (an HTML fragment, see :mod:`torsal.pipeline.report_3d`) if given."""
@@ -567,15 +628,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                     "entry to hide or show it. Sun rays come in from the sky towards the surface; "
                     "the heavier directions are drawn thicker.</p>" + view3d)
     if li:
-        b = li["baseline_louvers"]
-        built = (f"fins of this design as built ({li['fins_measured']} fins)"
-                 if "fins_measured" in li else "fins of this design")
-        rows = [(built, li["blocked_share"], li["transparency"], li["transparency_cone"]),
-                ("horizontal louvers, same depth and spacing", b["blocked_share"], b["transparency"],
-                 b["transparency_cone"])]
-        secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>"
-                    + _table(rows, ("design", "direct sun blocked", "view clear along normal",
-                                    "view clear over 60&deg; cone")))
+        secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>" + _light_html(li, report.get("design", {}).get("view")))
         if "blocked_sun" in images:
             secs.append(f'<img src="{images["blocked_sun"]}" alt="blocked sun map">')
     if li.get("reflection"):

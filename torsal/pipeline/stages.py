@@ -16,6 +16,7 @@ from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
 from .fins import fin_system
+from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
 from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
@@ -23,7 +24,7 @@ from .stage import Pipeline, Stage, StageInputs
 __all__ = ["surface_mesh", "sun_directions", "run_surface", "run_estimate", "run_sun", "run_orient",
            "run_congruence", "run_remesh", "run_support", "measure_fins", "run_light", "run_substructure",
            "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES", "fin_system",
-           "run_assembly"]
+           "run_assembly", "run_devices"]
 
 # constraints met to 1e-4 are met for a building (unit length to 0.01%, c_hyp to rounding of
 # the design's scale); IPOPT's "acceptable level" often lands at ~1e-6
@@ -277,42 +278,6 @@ def run_support(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ light
-def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float) -> tuple[dict, object]:
-    """Sun blocked and view clear of a fin set over mesh A: the one measurement every fin
-    set of a design or a study gets (the same ``samples`` seeded points on A, the same sun
-    directions and weights, the same view rays).
-
-    Parameters
-    ----------
-    fins : trimesh.Trimesh
-        Thin-surface fins.
-    surface : (vertices (n, 3), faces (m, 3))
-        Mesh A, normals towards the sun.
-    sun : dict
-        The sun stage's result: ``vectors`` (k, 3), ``weights`` (k,).
-    samples : int
-        Points for the sun rays; half as many for the view rays.
-    metres_per_unit : float
-
-    Returns
-    -------
-    report : dict
-        ``blocked_share`` (weighted share of direct sun rays blocked), ``transparency``
-        (share of points with a free view along the normal), ``transparency_cone`` (free
-        share over a 60 degree cone), ``fin_area_m2`` (one side).
-    blocked : ShadingResult
-        Per point, for the figure.
-    """
-    from ..light import direct_sun_blocked, transparency
-
-    blocked = direct_sun_blocked(fins, surface, sun["vectors"], samples=samples,
-                                 weights=sun["weights"])
-    clear = transparency(fins, surface, samples=samples // 2)
-    return {"blocked_share": float(blocked.share), "transparency": float(clear.along_normal),
-            "transparency_cone": float(clear.cone),
-            "fin_area_m2": float(fins.area) * metres_per_unit ** 2}, blocked
-
-
 def built_structure(structure, left_out):
     """The support structure without the fins (structure edges) ``left_out`` by the
     fabrication (panels too narrow or lying along the plate they end against): the fins that
@@ -328,21 +293,23 @@ def built_structure(structure, left_out):
 
 def run_light(inp: StageInputs) -> dict:
     """Sun blocked over the sun hours and view clear, for the fins as built (without the
-    panels the fabrication left out) and for horizontal louvers of the same depth and
-    spacing (:func:`measure_fins`). Returns the ``report`` section and ``map`` (``points``
+    panels the fabrication left out; every fin when the pipeline has no fabrication) and, as
+    ``devices``, for the standard devices of the same depth and spacing (the devices stage;
+    :func:`measure_fins` for both). Returns the ``report`` section and ``map`` (``points``
     (p, 3), ``per_point`` (p,) blocked share) for the figure."""
-    from ..light import horizontal_louvers
-
     spec = inp.spec
     o, sun = inp["orient"], inp["sun"]
     v, f = o["vertices"], o["faces"]
-    left_out = inp["fabrication"].get("left_out_edges", [])
+    left_out = inp["fabrication"].get("left_out_edges", []) if "fabrication" in inp else []
     # the fins as built: panels the fabrication left out neither shade nor reflect
     fins = built_structure(inp["support"]["structure"], left_out).fin_mesh()
     n, m_per_unit = spec.outputs.light_samples, spec.metres_per_unit
-    report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit)
-    louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
-    lr, _ = measure_fins(louvers, (v, f), sun, n, m_per_unit)
+    report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit,
+                                   view=spec.view.field(m_per_unit),
+                                   view_measure=spec.view.measure.value,
+                                   goals=sun_goals(spec, v, f))
+    devices = inp["devices"]["measured"]
+    lr = devices["horizontal louvers"]
     extra = {}
     if spec.goals.reflect is not None:
         # where the fins as built send the sunlight (Fig. 13); map["reflection"]: the picture
@@ -357,8 +324,11 @@ def run_light(inp: StageInputs) -> dict:
         "sun_directions": int(len(sun["vectors"])),
         "fins_measured": int(len(inp["support"]["structure"].edges) - len(left_out)),
         **report,
+        # kept for readers of earlier reports; on a canopy: not applicable, with the reason
         "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
-                                                 "transparency_cone")}},
+                                                 "transparency_cone")} if lr["applicable"]
+        else {"applicable": False, "reason": lr["reason"]},
+        "devices": devices},
         "map": {"points": blocked.points, "per_point": blocked.per_point,
                 **({"reflection": picture} if extra else {})}}
 
@@ -523,7 +493,8 @@ def run_report(inp: StageInputs) -> dict:
         o = inp["orient"]
         files.update(write_design_report(out, spec, report, congruence, structure,
                                          inp["light"]["map"], (o["vertices"], o["faces"]),
-                                         inp["fabrication"].get("layout"),
+                                         inp["fabrication"].get("layout")
+                                         if "fabrication" in inp else None,
                                          sun=(inp["sun"]["vectors"], inp["sun"]["weights"])))
     return {"report": design, "files": files}
 
@@ -569,7 +540,7 @@ def _fins_key(spec):
 
 
 def _light_key(spec):
-    return (spec.outputs.light_samples,)
+    return (spec.outputs.light_samples, spec.view.model_dump(mode="json"))
 
 
 def _substructure_key(spec):
@@ -601,8 +572,11 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
+    # the standard devices of the fins' depth and spacing (measured into light.devices)
+    Stage("devices", run_devices, inputs=("orient", "sun"), key=devices_key),
     # after the fabrication: it measures the fins that are built
-    Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication"), key=_light_key),
+    Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication", "devices"),
+          key=_light_key),
     Stage("assembly", run_assembly, inputs=("support", "fabrication"),
           key=_assembly_key, section="fabrication.assembly"),
     Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",
