@@ -1,0 +1,295 @@
+"""The assembly check as an object: :class:`AssemblyChecker` owns the solids of one check and
+everything made from them (face records, covers, boundary triangles), runs the touching pairs
+and the paths into place (in forked workers that inherit it, :mod:`.workers`) and returns an
+:class:`~.result.AssemblyCheck`. :func:`check_assembly` and :func:`verify_assembly` are its
+front doors (the rules are in :mod:`torsal.fabrication.assembly`).
+
+Units: those of the solids (``unit``, mm by default): volumes in unit^3.
+"""
+from __future__ import annotations
+
+import os
+import time
+from collections import Counter
+from typing import Callable, Iterable, Mapping
+
+import numpy as np
+
+from .occ import (_bbox, _boundary_triangles, _face_records, _inside, _mesh, _near, _shape,
+                  _vertices, common_volume)
+from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
+                      joint_groups, joints_of)
+from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
+from .separation import solid_clear, solid_cover
+from .sweep import swept_overlap
+from .workers import map_jobs
+
+__all__ = ["AssemblyChecker", "check_assembly", "verify_assembly"]
+
+Progress = Callable[[str, int, int], None]
+
+
+def _box_pairs(boxes: np.ndarray, grow: float) -> list[tuple[int, int]]:
+    """Index pairs (i < j) whose boxes, grown by ``grow``, overlap (sort and sweep on x)."""
+    lo, hi = boxes[:, 0] - grow, boxes[:, 1] + grow
+    order = np.argsort(lo[:, 0])
+    pairs = []
+    for n, i in enumerate(order):
+        for j in order[n + 1:]:
+            if lo[j, 0] > hi[i, 0]:
+                break
+            if (lo[i] <= hi[j]).all() and (lo[j] <= hi[i]).all():
+                pairs.append((int(min(i, j)), int(max(i, j))))
+    return sorted(pairs)
+
+
+class AssemblyChecker:
+    """One assembly check of named OCC solids and their joint records.
+
+    It meshes the solids once (before any worker is forked) and keeps, per solid and per
+    process, what the cheap tests need (face records, covers, boundary triangles); a forked
+    worker inherits the checker and fills its own copies. Nothing outlives the object.
+
+    >>> from build123d import Box, Pos
+    >>> chk = AssemblyChecker(["a", "b"], [Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2)], workers=1)
+    >>> [(x.parts, round(x.volume, 6)) for x in chk.run().interfering]
+    [(('a', 'b'), 4.0)]
+    """
+
+    def __init__(self, names: list[str], solids: list, joints: Iterable = (), *,
+                 tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
+                 workers: int | None = None, unit: str = "mm", progress: Progress | None = None):
+        self.names = [str(n) for n in names]
+        dup = sorted({n for n in self.names if self.names.count(n) > 1})
+        if dup:
+            raise ValueError(f"solids with the same name {dup[:8]}: every part needs one solid "
+                             "of its own")
+        self.shapes = [_shape(s) for s in solids]
+        self.joints = [_as_joint(j) for j in joints]
+        self.tolerance, self.min_volume, self.unit = float(tolerance), float(min_volume), unit
+        self.workers = min(2, os.cpu_count() or 1) if workers is None else workers
+        self.progress = progress
+        self._kept: dict = {}             # (what, solid index) -> faces, cover or triangles
+
+    # ------------------------------------------------------------------ per-solid records
+    def _keep(self, what: str, k: int, make):
+        key = (what, k)
+        if key not in self._kept:
+            self._kept[key] = make()
+        return self._kept[key]
+
+    def faces(self, k: int) -> list:
+        """Face records of solid ``k``, made once per process."""
+        return self._keep("faces", k, lambda: _face_records(self.shapes[k]))
+
+    def cover(self, k: int) -> list:
+        """:func:`~.separation.solid_cover` of solid ``k``, made once per process."""
+        return self._keep("cover", k, lambda: solid_cover(self.shapes[k], self.faces(k)))
+
+    def triangles(self, k: int) -> tuple:
+        """``(triangles, box, triangle boxes)`` of solid ``k`` for the cheap tests."""
+        def make():
+            tri = _boundary_triangles(self.shapes[k])
+            return tri, _bbox(self.shapes[k]), (tri.min(axis=1), tri.max(axis=1))
+        return self._keep("triangles", k, make)
+
+    # ------------------------------------------------------------------ jobs (any process)
+    def pair(self, job) -> tuple:
+        """``(i, j, distance, common volume, error)`` of a candidate pair ``(i, j)``."""
+        i, j = job
+        try:
+            a, b = self.shapes[i], self.shapes[j]
+            if not _near(a, b, self.tolerance) and not (_inside(a, b) or _inside(b, a)):
+                return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside
+            # within the tolerance on the triangulations (exact for planar faces): touching;
+            # the exact distance (solid_distance) would cost ten booleans a pair. A pair that
+            # the cheap exact test proves apart has nothing in common; the others get the boolean
+            (ta, ba, tba), (tb, bb, tbb) = self.triangles(i), self.triangles(j)
+            if solid_clear(self.cover(i), tb, bb, triangle_boxes=tbb) or \
+                    solid_clear(self.cover(j), ta, ba, triangle_boxes=tba):
+                return i, j, 0.0, 0.0, ""
+            return i, j, 0.0, common_volume(a, b), ""
+        except Exception as e:   # OpenCascade failures: reported per pair, never assumed clear
+            return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
+
+    def sweep(self, job) -> tuple:
+        """``(k, [swept overlap with each other])`` of solid ``k`` moved by ``vector``."""
+        k, vector, others, stop_above = job
+        return k, swept_overlap(self.shapes[k], vector, [self.shapes[o] for o in others],
+                                stop_above=stop_above, faces=self.faces(k),
+                                triangles=lambda n: self.triangles(others[n])[0])
+
+    def _map(self, method: str, jobs: list, what: str) -> list:
+        return map_jobs(self, method, jobs, workers=self.workers, progress=self.progress,
+                        what=what)
+
+    # ------------------------------------------------------------------ the check
+    def run(self) -> AssemblyCheck:
+        """Touching pairs, interference and the assembly order (see the package text)."""
+        t0 = time.perf_counter()
+        _mesh(self.shapes, self.tolerance)
+        try:
+            self.boxes = np.array([_bbox(s) for s in self.shapes]).reshape(-1, 2, 3)
+            touching, interfering, failed = self._touching_pairs()
+            order = self._assembly_order()
+        finally:
+            self._kept.clear()
+        kinds = Counter(j.kind for j in self.joints)
+        # connector parts (brackets, splice plates) by the kind of joint they fasten
+        connectors = Counter(j.kind for j in
+                             {j.connector: j for j in self.joints if j.connector}.values())
+        return AssemblyCheck(parts=self.names, pairs_checked=len(touching),
+                             interfering=interfering, order=order, failed_pairs=failed,
+                             joints=dict(sorted(kinds.items())),
+                             connectors=dict(sorted(connectors.items())),
+                             min_volume=self.min_volume, unit=self.unit,
+                             seconds=time.perf_counter() - t0)
+
+    def _touching_pairs(self):
+        names = self.names
+        jobs = _box_pairs(self.boxes, 0.5 * self.tolerance)
+        touching, interfering, failed = set(), [], []
+        for i, j, dist, vol, err in self._map("pair", jobs, "pairs"):
+            if err:
+                failed.append((names[i], names[j], err))
+                touching.add((i, j))
+            elif dist <= self.tolerance:
+                touching.add((i, j))
+                if vol > self.min_volume:
+                    interfering.append(Interference((names[i], names[j]), float(vol)))
+        interfering.sort(key=lambda x: -x.volume)
+        return touching, interfering, failed
+
+    def _plans(self) -> list[tuple]:
+        """Per step in the placement order: ``(solid, partners placed before, joint kinds,
+        [(direction, travel, solids placed before near the path)])``."""
+        names, boxes, tol = self.names, self.boxes, self.tolerance
+        index = {n: i for i, n in enumerate(names)}
+        order = [index[n] for n in _placement_order(names, self.joints)]
+        rank = {k: r for r, k in enumerate(order)}
+        joint_of: dict[int, list[AssemblyJoint]] = {k: [] for k in range(len(names))}
+        for jt in self.joints:
+            for p in jt.parts:
+                if p in index:
+                    joint_of[index[p]].append(jt)
+        plans = []
+        for k in order:
+            partners, kinds, axes, slotted, depths = set(), [], [], [], []
+            for jt in joint_of[k]:
+                groups = joint_groups(jt)
+                mine = next(g for g, ps in enumerate(groups) if names[k] in ps)
+                placed = [index[p] for g in groups[:mine] for p in g
+                          if p in index and rank[index[p]] < rank[k]]
+                if placed:
+                    partners.update(placed)
+                    kinds.append(jt.kind)
+                    own = (jt.connector_direction if names[k] == jt.connector
+                           and jt.connector_direction is not None else jt.insert_direction)
+                    axes.append(np.asarray(own, float))
+                    slotted.append(jt.kind == "egg-crate")
+                    depths.append(jt.depth if jt.connector != names[k] else None)
+            verts = _vertices(self.shapes[k])
+            cands = []
+            for d in _candidate_directions(axes, slotted):
+                # start one depth of the part (its extent along d) back: disengaged from its
+                # joints (a slot is at most as long as the part is deep along its axis)
+                ext = verts @ d
+                travel = float(ext.max() - ext.min())
+                if depths and all(x is not None and x > 0 for x in depths):
+                    # disengaged from its joints once slid back by their depth (a long, skewed
+                    # plate need not come from beyond its own far end)
+                    travel = min(travel, max(depths))
+                travel += tol
+                lo = np.minimum(boxes[k, 0], boxes[k, 0] - travel * d) - tol
+                hi = np.maximum(boxes[k, 1], boxes[k, 1] - travel * d) + tol
+                others = [o for o in order[:rank[k]]
+                          if (boxes[o, 0] <= hi).all() and (lo <= boxes[o, 1]).all()]
+                cands.append((d, travel, others))
+            plans.append((k, sorted(partners, key=rank.get), tuple(sorted(set(kinds))), cands))
+        return plans
+
+    def _assembly_order(self) -> list[AssemblyStep]:
+        """Steps with the first clear insertion direction of every part: the first direction
+        of every part is tried at once, then the next for those still blocked."""
+        names, plans = self.names, self._plans()
+        best: dict[int, tuple] = {n: (None, 0.0, ()) for n, p in enumerate(plans) if not p[3]}
+        pending = [n for n, p in enumerate(plans) if p[3]]
+        attempt = 0
+        while pending:
+            jobs = [(plans[n][0], plans[n][3][attempt][1] * plans[n][3][attempt][0],
+                     plans[n][3][attempt][2], self.min_volume) for n in pending]
+            results = self._map("sweep", jobs, f"paths (try {attempt + 1})")
+            still = []
+            for n, (_, vols) in zip(pending, results):
+                d, travel, others = plans[n][3][attempt]
+                hits = tuple(sorted((Interference((names[plans[n][0]], names[o]), float(v))
+                                     for o, v in zip(others, vols) if not v <= self.min_volume),
+                                    key=lambda x: -x.volume))
+                total = sum(h.volume for h in hits)
+                if n not in best or total < sum(h.volume for h in best[n][2]):
+                    best[n] = (d, travel, hits)
+                if hits and attempt + 1 < len(plans[n][3]):
+                    still.append(n)
+            pending, attempt = still, attempt + 1
+        steps = []
+        for n, (k, partners, kinds, _) in enumerate(plans):
+            d, travel, hits = best[n]
+            steps.append(AssemblyStep(step=n + 1, part=names[k],
+                                      insert_direction=None if d is None else tuple(float(x) for x in d),
+                                      travel=float(travel), partners=tuple(names[o] for o in partners),
+                                      joint_kinds=kinds, collisions=hits))
+        return steps
+
+
+def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
+                   tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
+                   workers: int | None = None, unit: str = "mm",
+                   progress: Progress | None = None) -> AssemblyCheck:
+    """Check named solids for interference and find an assembly order (see the package text).
+
+    Parameters
+    ----------
+    solids : mapping name -> solid, or iterable of (name, solid)
+        build123d or OCP solids, e.g. ``FinSystem.solids()`` or ``read_step("fins.step")``.
+        Names must be unique.
+    joints : iterable of joint records
+        Objects with ``kind, node, parts, insert_direction, connector`` (see
+        :class:`~.records.AssemblyJoint` and :func:`~.records.joints_of`). Parts without
+        joints are set down in place (no path is checked).
+    tolerance : float
+        Pairs closer than this (unit) are touching and get the exact boolean.
+    min_volume : float
+        Common volume (unit^3) above which two parts interfere or a path collides.
+    workers : int, optional
+        Processes for the pair and path checks; default ``min(2, cpu count)``.
+    progress : callable(phase, done, total), optional
+
+    Returns
+    -------
+    AssemblyCheck
+
+    >>> from build123d import Box, Pos
+    >>> check_assembly({"a": Box(1, 1, 1), "b": Pos(3, 0, 0) * Box(1, 1, 1)}, workers=1).buildable
+    True
+    """
+    items = list(solids.items()) if isinstance(solids, Mapping) else list(solids)
+    return AssemblyChecker([n for n, _ in items], [s for _, s in items], joints,
+                           tolerance=tolerance, min_volume=min_volume, workers=workers,
+                           unit=unit, progress=progress).run()
+
+
+def verify_assembly(fin_system, *, step_file=None, tolerance: float = 1.0,
+                    min_volume: float = MIN_INTERFERENCE_VOLUME, workers: int | None = None,
+                    progress: Progress | None = None) -> AssemblyCheck:
+    """:func:`check_assembly` of a :class:`~torsal.fabrication.FinSystem`: its solids (or, with
+    ``step_file``, the solids re-read from that STEP file, as a fabricator would get them) and
+    its joints (:func:`~.records.joints_of`)."""
+    if step_file is not None:
+        from ..solids import read_step
+
+        solids = read_step(step_file)
+    else:
+        solids = fin_system.solids()
+    return check_assembly(solids, joints=joints_of(fin_system), tolerance=tolerance,
+                          min_volume=min_volume, workers=workers, unit=fin_system.unit,
+                          progress=progress)

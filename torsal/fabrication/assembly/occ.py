@@ -1,0 +1,297 @@
+"""OpenCascade kernels of the assembly check: shapes' volumes, boxes, faces and triangles,
+exact booleans (non-destructive, confirmed), distances and the prisms faces sweep.
+
+Units: those of the solids (unit^3 for volumes).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .result import MIN_INTERFERENCE_VOLUME
+
+def _shape(x):
+    """TopoDS_Shape of a build123d shape or an OCP shape."""
+    return getattr(x, "wrapped", x)
+
+
+def _mesh(shapes, tolerance: float) -> None:
+    """Triangulate the shapes (in place, once, before any fork) for the proximity prefilter."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+
+    for s in shapes:
+        # serial: worker threads left behind would deadlock the forked processes
+        BRepMesh_IncrementalMesh(s, 0.1 * tolerance, False, 0.5, False)
+
+
+def _signed_volume(shape) -> float:
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(shape, props)
+    return float(props.Mass())
+
+
+def _volume(shape) -> float:
+    return abs(_signed_volume(shape))
+
+
+def _vertices(shape) -> np.ndarray:
+    """(k, 3) coordinates of the vertices of a shape (exact extents of a polyhedral solid)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    ex = TopExp_Explorer(shape, TopAbs_VERTEX)
+    while ex.More():
+        p = BRep_Tool.Pnt_s(TopoDS.Vertex(ex.Current()))
+        out.append((p.X(), p.Y(), p.Z()))
+        ex.Next()
+    return np.asarray(out, float).reshape(-1, 3)
+
+
+def _bbox(shape) -> np.ndarray:
+    """(2, 3) axis-aligned bounding box (min, max) of a shape."""
+    from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
+
+    box = Bnd_Box()
+    BRepBndLib.Add_s(shape, box, False)
+    lo, hi = box.CornerMin(), box.CornerMax()
+    return np.array([[lo.X(), lo.Y(), lo.Z()], [hi.X(), hi.Y(), hi.Z()]])
+
+
+def _faces(shape) -> list:
+    from OCP.TopAbs import TopAbs_FACE
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    ex = TopExp_Explorer(shape, TopAbs_FACE)
+    while ex.More():
+        out.append(TopoDS.Face(ex.Current()))
+        ex.Next()
+    return out
+
+
+def face_polygons(solid) -> list[np.ndarray]:
+    """Outer loops of the faces of a polyhedral solid, each (k, 3) in order (for pictures)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepTools import BRepTools, BRepTools_WireExplorer
+
+    out = []
+    for f in _faces(_shape(solid)):
+        ex = BRepTools_WireExplorer(BRepTools.OuterWire_s(f))
+        pts = []
+        while ex.More():
+            p = BRep_Tool.Pnt_s(ex.CurrentVertex())
+            pts.append((p.X(), p.Y(), p.Z()))
+            ex.Next()
+        pts = np.asarray(pts, float).reshape(-1, 3)
+        if len(pts) >= 3 and np.isfinite(pts).all():     # degenerate loops are left out
+            out.append(pts)
+    return out
+
+
+def common_volume(s1, s2) -> float:
+    """Volume of the intersection of two solids (exact OpenCascade boolean), unit^3.
+
+    The boolean runs non-destructively: by default OpenCascade may widen the tolerances of
+    its arguments' vertices while it works (to about 1 mm, seen on a slotted plate crossing
+    another at an egg-crate), and then got this very common wrong (``a & b`` reported all of
+    ``b``, more than ``b``'s own volume, where ``b & a`` gave 0 and no point of ``b`` lies
+    inside ``a``),
+    and later booleans on the changed solids came out differently in one process than in
+    another (a path blocked or clear by the worker count). An overlap above
+    :data:`MIN_INTERFERENCE_VOLUME` is confirmed too: measured again in the other order and
+    with a fuzzy tolerance, the median of the three is returned, so that one wrong boolean in
+    the first order cannot make an interference (a wrong 0 there is not looked at again: that
+    would triple the cost of every boolean).
+
+    Raises RuntimeError when the boolean fails even with a fuzzy tolerance.
+
+    >>> from build123d import Box, Pos
+    >>> round(common_volume(Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2)), 6)
+    4.0
+    """
+    a, b = _shape(s1), _shape(s2)
+    first = _common(a, b)
+    if not first > MIN_INTERFERENCE_VOLUME:
+        return first
+    return float(np.median([first, _common(b, a), _common(a, b, fuzzy=_FUZZY)]))
+
+
+#: unit: fuzzy tolerance of the boolean that confirms an overlap or retries a failed one
+_FUZZY = 1e-6
+
+
+def _common(a, b, *, fuzzy: float = 0.0) -> float:
+    """Volume of ``a & b`` (TopoDS shapes, left unchanged); a failed exact boolean is tried
+    again with the fuzzy tolerance :data:`_FUZZY` (RuntimeError if that fails too)."""
+    for f in ((0.0, _FUZZY) if fuzzy == 0.0 else (fuzzy,)):
+        op = _boolean_common(a, b, f)
+        if op.IsDone():
+            return _volume(op.Shape())
+    raise RuntimeError("BRepAlgoAPI_Common failed")
+
+
+def _boolean_common(a, b, fuzzy: float):
+    """The built ``BRepAlgoAPI_Common`` of ``a`` and ``b``: non-destructive (the arguments
+    keep their tolerances), with ``fuzzy`` (unit; 0: exact)."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
+    try:
+        from OCP.TopTools import TopTools_ListOfShape
+    except ImportError:           # OCP >= 7.8 has the list type in OCP.collections only
+        from OCP.collections import List_TopoDS_Shape as TopTools_ListOfShape
+
+    op = BRepAlgoAPI_Common()
+    la, lb = TopTools_ListOfShape(), TopTools_ListOfShape()
+    la.Append(a)
+    lb.Append(b)
+    op.SetArguments(la)
+    op.SetTools(lb)
+    op.SetNonDestructive(True)
+    if fuzzy > 0.0:
+        op.SetFuzzyValue(fuzzy)
+    op.Build()
+    return op
+
+
+def _inside(shape, solid) -> bool:
+    """A vertex of ``shape`` lies strictly inside ``solid``."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_IN
+
+    v = _vertices(shape)
+    if not len(v):
+        return False
+    cls = BRepClass3d_SolidClassifier(solid, gp_Pnt(*map(float, v[0])), 1e-7)
+    return cls.State() == TopAbs_IN
+
+
+def solid_distance(s1, s2) -> float:
+    """Exact distance between two solids (0 when they touch, overlap or one holds the other).
+
+    >>> from build123d import Box, Pos
+    >>> solid_distance(Box(1, 1, 1), Pos(3, 0, 0) * Box(1, 1, 1)), solid_distance(Box(3, 3, 3), Box(1, 1, 1))
+    (2.0, 0.0)
+    """
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+
+    a, b = _shape(s1), _shape(s2)
+    d = BRepExtrema_DistShapeShape(a, b)
+    if not d.IsDone():
+        raise RuntimeError("BRepExtrema_DistShapeShape failed")
+    dist = float(d.Value())
+    # the distance of the boundaries: a solid wholly inside the other is at distance 0
+    if dist > 0 and (_inside(a, b) or _inside(b, a)):
+        return 0.0
+    return dist
+
+
+#: unit: how far a triangle may reach into a convex prism and the prism still count as clear of
+#: it (OpenCascade's confusion tolerance, the precision of its booleans themselves)
+
+
+def _near(s1, s2, tol: float) -> bool:
+    """Whether two meshed shapes come within about ``tol`` (BVH on their triangulations, fast;
+    exact triangles for planar faces, a conservative test of the gap): a prefilter only."""
+    from OCP.BRepExtrema import BRepExtrema_ShapeProximity
+
+    p = BRepExtrema_ShapeProximity(s1, s2, tol)
+    p.Perform()
+    return not p.IsDone() or p.OverlapSubShapes1().Size() > 0
+
+
+def _plane_normal(points: np.ndarray) -> np.ndarray:
+    """Unit normal of the best-fit plane of (m, 3) points."""
+    return np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[2][-1]
+
+
+class _Face(NamedTuple):
+    """A face of a moving solid: its OCC face, vertices (k, 3), edge directions (k, 3)."""
+
+    face: object
+    points: np.ndarray
+    edges: np.ndarray
+    normal: np.ndarray
+
+
+def _face_records(shape) -> list[_Face]:
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_EDGE
+    from OCP.TopExp import TopExp, TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out = []
+    for f in _faces(shape):
+        edges = []
+        ex = TopExp_Explorer(f, TopAbs_EDGE)
+        while ex.More():
+            e = TopoDS.Edge(ex.Current())
+            a, b = BRep_Tool.Pnt_s(TopExp.FirstVertex_s(e)), BRep_Tool.Pnt_s(TopExp.LastVertex_s(e))
+            edges.append((b.X() - a.X(), b.Y() - a.Y(), b.Z() - a.Z()))
+            ex.Next()
+        pts = _vertices(f)
+        out.append(_Face(f, pts, np.asarray(edges, float).reshape(-1, 3), _plane_normal(pts)))
+    return out
+
+
+def _outward_normals(shape, faces: list[_Face]) -> np.ndarray | None:
+    """(f, 3) outward unit normals of the planar faces of a closed solid (None: a face is not
+    planar)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_Plane
+    from OCP.TopAbs import TopAbs_REVERSED
+
+    out = []
+    for f in faces:
+        surf = BRepAdaptor_Surface(f.face)
+        if surf.GetType() != GeomAbs_Plane:
+            return None
+        d = surf.Plane().Axis().Direction()
+        n = np.array([d.X(), d.Y(), d.Z()])
+        out.append(-n if f.face.Orientation() == TopAbs_REVERSED else n)
+    # a shell oriented inside out has a negative volume: its faces point in
+    return np.asarray(out).reshape(-1, 3) * (1.0 if _signed_volume(shape) >= 0 else -1.0)
+
+
+def _face_prism(face, v: np.ndarray):
+    """The oriented, meshed solid ``face`` sweeps along ``-v`` (None: the face runs along
+    ``v`` and sweeps no volume)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.BRepLib import BRepLib
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.GProp import GProp_GProps
+    from OCP.TopoDS import TopoDS
+    from OCP.gp import gp_Vec
+
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(face, props)
+    pr = TopoDS.Solid(BRepPrimAPI_MakePrism(face, gp_Vec(*map(float, -v)), True).Shape())
+    # faces along the path sweep no volume (numerically a sliver of either sign: skip it)
+    if abs(_signed_volume(pr)) <= 1e-9 * props.Mass() * float(np.linalg.norm(v)):
+        return None
+    # a face swept against its normal gives an inside-out solid; the boolean would take its
+    # complement: orient it
+    BRepLib.OrientClosedSolid_s(pr)
+    _mesh([pr], 1.0)
+    return pr
+
+
+def _boundary_triangles(shape) -> np.ndarray:
+    """(t, 3, 3) corners of the triangles of a shape's boundary (exact for planar faces),
+    meshed first if it is not (:class:`~.checker.AssemblyChecker` keeps them per solid)."""
+    from OCP.BRepTools import BRepTools
+
+    from ..solids import _triangles
+
+    if not BRepTools.Triangulation_s(shape, 0.1):
+        _mesh([shape], 1.0)           # serially (a check meshes its solids before any fork)
+    v, f = _triangles(shape, 0.1)
+    return v[f].reshape(-1, 3, 3)

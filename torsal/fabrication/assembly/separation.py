@@ -1,0 +1,181 @@
+"""Exact cheap proofs that two solids are apart (separating axes, ray parity), so that most
+touching plates skip the boolean (see :mod:`torsal.fabrication.assembly`).
+
+Small vectorized kernels over points (m, 3) and triangles (t, 3, 3); units those of the solids.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+# the fin model's vector helper (np.cross bit for bit, cheaper on small arrays): a data-model
+# kernel, not the joint builder's code, so the check stays independent of the builder
+from ..model import _cross
+from .occ import _Face, _face_records, _outward_normals, _plane_normal
+
+CLEAR_TOLERANCE = 1e-7
+
+
+def hull_clear_of_triangles(points, triangles, *, eps: float = CLEAR_TOLERANCE) -> bool:
+    """Whether no triangle reaches into the convex hull of ``points`` by more than ``eps``.
+
+    A separating-axis test: a triangle is apart from the hull when their projections on one
+    axis overlap by at most ``eps`` (times the axis length). The axes are the triangle's normal,
+    the normal of the points' best plane, and the cross products of the points' difference
+    vectors along the hull's edges with the triangle's edges. Any axis that separates proves
+    the pair apart, so the answer ``True`` is exact (up to ``eps``); ``False`` means
+    *undecided* (the exact boolean decides). For the prism of a planar face swept along ``v``
+    the hull's edge directions are the face's edges and ``v`` (give them as ``edges``, see
+    :func:`prism_clear`); here every pair of points gives one (small point sets only).
+
+    Parameters
+    ----------
+    points : (m, 3) array
+    triangles : (t, 3, 3) array
+        Corners of each triangle.
+    eps : float
+
+    >>> import numpy as np
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    >>> tri = np.array([[[0.5, 0.5, 1.0], [3, 0.5, 1.0], [0.5, 3, 1.0]]])   # on the top face
+    >>> hull_clear_of_triangles(cube, tri), hull_clear_of_triangles(cube, tri - [0, 0, 0.01])
+    (True, False)
+    """
+    p = np.asarray(points, float)
+    tri = np.asarray(triangles, float).reshape(-1, 3, 3)
+    if not len(tri):
+        return True
+    i, j = np.triu_indices(len(p), 1)
+    return bool(_sat_clear(p[None], (p[j] - p[i])[None], _plane_normal(p)[None], tri,
+                           np.ones((1, len(tri)), bool), eps)[0])
+
+
+def _inside_by_ray(point, triangles) -> bool | None:
+    """Whether ``point`` lies inside the closed triangulated surface ``triangles`` (t, 3, 3):
+    the parity of the crossings of one ray (Moller-Trumbore); None when that is not certain
+    (the point on the surface, the ray grazing an edge or running in a triangle's plane)."""
+    d = np.array([0.5773, 0.5871, 0.5675])          # a direction no face of a model shares
+    a = triangles[:, 0] - point
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    h = _cross(d, e2)
+    det = (e1 * h).sum(axis=1)
+    n = _cross(e1, e2)
+    nn = np.sqrt((n * n).sum(axis=1))
+    good = np.abs(det) > 1e-9 * nn
+    tol = 1e-9
+    if (~good & (np.abs((n * a).sum(axis=1)) <= tol * nn)).any():
+        return None                                  # the ray runs in a triangle's plane
+    inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
+    u = -(a * h).sum(axis=1) * inv
+    q = _cross(-a, e1)
+    v = (q @ d) * inv
+    w = (e2 * q).sum(axis=1) * inv                   # distance along the ray
+    within = good & (u > -tol) & (v > -tol) & (u + v < 1 + tol)
+    edge = (np.abs(u) < tol) | (np.abs(v) < tol) | (np.abs(u + v - 1) < tol)
+    if (within & ((np.abs(w) < tol) | (edge & (w > -tol)))).any():
+        return None              # on the surface, or the ray grazes an edge or a corner
+    return bool((within & (w > 0)).sum() % 2)
+
+
+def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
+                 other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                 triangle_boxes=None) -> np.ndarray:
+    """:func:`prism_clear` of many face prisms against one other solid at once: ``vectors``
+    (p, 3) or (3,), one per face or shared. Returns (p,) bool (True: proved apart)."""
+    nf = len(faces)
+    if not nf:
+        return np.zeros(0, bool)
+    v = np.broadcast_to(np.asarray(vectors, float), (nf, 3))
+    m = max(len(f.points) for f in faces)
+    k = max(len(f.edges) for f in faces) + 1
+    pts = np.empty((nf, 2 * m, 3))
+    edges = np.zeros((nf, k, 3))                 # zero rows give no axis (masked below)
+    for n, f in enumerate(faces):
+        fp = np.concatenate([f.points, f.points[:1].repeat(m - len(f.points), axis=0)])
+        pts[n, :m], pts[n, m:] = fp, fp - v[n]   # repeated corners leave the hull as it is
+        edges[n, :len(f.edges)] = f.edges
+        edges[n, len(f.edges)] = v[n]
+    normals = np.array([f.normal for f in faces])
+    lo, hi = pts.min(axis=1) - eps, pts.max(axis=1) + eps
+    tri = other_triangles
+    tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
+    near = ((tmin[None] <= hi[:, None]).all(axis=2) & (tmax[None] >= lo[:, None]).all(axis=2))
+    clear = np.ones(nf, bool)
+    used = near.any(axis=0)
+    if used.any():
+        clear = _sat_clear(pts, edges, normals, tri[used], near[:, used], eps)
+    # clear of the boundary: apart unless wholly inside (a hull sticking out of the box is not)
+    inside_box = (lo >= other_box[0]).all(axis=1) & (hi <= other_box[1]).all(axis=1)
+    for n in np.flatnonzero(clear & inside_box):
+        clear[n] = _inside_by_ray(pts[n].mean(axis=0), tri) is False
+    return clear
+
+
+def _sat_clear(pts, edges, normals, tri, near, eps) -> np.ndarray:
+    """(p,) whether no near triangle reaches ``eps`` into the hull of each point set ``pts``
+    (p, m, 3) with edge directions ``edges`` (p, k, 3), axis ``normals`` (p, 3); ``near``
+    (p, t) selects the triangles (t, 3, 3) each is tested against (only those pairs are)."""
+    pi, ti = np.nonzero(near)
+    c = pts.mean(axis=1)                               # (p, 3): centred, smaller round-off
+    q = (pts - c[:, None])[pi]                         # (n, m, 3)
+    t = tri[ti] - c[pi][:, None]                       # (n, 3, 3)
+    te = t[:, [1, 2, 0]] - t                           # (n, 3, 3) triangle edges
+    tn = _cross(te[:, 0], te[:, 1])                    # (n, 3)
+    cross = _cross(edges[pi][:, :, None, :], te[:, None, :, :]).reshape(len(pi), -1, 3)
+    axes = np.concatenate([tn[:, None], normals[pi][:, None], cross], axis=1)   # (n, a, 3)
+    norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
+    scale = max(float(np.abs(q).max(initial=0.0)), float(np.abs(t).max(initial=0.0)), 1.0)
+    ok = norm > 1e-9 * scale * scale                   # parallel edges give no axis
+    pp = axes @ q.transpose(0, 2, 1)                   # (n, a, m)
+    tp = axes @ t.transpose(0, 2, 1)                   # (n, a, 3)
+    gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
+    sep = (ok & (gap >= -eps * norm)).any(axis=1)      # (n,)
+    clear = np.ones(len(pts), bool)
+    clear[pi[~sep]] = False
+    return clear
+
+
+def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.ndarray,
+                *, eps: float = CLEAR_TOLERANCE, triangle_boxes=None) -> bool:
+    """Whether the prism that ``face`` sweeps from ``-vector`` to its place provably has no
+    volume in common with the solid bounded by ``other_triangles`` (t, 3, 3) whose box is
+    ``other_box`` (2, 3) (True: exact, within ``eps``; False: undecided). The prism lies in the
+    convex hull of the face's corners and their translates, whose edges run along the face's
+    edges and ``vector``: no boundary triangle of the other reaching into that hull
+    (:func:`hull_clear_of_triangles`), and the hull not inside the other (one point, ray
+    parity), leave them apart. ``triangle_boxes``: the triangles' (min, max) corners, if known."""
+    return bool(prisms_clear([face], vector, other_triangles, other_box, eps=eps,
+                             triangle_boxes=triangle_boxes)[0])
+
+
+def solid_cover(shape, faces: list[_Face] | None = None) -> list[tuple[_Face, np.ndarray]]:
+    """Prisms that cover a closed planar-faced solid: ``(face, vector)``, each face with
+    ``n . w > 0`` swept back along ``vector = L w`` (a point of the solid leaves it along
+    ``w`` through such a face within the solid's extent ``L`` along ``w``); ``w`` is the
+    outward face normal along which the solid is thinnest (a flat plate: its thickness, one
+    prism per face). Empty when a face is not planar (no cover)."""
+    faces = _face_records(shape) if faces is None else faces
+    normals = _outward_normals(shape, faces)
+    if normals is None or not len(faces):
+        return []
+    verts = np.concatenate([f.points for f in faces])
+    proj = verts @ normals.T
+    ext = proj.max(axis=0) - proj.min(axis=0)
+    k = int(np.argmin(ext))
+    w = normals[k] * float(ext[k])
+    return [(f, w) for f, n in zip(faces, normals) if n @ normals[k] > 0]
+
+
+def solid_clear(cover: list[tuple[_Face, np.ndarray]], other_triangles: np.ndarray,
+                other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                triangle_boxes=None) -> bool:
+    """Whether the solid covered by the prisms ``cover`` (:func:`solid_cover`) provably has no
+    volume in common with the solid bounded by ``other_triangles`` (t, 3, 3), box
+    ``other_box`` (True: exact within ``eps``; False: undecided): every prism is clear of it
+    (:func:`prism_clear`)."""
+    if not cover:
+        return False
+    return bool(prisms_clear([f for f, _ in cover], np.array([w for _, w in cover]),
+                             other_triangles, other_box, eps=eps,
+                             triangle_boxes=triangle_boxes).all())
