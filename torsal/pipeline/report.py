@@ -528,6 +528,11 @@ def _assembly_html(a: dict, max_steps: int = 300) -> str:
     return "\n".join(out)
 
 
+def _area(a) -> str:
+    """A fin area cell (m^2), a dash where a report (of an older run) has none."""
+    return f"{a:.1f}" if a is not None else "&ndash;"
+
+
 def _pct(x) -> str:
     return '<td class="num">-</td>' if x is None else f'<td class="num">{100 * x:.1f}%</td>'
 
@@ -557,7 +562,7 @@ def _light_html(li: dict, view: dict | None = None) -> str:
         return (f"<tr><td>{html.escape(name)}</td>{_pct(m['blocked_share'])}"
                 + (_pct(m.get("goal_share")) if asked else "")
                 + f"{_pct(m.get('view_out'))}{_pct(m['transparency'])}{_pct(m['transparency_cone'])}"
-                f'<td class="num">{m["fin_area_m2"]:.1f}</td><td>{note}</td></tr>')
+                f'<td class="num">{_area(m.get("fin_area_m2"))}</td><td>{note}</td></tr>')
 
     rows = [row(built, li)]
     for name, d in li.get("devices", {}).items():
