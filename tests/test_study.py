@@ -28,6 +28,8 @@ def _base(folder: Path, **outputs) -> Path:
     d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False, **outputs}
     d["material"]["sheet_mm"] = [4000, 2000]
     d["constraints"]["max_iter"] = 400
+    # the fast nester: a study's tests read its table, not its sheets (sparrow has its own tests)
+    d["nesting"] = {**d.get("nesting", {}), "nester": "bottom-left"}
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "designs").mkdir(exist_ok=True)
     path = folder / "designs" / "7a_small.toml"
