@@ -321,7 +321,8 @@ class ConstraintsSpec(_Spec):
         None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
         "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
     solver: Solver = Field(Solver.AUTO, description="the congruence optimizer: auto (the augmented "
-                           "Lagrangian for a design with inequality constraints, IPOPT otherwise), alm, "
+                           "Lagrangian for a design with min_torsal_angle or another bound that binds, IPOPT "
+                           "where hyperbolic is the only inequality or there is none), alm, "
                            "ipopt (the solver of record) or lbfgs (the paper's baseline); report.json "
                            "says which one produced the design")
     certify: bool = Field(False, description="IPOPT certifies the augmented Lagrangian's answer as a "
