@@ -12,8 +12,9 @@ strategy, each in its own module:
 ``solver="auto"`` (the default) takes the augmented Lagrangian where the NLP has inequality
 rows other than hyperbolicity (torsal-angle bounds, angles to lines, custom rows) and it can
 solve it (tangent chart, no lifted variables or slacks), IPOPT otherwise (no such rows:
-IPOPT's projected-Newton passes with their working set are at the paper's T there); if the augmented Lagrangian ends without a measured-feasible answer, IPOPT continues
-from it with all constraints. Whatever runs, the answer is measured on the geometry
+IPOPT's projected-Newton passes with their working set are at the paper's T there); if the
+augmented Lagrangian ends without a measured-feasible answer, IPOPT continues from it with all
+constraints. Whatever runs, the answer is measured on the geometry
 (:mod:`.measure`) before it is returned.
 """
 from __future__ import annotations
