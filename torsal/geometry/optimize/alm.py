@@ -434,9 +434,7 @@ class AugmentedLagrangian:
             lam = np.clip(m.mu, -LAM_MAX, LAM_MAX)
             v = s * pt.g - np.clip(s * pt.g + lam / rho, lo, hi)
             vmax = float(np.abs(v).max(initial=0.0))
-            settled = eps <= self.tol and dec <= self.tol and vmax <= VTOL
-            measured = settled and self.feasible(e)
-            if measured:
+            if eps <= self.tol and dec <= self.tol and vmax <= VTOL and self.feasible(e):
                 status, converged = f"converged: measured feasible, Newton decrement {dec:.1e}", True
             elif steps >= self.max_steps:
                 status = f"Maximum_Iterations_Exceeded ({steps} Newton steps)"

@@ -7,6 +7,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .measure import ROUNDING
 from .result import IterationRecord
 
 
@@ -58,7 +59,7 @@ class SolveMonitor:
             return True
         worst = self.measure(e) if np.isfinite(e).all() else math.inf
         seconds = time.perf_counter() - self.t0
-        feasible = bool(worst <= 1.0 + 1e-9)   # as Measurement.holds: rounding is not a miss
+        feasible = bool(worst <= 1.0 + ROUNDING)   # as Measurement.holds
         self.history.append(IterationRecord(self.iteration, seconds, float(objective), float(worst), feasible,
                                             time.process_time() - self.cpu0))
         if feasible and np.isfinite(objective) and (self.best is None or objective < self.best.objective):

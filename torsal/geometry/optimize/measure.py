@@ -25,6 +25,11 @@ KINDS = {
 }
 
 
+#: a violation beyond its tolerance by less than this share is rounding, and holds: a row stuck
+#: at 0 under a margin equal to the tolerance (hyperbolicity 1e-6) misses by 1e-6 * (1 + 4e-16)
+ROUNDING = 1e-9
+
+
 class Measurement(NamedTuple):
     """One constraint measured on a congruence.
 
@@ -65,9 +70,7 @@ class Measurement(NamedTuple):
 
     @property
     def _over(self) -> np.ndarray:
-        # beyond the tolerance by more than rounding: a row stuck at 0 under a margin equal to
-        # the tolerance (hyperbolicity 1e-6) misses by 1e-6 * (1 + 4e-16) and holds
-        return self.violation > self.tolerance * (1.0 + 1e-9)
+        return self.violation > self.tolerance * (1.0 + ROUNDING)
 
     @property
     def missed(self) -> np.ndarray:
