@@ -248,4 +248,5 @@ def test_sparrow_nest_is_repeatable_for_a_seed():
     a, b = ([(p.name, p.sheet, round(p.rotation, 6), np.round(p.offset, 6).tolist())
              for p in r.placements] for r in runs)
     assert a == b
-    assert runs[0].stats.seed == 7 and runs[0].stats.solves >= 1
+    # the rows reach the area bound here (no solve); tests/fabrication/test_nesting.py repeats a search
+    assert runs[0].stats.seed == 7

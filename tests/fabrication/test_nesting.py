@@ -1,0 +1,139 @@
+"""Nesting for yield (issue 27): rows of true shapes, sparrow emptying sheets, the time budget.
+
+Every layout is written as DXF and re-read with ezdxf alone; the parts are checked with
+shapely (no two closer than the gap plus the kerfs, every one inside its sheet's margin) and
+the utilization is recomputed from the input outlines.
+"""
+from __future__ import annotations
+
+import ezdxf
+import numpy as np
+import pytest
+from shapely.geometry import Polygon, box
+
+from torsal.fabrication.cutting import Cutting
+from torsal.fabrication.layout import PartTooLargeError, spacing
+from torsal.fabrication.nesting import nest_for_yield, nest_rows
+
+
+def trapezoid(bottom: float, top: float, height: float) -> Polygon:
+    """An isosceles trapezoid, its long side on the x axis (an unrolled fin's outline)."""
+    s = 0.5 * (bottom - top)
+    return Polygon([(0, 0), (bottom, 0), (bottom - s, height), (s, height)])
+
+
+def reread(paths) -> list[list[Polygon]]:
+    """Per sheet, the NOMINAL outlines as shapely polygons, read with ezdxf alone."""
+    sheets = []
+    for path in paths:
+        doc = ezdxf.readfile(path)
+        assert not doc.audit().has_errors
+        rings = [Polygon(e.get_points("xy")) for e in doc.modelspace().query("LWPOLYLINE[layer=='NOMINAL']")]
+        sheets.append(rings)
+    return sheets
+
+
+def check_sheets(sheets, parts: dict, W: float, H: float, sep: float, edge: float, n_sheets: int):
+    """No two parts nearer than ``sep``, each ``edge`` inside its sheet, every part once, and
+    the utilization from the input outlines' area."""
+    assert len(sheets) == n_sheets
+    inner = box(0, 0, W, H).buffer(-edge + 1e-6 * W, join_style="mitre")
+    areas = []
+    for polys in sheets:
+        for i, p in enumerate(polys):
+            assert p.is_valid and inner.contains(p)
+            for q in polys[i + 1:]:
+                assert p.distance(q) >= sep * (1 - 1e-6)
+            areas.append(p.area)
+    # every input part once: the same areas (rotated and moved, not changed)
+    assert sorted(areas) == pytest.approx(sorted(p.area for p in parts.values()), rel=1e-9)
+    return sum(p.area for p in parts.values()) / (n_sheets * W * H)
+
+
+@pytest.fixture
+def fins():
+    """Twelve trapezoidal strips a little over half a 1250 x 625 sheet long (they cannot lie two
+    in a row unless turned head to tail), and twenty brackets."""
+    parts = {f"F{i:02d}": trapezoid(630 - i, 530 - i, 180) for i in range(12)}
+    parts.update({f"C{i:02d}": box(0, 0, 90, 18) for i in range(20)})
+    return parts
+
+
+def test_rows_turn_strips_head_to_tail_read_back(fins, tmp_path):
+    W, H, gap, margin = 1250.0, 625.0, 5.0, 10.0
+    cut = Cutting.for_process("waterjet")               # kerf 1 mm: the spacing shows
+    sep, edge = spacing(gap, margin, cut)
+    lay = nest_rows(fins, sheet=(W, H), gap=gap, margin=margin, cutting=cut)
+    util = check_sheets(reread(lay.export_dxf(tmp_path / "fins.dxf", svg=False)), fins, W, H, sep,
+                        edge, lay.n_sheets)
+    assert util == pytest.approx(lay.utilization, rel=1e-9)
+    # two strips per row only head to tail (619 + 620 + 7 > 1228 usable, 630 + 629 - 50 + 7
+    # < 1228): three rows of 180 mm a sheet, six strips; the brackets above the rows
+    assert lay.n_sheets == 2
+    turned = {round(p.rotation % 360) for p in lay.placements if p.name.startswith("F")}
+    assert len(turned) == 2
+
+
+def test_yield_nest_read_back_no_overlap_inside_utilization(fins, tmp_path):
+    W, H, gap, margin = 1250.0, 625.0, 5.0, 10.0
+    cut = Cutting.for_process("laser")
+    sep, edge = spacing(gap, margin, cut)
+    lay = nest_for_yield(fins, sheet=(W, H), gap=gap, margin=margin, cutting=cut, time_limit=4,
+                         seed=1)
+    util = check_sheets(reread(lay.export_dxf(tmp_path / "fins.dxf", svg=False)), fins, W, H, sep,
+                        edge, lay.n_sheets)
+    assert util == pytest.approx(lay.utilization, rel=1e-9)
+    st = lay.stats
+    assert st.area_bound == pytest.approx(sum(p.area for p in fins.values()) / (W * H), rel=1e-9)
+    assert lay.n_sheets >= np.ceil(st.area_bound) and lay.n_sheets <= st.start_sheets
+    assert st.seconds > 0 and st.time_limit == 4
+
+
+TRIANGLES = {**{f"T{i}": Polygon([(0, 0), (700, 0), (0, 140)]) for i in range(6)},
+             "R": box(0, 0, 600, 60)}
+
+
+def test_sparrow_empties_a_sheet_rows_cannot(tmp_path):
+    """Right triangles and a bar: the rows need two sheets, sparrow packs them on one."""
+    W, H, gap, margin = 1000.0, 500.0, 4.0, 8.0
+    sep, edge = spacing(gap, margin, None)
+    rows = nest_rows(TRIANGLES, sheet=(W, H), gap=gap, margin=margin)
+    lay = nest_for_yield(TRIANGLES, sheet=(W, H), gap=gap, margin=margin, time_limit=20, seed=0,
+                         compare_fast=False)
+    check_sheets(reread(lay.export_dxf(tmp_path / "t.dxf", svg=False)), TRIANGLES, W, H, sep,
+                 edge, lay.n_sheets)
+    assert rows.n_sheets == 2 and lay.stats.start_sheets == 2
+    assert lay.n_sheets == 1 and lay.stats.sheets_emptied == 1 and lay.stats.solves >= 1
+
+
+def test_budget_too_short_for_a_solve_says_so():
+    parts = {f"F{i}": trapezoid(640, 560, 190) for i in range(14)}
+    lay = nest_for_yield(parts, sheet=(1250, 625), gap=5, margin=10, time_limit=1, compare_fast=False)
+    # the rows' layout, as it is: the budget could not pay for one sparrow solve
+    assert lay.stats.solves == 0 and lay.stats.time_limited
+    assert "time budget" in lay.stats.method
+    assert lay.n_sheets == lay.stats.start_sheets
+
+
+def test_at_the_area_bound_no_search():
+    parts = {f"p{i}": box(0, 0, 400, 100) for i in range(4)}
+    lay = nest_for_yield(parts, sheet=(1000, 500), gap=5, margin=10, time_limit=30)
+    assert lay.n_sheets == 1 and lay.stats.solves == 0 and not lay.stats.time_limited
+
+
+def test_rotation_step_is_kept(fins):
+    lay = nest_rows(fins, sheet=(1250, 625), gap=5, margin=10, rotation_step=90)
+    assert all(abs(p.rotation % 90) < 1e-9 or abs(p.rotation % 90 - 90) < 1e-9 for p in lay.placements)
+    with pytest.raises(PartTooLargeError, match="rotation"):
+        # a 45 deg bar fits a 1000 mm sheet only turned to lie along it
+        bar = Polygon([(0, 0), (700, 700), (690, 710), (-10, 10)])
+        nest_rows({"bar": bar}, sheet=(1000, 300), gap=5, margin=10, rotation_step=90)
+
+
+def test_portrait_sheet_rows_along_its_length(fins, tmp_path):
+    W, H = 625.0, 1250.0
+    sep, edge = spacing(5.0, 10.0, None)
+    lay = nest_rows(fins, sheet=(W, H), gap=5, margin=10)
+    check_sheets(reread(lay.export_dxf(tmp_path / "p.dxf", svg=False)), fins, W, H, sep, edge,
+                 lay.n_sheets)
+    assert lay.n_sheets == 2

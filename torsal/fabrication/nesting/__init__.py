@@ -1,0 +1,18 @@
+"""Nesting for yield: flat parts on as few sheets as a time budget allows.
+
+* :mod:`.rows`: rows of true shapes end to end (:func:`nest_rows`), a second or two.
+* :mod:`.sparrow`: one sheet packed by sparrow (``spyrrow``), true shapes, any rotation.
+* :mod:`.yield_`: :func:`nest_for_yield`, the rows, then sparrow empties the emptiest sheets
+  in the time budget.
+* :mod:`.api`: :func:`nest_parts`, a fin system's parts by the nester a design asks for.
+* :mod:`.stats`: :class:`Nester`, :class:`NestStats` and the defaults.
+
+The fast bottom-left nester is :func:`torsal.fabrication.layout.nest`.
+"""
+from .api import nest_parts
+from .rows import nest_rows
+from .stats import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester, NestStats
+from .yield_ import nest_for_yield
+
+__all__ = ["nest_for_yield", "nest_parts", "nest_rows", "Nester", "NestStats", "DEFAULT_TIME_LIMIT",
+           "SECONDS_PER_SHEET", "DEFAULT_SEED"]
