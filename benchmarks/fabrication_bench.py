@@ -257,33 +257,35 @@ def design_stage_times(toml: Path, out: Path) -> dict:
             "sheets": fabrication.get("sheets"), **timing, "load": load_average()}
 
 
-def nesting_row(fs, out: Path, label, time_limit: float, seed: int = 0) -> dict:
-    """Today's nester (bottom-left, connectors in rows after the plates) against the sparrow
-    nester in ``time_limit`` seconds, both with the default laser cutting: sheets, utilization
-    (parts' area / sheets' area, of the layout and of the DXF files re-read with ezdxf), the
-    area bound (parts' area / sheet area) and the seconds (wall and CPU)."""
+def nesting_row(fs, out: Path, label, time_limit: float | None, seed: int = 0) -> dict:
+    """Today's nester (bottom-left, connectors in rows after the plates), the rows alone and
+    the yield nester (rows, then sparrow empties sheets in ``time_limit`` seconds; None: the
+    default budget), all with the default laser cutting: sheets, utilization (parts' area /
+    sheets' area of the DXF files re-read with ezdxf), the area bound (parts' area / sheet area)
+    and the seconds (wall and CPU)."""
     from torsal.fabrication.cutting import Cutting
     from torsal.fabrication.layout import read_dxf_parts
 
     cut = Cutting.for_process("laser")
     fs.unrolled()
     row = {"case": label, "parts": len(fs.parts)}
-    for key, options in (("bl", {"nester": "bottom-left"}),
+    for key, options in (("bl", {"nester": "bottom-left"}), ("rows", {"nester": "rows"}),
                          ("sp", {"nester": "sparrow", "time_limit": time_limit, "seed": seed})):
         t0, c0 = time.perf_counter(), time.process_time()
         lay = fs.layout(sheet=(2500.0, 1250.0), gap=5.0, margin=10.0, cutting=cut, **options)
         row[f"{key}_s"] = time.perf_counter() - t0
         row[f"{key}_cpu"] = time.process_time() - c0
         row[f"{key}_sheets"] = lay.n_sheets
-        row[f"{key}_util"] = lay.utilization
         paths = lay.export_dxf(out / f"nest_{label}_{key}" / "fins.dxf", svg=False)
         area = sum(p.area for f in paths for p in read_dxf_parts(f)[0])
         row[f"{key}_util_dxf"] = area / (len(paths) * 2500.0 * 1250.0)
         if key == "sp":
+            st = lay.stats
             row["bound"] = lay.area_bound
-            row["solves"] = lay.stats.solves
-            row["fallback"] = lay.stats.fallback_parts
-    row["time_limit"] = time_limit
+            row["solves"] = st.solves
+            row["emptied"] = st.sheets_emptied
+            row["time_limit"] = st.time_limit
+            row["cut"] = "yes" if st.time_limited else "no"
     row["load"] = load_average()
     return row
 
@@ -291,9 +293,12 @@ def nesting_row(fs, out: Path, label, time_limit: float, seed: int = 0) -> dict:
 NEST_COLUMNS = [("case", "panels / design"), ("parts", "parts"), ("bound", "area bound (sheets)"),
                 ("bl_sheets", "today sheets"), ("bl_util_dxf", "today utilization (DXF)"),
                 ("bl_s", "today s"), ("bl_cpu", "today CPU s"),
-                ("sp_sheets", "sparrow sheets"), ("sp_util_dxf", "sparrow utilization (DXF)"),
-                ("sp_s", "sparrow s"), ("sp_cpu", "sparrow CPU s"), ("time_limit", "budget s"),
-                ("solves", "solves"), ("fallback", "parts by fast nester"), ("load", "load")]
+                ("rows_sheets", "rows sheets"), ("rows_util_dxf", "rows utilization (DXF)"),
+                ("rows_s", "rows s"),
+                ("sp_sheets", "yield sheets"), ("sp_util_dxf", "yield utilization (DXF)"),
+                ("sp_s", "yield s"), ("sp_cpu", "yield CPU s"), ("time_limit", "budget s"),
+                ("cut", "budget cut the search"), ("solves", "sparrow solves"),
+                ("emptied", "sheets emptied"), ("load", "load")]
 
 
 def design_fin_system(toml: Path, out: Path):
@@ -330,11 +335,13 @@ def main():
                     help="design files whose fabrication stage to time (table 2)")
     ap.add_argument("--nest-sizes", type=int, nargs="*", default=[],
                     help="panels of the sphere grids whose nesting to compare (table 3)")
-    ap.add_argument("--nest-time", type=float, nargs="*", default=[60.0],
-                    help="the sparrow nester's seconds, one per --nest-sizes (the last for designs)")
+    ap.add_argument("--nest-time", type=float, nargs="*", default=[],
+                    help="the yield nester's seconds, one per --nest-sizes (the last for designs); "
+                    "default: its own budget (4 s per sheet of area, at most 120 s)")
     ap.add_argument("--nest-design", type=Path, nargs="*", default=[],
                     help="design files whose parts' nesting to compare (table 3)")
     args = ap.parse_args()
+    args.nest_time = args.nest_time or [None]
     args.nest_time += [args.nest_time[-1]] * max(0, len(args.nest_sizes) - len(args.nest_time))
     out = args.out or Path(tempfile.mkdtemp(prefix="torsal_fab_bench_"))
     out.mkdir(parents=True, exist_ok=True)

@@ -99,8 +99,9 @@ KEY_NOTES: dict[str, tuple[str, str]] = {
     "cutting.kerf_mm": ("mm", ""),
     "cutting.tool_diameter_mm": ("mm", ""),
     "nesting": ("", "how the parts are nested on the sheets"),
-    "nesting.nester": ("", "sparrow: true shapes, free rotation, sheet by sheet in the time limit; "
-                           "bottom-left: fast; unset: sparrow when outputs.dxf writes cutting sheets, "
+    "nesting.nester": ("", "sparrow: rows of true shapes, then sparrow (free rotation) empties "
+                           "sheets in the time limit; rows: the rows alone (seconds); bottom-left: "
+                           "fast; unset: sparrow when outputs.dxf writes cutting sheets, "
                            "else bottom-left (the sheet count is then an estimate)"),
     "nesting.time_limit_s": ("s", ""),
     "nesting.margin_mm": ("mm", ""),

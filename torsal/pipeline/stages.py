@@ -443,7 +443,8 @@ def _nesting_report(layout, sheets_dir) -> dict:
            "utilization": float(layout.utilization), "utilization_dxf": None,
            "seconds": float(st.seconds), "cpu_seconds": float(st.cpu_seconds),
            "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
-           "fallback_parts": int(st.fallback_parts), "rotation": st.rotation}
+           "fallback_parts": int(st.fallback_parts), "rotation": st.rotation,
+           "time_limited": bool(st.time_limited)}
     if sheets_dir is not None and layout.n_sheets:
         area = 0.0
         for s in range(layout.n_sheets):

@@ -1,12 +1,12 @@
 """Row nesting: long parts end to end in rows along the sheet, true shapes, exact spacing.
 
-Unrolled fins are strips (7a: 172 plates 350-430 mm wide and 0.4-2.5 m long on 2.5 x 1.25 m
-sheets), so a sheet holds a few rows of them; what decides the yield is which parts share a
+Unrolled fins are strips (7a: 172 plates, most 350-430 mm wide and 0.4-2.5 m long, on 2.5 x
+1.25 m sheets), so a sheet holds a few rows of them; what decides the yield is which parts share a
 row and how close their slanted ends come. Each part is turned so that its minimum rotated
 rectangle lies along the rows (the rows run along the sheet's longer side), and may be
 turned half a turn more so that its end meets its neighbour's.
 
-Contact: a row's parts stand on the row's bottom line. Their shapes are cut into ``K``
+Contact: a row's parts stand on the row's bottom line. Their shapes are cut into :data:`SLABS`
 horizontal slabs; per slab the row keeps its *frontier*, the largest x of its parts grown by
 the spacing ``sep`` (a round buffer, a little larger than ``sep``), and a part's *left* is the
 smallest x of its true shape in the slab. A new part goes to ``x = max over slabs (frontier -
@@ -70,11 +70,6 @@ class Row:
     height: float
     frontier: np.ndarray
     parts: list = field(default_factory=list)
-
-    @property
-    def end(self) -> float:
-        """The x the row's true shapes reach."""
-        return max((x + s.length for s, x in self.parts), default=0.0)
 
 
 @dataclass

@@ -7,7 +7,7 @@ long (7a: 134 of its 172 plates are longer than half the sheet), so every cut at
 length crosses parts; measured on 7a, a 30 s strip at 80 % density gave windows of one sheet
 length 28 % full. Sparrow filling one sheet at a time from a chosen set (the nester before
 this one) packed its first sheets 80-87 % full but spent its budget on them and left the
-awkward parts to a fallback (47 sheets in 120 s at load 9). So:
+awkward parts to a fallback (47 sheets in 120 s at load 9, 42 in 300 s). So:
 
 1. **Rows** (:func:`~.rows.row_layout`): every part turned along its minimum rotated
    rectangle (half a turn more where its end meets its neighbour's), end to end in rows with
@@ -24,6 +24,15 @@ awkward parts to a fallback (47 sheets in 120 s at load 9). So:
 3. The fast bottom-left layout (:func:`~.layout.nest`) is made too for up to
    :data:`FAST_COMPARE_PARTS` parts and kept if it needs fewer sheets (``stats.method`` says
    which layout was kept).
+
+What caps the yield of unrolled fins is their length against the sheet's: a part longer than
+half the sheet shares a row only with a part whose end interlocks with its own. On 7a, 134 of
+the 172 plates are longer than half the sheet (strips too long for a sheet are halved) and at
+most 7 pairs of them fit one row end to end (an upper bound by bipartite matching), so laid
+along the sheet they need at least 127 rows, 42.3 sheets of three rows (72 %); sparrow gets
+below that only by tilting parts (7a: 40 sheets, 76 %, at load 13). Splitting the strips at
+1.2 m (``FinSystem(max_part_length=...)``) gives the rows alone 39 sheets (79.5 %) for 825
+parts instead of 432.
 
 Time: ``time_limit`` seconds (wall clock) for the whole nesting; each sparrow solve is given
 2 s of exploration and 1 of compression and is planned with the ratio of wall seconds to
