@@ -69,8 +69,8 @@ from .stats import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester, 
 __all__ = ["nest_for_yield", "FAST_COMPARE_PARTS"]
 
 #: the fast bottom-left layout is made too, and kept if it needs fewer sheets, up to this many
-#: parts (beyond, it takes minutes: it is about quadratic)
-FAST_COMPARE_PARTS = 600
+#: parts (beyond, it takes tens of seconds to minutes)
+FAST_COMPARE_PARTS = 1500
 #: sparrow's seconds of exploration and compression per solve
 _EXPLORE, _COMPRESS = 2, 1
 #: a host is offered parts up to this share of its usable area
