@@ -137,3 +137,21 @@ def test_portrait_sheet_rows_along_its_length(fins, tmp_path):
     check_sheets(reread(lay.export_dxf(tmp_path / "p.dxf", svg=False)), fins, W, H, sep, edge,
                  lay.n_sheets)
     assert lay.n_sheets == 2
+
+
+def test_only_small_parts_and_a_full_sheet(tmp_path):
+    """Brackets alone go in shelves on sheets of their own; a bracket that finds no room left
+    on a sheet filled by one plate goes on a new sheet."""
+    W, H = 1000.0, 500.0
+    sep, edge = spacing(5.0, 10.0, None)
+    brackets = {f"C{i:02d}": box(0, 0, 90, 18) for i in range(60)}
+    lay = nest_rows(brackets, sheet=(W, H), gap=5, margin=10)
+    check_sheets(reread(lay.export_dxf(tmp_path / "c.dxf", svg=False)), brackets, W, H, sep, edge,
+                 lay.n_sheets)
+    # 10 a shelf (10 x 95 - 5 <= 980), six shelves of 18 + 5 mm (<= 480): one sheet
+    assert lay.n_sheets == 1
+    parts = {"plate": box(0, 0, W - 2 * edge, H - 2 * edge), "C": box(0, 0, 90, 18)}
+    lay = nest_rows(parts, sheet=(W, H), gap=5, margin=10)
+    check_sheets(reread(lay.export_dxf(tmp_path / "p.dxf", svg=False)), parts, W, H, sep, edge,
+                 lay.n_sheets)
+    assert lay.n_sheets == 2

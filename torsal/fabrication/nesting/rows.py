@@ -296,16 +296,17 @@ def row_layout(items, w: float, h: float, sep: float, edge: float,
     # small parts: the free rectangles of the rows' sheets, then new sheets of shelves
     rects = [(si, r) for si, sh in enumerate(packer.sheets) for r in packer.free_rectangles(sh)]
     todo = sorted((n for n in by if n in small), key=lambda n: n)
+    fresh = False                             # whether rects is one empty sheet
     while todo:
+        if not rects:
+            packer.sheets.append(RowSheet())
+            rects, fresh = [(len(packer.sheets) - 1, (0.0, 0.0, length, height))], True
         placed, left = shelf_fill([r for _, r in rects], [by[n] for n in todo], sep)
         for ri, s, x, y in placed:
             packer.sheets[rects[ri][0]].loose.append((s, x, y))
-        if len(left) == len(todo):            # pragma: no cover - a part fits an empty sheet
+        if fresh and not placed:              # pragma: no cover - each part fits an empty sheet
             raise RuntimeError("a small part fits no empty sheet")
-        todo = [todo[i] for i in left]
-        if todo:
-            packer.sheets.append(RowSheet())
-            rects = [(len(packer.sheets) - 1, (0.0, 0.0, length, height))]
+        todo, rects = [todo[i] for i in left], []
     out = {}
     for si, s, x, y in packer.place():
         dx, dy = s.shift[0] + x + edge, s.shift[1] + y + edge
