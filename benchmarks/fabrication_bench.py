@@ -54,31 +54,34 @@ commit before the table above).
 At these loads the two workers get less than a core between them: ``solids Np`` is no faster
 than ``solids 1p``, and wall seconds say more about the other sessions than about this code.
 
-Table 3 (``--nest-sizes``, ``--nest-design``, issue 27): the nesting of the same parts by
-today's nester (bottom-left fill of the plates, the connectors in rows after them) and by the
-sparrow nester (:func:`~torsal.fabrication.nesting.nest_for_yield`, sheet by sheet, true
-shapes, free rotation, in ``--nest-time`` seconds; it keeps the fast nester's layout where
-that needs fewer sheets), both with the default laser cutting (kerf 0.2 mm, gap 5 mm between
-cuts, margin 10 mm): sheets, utilization (parts' area / sheets' area, from the DXF files
-re-read with ezdxf), the area bound (parts' area / sheet area) and the seconds. Measured
-2026-11-25 22:03-22:19 on the shared 2-core machine at load 16 to 18 (``nice -n 5``; every
-sparrow solve took about 2x the seconds it was given and got about a quarter of a core)::
+Table 3 (``--nest-sizes``, ``--nest-design``, issue 27): the same parts nested by today's
+nester (bottom-left fill of the plates, the connectors in rows after them), by the rows alone
+(:func:`~torsal.fabrication.nesting.nest_rows`: true shapes end to end, slanted ends head to
+tail) and by the yield nester (:func:`~torsal.fabrication.nesting.nest_for_yield`: the rows,
+then sparrow empties the emptiest sheets, free rotation, in its default budget of 4 s per sheet
+of area, at most 120 s, or ``--nest-time``), all with the default laser cutting (kerf 0.2 mm,
+gap 5 mm between cuts, margin 10 mm): sheets, utilization (parts' area / sheets' area, from
+the DXF files re-read with ezdxf), the area bound (parts' area / sheet area), the seconds,
+whether the budget cut the search, sparrow's solves and the sheets it emptied. Measured
+2026-11-26 04:26-05:00 on the shared 2-core machine at load 10 to 20 (``nice -n 5``; sparrow got
+about a third of a core: 7a's solves took 118 s of wall clock for 33 s of CPU)::
 
-    | panels / design | parts | area bound (sheets) | today sheets | today utilization (DXF) | today s | today CPU s | sparrow sheets | sparrow utilization (DXF) | sparrow s | sparrow CPU s | budget s | solves | parts by fast nester | load |
-    |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
-    | 112 | 98 | 1.66 | 3 | 0.555 | 2.56 | 0.24 | 3 | 0.555 | 31.15 | 3.41 | 30.00 | 3 | 76 | 15.87 |
-    | 1012 | 934 | 14.94 | 21 | 0.711 | 154.64 | 19.23 | 21 | 0.711 | 135.59 | 15.55 | 120.00 | 27 | 884 | 18.02 |
-    | 7a | 432 | 30.41 | 49 | 0.621 | 5.61 | 0.47 | 49 | 0.621 | 120.20 | 32.87 | 120.00 | 31 | 284 | 17.52 |
+    | panels / design | parts | area bound (sheets) | today sheets | today utilization (DXF) | today s | today CPU s | rows sheets | rows utilization (DXF) | rows s | yield sheets | yield utilization (DXF) | yield s | yield CPU s | budget s | budget cut the search | sparrow solves | sheets emptied | load |
+    |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
+    | 112 | 98 | 1.66 | 3 | 0.555 | 0.37 | 0.20 | 3 | 0.555 | 0.20 | 3 | 0.555 | 7.22 | 2.09 | 8.00 | yes | 1 | 0 | 13.45 |
+    | 1012 | 934 | 14.94 | 21 | 0.711 | 77.61 | 17.80 | 22 | 0.679 | 7.12 | 22 | 0.679 | 60.15 | 20.09 | 64.00 | yes | 12 | 0 | 11.85 |
+    | 5100 | 4820 | 72.57 | 103 | 0.705 | 778.18 | 120.35 | 100 | 0.726 | 86.33 | 100 | 0.726 | 122.98 | 22.71 | 120.00 | yes | 9 | 0 | 12.76 |
+    | 7a | 432 | 30.41 | 49 | 0.621 | 3.54 | 0.49 | 44 | 0.691 | 8.02 | 40 | 0.760 | 118.84 | 31.15 | 120.00 | yes | 31 | 4 | 19.52 |
 
-At that load the budget ran out after 27-31 sheet solves and the fast nester's layout was kept
-in all three rows: the >= 80 % target on 7a is not met here. Where sparrow did fill sheets
-(7a, 120 s, load 17, before the fast-nester comparison was added) its first 25 sheets held
-55-83 % of the sheet (median 75 %, mean 70 %) against
-today's 62 % average; 7a needs about 38 sheets at about 3 s of sparrow each. The 5,100-panel
-row was not run: both nesters hand their large parts to the bottom-left nester, which is
-quadratic (155 s for the 1,000-panel row at this load). For the lead: re-measure on a quiet
-machine with ``--nest-sizes 100 1000 5100 --nest-time 30 120 600 --nest-design
-examples/7a_facade_block.toml``.
+What caps 7a: 134 of its 172 plates are longer than half the sheet (strips too long for a sheet
+are halved) and at most 7 pairs of them interlock end to end in one row, so along the sheet
+they need 127 rows, 42.3 sheets; the rows make 44, sparrow's tilted placements 40 (76 %). The
+same strips split at the sheet's length (``FinSystem(max_part_length=2400)``, 423 parts) take
+39 sheets in rows alone and 38 (80.0 %) with sparrow in 120 s at load 12. The 1,000-panel row
+was measured with the bottom-left comparison limited to 600 parts; it is 1,500 now, so the
+yield nester keeps bottom-left's 21 sheets there (its 150 mm strips stack 7 rows a sheet, not 8).
+For the lead: re-measure on a quiet machine with ``--sizes --nest-sizes 100 1000 5100
+--nest-design examples/7a_facade_block.toml``.
 
 The structure of table 1 is a lat/long grid on a sphere of radius 10 m with node lines through
 the centre (exactly planar fins), ~300 mm panels, 150 mm fins, 3 mm plate, parts of at most 8

@@ -30,9 +30,9 @@ half the sheet shares a row only with a part whose end interlocks with its own. 
 the 172 plates are longer than half the sheet (strips too long for a sheet are halved) and at
 most 7 pairs of them fit one row end to end (an upper bound by bipartite matching), so laid
 along the sheet they need at least 127 rows, 42.3 sheets of three rows (72 %); sparrow gets
-below that only by tilting parts (7a: 40 sheets, 76 %, at load 13). Splitting the strips at
-1.2 m (``FinSystem(max_part_length=...)``) gives the rows alone 39 sheets (79.5 %) for 825
-parts instead of 432.
+below that only by tilting parts (7a: 40 sheets, 76 %, 120 s at load 11-13). Split at the
+sheet's length instead (``FinSystem(max_part_length=2400)``, 423 parts), the same strips take
+39 sheets in rows alone (77.9 %) and 38 with sparrow (80.0 %, 120 s at load 12).
 
 Time: ``time_limit`` seconds (wall clock) for the whole nesting; each sparrow solve is given
 2 s of exploration and 1 of compression and is planned with the ratio of wall seconds to
