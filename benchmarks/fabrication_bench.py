@@ -69,7 +69,7 @@ about a third of a core: 7a's solves took 118 s of wall clock for 33 s of CPU)::
     | panels / design | parts | area bound (sheets) | today sheets | today utilization (DXF) | today s | today CPU s | rows sheets | rows utilization (DXF) | rows s | yield sheets | yield utilization (DXF) | yield s | yield CPU s | budget s | budget cut the search | sparrow solves | sheets emptied | load |
     |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
     | 112 | 98 | 1.66 | 3 | 0.555 | 0.37 | 0.20 | 3 | 0.555 | 0.20 | 3 | 0.555 | 7.22 | 2.09 | 8.00 | yes | 1 | 0 | 13.45 |
-    | 1012 | 934 | 14.94 | 21 | 0.711 | 77.61 | 17.80 | 22 | 0.679 | 7.12 | 22 | 0.679 | 60.15 | 20.09 | 64.00 | yes | 12 | 0 | 11.85 |
+    | 1012 | 934 | 14.94 | 21 | 0.711 | 25.65 | 16.46 | 22 | 0.679 | 1.73 | 21 | 0.711 | 60.86 | 37.14 | 64.00 | yes | 15 | 0 | 8.46 |
     | 5100 | 4820 | 72.57 | 103 | 0.705 | 778.18 | 120.35 | 100 | 0.726 | 86.33 | 100 | 0.726 | 122.98 | 22.71 | 120.00 | yes | 9 | 0 | 12.76 |
     | 7a | 432 | 30.41 | 49 | 0.621 | 3.54 | 0.49 | 44 | 0.691 | 8.02 | 40 | 0.760 | 118.84 | 31.15 | 120.00 | yes | 31 | 4 | 19.52 |
 
@@ -77,9 +77,10 @@ What caps 7a: 134 of its 172 plates are longer than half the sheet (strips too l
 are halved) and at most 7 pairs of them interlock end to end in one row, so along the sheet
 they need 127 rows, 42.3 sheets; the rows make 44, sparrow's tilted placements 40 (76 %). The
 same strips split at the sheet's length (``FinSystem(max_part_length=2400)``, 423 parts) take
-39 sheets in rows alone and 38 (80.0 %) with sparrow in 120 s at load 12. The 1,000-panel row
-was measured with the bottom-left comparison limited to 600 parts; it is 1,500 now, so the
-yield nester keeps bottom-left's 21 sheets there (its 150 mm strips stack 7 rows a sheet, not 8).
+39 sheets in rows alone and 38 (80.0 %) with sparrow in 120 s at load 12. On the 1,000-panel
+grid (measured again 05:09-05:13 at load 8.5) the rows lose a sheet to bottom-left (its 150 mm
+strips stack 7 rows a sheet, not 8) and the yield nester keeps bottom-left's layout; with the
+bottom-left comparison limited to 600 parts (before) it gave 22 sheets.
 For the lead: re-measure on a quiet machine with ``--sizes --nest-sizes 100 1000 5100
 --nest-design examples/7a_facade_block.toml``.
 
