@@ -316,12 +316,16 @@ class Hole:
     fastener : str
         The fastener that goes through it, e.g. ``"M6 bolt"`` or ``"M8 anchor"`` (a matching hole
         in the plate a connector lies on names the same fastener).
+    shared : bool
+        The bolt through it is counted at another connector's hole: two connectors on the two
+        faces of a plate, one bolt through both and the plate.
     """
 
     center: np.ndarray
     diameter: float
     panel: int = -1
     fastener: str = ""
+    shared: bool = False
 
 
 @dataclass

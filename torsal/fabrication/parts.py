@@ -112,8 +112,8 @@ __all__ = [
     "MITER_LIMIT", "panel_widths",
 ]
 
-#: how often :class:`FinSystem` rebuilds, leaving out end panels that cannot be trimmed
-MAX_REBUILDS = 8
+#: how often :class:`FinSystem` rebuilds at most, changing joints and leaving out panels
+MAX_REBUILDS = 16
 
 
 class FinSystem:
@@ -289,15 +289,19 @@ class FinSystem:
                 self._build_from_structure(extra, forced)
             new = {(si, i): rec for si, i, *rec in self._untrimmable + ClashFinder(self)._stray_parts()
                    if i not in extra.get(si, ())}
+            swapped = len(self._base_at)
             new_forced = self._change_joints(new, forced)
-            moved_splits = self._bad_seams - self._avoid_splits
-            self._avoid_splits |= moved_splits
+            # joints changed at T and L junctions, splits moved off seams that could not be
+            # trimmed: build again
+            moved = self._bad_seams - self._avoid_splits
+            self._avoid_splits |= moved
+            changed = bool(moved) or len(self._base_at) > swapped
             new.update({(si, i): rec for si, i, *rec in self._clashing_panels(leaving=set(new))})
             new_forced.update((v, why) for v, why in self._unslidable.items()
                               if v not in forced and v not in new_forced)
             new_forced.update((v, why) for v, why in AssemblyPlanner(self)._break_cycles(forced).items()
                               if v not in new_forced)
-            checked = not (new or new_forced or moved_splits)
+            checked = not (new or new_forced or changed)
             excluded = set()
             if checked:
                 # the joints are settled: now the paths into place (they change with every
@@ -306,7 +310,7 @@ class FinSystem:
                 new = {(si, i): rec for si, i, *rec in AssemblyPlanner(self)._blocked_panels()}
                 excluded = {(si, i) for _, si, i in self._evicted} - self._fixing_exclude
             self._fixing_exclude |= excluded
-            if not (new or new_forced or moved_splits) or attempt == MAX_REBUILDS:
+            if not (new or new_forced or changed) or attempt == MAX_REBUILDS:
                 if not checked:
                     self._check_paths()     # out of rebuilds: at least the clear directions
                 break

@@ -35,7 +35,7 @@ import numpy as np
 from torsal.core.atomic import atomic_path
 from torsal.core.parallel import usable_workers
 
-from .model import CONNECTOR_FAMILY, Part, SlotSide
+from .model import CONNECTOR_FAMILY, FIXING_FAMILY, Part, SlotSide, quad_normals
 from .unroll import unroll
 from torsal.core.errors import TorsalError
 
@@ -463,8 +463,59 @@ def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol:
 
 
 def _part_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
-    """:func:`part_solid` as a bare OCC shape (what worker processes send back); a
-    :class:`SlotCutError` carries the plate as an OCC shape too."""
+    """:func:`part_solid` as a bare OCC shape (what worker processes send back), its holes
+    drilled (:func:`_drilled`); a :class:`SlotCutError` carries the plate as an OCC shape too."""
+    try:
+        shape = _plate_shape(part, thickness, repair=repair, planar_tol=planar_tol)
+    except SlotCutError as e:
+        e.plate = _drilled(e.plate, part, thickness)
+        raise
+    return _drilled(shape, part, thickness)
+
+
+#: sides of the polygon a hole is drilled as in the solids (every face stays planar, which the
+#: assembly check's cheap tests need; the DXF and the parts list have the true circles)
+HOLE_SIDES = 16
+
+
+def _drilled(shape, part: Part, thickness: float):
+    """``shape`` with the part's holes (``part.holes``) cut through it: a prism of a regular
+    :data:`HOLE_SIDES`-gon inscribed in the hole, along the normal of its panel, 1.5 thicknesses
+    long. The undrilled shape where OpenCascade cannot cut them (the holes are still in the
+    cutting files)."""
+    holes = getattr(part, "holes", ())
+    if not holes:
+        return shape
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakePrism
+    from OCP.gp import gp_Vec
+
+    normals = quad_normals(part.panels)
+    tools = []
+    for h in holes:
+        k = h.panel if 0 <= h.panel < len(part.panels) else int(np.argmin(
+            np.abs(np.einsum("kj,kj->k", h.center - part.panels[:, 0], normals))))
+        n = normals[k]
+        e1 = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        ang = np.linspace(0.0, 2 * np.pi, HOLE_SIDES, endpoint=False)
+        ring = (h.center - 0.75 * thickness * n + 0.5 * h.diameter
+                * (np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2))
+        tools.append(BRepPrimAPI_MakePrism(_polygon_face(ring), gp_Vec(*map(float, 1.5 * thickness * n)),
+                                           True).Shape())
+    try:
+        pieces = _solids_of(_cut(shape, tools))
+        volume = _volume(shape)
+        best = max(pieces, key=_volume) if pieces else None
+        if best is None or not 0.5 * volume < _volume(best) < volume or not _is_valid(best):
+            return shape
+        return best
+    except Exception:       # OpenCascade failures: the plate as it was
+        return shape
+
+
+def _plate_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
+    """The plate of :func:`_part_shape` with its slots, before the holes are drilled."""
     from OCP.TopoDS import TopoDS
 
     q, m = part.panels, part.miters
@@ -1198,7 +1249,8 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
         if p.family not in layers:
             lay = rhino3dm.Layer()
             lay.Name = (f"family {p.family}" if p.family >= 0 else
-                        "connectors" if p.family == CONNECTOR_FAMILY else "developable")
+                        "connectors" if p.family == CONNECTOR_FAMILY else
+                        "fixings" if p.family == FIXING_FAMILY else "developable")
             lay.Color = tuple(int(255 * c) for c in p.color) + (255,)
             layers[p.family] = model.Layers.Add(lay)
     meshes = _tessellate(fin_system, tolerance)

@@ -203,15 +203,19 @@ class FastenerLayout:
                     continue
                 plate = by_name.get(host[0])
                 m = None if plate is None else matching_hole(h, plate, host[1])
-                if m is not None:
+                if m is None:
+                    continue
+                there = plate_holes.setdefault(plate.name, [])
+                if any(np.linalg.norm(o.center - m.center) < 0.1 * m.diameter for o in there):
+                    # a connector on the plate's other face has a hole here: one bolt for both
+                    keep.append(Hole(h.center, h.diameter, h.panel, h.fastener, shared=True))
+                else:
                     keep.append(h)
-                    plate_holes.setdefault(plate.name, []).append(m)
+                    there.append(m)
             part.holes = tuple(keep)
         for p in fs.parts:
-            if p.name in plate_holes:
-                p.holes = tuple(plate_holes[p.name])
-            elif p.family not in (CONNECTOR_FAMILY, FIXING_FAMILY):
-                p.holes = ()
+            if p.family not in (CONNECTOR_FAMILY, FIXING_FAMILY):
+                p.holes = tuple(plate_holes.get(p.name, []))
 
 
 class FastenerCount(NamedTuple):
@@ -231,7 +235,8 @@ class FastenerCount(NamedTuple):
 def fastener_counts(fs) -> dict[str, FastenerCount]:
     """``{joint kind: FastenerCount}`` of a finished fin system, for every kind with a connector
     (``butt-bracket``, ``mitre-splice``, ``fixing``); the holes are counted on the connectors
-    (one fastener each; the matching plate holes take the same fastener).
+    (one fastener each; the matching plate holes take the same fastener, and a bolt through two
+    connectors on the two faces of a plate is counted once).
 
     >>> fastener_counts(fs)["butt-bracket"].bolts                            # doctest: +SKIP
     1040
@@ -243,11 +248,11 @@ def fastener_counts(fs) -> dict[str, FastenerCount]:
         kind = kind_of.get(p.name, "connector")
         r = rows.setdefault(kind, [0, 0, 0, 0, set(), set()])
         r[0] += 1
-        bolts = sum(1 for h in p.holes if h.fastener.endswith("bolt"))
+        bolts = sum(1 for h in p.holes if h.fastener.endswith("bolt") and not h.shared)
         anchors = sum(1 for h in p.holes if h.fastener.endswith("anchor"))
         r[1] += bolts
         r[2] += anchors
-        r[3] += not bolts
+        r[3] += not p.holes
         r[4].update(h.fastener for h in p.holes)
         r[5].update(round(float(h.diameter), 6) for h in p.holes)
     return {k: FastenerCount(r[0], r[1], r[2], r[3], ", ".join(sorted(r[4])),
@@ -259,7 +264,8 @@ def part_fastening(fs) -> dict[str, dict]:
     """Per part name, the parts list's fastener columns: ``kind`` (``plate``, the joint kind of
     a connector, or ``fixing``), ``holes`` (count), ``hole_diameter_mm`` (largest; 0 without
     holes), ``fasteners`` (the bolts and anchors that go through its own holes, for a connector
-    or fixing; 0 for a plate: the connector's bolt passes its matching hole) and ``fastener``
+    or fixing, a bolt shared with the connector on the plate's other face counted there; 0 for a
+    plate: the connector's bolt passes its matching hole) and ``fastener``
     (the sizes, e.g. ``M6 bolt``)."""
     kind_of = {j.connector: j.kind.value for j in getattr(fs, "joints", []) if j.connector}
     mm = UNIT_TO_MM[fs.unit]
@@ -271,7 +277,7 @@ def part_fastening(fs) -> dict[str, dict]:
         out[p.name] = {
             "kind": kind, "holes": len(holes),
             "hole_diameter_mm": round(max((h.diameter for h in holes), default=0.0) * mm, 3),
-            "fasteners": len(holes) if own else 0,
+            "fasteners": sum(1 for h in holes if not h.shared) if own else 0,
             "fastener": " + ".join(sorted({h.fastener for h in holes})) if own else "",
         }
     return out

@@ -119,7 +119,7 @@ class _PathCheck:
         self.lo[rows], self.hi[rows] = part.panels.min(axis=1), part.panels.max(axis=1)
 
     def remove(self, name: str) -> None:
-        """Take a body out (a fixing removed)."""
+        """Take a body out (a fixing or connector removed)."""
         self.bodies = [p for p in self.bodies if p.name != name]
         self._stack()
 
@@ -160,22 +160,31 @@ class _PathCheck:
         cand = np.flatnonzero(((self.lo <= hi) & (self.hi >= lo)).all(axis=1) & before[self.owner])
         if not len(cand):
             return seams
-        swept = _swept_distances(p.panels, vec, self.quads[cand])              # (k, m)
-        i, j = np.divmod(np.arange(swept.size), len(cand))
-        still = _quad_distances(p.panels[i], self.quads[cand][j]).reshape(swept.shape)
+        ii, jj, swept = self._blocking(p, vec, self.quads[cand], self._loose[self.owner[cand]])
+        out = [(int(a), self.bodies[self.owner[cand[b]]], int(self.panel[cand[b]]), float(swept[a, b]))
+               for a, b in zip(ii, jj)] + seams
+        return sorted(out, key=lambda h: (h[3], h[1].name, h[0], h[2]))
+
+    def _blocking(self, p: Part, vec: np.ndarray, quads: np.ndarray, loose: np.ndarray):
+        """``(panels of p, indices into quads, swept distances (k, m))``: the pairs of the
+        panels of ``p`` moved by ``vec`` into place and the panels ``quads`` (m, 4, 3) that
+        block the path (rules in the class text; ``loose``: the panel is a connector's or
+        fixing's)."""
+        reach = self.t + 0.5 * self.c
+        swept = _swept_distances(p.panels, vec, quads)                        # (k, m)
+        i, j = np.divmod(np.arange(swept.size), len(quads))
+        still = _quad_distances(p.panels[i], quads[j]).reshape(swept.shape)
         # panels at a joint (nearer in place than plates can be apart) must not come nearer;
         # any others that come that near are checked as solids. A connector or fixing is at a
         # joint only with what it lies on (a thickness apart): nothing crosses it
         joint = still < reach
-        loose = (p.family in (CONNECTOR_FAMILY, FIXING_FAMILY)) | self._loose[self.owner[cand]]
+        loose = (p.family in (CONNECTOR_FAMILY, FIXING_FAMILY)) | loose
         joint &= ~loose[None, :] | (still >= 0.98 * self.t)
         near = ~joint & (swept < reach)
         ii, jj = np.nonzero(near)
-        near[ii, jj] = _slab_depths(p.panels[ii], vec, self.quads[cand[jj]], self.t) > SLAB_TOUCH * self.t
+        near[ii, jj] = _slab_depths(p.panels[ii], vec, quads[jj], self.t) > SLAB_TOUCH * self.t
         ii, jj = np.nonzero(near | (joint & (swept < still - 0.5 * self.c)))
-        out = [(int(a), self.bodies[self.owner[cand[b]]], int(self.panel[cand[b]]), float(swept[a, b]))
-               for a, b in zip(ii, jj)] + seams
-        return sorted(out, key=lambda h: (h[3], h[1].name, h[0], h[2]))
+        return ii, jj, swept
 
     def _seam_hits(self, p: Part, d: np.ndarray, length: float) -> list[tuple]:
         """Mitred seams of ``p`` with parts in place before it that its path closes: the end
