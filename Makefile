@@ -7,7 +7,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.torsal-installed
 
-.PHONY: demo test bench clean install chromium
+.PHONY: demo test bench clean install chromium freecad freecad-screenshot
 
 install: $(STAMP)
 
@@ -31,7 +31,7 @@ demo: $(STAMP)
 	$(VENV)/bin/torsal analyze examples/facade_patch.obj --out out/
 	$(VENV)/bin/torsal design examples/7a_facade_block.toml --out out/7a
 
-test: $(STAMP) chromium
+test: $(STAMP) chromium freecad
 	$(PY) -m pytest -n 2
 
 # the report's 3D view is checked in a real headless browser: Debian's chromium, installed
@@ -46,6 +46,31 @@ chromium:
 	    echo "chromium is missing, so the report's browser test will be skipped. Install it with:  sudo apt-get install -y chromium"; \
 	  fi; \
 	fi
+
+# the parametric FreeCAD object is tested in a real headless FreeCAD (freecadcmd): Debian's
+# freecad-python3 (FreeCAD 0.20, the same Python 3.11 as the venv), installed if missing and we can
+# (root + apt-get); else the FreeCAD tests are skipped and say why
+freecad:
+	@if ! command -v freecadcmd >/dev/null 2>&1; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "the FreeCAD tests need freecadcmd: installing freecad-python3 with apt-get"; \
+	    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends freecad-python3 >/dev/null) \
+	      || echo "could not install freecad-python3 with apt-get: the FreeCAD tests will be skipped"; \
+	  else \
+	    echo "freecadcmd is missing, so the FreeCAD tests will be skipped. Install it with:  sudo apt-get install -y freecad-python3"; \
+	  fi; \
+	fi
+
+# examples/hosts/freecad.png: FreeCAD's GUI with a fins object, on a virtual screen (Xvfb);
+# the workbench is installed in a scratch HOME, so your own FreeCAD is left alone
+freecad-screenshot: $(STAMP) freecad
+	@command -v xvfb-run >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends xvfb xauth >/dev/null; } || \
+	  { echo "the screenshot needs xvfb-run:  sudo apt-get install -y xvfb"; exit 1; }
+	rm -rf out/freecad-home && mkdir -p out/freecad-home
+	HOME=$(CURDIR)/out/freecad-home $(VENV)/bin/torsal freecad install
+	HOME=$(CURDIR)/out/freecad-home TORSAL_EXAMPLES=$(CURDIR)/examples/hosts QTWEBENGINE_DISABLE_SANDBOX=1 \
+	  xvfb-run -a -s "-screen 0 1600x900x24" freecad examples/hosts/freecad_screenshot.py
 
 bench: $(STAMP)
 	$(PY) benchmarks/congruence_bench.py

@@ -42,16 +42,36 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} |" + " |" * 13 + f" {paper} |"
+        return f"| {key} | failed: {err} |" + " |" * 15 + f" {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
             f"{r['wall_s']:.0f} | {s['delta_pl_extracted']:.1e} | {s['delta_pl_optimized']:.1e} | "
-            f"{100 * li['blocked_share']:.0f}% ({100 * li['baseline_louvers']['blocked_share']:.0f}%) | "
-            f"{100 * li['transparency']:.0f}% ({100 * li['baseline_louvers']['transparency']:.0f}%) | "
-            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {min_torsal_angle(c)} | "
+            f"{100 * li['blocked_share']:.0f}% ({louvers(li, 'blocked_share')}) | "
+            f"{100 * li['transparency']:.0f}% ({louvers(li, 'transparency')}) | "
+            f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {sheets_cell(fa)} | "
+            f"{min_torsal_angle(c)} | "
             f"{interfering_cell(fa.get('assembly'))} | {connector_cell(fa)} | {fastener_cell(fa)} | "
             f"{left_out_cell(fa, s['edges'])} | {paper} |")
+
+
+def louvers(li: dict, key: str) -> str:
+    """Horizontal louvers' figure, or "n/a" where they cannot be made (a canopy)."""
+    b = li["baseline_louvers"]
+    return f"{100 * b[key]:.0f}%" if b.get("applicable", True) else "n/a"
+
+
+def sheets_cell(fa: dict) -> str:
+    """Sheets used against the area bound (parts' area / sheet area), and the utilization of
+    the sheets as the DXF files read back give it, with the nester's seconds."""
+    n = fa.get("nesting")
+    if not n:
+        return "- | -"
+    util = n.get("utilization_dxf")
+    util = n["utilization"] if util is None else util
+    nester = n["nester"].split(" (")[0] + (" kept" if "(" in n["nester"] else "")
+    return (f"{n['sheets']} / {n['area_bound_sheets']:.1f} | {100 * util:.0f}% "
+            f"({nester}, {n['seconds']:.0f} s)")
 
 
 def min_torsal_angle(c: dict) -> str:
@@ -126,9 +146,10 @@ def main():
     out = Path(args.out)
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
+             "sheets / area bound | utilization (DXF) | "
              "min torsal angle, measured (deg) | interfering pairs | connectors (share of parts); fixings | "
              "fasteners | fin panels left out | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:

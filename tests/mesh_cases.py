@@ -146,3 +146,108 @@ WRITERS = {
     ".off": lambda v, f: off_text(v, f).encode(),
     ".stl": lambda v, f: stl_binary(v, f),
 }
+
+
+# ---------------------------------------------------------------- exporters' dialects
+# Small files as other programs write them (header lines, property types, extra properties,
+# line ends, number formats), written here by hand. Each writer returns the bytes and the
+# vertex records as the file holds them (rounded to the file's precision), in file order.
+_PLY_STRUCT = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h",
+               "ushort": "H", "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I",
+               "float": "f", "float32": "f", "double": "d", "float64": "d"}
+
+
+def ply_dialect(v, f, *, fmt: str = "ascii", magic: str = "ply", newline: str = "\n",
+                coord: str = "float", header=(), vertex_props=(), face_props=(),
+                count_type: str = "uchar", index_type: str = "int",
+                list_name: str = "vertex_indices", digits: int | None = None):
+    """PLY the way an exporter writes it.
+
+    ``header``: comment / obj_info lines; ``vertex_props`` / ``face_props``: extra properties
+    after x y z / after the index list, as (type, name, values) with one value per record;
+    ``digits``: ASCII coordinates with that many decimals (COMPAS: 3), else repr.
+    Returns (bytes, the vertex records as written (n, 3))."""
+    v, f = np.asarray(v, float), _polys(f)
+    if fmt != "ascii":
+        written = v.astype(np.float32).astype(float) if coord in ("float", "float32") else v.copy()
+    elif digits is not None:
+        written = np.array([[float(f"{x:.{digits}f}") for x in row] for row in v])
+    else:
+        written = v.copy()
+    head = [magic, f"format {fmt} 1.0", *header, f"element vertex {len(v)}",
+            *(f"property {coord} {a}" for a in "xyz"),
+            *(f"property {t} {n}" for t, n, _ in vertex_props),
+            f"element face {len(f)}", f"property list {count_type} {index_type} {list_name}",
+            *(f"property {t} {n}" for t, n, _ in face_props), "end_header"]
+    data = newline.join(head).encode() + newline.encode()
+    if fmt == "ascii":
+        def num(t, x):
+            if _PLY_STRUCT[t] in "fd":
+                return f"{x:.{digits}f}" if digits is not None else repr(float(x))
+            return str(int(x))
+        rows = [" ".join([num(coord, x) for x in written[k]]
+                         + [num(t, vals[k]) for t, _, vals in vertex_props]) for k in range(len(v))]
+        rows += [" ".join([str(len(p))] + [str(i) for i in p]
+                          + [num(t, vals[k]) for t, _, vals in face_props])
+                 for k, p in enumerate(f)]
+        return data + (newline.join(rows) + newline).encode(), written
+    end = "<" if fmt == "binary_little_endian" else ">"
+    body = []
+    for k in range(len(v)):
+        body.append(struct.pack(end + 3 * _PLY_STRUCT[coord], *v[k]))
+        body += [struct.pack(end + _PLY_STRUCT[t], vals[k]) for t, _, vals in vertex_props]
+    for k, p in enumerate(f):
+        body.append(struct.pack(end + _PLY_STRUCT[count_type], len(p))
+                    + struct.pack(end + len(p) * _PLY_STRUCT[index_type], *p))
+        body += [struct.pack(end + _PLY_STRUCT[t], vals[k]) for t, _, vals in face_props]
+    return data + b"".join(body), written
+
+
+def obj_dialect(v, f, *, app: str = "blender", objects: int = 1, relative: bool = False,
+                wrap: bool = False, newline: str = "\n", colours: bool = False):
+    """OBJ the way Rhino or Blender writes it: comment header, mtllib, objects / groups,
+    usemtl, smoothing groups, vt and vn with every corner ``v/vt/vn``; ``objects`` splits the
+    faces into that many objects, each with its own vertex records (the seams duplicated);
+    ``relative`` writes negative indices (Rhino's option), ``wrap`` continues each face line
+    with a backslash (Rhino's "wrap long lines"), ``colours`` writes ``v x y z r g b``.
+    Returns (bytes, the vertex records as written (n, 3))."""
+    v, f = np.asarray(v, float), _polys(f)
+    lines = (["# Rhino", "", "mtllib model.mtl"] if app == "rhino"
+             else ["# Blender 4.1.1", "# www.blender.org", "mtllib untitled.mtl"])
+    written, n_v, n_vt = [], 0, 0
+    chunks = np.array_split(np.arange(len(f)), objects)
+    for o, chunk in enumerate(chunks):
+        used = sorted({i for k in chunk for i in f[k]})
+        local = {i: j for j, i in enumerate(used)}
+        name = f"object_{o + 1}" if app == "rhino" else f"Plane.{o:03d}"
+        lines += [f"o {name}"] + ([f"g {name}", "usemtl diffuse_0"] if app == "rhino" else [])
+        for i in used:
+            xyz = [float(f"{x:.6f}") for x in v[i]]
+            written.append(xyz)
+            col = " 0.8000 0.2000 0.1000" if colours else ""
+            lines.append("v " + " ".join(f"{x:.6f}" for x in xyz) + col)
+        lines += [f"vn 0.0000 0.0000 1.0000"]
+        lines += [f"vt {k / max(1, len(used)):.6f} 0.500000" for k in range(len(used))]
+        if app == "blender":
+            lines += ["s 0", "usemtl Material"]
+        for k in chunk:
+            corners = []
+            for i in f[k]:
+                vi = local[i] - len(used) if relative else n_v + local[i] + 1
+                ti = local[i] - len(used) if relative else n_vt + local[i] + 1
+                ni = -1 if relative else o + 1
+                corners.append(f"{vi}/{ti}/{ni}")
+            if wrap and len(corners) > 2:
+                lines += ["f " + " ".join(corners[:2]) + " \\", "  " + " ".join(corners[2:])]
+            else:
+                lines.append("f " + " ".join(corners))
+        n_v += len(used)
+        n_vt += len(used)
+    return (newline.join(lines) + newline).encode(), np.array(written)
+
+
+def first_occurrences(records) -> np.ndarray:
+    """Vertex records without exact repeats, in order of first appearance: what merging
+    a file whose seams repeat positions exactly gives."""
+    records = np.asarray(records, float)
+    return records[np.sort(np.unique(records, axis=0, return_index=True)[1])]

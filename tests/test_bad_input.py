@@ -2,13 +2,17 @@
 
 Every case writes its own small files (nothing big is stored) and runs ``torsal.pipeline.cli.main``
 in-process; a few run the installed ``torsal`` as a subprocess to show that no traceback
-reaches stderr. A bad input must exit 2 with a message naming the problem, no traceback, and
-leave no result file; an unusual but valid input must exit 0 with the right answer (counts and
-hyperbolic faces computed here independently of torsal's readers).
+reaches stderr. A bad input must exit 2 with a message naming the problem (and the line, for a
+line of a file), no traceback, and no result of its own; an unusual but valid input must exit 0
+with the right answer (counts and hyperbolic faces computed here independently of torsal's
+readers, vertices compared with the records the file holds). A failing ``analyze`` or ``design``
+runs into a folder holding a real earlier design and analysis, which must stay byte for byte.
 
 Kinds: mesh files (truncated, lying headers, garbage, broken geometry, unusual but valid
-layouts in every format), directions files, design files (a bad value for every key of the
-schema, missing and unknown keys, sun, EPW, mesh and size problems) and command lines.
+layouts in every format, the dialects of VTK, Open3D, MeshLab, COMPAS, Rhino, Blender, slicers
+and OFF writers), directions files (magnitudes, rows with positions, row order), design files
+(a bad value for every key of the schema, missing and unknown keys, sun, EPW, mesh and size
+problems) and command lines.
 """
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ import json
 import math
 import os
 import re
+import shutil
 import struct
 import subprocess
 import sys
@@ -73,7 +78,7 @@ CUBE_HYP = _hyperbolic(mc.CUBE_V, CUBE_F)
 SPLIT_V, SPLIT_F = mc.split_per_face(GRID_V, GRID_F)           # 72 file vertices
 
 
-def _analysis_check(vertices, faces, hyperbolic, file_vertices=None, rows=None):
+def _analysis_check(vertices, faces, hyperbolic, file_vertices=None, rows=None, order=None):
     def check(out: Path):
         s = json.loads((out / "analysis.json").read_text())
         assert (s["vertices"], s["faces"], s["hyperbolic_faces"]) == (vertices, faces, hyperbolic)
@@ -81,6 +86,9 @@ def _analysis_check(vertices, faces, hyperbolic, file_vertices=None, rows=None):
             assert s["mesh_file"]["file_vertices"] == file_vertices
         if rows is not None:
             assert s["directions_rows"] == rows
+            assert s["directions_row_order"]  # the order the rows were read in, in words
+        if order is not None:
+            assert re.search(order, s["directions_row_order"]), s["directions_row_order"]
     return check
 
 
@@ -181,6 +189,177 @@ mesh_case("two-pieces-analyze-is-fine", "two.obj",
           mc.obj_text(np.vstack([GRID_V, GRID_V + [10, 0, 0]]), np.vstack([GRID_F, GRID_F + 20])), 0,
           check=_analysis_check(40, 48, 2 * GRID_HYP))
 
+# ============================================================== meshes: what exporters write
+# Files in the dialect of each program, written by tests/mesh_cases.py: each must load with the
+# file's vertices (compared here, exactly, with the records the file holds, merged where the
+# file repeats a position) and give the analysis of the surface at the file's precision.
+def _file_check(name, written, faces, *, duplicates=0, trimesh_too=False):
+    """The analysis of the surface the file holds, and load_mesh keeping its vertices."""
+    from torsal.geometry.mesh import load_mesh
+
+    expected_v = mc.first_occurrences(written)
+    surface = _surface_of(written)
+    counts = _analysis_check(len(expected_v), len(faces), _hyperbolic(surface, faces))
+
+    def check(out: Path):
+        counts(out)
+        s = json.loads((out / "analysis.json").read_text())
+        assert s["mesh_file"]["duplicate_faces_dropped"] == duplicates
+        m = load_mesh(out.parent / name)
+        assert np.array_equal(np.asarray(m.vertices), expected_v)   # the file's own numbers
+        if trimesh_too:  # a second reader of the same file: trimesh
+            import trimesh
+
+            t = trimesh.load(out.parent / name, process=False, force="mesh")
+            # trimesh keeps ASCII 'property float' as float32
+            assert np.allclose(np.asarray(t.vertices, float), expected_v, rtol=0, atol=1e-6)
+            assert len(t.faces) == len(faces)
+    return check
+
+
+def _surface_of(written):
+    """The grid's vertices at the precision the file holds them (the grid's order)."""
+    rows = mc.first_occurrences(written)
+    if len(rows) == len(GRID_V):
+        order = np.lexsort(rows.T[::-1])
+        grid_order = np.lexsort(GRID_V.T[::-1])
+        out = np.empty_like(rows)
+        out[grid_order] = rows[order]  # the same lexicographic ranks as the grid's positions
+        return out
+    return rows
+
+
+def dialect_case(id, name, data_written, faces, code=0, message="", **kw):
+    data, written = data_written
+    mesh_case(f"dialect-{id}", name, data, code, message,
+              check=_file_check(name, written, faces, **kw) if code == 0 else None)
+
+
+_COLOURS = [("uchar", "red", np.arange(20) * 12 % 256), ("uchar", "green", np.full(20, 7)),
+            ("uchar", "blue", np.full(20, 200))]
+_NORMALS = [("float", n, np.linspace(-1, 1, 20)) for n in ("nx", "ny", "nz")]
+_FACE_RGBA = [(t, n, np.full(24, 9)) for t, n in (("uchar", "red"), ("uchar", "green"),
+                                                  ("uchar", "blue"), ("uchar", "alpha"))]
+PLY_DIALECTS = {
+    # COMPAS' sample meshes: 'PLY', CRLF, three decimals (trimesh reads them too)
+    "compas-upper-case-crlf": dict(magic="PLY", newline="\r\n", digits=3),
+    "vtk-binary-float": dict(fmt="binary_little_endian", header=(
+        "comment VTK generated PLY File", "obj_info vtkPolyData points and polygons: vtk4.0")),
+    "vtk-binary-normals-colours": dict(fmt="binary_little_endian", vertex_props=_NORMALS + _COLOURS,
+                                       header=("comment VTK generated PLY File",)),
+    "vtk-ascii": dict(header=("comment VTK generated PLY File",
+                              "obj_info vtkPolyData points and polygons: vtk4.0")),
+    "open3d-binary-double-uint": dict(fmt="binary_little_endian", coord="double",
+                                      index_type="uint", vertex_props=_NORMALS + _COLOURS,
+                                      header=("comment Created by Open3D",)),
+    "open3d-ascii-double": dict(coord="double", index_type="uint", vertex_props=_COLOURS,
+                                header=("comment Created by Open3D",)),
+    "meshlab-ascii-quality-rgba": dict(
+        header=("comment VCGLIB generated",),
+        vertex_props=[("float", "quality", np.linspace(0, 1, 20))] + _COLOURS
+        + [("uchar", "alpha", np.full(20, 255))], face_props=_FACE_RGBA),
+    "meshlab-binary-face-colours": dict(fmt="binary_little_endian", header=("comment VCGLIB generated",),
+                                        face_props=_FACE_RGBA),
+    "big-endian-ushort-indices": dict(fmt="binary_big_endian", count_type="uint8",
+                                      index_type="uint16"),
+    "vertex-index-int-counts": dict(list_name="vertex_index", count_type="int"),
+    "vertex-index-binary-int-counts": dict(fmt="binary_little_endian", list_name="vertex_index",
+                                           count_type="int", index_type="int32", coord="float32"),
+    "keywords-upper-case": dict(magic="PLY", newline="\r\n", digits=6),
+}
+for id, kw in PLY_DIALECTS.items():
+    data, written = mc.ply_dialect(GRID_V, GRID_F, **kw)
+    if id == "keywords-upper-case":
+        head, _, body = data.partition(b"end_header")
+        data = head.replace(b"format ascii", b"FORMAT ASCII").replace(b"property float", b"PROPERTY FLOAT") \
+            + b"END_HEADER" + body
+    dialect_case(f"ply-{id}", f"{id}.ply", (data, written), GRID_F,
+                 trimesh_too=id.startswith("compas"))
+for fmt in ("ascii", "binary_little_endian"):  # quads with per-face colours (one vectorized block)
+    dialect_case(f"ply-meshlab-quads-face-colours-{fmt}", "q.ply",
+                 mc.ply_dialect(GRID_V, QUADS, fmt=fmt, face_props=[(t, n, np.full(12, 3))
+                                                                    for t, n, _ in _FACE_RGBA]),
+                 QUAD_T)
+_MIXED = [list(q) for q in QUADS[:6]] + [list(t) for t in QUAD_T[12:]]
+dialect_case("ply-binary-mixed-polygons-face-colours", "m.ply",
+             mc.ply_dialect(GRID_V, _MIXED, fmt="binary_little_endian",
+                            face_props=[("uchar", "red", np.full(len(_MIXED), 1))]),
+             mc.quads_to_tris(QUADS[:6]).tolist() + QUAD_T[12:].tolist())
+mesh_case("dialect-ply-float-face-indices", "fi.ply",
+          mc.ply_dialect(GRID_V, GRID_F, index_type="float")[0], 2,
+          r"line 7: the face list 'vertex_indices' holds floating-point numbers; vertex indices "
+          "are integers")
+mesh_case("dialect-ply-triangle-strips", "ts.ply",
+          mc.ply_dialect(GRID_V, GRID_F)[0].replace(b"element face", b"element tristrips"), 2,
+          r"line 7: the file stores triangle strips .* export faces")
+
+OBJ_DIALECTS = {
+    "blender": dict(app="blender"), "blender-vertex-colours": dict(app="blender", colours=True),
+    "blender-two-objects": dict(app="blender", objects=2),
+    "rhino-crlf": dict(app="rhino", newline="\r\n"),
+    "rhino-relative-indices": dict(app="rhino", objects=3, relative=True),
+    "rhino-wrapped-lines": dict(app="rhino", wrap=True, newline="\r\n"),
+    "rhino-relative-wrapped": dict(app="rhino", objects=2, relative=True, wrap=True),
+}
+for id, kw in OBJ_DIALECTS.items():
+    dialect_case(f"obj-{id}-triangles", f"{id}.obj", mc.obj_dialect(GRID_V, GRID_F, **kw), GRID_F)
+    dialect_case(f"obj-{id}-quads", f"{id}q.obj", mc.obj_dialect(GRID_V, QUADS, **kw), QUAD_T)
+_objf = mc.obj_text(GRID_V, GRID_F).splitlines()
+_k = next(k for k, ln in enumerate(_objf) if ln.startswith("f "))
+for id, corner in (("float", "1.0"), ("exponent", "1e0"), ("float-vt", "1/2.5/1"), ("hex", "0x1")):
+    bad = list(_objf)
+    bad[_k] = "f " + " ".join([corner] + _objf[_k].split()[2:])
+    mesh_case(f"obj-non-integer-corner-{id}", "n.obj", "\n".join(bad) + "\n", 2,
+              rf"line {_k + 1}: face corner '{re.escape(corner)}' is not a vertex number; OBJ "
+              "corners are whole 1-based numbers")
+mesh_case("obj-non-integer-all", "n.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1.0 2.0 3.0\n", 2,
+          r"line 4: face corner '1.0' is not a vertex number")
+_wrapped = mc.obj_dialect(GRID_V, GRID_F, app="rhino", wrap=True)[0].decode().splitlines()
+_w = next(k for k, ln in enumerate(_wrapped) if ln.endswith("\\"))
+_wrapped[_w + 1] = _wrapped[_w + 1].replace("/", ".5/", 1)  # a bad corner on a continued line
+mesh_case("obj-bad-corner-on-continued-line", "w.obj", "\n".join(_wrapped) + "\n", 2,
+          rf"line {_w + 1}: face corner '[\d.]+/[\d/]+' is not a vertex number")
+
+# STL from slicers: every facet twice (dropped, counted), or both sides (refused)
+_TWICE = np.repeat(GRID_F, 2, axis=0)
+_stl32 = GRID_V.astype(np.float32).astype(float)
+dialect_case("stl-every-facet-twice-binary", "twice.stl",
+             (mc.stl_binary(GRID_V, _TWICE), _stl32[_TWICE.ravel()]), GRID_F, duplicates=24)
+dialect_case("stl-every-facet-twice-ascii", "twice.stl",
+             (mc.stl_ascii(GRID_V, np.vstack([GRID_F, GRID_F])),
+              np.array([[float(f"{x:.9e}") for x in r] for r in GRID_V])[np.vstack([GRID_F, GRID_F]).ravel()]),
+             GRID_F, duplicates=24)
+_two_solids = mc.stl_ascii(GRID_V, GRID_F[:12]) + mc.stl_ascii(GRID_V, GRID_F[12:])
+dialect_case("stl-two-solids-in-one-file", "two.stl",
+             (_two_solids, np.array([[float(f"{x:.9e}") for x in r] for r in GRID_V])[GRID_F.ravel()]),
+             GRID_F)
+mesh_case("stl-both-sides", "both.stl", mc.stl_ascii(GRID_V, np.vstack([GRID_F, GRID_F[:, ::-1]])), 2,
+          r"faces \[0, 1, 2, .* are the same triangles twice with opposite windings: the "
+          r"surface lies on itself there \(both sides of it exported, or a fold\); export one side"
+          r".*; file lines 2, 9, 16")
+mesh_case("stl-binary-both-sides", "both.stl", mc.stl_binary(GRID_V, np.vstack([GRID_F, GRID_F[:, ::-1]])),
+          2, r"opposite windings.*; facets \[0, 1, 2, .* of the file, counted from 0")
+mesh_case("obj-face-written-twice", "d.obj", mc.obj_text(GRID_V, np.vstack([GRID_F, GRID_F[:3]])), 0,
+          check=_file_check("d.obj", GRID_V, GRID_F, duplicates=3))
+
+# OFF with colours, normals, comments, in any case
+_offl = mc.off_text(GRID_V, GRID_F).splitlines()    # OFF, comment, counts, vertices, faces
+_cols = [f"{_offl[3 + k]} {k * 10 % 256} 20 30 255" for k in range(20)]
+_fcols = [f"{ln} 0.5 0.25 1.0 1.0" for ln in _offl[23:]]
+OFF_DIALECTS = {
+    "coff-vertex-colours-face-colours": ["COFF", "# exported with colours", _offl[2]] + _cols + _fcols,
+    "noff-normals": ["NOFF", _offl[2]] + [f"{ln} 0 0 1" for ln in _offl[3:23]] + _offl[23:],
+    "cnoff": ["CNOFF", _offl[2]] + [f"{ln} 0 0 1 1 0 0 1" for ln in _offl[3:23]] + _offl[23:],
+    "lower-case-comments-everywhere": ["off  # keyword", "# a comment", f"{_offl[2]}  # counts"]
+                                      + [f"{ln} # vertex {k}" for k, ln in enumerate(_offl[3:23])]
+                                      + ["", "# faces"] + _offl[23:],
+    "face-colour-indices": ["OFF", _offl[2]] + _offl[3:23] + [f"{ln} 4" for ln in _offl[23:]],
+}
+for id, lines in OFF_DIALECTS.items():
+    dialect_case(f"off-{id}", f"{id}.off", ("\n".join(lines) + "\n", GRID_V), GRID_F)
+mesh_case("off-4d", "4.off", "4OFF\n3 1 0\n0 0 0 0\n1 0 0 0\n0 1 0 0\n3 0 1 2\n", 2,
+          r"line 1: 4OFF is an OFF file of 4-dimensional points")
+
 # ============================================================== meshes: truncated
 TEXTS = {"obj": mc.obj_text(GRID_V, GRID_F), "ply": mc.ply_ascii(GRID_V, GRID_F),
          "off": mc.off_text(GRID_V, GRID_F), "stl": mc.stl_ascii(GRID_V, GRID_F)}
@@ -260,7 +439,7 @@ BROKEN = {
     "non-manifold": (np.vstack([TRI_V, [[0.5, 0.5, 1], [0.5, 0.5, -1]]]),
                      np.array([[0, 1, 2], [1, 0, 4], [0, 1, 5]]), "non-manifold"),
     "flipped-face": (TRI_V, np.array([[0, 1, 2], [2, 3, 1]]), "inconsistent orientation"),
-    "duplicate-face": (TRI_V, np.array([[0, 1, 2], [0, 1, 2]]), "orientation|non-manifold"),
+    "face-twice-both-windings": (TRI_V, np.array([[0, 1, 2], [2, 1, 0]]), "opposite windings"),
     "merge-makes-degenerate": (np.vstack([TRI_V, [[1, 0, 0]]]), np.array([[0, 1, 2], [1, 3, 4]]),
                                "same vertex twice.*after merging"),
 }
@@ -271,13 +450,19 @@ for kind, (v, f, msg) in BROKEN.items():
         else:
             content = {"obj": mc.obj_text, "ply": mc.ply_ascii, "off": mc.off_text}[fmt](v, f)
         mesh_case(f"{kind}-{fmt}", f"b.{fmt}", content, 2, msg)
+for fmt in ("obj", "ply", "off"):
+    _twice = np.array([[0, 1, 2], [1, 3, 2], [0, 1, 2]])
+    mesh_case(f"face-twice-one-winding-{fmt}", f"t.{fmt}",
+              {"obj": mc.obj_text, "ply": mc.ply_ascii, "off": mc.off_text}[fmt](TRI_V, _twice), 0,
+              check=_analysis_check(4, 2, _hyperbolic(TRI_V, TRI_F)))
 mesh_case("stl-nan", "n.stl", mc.stl_binary(TRI_V, TRI_F)[:84 + 12] + struct.pack("<f", math.nan)
           + mc.stl_binary(TRI_V, TRI_F)[84 + 16:], 2, "NaN")
 mesh_case("stl-zero-area", "z.stl", mc.stl_binary(np.vstack([TRI_V, [[2, 0, 0]]]), np.array([[0, 1, 4], [0, 1, 2]])),
           2, "zero area")
 mesh_case("obj-index-zero", "z.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", 2, "index 0")
 mesh_case("obj-face-two-corners", "z.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\nf 1 2 3\n", 2, "at least three")
-mesh_case("obj-face-letters", "z.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf a b c\n", 2, "not a vertex index")
+mesh_case("obj-face-letters", "z.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf a b c\n", 2,
+          "line 4: face corner 'a' is not a vertex number")
 mesh_case("obj-vertex-letters", "z.obj", "v 0 zero 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", 2, "not numbers")
 mesh_case("obj-points-only", "p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", 2, "no triangle faces")
 mesh_case("obj-lines-only", "l.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n", 2, "no triangle faces")
@@ -356,22 +541,60 @@ for cols in (1, 2, 4):
     directions_case(f"columns-{cols}", PLAIN_OBJ, _txt("d.txt", np.ones((20, cols))), 2, "rows of 3 numbers|x y z")
 _nan = D20.copy()
 _nan[3, 1] = np.nan
-directions_case("nan", PLAIN_OBJ, _txt("d.txt", _nan), 2, r"rows \[3\] have NaN")
+directions_case("nan", PLAIN_OBJ, _txt("d.txt", _nan), 2, r"rows \[3\] \(line 4\) have NaN")
 _inf = D20.copy()
 _inf[7, 0] = np.inf
-directions_case("inf", PLAIN_OBJ, _txt("d.txt", _inf), 2, r"rows \[7\] have NaN or infinite")
+directions_case("inf", PLAIN_OBJ, _txt("d.txt", _inf), 2, r"rows \[7\] \(line 8\) have NaN or infinite")
 _zero = D20.copy()
 _zero[11] = 0
-directions_case("zero-row", PLAIN_OBJ, _txt("d.txt", _zero), 2, r"rows \[11\] have zero length")
-directions_case("empty", PLAIN_OBJ, _write("d.txt", ""), 2, "could not read directions|rows of 3")
-directions_case("garbage-text", PLAIN_OBJ, _write("d.txt", "north east up\n" * 20), 2, "could not read directions")
-directions_case("header-row", PLAIN_OBJ, _write("d.csv", "x,y,z\n" + "0,0,1\n" * 20), 2, "could not read directions")
-directions_case("binary-garbage", PLAIN_OBJ, _write("d.txt", bytes(range(256)) * 3), 2, "could not read directions")
+directions_case("zero-row", PLAIN_OBJ, _txt("d.txt", _zero), 2, r"rows \[11\] \(line 12\) have zero length")
+directions_case("empty", PLAIN_OBJ, _write("d.txt", ""), 2, "d.txt: no rows; expected one 'dx dy dz' row")
+directions_case("garbage-text", PLAIN_OBJ, _write("d.txt", "north east up\n" * 20), 2,
+                "line 1: 'north east up' is not numbers; each row is 'dx dy dz'")
+directions_case("header-row", PLAIN_OBJ, _write("d.csv", "x,y,z\n" + "0,0,1\n" * 20), 2,
+                "line 1: 'x,y,z' is not numbers.*put a header behind '#'")
+directions_case("binary-garbage", PLAIN_OBJ, _write("d.txt", bytes(range(256)) * 3), 2, "line 1: .* is not numbers")
 directions_case("npy-1d", PLAIN_OBJ, _npy("d.npy", np.ones(20)), 2, "rows of 3 numbers")
 directions_case("npy-object", PLAIN_OBJ, _npy("d.npy", np.array([{"a": 1}] * 20, dtype=object)), 2,
                 "could not read directions")
 directions_case("npy-garbage", PLAIN_OBJ, _write("d.npy", b"\x93NUMPY garbage" * 10), 2, "could not read directions")
 directions_case("npy-strings", PLAIN_OBJ, _npy("d.npy", np.array([["a", "b", "c"]] * 20)), 2, "rows of 3 numbers")
+# magnitudes: overflow is not zero, underflow is short, both named with their line
+_huge = D20.copy()
+_huge[5] = [1e300, 0.0, 1e300]
+directions_case("huge-row", PLAIN_OBJ, _txt("d.txt", _huge, header="dx dy dz", comments="# "), 2,
+                r"rows \[5\] \(line 7\) have values up to 1e\+300: beyond 1e\+30 their squares "
+                r"overflow \(they are not zero\)")
+_tiny = D20.copy()
+_tiny[2] = [1e-300, 0.0, 1e-300]
+directions_case("tiny-row", PLAIN_OBJ, _txt("d.txt", _tiny), 2,
+                r"rows \[2\] \(line 3\) are zero to working precision \(length 1.41e-300")
+directions_case("columns-change", PLAIN_OBJ, _write("d.txt", "0 0 1\n1 1 0 0 0 1\n"), 2,
+                r"line 2: 6 numbers, rows have 3, as the rows before it")
+# rows with positions: matched to the vertex at x y z, in any order, for any file
+D20_HYP = _dir_hyp(GRID_V, GRID_F, D20)
+_perm = np.random.default_rng(7).permutation(20)
+P20 = np.c_[GRID_V, D20][_perm]
+for mesh_id, writer in (("stl", SPLIT_STL), ("obj", PLAIN_OBJ), ("split-obj", SPLIT_OBJ)):
+    directions_case(f"positions-{mesh_id}", writer, _txt("d.txt", P20), 0,
+                    check=_analysis_check(20, 24, D20_HYP, rows="one per position"))
+directions_case("positions-per-corner-stl", SPLIT_STL, _txt("d.csv", np.c_[GRID_V, D20][GRID_F.ravel()],
+                                                              delimiter=","), 0,
+                check=_analysis_check(20, 24, D20_HYP, rows="one per position"))
+_off = P20.copy()
+_off[4, :3] += [0.2, 0.0, 0.0]
+directions_case("positions-not-on-the-mesh", PLAIN_OBJ, _txt("d.txt", _off), 2,
+                r"rows \[4\] \(line 5\) name points that are no vertex of the mesh")
+directions_case("positions-a-vertex-missing", PLAIN_OBJ, _txt("d.txt", P20[1:]), 2,
+                rf"mesh vertices \[{_perm[0]}\] have no row; give one direction per vertex position")
+_two = np.vstack([P20, P20[:1] * [1, 1, 1, 1, 1, -1]])
+directions_case("positions-disagree", PLAIN_OBJ, _txt("d.txt", _two), 2,
+                rf"rows 0 and 20 belong to one vertex \(mesh vertex {_perm[0]}\) but differ")
+# 20 plain rows for an STL: taken per merged vertex, in order of first appearance, and said so
+directions_case("stl-rows-per-merged-vertex-say-their-order", SPLIT_STL, _txt("d.txt", D20), 0,
+                check=_analysis_check(20, 24, _dir_hyp(_split_mv, SPLIT_MF, D20), rows="one per merged vertex",
+                                      order=r"row i is mesh vertex i: .*first appears in the file \(facet "
+                                            r"by facet, corner by corner\); an STL file has no vertex order"))
 case("directions-folder", lambda tmp: (tmp / "d").mkdir() or
      ["analyze", str(PLAIN_OBJ(tmp)), "--directions", str(tmp / "d")], 2, r"directions file .*d is a folder")
 case("directions-missing", lambda tmp: ["analyze", str(PLAIN_OBJ(tmp)), "--directions", str(tmp / "no.txt")], 2,
@@ -620,6 +843,8 @@ def _epw_files(kind):
                 lines[0] = "LOCATION,Here,-,-,-,0,north,east,1,100"
             elif kind == "latitude-200":
                 lines[0] = "LOCATION,Here,-,-,-,0,200,16,1,100"
+            elif kind == "sub-hourly":
+                lines[7] = "DATA PERIODS,1,4,Data,Sunday, 1/ 1,12/31"
             elif kind == "text-in-temperature":
                 f = lines[100].split(",")
                 f[6] = "hot"
@@ -632,6 +857,7 @@ EPW_CASES = {"empty": "not an EPW weather file.*empty", "garbage": "not an EPW w
              "binary": "not an EPW weather file", "header-only": "no hourly data rows",
              "truncated": "line 501: .*truncated", "bad-location": "line 1: latitude",
              "latitude-200": "out of range", "text-in-temperature": "line 101: temperature 'hot'",
+             "sub-hourly": "line 8: 4 records per hour; torsal reads hourly EPW files",
              "folder": "is a folder"}
 for kind, msg in EPW_CASES.items():
     data = copy.deepcopy(FULL)
@@ -751,13 +977,83 @@ def test_the_corpus_is_big_and_varied():
     assert DesignSpec.model_validate(FULL) and DesignSpec.model_validate(_dates)  # bases are valid
 
 
+EARLIER_DESIGN = """
+name = "an earlier good run"
+units = "cm"
+[surface]
+generator = "facade_patch"
+params = { nu = 4, nv = 4 }
+[sun]
+vectors = [[0.3, -0.8, 0.5]]
+[fins]
+spacing = 3.0
+depth = 0.5
+[constraints]
+# one sun on a nearly flat patch: without it the optimum is a bundle of parallel lines whose
+# torsal planes cross at a few degrees (the joinery check warns), and the plates break
+min_torsal_angle = 40
+[outputs]
+step = false
+rhino_3dm = false
+renders = false
+dxf = true
+light_samples = 100
+"""
+
+
+@pytest.fixture(scope="session")
+def earlier_results(tmp_path_factory):
+    """An output folder holding the results of a successful ``torsal design`` and a successful
+    ``torsal analyze`` (real runs, once per test session; the stage cache removed). Every
+    failing case runs into a copy of it."""
+    import fcntl
+
+    session = tmp_path_factory.getbasetemp()  # under xdist: .../pytest-N/popen-gwK
+    base = (session.parent if os.environ.get("PYTEST_XDIST_WORKER") else session) / "earlier-results"
+    base.mkdir(exist_ok=True)
+    out = base / "out"
+    with open(base / ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # the first process runs them, the others wait
+        if not (base / "done").exists():
+            (base / "d.toml").write_text(EARLIER_DESIGN)
+            (base / "plain.obj").write_text(mc.obj_text(GRID_V, GRID_F))
+            assert main(["design", str(base / "d.toml"), "--out", str(out)]) == 0
+            assert main(["analyze", str(base / "plain.obj"), "--out", str(out)]) == 0
+            shutil.rmtree(out / ".torsal-cache")
+            (base / "done").write_text("")
+    names = {p.name for p in out.iterdir()}
+    assert {"report.json", "parts.csv", "congruence.ply", "sheets", "analysis.json",
+            "torsal_field.png", ".torsal-results.json"} <= names, names
+    return out
+
+
+def snapshot(folder: Path) -> dict:
+    """Every file under ``folder`` but the stage cache -> its bytes."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and ".torsal-cache" not in p.relative_to(folder).parts}
+
+
+def _out_of(argv: list[str]) -> str | None:
+    return argv[argv.index("--out") + 1] if "--out" in argv[:-1] else None
+
+
 @pytest.mark.parametrize("c", CASES, ids=[c.id for c in CASES])
-def test_input(c: Case, tmp_path, capsys, monkeypatch):
+def test_input(c: Case, tmp_path, capsys, monkeypatch, earlier_results):
+    """Each input: exit 0 with the right answer, or exit 2 naming the problem; a failing
+    ``analyze`` or ``design`` runs into a folder holding an earlier good design and analysis,
+    and must leave every file of it as it was."""
     monkeypatch.chdir(tmp_path)   # an output that lands in the current folder would show here
     argv = c.make(tmp_path)
     out_dir = tmp_path / "out"
     if c.code == 0 and argv[0] == "analyze":
         argv = argv + ["--out", str(out_dir)]
+    seeded = c.code != 0 and argv[:1] in (["analyze"], ["design"]) and (
+        _out_of(argv) == str(out_dir) or  # command-line cases keep the command line they test
+        (argv[0] == "analyze" and "--out" not in argv and not c.id.startswith("cli-")))
+    if seeded:
+        argv = argv if "--out" in argv else argv + ["--out", str(out_dir)]
+        shutil.copytree(earlier_results, out_dir)
+        before = snapshot(out_dir)
     code = main(argv)
     captured = capsys.readouterr()
     err = captured.err
@@ -768,9 +1064,59 @@ def test_input(c: Case, tmp_path, capsys, monkeypatch):
         return
     assert err.strip(), "a failure must say why"
     assert re.search(c.message, err, re.S), f"expected /{c.message}/ in:\n{err}"
-    left = {p.name for p in out_dir.iterdir()} if out_dir.exists() else set()
-    assert not (left & RESULT_FILES), left
+    if seeded:  # the earlier results, byte for byte, and nothing of this run
+        assert snapshot(out_dir) == before
+        assert not (out_dir / ".torsal-staging").exists()
+    else:
+        left = {p.name for p in out_dir.iterdir()} if out_dir.exists() else set()
+        assert not (left & RESULT_FILES), left
     assert not (tmp_path / "report.html").exists() and not (tmp_path / "analysis.json").exists()
+
+
+def test_failing_reruns_include_failures_inside_the_run():
+    """The seeded cases above: every failing analyze and design of the corpus, among them
+    failures inside the run (a stage, after the earlier results were staged)."""
+    seeded = [c for c in CASES if c.code != 0 and c.id.split("-")[0] in ("mesh", "directions", "design")]
+    assert len(seeded) >= 300
+    assert sum("stage '" in c.message for c in seeded) >= 10
+
+
+# a user's evening: one folder, a good design and analysis, then failing reruns of every kind
+# (each failing inside the run, after the earlier results were staged), then a good one
+RERUNS = ["design-goal-reflect-matches-nothing", "design-epw-truncated", "design-size-spacing-tiny",
+          "design-mesh-flipped", "design-mesh-two-pieces", "mesh-stl-both-sides",
+          "mesh-obj-non-integer-all", "directions-huge-row", "directions-positions-not-on-the-mesh",
+          "mesh-truncated-ply-line27"]
+
+
+def test_an_earlier_good_result_survives_every_failing_rerun(tmp_path, capsys, earlier_results):
+    out = tmp_path / "out"
+    shutil.copytree(earlier_results, out)
+    before = snapshot(out)
+    finished = json.loads((out / ".torsal-results.json").read_text())["runs"]
+    assert set(finished) == {"design", "analyze"}
+    for id in RERUNS:
+        c = next(c for c in CASES if c.id == id)
+        work = tmp_path / id
+        work.mkdir()
+        argv = [a if a != str(work / "out") else str(out) for a in c.make(work)]
+        argv = argv if "--out" in argv else argv + ["--out", str(out)]
+        assert main(argv) == 2, id
+        err = capsys.readouterr().err
+        kind = argv[0]
+        assert f"the earlier {kind} results (" in err and "are left as they were" in err, (id, err)
+        assert f"finished {finished[kind]['finished']}, not this one" in err, (id, err)
+        assert snapshot(out) == before, id
+    # and a good rerun replaces the analysis, leaving the design's results to the design
+    (tmp_path / "plain.obj").write_text(mc.obj_text(GRID_V * 2.0, GRID_F))
+    assert main(["analyze", str(tmp_path / "plain.obj"), "--out", str(out), "--no-plot"]) == 0
+    after = snapshot(out)
+    assert json.loads(after["analysis.json"])["average_edge_length"] == pytest.approx(
+        2 * json.loads(before["analysis.json"])["average_edge_length"])
+    assert "torsal_field.png" not in after          # not written again: an earlier result no more
+    assert {k: v for k, v in after.items() if k not in ("analysis.json", ".torsal-results.json")} == \
+        {k: v for k, v in before.items() if k not in ("analysis.json", "torsal_field.png",
+                                                      ".torsal-results.json")}
 
 
 SUBPROCESS = ["mesh-truncated-obj-line25", "mesh-ply-header-face-100000000", "design-sun-vectors-zero",

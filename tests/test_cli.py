@@ -177,21 +177,30 @@ def test_design_progress_streams_line_by_line_when_piped(tmp_path):
     assert out.endswith("report.html)\n") and "Traceback" not in err
 
 
-def test_failed_design_leaves_no_results_of_an_earlier_run(tmp_path, capsys):
+def _snapshot(folder):
+    """Every file under ``folder`` (the stage cache aside) -> its bytes."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and ".torsal-cache" not in p.parts}
+
+
+def test_failed_design_leaves_the_earlier_results_as_they_were(tmp_path, capsys):
     design = tmp_path / "d.toml"
     design.write_text(TINY_DESIGN.format(spacing=1.0))
     out = tmp_path / "o"
     assert main(["design", str(design), "--out", str(out)]) == 0
     assert (out / "report.json").exists() and (out / "parts.csv").exists()
+    before = _snapshot(out)
     capsys.readouterr()
     design.write_text(TINY_DESIGN.format(spacing=0.001))  # metres typed as if millimetres
     assert main(["design", str(design), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "stage 'estimate' failed" in err and "fins about" in err and "fins.spacing" in err
     assert "--no-size-limit" in err
-    assert "the earlier design results" in err and "removed" in err
-    left = sorted(p.name for p in out.iterdir())
-    assert left == [".torsal-cache"]
+    assert "the earlier design results (" in err and "are left as they were" in err
+    assert "not this one" in err
+    # byte for byte as before (report, parts list, congruence, the results list); cache aside
+    assert _snapshot(out) == before
+    assert (out / ".torsal-cache").is_dir() and not (out / ".torsal-staging").exists()
     # the cache stays: the good design again reuses every stage up to the results
     design.write_text(TINY_DESIGN.format(spacing=1.0))
     assert main(["design", str(design), "--out", str(out)]) == 0
@@ -293,7 +302,9 @@ def test_value_errors_of_torsal_checks_are_bad_input_of_libraries_are_bugs(facad
 def test_a_surface_that_folds_back_is_named(tmp_path, capsys):
     (tmp_path / "fold.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1e-9 1e-9 1e-9\nf 1 2 3\nf 2 4 3\n")
     assert main(["analyze", str(tmp_path / "fold.obj"), "--no-plot"]) == 2
-    assert "vertices [0, 1, 2] have no normal" in capsys.readouterr().err
+    # vertex 4 merges into vertex 1: the second face is the first one turned over
+    assert "faces [0, 1] are the same triangles twice with opposite windings: the surface lies " \
+        "on itself there (both sides of it exported, or a fold)" in capsys.readouterr().err
 
 
 def test_staging_replaces_only_the_results_of_its_own_kind(tmp_path):
@@ -311,18 +322,25 @@ def test_staging_replaces_only_the_results_of_its_own_kind(tmp_path):
         (st.folder / "analysis.json").write_text("analysis 1")
     names = sorted(p.name for p in out.iterdir())
     assert names == [RESULTS_LIST, "analysis.json", "notes.txt", "report.json", "sheets"]
-    # a design run that fails removes the design results only
+    listed = (out / RESULTS_LIST).read_text()
+    # a design run that fails changes nothing: results, sheets, the results list
     with pytest.raises(RuntimeError):
         with Staging(out, kind="design") as st:
             (st.folder / "report.json").write_text("half of design 2")
+            (st.folder / "sheets" / "a.dxf").write_text("half a sheet")  # written in place
             raise RuntimeError("stage failed")
-    assert sorted(p.name for p in out.iterdir()) == [RESULTS_LIST, "analysis.json", "notes.txt"]
-    assert "the earlier design results (report.json, sheets) were removed" in st.failure_note()
-    assert json.loads((out / RESULTS_LIST).read_text())["runs"].keys() == {"analyze"}
+    assert sorted(p.name for p in out.iterdir()) == [RESULTS_LIST, "analysis.json", "notes.txt",
+                                                     "report.json", "sheets"]
+    assert (out / "report.json").read_text() == "design 1"
+    assert (out / "sheets" / "a.dxf").read_text() == "dxf"
+    assert (out / RESULTS_LIST).read_text() == listed
+    note = st.failure_note()
+    assert "the earlier design results (report.json, sheets) are left as they were" in note
+    assert "from the run finished 20" in note and "not this one" in note
     # a design run that no longer writes sheets/ leaves no stale sheets behind
     with Staging(out, kind="design") as st:
         (st.folder / "report.json").write_text("design 3")
-        (st.folder / "sheets").mkdir()
+        (st.folder / "sheets").mkdir(exist_ok=True)  # the earlier sheets are copied in
         st.keep_only(["report.json", "sheets"])
     with Staging(out, kind="design") as st:
         (st.folder / "report.json").write_text("design 4")

@@ -99,7 +99,12 @@ def test_example_runs_small(path, tmp_path):
     for section, keys in REPORT_KEYS.items():
         assert keys <= set(report[section]), (section, keys - set(report[section]))
     c, s, li, fa = (report[k] for k in ("congruence", "support", "light", "fabrication"))
-    assert c["min_hyperbolicity"] >= -1e-6 or not d.spec.constraints.hyperbolic
+    # hyperbolicity holds as measured on the geometry, to the design's own tolerance (the
+    # report's constraint entry, c_hyp / delta^2; the augmented Lagrangian ends inside it, not
+    # at IPOPT's 1e-9)
+    if d.spec.constraints.hyperbolic:
+        hyp = c["constraints"]["hyperbolic"]
+        assert hyp["max_violation"] <= hyp["tolerance"] and hyp["n_missing"] == 0, hyp
     # a torsal-angle bound holds as measured on the written congruence (issue 16)
     alpha = d.spec.constraints.min_torsal_angle
     if alpha is not None:
@@ -159,10 +164,10 @@ def test_changing_only_the_material_reruns_only_fabrication_and_what_measures_it
     assert first.cached == []
     again = d.run(tmp_path, accept_unbuildable=True)
     assert set(again.cached) == {"surface", "sun", "congruence", "remesh", "support", "light",
-                                 "fabrication", "assembly"}
+                                 "fabrication", "assembly", "devices"}
     thicker = Design(d.spec.model_copy(update={"material": d.spec.material.model_copy(
         update={"thickness_mm": 5.0})}))
     third = thicker.run(tmp_path, accept_unbuildable=True)
     assert "fabrication" not in third.cached and "assembly" not in third.cached
     # the light is measured on the fins as built, which the plate thickness can change
-    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support"}
+    assert set(third.cached) == {"surface", "sun", "congruence", "remesh", "support", "devices"}

@@ -12,7 +12,9 @@ import pytest
 import tomli_w
 
 from torsal import Study, StudyFileError
+from torsal.light.devices import DEVICE_NAMES
 from torsal.pipeline.cli import main
+from torsal.study.study_report import X_KEY, Y_KEY
 
 ROOT = Path(__file__).resolve().parents[1]
 AXES = {"fins.spacing": [1.5, 2.0], "fins.depth": [0.3, 0.5], "weights.perp": [1, 10]}
@@ -26,6 +28,8 @@ def _base(folder: Path, **outputs) -> Path:
     d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False, **outputs}
     d["material"]["sheet_mm"] = [4000, 2000]
     d["constraints"]["max_iter"] = 400
+    # the fast nester: a study's tests read its table, not its sheets (sparrow has its own tests)
+    d["nesting"] = {**d.get("nesting", {}), "nester": "bottom-left"}
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "designs").mkdir(exist_ok=True)
     path = folder / "designs" / "7a_small.toml"
@@ -58,9 +62,9 @@ def test_grid_rows_and_axis_values_from_each_variants_report(grid):
     t = res.table
     torsal, base = t[t["kind"] == "torsal"], t[t["kind"] == "baseline"]
     assert len(torsal) == 8 and (torsal["status"] == "done").all()
-    # three devices for each of the 4 (depth, spacing) pairs
-    assert len(base) == 12
-    assert set(base["device"]) == {"horizontal louvers", "vertical fins", "egg-crate"}
+    # five devices for each of the 4 (depth, spacing) pairs, all of them made on a facade
+    assert len(base) == 20 and (base["status"] == "done").all()
+    assert set(base["device"]) == set(DEVICE_NAMES)
     assert set(zip(base["fins.depth"], base["fins.spacing"])) == {(d, s) for d in (0.3, 0.5)
                                                                   for s in (1.5, 2.0)}
     assert set(zip(torsal["fins.spacing"], torsal["fins.depth"], torsal["weights.perp"])) == {
@@ -84,13 +88,22 @@ def test_grid_rows_and_axis_values_from_each_variants_report(grid):
                        & (base["fins.spacing"] == row["fins.spacing"])].iloc[0]
         assert louvers["light.blocked_share"] == pytest.approx(
             report["light"]["baseline_louvers"]["blocked_share"], abs=1e-12)
+        # every device of the variant's own report is the study's row (one devices stage)
+        for name, m in report["light"]["devices"].items():
+            row_d = base[(base["device"] == name) & (base["fins.depth"] == row["fins.depth"])
+                         & (base["fins.spacing"] == row["fins.spacing"])].iloc[0]
+            assert row_d["light.blocked_share"] == m["blocked_share"]
+            assert row_d[X_KEY] == m["view_clear"] == m["view_out"]
+        assert row[X_KEY] == report["light"]["view_out"]
         # material = one-side fin area x 3 mm x 2700 kg/m^3
         assert row["material_kg"] == pytest.approx(report["light"]["fin_area_m2"] * 0.003 * 2700)
     assert torsal["buildable"].isna().all() or set(torsal["buildable"]) <= {True, False}
-    # egg-crate = louvers + vertical fins: it blocks at least what either blocks
+    # egg-crate = louvers + vertical fins: it blocks at least what either blocks; the same
+    # for the optimized family and its egg-crate
     for (d, s), g in base.groupby(["fins.depth", "fins.spacing"]):
         b = g.set_index("device")["light.blocked_share"]
         assert b["egg-crate"] >= max(b["horizontal louvers"], b["vertical fins"]) - 1e-12
+        assert b["optimized egg-crate"] >= b["optimized parallel fins"] - 1e-12
     # two weights -> two congruence solves; the other six variants found theirs in the cache
     assert (res.solves, res.solves_saved) == (2, 6)
     assert seen[-1].done == 8 and seen[-1].failed == 0 and max(p.running for p in seen) == 2
@@ -99,18 +112,21 @@ def test_grid_rows_and_axis_values_from_each_variants_report(grid):
 def test_table_files_and_page(grid):
     out, res, _ = grid
     parquet, csv = pd.read_parquet(out / "results.parquet"), pd.read_csv(out / "results.csv")
-    assert len(parquet) == len(csv) == 20
+    assert len(parquet) == len(csv) == 28
     for col in ["id", "kind", "fins.spacing", "fins.depth", "weights.perp", "light.blocked_share",
-                "light.transparency", "fabrication.parts", "buildable", "material_kg", "wall_s"]:
+                "light.transparency", X_KEY, "fabrication.parts", "buildable", "material_kg", "wall_s"]:
         assert col in parquet.columns and col in csv.columns, col
     page = (out / "study.html").read_text()
     assert res.verdict and html.escape(res.verdict) in page
     assert "variants/000/report.html" in page and "plotly" in page.lower()
+    assert (out / "pareto.png").read_bytes()[:4] == b"\x89PNG"
     # the verdict's number, computed independently: the additive epsilon indicator
     ok = res.table[res.table["status"] == "done"]
     t, b = ok[ok["kind"] == "torsal"], ok[ok["kind"] == "baseline"]
-    lead = max(min(max(x - bx, y - by) for bx, by in zip(b["light.transparency"], b["light.blocked_share"]))
-               for x, y in zip(t["light.transparency"], t["light.blocked_share"]))
+    # (the sun axis is the sun as asked: blocked, the design has no let-through region)
+    assert (ok[Y_KEY] == ok["light.blocked_share"]).all()
+    lead = max(min(max(x - bx, y - by) for bx, by in zip(b[X_KEY], b[Y_KEY]))
+               for x, y in zip(t[X_KEY], t[Y_KEY]))
     assert f"{100 * abs(lead):.1f} percentage points" in res.verdict
     assert ("lie beyond" in res.verdict) == (lead > 0)
 
@@ -251,11 +267,11 @@ def test_a_lost_task_is_a_failed_variant(tmp_path):
 
 def _table(torsal, devices):
     rows = [{"id": f"{k:03d}", "kind": "torsal", "device": "torsal", "status": "done",
-             "fins.depth": 0.3, "fins.spacing": 0.6, "light.transparency": x,
-             "light.blocked_share": y, "material_kg": 100.0} for k, (x, y) in enumerate(torsal)]
+             "fins.depth": 0.3, "fins.spacing": 0.6, X_KEY: x,
+             Y_KEY: y, "material_kg": 100.0} for k, (x, y) in enumerate(torsal)]
     rows += [{"id": f"b{k}", "kind": "baseline", "device": "horizontal louvers", "status": "done",
-              "fins.depth": 0.3, "fins.spacing": 0.6, "light.transparency": x,
-              "light.blocked_share": y, "material_kg": 80.0} for k, (x, y) in enumerate(devices)]
+              "fins.depth": 0.3, "fins.spacing": 0.6, X_KEY: x,
+              Y_KEY: y, "material_kg": 80.0} for k, (x, y) in enumerate(devices)]
     return pd.DataFrame(rows)
 
 

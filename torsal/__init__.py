@@ -20,9 +20,10 @@ from .geometry import (
     trace_torsal_curve,
 )
 from .pipeline import Design, DesignError
+from .hosts import show
 from .study import Study, StudyFileError
 
 
 __all__ = ["Congruence", "CongruenceProblem", "OptimizationResult", "OptimizationError",
            "MeshError", "SupportStructure", "TorsalCurve", "load_mesh", "trace_torsal_curve",
-           "remesh_torsal", "optimize_support", "Design", "DesignError", "Study", "StudyFileError", "__version__"]
+           "remesh_torsal", "optimize_support", "Design", "DesignError", "Study", "StudyFileError", "show", "__version__"]

@@ -178,3 +178,75 @@ def test_svg_preview_shows_what_the_dxf_cuts(fs, tmp_path):
         np.testing.assert_allclose(svg_areas, dxf_areas, rtol=1e-4)
         labels = sorted(t.text for t in root.findall(".//s:g[@id='ENGRAVE']/s:text", ns))
         assert labels == sorted(t.dxf.text for t in dxf.query("TEXT[layer=='ENGRAVE']"))
+
+
+# ---------------------------------------------------------------------------- nesting for yield
+def _reread_sheets(paths):
+    """Every sheet DXF re-read with ezdxf alone: per sheet the NOMINAL and CUT closed polylines
+    (shapely polygons, holes inside their outline) and the ENGRAVE texts."""
+    sheets = []
+    for path in paths:
+        doc = ezdxf.readfile(path)
+        assert not doc.audit().has_errors
+        msp = doc.modelspace()
+        layers = {}
+        for layer in ("NOMINAL", "CUT"):
+            rings = sorted((Polygon([(x, y) for x, y in e.get_points("xy")])
+                            for e in msp.query(f"LWPOLYLINE[layer=='{layer}']")), key=lambda r: -r.area)
+            outers = []
+            for r in rings:
+                for o in outers:
+                    if o[0].contains(r):
+                        o.append(r)
+                        break
+                else:
+                    outers.append([r])
+            layers[layer] = [Polygon(o[0].exterior.coords, [h.exterior.coords for h in o[1:]])
+                             for o in outers]
+        layers["texts"] = [e.dxf.text for e in msp.query("TEXT[layer=='ENGRAVE']")]
+        sheets.append(layers)
+    return sheets
+
+
+def test_sparrow_nest_read_back_no_overlap_every_part_inside_its_sheet(fs, tmp_path):
+    from torsal.fabrication.cutting import Cutting
+    from torsal.fabrication.nesting import Nester
+
+    cut = Cutting.for_process("waterjet")                   # kerf 1 mm: the spacing shows
+    W, H, gap, margin = 1250.0, 625.0, 5.0, 10.0
+    lay = fs.layout(sheet=(W, H), gap=gap, margin=margin, nester=Nester.SPARROW, cutting=cut,
+                    time_limit=4, seed=3)
+    # sparrow's sheets, or the fast nester's where they are fewer (stats.method says which)
+    assert lay.stats.solves >= 1 and lay.stats.method.split()[0] in ("sparrow", "bottom-left")
+    sheets = _reread_sheets(lay.export_dxf(tmp_path / "fins.dxf", svg=False))
+    assert len(sheets) == lay.n_sheets
+    names = [t for s in sheets for t in s["texts"]]
+    assert sorted(names) == sorted(p.name for p in fs.parts)        # every part, once
+    edge = box(0, 0, W, H)
+    area = 0.0
+    for s in sheets:
+        nominal, paths = s["NOMINAL"], s["CUT"]
+        assert len(nominal) == len(paths) == len(s["texts"])
+        area += sum(p.area for p in nominal)
+        for i, p in enumerate(paths):
+            # the kerf (kerf / 2 around the path) stays `margin` inside the sheet edge
+            assert edge.buffer(-margin).contains(p.buffer(0.5 * cut.kerf))
+            for q in paths[i + 1:]:
+                # two kerfs leave at least `gap` of sheet between them
+                assert p.distance(q) - cut.kerf >= gap - 1e-6
+    # utilization measured on the file = the layout's
+    assert area / (lay.n_sheets * W * H) == pytest.approx(lay.utilization, rel=1e-6)
+    assert lay.area_bound == pytest.approx(area / (W * H), rel=1e-6)
+
+
+def test_sparrow_nest_is_repeatable_for_a_seed():
+    from torsal.fabrication.nesting import nest_for_yield
+
+    # 9 trapezoids that pair up head to tail
+    parts = {f"t{i}": Polygon([(0, 0), (560, 0), (500, 180), (60, 180)]) for i in range(9)}
+    runs = [nest_for_yield(parts, sheet=(1250, 625), gap=5, margin=10, time_limit=5, seed=7,
+                           compare_fast=False) for _ in range(2)]
+    a, b = ([(p.name, p.sheet, round(p.rotation, 6), np.round(p.offset, 6).tolist())
+             for p in r.placements] for r in runs)
+    assert a == b
+    assert runs[0].stats.seed == 7 and runs[0].stats.solves >= 1

@@ -190,8 +190,53 @@ def test_preview_exports_reread(sphere_fs, tmp_path):
     f3dm = fs.export_3dm(tmp_path / "fins.3dm")
     model = rhino3dm.File3dm.Read(str(f3dm))
     assert sorted(o.Attributes.Name for o in model.Objects) == names
-    assert sorted(layer.Name for layer in model.Layers) == ["connectors", "family 0", "family 1"]
     assert model.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
+
+
+def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(sphere_fs, tmp_path):
+    """fins.3dm re-read with rhino3dm: a solid, valid Brep per part, named as in parts.csv, on
+    the layer of its family or of its connector kind, with the bounding box of the part's
+    OpenCascade solid."""
+    import rhino3dm
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    from torsal.fabrication.solids import solid_shapes
+
+    def corners(shape):            # every face is a plane: the vertices bound the solid
+        exp, pts = TopExp_Explorer(shape, TopAbs_VERTEX), []
+        while exp.More():
+            p = BRep_Tool.Pnt_s(TopoDS.Vertex(exp.Current()))
+            pts.append((p.X(), p.Y(), p.Z()))
+            exp.Next()
+        return np.array(pts)
+
+    fs = sphere_fs
+    model = rhino3dm.File3dm.Read(str(fs.export_3dm(tmp_path / "fins.3dm")))
+    bom = {r["part_id"]: r for r in fs.bill_of_materials(tmp_path / "parts.csv")}
+    layers = {i: model.Layers.FindIndex(i).FullPath for i in range(len(model.Layers))}
+    kinds = {r["kind"] for r in bom.values()} - {"plate"}
+    assert kinds and set(layers.values()) == {"family 0", "family 1", "connectors"} | {
+        f"connectors::{k}" for k in kinds}
+    shapes = solid_shapes(fs)
+    seen = set()
+    for o in model.Objects:
+        g, name = o.Geometry, o.Attributes.Name
+        assert isinstance(g, rhino3dm.Brep) and g.IsSolid and g.IsValid, name
+        assert name in bom and name not in seen
+        seen.add(name)
+        row = bom[name]
+        want = (f"connectors::{row['kind']}" if row["kind"] != "plate" else f"family {row['family']}")
+        assert layers[o.Attributes.LayerIndex] == want
+        # the Brep's vertices are the solid's corners
+        pts = corners(shapes[name])
+        brep = np.array([(v.Location.X, v.Location.Y, v.Location.Z) for v in g.Vertices])
+        assert np.r_[brep.min(axis=0), brep.max(axis=0)] == pytest.approx(
+            np.r_[pts.min(axis=0), pts.max(axis=0)], abs=1e-6)
+        assert len(brep) >= 8 and len(g.Faces) >= 6
+    assert seen == set(bom)
 
 
 def test_slightly_nonplanar_structure_still_gives_valid_solids_and_reports_unroll_error():

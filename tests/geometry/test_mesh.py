@@ -314,16 +314,150 @@ def test_seams_normals_and_unused_vertices_give_the_merged_analysis(tmp_path, la
 
 
 def test_obj_fast_reader_agrees_with_the_line_reader():
-    from torsal.geometry.mesh_files import _obj_fast, _obj_lines
+    from torsal.geometry.mesh_files import _obj_fast, _obj_lines, _read_obj
 
     v, f = mc.grid(9, 7)
     for text in (mc.obj_text(v, f), mc.obj_text(v, f, normals="face", uv=True),
-                 mc.obj_text(v, f).replace("\n", "\r\n"), mc.obj_text(v, f, unused=[[1, 2, 3]])):
-        fast, slow = _obj_fast(text), _obj_lines(text)
-        assert fast is not None
+                 mc.obj_text(v, f).replace("\n", "\r\n"), mc.obj_text(v, f).replace("\n", "\r"),
+                 mc.obj_text(v, f, unused=[[1, 2, 3]])):
+        fast, slow = _read_obj(text.encode()), _read_obj(text.encode(), lines=True)
+        assert fast.face_lines is None and slow.face_lines is not None  # the fast reader read it
         assert np.array_equal(fast.vertices, slow.vertices) and np.array_equal(fast.faces, slow.faces)
+        assert np.array_equal(fast.vertices[:len(v)], v) and np.array_equal(fast.faces, f)
+        # the line of every face: 'f' lines counted independently
+        f_lines = [k + 1 for k, ln in enumerate(text.replace("\r\n", "\n").replace("\r", "\n")
+                                                .split("\n")) if ln.startswith("f ")]
+        assert slow.face_lines.tolist() == f_lines
+    assert _obj_fast(mc.obj_text(v, f).replace("f 1 ", "f 1.0 ", 1)) is None   # not an index
     # anything unusual goes to the line reader
     assert _obj_fast(mc.obj_text(v, f).replace("f 1 ", "f -1 ", 1)) is None   # a relative index
     assert _obj_fast(mc.obj_text(v, f) + "f 1 2\n") is None                    # a short face
     assert _obj_fast(mc.obj_text(mc.CUBE_V, mc.CUBE_QUADS)) is None                     # polygons
     assert _obj_fast("v 0 0 0\nvx 1 2 3\nf 1 1 1\n") is None
+
+
+# ---------------------------------------------------------------- files from the wild
+def test_ply_magic_and_keywords_in_any_case_and_line_end(tmp_path):
+    v, f = mc.grid(4, 3)
+    base = mc.ply_ascii(v, f)
+    variants = {"upper": base.replace("ply\n", "PLY\n", 1), "crlf": base.replace("\n", "\r\n"),
+                "cr": base.replace("\n", "\r"), "upper-crlf": base.replace("ply\n", "PLY\n", 1).replace("\n", "\r\n"),
+                "spaces": base.replace("ply\n", "ply  \n", 1).replace("end_header\n", "end_header \n"),
+                "bom": "\ufeff" + base, "keywords": base.replace("format ascii", "FORMAT ASCII")
+                .replace("element vertex", "ELEMENT VERTEX").replace("end_header", "END_HEADER")}
+    for name, text in variants.items():
+        p = tmp_path / f"{name}.ply"
+        p.write_bytes(text.encode())
+        m = load_mesh(p)
+        assert np.array_equal(m.vertices, v) and np.array_equal(m.faces, f), name
+    # a comment that mentions end_header does not end the header
+    p = tmp_path / "c.ply"
+    p.write_text(base.replace("comment tests", "comment written before end_header"))
+    assert np.array_equal(load_mesh(p).vertices, v)
+
+
+def test_every_text_reader_keeps_the_line_of_each_face():
+    from torsal.geometry.mesh_files import _read_off, _read_ply, _read_stl, _read_obj
+
+    v, f = mc.grid(4, 3)
+    q = np.array([[0, 3, 4, 1], [1, 4, 5, 2]])  # two quads: fan-triangulated, one line each
+
+    def lines_of(text, start):
+        return [k + 1 for k, ln in enumerate(text.splitlines()) if ln.startswith(start)]
+
+    obj = mc.obj_text(v, q)
+    assert _read_obj(obj.encode(), lines=True).face_lines.tolist() == \
+        [n for n in lines_of(obj, "f ") for _ in range(2)]
+    ply = mc.ply_ascii(v, f)
+    assert _read_ply(ply.encode()).face_lines.tolist() == lines_of(ply, "3 ")
+    off = mc.off_text(v, f)
+    assert _read_off(off.encode()).face_lines.tolist() == lines_of(off, "3 ")
+    stl = mc.stl_ascii(v, f)
+    assert _read_stl(stl.encode()).face_lines.tolist() == lines_of(stl, "  facet")
+    assert _read_stl(mc.stl_binary(v, f)).face_lines is None
+    # a face continued over two lines is numbered by its first line
+    wrapped = obj.replace("f 1 4 5 2", "f 1 4 \\\n 5 2")
+    assert _read_obj(wrapped.encode()).face_lines.tolist() == \
+        [n for n in lines_of(wrapped, "f ") for _ in range(2)]
+
+
+def test_validation_messages_name_the_file_lines(tmp_path):
+    v, f = mc.grid(4, 3)
+    bad = np.vstack([f, [[0, 1, 1]]])               # a face with a repeated vertex, last line
+    text = mc.obj_text(v, bad)
+    p = tmp_path / "d.obj"
+    p.write_text(text)
+    with pytest.raises(MeshError, match=rf"use the same vertex twice; remove them; file line "
+                                        rf"{len(text.splitlines())}$") as exc:
+        load_mesh(p)
+    assert exc.value.faces.tolist() == [len(f)]
+    p = tmp_path / "d.stl"
+    flipped = f.copy()
+    flipped[3] = flipped[3, ::-1]
+    p.write_bytes(mc.stl_binary(v, flipped))
+    with pytest.raises(MeshError, match=r"inconsistent orientation.*; facets \[.*3.*\] of the file"):
+        load_mesh(p)
+
+
+def test_duplicate_faces_are_dropped_and_both_windings_refused():
+    from torsal.geometry.mesh import drop_duplicate_faces
+
+    f = np.array([[0, 1, 2], [2, 3, 0], [1, 2, 0], [0, 2, 3], [3, 0, 2]])
+    kept_f, kept = drop_duplicate_faces(f)  # (1, 2, 0) is (0, 1, 2); (0, 2, 3), (3, 0, 2) = (2, 3, 0)
+    assert kept.tolist() == [0, 1] and kept_f.tolist() == [[0, 1, 2], [2, 3, 0]]
+    with pytest.raises(MeshError, match=r"faces \[0, 2\] are the same triangles twice with "
+                                        "opposite windings") as exc:
+        drop_duplicate_faces(np.array([[0, 1, 2], [1, 2, 3], [2, 1, 0]]))
+    assert exc.value.faces.tolist() == [0, 2]
+    same, kept = drop_duplicate_faces(np.array([[0, 1, 2]]))
+    assert same.tolist() == [[0, 1, 2]] and kept.tolist() == [0]
+
+
+def test_binary_ply_lists_of_one_length_read_as_a_block_agree_with_records(tmp_path):
+    from torsal.geometry import mesh_files
+
+    v, f = mc.grid(5, 4)
+    quads = np.array([[i * 4 + j, (i + 1) * 4 + j, (i + 1) * 4 + j + 1, i * 4 + j + 1]
+                      for i in range(4) for j in range(3)])
+    data, _ = mc.ply_dialect(v, quads, fmt="binary_little_endian",
+                             face_props=[("uchar", "red", np.arange(12)), ("float", "quality",
+                                                                           np.linspace(0, 1, 12))])
+    block = mesh_files._read_ply(data)
+    real = mesh_files._ply_fixed_lists
+    try:
+        mesh_files._ply_fixed_lists = lambda *a: None   # the record-by-record reader
+        records = mesh_files._read_ply(data)
+    finally:
+        mesh_files._ply_fixed_lists = real
+    assert np.array_equal(block.faces, records.faces) and np.array_equal(block.faces, mc.quads_to_tris(quads))
+    assert block.polygons == records.polygons == 12
+
+
+def test_merged_vertex_row_order_is_said_in_words(tmp_path):
+    v, f = mc.grid(4, 3)
+    p = tmp_path / "g.stl"
+    p.write_bytes(mc.stl_binary(v, f))
+    merge = load_mesh(p).metadata["merge"]
+    assert "first appears in the file (facet by facet, corner by corner)" in merge.vertex_order
+    assert "an STL file has no vertex order" in merge.row_convention("merged vertex")
+    assert merge.row_convention("file vertex").startswith("row i is vertex record i of the file "
+                                                          "(corner i % 3 of facet i // 3)")
+    p = tmp_path / "g.obj"
+    p.write_text(mc.obj_text(v, f))
+    merge = load_mesh(p).metadata["merge"]
+    assert merge.vertex_order == "as in the file" and merge.as_dict()["vertex_order"] == "as in the file"
+
+
+def test_compas_sample_dialect_200_vertices_342_faces(tmp_path):
+    """The dialect of COMPAS' sample meshes ('PLY', CRLF, three decimals) at the size of the
+    one the issue names (trimesh: 200 vertices, 342 faces): torsal and trimesh agree."""
+    v, f = mc.grid(10, 20, bend=0.05)                     # 200 vertices, 2 * 9 * 19 = 342 faces
+    data, written = mc.ply_dialect(v * 10, f, magic="PLY", newline="\r\n", digits=3)
+    assert data.startswith(b"PLY\r\nformat ascii 1.0\r\n") and b"\r\nend_header\r\n" in data
+    p = tmp_path / "tubemesh-like.ply"
+    p.write_bytes(data)
+    m = load_mesh(p)
+    t = trimesh.load(p, process=False, force="mesh")
+    assert (len(m.vertices), len(m.faces)) == (len(t.vertices), len(t.faces)) == (200, 342)
+    assert np.array_equal(m.vertices, written) and np.array_equal(m.faces, f)
+    assert np.allclose(t.vertices, written, atol=1e-5)  # trimesh keeps 'float' as float32

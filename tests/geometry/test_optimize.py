@@ -148,7 +148,7 @@ def test_shading_with_hyperbolicity_constraint(facade):
     assert np.abs(out.directions @ SUN).mean() < 0.05
     assert np.abs(facade.directions @ SUN).mean() > 0.5
     assert (out.hyperbolicity() >= 0).all() and out.is_hyperbolic().all()
-    assert res.max_violation["hyperbolic"] <= 1e-8
+    assert res.max_violation["hyperbolic"] <= res.measured["hyperbolic"].tolerance    # c_hyp >= margin, measured
     assert np.allclose(np.linalg.norm(out.directions, axis=1), 1.0, atol=1e-12)
     assert res.constraints_active is True       # the solve without it broke it: solved with it
 
@@ -164,13 +164,13 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
 
     # with hessian="auto" pass 1 has the Gauss-Newton Hessian: the same IPOPT run as the
     # energies' own solve with it, and the same minimizer as with the exact Hessian
-    free = problem(hessian="gauss-newton").solve()
-    exact = problem(hessian="exact").solve()
+    free = problem(hessian="gauss-newton").solve("ipopt")
+    exact = problem(hessian="exact").solve("ipopt")
     assert free.success and exact.success
     assert _angles_deg(free.congruence.directions, exact.congruence.directions).max() < 0.05
     p = problem(hessian="auto").hyperbolic().min_torsal_angle(5)
     seen = []
-    res = p.solve(callback=seen.append)
+    res = p.solve("ipopt", callback=seen.append)
     assert res.success and res.constraints_active is False, res.status
     assert res.iterations == free.iterations and len(seen) == res.iterations + 1    # one pass
     assert np.allclose(res.congruence.directions, free.congruence.directions, atol=1e-12)
@@ -179,7 +179,7 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
     # positive semidefinite by construction: no regularization estimate for pass 1
     pass1 = p._built["tangent/without-inequalities"]
     assert pass1.psd and not p._built["tangent"].psd and set(pass1.hessian_shifts.values()) <= {0.0}
-    both = problem().hyperbolic().min_torsal_angle(5).solve(try_unconstrained=False)
+    both = problem().hyperbolic().min_torsal_angle(5).solve("ipopt", try_unconstrained=False)
     assert both.success and both.constraints_active is True
     assert _angles_deg(both.congruence.directions, res.congruence.directions).max() < 0.05
     assert free.constraints_active is None
@@ -187,14 +187,14 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
 
 def test_active_constraints_resolve_in_one_pass_within_max_iter(facade):
     p = _shading_problem(facade).hyperbolic(margin=1e-6)
-    capped = p.solve(max_iter=12)
+    capped = p.solve("ipopt", max_iter=12)
     assert not capped.success and capped.iterations <= 12
     assert "Maximum_Iterations_Exceeded" in capped.status
-    first = p.solve(initial=facade.directions)
+    first = p.solve("ipopt", initial=facade.directions)
     assert first.success and first.constraints_active is True
     seen = []
     p.perpendicular(SUN @ np.array([[1.0, 0.05, 0], [-0.05, 1.0, 0], [0, 0, 1.0]]), weight=10)
-    again = p.solve(callback=seen.append)       # warm start, constraints were active: no first pass
+    again = p.solve("ipopt", callback=seen.append)       # warm start, constraints were active: no first pass
     assert again.success and again.constraints_active is True
     assert len(seen) == again.iterations + 1
 
@@ -207,13 +207,13 @@ def test_working_set_imposes_only_the_constraints_that_matter(facade):
         return CongruenceProblem(facade).normal().fair().closeness(weight=0.1).perpendicular(SUN, weight=0.1)
 
     delta2 = facade.delta**2
-    free = problem().solve()
+    free = problem().solve("ipopt")
     h = np.sort(free.congruence.hyperbolicity() / delta2)
     margin = 0.5 * (h[3] + h[4])
     missed = np.flatnonzero(free.congruence.hyperbolicity() / delta2 < margin)
     assert len(missed) == 4
     p = problem().hyperbolic(margin=margin)
-    res = p.solve()
+    res = p.solve("ipopt")
     assert res.success and res.constraints_active is True, res.status
     ws = res.working_set["hyperbolic"]
     assert set(missed) <= set(ws) and len(ws) <= 0.1 * len(facade.faces)
@@ -222,16 +222,16 @@ def test_working_set_imposes_only_the_constraints_that_matter(facade):
     out = np.setdiff1d(np.arange(len(facade.faces)), ws)
     assert hyp[out].min() > margin + 1e-6              # left out: met with slack
     assert "working set" in res.summary()
-    capped = problem().hyperbolic(margin=margin).solve(max_iter=7)
+    capped = problem().hyperbolic(margin=margin).solve("ipopt", max_iter=7)
     assert capped.iterations <= 7 and not capped.success
-    full = problem().hyperbolic(margin=margin).solve(try_unconstrained=False)
+    full = problem().hyperbolic(margin=margin).solve("ipopt", try_unconstrained=False)
     assert full.success and full.working_set is None
     assert abs(res.objective - full.objective) <= 1e-6 * full.objective
     assert _angles_deg(res.congruence.directions, full.congruence.directions).max() < 0.05
     # the designer moves the sun: the re-solve keeps the working set and still agrees
     moved = SUN @ np.array([[1.0, 0.05, 0], [-0.05, 1.0, 0], [0, 0, 1.0]])
-    again = p.perpendicular(moved, weight=0.1).solve()
-    ref = problem().hyperbolic(margin=margin).perpendicular(moved, weight=0.1).solve(
+    again = p.perpendicular(moved, weight=0.1).solve("ipopt")
+    ref = problem().hyperbolic(margin=margin).perpendicular(moved, weight=0.1).solve("ipopt", 
         initial=full.congruence.directions, try_unconstrained=False)
     assert again.success and again.working_set is not None, again.status
     assert (again.congruence.hyperbolicity() / delta2).min() >= margin - 1e-8
@@ -343,7 +343,9 @@ def test_resolve_with_new_parameters_reuses_the_solver(facade):
     sun2 = np.array([0.5, -0.7, -0.5]) / np.linalg.norm([0.5, -0.7, -0.5])
     p.perpendicular(sun2, weight=10).set_weight("fair", 2.0)
     again = p.solve()
-    assert again.build_seconds == 0.0
+    # nothing is rebuilt: what remains is IPOPT's warm pass being set up when it continues the
+    # augmented Lagrangian (milliseconds against the NLP's build)
+    assert again.build_seconds < 0.2 * first.build_seconds
     assert again.success
     assert np.abs(again.congruence.directions @ sun2).mean() < 0.05
     assert np.abs(again.congruence.directions @ sun2).mean() < np.abs(first.congruence.directions @ sun2).mean()

@@ -56,7 +56,7 @@ def test_an_unreachable_angle_is_not_success_and_names_the_faces(patch):
     so the split form is the one that still misses.)"""
     start = _shading(patch).solve().congruence.directions
     p = _shading(patch).min_torsal_angle(85, form="split")
-    res = p.solve(max_iter=2, try_unconstrained=False, keep_best=False, initial=start)
+    res = p.solve("ipopt", max_iter=2, try_unconstrained=False, keep_best=False, initial=start)
     ang = _measured_angles(res.congruence)
     assert not res.success
     assert res.max_violation["min_torsal_angle"] == pytest.approx(85 - ang.min(), abs=1e-9)
@@ -153,7 +153,9 @@ def test_a_flat_facade_leaves_the_bundle_apex():
     assert c.is_bundle().all()
     p = (CongruenceProblem(c).fair().fair_torsal(weight=10)
          .torsal_plane(None, normals=[0.55, -0.6, -0.58], weight=20).min_torsal_angle(40))
-    start = Congruence(c.vertices, c.faces, p._off_the_apex(c.directions))
+    from torsal.geometry.optimize.solve import SolveCall, SolveOptions
+
+    start = Congruence(c.vertices, c.faces, SolveCall(p, SolveOptions())._off_the_apex(c.directions))
     assert not start.is_bundle().any()
     assert np.allclose(start.torsal_angle(), 90.0, atol=1.0)      # a saddle's normals
     assert np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", start.directions, c.directions), -1, 1))).max() < 5

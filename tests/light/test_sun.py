@@ -9,7 +9,9 @@ import pytest
 
 from torsal.light.sun import (
     SunDirections,
+    epw_hours,
     hot_hours,
+    read_epw,
     light_directions,
     sun_directions,
     sun_path,
@@ -113,6 +115,103 @@ def test_light_directions_are_minus_sun_with_normalized_weights():
         light_directions([[0.0, 0.0, 0.0]])
 
 
+# ------------------------------------------------------------------ EPW hours
+# The EPW data dictionary (EnergyPlus Auxiliary Programs): Hour h (1..24) is the interval
+# (h-1):00 .. h:00 local standard time; temperatures are readings at h:00; irradiance is the
+# total over the 60 minutes before h:00. The reader below follows those words with the standard
+# library only, independent of pvlib and of torsal's reader.
+def _epw_by_hand(path):
+    """[(start, end, temperature read at end, DNI over the hour)], the file's time zone."""
+    lines = path.read_text().splitlines()
+    tz = dt.timezone(dt.timedelta(hours=float(lines[0].split(",")[8])))
+    out = []
+    for line in lines[8:]:
+        f = line.split(",")
+        year, month, day, hour = (int(x) for x in f[:4])
+        end = dt.datetime(year, month, day, tzinfo=tz) + dt.timedelta(hours=hour)
+        out.append((end - dt.timedelta(hours=1), end, float(f[6]), float(f[14])))
+    return out
+
+
+def _write_small_epw(path, temps, dni, *, start=dt.datetime(2023, 7, 1), tz=1.0):
+    """An EPW of len(temps) hourly rows from ``start`` (hour fields 1..24), written by hand."""
+    rows = []
+    for k, (t, d) in enumerate(zip(temps, dni)):
+        end = start + dt.timedelta(hours=k + 1)
+        stamp = end - dt.timedelta(hours=1)  # hour 24 of a day is that day's last hour
+        fields = [stamp.year, stamp.month, stamp.day, stamp.hour + 1, 60, "?", f"{t:.1f}", 10.0, 50,
+                  101325, 0, 1367, 300, d, d, 0] + [0] * 19
+        rows.append(",".join(map(str, fields)))
+    head = [f"LOCATION,Here,-,NLD,test,000000,52.30,4.77,{tz:.1f},-2.0", "DESIGN CONDITIONS,0",
+            "TYPICAL/EXTREME PERIODS,0", "GROUND TEMPERATURES,0", "HOLIDAYS/DAYLIGHT SAVINGS,No,0,0,0",
+            "COMMENTS 1,tests/light/test_sun.py", "COMMENTS 2,", "DATA PERIODS,1,1,Data,Saturday, 7/ 1,7/ 2"]
+    path.write_text("\n".join(head + rows) + "\n")
+    return path
+
+
+def test_epw_hours_follow_the_data_dictionary(tmp_path):
+    temps = [15.0 + 0.7 * k + (k % 5) for k in range(48)]  # every hour its own reading
+    dni = [0.0 if not 6 <= k % 24 <= 19 else 100.0 + 11.0 * k for k in range(48)]
+    path = _write_small_epw(tmp_path / "w.epw", temps, dni)
+    data, _ = read_epw(path)
+    h = epw_hours(data)
+    by_hand = _epw_by_hand(path)
+    assert len(h) == len(by_hand) == 48
+    for k, (start, end, temp, d) in enumerate(by_hand):
+        assert h["start"].iloc[k] == start and h["end"].iloc[k] == end
+        assert h.index[k] == start + dt.timedelta(minutes=30)       # the sun is taken mid-hour
+        assert h["dni"].iloc[k] == d                                 # the hour's own total
+        assert h["temp_end"].iloc[k] == temp                         # read at the stamp h:00
+        start_reading = by_hand[k - 1][2] if k else temp             # read at (h-1):00
+        assert h["temp_start"].iloc[k] == start_reading
+        assert h["temp_air"].iloc[k] == pytest.approx((start_reading + temp) / 2)
+    # the first hour of a file: 00:00-01:00 on 1 July, its middle 00:30 at UTC+1
+    assert h.index[0] == pd.Timestamp("2023-07-01 00:30", tz="Etc/GMT-1")
+
+
+def test_hot_hours_take_the_mid_hour_temperature(tmp_path):
+    """Hours whose end reading is hot but whose start is not (and the reverse) are decided
+    by the mean: the hour's temperature at its middle, where its sun is."""
+    # readings 25 at 11:00, 27 at 12:00, 24.8 at 13:00: the hour 11-12 is hot (mean 26), the
+    # hour 12-13 is not (mean 25.9)
+    temps = [20.0] * 10 + [25.0, 27.0, 24.8] + [20.0] * 11
+    dni = [0.0] * 9 + [500.0] * 6 + [0.0] * 9
+    path = _write_small_epw(tmp_path / "w.epw", temps, dni)
+    sun = hot_hours(path, min_temperature=26.0, min_dni=300.0)
+    assert [t.strftime("%H:%M") for t in sun.times] == ["11:30"]      # the hour 11:00-12:00
+    # the other pairings agree on that hour but not on the next: the reading at the hour's
+    # end (one row of pvlib's table) keeps 11-12, the reading at its start (ladybug's stamps)
+    # keeps 12-13, whose mid-hour temperature is 25.9
+    by_hand = _epw_by_hand(path)
+    end_hot = [s for s, _, t, d in by_hand if t >= 26 and d >= 300]
+    start_hot = [by_hand[k][0] for k in range(1, len(by_hand))
+                 if by_hand[k - 1][2] >= 26 and by_hand[k][3] >= 300]
+    assert [t.hour for t in end_hot] == [11] and [t.hour for t in start_hot] == [12]
+    mean_hot = [by_hand[k][0] for k in range(1, len(by_hand))
+                if (by_hand[k - 1][2] + by_hand[k][2]) / 2 >= 26 and by_hand[k][3] >= 300]
+    assert [t + dt.timedelta(minutes=30) for t in mean_hot] == list(sun.times)
+
+
+def test_epw_hours_agree_with_ladybug(tmp_path):
+    """ladybug-core, an independent EPW reader, stamps temperatures at their reading time and
+    irradiance at the start of its hour: our hours line up with both, for a whole year."""
+    epw_mod = pytest.importorskip("ladybug.epw")
+    path = write_synthetic_epw(tmp_path / "site.epw", 52.30, 4.77, tz_hours=1.0, year=2023)
+    h = epw_hours(read_epw(path)[0])
+    lb = epw_mod.EPW(str(path))
+    temp = np.array(lb.dry_bulb_temperature.values)
+    dni = np.array(lb.direct_normal_radiation.values, dtype=float)
+    stamps = lb.dry_bulb_temperature.datetimes
+    assert len(h) == len(temp) == 8760
+    # ladybug's stamp k is hour k of the year: our hour k starts there
+    assert [(d.month, d.day, d.hour) for d in stamps[4000:4003]] == \
+        [(t.month, t.day, t.hour) for t in h["start"].iloc[4000:4003]]
+    np.testing.assert_allclose(h["dni"], dni, atol=0.5)                    # ladybug rounds to Wh
+    np.testing.assert_allclose(h["temp_start"], temp, atol=1e-9)           # the reading at start
+    np.testing.assert_allclose(h["temp_end"], np.roll(temp, -1), atol=1e-9)  # ... and at end
+    np.testing.assert_allclose(h["temp_air"], (temp + np.roll(temp, -1)) / 2, atol=1e-9)
+
+
 def test_hot_hours_from_generated_epw(tmp_path):
     import pvlib
 
@@ -123,15 +222,19 @@ def test_hot_hours_from_generated_epw(tmp_path):
 
     sun = hot_hours(path, min_temperature=26.0, min_dni=300.0)
     assert isinstance(sun, SunDirections) and len(sun) > 50
-    # every design hour is hot, sunny, above the horizon, weighted by its DNI
-    mid = data.index + pd.Timedelta(minutes=30)
-    row = data.set_index(mid).loc[sun.times]
-    assert (row["temp_air"] >= 26.0).all() and (row["dni"] >= 300.0).all()
-    np.testing.assert_allclose(sun.weights, row["dni"].to_numpy())
+    # every design hour is hot at mid-hour, sunny, above the horizon, weighted by its DNI:
+    # checked against the file read by hand
+    by_hand = _epw_by_hand(path)
+    mid = {start + dt.timedelta(minutes=30): ((by_hand[k - 1][2] + t) / 2, d)
+           for k, (start, _, t, d) in enumerate(by_hand)}
+    for time, w in zip(sun.times, sun.weights):
+        temp, d = mid[time]
+        assert temp >= 26.0 and d >= 300.0 and w == d
     assert sun.above_horizon.all() and (sun.vectors[:, 2] > 0).all()
     assert (sun.times.minute == 30).all()
-    # and none was missed: the same filter done by hand on the raw data
-    expected = ((data["temp_air"] >= 26.0) & (data["dni"] >= 300.0)).sum()
+    # and none was missed: the same filter on the hand-read hours (sun above the horizon there)
+    cand = pd.DatetimeIndex([t for t, (temp, d) in mid.items() if temp >= 26.0 and d >= 300.0])
+    expected = sun_directions(48.21, 16.37, cand, elevation=170.0).above_horizon.sum()
     assert len(sun) == expected
     # directions are the SPA ones at the interval midpoints
     ref = sun_directions(48.21, 16.37, sun.times, elevation=170.0)

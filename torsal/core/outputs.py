@@ -15,12 +15,13 @@ torsal.core.outputs.OutputFolderError: ... is a file, so there can be no folder 
 """
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
 from .errors import TorsalError
 
-__all__ = ["OutputFolderError", "output_folder"]
+__all__ = ["OutputFolderError", "output_folder", "new_output_folder"]
 
 
 class OutputFolderError(TorsalError, ValueError):
@@ -56,3 +57,34 @@ def output_folder(path: str | Path | None, *, option: str = "--out") -> Path:
         raise OutputFolderError(f"{option} {p}: cannot write there ({exc.strerror or exc}); "
                                 "give a folder you can write to") from None
     return p
+
+
+@contextlib.contextmanager
+def new_output_folder(path: str | Path | None, *, option: str = "--out"):
+    """:func:`output_folder` for one run: yields the folder; if the run fails and the folder
+    did not exist before, it is removed again when it is still empty (a failed run leaves the
+    file system as it found it).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "out"
+    >>> try:
+    ...     with new_output_folder(target) as out:
+    ...         raise ValueError("the run failed")
+    ... except ValueError:
+    ...     pass
+    >>> target.exists()
+    False
+    """
+    existed = path is not None and str(path).strip() != "" and Path(path).exists()
+    out = output_folder(path, option=option)
+    try:
+        yield out
+    except BaseException:
+        if not existed:
+            try:
+                out.rmdir()  # only when empty: a stage cache or anything else stays
+            except OSError:
+                pass
+        raise

@@ -5,11 +5,17 @@
   candidate corners of the parts already there, then slid down and left as far as it stays
   free; the placement with the lowest top edge wins; a new sheet is opened when nothing fits.
   Overlap checks keep ``gap`` between parts and ``margin`` to the sheet edge.
-* :meth:`Layout.export_dxf` writes one DXF (R2010, ezdxf) per sheet: layers ``CUT`` (closed
-  LWPOLYLINE outlines and holes), ``FOLD`` (fold lines and their angle as TEXT, ``M``/``V`` for
-  mountain/valley seen from the top), ``ENGRAVE`` (part id TEXT), ``SHEET`` (sheet border, not
-  to be cut); ``$INSUNITS`` set from the unit; plus an SVG preview of each sheet
-  (:func:`sheet_svg`, the same drawing as SVG elements).
+* :meth:`Layout.export_dxf` writes one DXF (R2010, ezdxf) per sheet: layers ``CUT`` (the
+  toolpath of the layout's :class:`~.cutting.Cutting` process: each outline offset by half
+  the kerf, slots and holes compensated, reliefs at inner slot corners; the outline itself
+  when there is no process), ``NOMINAL`` (the parts as designed, holes as circles; not cut),
+  ``DRILL`` (holes narrower than the tool), ``FOLD`` (fold lines and their angle as TEXT,
+  ``M``/``V`` for mountain/valley seen from the top), ``ENGRAVE`` (part id TEXT), ``SHEET``
+  (sheet border, not to be cut); ``$INSUNITS`` set from the unit; plus an SVG preview of each
+  sheet (:func:`sheet_svg`, the same drawing as SVG elements).
+* Spacing: ``gap`` and ``margin`` are the sheet left between two cuts and between a cut and
+  the sheet edge; the outlines keep ``gap + 2 kerf`` and ``margin + kerf`` (:func:`spacing`).
+  :func:`~.nesting.nest_for_yield` nests for fewer sheets in a time budget.
 * :func:`bill_of_materials` writes the parts list as CSV.
 
 Units: sheet sizes, gaps and all coordinates in the fin system's ``unit`` (mm by default).
@@ -40,9 +46,10 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 from torsal.core.errors import TorsalError
 
 from .builder.fasteners import part_fastening
+from .cutting import Cutting, relief_centres
 
 __all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "shelf_pack", "merge_layouts", "sheet_svg",
-           "bill_of_materials", "read_dxf_parts"]
+           "bill_of_materials", "read_dxf_parts", "spacing", "placement_of", "check_fits"]
 
 
 class PartTooLargeError(TorsalError, ValueError):
@@ -62,6 +69,8 @@ class Placement:
     label: tuple[float, float] = (0.0, 0.0)
     label_height: float = 10.0
     label_angle: float = 0.0           # degrees
+    holes: list = field(default_factory=list)      # [((x, y), diameter)] fastener holes
+    reliefs: list = field(default_factory=list)    # [(x, y)] relief disc centres (cutting)
 
 
 @dataclass
@@ -74,6 +83,10 @@ class Layout:
     unit: str = "mm"
     gap: float = 5.0
     margin: float = 10.0
+    #: the cutting process the DXF's CUT layer is compensated for (None: cut on the outline)
+    cutting: Cutting | None = None
+    #: how the nesting went (:class:`~.nesting.NestStats`), None for a layout made otherwise
+    stats: object = None
 
     @property
     def sheet_of(self) -> dict[str, int]:
@@ -99,17 +112,31 @@ class Layout:
     def on_sheet(self, sheet: int) -> list[Placement]:
         return [p for p in self.placements if p.sheet == sheet]
 
+    @property
+    def area_bound(self) -> float:
+        """Parts' area / sheet area: the sheets the parts would need with no waste at all."""
+        return float(sum(p.polygon.area for p in self.placements) / (self.sheet[0] * self.sheet[1]))
+
     # ------------------------------------------------------------------ DXF / SVG
     def sheet_drawing(self, sheet: int) -> list[tuple]:
         """What one sheet (0-based) shows, layer by layer, for the DXF and its SVG preview:
-        ``("poly", layer, [(x, y), ...])`` closed outlines, ``("line", layer, p, q)``,
+        ``("poly", layer, [(x, y), ...])`` closed outlines, ``("circle", layer, (x, y),
+        diameter)``, ``("line", layer, p, q)``,
         ``("text", layer, text, (x, y), height, rotation deg, "middle" | "bottom")``
         (anchored at its centre, or the middle of its bottom edge)."""
         w, h = self.sheet
         items: list[tuple] = [("poly", "SHEET", [(0, 0), (w, 0), (w, h), (0, h)])]
+        cut = self.cutting
         for p in self.on_sheet(sheet):
-            for ring in [p.polygon.exterior] + list(p.polygon.interiors):
-                items.append(("poly", "CUT", list(ring.coords)[:-1]))
+            rings = [p.polygon.exterior] + list(p.polygon.interiors)
+            items += [("poly", "NOMINAL", list(r.coords)[:-1]) for r in rings]
+            path = p.polygon if cut is None else cut.toolpath(p.polygon, p.reliefs)
+            items += [("poly", "CUT", list(r.coords)[:-1])
+                      for r in [path.exterior] + list(path.interiors)]
+            for centre, dia in p.holes:
+                items.append(("circle", "NOMINAL", tuple(centre), float(dia)))
+                how, d = ("cut", float(dia)) if cut is None else cut.hole_path(float(dia))
+                items.append(("circle", "CUT" if how == "cut" else "DRILL", tuple(centre), d))
             for line, ang in p.folds:
                 segs = [line] if line.geom_type == "LineString" else list(getattr(line, "geoms", []))
                 for seg in segs:
@@ -153,6 +180,8 @@ class Layout:
         for kind, layer, *geo in self.sheet_drawing(sheet):
             if kind == "poly":
                 msp.add_lwpolyline(geo[0], close=True, dxfattribs={"layer": layer})
+            elif kind == "circle":
+                msp.add_circle(geo[0], 0.5 * geo[1], dxfattribs={"layer": layer})
             elif kind == "line":
                 msp.add_line(geo[0], geo[1], dxfattribs={"layer": layer})
             else:
@@ -180,10 +209,13 @@ class Layout:
         return out
 
 
-#: DXF layers of a sheet and their ACI colours (red, blue, green, grey)
-_LAYERS = {"CUT": 1, "FOLD": 5, "ENGRAVE": 3, "SHEET": 8}
-#: the same colours in the SVG preview (ACI 1, 5, 3, 8), on white
-_SVG_COLOURS = {"CUT": "#ff0000", "FOLD": "#0000ff", "ENGRAVE": "#008000", "SHEET": "#808080"}
+#: DXF layers of a sheet and their ACI colours: CUT the toolpath (red), NOMINAL the parts as
+#: designed (cyan, not cut), DRILL holes narrower than the tool (magenta), FOLD (blue),
+#: ENGRAVE (green), SHEET the border (grey, not cut)
+_LAYERS = {"CUT": 1, "NOMINAL": 4, "DRILL": 6, "FOLD": 5, "ENGRAVE": 3, "SHEET": 8}
+#: the same colours in the SVG preview, on white
+_SVG_COLOURS = {"CUT": "#ff0000", "NOMINAL": "#00b0b0", "DRILL": "#ff00ff", "FOLD": "#0000ff",
+                "ENGRAVE": "#008000", "SHEET": "#808080"}
 
 
 def sheet_svg(drawing: list[tuple], sheet: tuple[float, float], unit: str) -> str:
@@ -201,6 +233,9 @@ def sheet_svg(drawing: list[tuple], sheet: tuple[float, float], unit: str) -> st
         if kind == "poly":
             pts = " ".join(f"{x:.3f},{y:.3f}" for x, y in geo[0])
             layers[layer].append(f'<polygon points="{pts}"/>')
+        elif kind == "circle":
+            (x, y), d = geo
+            layers[layer].append(f'<circle cx="{x:.3f}" cy="{y:.3f}" r="{0.5 * d:.3f}"/>')
         elif kind == "line":
             (x1, y1), (x2, y2) = geo[0][:2], geo[1][:2]
             layers[layer].append(f'<line x1="{x1:.3f}" y1="{y1:.3f}" x2="{x2:.3f}" y2="{y2:.3f}"/>')
@@ -234,13 +269,18 @@ class _Item:
     label_angle: float = 0.0
     base: float = 0.0            # degrees: rotation to the minimum rotated rectangle
     n_panels: int = 0            # panels of an unrolled part (0: unknown)
+    holes: list = field(default_factory=list)      # [((x, y), diameter)]
+    reliefs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
-def _as_items(outlines) -> list[_Item]:
+def _as_items(outlines, cutting: Cutting | None = None) -> list[_Item]:
     items = []
     if isinstance(outlines, Mapping):
         outlines = [(k, v) for k, v in outlines.items()]
     for i, o in enumerate(outlines):
+        if isinstance(o, _Item):          # prepared already (a nester handing parts on)
+            items.append(o)
+            continue
         if isinstance(o, tuple):
             name, poly = o
             items.append(_Item(str(name), Polygon(poly) if not isinstance(poly, Polygon) else poly, [],
@@ -258,7 +298,10 @@ def _as_items(outlines) -> list[_Item]:
             seg = LineString(line).intersection(poly)
             folds.append((seg, float(ang)))
         items.append(_Item(o.name, poly, folds, tuple(o.label_position), float(o.label_height),
-                           float(np.degrees(o.label_angle)), n_panels=len(o.panels)))
+                           float(np.degrees(o.label_angle)), n_panels=len(o.panels),
+                           holes=[(tuple(c), float(d)) for c, d in getattr(o, "holes", [])],
+                           reliefs=(relief_centres(o, cutting) if cutting is not None
+                                    else np.zeros((0, 2)))))
     for it in items:
         if not it.outline.is_valid or it.outline.area <= 0:
             raise ValueError(f"part {it.name}: invalid or empty outline")
@@ -376,10 +419,62 @@ def _place_on(sheet: _Sheet, shapes) -> tuple | None:
     return best
 
 
+
+def _turned_shapes(it: _Item, rotations) -> list:
+    """``[(outline turned by base + rotation and moved to the origin, (width, height))]``."""
+    shapes = []
+    for rot in rotations:
+        p = affinity.rotate(it.outline, it.base + rot, origin=(0, 0))
+        minx, miny, maxx, maxy = p.bounds
+        p = affinity.translate(p, -minx, -miny)
+        shapes.append((p, (maxx - minx, maxy - miny)))
+    return shapes
+
+
+def check_fits(items, prepared, w: float, h: float, margin: float, rotations, unit: str) -> None:
+    """PartTooLargeError for the first part that fits a ``w x h`` sheet with ``margin`` in none
+    of its turned shapes (:func:`_turned_shapes`), saying what to do."""
+    for it, shapes in zip(items, prepared):
+        if any(sw <= w - 2 * margin + 1e-9 and sh <= h - 2 * margin + 1e-9 for _, (sw, sh) in shapes):
+            continue
+        sw, sh = min((s[1] for s in shapes), key=lambda t: max(t[0] / w, t[1] / h))
+        if it.n_panels == 1:
+            raise PartTooLargeError(
+                f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) is ONE fin panel and does not fit a "
+                f"{w:.0f} x {h:.0f} {unit} sheet with margin {margin:g} in any rotation "
+                f"{list(rotations)}; a single panel cannot be split into shorter parts: use a "
+                f"smaller fin spacing (a finer remesh of the structure) or a larger sheet")
+        raise PartTooLargeError(
+            f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) does not fit a {w:.0f} x {h:.0f} {unit} "
+            f"sheet with margin {margin:g} in any rotation {list(rotations)}; split it into "
+            f"shorter parts (FinSystem(max_part_length=..., max_panels=...)) or use a larger sheet")
+
+
+def placement_of(it: _Item, sheet: int, rot: float, dx: float, dy: float, placed=None) -> Placement:
+    """The placement of a part on ``sheet``: its outline turned by ``rot`` degrees about the
+    origin, then moved by ``(dx, dy)``; fold lines, label, holes and reliefs with it."""
+
+    def tf(g):
+        return affinity.translate(affinity.rotate(g, rot, origin=(0, 0)), dx, dy)
+
+    def tf_points(pts):
+        pts = np.asarray(pts, float).reshape(-1, 2)
+        c, s = np.cos(np.radians(rot)), np.sin(np.radians(rot))
+        return pts @ np.array([[c, s], [-s, c]]) + (dx, dy)
+
+    lab = tf_points([it.label])[0]
+    holes = [(tuple(tf_points([c])[0]), d) for c, d in it.holes]
+    return Placement(it.name, sheet, rot, (dx, dy), tf(it.outline) if placed is None else placed,
+                     [(tf(f), a) for f, a in it.folds], (float(lab[0]), float(lab[1])),
+                     it.label_height, (it.label_angle + rot) % 360.0,
+                     holes=holes, reliefs=[tuple(p) for p in tf_points(it.reliefs)])
+
+
 def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
          margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270),
-         unit: str = "mm", open_sheets: int = 3) -> Layout:
-    """Nest flat parts on rectangular sheets (bottom-left fill over rotated candidates).
+         unit: str = "mm", open_sheets: int = 3, cutting: Cutting | None = None) -> Layout:
+    """Nest flat parts on rectangular sheets (bottom-left fill over rotated candidates): the
+    fast nester; :func:`~.nesting.nest_for_yield` uses fewer sheets in a time budget.
 
     Parameters
     ----------
@@ -389,15 +484,18 @@ def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float 
     sheet : (width, height)
         Sheet size in ``unit`` (default 2500 x 1250 mm).
     gap : float
-        Minimum distance between parts (kerf + web), ``unit``.
+        Web of sheet left between the cuts of two parts, ``unit`` (the outlines are ``gap + 2
+        kerf`` apart, see :func:`spacing`).
     margin : float
-        Minimum distance of parts to the sheet edge, ``unit``.
+        Web left between the cuts and the sheet edge, ``unit``.
     rotations : sequence of float
         Allowed rotations in degrees, applied after turning each part so that its minimum
         rotated rectangle is axis-aligned (long side along x).
     open_sheets : int
         How many of the most recent sheets are still tried for a part (older sheets are
         closed); bounds the time for large jobs.
+    cutting : Cutting, optional
+        The cutting process (kerf, reliefs) the sheets are drawn for; None: cut on the outline.
 
     Raises
     ------
@@ -411,28 +509,10 @@ def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float 
         raise ValueError("gap and margin must be >= 0")
     if not len(rotations):
         raise ValueError("at least one rotation is needed")
-    items = _as_items(outlines)
-    prepared = []
-    for it in items:
-        shapes = []
-        for rot in rotations:
-            p = affinity.rotate(it.outline, it.base + rot, origin=(0, 0))
-            minx, miny, maxx, maxy = p.bounds
-            p = affinity.translate(p, -minx, -miny)
-            shapes.append((p, (maxx - minx, maxy - miny)))
-        if not any(sw <= w - 2 * margin + 1e-9 and sh <= h - 2 * margin + 1e-9 for _, (sw, sh) in shapes):
-            sw, sh = min((s[1] for s in shapes), key=lambda t: max(t[0] / w, t[1] / h))
-            if it.n_panels == 1:
-                raise PartTooLargeError(
-                    f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) is ONE fin panel and does not fit a "
-                    f"{w:.0f} x {h:.0f} {unit} sheet with margin {margin:g} in any rotation "
-                    f"{list(rotations)}; a single panel cannot be split into shorter parts: use a "
-                    f"smaller fin spacing (a finer remesh of the structure) or a larger sheet")
-            raise PartTooLargeError(
-                f"part {it.name} ({sw:.0f} x {sh:.0f} {unit}) does not fit a {w:.0f} x {h:.0f} {unit} "
-                f"sheet with margin {margin:g} in any rotation {list(rotations)}; split it into "
-                f"shorter parts (FinSystem(max_part_length=..., max_panels=...)) or use a larger sheet")
-        prepared.append(shapes)
+    items = _as_items(outlines, cutting)
+    prepared = [_turned_shapes(it, rotations) for it in items]
+    sep, edge = spacing(gap, margin, cutting)
+    check_fits(items, prepared, w, h, edge, rotations, unit)
     order = sorted(range(len(items)), key=lambda i: -items[i].outline.area)
     sheets: list[_Sheet] = []
     placements = []
@@ -445,7 +525,7 @@ def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float 
                 where = (si, best)
                 break
         if where is None:
-            sheets.append(_Sheet(w, h, margin, gap))
+            sheets.append(_Sheet(w, h, edge, sep))
             best = _place_on(sheets[-1], shapes)
             if best is None:  # pragma: no cover - guarded by the size check above
                 raise PartTooLargeError(f"part {it.name} does not fit an empty sheet")
@@ -456,21 +536,26 @@ def nest(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float 
         sheets[si].add(placed)
         # transform of the original outline: rotate about origin, then shift
         p0 = affinity.rotate(it.outline, rot, origin=(0, 0))
-        dx, dy = x - p0.bounds[0], y - p0.bounds[1]
-
-        def tf(g):
-            return affinity.translate(affinity.rotate(g, rot, origin=(0, 0)), dx, dy)
-
-        lab = tf(Point(it.label))
-        placements.append(Placement(it.name, si, rot, (dx, dy), placed,
-                                    [(tf(f), a) for f, a in it.folds], (lab.x, lab.y),
-                                    it.label_height, (it.label_angle + rot) % 360.0))
+        placements.append(placement_of(it, si, rot, x - p0.bounds[0], y - p0.bounds[1], placed))
     placements.sort(key=lambda p: (p.sheet, p.name))
-    return Layout((w, h), placements, len(sheets), unit=unit, gap=gap, margin=margin)
+    return Layout((w, h), placements, len(sheets), unit=unit, gap=gap, margin=margin, cutting=cutting)
+
+
+def spacing(gap: float, margin: float, cutting: Cutting | None) -> tuple[float, float]:
+    """Distance between two nominal outlines and from an outline to the sheet edge (``unit``)
+    that leave ``gap`` and ``margin`` of sheet between the cuts: each cut takes ``kerf``
+    beyond its outline.
+
+    >>> spacing(5.0, 10.0, Cutting.for_process("waterjet"))
+    (7.0, 11.0)
+    """
+    kerf = 0.0 if cutting is None else cutting.kerf
+    return gap + 2.0 * kerf, margin + kerf
 
 
 def shelf_pack(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
-               margin: float = 10.0, unit: str = "mm", first_sheet: int = 0) -> Layout:
+               margin: float = 10.0, unit: str = "mm", first_sheet: int = 0,
+               cutting: Cutting | None = None) -> Layout:
     """Pack many small flat parts (connectors) in rows: each turned so that its minimum
     rotated rectangle is axis-aligned (long side along x), tallest first, left to right
     with ``gap`` between them, a new row above the tallest of the last one, a new sheet when
@@ -480,7 +565,9 @@ def shelf_pack(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: 
     Raises :class:`PartTooLargeError` if a part does not fit an empty sheet.
     """
     w, h = map(float, sheet)
-    items = _as_items(outlines)
+    items = _as_items(outlines, cutting)
+    layout_gap, layout_margin = gap, margin
+    gap, margin = spacing(gap, margin, cutting)
     shapes = []
     for it in items:
         p = affinity.rotate(it.outline, it.base, origin=(0, 0))
@@ -498,20 +585,12 @@ def shelf_pack(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: 
             x, y, row_h = m0, y + row_h + gap, 0.0
         if y + ph > h - margin + 1e-9:                  # new sheet
             sheet_no, x, y, row_h = sheet_no + 1, m0, m0, 0.0
-        dx, dy = x - minx, y - miny
-        rot = it.base
-
-        def tf(g):
-            return affinity.translate(affinity.rotate(g, rot, origin=(0, 0)), dx, dy)
-
-        lab = tf(Point(it.label))
-        placements.append(Placement(it.name, sheet_no, rot, (dx, dy), tf(it.outline),
-                                    [(tf(f), a) for f, a in it.folds], (lab.x, lab.y),
-                                    it.label_height, (it.label_angle + rot) % 360.0))
+        placements.append(placement_of(it, sheet_no, it.base, x - minx, y - miny))
         x += pw + gap
         row_h = max(row_h, ph)
     n = (sheet_no - first_sheet + 1) if placements else 0
-    return Layout((w, h), placements, n, unit=unit, gap=gap, margin=margin)
+    return Layout((w, h), placements, n, unit=unit, gap=layout_gap, margin=layout_margin,
+                  cutting=cutting)
 
 
 def merge_layouts(first: Layout, second: Layout) -> Layout:
@@ -519,22 +598,29 @@ def merge_layouts(first: Layout, second: Layout) -> Layout:
     numbers start at ``first.n_sheets``)."""
     places = sorted(first.placements + second.placements, key=lambda p: (p.sheet, p.name))
     return Layout(first.sheet, places, first.n_sheets + second.n_sheets, unit=first.unit,
-                  gap=first.gap, margin=first.margin)
+                  gap=first.gap, margin=first.margin, cutting=first.cutting, stats=first.stats)
 
 
 # ---------------------------------------------------------------------------- reading back
-def read_dxf_parts(path) -> tuple[list[Polygon], list[str], "object"]:
-    """Re-read a sheet DXF: polygons of the closed CUT polylines (holes assigned to their
-    outlines), the ENGRAVE texts, and the ezdxf auditor. For verification of written files."""
+def read_dxf_parts(path, *, layer: str | None = None) -> tuple[list[Polygon], list[str], "object"]:
+    """Re-read a sheet DXF: polygons of the closed polylines of ``layer`` (default: the
+    nominal outlines, ``NOMINAL``, or ``CUT`` in files without that layer), with the holes
+    (closed polylines and circles of the layer inside them) as interiors, the ENGRAVE texts,
+    and the ezdxf auditor. For verification of written files."""
     import ezdxf
 
     doc = ezdxf.readfile(path)
     auditor = doc.audit()
+    msp = doc.modelspace()
+    if layer is None:
+        layer = "NOMINAL" if len(msp.query("LWPOLYLINE[layer=='NOMINAL']")) else "CUT"
     rings = []
-    for e in doc.modelspace().query("LWPOLYLINE[layer=='CUT']"):
+    for e in msp.query(f"LWPOLYLINE[layer=='{layer}']"):
         if not e.closed:
-            raise ValueError(f"{path}: open CUT polyline {e.dxf.handle}")
+            raise ValueError(f"{path}: open {layer} polyline {e.dxf.handle}")
         rings.append(Polygon([p[:2] for p in e.get_points("xy")]))
+    rings += [Point(e.dxf.center.x, e.dxf.center.y).buffer(e.dxf.radius, quad_segs=32)
+              for e in msp.query(f"CIRCLE[layer=='{layer}']")]
     rings.sort(key=lambda p: -p.area)
     outers: list[list] = []
     for r in rings:
@@ -545,7 +631,7 @@ def read_dxf_parts(path) -> tuple[list[Polygon], list[str], "object"]:
         else:
             outers.append([r])
     polys = [Polygon(o[0].exterior.coords, [h.exterior.coords for h in o[1:]]) for o in outers]
-    texts = [e.dxf.text for e in doc.modelspace().query("TEXT[layer=='ENGRAVE']")]
+    texts = [e.dxf.text for e in msp.query("TEXT[layer=='ENGRAVE']")]
     return polys, texts, auditor
 
 

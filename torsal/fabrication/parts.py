@@ -85,6 +85,7 @@ from torsal.core.units import INSUNITS, UNIT_TO_MM
 
 from . import layout as _layout
 from . import solids as _solids
+from .nesting import nest_parts
 from .builder.clash import ClashFinder
 from .builder.crossings import CrossingSlotter
 from .builder.ends import EndJoiner
@@ -647,20 +648,14 @@ class FinSystem:
         return self._unrolled
 
     def layout(self, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
-               margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270)):
-        """Nest the unrolled plates on sheets (``unit``; see :func:`torsal.fabrication.layout.nest`)
-        and pack the connectors in rows on the sheets after them
-        (:func:`~torsal.fabrication.layout.shelf_pack`: hundreds of small brackets would make
-        the nesting quadratic)."""
-        flat = self.unrolled()
-        conn = {p.name for p in self.connectors + self.fixings}
-        plates = _layout.nest([u for n, u in flat.items() if n not in conn], sheet=sheet, gap=gap,
-                              margin=margin, rotations=rotations, unit=self.unit)
-        if not conn:
-            return plates
-        kit = _layout.shelf_pack([u for n, u in flat.items() if n in conn], sheet=sheet, gap=gap,
-                                 margin=margin, unit=self.unit, first_sheet=plates.n_sheets)
-        return _layout.merge_layouts(plates, kit)
+               margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270), **options):
+        """Nest the unrolled parts on sheets (``unit``); see
+        :func:`torsal.fabrication.nesting.nest_parts` for ``options`` (``nester``, ``cutting``,
+        ``time_limit``, ``seed``, ...). By default the fast bottom-left nester, the connectors
+        in rows after the plates."""
+        return nest_parts(self.unrolled(), connectors={p.name for p in self.connectors + self.fixings},
+                          sheet=sheet, gap=gap, margin=margin, rotations=rotations,
+                          unit=self.unit, **options)
 
     def bill_of_materials(self, path, *, density: float = 2700.0, layout=None):
         """CSV parts list; see :func:`torsal.fabrication.layout.bill_of_materials`."""

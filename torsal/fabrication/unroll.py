@@ -24,12 +24,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon
+from shapely.geometry import Point, Polygon
 from shapely.ops import polylabel, unary_union
 
 from .model import Slot, SlotSide, _cross, fold_angles, quad_normals
 
-__all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle"]
+__all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle", "flat_point"]
 
 _PAIRS = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 2], [1, 3]])
 _EDGES = _PAIRS[:4]
@@ -68,6 +68,8 @@ class Unrolled:
         ``X = origin + x e1 + y e2``.
     planar : bool
         All panels planar to rounding (exact development).
+    holes : list of ((2,) float, float)
+        Fastener holes ``(centre, diameter)`` of the part (``Part.holes``) on the flat part.
     """
 
     name: str
@@ -83,6 +85,7 @@ class Unrolled:
     frame: np.ndarray
     planar: bool
     slot_records: list = field(default_factory=list)
+    holes: list = field(default_factory=list)
 
     @property
     def area(self) -> float:
@@ -283,10 +286,39 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
     outline = shapely.set_precision(outline, 0.0)
     label, label_angle, label_height = _label(flat, outline)
     fl = np.stack([flat[:-1, 1], flat[:-1, 2]], axis=1) if k > 1 else np.zeros((0, 2, 2))
+    holes = [(flat_point(quads, flat, np.asarray(h.center, float)), float(h.diameter))
+             for h in getattr(strip, "holes", ())]
     return Unrolled(name=name, panels=flat, fold_angles=fold_angles(quads), fold_lines=fl,
                     slots=rects, outline=outline, label_position=label, label_angle=label_angle,
                     label_height=label_height, max_edge_error=err, frame=frame, planar=planar,
-                    slot_records=list(slots))
+                    slot_records=list(slots), holes=holes)
+
+
+def flat_point(quads: np.ndarray, flat: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """Where a point on a part's plate (3D, on or near a panel) lies on the unrolled part (2,):
+    on the panel it projects into (the nearest such panel's plane; else the nearest panel),
+    carried by the rigid motion that lays that panel flat.
+
+    >>> q = np.array([[[0, 0, 0], [2, 0, 0], [2, 0, 1], [0, 0, 1]]], float)
+    >>> u = unroll(q)
+    >>> p = flat_point(q, u.panels, np.array([1.0, 0.0, 0.5]))
+    >>> bool(np.allclose(p, u.panels[0].mean(axis=0)))       # the panel's centre
+    True
+    """
+    best = None
+    for i, quad in enumerate(quads):
+        fr = _plane_frame(quad)
+        local = (quad - fr[0]) @ fr[1:3].T
+        x = (point - fr[0]) @ fr[1:3].T
+        off = abs(float((point - fr[0]) @ fr[3]))
+        poly = Polygon(local)
+        outside = 0.0 if poly.covers(Point(x)) else poly.distance(Point(x))
+        key = (outside, off)
+        if best is None or key < best[0]:
+            best = (key, i, local, x)
+    _, i, local, x = best
+    r, t = _rigid_2d(local, flat[i])
+    return r @ x + t
 
 
 def _label(flat: np.ndarray, outline: Polygon) -> tuple[np.ndarray, float, float]:

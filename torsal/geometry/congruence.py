@@ -30,6 +30,7 @@ from functools import cached_property
 import numpy as np
 
 from .mesh import (
+    MAX_COORDINATE,
     MeshError,
     average_edge_length,
     validate_mesh,
@@ -48,6 +49,8 @@ __all__ = [
 ]
 
 _EPS = np.finfo(float).eps
+#: A line direction this short (times the longest, or times one model unit) is zero.
+ZERO_DIRECTION_RTOL = 1e-12
 
 
 def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -346,10 +349,19 @@ class Congruence:
         bad = np.flatnonzero(~np.isfinite(d).all(axis=1))
         if bad.size:
             raise ValueError(f"directions of vertices {bad[:10].tolist()} are NaN or infinite")
-        zero = np.flatnonzero(_norm(d) <= 1e-12 * max(1.0, float(_norm(d).max())))
+        big = np.abs(d).max(axis=1)
+        huge = np.flatnonzero(big > MAX_COORDINATE)
+        if huge.size:  # squared they overflow: such a row is not zero, it is out of range
+            raise ValueError(
+                f"directions of vertices {huge[:10].tolist()} have components up to "
+                f"{big.max():.3g}, beyond {MAX_COORDINATE:g}: their squares overflow; scale them "
+                "(e.g. to unit length)")
+        length = _norm(d)
+        zero = np.flatnonzero(length <= ZERO_DIRECTION_RTOL * max(1.0, float(length.max())))
         if zero.size:
             raise ValueError(
-                f"directions of vertices {zero[:10].tolist()} are zero vectors; a line needs a direction"
+                f"directions of vertices {zero[:10].tolist()} are zero vectors (length "
+                f"{length[zero].max():.3g}); a line needs a direction"
             )
         d.flags.writeable = False
         self._d = d

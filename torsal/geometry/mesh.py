@@ -23,6 +23,8 @@ __all__ = [
     "MERGE_TOLERANCE",
     "load_mesh",
     "merge_vertices",
+    "drop_duplicate_faces",
+    "rows_per_vertex",
     "read_mesh_file",
     "validate_mesh",
     "edge_face_adjacency",
@@ -71,6 +73,9 @@ class MeshMerge:
         Faces with more than three corners that were fan-triangulated.
     format : str
         The file format as read (``"obj"``, ``"stl binary"`` ...).
+    duplicate_faces : int
+        Triangles the file lists more than once (same corners, same winding, after merging:
+        slicers write every STL facet twice), dropped; see :func:`drop_duplicate_faces`.
     """
 
     file_vertices: int
@@ -79,6 +84,7 @@ class MeshMerge:
     tolerance: float
     polygons: int = 0
     format: str = ""
+    duplicate_faces: int = 0
 
     @property
     def unused(self) -> int:
@@ -109,13 +115,46 @@ class MeshMerge:
             text = f"{self.vertices} vertices ({self.file_vertices} in the file: {'; '.join(parts)})"
         if self.polygons:
             text += f"; {self.polygons} polygons split into triangles"
+        if self.duplicate_faces:
+            text += (f"; {self.duplicate_faces} duplicate faces dropped (the file lists the same "
+                     "triangle more than once)")
         return text
 
+    @property
+    def vertex_order(self) -> str:
+        """How the mesh's vertices are ordered, in words (for report files)."""
+        if self.identity:
+            return "as in the file"
+        return ("the file's vertex records merged by position, in the order each position "
+                "first appears in the file" + (" (facet by facet, corner by corner)"
+                                               if self.format.startswith("stl") else ""))
+
+    def row_convention(self, per: str) -> str:
+        """Which mesh vertex row ``i`` of a per-vertex file belongs to, in words.
+
+        ``per`` is what :meth:`to_merged` returned (or ``"position"`` for rows that carry
+        their point). Written into analysis.json and printed, so the order used is never
+        implicit.
+        """
+        if per == "vertex":
+            return "row i is vertex i of the file (the mesh keeps the file's vertices one for one)"
+        if per == "file vertex":
+            return ("row i is vertex record i of the file" + (
+                " (corner i % 3 of facet i // 3)" if self.format.startswith("stl") else "")
+                + "; rows of records merged into one vertex agree")
+        if per == "position":
+            return "each row 'x y z dx dy dz' is matched to the mesh vertex at x y z"
+        return (f"row i is mesh vertex i: {self.vertex_order}"
+                + ("; an STL file has no vertex order of its own, so give one row per facet "
+                   "corner or 'x y z dx dy dz' rows to be independent of it"
+                   if self.format.startswith("stl") else ""))
+
     def as_dict(self) -> dict:
-        """For report files: counts and the tolerance (no per-vertex map)."""
+        """For report files: counts, the tolerance and the vertex order (no per-vertex map)."""
         return {"format": self.format, "file_vertices": self.file_vertices,
                 "vertices": self.vertices, "merged": self.merged, "unused": self.unused,
-                "merge_tolerance": self.tolerance, "polygons_triangulated": self.polygons}
+                "merge_tolerance": self.tolerance, "polygons_triangulated": self.polygons,
+                "duplicate_faces_dropped": self.duplicate_faces, "vertex_order": self.vertex_order}
 
     def to_merged(self, values, *, what: str = "values", rtol: float = 1e-6):
         """Per-vertex rows given per merged vertex or per file vertex -> per merged vertex.
@@ -154,22 +193,60 @@ class MeshMerge:
                 f"{what}: {k} rows, but the mesh has {self.vertices} vertices"
                 + (f" ({self.file_vertices} in the file before merging); give one row per vertex "
                    "of either" if not self.identity else "; give one row per vertex"))
-        used = np.flatnonzero(self.file_to_merged >= 0)
-        target = self.file_to_merged[used]
-        out = np.empty((self.vertices,) + values.shape[1:], dtype=values.dtype)
-        out[target[::-1]] = values[used[::-1]]  # the first file vertex of each group wins
-        scale = float(np.nanmax(np.abs(values[used]))) if used.size else 0.0
-        diff = np.abs(values[used] - out[target]).reshape(len(used), -1).max(axis=1)
-        bad = np.flatnonzero(~(diff <= rtol * max(scale, 1e-300)))
-        if bad.size:
-            f = used[bad[0]]
-            first = int(np.flatnonzero(self.file_to_merged == self.file_to_merged[f])[0])
-            raise MeshError(
-                f"{what}: rows {first} and {f} belong to file vertices at the same position "
-                f"(mesh vertex {self.file_to_merged[f]}) but differ ({_listed(used[bad])} "
-                "disagree); give the same row to vertices at one position, or one row per "
-                f"merged vertex ({self.vertices})")
+        out = rows_per_vertex(
+            values, self.file_to_merged, self.vertices, what=what, rtol=rtol,
+            same="file vertices at the same position",
+            fix=f"give the same row to vertices at one position, or one row per merged vertex "
+                f"({self.vertices})")
         return out, "file vertex"
+
+
+def rows_per_vertex(values, row_vertex, n_vertices: int, *, what: str = "values",
+                    same: str = "the same vertex", fix: str = "give one row per vertex",
+                    rtol: float = 1e-6) -> np.ndarray:
+    """Rows that each name a mesh vertex -> one row per vertex; rows of one vertex must agree.
+
+    Parameters
+    ----------
+    values : (k, ...) array
+    row_vertex : (k,) int
+        The mesh vertex of each row; -1: the row is ignored.
+    n_vertices : int
+        Every vertex ``0 .. n_vertices - 1`` needs at least one row.
+    what, same, fix : str
+        For messages: what the rows are, what rows of one vertex have in common, what to do.
+    rtol : float
+        Rows of one vertex agree to ``rtol`` times the largest value.
+
+    Returns
+    -------
+    (n_vertices, ...) array
+        The first row of each vertex.
+
+    Examples
+    --------
+    >>> rows_per_vertex(np.array([[1.], [2.], [1.]]), np.array([1, 0, 1]), 2).ravel().tolist()
+    [2.0, 1.0]
+    """
+    values = np.asarray(values)
+    row_vertex = np.asarray(row_vertex, dtype=np.int64)
+    used = np.flatnonzero(row_vertex >= 0)
+    target = row_vertex[used]
+    missing = np.setdiff1d(np.arange(n_vertices), target)
+    if missing.size:
+        raise MeshError(f"{what}: mesh vertices {_listed(missing)} have no row; {fix}")
+    out = np.empty((n_vertices,) + values.shape[1:], dtype=values.dtype)
+    out[target[::-1]] = values[used[::-1]]  # the first row of each vertex wins
+    scale = float(np.nanmax(np.abs(values[used]))) if used.size else 0.0
+    diff = np.abs(values[used] - out[target]).reshape(len(used), -1).max(axis=1)
+    bad = np.flatnonzero(~(diff <= rtol * max(scale, 1e-300)))
+    if bad.size:
+        r = used[bad[0]]
+        first = int(np.flatnonzero(row_vertex == row_vertex[r])[0])
+        raise MeshError(
+            f"{what}: rows {first} and {r} belong to {same} (mesh vertex {row_vertex[r]}) but "
+            f"differ ({_listed(used[bad])} disagree); {fix}")
+    return out
 
 
 #: Coordinates beyond this (any unit) are a broken file, not a building: squared, they overflow.
@@ -258,6 +335,56 @@ def merge_vertices(vertices: np.ndarray, faces: np.ndarray, *,
     return v[reps], file_to_merged[f], merge
 
 
+def drop_duplicate_faces(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop triangles listed more than once with the same winding; refuse opposite windings.
+
+    Two faces are the same when their corners are the same vertices in the same cyclic order
+    (``(0, 1, 2)``, ``(1, 2, 0)``); the first in the file is kept. Slicers and some STL
+    exporters write every facet twice; after :func:`merge_vertices` those are such duplicates.
+    The same triangle with the opposite winding is the two sides of a surface (a double-sided
+    export) or a fold onto itself: that raises :class:`MeshError` naming both faces, since which
+    side is meant is not in the file.
+
+    Parameters
+    ----------
+    faces : (F, 3) int
+
+    Returns
+    -------
+    faces : (G, 3) int
+        The faces kept, in file order.
+    kept : (G,) int
+        Their indices into the given faces.
+
+    Examples
+    --------
+    >>> f, kept = drop_duplicate_faces(np.array([[0, 1, 2], [1, 2, 3], [2, 0, 1]]))
+    >>> f.tolist(), kept.tolist()
+    ([[0, 1, 2], [1, 2, 3]], [0, 1])
+    """
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(f) < 2:
+        return f, np.arange(len(f))
+    # each face rotated to start at its smallest index: equal rows are the same oriented face
+    start = np.argmin(f, axis=1)
+    rolled = f[np.arange(len(f))[:, None], (start[:, None] + np.arange(3)) % 3]
+    _, first = np.unique(rolled, axis=0, return_index=True)
+    kept = np.sort(first)
+    # the same corners in the opposite cyclic order: rows (a, b, c) and (a, c, b)
+    flipped = rolled[:, [0, 2, 1]]
+    uniq = rolled[kept]
+    key = np.unique(np.concatenate([uniq, flipped[kept]]), axis=0, return_counts=True)
+    if key[1].max(initial=1) > 1:
+        both = {tuple(r) for r in key[0][key[1] > 1]}
+        bad = [int(k) for k in kept if tuple(rolled[k]) in both and rolled[k, 1] != rolled[k, 2]]
+        if bad:
+            raise MeshError(
+                f"faces {_listed(bad)} are the same triangles twice with opposite windings: the "
+                "surface lies on itself there (both sides of it exported, or a fold); export one "
+                "side, one face per triangle", faces=bad)
+    return f[kept], kept
+
+
 def load_mesh(path: str | Path, *, validate: bool = True,
               merge_tolerance: float | None = MERGE_TOLERANCE) -> trimesh.Trimesh:
     """Load a triangle mesh from OBJ, PLY, STL or OFF, keeping the file's vertices, and validate it.
@@ -268,8 +395,10 @@ def load_mesh(path: str | Path, *, validate: bool = True,
     position (within ``merge_tolerance`` times the bounding-box diagonal: STL, and files split at
     seams or normals) are merged and vertices in no face dropped, by :func:`merge_vertices`; the
     merge is reported in ``mesh.metadata["merge"]`` (a :class:`MeshMerge`). A file without
-    duplicates or unused vertices keeps its vertices one for one, in file order. Nothing else is
-    repaired: see :func:`validate_mesh` for what is checked.
+    duplicates or unused vertices keeps its vertices one for one, in file order. Triangles the
+    file lists twice (the same corners and winding after merging: slicers' STL) are dropped and
+    counted (:func:`drop_duplicate_faces`). Nothing else is repaired: see :func:`validate_mesh`
+    for what is checked; its messages name the file lines of the faces concerned.
 
     Parameters
     ----------
@@ -301,15 +430,35 @@ def load_mesh(path: str | Path, *, validate: bool = True,
     except MeshError as exc:
         raise MeshError(f"{path}: {exc}") from None
     v, f, merge = merge_vertices(raw.vertices, raw.faces, tolerance=merge_tolerance)
-    merge = dataclasses.replace(merge, polygons=raw.polygons, format=raw.format)
-    if validate:
-        try:
+    kept = np.arange(len(f))
+    try:
+        f, kept = drop_duplicate_faces(f)
+        if validate:
             validate_mesh(v, f)
-        except MeshError as exc:
-            note = (f" (after merging {merge.merged} file vertices within {merge.tolerance:.3g} "
-                    "of another)") if merge.merged else ""
-            raise MeshError(f"{path}: {exc}{note}") from None
+    except MeshError as exc:
+        note = (f" (after merging {merge.merged} file vertices within {merge.tolerance:.3g} "
+                "of another)") if merge.merged else ""
+        where = "" if exc.faces is None else _file_place(path, raw, kept[exc.faces])
+        raise MeshError(f"{path}: {exc}{where}{note}", faces=exc.faces) from None
+    merge = dataclasses.replace(merge, polygons=raw.polygons, format=raw.format,
+                                duplicate_faces=len(raw.faces) - len(f))
     return trimesh.Trimesh(v, f, process=False, metadata={"merge": merge, "file": str(path)})
+
+
+def _file_place(path: Path, raw: RawMesh, faces: np.ndarray) -> str:
+    """Where faces (indices into ``raw.faces``) are in the file, for a message: its lines, or
+    for a binary file its face / facet records."""
+    faces = np.asarray(faces, dtype=np.int64)
+    lines = raw.face_lines
+    if lines is None and raw.format == "obj":  # read by the fast reader: read again for lines
+        lines = read_mesh_file(path, face_lines=True).face_lines
+    if lines is not None:
+        shown = np.unique(lines[faces])
+        return f"; file {'line' if shown.size == 1 else 'lines'} {_listed(shown)[1:-1]}"
+    if raw.polygons == 0:  # binary, one face per record: the face index is the record
+        what = "facets" if raw.format.startswith("stl") else "face records"
+        return f"; {what} {_listed(faces)} of the file, counted from 0"
+    return ""
 
 
 def _edge_keys(pairs: np.ndarray, n: int) -> np.ndarray:
@@ -383,8 +532,7 @@ def _edge_faces(edges: np.ndarray, face_edges: np.ndarray) -> np.ndarray:
         raise MeshError(
             f"non-manifold: {bad.size} edges are shared by more than two faces "
             f"(e.g. edge {edges[bad[0]].tolist()}); faces {_listed(bad_faces)} touch them. "
-            "Split the surface so every edge has at most two faces."
-        )
+            "Split the surface so every edge has at most two faces.", faces=bad_faces)
     face_of = np.repeat(np.arange(len(face_edges)), 3)
     order = np.argsort(flat, kind="stable")
     sorted_edges = flat[order]
@@ -450,10 +598,12 @@ def validate_mesh(vertices: np.ndarray, faces: np.ndarray) -> None:
     _check_coordinates(v)
     if f.min() < 0 or f.max() >= len(v):
         bad = np.flatnonzero(((f < 0) | (f >= len(v))).any(axis=1))
-        raise MeshError(f"faces {_listed(bad)} refer to vertices that do not exist (mesh has {len(v)})")
+        raise MeshError(f"faces {_listed(bad)} refer to vertices that do not exist (mesh has {len(v)})",
+                        faces=bad)
     repeated = np.flatnonzero((f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 2] == f[:, 0]))
     if repeated.size:
-        raise MeshError(f"degenerate faces {_listed(repeated)} use the same vertex twice; remove them")
+        raise MeshError(f"degenerate faces {_listed(repeated)} use the same vertex twice; remove them",
+                        faces=repeated)
     area = face_areas(v, f)
     edges, face_edges = unique_edges(f)
     delta = np.linalg.norm(v[edges[:, 0]] - v[edges[:, 1]], axis=1).mean()
@@ -461,8 +611,7 @@ def validate_mesh(vertices: np.ndarray, faces: np.ndarray) -> None:
     if degenerate.size:
         raise MeshError(
             f"degenerate faces {_listed(degenerate)} have zero area (collinear vertices); "
-            "remove or re-triangulate them"
-        )
+            "remove or re-triangulate them", faces=degenerate)
     _edge_faces(edges, face_edges)  # raises on non-manifold edges
     directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     keys = np.sort(_edge_keys(directed, len(v)))
@@ -475,8 +624,7 @@ def validate_mesh(vertices: np.ndarray, faces: np.ndarray) -> None:
         raise MeshError(
             f"inconsistent orientation: neighbouring faces {_listed(bad_faces)} traverse a shared "
             "edge in the same direction; flip them so all faces wind the same way "
-            "(e.g. trimesh.repair.fix_winding)"
-        )
+            "(e.g. trimesh.repair.fix_winding)", faces=bad_faces)
 
 
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -1,7 +1,9 @@
-"""Light as a measured part of torsal: sun directions (pvlib) and ray-cast shading measurements.
+"""Light as a measured part of torsal: sun directions (pvlib), ray-cast shading measurements,
+the occupants' view out (:mod:`~torsal.light.view`) and the standard devices torsal's fins are
+compared with (:mod:`~torsal.light.devices`).
 
-Imports only :mod:`torsal.geometry.mesh` from torsal (and the leaf helper
-:mod:`torsal.geometry._atomic` for atomic file output); never the optimizer or fabrication.
+Imports only :mod:`torsal.geometry` and :mod:`torsal.core` from torsal; never the optimizer or
+fabrication.
 """
 from torsal.light.baselines import (
     baselines,
@@ -11,6 +13,7 @@ from torsal.light.baselines import (
     section_fins,
     vertical_fins,
 )
+from torsal.light.devices import DEVICE_NAMES, Device, DeviceKind, standard_devices
 from torsal.light.shading import (
     ReflectionResult,
     SeeThroughResult,
@@ -26,20 +29,36 @@ from torsal.light.shading import (
     see_through,
     transparency,
 )
+from torsal.light.reflection import (
+    CeilingTarget,
+    MirrorAim,
+    ReflectionBound,
+    ReflectionRays,
+    TargetSide,
+    best_mirror_normals,
+    ideal_mirror_bound,
+    incidence_plane_normals,
+)
 from torsal.light.sun import (
     SunDirections,
+    epw_hours,
     hot_hours,
     light_directions,
     sun_directions,
     sun_path,
     write_synthetic_epw,
 )
+from torsal.light.view import ViewField, ViewOutResult, view_out
 
 __all__ = [
     "SunDirections", "sun_directions", "sun_path", "hot_hours", "light_directions",
-    "write_synthetic_epw",
+    "write_synthetic_epw", "epw_hours",
     "rays_blocked", "ray_hits", "direct_sun_blocked", "transparency", "see_through",
     "mirror_normals", "reflect", "reflected_hits", "compare",
     "ShadingResult", "TransparencyResult", "SeeThroughResult", "ReflectionResult",
+    "CeilingTarget", "TargetSide", "ReflectionRays", "MirrorAim", "ReflectionBound",
+    "best_mirror_normals", "ideal_mirror_bound", "incidence_plane_normals",
     "horizontal_louvers", "vertical_fins", "egg_crate", "section_fins", "grid_normal_fins", "baselines",
+    "standard_devices", "Device", "DeviceKind", "DEVICE_NAMES", "view_out", "ViewField",
+    "ViewOutResult",
 ]

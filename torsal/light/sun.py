@@ -39,6 +39,7 @@ __all__ = [
     "sun_path",
     "hot_hours",
     "read_epw",
+    "epw_hours",
     "EPWError",
     "light_directions",
     "write_synthetic_epw",
@@ -339,12 +340,13 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
               coerce_year: int | None = None) -> SunDirections:
     """Design sun directions from an EnergyPlus weather file: the hot, sunny hours.
 
-    Reads the file with ``pvlib.iotools.read_epw``; keeps the hours with dry-bulb
-    temperature ``>= min_temperature`` and direct normal irradiance ``>= min_dni`` while the
-    sun is above the horizon, and weights each by its DNI. The sun position is taken at the
-    middle of each hourly interval (EPW values are sums over the hour ending at the stamp;
-    pvlib stamps the interval start, so the midpoint is ``stamp + 30 min``), at the file's
-    site (latitude, longitude, altitude, standard-time zone).
+    Every hour of the file is read as :func:`epw_hours` does (the EPW convention, see there
+    and the README): the hour from ``(h-1):00`` to ``h:00`` local standard time, its direct
+    normal irradiance the file's value for hour ``h`` (an hourly total), its temperature the
+    mean of the readings at its start and end (hours ``h-1`` and ``h``: the value at the middle
+    of the hour, as EnergyPlus interpolates), the sun at the middle of the hour. Kept: the
+    hours with that temperature ``>= min_temperature`` and DNI ``>= min_dni`` while the sun is
+    above the horizon at mid-hour, each weighted by its DNI.
 
     Parameters
     ----------
@@ -357,22 +359,23 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
     north_angle : float, default 0
         See :func:`sun_directions`.
     months : iterable of int, optional
-        Keep only these months.
+        Keep only these months (of the mid-hour time).
     hours : (float, float), optional
-        Keep only interval midpoints within this window of local standard-time hours.
+        Keep only hours whose middle is within this window of local standard-time hours.
     coerce_year : int, optional
         Passed to ``read_epw`` (EPW files mix years; one year gives a continuous index).
 
     Returns
     -------
     SunDirections
-        Above-horizon directions with ``weights`` = DNI in W/m^2, times at mid-interval.
+        Above-horizon directions with ``weights`` = DNI in W/m^2, ``times`` at mid-hour.
     """
     path = Path(epw_path)
     data, meta = read_epw(path, coerce_year=coerce_year)
-    mid = data.index + pd.Timedelta(minutes=30)
-    temp = data["temp_air"].to_numpy(float)
-    dni = data["dni"].to_numpy(float)
+    h = epw_hours(data)
+    mid = h.index
+    temp = h["temp_air"].to_numpy(float)
+    dni = h["dni"].to_numpy(float)
     keep = (temp >= min_temperature) & (dni >= min_dni) & (dni > 0)
     if months is not None:
         keep &= np.isin(mid.month, list(months))
@@ -387,6 +390,62 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
                          elevation=float(meta["altitude"]), north_angle=north_angle,
                          weights=dni[keep])
     return sun.above()
+
+
+def epw_hours(data: pd.DataFrame) -> pd.DataFrame:
+    """The hours of an EPW file as torsal reads them: one row per hourly interval.
+
+    The EPW data dictionary (EnergyPlus, Auxiliary Programs, "Weather Converter"): the Hour
+    field ``h`` (1..24) is the interval from ``(h-1):00`` to ``h:00`` local standard time;
+    temperatures are *instantaneous* readings at ``h:00`` ("at the time indicated");
+    irradiance fields are *totals* over the interval ("received during the 60 minutes
+    preceding the time indicated", Wh/m^2, i.e. the hour's mean in W/m^2). pvlib's
+    ``read_epw`` stamps each row with the interval *start* ``(h-1):00``; ladybug-core stamps
+    temperatures with ``h:00`` and irradiance with ``(h-1):00``. Pairing one row's temperature
+    with its irradiance (pvlib) takes the temperature at the end of the hour; pairing by
+    ladybug's stamps takes it at the start. Here the hour's temperature is the mean of both
+    readings - the value at mid-hour, where the sun position for the irradiance is taken
+    (EnergyPlus interpolates linearly between "last hour's" and "this hour's" readings).
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        From :func:`read_epw` (pvlib's columns, index at interval starts, in file order).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by the middle of each hour (``start + 30 min``, the file's standard time
+        zone), with columns ``start`` and ``end`` (times), ``dni``, ``ghi``, ``dhi`` (W/m^2,
+        the hour's mean), ``temp_air`` (degC at mid-hour), ``temp_start`` and ``temp_end``
+        (the readings at the hour's start and end). The reading at the start of the file's
+        first hour is the file's last row when the file is a full year (8760 rows: 24:00 on
+        31 December is 0:00 on 1 January of the typical year), else the first reading itself.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> idx = pd.date_range("2023-07-01 11:00", periods=3, freq="1h", tz="Etc/GMT-1")
+    >>> data = pd.DataFrame({"temp_air": [25.0, 27.0, 28.0], "dni": [500.0, 600, 650],
+    ...                      "ghi": 0.0, "dhi": 0.0}, index=idx)
+    >>> h = epw_hours(data)
+    >>> h.index[1].strftime("%H:%M"), float(h["temp_air"].iloc[1]), float(h["dni"].iloc[1])
+    ('12:30', 26.0, 600.0)
+    """
+    end_reading = data["temp_air"].to_numpy(float)
+    start_reading = np.roll(end_reading, 1)
+    if len(data) != 8760:
+        start_reading[:1] = end_reading[:1]
+    start = data.index
+    out = pd.DataFrame({
+        "start": start, "end": start + pd.Timedelta(hours=1),
+        "dni": data["dni"].to_numpy(float), "ghi": data["ghi"].to_numpy(float),
+        "dhi": data["dhi"].to_numpy(float),
+        "temp_air": 0.5 * (start_reading + end_reading),
+        "temp_start": start_reading, "temp_end": end_reading,
+    }, index=start + pd.Timedelta(minutes=30))
+    out.index.name = "middle"
+    return out
 
 
 _EPW_COLUMNS = 35
@@ -443,6 +502,12 @@ def read_epw(path, *, coerce_year: int | None = None):
     if not (-90 <= lat <= 90 and -180 <= lon <= 180 and -12 <= tz <= 14):
         raise EPWError(f"{path}: line 1: latitude {lat}, longitude {lon}, time zone {tz} out of "
                        "range")
+    periods = lines[_EPW_HEADER_LINES - 1].split(",") if len(lines) >= _EPW_HEADER_LINES else []
+    if len(periods) > 2 and periods[0].strip().upper() == "DATA PERIODS":
+        per_hour = periods[2].strip()
+        if per_hour not in ("1", ""):
+            raise EPWError(f"{path}: line {_EPW_HEADER_LINES}: {per_hour} records per hour; torsal "
+                           "reads hourly EPW files (one record per hour), convert it to hourly")
     rows = lines[_EPW_HEADER_LINES:]
     if not any(r.strip() for r in rows):
         raise EPWError(f"{path}: no hourly data rows after the {_EPW_HEADER_LINES} header lines")
@@ -480,8 +545,9 @@ def write_synthetic_epw(path, latitude: float, longitude: float, *, tz_hours: fl
                         linke_turbidity: float = 3.0) -> Path:
     """Write a full-year (8760 h) EPW file with clear-sky irradiance and a smooth climate.
 
-    Irradiance is pvlib's Ineichen-Perez clear sky (``linke_turbidity`` fixed) at each
-    interval midpoint; the dry-bulb temperature is
+    As the EPW data dictionary has it (see :func:`epw_hours`): row ``h`` holds the irradiance
+    of the hour ending at ``h:00`` - pvlib's Ineichen-Perez clear sky (``linke_turbidity``
+    fixed) at its midpoint - and the dry-bulb temperature read at ``h:00``,
     ``t_mean + t_season * season + t_day * day`` with ``season`` a cosine peaking on
     21 July (21 January south of the equator) and ``day`` a cosine peaking at 15:00.
     Meant for tests and examples without downloading a weather file; not a climate model.
@@ -510,10 +576,11 @@ def write_synthetic_epw(path, latitude: float, longitude: float, *, tz_hours: fl
         pvlib.atmosphere.alt2pres(elevation))
     cs = pvlib.clearsky.ineichen(pos["apparent_zenith"], am, linke_turbidity, altitude=elevation)
     cs = cs.fillna(0.0).clip(lower=0.0)
-    doy = mid.day_of_year.to_numpy(float)
+    stamp = idx + pd.Timedelta(hours=1)  # temperatures are readings at the row's time, h:00
+    doy = stamp.day_of_year.to_numpy(float) + _hour_of_day(stamp) / 24.0
     peak = 202.0 if latitude >= 0 else 21.0
     season = np.cos(2 * np.pi * (doy - peak) / 365.0)
-    hod = _hour_of_day(mid)
+    hod = _hour_of_day(stamp)
     day = np.cos(2 * np.pi * (hod - 15.0) / 24.0)
     temp = t_mean + t_season * season + t_day * day
     pressure = pvlib.atmosphere.alt2pres(elevation)

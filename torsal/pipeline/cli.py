@@ -94,8 +94,9 @@ def _add_analyze(sub, common) -> None:
     g.add_argument("--normals", action="store_true",
                    help="use the normal congruence of A (the default)")
     g.add_argument("--directions", metavar="FILE",
-                   help="per-vertex line directions: .npy or text with one 'x y z' row per vertex "
-                        "of the file, or per vertex after merging")
+                   help="per-vertex line directions: .npy or text with one 'dx dy dz' row per "
+                        "vertex of the file or per vertex after merging, or 'x y z dx dy dz' "
+                        "rows matched to vertices by position (the output says which)")
     a.add_argument("--out", metavar="DIR", default=None,
                    help="write analysis.json and torsal_field.png here")
     a.add_argument("--no-plot", action="store_true", help="skip the PNG")
@@ -135,6 +136,7 @@ def _build_parser() -> argparse.ArgumentParser:
     _add_analyze(sub, common)
     _add_design(sub, common)
     _add_study(sub, common)
+    _add_freecad(sub, common)
     return p
 
 
@@ -153,18 +155,46 @@ def _add_study(sub, common) -> None:
                    help="run variants again that failed in an earlier run of this folder")
 
 
+def _add_freecad(sub, common) -> None:
+    f = sub.add_parser("freecad", parents=[common],
+                       help="install or remove the torsal workbench (a parametric fins object) "
+                            "in FreeCAD")
+    f.add_argument("action", choices=["install", "uninstall"])
+    f.add_argument("--mod-dir", metavar="DIR", default=None,
+                   help="FreeCAD's folder of user Mods (default: asked of freecadcmd, else "
+                        "~/.local/share/FreeCAD/Mod)")
+
+
 # ---------------------------------------------------------------------- commands
+def _freecad(args, ui: _Terminal) -> int:
+    from ..hosts.freecad.install import install_workbench, uninstall_workbench
+
+    if args.action == "uninstall":
+        folder = uninstall_workbench(args.mod_dir)
+        ui.line(f"removed the torsal workbench from {folder}" if folder else
+                "no torsal workbench was installed there")
+        return EXIT_OK
+    folder = install_workbench(args.mod_dir)
+    ui.line(f"installed the torsal workbench in {folder} (for torsal's Python {sys.executable})")
+    ui.line("restart FreeCAD; then, in its Python console or a macro:")
+    ui.line("    from torsal.freecad import make_fins")
+    ui.line("    fins = make_fins(App.ActiveDocument, 'design.toml'); App.ActiveDocument.recompute()")
+    ui.line(f"remove it with:  torsal freecad uninstall{' --mod-dir ' + args.mod_dir if args.mod_dir else ''}"
+            f"   (or: rm -r {folder})")
+    return EXIT_OK
+
+
 def _design(args, ui: _Terminal) -> int:
-    from ..core.outputs import output_folder
+    from ..core.outputs import new_output_folder
     from .assembly import UnbuildableDesignError
     from .design import Design
+    from .measure import devices_summary, light_summary
     from .stages import STAGES
 
     design = Design.from_toml(args.file)
-    out = output_folder(args.out)
     progress = _DesignProgress(ui, design, STAGES)
     try:
-        with progress:
+        with new_output_folder(args.out) as out, progress:
             res = design.run(out, progress=progress, use_cache=not args.no_cache,
                              size_limit=not args.no_size_limit,
                              accept_unbuildable=args.accept_unbuildable)
@@ -175,15 +205,17 @@ def _design(args, ui: _Terminal) -> int:
         return EXIT_NOT_BUILDABLE
     r = res.report
     mf = r.get("surface", {}).get("mesh_file")
-    if mf and (mf["merged"] or mf["unused"] or mf["polygons_triangulated"]):
+    if mf and (mf["merged"] or mf["unused"] or mf["polygons_triangulated"]
+               or mf.get("duplicate_faces_dropped")):
         ui.line(f"surface: {mf['vertices']} vertices from {mf['file_vertices']} in the file "
                 f"({mf['merged']} merged at the same position, {mf['unused']} unused, "
-                f"{mf['polygons_triangulated']} polygons triangulated)")
+                f"{mf['polygons_triangulated']} polygons triangulated, "
+                f"{mf.get('duplicate_faces_dropped', 0)} duplicate faces dropped)")
     s, li, fa = r["support"], r["light"], r["fabrication"]
     ui.line(f"fins: {s['edges']}, delta_pl {s['delta_pl_extracted']:.2e} -> "
-            f"{s['delta_pl_optimized']:.2e}; sun blocked {100 * li['blocked_share']:.1f}% "
-            f"(louvers {100 * li['baseline_louvers']['blocked_share']:.1f}%); "
+            f"{s['delta_pl_optimized']:.2e}; {light_summary(li)}; "
             f"{fa['parts']} parts on {fa['sheets']} sheets")
+    ui.line(devices_summary(li))
     for gate in (r["congruence"].get("joinery"), s.get("joinery")):
         if gate and gate.get("message"):
             ui.note(f"joinery: {gate['message']}")
@@ -278,14 +310,17 @@ def _analyze(args, ui: _Terminal) -> int:
     from rich.table import Table
     from rich.text import Text
 
-    from ..core.outputs import output_folder
+    import contextlib
+
+    from ..core.outputs import new_output_folder
     from .analyze import analyze
 
-    out = output_folder(args.out) if args.out is not None else None
-    t0 = time.perf_counter()
-    if not ui.interactive:
-        ui.line(f"analyzing {args.mesh} ...")
-    res = analyze(args.mesh, directions=args.directions, out_dir=out, plot=not args.no_plot)
+    with (new_output_folder(args.out) if args.out is not None
+          else contextlib.nullcontext()) as out:
+        t0 = time.perf_counter()
+        if not ui.interactive:
+            ui.line(f"analyzing {args.mesh} ...")
+        res = analyze(args.mesh, directions=args.directions, out_dir=out, plot=not args.no_plot)
     s = res.summary
     table = Table(title=Text(f"congruence of {args.mesh} ({s['directions']})"), show_header=False)
     table.add_column()
@@ -296,12 +331,16 @@ def _analyze(args, ui: _Terminal) -> int:
 
     mf = s.get("mesh_file")
     row("vertices / faces", f"{s['vertices']} / {s['faces']}")
-    if mf and (mf["file_vertices"] != s["vertices"] or mf["polygons_triangulated"]):
+    if mf and (mf["file_vertices"] != s["vertices"] or mf["polygons_triangulated"]
+               or mf.get("duplicate_faces_dropped")):
         row("in the file", f"{mf['file_vertices']} vertices ({mf['merged']} merged, "
                            f"{mf['unused']} unused), {mf['polygons_triangulated']} polygons "
-                           "triangulated")
+                           "triangulated"
+                           + (f", {mf['duplicate_faces_dropped']} duplicate faces dropped"
+                              if mf.get("duplicate_faces_dropped") else ""))
     if "directions_rows" in s:
         row("directions rows", s["directions_rows"])
+        row("row order", s["directions_row_order"])
     row("average edge length", f"{s['average_edge_length']:.4g}")
     row("hyperbolic faces", f"{s['hyperbolic_faces']} ({100 * s['hyperbolic_share']:.1f}%)")
     row("line-bundle faces", str(s["bundle_faces"]))
@@ -387,7 +426,7 @@ class _StudyProgress:
 
 
 #: subcommand name -> handler(args, ui) -> exit status
-_COMMANDS = {"analyze": _analyze, "design": _design, "study": _study}
+_COMMANDS = {"analyze": _analyze, "design": _design, "study": _study, "freecad": _freecad}
 
 
 # ---------------------------------------------------------------------- errors

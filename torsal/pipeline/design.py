@@ -21,12 +21,14 @@ __all__ = ["Design", "DesignResult"]
 
 @dataclass
 class DesignResult:
-    """What a design run produced: the report (as in report.json) and the files written."""
+    """What a design run produced: the report (as in report.json) and the files written
+    (names in ``folder``, the output folder)."""
 
     report: dict
     files: dict = field(default_factory=dict)
     stage_seconds: dict = field(default_factory=dict)
     cached: list = field(default_factory=list)
+    folder: Path | None = None
 
 
 class Design:
@@ -91,8 +93,8 @@ class Design:
             says so: ``report["fabrication"]["assembly"]["buildable"]`` is False).
 
         Result files appear in ``out_dir`` together, when every stage succeeded
-        (:class:`~torsal.pipeline.staging.Staging`); a failed run leaves none, not even the
-        earlier run's, and keeps the stage cache.
+        (:class:`~torsal.pipeline.staging.Staging`); a failed run leaves the folder as it found
+        it, the earlier run's results included, and keeps the stage cache.
 
         Raises
         ------
@@ -127,7 +129,7 @@ class Design:
             exc.add_note(staging.failure_note())
             raise
         result = DesignResult(report=run.report, files=run.files,
-                              stage_seconds=run.stage_seconds, cached=run.cached)
+                              stage_seconds=run.stage_seconds, cached=run.cached, folder=out)
         # an unbuildable design's outputs are published (the report shows why), but the run
         # does not end as done unless the user accepts it
         assembly = run.report.get("fabrication", {}).get("assembly")

@@ -34,6 +34,7 @@ Example (``examples/7a_facade_block.toml``)::
 from __future__ import annotations
 
 import datetime as _dt
+import math
 import tomllib
 from enum import Enum
 from pathlib import Path
@@ -44,8 +45,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..core.errors import TorsalError
 from ..core.inputs import read_input
 from ..core.units import UNIT_TO_M
-from ..geometry.optimize import TorsalAngleForm
+from ..geometry.congruence import ZERO_DIRECTION_RTOL
+from ..geometry.mesh import MAX_COORDINATE
+from ..geometry.optimize import Solver, TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
+from ..fabrication.cutting import Process as CuttingProcess, Relief
+from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
+from ..light.view import ViewField
 
 __all__ = [
     "DesignFileError",
@@ -177,10 +183,18 @@ def _check_directions(v):
         return v
     if len(v) == 0:
         raise ValueError("the list of sun vectors is empty; give at least one [x, y, z]")
-    zero = [k for k, d in enumerate(v) if sum(x * x for x in d) == 0]
+    huge = [k for k, d in enumerate(v) if max(map(abs, d), default=0.0) > MAX_COORDINATE]
+    if huge:  # squared they overflow: not a zero length, out of range
+        raise ValueError(f"sun vectors {huge[:10]} have components beyond {MAX_COORDINATE:g}: "
+                         "their squares overflow; give directions of ordinary size, e.g. unit "
+                         "vectors (site -> sun)")
+    length = [math.hypot(*d) for d in v]  # without squaring: 1e-300 is short, not zero
+    zero = [k for k, n in enumerate(length) if n <= ZERO_DIRECTION_RTOL * max(1.0, max(length))]
     if zero:
-        raise ValueError(f"sun vectors {zero[:10]} have zero length; a direction needs a "
-                         "non-zero [x, y, z] (site -> sun)")
+        what = ("have zero length" if not any(length[k] for k in zero) else
+                f"are zero to working precision (length {max(length[k] for k in zero):.3g})")
+        raise ValueError(f"sun vectors {zero[:10]} {what}; a direction needs a non-zero "
+                         "[x, y, z] (site -> sun)")
     below = [k for k, d in enumerate(v) if d[2] < 0]
     if below:
         # the model frame has z up: such a sun never shines; usually light directions were given
@@ -202,7 +216,7 @@ class SunSpec(_Spec):
     min_temperature: float = 26.0
     min_dni: float = 300.0
     vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame (z up); "
-                                        "any length but zero, z >= 0")
+                                        "any length but zero (components up to 1e30), z >= 0")
 
     @field_validator("step")
     @classmethod
@@ -245,10 +259,22 @@ class Stroke(_Spec):
 
 
 class Reflect(_Spec):
-    """Reflect sunlight from the fins onto a target point (Fig. 13)."""
+    """Reflect sunlight from the fins onto a target region on a ceiling (Fig. 13): a
+    horizontal rectangle centred at ``target``, ``size = [w, h]`` along the model's x and y,
+    lit from below (default: a square a third of the surface's extent)."""
 
     target: Vec3
+    size: tuple[float, float] | None = Field(
+        None, description="[w, h] of the target rectangle along x and y on the ceiling, lit "
+        "from below (default: a square a third of the surface's extent)")
     region: Region | None = None
+
+    @field_validator("size")
+    @classmethod
+    def _size(cls, v):
+        if v is not None and not all(x > 0 for x in v):
+            raise ValueError(f"goals.reflect.size = {list(v)} must be two positive lengths [w, h]")
+        return v
 
 
 class SunRegion(_Spec):
@@ -294,13 +320,22 @@ class ConstraintsSpec(_Spec):
     torsal_angle_form: TorsalAngleForm | None = Field(
         None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
         "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
-    max_iter: int = Field(500, gt=0, description="IPOPT iterations; a feasible iterate at the "
-                          "limit is kept (its status says so)")
+    solver: Solver = Field(Solver.AUTO, description="the congruence optimizer: auto (the augmented "
+                           "Lagrangian for a design with min_torsal_angle or another bound that binds, IPOPT "
+                           "where hyperbolic is the only inequality or there is none), alm, "
+                           "ipopt (the solver of record) or lbfgs (the paper's baseline); report.json "
+                           "says which one produced the design")
+    certify: bool = Field(False, description="IPOPT certifies the augmented Lagrangian's answer as a "
+                          "KKT point (all constraints, warm start from its answer and multipliers)")
+    max_iter: int = Field(500, gt=0, description="iteration limit: Newton steps of the augmented "
+                          "Lagrangian, IPOPT iterations; counts, not time, decide the result; a "
+                          "feasible iterate at the limit is kept (its status says so)")
     jit: bool | None = Field(None, description="compile the optimizer's kernels with the C compiler "
                              "(once per machine, cached); default: for surfaces of 500 vertices or more")
-    max_seconds: float | None = Field(None, gt=0, description="wall-time budget of the congruence "
-                                      "solve; at the limit the best iterate whose constraints hold "
-                                      "as measured is kept (its status says so)")
+    max_seconds: float | None = Field(None, gt=0, description="a safety net only: wall-time limit "
+                                      "of the congruence solve; at the limit the best iterate whose "
+                                      "constraints hold as measured is kept and report.json says the "
+                                      "result depends on the machine's load (congruence.time_limited)")
 
 
 class FinsSpec(_Spec):
@@ -338,6 +373,37 @@ class MaterialSpec(_Spec):
         return v
 
 
+class CuttingSpec(_Spec):
+    """How the sheets are cut: the DXF's CUT layer is the toolpath for this process
+    (defaults per process in :mod:`torsal.fabrication.cutting`)."""
+
+    process: CuttingProcess = CuttingProcess.LASER
+    kerf_mm: float | None = Field(None, ge=0, description="width of the cut; unset: the "
+                                  "process's (laser 0.2, waterjet 1.0, router the tool diameter)")
+    tool_diameter_mm: float | None = Field(None, gt=0, description="diameter of the beam, jet or "
+                                           "bit; unset: the process's (laser 0.2, waterjet 1.0, "
+                                           "router 3.175)")
+    relief: Relief | None = Field(None, description="relief at inner slot corners; unset: "
+                                  "dogbone for a router, none otherwise")
+
+
+class NestingSpec(_Spec):
+    """How the parts are nested on the sheets."""
+
+    # unset: the yield nester only where cutting sheets are written (it takes seconds to
+    # minutes); without DXF the fast layout's sheet count is an estimate, and says so
+    nester: Nester | None = None
+    time_limit_s: float | None = Field(None, ge=3, description="wall clock the sparrow nester "
+                                       f"may take; unset: {SECONDS_PER_SHEET:g} s per sheet the "
+                                       f"parts' area needs, at most {DEFAULT_TIME_LIMIT:g} s; the "
+                                       "fast nester's layout is kept where sparrow does not beat it")
+    seed: int = Field(DEFAULT_SEED, ge=0, description="the sparrow nester's seed")
+    rotation_step_deg: float | None = Field(None, gt=0, le=360, description="degrees; parts "
+                                            "turn in steps of this; unset: any rotation")
+    margin_mm: float = Field(10.0, ge=0, description="sheet left between the cuts and the "
+                             "sheet edge")
+
+
 class OutputsSpec(_Spec):
     step: bool = True
     rhino_3dm: bool = True
@@ -346,6 +412,59 @@ class OutputsSpec(_Spec):
     renders: bool = True
     light_samples: int = Field(1500, ge=2, description="sample points of the light measurement "
                                "(half of them for the view)")
+
+
+class ViewMeasure(str, Enum):
+    occupant = "occupant"
+    normal = "normal"
+
+
+_VIEW = ViewField()     # the view measure's defaults: one source (torsal.light.view)
+
+
+class ViewSpec(_Spec):
+    """How the view out is measured: the report's ``light.view_clear`` and a study's x axis
+    (both measures are always reported; see torsal.light.view for the definitions)."""
+
+    measure: ViewMeasure = Field(ViewMeasure.occupant, description="occupant: share of the "
+                                 "sight lines from occupant eye points behind A that pass the "
+                                 "fins (view out); normal: share of points on A with a free "
+                                 "line along the normal")
+    eye_height_m: float = Field(_VIEW.eye_height, gt=0, description="metres; eye height above "
+                                "the foot of a facade and of each storey (seated)")
+    storey_height_m: float = Field(_VIEW.storey_height, gt=0, description="metres; floor to "
+                                   "floor: a row of eye points per storey of a facade")
+    distances_m: list[float] = Field(list(_VIEW.distances), min_length=1, description="metres; "
+                                     "how far behind A the eye points are (below a canopy)")
+    grid_m: float = Field(_VIEW.grid, gt=0, description="metres; eye points every this far "
+                          "across A")
+    azimuth_deg: float = Field(_VIEW.azimuth, gt=0, le=90, description="degrees; half width "
+                               "of the field of sight lines about the view axis")
+    elevation_deg: tuple[float, float] = Field(_VIEW.elevation, description="degrees; "
+                                               "[low, high] of the field, from the horizon")
+    step_deg: float = Field(_VIEW.step, gt=0, le=30, description="degrees; cell size of the "
+                            "field of sight lines")
+
+    @field_validator("distances_m")
+    @classmethod
+    def _distances(cls, v):
+        if not all(d > 0 for d in v):
+            raise ValueError(f"view.distances_m = {v} must all be positive")
+        return v
+
+    @model_validator(mode="after")
+    def _elevation(self):
+        lo, hi = self.elevation_deg
+        if not -90 <= lo < hi <= 90:
+            raise ValueError(f"view.elevation_deg = {list(self.elevation_deg)} must be [low, high] "
+                             "with -90 <= low < high <= 90")
+        return self
+
+    def field(self, metres_per_unit: float) -> ViewField:
+        """The :class:`~torsal.light.view.ViewField` in model units."""
+        return ViewField(self.eye_height_m, self.storey_height_m, tuple(self.distances_m),
+                         self.grid_m, self.azimuth_deg, tuple(self.elevation_deg),
+                         self.step_deg).in_units(metres_per_unit)
 
 
 class SubstructureSpec(_Spec):
@@ -371,7 +490,11 @@ class DesignSpec(_Spec):
     constraints: ConstraintsSpec = Field(default_factory=ConstraintsSpec)
     fins: FinsSpec
     material: MaterialSpec = Field(default_factory=MaterialSpec)
+    cutting: CuttingSpec = Field(default_factory=CuttingSpec)
+    nesting: NestingSpec = Field(default_factory=NestingSpec)
     outputs: OutputsSpec = Field(default_factory=OutputsSpec)
+    view: ViewSpec = Field(default_factory=ViewSpec, description="how the view out is measured "
+                           "(report light.view_clear, a study's x axis)")
     substructure: SubstructureSpec | None = None
 
     @model_validator(mode="after")

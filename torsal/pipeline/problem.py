@@ -12,11 +12,11 @@ from .design_file import DesignSpec, WeightsSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import average_edge_length, edge_face_adjacency
 from ..geometry.optimize import DEFAULT_WEIGHTS, CongruenceProblem
-from ..light.shading import mirror_normals
+from .reflection import ReflectPlanes, reflect_planes
 from .regions import dominant_light_direction, select_faces, select_vertices
 
 __all__ = ["JIT_MIN_VERTICES", "FILE_WEIGHT_NAMES", "term_weights", "stroke_faces",
-           "congruence_problem"]
+           "torsal_plane_params", "add_reflect_terms", "congruence_problem"]
 
 JIT_MIN_VERTICES = 500  # default for constraints.jit (tests run smaller designs interpreted)
 
@@ -79,6 +79,83 @@ def stroke_faces(spec: DesignSpec, v: np.ndarray, f: np.ndarray) -> tuple[np.nda
     return fi, di[first]
 
 
+def torsal_plane_params(congruence: Congruence, faces: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Per-face parameters (m, 7) of :func:`_torsal_plane_energy`: the plane normal ``n``,
+    ``g_i = <grad lambda_i, t>`` (the derivative along ``t`` of the corners' barycentric
+    coordinates, ``t = n x N`` the line where the plane meets the face) and ``1 / s0`` with
+    ``s0 = |d_t e|`` (its part across ``e``) on the starting congruence.
+
+    A plane through the face's line ``L_c`` (``<n, e_c> = 0``) is a torsal plane iff the
+    lines along ``t`` stay in it to first order: ``<n, d_t e> = 0`` (eq. (1) in the direction
+    ``t``; ``f_dir``'s ``[a_p2 - a_p1, e_p1, e_p2]`` is the same condition times ``|p2 -
+    p1|^2 |t x e_c|``). Divided by ``s0``, the residual reads as the angle (radians) by which
+    the torsal plane misses ``n``, on a coarse mesh as on a fine one; ``f_dir / delta``
+    shrinks with the mesh's ``delta`` and the lines' curvature, so a paper-size mesh would
+    meet the planes only to several degrees.
+
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> c = Congruence.from_normals(facade_patch(nu=5, nv=5))
+    >>> torsal_plane_params(c, np.arange(4), np.tile([0.0, 0.1, 1.0], (4, 1))).shape
+    (4, 7)
+    """
+    v, f = congruence.vertices, congruence.faces[faces]
+    a = v[f]
+    fn = np.cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
+    area2 = np.linalg.norm(fn, axis=1)
+    nf = fn / area2[:, None]
+    t = np.cross(normals, nf)
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    grad = np.stack([np.cross(nf, a[:, (i + 2) % 3] - a[:, (i + 1) % 3]) / area2[:, None]
+                     for i in range(3)], axis=1)                       # (m, 3 corners, 3)
+    g = np.einsum("mij,mj->mi", grad, t)
+    e = congruence.directions[f]
+    ec = e.mean(axis=1)
+    ec /= np.linalg.norm(ec, axis=1, keepdims=True)
+    dte = np.einsum("mi,mij->mj", g, e)
+    s0 = np.linalg.norm(dte - (dte * ec).sum(1, keepdims=True) * ec, axis=1)
+    # a face whose lines hardly turn (near a bundle; everywhere on a flat surface's normals)
+    # would weigh without bound: at least a tenth of the median, or of a turn of one radian
+    # over the surface's extent
+    extent = float(np.ptp(v, axis=0).max())
+    floor = max(0.1 * float(np.median(s0)) if len(s0) else 0.0, 0.1 / max(extent, 1e-300))
+    return np.c_[normals, g, 1.0 / np.maximum(s0, floor)]
+
+
+def _torsal_plane_energy(e, a, q):
+    """``<n, e_c>^2 + (<n, d_t e> / s0)^2`` (``q = [n, g, 1/s0]``, see
+    :func:`torsal_plane_params`): the face's torsal plane is the plane of normal ``n``.
+    Linear residuals in ``e``: both are sines of angles, so the weight means the same on any
+    mesh."""
+    n, g = q[0:3], q[3:6]
+    ec = (e[0, :] + e[1, :] + e[2, :]) / 3.0
+    dte = g[0] * e[0, :] + g[1] * e[1, :] + g[2] * e[2, :]
+    return (ec @ n) ** 2 + ((dte @ n) * q[6]) ** 2
+
+
+def add_reflect_terms(p: CongruenceProblem, planes: ReflectPlanes, weight: float) -> CongruenceProblem:
+    """The reflection goal's two energies (paper 4.3, Fig. 13) over ``planes.faces``:
+    ``reflect``, one family of torsal planes are the mirror planes, and ``reflect_incidence``,
+    the other family's are the planes of incidence (edge-on to the light arriving and
+    leaving), both with ``weight`` (``weights.plane``, Fig. 12's w_plane).
+
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> c = Congruence.from_normals(facade_patch(nu=5, nv=5))
+    >>> planes = ReflectPlanes(np.arange(4), np.tile([0.0, 0.1, 1.0], (4, 1)) / np.sqrt(1.01),
+    ...                        np.tile([1.0, 0, 0], (4, 1)), np.array([0.0, 0.7, -0.7]), np.ones(4))
+    >>> sorted(add_reflect_terms(CongruenceProblem(c), planes, 5000.0).terms)
+    ['reflect', 'reflect_incidence']
+    """
+    c = p.congruence
+    p.add_term("reflect", weight, _torsal_plane_energy, over="faces", elements=planes.faces,
+               params=torsal_plane_params(c, planes.faces, planes.mirror))
+    ok = np.isfinite(planes.incidence).all(axis=1)
+    if ok.any():
+        p.add_term("reflect_incidence", weight, _torsal_plane_energy, over="faces",
+                   elements=planes.faces[ok],
+                   params=torsal_plane_params(c, planes.faces[ok], planes.incidence[ok]))
+    return p
+
+
 def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.ndarray,
                        w_sun: np.ndarray) -> CongruenceProblem:
     """The eq. (9) problem of a design: mesh A (v (n, 3), f (m, 3)), sun directions
@@ -126,14 +203,7 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
         p.torsal_plane(fi, normals=d / np.linalg.norm(d), weight=W["torsal_plane"],
                        name=f"torsal_plane_{k}")
     if g.reflect is not None:
-        fi = select_faces(g.reflect.region, v, f)
-        if fi.size == 0:
-            raise ValueError("goals.reflect.region contains no face of the surface; check its "
-                             "ranges against the mesh")
-        bc = v[f[fi]].mean(axis=1)
-        out = np.asarray(g.reflect.target, float) - bc
-        n = mirror_normals(np.tile(d_main, (len(fi), 1)), out / np.linalg.norm(out, axis=1, keepdims=True))
-        p.torsal_plane(fi, normals=n, weight=W["torsal_plane"], name="reflect")
+        add_reflect_terms(p, reflect_planes(spec, v, f, sun, w_sun), W["torsal_plane"])
     if "closeness" in given and W["closeness"]:
         p.closeness(weight=W["closeness"])
     if C.hyperbolic:

@@ -11,7 +11,7 @@ from ..geometry.mesh import area_vector
 from .report_3d import design_view_html
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
-           "design_report_html", "write_design_report", "plot_assembly"]
+           "design_report_html", "write_design_report", "plot_assembly", "plot_ceiling_light"]
 
 
 def principal_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -303,6 +303,118 @@ def plot_assembly(solids, check, path, *, title: str | None = None) -> Path:
     return Path(path).parent / _save(fig, Path(path))
 
 
+def _ceiling_grid(picture: dict, bins: int = 96):
+    """Bin edges over the ceiling window: twice the target's size around its centre, square
+    cells, about ``bins`` along the longer side."""
+    c, size = np.asarray(picture["target"]["centre"], float), np.asarray(picture["target"]["size"], float)
+    half = size.copy()
+    cell = 2 * half.max() / bins
+    nx, ny = (max(8, int(round(2 * h / cell))) for h in half)
+    return (np.linspace(c[0] - half[0], c[0] + half[0], nx + 1),
+            np.linspace(c[1] - half[1], c[1] + half[1], ny + 1))
+
+
+def plot_ceiling_light(picture: dict, path: str | Path, *, title: str = "") -> Path:
+    """The reflected sunlight on the ceiling plane (the paper's Fig. 13 shows it): where the
+    light the fins reflect ends, per sun direction and averaged over the design hours, as
+    irradiance in units of the direct normal irradiance (1 = as bright as a surface facing the
+    sun), the target outlined, the surface's plan in grey.
+
+    ``picture`` as returned by :func:`torsal.pipeline.reflection.measure_reflection`.
+    """
+    from matplotlib.patches import Rectangle
+
+    ex, ey = _ceiling_grid(picture)
+    cell = (ex[1] - ex[0]) * (ey[1] - ey[0])
+    dirs = picture["directions"]
+    maps = [np.histogram2d(d["xy"][:, 0], d["xy"][:, 1], bins=(ex, ey))[0] * d["area"] / cell
+            if len(d["xy"]) else np.zeros((len(ex) - 1, len(ey) - 1)) for d in dirs]
+    w = np.array([d["weight"] for d in dirs], float)
+    total = sum(wi * m for wi, m in zip(w, maps)) / w.sum() if len(maps) and w.sum() > 0 else \
+        np.zeros((len(ex) - 1, len(ey) - 1))
+    shown = list(range(len(dirs)))
+    if len(shown) > 3:  # the three directions that bring the most light
+        shown = sorted(np.argsort([-wi * m.sum() for wi, m in zip(w, maps)])[:3].tolist())
+    panels = [(maps[j], dirs[j]) for j in shown] + [(total, None)]
+    vmax = max(float(np.percentile(m[m > 0], 99.5)) if (m > 0).any() else 0.0 for m, _ in panels)
+    vmax = vmax if vmax > 0 else 1.0
+    c, size = picture["target"]["centre"], picture["target"]["size"]
+    plan = np.asarray(picture["plan"], float)
+    inwin = ((plan[:, 0] >= ex[0]) & (plan[:, 0] <= ex[-1]) & (plan[:, 1] >= ey[0])
+             & (plan[:, 1] <= ey[-1]))
+    cols = min(len(panels), 2)
+    rows = (len(panels) + cols - 1) // cols
+    aspect = (ey[-1] - ey[0]) / (ex[-1] - ex[0])
+    fig = _figure((6.2 * cols, 6.2 * rows * aspect + 1.0))
+    for k, (m, d) in enumerate(panels):
+        ax = fig.add_subplot(rows, cols, k + 1)
+        ax.set_facecolor("black")
+        im = ax.imshow(m.T, origin="lower", extent=(ex[0], ex[-1], ey[0], ey[-1]), cmap="inferno",
+                       vmin=0.0, vmax=vmax, interpolation="nearest")
+        ax.add_patch(Rectangle((c[0] - size[0] / 2, c[1] - size[1] / 2), size[0], size[1],
+                               fill=False, edgecolor="cyan", linewidth=1.2, linestyle="--"))
+        if inwin.any():
+            ax.plot(plan[inwin, 0], plan[inwin, 1], ".", color="0.6", ms=1)
+        if d is None:
+            share = picture.get("on_target")
+            head = "average over the design hours"
+        else:
+            v = np.asarray(d["vector"], float)
+            share = d.get("on_target")
+            head = (f"sun azimuth {np.degrees(np.arctan2(v[0], v[1])) % 360:.0f}\N{DEGREE SIGN}, "
+                    f"elevation {np.degrees(np.arcsin(np.clip(v[2], -1, 1))):.0f}\N{DEGREE SIGN}")
+        tail = "" if share is None else f": {100 * share:.0f}% of the struck light on target"
+        ax.set_title(head + tail, fontsize=9)
+        ax.set_xlabel("x (model units)")
+        ax.set_ylabel("y (model units)")
+        cb = fig.colorbar(im, ax=ax, shrink=0.85)
+        cb.set_label("irradiance / DNI", fontsize=8)
+    fig.suptitle(title or f"reflected sunlight on the ceiling plane z = {c[2]:g} (target dashed, "
+                 "surface plan grey)", fontsize=10)
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def _reflection_html(r: dict) -> str:
+    """Section 3b: where the fins send the sunlight (light.reflection), per sun direction."""
+    def pct(x):
+        return "-" if x is None else f"{100 * x:.1f}%"
+
+    rows = [(f"{d['azimuth_deg']:.0f}&deg; / {d['elevation_deg']:.0f}&deg;", f"{d['weight']:.3g}",
+             f"{d['struck_m2']:.2f}", pct(d["on_target"]), pct(d["elsewhere"]), pct(d["trapped"]),
+             f"{pct(d['reflecting_fins_share'])} / {pct(d['reflecting_fins_on_target'])}",
+             pct(d["other_family_only"]), pct(d["bound_ideal_mirrors"]))
+            for d in r["per_sun_direction"]]
+    rf = r["reflecting_fins"]
+    rows.append(("<b>design hours</b>", "", f"{r['struck_m2']:.2f}", f"<b>{pct(r['on_target'])}</b>",
+                 pct(r["elsewhere"]), pct(r["trapped"]),
+                 f"{pct(rf['share_of_struck'])} / {pct(rf['on_target'])}",
+                 pct(r["other_family_only"]), pct(r["bound"]["ideal_mirrors"])))
+    goal = r["goal"]
+    verdict = (f'<span class="{"ok" if goal["met"] else "bad"}">'
+               f'{"met" if goal["met"] else "missed"}</span>')
+    t = r["target"]
+    err = r["fin_plane_error_deg"].get(str(r["reflecting_family"]))
+    planes = (f" The reflecting family is family {r['reflecting_family']}: its fins lie within "
+              f"{err['median']:.1f}&deg; (median; 90% within {err['p90']:.1f}&deg;) of the best "
+              "mirror planes at their centres." if err else "")
+    limits = (f" What limits the share: {pct(r['other_family_only'])} of the struck light meets "
+              "only the other family's fins (at the hours the sun stands beside their planes) and "
+              "cannot be steered; of the light that meets a mirror fin "
+              f"{pct(rf['on_target'])} lands. Ideal planar mirrors at the struck points would land "
+              f"{pct(r['bound']['ideal_mirrors'])}: the rest is the spread of the sunlight over the "
+              "design hours, which no single plane gathers into the target.")
+    return ("<h2>3b. Reflection onto the ceiling (paper 4.3, Fig. 13)</h2>"
+            f"<p>Target: {t['size'][0]:g} &times; {t['size'][1]:g} on the ceiling plane "
+            f"z = {t['centre'][2]:g}, centred at ({t['centre'][0]:g}, {t['centre'][1]:g}), lit from "
+            f"below. Goal: at least {100 * goal['on_target_at_least']:.0f}% of the struck light "
+            f"on the target: {verdict}.{planes}{limits}</p>"
+            + _table(rows, ("sun azimuth / elevation", "weight", "struck (m&sup2;)", "on target",
+                            "elsewhere", "trapped", "meets the mirror family / of it on target",
+                            "meets only the other family", "bound: ideal mirrors"))
+            + f"<p><small>{html.escape(r['definition'])} {r['rays_per_direction']} rays per sun "
+              "direction.</small></p>")
+
+
 _HTML = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title>
 <style>
@@ -439,6 +551,72 @@ def _assembly_html(a: dict, max_steps: int = 300) -> str:
     return "\n".join(out)
 
 
+def _area(a) -> str:
+    """A fin area cell (m^2), a dash where a report (of an older run) has none."""
+    return f"{a:.1f}" if a is not None else "&ndash;"
+
+
+def _pct(x) -> str:
+    return '<td class="num">-</td>' if x is None else f'<td class="num">{100 * x:.1f}%</td>'
+
+
+def _device_note(d: dict) -> str:
+    o = d.get("orientation")
+    if o:
+        return (f"planes optimized for the sun: rotation {o['rotation_deg']:.1f}&deg;, tilt "
+                f"{o['tilt_deg']:.1f}&deg; ({o['evaluations']} orientations tried)")
+    return ""
+
+
+def _light_html(li: dict, view: dict | None = None) -> str:
+    """Section 3's comparison: the fins as built and every standard device of the same depth
+    and spacing, measured with the same rays; devices that cannot be made on the surface are
+    named with the reason, never shown as 0 %."""
+    built = (f"torsal fins as built ({li['fins_measured']} fins)" if "fins_measured" in li
+             else "torsal fins")
+    # the design lets the sun through somewhere, or blocks another sun in some regions
+    asked = "let_through" in li or "sun_regions" in li
+    head = ("<tr><th>design</th><th>direct sun blocked</th>"
+            + ("<th>sun as asked (goals.let_through, goals.sun_regions)</th>" if asked else "")
+            + "<th>view out (occupants)</th><th>view clear along normal</th>"
+            "<th>over 60&deg; cone</th><th>fin area (m&sup2;)</th><th>note</th></tr>")
+
+    def row(name, m, note=""):
+        return (f"<tr><td>{html.escape(name)}</td>{_pct(m['blocked_share'])}"
+                + (_pct(m.get("goal_share")) if asked else "")
+                + f"{_pct(m.get('view_out'))}{_pct(m['transparency'])}{_pct(m['transparency_cone'])}"
+                f'<td class="num">{_area(m.get("fin_area_m2"))}</td><td>{note}</td></tr>')
+
+    rows = [row(built, li)]
+    for name, d in li.get("devices", {}).items():
+        if d["applicable"]:
+            rows.append(row(f"{name}, same depth and spacing", d, _device_note(d)))
+        else:
+            rows.append(f"<tr><td>{html.escape(name)}</td><td colspan=\"{6 + asked}\">not applicable: "
+                        f"{html.escape(d['reason'])}</td></tr>")
+    detail = li.get("view_out_detail") or {}
+    levels = detail.get("en17037") or {}
+    measure = ("view out from occupant eye points" if li.get("view_measure", "occupant") ==
+               "occupant" else "view along the normal")
+    where = ""
+    if view:
+        where = (f" ({', '.join(f'{d:g}' for d in view['distances_m'])} m behind the surface, "
+                 f"every {view['grid_m']:g} m across it, {view['eye_height_m']:g} m above each "
+                 f"storey's floor on a facade; sight lines &plusmn;{view['azimuth_deg']:g}&deg; "
+                 f"about the view axis, {view['elevation_deg'][0]:g} to "
+                 f"{view['elevation_deg'][1]:g}&deg; elevation, {view['step_deg']:g}&deg; cells)")
+    text = (f"<p>The design's view measure (<code>view.measure</code>) is the {measure}. View out: "
+            f"the share of sight lines from {detail.get('eye_points', 0)} occupant eye points"
+            f"{where} that pass through the surface and past the fins (after EN 17037's view "
+            "out and LEED v4's quality views; definitions and sources in "
+            "<code>torsal.light.view</code>)."
+            + (f" Eye points reaching EN 17037's clear horizontal sight angle: "
+               f"{100 * levels['minimum']:.0f}% at 14&deg;, {100 * levels['medium']:.0f}% at "
+               f"28&deg;, {100 * levels['high']:.0f}% at 54&deg;." if levels.get("high")
+               is not None else "") + "</p>")
+    return f"<table>{head}{''.join(rows)}</table>" + text
+
+
 def design_report_html(report: dict, images: dict, title: str, *, view3d: str | None = None) -> str:
     """The HTML report: tables of every figure in ``report`` and the PNGs next to it, and the
     interactive 3D view ``view3d`` (an HTML fragment, see :mod:`torsal.pipeline.report_3d`) if given."""
@@ -478,21 +656,18 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                     "entry to hide or show it. Sun rays come in from the sky towards the surface; "
                     "the heavier directions are drawn thicker.</p>" + view3d)
     if li:
-        b = li["baseline_louvers"]
-        built = (f"fins of this design as built ({li['fins_measured']} fins)"
-                 if "fins_measured" in li else "fins of this design")
-        rows = [(built, li["blocked_share"], li["transparency"], li["transparency_cone"]),
-                ("horizontal louvers, same depth and spacing", b["blocked_share"], b["transparency"],
-                 b["transparency_cone"])]
-        secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>"
-                    + _table(rows, ("design", "direct sun blocked", "view clear along normal",
-                                    "view clear over 60&deg; cone")))
+        secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>" + _light_html(li, report.get("design", {}).get("view")))
         if "blocked_sun" in images:
             secs.append(f'<img src="{images["blocked_sun"]}" alt="blocked sun map">')
+    if li.get("reflection"):
+        secs.append(_reflection_html(li["reflection"]))
+        if "ceiling_light" in images:
+            secs.append(f'<img src="{images["ceiling_light"]}" alt="reflected light on the ceiling">')
     if fa:
         dxf = fa.get("dxf") or []
         rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
                 ("sheet utilization", fa["utilization"]),
+                *_nesting_rows(fa.get("nesting"), fa.get("cutting")),
                 ("fin panels left out", _left_out_cell(fa))] + _fastener_rows(fa) + [
                 ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
                 ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
@@ -503,6 +678,27 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
             secs.append(_assembly_html(fa["assembly"]))
     return _HTML.format(title=html.escape(title), units=html.escape(str(report.get("units", ""))),
                         sections="\n".join(secs))
+
+
+def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
+    """Report rows of the nesting (sheets against the area bound, utilization read back from
+    the DXF, time) and the cutting process."""
+    rows = []
+    if nest:
+        dxf = nest.get("utilization_dxf")
+        rows += [("sheets / area bound (parts' area / sheet area)",
+                  f"{nest['sheets']} / {nest['area_bound_sheets']:.1f}"),
+                 ("utilization, DXF read back", "-" if dxf is None else f"{100 * dxf:.1f}%"),
+                 ("nesting", f"{nest['nester']}, {nest['seconds']:.0f} s"
+                  + (f" of {nest['time_limit_s']:g} s, seed {nest['seed']}"
+                     if nest.get("time_limit_s") else "")
+                  + (f", {nest['fallback_parts']} parts by the fast nester"
+                     if nest.get("fallback_parts") else ""))]
+    if cut:
+        rows.append(("cutting (DXF layer CUT)",
+                     f"{cut['process']}, kerf {cut['kerf_mm']:g} mm, tool {cut['tool_diameter_mm']:g} mm, "
+                     f"reliefs: {cut['relief']} ({cut['reliefs']})"))
+    return rows
 
 
 def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,
@@ -522,6 +718,9 @@ def write_design_report(out: Path, spec, report: dict, congruence, structure, li
     }
     if layout is not None and layout.n_sheets:
         images["sheets"] = plot_sheets(layout, out / "sheets.png").name
+    if light_map.get("reflection"):
+        images["ceiling_light"] = plot_ceiling_light(light_map["reflection"],
+                                                     out / "ceiling_light.png").name
     with atomic_path(out / "report.html") as tmp:
         tmp.write_text(design_report_html(report, images, spec.name,
                                           view3d=design_view_html(surface, structure, sun,

@@ -16,6 +16,7 @@ from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
 from .fins import fabrication_summary, fin_system
+from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
 from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
@@ -23,7 +24,7 @@ from .stage import Pipeline, Stage, StageInputs
 __all__ = ["surface_mesh", "sun_directions", "run_surface", "run_estimate", "run_sun", "run_orient",
            "run_congruence", "run_remesh", "run_support", "measure_fins", "run_light", "run_substructure",
            "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES", "fin_system",
-           "run_assembly"]
+           "run_assembly", "run_devices"]
 
 # constraints met to 1e-4 are met for a building (unit length to 0.01%, c_hyp to rounding of
 # the design's scale); IPOPT's "acceptable level" often lands at ~1e-6
@@ -137,7 +138,8 @@ def run_orient(inp: StageInputs) -> dict:
 
 # ------------------------------------------------------------------ congruence (4.1)
 def run_congruence(inp: StageInputs) -> dict:
-    """Optimize the congruence (eq. 9, IPOPT). Returns ``directions`` (n, 3), the
+    """Optimize the congruence (eq. 9; the augmented Lagrangian or IPOPT, ``constraints.solver``).
+    Returns ``directions`` (n, 3), ``optimum`` (the warm start of a re-solve), the
     ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
     ``substructure_directions`` (n, 3)."""
     from .problem import congruence_problem
@@ -146,7 +148,8 @@ def run_congruence(inp: StageInputs) -> dict:
     v, f = inp["orient"]["vertices"], inp["orient"]["faces"]
     sun = inp["sun"]
     p = congruence_problem(spec, v, f, sun["vectors"], sun["weights"])
-    r = p.solve(max_iter=spec.constraints.max_iter, max_seconds=spec.constraints.max_seconds,
+    C = spec.constraints
+    r = p.solve(solver=C.solver.value, certify=C.certify, max_iter=C.max_iter, max_seconds=C.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
                 constraint_tol=CONSTRAINT_TOL)
     c = r.congruence
@@ -165,10 +168,20 @@ def run_congruence(inp: StageInputs) -> dict:
     return {
         **extra,
         "directions": np.asarray(c.directions),
+        # the optimum with its multipliers and penalties: a warm re-solve after a small change
+        # (CongruenceProblem.warm_start_from), kept in the stage cache's entry
+        "optimum": p.optimum,
         "report": {
             "vertices": int(len(v)), "faces": int(len(f)),
             "build_s": float(r.build_seconds), "solve_s": float(r.solve_seconds),
             "status": str(r.status), "iterations": int(r.iterations),
+            # which solver produced the design, the seconds of each part, and the counts
+            # (Newton steps, factorizations) that decide the result instead of time
+            "solver": str(r.solver),
+            "timings_s": {k: float(x) for k, x in r.timings.items()},
+            "counts": {k: (x if isinstance(x, str) else int(x)) for k, x in r.counts.items()},
+            # True: the safety net constraints.max_seconds cut the solve (load-dependent)
+            "time_limited": bool(r.time_limited),
             "energies": {k: float(x) for k, x in r.energies_after.items()},
             "energies_before": {k: float(x) for k, x in r.energies_before.items()},
             "max_violation": {k: float(x) for k, x in r.max_violation.items()},
@@ -265,42 +278,6 @@ def run_support(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ light
-def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float) -> tuple[dict, object]:
-    """Sun blocked and view clear of a fin set over mesh A: the one measurement every fin
-    set of a design or a study gets (the same ``samples`` seeded points on A, the same sun
-    directions and weights, the same view rays).
-
-    Parameters
-    ----------
-    fins : trimesh.Trimesh
-        Thin-surface fins.
-    surface : (vertices (n, 3), faces (m, 3))
-        Mesh A, normals towards the sun.
-    sun : dict
-        The sun stage's result: ``vectors`` (k, 3), ``weights`` (k,).
-    samples : int
-        Points for the sun rays; half as many for the view rays.
-    metres_per_unit : float
-
-    Returns
-    -------
-    report : dict
-        ``blocked_share`` (weighted share of direct sun rays blocked), ``transparency``
-        (share of points with a free view along the normal), ``transparency_cone`` (free
-        share over a 60 degree cone), ``fin_area_m2`` (one side).
-    blocked : ShadingResult
-        Per point, for the figure.
-    """
-    from ..light import direct_sun_blocked, transparency
-
-    blocked = direct_sun_blocked(fins, surface, sun["vectors"], samples=samples,
-                                 weights=sun["weights"])
-    clear = transparency(fins, surface, samples=samples // 2)
-    return {"blocked_share": float(blocked.share), "transparency": float(clear.along_normal),
-            "transparency_cone": float(clear.cone),
-            "fin_area_m2": float(fins.area) * metres_per_unit ** 2}, blocked
-
-
 def built_structure(structure, left_out):
     """The support structure without the fins (structure edges) ``left_out`` by the
     fabrication (panels too narrow or lying along the plate they end against): the fins that
@@ -316,36 +293,44 @@ def built_structure(structure, left_out):
 
 def run_light(inp: StageInputs) -> dict:
     """Sun blocked over the sun hours and view clear, for the fins as built (without the
-    panels the fabrication left out) and for horizontal louvers of the same depth and
-    spacing (:func:`measure_fins`). Returns the ``report`` section and ``map`` (``points``
+    panels the fabrication left out; every fin when the pipeline has no fabrication) and, as
+    ``devices``, for the standard devices of the same depth and spacing (the devices stage;
+    :func:`measure_fins` for both). Returns the ``report`` section and ``map`` (``points``
     (p, 3), ``per_point`` (p,) blocked share) for the figure."""
-    from ..light import horizontal_louvers
-
     spec = inp.spec
     o, sun = inp["orient"], inp["sun"]
     v, f = o["vertices"], o["faces"]
-    left_out = inp["fabrication"].get("left_out_edges", [])
+    left_out = inp["fabrication"].get("left_out_edges", []) if "fabrication" in inp else []
     # the fins as built: panels the fabrication left out neither shade nor reflect
     fins = built_structure(inp["support"]["structure"], left_out).fin_mesh()
     n, m_per_unit = spec.outputs.light_samples, spec.metres_per_unit
-    report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit)
-    louvers = horizontal_louvers(v, f, spec.fins.depth, spec.fins.spacing)
-    lr, _ = measure_fins(louvers, (v, f), sun, n, m_per_unit)
+    report, blocked = measure_fins(fins, (v, f), sun, n, m_per_unit,
+                                   view=spec.view.field(m_per_unit),
+                                   view_measure=spec.view.measure.value,
+                                   goals=sun_goals(spec, v, f))
+    devices = inp["devices"]["measured"]
+    lr = devices["horizontal louvers"]
     extra = {}
     if spec.goals.reflect is not None:
-        from ..light import reflected_hits
+        # where the fins as built send the sunlight (Fig. 13); map["reflection"]: the picture
+        from .reflection import measure_reflection
 
-        extra["reflected_to_target"] = float(reflected_hits(
-            fins, sun["vectors"], target_patch(spec.goals.reflect.target, v),
-            weights=sun["weights"], resolution=128).share)
+        extra["reflection"], picture = measure_reflection(
+            spec, built_structure(inp["support"]["structure"], left_out), sun, v,
+            metres_per_unit=m_per_unit)
+        extra["reflected_to_target"] = extra["reflection"]["on_target"]
     return {"report": {
         **extra,
         "sun_directions": int(len(sun["vectors"])),
         "fins_measured": int(len(inp["support"]["structure"].edges) - len(left_out)),
         **report,
+        # kept for readers of earlier reports; on a canopy: not applicable, with the reason
         "baseline_louvers": {k: lr[k] for k in ("blocked_share", "transparency",
-                                                 "transparency_cone")}},
-        "map": {"points": blocked.points, "per_point": blocked.per_point}}
+                                                 "transparency_cone")} if lr["applicable"]
+        else {"applicable": False, "reason": lr["reason"]},
+        "devices": devices},
+        "map": {"points": blocked.points, "per_point": blocked.per_point,
+                **({"reflection": picture} if extra else {})}}
 
 
 # ------------------------------------------------------------------ substructure (Fig. 11)
@@ -392,7 +377,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
     try:
-        layout = fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm)
+        layout = _nest(inp, fs)
         if spec.outputs.dxf:
             paths = layout.export_dxf(out / "sheets" / "fins.dxf")
             written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
@@ -417,6 +402,8 @@ def run_fabrication(inp: StageInputs) -> dict:
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels), **fabrication_summary(fs),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
+        "nesting": _nesting_report(layout, out / "sheets" if spec.outputs.dxf else None),
+        "cutting": _cutting_report(layout),
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
         "files": written, "layout": layout,
@@ -424,6 +411,61 @@ def run_fabrication(inp: StageInputs) -> dict:
         "left_out_edges": sorted({d["edge"] for d in left_out}),
         # for the assembly stage: which parts each joint joins, and along which axis
         "joints": joints_of(fs)}
+
+
+def _nest(inp: StageInputs, fs):
+    """The design's sheets: its [cutting] process and [nesting] options."""
+    from ..fabrication.cutting import Cutting
+    from ..fabrication.nesting import Nester
+
+    spec, m = inp.spec, inp.spec.material
+    c, n = spec.cutting, spec.nesting
+    cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
+                                  relief=c.relief, unit=fs.unit)
+    nester = n.nester or (Nester.SPARROW if spec.outputs.dxf else Nester.BOTTOM_LEFT)
+    return fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                     nester=nester, time_limit=n.time_limit_s, seed=n.seed,
+                     rotation_step=n.rotation_step_deg,
+                     progress=lambda done, left: inp.progress(
+                         "progress", {"phase": "nesting sheets", "done": done,
+                                      "total": done + left}))
+
+
+def _nesting_report(layout, sheets_dir) -> dict:
+    """Sheets used, the area bound, utilization (of the layout, and of the DXF files read back
+    with ezdxf when written) and the nester's time."""
+    from ..fabrication.layout import read_dxf_parts
+
+    st = layout.stats
+    sheet_area = layout.sheet[0] * layout.sheet[1]
+    rep = {"nester": st.method, "sheets": int(layout.n_sheets),
+           "area_bound_sheets": float(layout.area_bound),
+           "utilization": float(layout.utilization), "utilization_dxf": None,
+           "seconds": float(st.seconds), "cpu_seconds": float(st.cpu_seconds),
+           "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
+           "fallback_parts": int(st.fallback_parts), "rotation": st.rotation}
+    if sheets_dir is not None and layout.n_sheets:
+        area = 0.0
+        for s in range(layout.n_sheets):
+            polys, _, _ = read_dxf_parts(sheets_dir / f"fins_sheet{s + 1:02d}.dxf")
+            area += sum(p.area for p in polys)
+        rep["utilization_dxf"] = float(area / (layout.n_sheets * sheet_area))
+    return rep
+
+
+def _cutting_report(layout) -> dict | None:
+    """The cutting process the DXF's CUT layer is compensated for, and its reliefs and holes."""
+    c = layout.cutting
+    if c is None:
+        return None
+    from ..core.units import UNIT_TO_MM
+
+    f = UNIT_TO_MM[c.unit]
+    holes = [d for p in layout.placements for _, d in p.holes]
+    return {"process": c.process.value, "kerf_mm": c.kerf * f, "tool_diameter_mm": c.tool_diameter * f,
+            "relief": c.relief.value, "reliefs": int(sum(len(p.reliefs) for p in layout.placements)),
+            "holes_cut": int(sum(c.hole_path(d)[0] == "cut" for d in holes)),
+            "holes_drilled": int(sum(c.hole_path(d)[0] == "drill" for d in holes))}
 
 
 # ------------------------------------------------------------------ report
@@ -451,7 +493,8 @@ def run_report(inp: StageInputs) -> dict:
         o = inp["orient"]
         files.update(write_design_report(out, spec, report, congruence, structure,
                                          inp["light"]["map"], (o["vertices"], o["faces"]),
-                                         inp["fabrication"].get("layout"),
+                                         inp["fabrication"].get("layout")
+                                         if "fabrication" in inp else None,
                                          sun=(inp["sun"]["vectors"], inp["sun"]["weights"])))
     return {"report": design, "files": files}
 
@@ -497,7 +540,7 @@ def _fins_key(spec):
 
 
 def _light_key(spec):
-    return (spec.outputs.light_samples,)
+    return (spec.outputs.light_samples, spec.view.model_dump(mode="json"))
 
 
 def _substructure_key(spec):
@@ -509,7 +552,8 @@ def _has_substructure(spec):
 
 
 def _fabrication_key(spec):
-    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units)
+    return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units,
+            spec.cutting.model_dump(mode="json"), spec.nesting.model_dump(mode="json"))
 
 
 def _assembly_key(spec):
@@ -528,8 +572,11 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
+    # the standard devices of the fins' depth and spacing (measured into light.devices)
+    Stage("devices", run_devices, inputs=("orient", "sun"), key=devices_key),
     # after the fabrication: it measures the fins that are built
-    Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication"), key=_light_key),
+    Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication", "devices"),
+          key=_light_key),
     Stage("assembly", run_assembly, inputs=("support", "fabrication"),
           key=_assembly_key, section="fabrication.assembly"),
     Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",

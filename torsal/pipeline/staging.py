@@ -1,15 +1,18 @@
-"""Result files of a run (``torsal design``, ``torsal analyze``) appear together or not at all.
+"""Result files of a run (``torsal design``, ``torsal analyze``) are swapped in together, only
+when the run succeeds; a failed run leaves the output folder as it found it.
 
-A run writes into a staging folder inside the output folder (``OUT/.torsal-staging``) and
-moves the files into ``OUT`` only when every stage succeeded (earlier results the run did not
-produce again are dropped, :meth:`Staging.keep_only`); ``OUT/.torsal-results.json`` then
-lists them, per kind of run. The previous run's results (the files that list names) are moved into the
-staging folder at the start, so stages whose cached result refers to them still find them.
+A run writes into a staging folder inside the output folder (``OUT/.torsal-staging``). At the
+start, the previous run's results (of the same kind, as ``OUT/.torsal-results.json`` lists
+them) are *copied* into it, so stages whose cached result refers to a file still find it; the
+originals in ``OUT`` are not touched. When every stage succeeded, :meth:`Staging._publish`
+moves the staged files over the old ones, removes earlier results the run did not produce
+again (:meth:`Staging.keep_only`) and updates the results list.
 
-If the run fails, the staging folder is removed with everything in it, the earlier run's
-results included: afterwards ``OUT`` holds no result file that could be mistaken for the
-failed run's. The stage cache (``OUT/.torsal-cache``) stays, so the next run resumes.
-:meth:`Staging.failure_note` says what was left.
+If the run fails (or is killed), only the staging folder is removed: every earlier result in
+``OUT`` - and the results list that says which run wrote it - is as it was. The stage cache
+(``OUT/.torsal-cache``) keeps what the failed run computed, so the next run resumes.
+:meth:`Staging.failure_note` says so, naming the earlier results and when they were made, so
+they are not taken for the failed run's.
 
 Examples
 --------
@@ -19,6 +22,14 @@ Examples
 ...     _ = (st.folder / "report.json").write_text("{}")
 >>> sorted(p.name for p in out.iterdir())
 ['.torsal-results.json', 'report.json']
+>>> try:
+...     with Staging(out, kind="design") as st:
+...         _ = (st.folder / "report.json").write_text("half")
+...         raise ValueError("stage failed")
+... except ValueError:
+...     pass
+>>> (out / "report.json").read_text(), sorted(p.name for p in out.iterdir())
+('{}', ['.torsal-results.json', 'report.json'])
 """
 from __future__ import annotations
 
@@ -45,7 +56,7 @@ _MARKER = {"design": "report.json", "analyze": "analysis.json"}
 
 
 class Staging:
-    """Context manager: a fresh staging folder for a run's results, swapped in on success.
+    """Context manager: a staging folder for a run's results, swapped in on success only.
 
     Parameters
     ----------
@@ -54,14 +65,24 @@ class Staging:
     kind : str
         Which command's results (``"design"``, ``"analyze"``): a run replaces the earlier
         results of its own kind only; the results list keeps one entry per kind.
+
+    Attributes
+    ----------
+    folder : Path
+        Where the run writes (``out / ".torsal-staging"``).
+    earlier : list of str
+        Top-level names of the previous run's results (copied into ``folder`` at the start).
+    earlier_finished : str or None
+        When that run finished (ISO time, from the results list).
     """
 
     def __init__(self, out: Path, kind: str = "design"):
         self.out = Path(out)
         self.kind = kind
         self.folder = self.out / STAGING_FOLDER
-        self.earlier: list[str] = []   # top-level names of the previous run's results
-        self.removed: list[str] = []   # set on failure: what of them is gone
+        self.earlier: list[str] = []
+        self.earlier_finished: str | None = None
+        self.failed = False
         self.keep: set[str] | None = None
 
     def _runs(self) -> dict:
@@ -82,6 +103,7 @@ class Staging:
         runs = self._runs()
         if self.kind in runs:
             names = [str(n) for n in runs[self.kind].get("files", [])]
+            self.earlier_finished = runs[self.kind].get("finished")
         elif not (self.out / RESULTS_LIST).exists() and (self.out / _MARKER.get(self.kind, "-")).exists():
             names = list(_KNOWN_RESULTS.get(self.kind, ()))
         else:
@@ -97,11 +119,14 @@ class Staging:
             shutil.rmtree(self.folder)
         self.folder.mkdir()
         self.earlier = self._previous_results()
+        # copies, not moves: a failure anywhere from here on leaves OUT as it was (a stage that
+        # writes a file in place cannot change the earlier result either)
         for name in self.earlier:
-            os.replace(self.out / name, self.folder / name)
-        runs = self._runs()
-        runs.pop(self.kind, None)
-        self._write_runs(runs)
+            src = self.out / name
+            if src.is_dir() and not src.is_symlink():
+                shutil.copytree(src, self.folder / name, symlinks=True)
+            else:
+                shutil.copy2(src, self.folder / name, follow_symlinks=False)
         return self
 
     def keep_only(self, files) -> None:
@@ -113,7 +138,7 @@ class Staging:
         if exc_type is None:
             self._publish()
         else:
-            self.removed = list(self.earlier)
+            self.failed = True
             shutil.rmtree(self.folder, ignore_errors=True)
         return False
 
@@ -122,7 +147,7 @@ class Staging:
             for name in self.earlier:
                 stale = self.folder / name
                 if name not in self.keep and stale.exists():
-                    shutil.rmtree(stale) if stale.is_dir() else stale.unlink()
+                    shutil.rmtree(stale) if stale.is_dir() and not stale.is_symlink() else stale.unlink()
         names = sorted(p.name for p in self.folder.iterdir())
         for name in names:
             target = self.out / name
@@ -130,6 +155,10 @@ class Staging:
                 shutil.rmtree(target)
             os.replace(self.folder / name, target)
         self.folder.rmdir()
+        for name in self.earlier:  # earlier results this run did not write again
+            stale = self.out / name
+            if name not in names and (stale.exists() or stale.is_symlink()):
+                shutil.rmtree(stale) if stale.is_dir() and not stale.is_symlink() else stale.unlink()
         runs = self._runs()
         for other in runs.values():  # a file this run wrote again is this run's now
             other["files"] = [n for n in other.get("files", []) if Path(n).parts[0] not in names]
@@ -139,10 +168,14 @@ class Staging:
 
     def failure_note(self) -> str:
         """What a failed run left in the output folder, for the error message."""
-        earlier = (f"the earlier {self.kind} results ({', '.join(self.removed[:6])}"
-                   f"{' ...' if len(self.removed) > 6 else ''}) were removed so they cannot be "
-                   "taken for this run's; " if self.removed else "")
+        if self.earlier:
+            shown = ", ".join(self.earlier[:6]) + (" ..." if len(self.earlier) > 6 else "")
+            when = f" finished {self.earlier_finished}" if self.earlier_finished else ""
+            earlier = (f"the earlier {self.kind} results ({shown}) are left as they were: they are "
+                       f"from the run{when}, not this one; ")
+        else:
+            earlier = ""
         cache = self.out / ".torsal-cache"
-        kept = (f"the stage cache ({cache}) is kept, so the next run resumes" if cache.exists()
-                else "nothing else was changed")
+        kept = (f"the stage cache ({cache}) keeps what this run computed, so the next run "
+                "resumes" if cache.exists() else "nothing else was changed")
         return f"{self.out} holds no results of this run: {earlier}{kept}"

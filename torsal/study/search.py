@@ -121,7 +121,8 @@ class _Search:
             self.trials[v.id] = trial
             key = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
             h = ex.submit(_run_trial, v, str(self.out), cache_dir, trial.params,
-                          getattr(ex, "queue_name", None), leaders.get(key))
+                          getattr(ex, "queue_name", None), leaders.get(key),
+                          self.study.spec.run.fabrication)
             leaders.setdefault(key, h)
             jobs[h] = v
         return jobs
@@ -146,9 +147,9 @@ def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
 
 
 def _run_trial(v: Variant, out_dir: str, cache_dir: str, params: dict, queue,
-               leader: dict | None = None) -> dict:
+               leader: dict | None = None, fabrication: bool = True) -> dict:
     """A grid variant's task, with the trial's optuna parameters kept in variant.json."""
-    o = run_variant(v, out_dir, cache_dir, leader, queue)
+    o = run_variant(v, out_dir, cache_dir, leader, queue, fabrication)
     o["params"] = params
     write_json(Path(out_dir) / "variants" / v.id / "variant.json", o)
     return o

@@ -12,7 +12,7 @@ a run in the same folder skips every finished variant, so an interrupted study r
 
 Outputs in ``OUT``: ``results.parquet`` and ``results.csv`` (one row per variant and per
 standard device of each depth and spacing), ``variants/<id>/`` (each design's full outputs),
-``baselines/`` (the devices' measurements) and ``study.html``. With a remote scheduler the
+``baselines/`` (the devices' measurements), ``study.html`` and ``pareto.png``. With a remote scheduler the
 workers write there too: ``OUT`` must be a folder they all see (a shared file system).
 """
 from __future__ import annotations
@@ -30,7 +30,7 @@ from .search import run_search
 from ..pipeline.stage import stage_keys
 from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_file import StudyFileError, StudySpec, Variant, grid_variants, load_study_file
-from .study_report import results_table, write_study_html
+from .study_report import results_table, write_pareto_png, write_study_html
 from .study_tasks import (SHARED_STAGE, DaskExecutor, SerialExecutor, StudyProgress,
                           measure_devices, run_variant)
 
@@ -158,6 +158,7 @@ class Study:
         files["csv"] = str(out / "results.csv")
         verdict = write_study_html(out / "study.html", self, table)
         files["html"] = str(out / "study.html")
+        files["png"] = str(write_pareto_png(out / "pareto.png", self, table))
         ran = [o for o in outcomes.values() if not o.get("resumed")]
         return StudyResult(
             table=table, files=files,
@@ -167,15 +168,17 @@ class Study:
             resumed=counts.resumed, failed=counts.failed, verdict=verdict)
 
     # -------------------------------------------------------------- helpers
-    @staticmethod
-    def _finished(out: Path, variant: Variant, retry_failed: bool) -> dict | None:
-        """The recorded outcome of a variant finished in an earlier run, if still valid."""
+    def _finished(self, out: Path, variant: Variant, retry_failed: bool) -> dict | None:
+        """The recorded outcome of a variant finished in an earlier run, if still valid (the
+        same design, version and stages)."""
         folder = out / "variants" / variant.id
         try:
             rec = json.loads((folder / "variant.json").read_text())
         except (OSError, ValueError):
             return None
         if rec.get("digest") != variant.digest or rec.get("version") != __version__:
+            return None
+        if rec.get("fabrication", True) != self.spec.run.fabrication:
             return None
         if rec["status"] == "done" and (folder / "report.json").exists():
             return rec | {"resumed": True}
@@ -234,11 +237,12 @@ class Study:
         for v in todo:
             k = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
             leader = leaders.get(k)
+            fab = self.spec.run.fabrication
             if leader is None and not cache.has(SHARED_STAGE, k):
-                h = ex.submit(run_variant, v, str(out), cache_dir, None, _queue(ex))
+                h = ex.submit(run_variant, v, str(out), cache_dir, None, _queue(ex), fab)
                 leaders[k] = h
             else:
-                h = ex.submit(run_variant, v, str(out), cache_dir, leader, _queue(ex))
+                h = ex.submit(run_variant, v, str(out), cache_dir, leader, _queue(ex), fab)
             jobs[h] = v
         self._collect(ex, jobs, outcomes, counts, tell)
         return outcomes, counts

@@ -10,6 +10,7 @@ Example (``examples/studies/7a_depth_spacing.toml``)::
     "weights.perp" = [1, 10]
     [run]
     workers = 2                          # a local Dask cluster; or scheduler = "tcp://host:8786"
+    fabrication = true                   # false: measure the light only (no parts, STEP, DXF)
 
 With a ``[search]`` table the axes are a search space instead of a grid (lists: choices;
 ``{ low = 0.2, high = 0.6 }``: a range) and optuna proposes ``trials`` designs, minimizing
@@ -65,12 +66,15 @@ class RunSpec(_Spec):
     workers: int = Field(2, ge=1, description="processes of the local Dask cluster")
     scheduler: str | None = Field(None, description="address of a running Dask scheduler, "
                                   "e.g. tcp://host:8786; default: a local cluster")
+    fabrication: bool = Field(True, description="false: a light study; the variants skip the "
+                              "fabrication and assembly stages and every fin of the support "
+                              "structure is measured (no panel is left out)")
 
 
 #: report figures a search may optimize (flattened report.json keys), and the study's own
 OBJECTIVE_KEYS = (
     "light.blocked_share", "light.transparency", "light.transparency_cone", "light.fin_area_m2",
-    "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
+    "light.view_out", "light.view_clear", "light.goal_share", "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
     "fabrication.utilization", "support.delta_pl_optimized", "support.edges",
     "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "material_kg", "wall_s",
 )

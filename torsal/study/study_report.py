@@ -1,6 +1,11 @@
 """A study's table and its page: the Pareto front of sun blocked against view clear, torsal
 variants against the standard devices of the same depths and spacings, and one measured
-sentence saying which is ahead and by how much."""
+sentence saying which is ahead and by how much.
+
+The view axis is the design's ``view.measure`` (``light.view_clear``): by default the view
+out from occupant eye points (:mod:`torsal.light.view`), else the view along the normal. A
+device that cannot be made on the surface is a row with status "not applicable" and its
+reason in ``note``; it is in the table, never in the front or the verdict."""
 from __future__ import annotations
 
 import html
@@ -13,11 +18,41 @@ from ..core.atomic import atomic_path
 from .study_tasks import flatten, material_kg
 
 __all__ = ["results_table", "pareto_front", "lead_over", "verdict", "write_study_html",
-           "X_KEY", "Y_KEY"]
+           "write_pareto_png", "view_label", "X_KEY", "Y_KEY", "NOT_APPLICABLE"]
 
-X_KEY = "light.transparency"      # view clear (share of points with a free view out)
-Y_KEY = "light.blocked_share"     # sun blocked (weighted share of direct sun rays)
-_FIRST = ["id", "kind", "device", "status"]
+X_KEY = "light.view_clear"        # view clear: the design's view measure (view.measure)
+# the sun as the design asks: blocked (weighted share of direct sun rays), and let through
+# over goals.let_through; without that goal it is light.blocked_share exactly
+Y_KEY = "light.goal_share"
+NOT_APPLICABLE = "not applicable"  # the status of a device that cannot be made on the surface
+_FIRST = ["id", "kind", "device", "status", "note"]
+_SYMBOLS = {"horizontal louvers": ("triangle-up", "^"), "vertical fins": ("triangle-right", ">"),
+            "egg-crate": ("square", "s"), "optimized parallel fins": ("diamond", "D"),
+            "optimized egg-crate": ("x", "X")}
+
+
+def _asks(study) -> bool:
+    """Does a design ask the sun for more than being blocked (let through, region suns)?"""
+    return any(v.spec.goals.let_through is not None or v.spec.goals.sun_regions
+               for v in study.variants)
+
+
+def sun_label(study) -> str:
+    """The sun axis's name: sun blocked, or the sun as asked where a design lets it through
+    or gives regions their own sun."""
+    if _asks(study):    # blocked; let through over goals.let_through; a region's own sun
+        return "sun as the goals ask (weighted share of sun rays)"
+    return "sun blocked (weighted share of design-hour sun rays)"
+
+
+def view_label(study) -> str:
+    """The view axis's name for the study's designs (their ``view.measure``)."""
+    measures = {v.spec.view.measure.value for v in study.variants}
+    if measures == {"normal"}:
+        return "view clear (share of points on the surface with a free line along the normal)"
+    if measures == {"occupant"}:
+        return "view out (share of occupants' sight lines past the fins)"
+    return "view clear (each design's view.measure)"
 
 
 def _buildable(report: dict):
@@ -65,15 +100,18 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
         same = [v for v in study.variants if v.id in outcomes
                 and _device_key(v.spec) == key]
         for name, m in rec["devices"].items():
+            made = m.get("applicable", True)
             row = {"id": f"baseline-{key[:8]}-{name.replace(' ', '-')}", "kind": "baseline",
-                   "device": name, "status": "done",
+                   "device": name, "status": "done" if made else NOT_APPLICABLE,
+                   "note": None if made else m["reason"],
                    "fins.depth": spec.fins.depth, "fins.spacing": spec.fins.spacing,
                    "wall_s": float(rec["wall_s"]), "buildable": None,
-                   "material_kg": material_kg(m["fin_area_m2"], spec)}
+                   "material_kg": material_kg(m["fin_area_m2"], spec) if made else None}
             for k in axes:
                 values = {json.dumps(v.axes[k]) for v in same}
                 row[k] = same[0].axes[k] if len(values) == 1 else None
-            row.update(flatten({"light": m}))
+            row.update(flatten({"light": {k: x for k, x in m.items()
+                                          if k not in ("applicable", "reason")}}))
             rows.append(row)
     table = pd.DataFrame(rows)
     first = _FIRST + [c for c in axes if c not in _FIRST] + [
@@ -125,8 +163,18 @@ def _axes_text(row, axes) -> str:
                      for k in axes if k in row and row[k] is not None)
 
 
-def verdict(table, axes) -> tuple[str, dict]:
-    """The sentence at the top of study.html, computed from the table, and its numbers."""
+def _sun_words(study) -> str:
+    return "of the sun as asked" if _asks(study) else "of the sun blocked"
+
+
+def _and(names) -> str:
+    names = list(names)
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def verdict(table, axes, *, sun_words: str = "of the sun blocked") -> tuple[str, dict]:
+    """The sentence at the top of study.html, computed from the table, and its numbers
+    (``sun_words`` names the sun axis: "of the sun blocked", or "of the sun as asked")."""
     ok = table[(table["status"] == "done")].dropna(subset=[X_KEY, Y_KEY])
     t = ok[ok["kind"] == "torsal"]
     b = ok[ok["kind"] == "baseline"]
@@ -141,17 +189,21 @@ def verdict(table, axes) -> tuple[str, dict]:
 
     def point(k):
         r = t.iloc[k]
-        return (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% of the sun blocked, "
+        return (f"{r['id']} ({_axes_text(r, axes)}: {100 * r[Y_KEY]:.1f}% {sun_words}, "
                 f"{100 * r[X_KEY]:.1f}% of the view clear, {r['material_kg']:.0f} kg)")
 
     def device(k):
         d = b.iloc[leads[k][1]]
         return (f"{d['device']} at depth {d['fins.depth']:.3g}, spacing {d['fins.spacing']:.3g}: "
-                f"{100 * d[Y_KEY]:.1f}% blocked, {100 * d[X_KEY]:.1f}% clear, "
+                f"{100 * d[Y_KEY]:.1f}% {sun_words.split()[-1]}, {100 * d[X_KEY]:.1f}% clear, "
                 f"{d['material_kg']:.0f} kg")
 
-    devices = ("the standard devices (horizontal louvers, vertical fins and egg-crates of the "
-               "same depths and spacings)")
+    names = [n for n in _SYMBOLS if n in set(b["device"])] + sorted(
+        set(b["device"]) - set(_SYMBOLS))
+    devices = (f"the standard devices ({_and(names)} of the same depths and spacings)")
+    missing = sorted(set(table.loc[table["status"] == NOT_APPLICABLE, "device"]) - set(names))
+    if missing:
+        devices += f"; {_and(missing)} cannot be made on this surface"
     behind = ""
     if len(t) - n_beyond:
         behind = (f"{len(t) - n_beyond} lie behind it, the furthest behind, {point(worst)}, by "
@@ -190,7 +242,7 @@ the view clear. Colour: sheet material (kg). Click a torsal point to open its re
 """
 
 
-def _figure(table, axes):
+def _figure(table, axes, xlabel: str, ylabel: str):
     import plotly.graph_objects as go
 
     fig = go.Figure()
@@ -199,8 +251,6 @@ def _figure(table, axes):
     cmin, cmax = float(ok["material_kg"].min()), float(ok["material_kg"].max())
     from ..pipeline.devices import DEVICES
 
-    symbols = {"horizontal louvers": "triangle-up", "vertical fins": "triangle-right",
-               "egg-crate": "square"}
     for name in DEVICES:
         d = ok[ok["device"] == name]
         if d.empty:
@@ -211,7 +261,7 @@ def _figure(table, axes):
             name=f"{name}: front", legendgroup=name, hoverinfo="skip"))
         fig.add_trace(go.Scatter(
             x=d[X_KEY], y=d[Y_KEY], mode="markers", name=name, legendgroup=name,
-            marker={"symbol": symbols.get(name, "circle"), "size": 10, "color": d["material_kg"],
+            marker={"symbol": _SYMBOLS.get(name, ("circle",))[0], "size": 10, "color": d["material_kg"],
                     "cmin": cmin, "cmax": cmax, "colorscale": "Viridis",
                     "line": {"width": 1, "color": "#444"}},
             text=[f"{name}<br>depth {r['fins.depth']:.3g}, spacing {r['fins.spacing']:.3g}<br>"
@@ -231,8 +281,8 @@ def _figure(table, axes):
             text=[f"torsal {r['id']}<br>{_axes_text(r, axes)}<br>{r['material_kg']:.0f} kg, "
                   f"{r.get('fabrication.parts', float('nan')):.0f} parts" for _, r in t.iterrows()],
             hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
-    fig.update_layout(xaxis_title="view clear (share of points, along the normal)",
-                      yaxis_title="sun blocked (weighted share of design-hour sun rays)",
+    fig.update_layout(xaxis_title=xlabel,
+                      yaxis_title=ylabel,
                       xaxis_tickformat=".0%", yaxis_tickformat=".0%", height=620,
                       legend={"orientation": "h", "y": -0.15}, margin={"t": 20})
     return fig
@@ -246,7 +296,7 @@ plot.on('plotly_click', function (ev) {
 
 
 def _html_table(table, axes) -> str:
-    cols = ["id", "kind", "device", "status", *axes]
+    cols = ["id", "kind", "device", "status", "note", *axes]
     cols += [c for c in ("fins.depth", "fins.spacing") if c not in cols]
     cols += [Y_KEY, X_KEY, "material_kg", "fabrication.parts", "buildable", "wall_s",
              "failed_stage", "error"]
@@ -270,8 +320,8 @@ def _html_table(table, axes) -> str:
 def write_study_html(path: Path, study, table) -> str:
     """Write study.html (plotly inlined: works offline); returns the verdict sentence."""
     axes = list(study.spec.axes)
-    text, _ = verdict(table, axes)
-    fig = _figure(table, axes)
+    text, _ = verdict(table, axes, sun_words=_sun_words(study))
+    fig = _figure(table, axes, view_label(study), sun_label(study))
     plot = fig.to_html(full_html=False, include_plotlyjs=True, div_id="pareto",
                        post_script=_CLICK.replace("{plot_id}", "pareto"))
     page = _PAGE.format(title=html.escape(study.spec.name), verdict=html.escape(text),
@@ -279,3 +329,55 @@ def write_study_html(path: Path, study, table) -> str:
     with atomic_path(path) as tmp:
         tmp.write_text(page)
     return text
+
+
+def write_pareto_png(path: Path, study, table) -> Path:
+    """The Pareto plot as a PNG (matplotlib, for documents): sun blocked against view clear,
+    torsal variants (red circles, their front a solid line), each standard device (its own
+    marker, its front dotted); marker colour: sheet material (kg)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ..pipeline.devices import DEVICES
+
+    ok = table[table["status"] == "done"].dropna(subset=[X_KEY, Y_KEY])
+    fig = Figure(figsize=(8, 6), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    kg = ok["material_kg"].astype(float)
+    norm = {"vmin": float(kg.min()), "vmax": float(kg.max())} if len(kg) else {}
+    sc = None
+    for k, name in enumerate(DEVICES):
+        d = ok[ok["device"] == name]
+        if d.empty:
+            continue
+        front = d.iloc[pareto_front(d[X_KEY], d[Y_KEY])]
+        colour = f"C{k}"
+        ax.plot(front[X_KEY], front[Y_KEY], ":", color=colour, lw=1.2)
+        sc = ax.scatter(d[X_KEY], d[Y_KEY], c=d["material_kg"].astype(float), cmap="viridis",
+                        marker=_SYMBOLS.get(name, (None, "o"))[1], s=55, edgecolors=colour,
+                        linewidths=1.5, label=name, **norm)
+    t = ok[ok["kind"] == "torsal"]
+    if not t.empty:
+        front = t.iloc[pareto_front(t[X_KEY], t[Y_KEY])]
+        ax.plot(front[X_KEY], front[Y_KEY], "-", color="#c0392b", lw=2.2)
+        sc = ax.scatter(t[X_KEY], t[Y_KEY], c=t["material_kg"].astype(float), cmap="viridis",
+                        marker="o", s=110, edgecolors="#c0392b", linewidths=2.2,
+                        label="torsal variants", **norm)
+    if sc is not None:
+        fig.colorbar(sc, ax=ax).set_label("sheet material (kg)")
+        ax.legend(loc="lower left", fontsize=8, framealpha=0.9)
+    missing = sorted(set(table.loc[table["status"] == NOT_APPLICABLE, "device"]))
+    if missing:
+        ax.text(0.99, 0.01, "not applicable here: " + ", ".join(missing), transform=ax.transAxes,
+                ha="right", va="bottom", fontsize=7, color="0.3")
+    ax.xaxis.set_major_formatter(lambda x, _: f"{100 * x:.0f}%")
+    ax.yaxis.set_major_formatter(lambda y, _: f"{100 * y:.0f}%")
+    ax.set_xlabel(view_label(study), fontsize=9)
+    ax.set_ylabel(sun_label(study), fontsize=9)
+    ax.set_title(study.spec.name, fontsize=10)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    return path

@@ -7,7 +7,7 @@ import logging
 import time
 import uuid
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .._version import __version__
@@ -17,14 +17,30 @@ from ..pipeline.cache import StageCache
 from ..pipeline.design import Design
 from ..pipeline.devices import DEVICES_PIPELINE
 from ..pipeline.errors import DesignError
-from ..pipeline.stage import StageRun, run_stages, stage_keys
+from ..pipeline.stage import Pipeline, StageRun, run_stages, stage_keys
 from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_file import Variant
 
 __all__ = ["SHARED_STAGE", "StudyProgress", "flatten", "material_kg", "run_variant", "lost_outcome", "measure_devices",
-           "SerialExecutor", "DaskExecutor"]
+           "SerialExecutor", "DaskExecutor", "LIGHT_PIPELINE", "variant_pipeline"]
 #: the stage whose result variants share: its solve is what the cache saves
 SHARED_STAGE = "congruence"
+_FABRICATION = ("fabrication", "assembly")
+
+
+def _without_fabrication(pipeline: Pipeline) -> Pipeline:
+    return Pipeline(tuple(replace(s, inputs=tuple(i for i in s.inputs if i not in _FABRICATION))
+                          for s in pipeline if s.name not in _FABRICATION))
+
+
+#: a light study's pipeline: the design's stages without fabrication and assembly (the light
+#: stage then measures every fin of the support structure)
+LIGHT_PIPELINE = _without_fabrication(DEFAULT_PIPELINE)
+
+
+def variant_pipeline(fabrication: bool) -> Pipeline:
+    """The stages a study's variants run: all of them, or without fabrication and assembly."""
+    return DEFAULT_PIPELINE if fabrication else LIGHT_PIPELINE
 
 
 @dataclass
@@ -76,14 +92,15 @@ def _tell(queue: str | None, event: tuple) -> None:
 
 
 def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | None = None,
-                queue: str | None = None) -> dict:
+                queue: str | None = None, fabrication: bool = True) -> dict:
     """Run one variant's pipeline into ``out_dir/variants/<id>`` with the shared cache.
 
     ``leader``: the outcome of the variant this one shares its congruence with (it ran
     first); if that failed at a stage whose inputs this variant shares, the same failure is
-    recorded without running it again. Never raises: returns the outcome (``id``,
+    recorded without running it again. ``fabrication``: False skips the fabrication and
+    assembly stages (:data:`LIGHT_PIPELINE`). Never raises: returns the outcome (``id``,
     ``status`` "done" | "failed", ``stage``, ``error``, ``wall_s``, ``cached``, ``computed``,
-    ``keys``, ``warnings``), also written to ``variant.json``.
+    ``keys``, ``warnings``, ``fabrication``), also written to ``variant.json``.
     """
     _tell(queue, ("start", variant.id))
     t0 = time.perf_counter()
@@ -92,10 +109,11 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
     (out / "variant.json").unlink(missing_ok=True)         # not finished until rewritten
     with atomic_path(out / "design.toml") as tmp:
         tmp.write_text(variant.toml)
-    keys = stage_keys(DEFAULT_PIPELINE, variant.spec)
+    pipeline = variant_pipeline(fabrication)
+    keys = stage_keys(pipeline, variant.spec)
     outcome = {"id": variant.id, "digest": variant.digest, "version": __version__,
                "axes": variant.axes, "status": "done", "stage": None, "error": None,
-               "cached": [], "computed": [], "keys": keys}
+               "cached": [], "computed": [], "keys": keys, "fabrication": bool(fabrication)}
     shared_failure = (leader is not None and leader["status"] == "failed" and leader["stage"]
                       and leader["keys"].get(leader["stage"]) == keys.get(leader["stage"]))
     if shared_failure:
@@ -115,7 +133,7 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
                     # column says so (its report names the parts), not a failed variant
                     Design(variant.spec, source=out / "design.toml").run(
                         out, cache=StageCache(cache_dir, prune=False), progress=record,
-                        accept_unbuildable=True)
+                        accept_unbuildable=True, pipeline=pipeline)
                 finally:
                     outcome["warnings"] = sorted({f"{w.category.__name__}: {w.message}"
                                                   for w in caught})
@@ -143,7 +161,7 @@ def measure_devices(spec, out_dir: str, cache_dir: str, key: str) -> dict:
     t0 = time.perf_counter()
     run = run_stages(DEVICES_PIPELINE, spec, Path(out_dir) / "baselines",
                      StageCache(cache_dir, prune=False), run=StageRun())
-    record = {"key": key, "version": __version__, "devices": run.report["devices"],
+    record = {"key": key, "version": __version__, "devices": run.values["devices"]["measured"],
               "wall_s": time.perf_counter() - t0, "cached": "devices" in run.cached}
     write_json(Path(out_dir) / "baselines" / f"{key}.json", record)
     return record

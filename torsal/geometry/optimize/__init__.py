@@ -1,4 +1,5 @@
-"""Congruence optimization as a casadi NLP solved by IPOPT (Wang et al. 2013, 4.1, eq. (9)).
+"""Congruence optimization as a casadi NLP (Wang et al. 2013, 4.1, eq. (9)): the paper's augmented
+Lagrangian with projected-Newton steps, IPOPT as the solver of record.
 
 The mesh A is fixed; the variables are the line directions ``e_i`` (3 per vertex), so the
 lines are ``a_i + lambda e_i`` and mesh B has vertices ``b_i = a_i + e_i``. A
@@ -12,7 +13,11 @@ Assembly. Every term is one casadi ``SX`` function of one element
 gradient, constraint Jacobian and the exact Hessian of the Lagrangian are assembled from
 the mapped per-element derivatives (gradient, Jacobian rows, upper triangle of the local
 Hessian) by constant sparse scatter matrices, and handed to IPOPT through ``nlpsol``'s
-``grad_f`` / ``jac_g`` / ``hess_lag`` options. This keeps building and every Hessian
+``grad_f`` / ``jac_g`` / ``hess_lag`` options, or to the augmented Lagrangian
+(:mod:`.alm`: PHR multipliers and per-row penalties on the inequality rows, Newton steps with
+one sparse Cholesky factorization of the projected Hessian plus ``rho J^T J`` each).
+``solve()`` takes the augmented Lagrangian for constrained designs and IPOPT otherwise
+(:mod:`.solve`); the result says which produced the answer and how long each part took. This keeps building and every Hessian
 evaluation linear in the mesh size (casadi's automatic Hessian of a mapped graph colours
 the whole problem and was ~100x slower on a 1k-vertex mesh). MUMPS is the linear solver.
 
@@ -40,12 +45,15 @@ half the iterations but to rougher lines. One-sided inequalities can be made ela
 
 Package layout (one responsibility per module):
 
-- :mod:`.problem`: :class:`CongruenceProblem`, the builder API and ``solve``;
+- :mod:`.problem`: :class:`CongruenceProblem`, the builder API;
+- :mod:`.solve`: one ``solve()`` call: the route, the start, the strategy, the measured answer;
+- :mod:`.alm`: the augmented Lagrangian; :mod:`.factor`: its sparse Cholesky factorization;
 - :mod:`.catalogue`: default weights, one term's data (:class:`~.catalogue.Term`), input checks;
 - :mod:`.forms`: the forms of the torsal-angle constraint;
 - :mod:`.kernels`: per-element derivative kernels, the gnomonic chart, C compilation;
 - :mod:`.nlp`: assembly of the NLP (:class:`~.nlp.Built`);
 - :mod:`.ipopt`: IPOPT options and the three-pass strategy; :mod:`.working_set`: pass 2;
+- :mod:`.family`: a generated family of constrained designs (reliability checks);
 - :mod:`.lbfgs`: the paper's L-BFGS baseline;
 - :mod:`.measure`: constraints measured on the geometry;
 - :mod:`.history`, :mod:`.result`: per-iteration history, best feasible iterate, the result.
@@ -56,6 +64,7 @@ from .measure import Measurement
 from .nlp import tangent_frames
 from .problem import CongruenceProblem
 from .result import IterationRecord, OptimizationError, OptimizationResult
+from .solve import SOLVERS, Solver
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
-           "IterationRecord", "Measurement", "TorsalAngleForm", "tangent_frames"]
+           "IterationRecord", "Measurement", "TorsalAngleForm", "tangent_frames", "Solver", "SOLVERS"]

@@ -9,7 +9,7 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
   kink of ``|p|`` over a width ``s`` (the strength floor, 1e-3 by default), so its curvature
   is ``1/s`` at ``p = 0``: exactly where a face has orthogonal torsal directions, the best
   case. Times the constraint's multiplier, that curvature is what IPOPT's inertia correction
-  met (measured on row 7c: regularizations of 1e4 to 1e6 for hundreds of iterations).
+  met: large regularizations for hundreds of iterations on row 7c.
 - ``"split"`` (the default): two rows per face, ``cos(alpha) sqrt(rho^2 + s^2) - s -+ p >= 0``
   (:func:`torsal_angle_split_element`): each is linear in ``p``, so ``|p|`` needs no
   smoothing. Their curvature is that of ``sqrt(rho^2 + s^2)`` alone, ``<= 1/rho`` on feasible
@@ -19,15 +19,10 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
 - ``"lift"``: the coordinates ``(u, v, w)`` of the form in an orthonormal frame
   (:func:`torsal_form_coordinates_sx`, linear in ``g``) equal lifted variables
   ``(cos(alpha) r t, r cos(phi), r sin(phi))``; the bound is ``r >= s``, ``|t| <= 1`` on
-  variables (assembled in :meth:`torsal.geometry.optimize.nlp.Built._lift`). It converges
-  in about half the iterations of split, to a lower energy (row 7c: 358 against 746; row 9:
-  719 against about 1,155), but a rougher one: on example 9 the lines' fairness energy is
-  0.0030 against split's 0.0017, 213 strips fold at crossings against 163, the extracted
-  structure's delta_pl is 0.58 against 0.30, and 457 of 841 fin panels cannot be built
-  (34 % of the sun blocked) against 231 (58 %) from split's best iterate at the design's
-  180 s budget (2026-11-23). So split stays the default; lift is an option per design.
-- ``"anchored"``: rows linear in ``g`` with ``rho`` replaced by its projection on an anchor,
-  re-anchored in outer rounds (:func:`torsal_angle_anchored_element`).
+  variables (assembled in :meth:`torsal.geometry.optimize.nlp.Built._lift`). IPOPT converges
+  in fewer iterations with it, to a lower energy but rougher lines (on example 9 the
+  extracted structure could not be built where split's could), so split stays the default;
+  lift is an option per design (IPOPT only: the augmented Lagrangian has no lifted variables).
 """
 from __future__ import annotations
 
@@ -48,7 +43,6 @@ class TorsalAngleForm(str, Enum):
     SPLIT = "split"
     LIFT = "lift"
     CONE = "cone"
-    ANCHORED = "anchored"
 
 
 #: The forms :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` offers.
@@ -127,33 +121,3 @@ def torsal_angle_split_element() -> T.ElementTerm:
     s = par[1]
     c = par[0] * ca.sqrt(rho2 + s * s) - s - par[2] * p
     return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_split", [x, data, par], [c]), 3)
-
-
-def torsal_angle_anchored_element() -> T.ElementTerm:
-    """One half of c_ang restricted to an anchored orientation: ``c ((v, w) . n - s) - sign * u >= 0``.
-
-    ``par = [cos alpha, s, sign, n1, n2]`` with ``n`` a unit vector of the ``(v, w)`` plane
-    (:func:`torsal_form_coordinates_sx`): the orientation of the torsal directions' bisector
-    at the anchor (twice its angle). Since ``(v, w) . n <= sqrt(v^2 + w^2) = rho``, both rows
-    imply ``|u| <= cos(alpha) rho`` and ``rho >= s``: the set is an inner, convex (in ``g``)
-    restriction of the exterior of the double cone, exact where ``(v, w)`` points along ``n``.
-    Both rows are linear in ``g``: no curvature of ``rho`` (``1/rho``) meets a multiplier.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
-    >>> e = np.array([0, 0, 1, 0.1, 0, 1, 0, -0.1, 1.0])   # torsal directions at 90 deg
-    >>> fn, co = torsal_angle_anchored_element().fn, torsal_form_coordinates_element().fn
-    >>> v, w = (float(co(e, a, [0.7, 1e-3] + list(k))) for k in np.eye(3)[1:])
-    >>> n = [v / np.hypot(v, w), w / np.hypot(v, w)]
-    >>> bool(min(float(fn(e, a, [0.7, 1e-3, s] + n)) for s in (1, -1)) > 0)
-    True
-    >>> bool(float(fn(e, a, [0.7, 1e-3, 1, -n[0], -n[1]])) < 0)   # the opposite anchor
-    True
-    """
-    x, data, par = T.face_symbols(3, n_par=5)
-    a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
-    u, v, w = torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e_c)
-    c = par[0] * (v * par[3] + w * par[4] - par[1]) - par[2] * u
-    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_anchored", [x, data, par], [c]), 3)

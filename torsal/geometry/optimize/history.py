@@ -7,6 +7,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .measure import ROUNDING
 from .result import IterationRecord
 
 
@@ -33,6 +34,7 @@ class SolveMonitor:
         self.callback = callback
         self.max_seconds = max_seconds
         self.t0 = time.perf_counter() if t0 is None else t0     # the solve() call's start
+        self.cpu0 = time.process_time()
         self.iteration = 0
         self.phase_iteration = 0
         self.cap: int | None = None
@@ -57,8 +59,9 @@ class SolveMonitor:
             return True
         worst = self.measure(e) if np.isfinite(e).all() else math.inf
         seconds = time.perf_counter() - self.t0
-        feasible = bool(worst <= 1.0)
-        self.history.append(IterationRecord(self.iteration, seconds, float(objective), float(worst), feasible))
+        feasible = bool(worst <= 1.0 + ROUNDING)   # as Measurement.holds
+        self.history.append(IterationRecord(self.iteration, seconds, float(objective), float(worst), feasible,
+                                            time.process_time() - self.cpu0))
         if feasible and np.isfinite(objective) and (self.best is None or objective < self.best.objective):
             self.best = BestIterate(float(objective), np.array(e, dtype=float), self.iteration)
         if self.max_seconds is not None and seconds > self.max_seconds:

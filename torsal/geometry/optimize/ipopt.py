@@ -18,7 +18,7 @@ from threadpoolctl import threadpool_limits
 from .history import SolveMonitor
 from .nlp import Built, _bound_violation
 from .projected import PROJECTED_ITERATIONS, ProjectedHessian
-from .working_set import _WORKING_SET_MAX_SHARE, _near_bounds
+from .working_set import _WORKING_SET_MAX_SHARE, PassOutcome, _near_bounds, working_set_pass
 
 
 class IpoptRun(NamedTuple):
@@ -29,23 +29,6 @@ class IpoptRun(NamedTuple):
     iterations: int
     status: str
     converged: bool
-
-
-class PassOutcome(NamedTuple):
-    """The answer of the pass that ended a solve.
-
-    ``constraints_active``: False when pass 1 (no inequalities) met them all, True when
-    inequalities were imposed, None without inequalities. ``working``: the working-set mask
-    over ``g`` when pass 2 answered, else None.
-    """
-
-    x: np.ndarray
-    lam_g: np.ndarray | None
-    iterations: int
-    status: str
-    converged: bool
-    constraints_active: bool | None
-    working: np.ndarray | None
 
 
 class _IterationCallback(ca.Callback):
@@ -212,7 +195,7 @@ class IpoptStrategy:
         iters, status = 0, ""
         if warm and prev_ws is not None and prev_ws.size == b.n_g:
             # the designer's re-solve after a working-set solve: same set, warm multipliers
-            out = self.working_set(sw, cold(), b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
+            out = working_set_pass(self, sw, cold(), b, x0, p, prev_ws, lam_g0, max(limit // 2, 1), feas_tol)
             if out.converged or self._stopped(out.status):
                 return out
             iters, status = out.iterations, out.status
@@ -232,12 +215,11 @@ class IpoptStrategy:
                 return PassOutcome(r1.x, None, iters, status, True, False, None)
             # (not with lifted forms: their rows tie the lifted variables to the directions)
             if r1.converged and not b.n_lift and viol[ineq].mean() <= _WORKING_SET_MAX_SHARE:
-                p = self._anchored(b, r1.x, p)
                 g1 = np.asarray(b.evaluate(r1.x, p)[2]).ravel()
                 viol = _bound_violation(g1, b.lbg, b.ubg) > feas_tol
                 ws = _near_bounds(g1, b) | viol | ~ineq
                 s = cold()
-                out = self.working_set(s, s, b, r1.x, p, ws, None, (limit - iters) // 2, feas_tol)
+                out = working_set_pass(self, s, s, b, r1.x, p, ws, None, (limit - iters) // 2, feas_tol)
                 iters += out.iterations
                 if out.converged or self._stopped(out.status):
                     return out._replace(iterations=iters)
@@ -254,7 +236,6 @@ class IpoptStrategy:
             warm = False
         if not warm:
             x0, p = self._recentre(b, x0, p)
-            p = self._anchored(b, x0, p)
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
         if warm:
             args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
@@ -277,15 +258,9 @@ class IpoptStrategy:
         p[:b.n_frames] = self.frames.ravel()
         return x, p
 
-    def _anchored(self, b: Built, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """The parameters with anchored torsal-angle rows anchored at ``x`` (see ``.forms``)."""
-        if not self.problem._anchored_terms():
-            return p
-        self.problem._anchor(b.unpack(b.full(x, p), self.frames).ravel())
-        return b.parameters(self.problem._current(), self.frames)
-
     def warm_pass(self, b: Built, x: np.ndarray, p: np.ndarray, lam_g: np.ndarray, cap: int) -> PassOutcome:
-        """All constraints, warm-started at ``x`` with multipliers ``lam_g`` (anchored rounds)."""
+        """All constraints, warm-started at ``x`` with multipliers ``lam_g`` (the certification of
+        the augmented Lagrangian's answer, :mod:`.solve`)."""
         sw = self.solver(b, True, x, p)
         r = self.call(sw, b, dict(x0=x, p=p, lbg=b.lbg, ubg=b.ubg, lam_g0=lam_g, lam_x0=np.zeros(b.n_var)), cap)
         return PassOutcome(r.x, r.lam_g, r.iterations, r.status, r.converged, True, None)
@@ -293,35 +268,6 @@ class IpoptStrategy:
     def _stopped(self, status: str) -> bool:
         """The monitor stopped IPOPT (the user's callback or the time limit), not a cap."""
         return status == "User_Requested_Stop" and (self.monitor.stopped_by_user or self.monitor.timed_out)
-
-    def working_set(self, s_warm, s_cold, b: Built, x, p, ws: np.ndarray, lam_g, budget: int,
-                    feas_tol: float) -> PassOutcome:
-        """Pass 2: IPOPT with the inequalities outside ``ws`` unbounded, adding those the answer
-        violates (and their near-active companions) until it violates none.
-
-        An inequality left out and met with slack has a zero multiplier, so the answer is a
-        KKT point of the whole problem; IPOPT meanwhile carries barrier terms (and their
-        indefinite curvature) only for the few elements that matter.
-        """
-        iters, status, ok = 0, "", False
-        ws = ws.copy()
-        while budget - iters > 0:
-            args = dict(x0=x, p=p, lbg=np.where(ws, b.lbg, -np.inf), ubg=np.where(ws, b.ubg, np.inf))
-            if lam_g is not None:
-                args.update(lam_g0=np.where(ws, lam_g, 0.0), lam_x0=np.zeros(b.n_var))
-            r = self.call(s_warm if lam_g is not None else s_cold, b, args, budget - iters)
-            x, lam_g, status, ok = r.x, r.lam_g, r.status, r.converged
-            iters += r.iterations
-            if not ok:
-                break
-            g = np.asarray(b.evaluate(x, p)[2]).ravel()
-            new = (_bound_violation(g, b.lbg, b.ubg) > feas_tol) & ~ws
-            if not new.any():
-                break
-            ws |= _near_bounds(g, b) | new
-            lam_g, ok = None, False          # cold: the new elements have no multipliers yet
-        return PassOutcome(x, lam_g, iters, status, ok, True, ws)
-
 
 #: Threads of the BLAS under IPOPT's MUMPS (casadi's own OpenBLAS); ``$TORSAL_BLAS_THREADS``
 #: overrides. One: MUMPS's fronts on these meshes are small, and a second BLAS thread spins

@@ -25,6 +25,11 @@ KINDS = {
 }
 
 
+#: a violation beyond its tolerance by less than this share is rounding, and holds: a row stuck
+#: at 0 under a margin equal to the tolerance (hyperbolicity 1e-6) misses by 1e-6 * (1 + 4e-16)
+ROUNDING = 1e-9
+
+
 class Measurement(NamedTuple):
     """One constraint measured on a congruence.
 
@@ -64,13 +69,17 @@ class Measurement(NamedTuple):
         return float(self.violation.max()) if self.violation.size else 0.0
 
     @property
+    def _over(self) -> np.ndarray:
+        return self.violation > self.tolerance * (1.0 + ROUNDING)
+
+    @property
     def missed(self) -> np.ndarray:
         """Element ids that miss the bound by more than the tolerance."""
-        return self.elements[self.violation > self.tolerance]
+        return self.elements[self._over]
 
     @property
     def holds(self) -> bool:
-        return not (self.violation > self.tolerance).any()
+        return not self._over.any()
 
 
 def torsal_angle_deg(c: Congruence, faces: np.ndarray) -> np.ndarray:
@@ -104,7 +113,10 @@ def measure(term, c: Congruence, delta: float, g: np.ndarray | None, *, angle_to
         viol, tol = np.maximum(term.bound - vals, 0.0), angle_tol_deg
     elif term.kind == "hyperbolicity":
         vals = c.hyperbolicity()[el] / delta**2
-        viol, tol = np.maximum(term.bound - vals, 0.0), value_tol
+        # a margin is asked so that faces stay off 0 (parabolic: no torsal planes); a tolerance
+        # as large as the margin would let them sit at 0, so it is at most half the margin
+        tol = min(value_tol, 0.5 * term.bound) if term.bound > 0 else value_tol
+        viol = np.maximum(term.bound - vals, 0.0)
     elif term.kind == "angle_to":
         vals = angle_to_deg(c, el, term.par[:, 0:3])
         viol, tol = np.maximum(vals - term.bound, 0.0), angle_tol_deg

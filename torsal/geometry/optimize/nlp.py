@@ -262,7 +262,8 @@ class _Assembly:
         if key not in self.local:
             self.local[key] = Local(el.fn, el.k, self.lay.tangent,
                                     self.jit and not el.fn.name().startswith("custom_"),
-                                    t.constraint, residual=el.residual if gn else None)
+                                    t.constraint, residual=el.residual if gn else None,
+                                    jit_values=self.hessian == "projected-all")
         return self.local[key]
 
     def _element_args(self, t: Term, off: int):
@@ -299,8 +300,8 @@ class _Assembly:
         if len(L.h_rows):
             hv = L.hess.map(m)(*args, coef)      # (nh, m)
             hr, hc = xidx[:, L.h_rows].ravel(), xidx[:, L.h_cols].ravel()
-            if self.projected and not t.constraint:
-                self.blocks.append(Block(hv, L.h_rows, L.h_cols, xidx))
+            if self.projected and (not t.constraint or self.hessian == "projected-all"):
+                self.blocks.append(Block(hv, L.h_rows, L.h_cols, xidx, constraint=t.constraint))
             else:
                 self.hess.add(ca.vec(hv), np.minimum(hr, hc), np.maximum(hr, hc))
         if self.lay.tangent and not L.gauss_newton:
@@ -316,7 +317,9 @@ class _Assembly:
 
     @property
     def projected(self) -> bool:
-        return self.hessian == "projected"
+        # "projected-all" (the augmented Lagrangian's NLP, :mod:`.alm`): the constraints'
+        # element Hessians times their multipliers are projected too
+        return self.hessian in ("projected", "projected-all")
 
     def finish(self):
         """``(grad, g, jac, hess)``: the pieces scattered into the global vectors and matrices."""
@@ -401,6 +404,9 @@ class Built:
         self.f_expr, self.g_expr = f, g
         self.grad_f = ca.Function("nlp_grad_f", [x_all, p], [f, grad], ["x", "p"], ["f", "grad"])
         self.jac_g = ca.Function("nlp_jac_g", [x_all, p], [g, jac], ["x", "p"], ["g", "jac"])
+        #: everything of a point at once (the augmented Lagrangian's evaluation: one pass
+        #: over the shared chart and gathers)
+        self.point = ca.Function("nlp_point", [x_all, p], [f, grad, g, jac], ["x", "p"], ["f", "grad", "g", "jac"])
         symbols = [x_all, p, asm.lam_f, asm.lam_g]
         if asm.projected:
             self.hess_lag = ProjectedHessian("nlp_hess_l", symbols, hess, asm.blocks, self.n_var)
@@ -413,7 +419,7 @@ class Built:
         self.energy_names = [t.name for t in terms if not t.constraint]
         #: the Lagrangian Hessian is positive semidefinite by construction: no constraint rows
         #: and every energy quadratic (PSD Q) or Gauss-Newton with the chart curvature left out
-        self.psd = self.n_g == 0 and (self.hessian == "projected" or self.hessian == "gauss-newton" and all(
+        self.psd = self.n_g == 0 and (self.hessian in ("projected", "projected-all") or self.hessian == "gauss-newton" and all(
             t.matrix is not None or (t.element.residual is not None) for t in terms))
         self.lbg = np.concatenate([np.full(t.size, t.lower) for t in cons]) if cons else np.zeros(0)
         self.ubg = np.concatenate([np.full(t.size, t.upper) for t in cons]) if cons else np.zeros(0)

@@ -10,9 +10,8 @@ assembles the NLP (:mod:`~torsal.geometry.optimize.nlp`), runs IPOPT
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import replace
-from typing import Callable, NamedTuple
+from typing import Callable
 
 import casadi as ca
 import numpy as np
@@ -23,54 +22,14 @@ from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
                         _stroke_barycentric, _unit_rows, _var_index)
-from .forms import (ANGLE_FORMS, TorsalAngleForm, torsal_angle_anchored_element, torsal_angle_split_element,
-                    torsal_form_coordinates_element)
-from .history import SolveMonitor
-from .ipopt import IpoptStrategy
-from .lbfgs import lbfgs
-from .measure import Measurement, measure, worst_missed
-from .nlp import Built, _renormalize
-from .result import OptimizationError, OptimizationResult
-from .working_set import _working_ids
+from .forms import ANGLE_FORMS, TorsalAngleForm, torsal_angle_split_element, torsal_form_coordinates_element
+from .measure import Measurement, measure
+from .nlp import Built
+from .result import OptimizationResult
+from .solve import SOLVERS, Optimum, SolveCall, SolveOptions
 
 #: the ``hessian`` options of :class:`CongruenceProblem` (the first is the default)
 HESSIANS = ("projected", "exact", "guarded", "gauss-newton", "auto")
-
-#: "guarded": a Gauss-Newton answer with more faces without torsal directions than the start,
-#: by more than this share of the faces, counts as collapsed (re-solved with the exact Hessian)
-COLLAPSE_SHARE = 0.02
-
-_COORDS = torsal_form_coordinates_element().fn     # (u, v, w) of a face's torsal form (.forms)
-
-#: anchored form: stop the outer rounds when no active face's anchor moves by this (radians)
-ANCHOR_TOL = 1e-3
-
-
-class _Start(NamedTuple):
-    """Where :meth:`CongruenceProblem.solve` starts (:meth:`CongruenceProblem._start`)."""
-
-    e0: np.ndarray                  # (N, 3) stacked start directions
-    lam_g0: np.ndarray | None       # IPOPT's constraint multipliers of the last solve (warm start)
-    warm: bool                      # IPOPT starts warm from ``lam_g0``
-    before: dict                    # energies at ``e0`` (:meth:`CongruenceProblem.energies`)
-    x0: np.ndarray                  # ``e0`` packed as the NLP's variables
-    frames: np.ndarray              # (n, 9) tangent frames of ``Built.pack`` ((0, 9) if unused)
-    p: np.ndarray                   # the NLP's parameters at the start
-
-
-class _Run(NamedTuple):
-    """How the solver ran (:meth:`CongruenceProblem._run`), before measuring the answer."""
-
-    x: np.ndarray                   # the answer as the NLP's variables
-    lam_g: np.ndarray | None        # IPOPT's constraint multipliers (None for L-BFGS)
-    iterations: int
-    status: str
-    ok: bool                        # the solver converged
-    active: bool | None             # ``OptimizationResult.constraints_active``
-    working: np.ndarray | None      # pass 2's working-set mask over ``g``, else None
-    frames: np.ndarray              # the frames to unpack ``x`` with (re-centred by IPOPT's passes)
-    build_seconds: float            # NLPs built during the run (IPOPT's passes)
-    solve_seconds: float
 
 
 class CongruenceProblem:
@@ -102,46 +61,34 @@ class CongruenceProblem:
         ``PROJECTED_ITERATIONS`` (10) IPOPT iterations, then exact; NLPs with constraint rows
         use the exact Hessian. The projected sum is positive semidefinite, so IPOPT factors
         once per iteration instead of searching for a regularization, and only the elements
-        that curve down are flattened. Measured (benchmarks/optimize_bench.py, 2026-11-23,
-        quiet machine): row 11 8 iterations and 10 s instead of 23 and 24 s, 100k vertices
-        2 iterations and 33 s instead of 7 and 61 s, with 0 faces without torsal directions
-        on row 11 (exact: 0) and 0.27 % at 100k (exact: 0.07 %; Gauss-Newton: over 2 %);
-        projected throughout (no switch) cost row 9 300 iterations more, as projected Newton
-        converges linearly where the energies' minimum is not zero; projecting the
-        constraints' curvature too made row 7c worse (0.530 / 0.475 after 500 iterations
-        against 0.431 / 0.463). ``"gauss-newton"``: ``2 J_r^T J_r`` for
+        that curve down are flattened (fewer iterations than the exact Hessian on the
+        unconstrained Fig. 12 rows and at 100k vertices, ``benchmarks/optimize_bench.py``);
+        it switches to exact because projected Newton converges linearly where the
+        energies' minimum is not zero. The augmented Lagrangian (``solve(solver="alm")``)
+        builds its own NLP with every element projected (:mod:`~torsal.geometry.optimize.alm`).
+        ``"gauss-newton"``: ``2 J_r^T J_r`` for
         every energy that is a sum of squares (all built-in ones but ``fair``, which is
         quadratic and exact either way), no chart curvature for them; positive semidefinite,
         so IPOPT's inertia correction only meets the constraints' curvature (the constraints
         keep their exact Hessian). ``"exact"``: the exact Hessian. ``"guarded"``:
         Gauss-Newton for a problem without constraints, checked: if its answer has more
-        faces without torsal directions than the start, by more than ``COLLAPSE_SHARE`` (2 %)
+        faces without torsal directions than the start, by more than ``solve.COLLAPSE_SHARE`` (2 %)
         of the faces (:meth:`_collapse`), the solve is repeated from the same start with the
         exact Hessian, which the problem then keeps; exact for a problem with constraints.
         ``"auto"``: Gauss-Newton for pass 1 of a solve with inequality constraints (the NLP
         without them, see ``try_unconstrained`` of :meth:`solve`), exact for every other NLP.
-        Measured (benchmarks/optimize_bench.py, 2026-11-23): Gauss-Newton converges in 2 to
-        4 iterations where the exact Hessian is indefinite and regularized every iteration
-        (row 11: 4 instead of 21; 100k vertices: 42 s instead of 123 s), but its full steps
-        can land on a trivial zero of the energies, close to a line bundle: on a facade with
-        boundary strokes (normal, fair, torsal_direction) 972 of 2048 faces without torsal
-        directions (exact: 0), on example 10 116 (exact: 6; the start: 0), on the 7a term set
-        133 of 2048 and at 100k vertices more than 2 % (exact: 1 and 142), on row 11 68 and
-        473 on its two congruences (exact: 0, 0). The guard catches every one and returns
-        the exact Hessian's answer, but then costs the Gauss-Newton solve and a second build
-        on top (100k: 9 iterations and two builds), so it is not the default: every
-        zero-residual design measured collapses; it pays off where the energies' minimum is
-        not zero (e.g. with ``closeness``). With inequalities, the Gauss-Newton
-        pass 1 (``"auto"``) turned example 10 into a near line bundle and left a face of this
-        class's doctest non-hyperbolic, so constrained solves stay exact.
+        Gauss-Newton converges in a few iterations where the exact Hessian is indefinite,
+        but its full steps can land on a trivial zero of the energies, close to a line
+        bundle (faces without torsal directions); the guard catches that and returns the
+        exact Hessian's answer at the cost of a second solve, so it is not the default: it
+        pays off where the energies' minimum is not zero (e.g. with ``closeness``).
     elastic : float, default 0
         ``rho > 0``: the elastic (l1-exact penalty) form of the one-sided inequalities (slacks
         ``p_j >= 0``, ``c_j + p_j >= l_j``, ``rho / |V| sum p_j`` in the objective; see
         :meth:`~torsal.geometry.optimize.nlp.Built._elastic`): LICQ holds everywhere, every
-        start is feasible, multipliers are bounded by ``rho``. 0 (default): off. Measured on
-        row 7c, it did not converge faster than the plain split form (rho 1e2: infeasible
-        after 500 iterations; 1e3: objective 0.69 against 0.49), so it is an option, not the
-        default; on small patches it reaches the same optimum (tests/geometry/test_optimize_forms.py).
+        start is feasible, multipliers are bounded by ``rho``. 0 (default): off. An option for
+        IPOPT, not the default (it did not converge faster on row 7c); on small patches it
+        reaches the same optimum (tests/geometry/test_optimize_forms.py).
     jit : bool, default False
         Compile the per-element kernels to C with the system compiler (casadi codegen; cached
         on disk in ``~/.cache/torsal/kernels`` or ``$TORSAL_KERNEL_CACHE``, so only the first
@@ -198,7 +145,7 @@ class CongruenceProblem:
         self._terms: dict[str, Term] = {}
         self._built: dict[str, Built] = {}
         self._last: dict | None = None
-        self._strategy: IpoptStrategy | None = None    # the IPOPT solve in progress
+        self._strategy = None    # the IPOPT solve in progress (ipopt.IpoptStrategy)
         self._edges_cache = None
 
     # ------------------------------------------------------------------ helpers
@@ -671,23 +618,15 @@ class CongruenceProblem:
         The angle bound ``|p| <= cos(alpha) rho`` and the strength floor are bounds on
         variables: no inequality row, nothing whose gradient vanishes at the apex ``g = 0``
         (a line bundle, outside ``r >= s``), and the start needs not be feasible (pass 3
-        starts from the energies' optimum). Measured (benchmarks/optimize_bench.py): row 7c
-        358 iterations, converged, objective 0.4311 (split: 746 iterations, 0.4572); row 9 719
-        iterations, converged, 0.0160 (split: about 1,155, 0.0165). Not the default: that
-        lower optimum is rougher (the lines' fairness energy 0.0030 against 0.0017 on
-        example 9), and the support structure extracted from it runs through itself (457 of 841 fin panels cannot be
-        built, 34 % of the sun blocked, against 231 and 58 % from split's
-        best iterate at the design's 180 s budget).
+        starts from the energies' optimum). IPOPT converges in fewer iterations with it than
+        with split, but not the default: its lower optimum has rougher lines, and the
+        support structure extracted from example 9's ran through itself. The augmented
+        Lagrangian has no lifted variables: it solves split (and cone) only.
 
         ``form="cone"`` (one row per face,
         :func:`torsal.geometry.optimize.terms.torsal_angle_cone_element`)::
 
             cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0
-
-        ``form="anchored"``: the split rows with ``rho`` replaced by ``(v, w) . n``, ``n`` the
-        orientation at the start of the round, re-anchored at each answer (outer rounds, an
-        inner convex-in-``g`` restriction; measured on row 7c: 500 iterations, 0.4498, not
-        converged: each round takes 100+ iterations).
 
         (``p``, ``rho``: isotropic part and strength of the torsal form, eq. (1), per edge
         length; ``s = min_strength``). All imply hyperbolicity and make a line bundle
@@ -730,12 +669,6 @@ class CongruenceProblem:
         if form is TorsalAngleForm.CONE:
             t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
                      np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
-                     bound=float(alpha_deg))
-        elif form is TorsalAngleForm.ANCHORED:   # two rows per face, anchored at the start of every solve
-            m = len(fi)
-            par = np.concatenate([np.tile([c, float(min_strength), sg, 1.0, 0.0], (m, 1)) for sg in (1.0, -1.0)])
-            t = Term("min_torsal_angle", True, torsal_angle_anchored_element(), _var_index(np.tile(fv, (2, 1)), 0),
-                     np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle",
                      bound=float(alpha_deg))
         elif form is TorsalAngleForm.LIFT:   # three rows per face, u, v, w = lifted variables (see .forms)
             t = _lifted_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
@@ -804,7 +737,7 @@ class CongruenceProblem:
             return t
         covered = [a.elements for a in self._terms.values()
                    if a.kind == "torsal_angle" and a.block == t.block
-                   and a.element.fn.name() in ("c_ang_split", "c_ang_lift", "c_ang_anchored")]
+                   and a.element.fn.name() in ("c_ang_split", "c_ang_lift")]
         if not covered:
             return t
         keep = ~np.isin(t.elements, np.concatenate(covered))
@@ -834,20 +767,28 @@ class CongruenceProblem:
     def build(self, solver: str = "ipopt") -> float:
         """Assemble the NLP (done by :meth:`solve` when needed); returns the seconds it took.
 
-        The built NLP is kept until a term's element subset changes (parameters and weights
-        can change freely).
+        ``solver``: ``"ipopt"`` (the NLP IPOPT solves), ``"alm"`` (the same NLP with every
+        element Hessian projected, see :mod:`.alm`) or ``"lbfgs"`` (constraints as
+        penalties). The built NLP is kept until a term's element subset changes (parameters
+        and weights can change freely).
         """
-        if solver not in ("ipopt", "lbfgs"):
-            raise ValueError(f"solver must be 'ipopt' or 'lbfgs', got {solver!r}")
-        mode = self._mode(solver)
-        if mode in self._built:
+        if solver not in ("ipopt", "lbfgs", "alm"):
+            raise ValueError(f"solver must be 'ipopt', 'alm' or 'lbfgs', got {solver!r}")
+        key = self._key(solver)
+        if key in self._built:
             return 0.0
         if not self._terms:
             raise ValueError("the problem has no terms; add energies (e.g. .normal().fair()) before solving")
+        mode = self._mode(solver)
         terms = self._term_list(mode)
-        self._built[mode] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(False, terms),
-                                  elastic=self.elastic if mode != "penalty" else 0.0)
-        return self._built[mode].seconds
+        hessian = "projected-all" if solver == "alm" else self._hessian_of(False, terms)
+        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, hessian,
+                                 elastic=self.elastic if mode != "penalty" and solver != "alm" else 0.0)
+        return self._built[key].seconds
+
+    def _key(self, solver: str) -> str:
+        """The key of ``solver``'s NLP in ``self._built``."""
+        return self._mode(solver) + ("/alm" if solver == "alm" else "")
 
     def _hessian_of(self, pass1: bool, terms: list) -> str:
         """The energies' Hessian of the NLP of ``terms`` (``hessian="auto"``: Gauss-Newton for
@@ -878,14 +819,17 @@ class CongruenceProblem:
         # the terms as the NLP has them (hyperbolic without the rows min_torsal_angle implies)
         cur = {k: (self._implied_hyperbolic(t) or t) for k, t in self._terms.items()}
         for k, t in self._terms.items():
-            if t.constraint:   # penalties of lifted / anchored forms are their split rows
+            if t.constraint:   # penalties of lifted forms are their split rows
                 cur["penalty:" + k] = _unlifted(t)
         return cur
 
     def _evaluate(self, e: np.ndarray):
-        """(energies dict, objective, g, built) at stacked directions ``e`` with the main NLP."""
-        self.build("ipopt")
-        b = self._built[self.normalize]
+        """(energies dict, objective, g, built) at stacked directions ``e`` with the main NLP
+        (IPOPT's, or the augmented Lagrangian's when only that one is built: same values)."""
+        b = self._built.get(self.normalize) or self._built.get(self._key("alm"))
+        if b is None:
+            self.build("ipopt")
+            b = self._built[self.normalize]
         x, fr = b.pack(e)
         ev, f, g = b.evaluate(x, b.parameters(self._current(), fr))
         out = {k: float(v) for k, v in zip(b.energy_names, np.asarray(ev).ravel())}
@@ -943,128 +887,79 @@ class CongruenceProblem:
         return {t.name: measure(t, congs[t.block], self.delta, g_by.get(t.name), angle_tol_deg=angle_tol_deg,
                                 value_tol=constraint_tol) for t in cons}
 
-    def _collapse(self, e_start: np.ndarray, e_end: np.ndarray) -> str | None:
-        """Why the answer ``e_end`` collapsed compared to ``e_start``, or None (``hessian="guarded"``).
-
-        Collapsed: on some aligned congruence, the faces without torsal directions (elliptic
-        faces and bundles, :meth:`Congruence.torsal_angle` NaN) grew by more than
-        ``COLLAPSE_SHARE`` of the faces. Measured (benchmarks/optimize_bench.py docstring):
-        Gauss-Newton on example 10 leaves 116 of 2048 faces without torsal directions (exact
-        6, start 0), on a facade with boundary strokes and no light term 972 (exact 0); on
-        the 100k-vertex row, 7a at 20k and row 11 it does not collapse.
-        """
-        for c0, c1 in zip(self._congruences(e_start), self._congruences(e_end)):
-            n0, n1 = (int(np.isnan(c.torsal_angle()).sum()) for c in (c0, c1))
-            if n1 - n0 > COLLAPSE_SHARE * len(c1.faces):
-                return (f"{n1} of {len(c1.faces)} faces without torsal directions (start {n0}), "
-                        "collapsed toward a line bundle")
-        return None
-
-    def _anchored_terms(self) -> list[Term]:
-        return [t for t in self._terms.values()
-                if _is_anchored(t)]
-
-    def _anchor(self, e: np.ndarray, active: dict | None = None) -> float:
-        """Anchor every anchored torsal-angle term at the directions ``e`` (see :mod:`.forms`).
-
-        Sets each face's ``n`` to the orientation of ``(v, w)`` at ``e`` (kept where the face
-        is a bundle, ``|(v, w)| < 1e-12``). Returns the largest change of ``n`` (radians) over
-        the faces of ``active`` (``{name: bool mask over the term's faces}``; all if None):
-        0 means the last solve's answer is a KKT point of the unrestricted constraint.
-        """
-        moved = 0.0
-        for t in self._anchored_terms():
-            m = t.size // 2
-            x = np.asarray(e, float).ravel()[t.idx[:m]]
-            vw = np.stack([np.asarray(_COORDS.map(m)(x.T, t.data[:m].T, np.tile(np.r_[0, 0, k], (m, 1)).T)).ravel()
-                           for k in np.eye(3)[1:]], axis=1)
-            norm = np.linalg.norm(vw, axis=1)
-            n = np.where(norm[:, None] > 1e-12, vw / np.maximum(norm, 1e-300)[:, None], t.par[:m, 3:5])
-            change = np.arccos(np.clip(np.einsum("ij,ij->i", n, t.par[:m, 3:5]), -1.0, 1.0))
-            sel = np.ones(m, bool) if active is None else active.get(t.name, np.ones(m, bool))
-            moved = max(moved, float(change[sel].max(initial=0.0)))
-            t.par[:, 3:5] = np.tile(n, (2, 1))
-        return moved
-
-    def _anchored_rounds(self, strategy, b: Built, out, frames, limit: int):
-        """Outer rounds of the anchored torsal-angle form (sequential convex restriction).
-
-        Each IPOPT solve imposes the bound restricted to the anchors (:mod:`.forms`), a
-        subset of the true feasible set, so every answer holds the real bound. Re-anchored at
-        the answer, that answer is feasible for the next round and the objective can only
-        go down; when the anchors of the faces whose rows carry a multiplier no longer move
-        (< ``ANCHOR_TOL`` radians), the answer is a KKT point of the unrestricted bound.
-        """
-        while out.converged and out.lam_g is not None and out.iterations < limit:
-            e = b.unpack(out.x, frames)
-            active = {}
-            lam = np.abs(np.asarray(out.lam_g))
-            big = float(lam.max(initial=0.0))
-            for t, rows in zip(b.cons, b.g_slices):
-                if _is_anchored(t):
-                    act = (lam[rows] > 1e-4 * big).reshape(2, -1)
-                    active[t.name] = act[0] | act[1]
-            if self._anchor(e.ravel(), active) < ANCHOR_TOL:
-                break
-            p = b.parameters(self._current(), frames)
-            r = strategy.warm_pass(b, out.x, p, out.lam_g, limit - out.iterations)
-            out = r._replace(iterations=out.iterations + r.iterations)
-        return out
-
-    def _off_the_apex(self, e: np.ndarray) -> np.ndarray:
-        """The start moved off the line-bundle apex where a torsal-angle bound needs it.
-
-        A flat facade's normals (or any parallel lines) are a line bundle on every face: the
-        apex ``g = 0`` of every torsal-angle cone, where each constraint is stationary, so an
-        interior-point method cannot find a direction out. When most faces of a
-        ``min_torsal_angle`` constraint start weaker than 4 times its strength floor ``s``,
-        the start gets a saddle twist ``e_i + 4 s (x_i t1 - y_i t2)`` (``t1``, ``t2`` the
-        principal axes of mesh A, ``x, y`` in units of ``delta``): the normal congruence of
-        a saddle, torsal directions 90 degrees apart, strength about ``4 s`` per edge.
-        """
-        terms = [t for t in self._terms.values() if t.kind == "torsal_angle" and t.block == 0]
-        if not terms:
-            return e
-        s = max(float(t.par[0, 1]) for t in terms)
-        c = self._blocks[0]
-        n = len(c.vertices)
-        cong = Congruence(c.vertices, c.faces, e[:n])
-        faces = np.unique(np.concatenate([t.elements for t in terms]))
-        if np.mean(cong.bundle_deviation()[faces] < 4 * s) < 0.5:
-            return e
-        v = c.vertices - c.vertices.mean(axis=0)
-        axes = np.linalg.svd(v, full_matrices=False)[2]
-        x, y = (v @ axes[0]) / self.delta, (v @ axes[1]) / self.delta
-        twisted = e[:n] + 4 * s * (x[:, None] * axes[0] - y[:, None] * axes[1])
-        twisted /= np.linalg.norm(twisted, axis=1, keepdims=True)
-        return np.concatenate([twisted, e[n:]])
-
     # ------------------------------------------------------------------ solving
     def _report_iteration(self, arg) -> bool:
         """IPOPT's iteration callback (cached with the solver) -> the solve in progress."""
         return self._strategy.report(arg) if self._strategy is not None else False
 
-    def solve(self, solver: str = "ipopt", max_iter: int | None = None, tol: float = 1e-4,
+    @property
+    def optimum(self) -> Optimum | None:
+        """The last solve's answer with its multipliers and penalties, None before a solve.
+
+        Picklable: keep it (the pipeline's stage cache does) and hand it to
+        :meth:`warm_start_from` of a problem with the same structure to re-solve from it
+        after a change of a weight, a light direction, a stroke or a bound.
+        """
+        if self._last is None:
+            return None
+        last = self._last
+        return Optimum(directions=np.array(last["e"]), lam_g=last.get("lam_g"), alm=last.get("alm"),
+                       active=last.get("active"), working=last.get("working"))
+
+    def warm_start_from(self, optimum: Optimum) -> "CongruenceProblem":
+        """The next :meth:`solve` starts from ``optimum`` (of this problem or one of the same
+        structure): its directions, and its multipliers and penalties where they fit.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> c = Congruence.from_normals(facade_patch(nu=7, nv=5))
+        >>> p = CongruenceProblem(c).normal().fair().perpendicular([0.3, -0.8, -0.5]).hyperbolic()
+        >>> first = p.solve()
+        >>> q = CongruenceProblem(c).normal().fair().perpendicular([0.35, -0.8, -0.5]).hyperbolic()
+        >>> q.warm_start_from(p.optimum).solve().success
+        True
+        """
+        if not isinstance(optimum, Optimum):
+            raise TypeError("warm_start_from needs an Optimum (CongruenceProblem.optimum)")
+        e = np.asarray(optimum.directions, dtype=float)
+        if e.size != self.n_var or not np.isfinite(e).all():
+            raise ValueError(f"the optimum has {e.size // 3} directions; this problem has {self.n_var // 3}")
+        self._last = {"e": e.reshape(-1, 3), "lam_g": optimum.lam_g, "alm": optimum.alm,
+                      "active": optimum.active, "working": optimum.working}
+        return self
+
+    def solve(self, solver: str = SOLVERS[0], max_iter: int | None = None, tol: float = 1e-4,
               callback: Callable | None = None, *, warm_start: bool = True, initial=None,
               raise_on_failure: bool = False, verbose: bool = False, constraint_tol: float = 1e-6,
               angle_tol_deg: float = 0.1, penalty: float = 1e3, ipopt_options: dict | None = None,
               try_unconstrained: bool = True, max_seconds: float | None = None,
-              keep_best: bool = True) -> OptimizationResult:
+              keep_best: bool = True, certify: bool = False) -> OptimizationResult:
         """Minimize the energies subject to the constraints.
 
         Parameters
         ----------
-        solver : {"ipopt", "lbfgs"}
-            ``"ipopt"``: interior point, exact Hessian, MUMPS, real inequality constraints.
+        solver : {"auto", "alm", "ipopt", "lbfgs"}
+            ``"auto"`` (default): the fastest route to a measured-feasible optimum: the
+            augmented Lagrangian for an NLP with inequality rows that it can solve (tangent
+            chart, no lifted form or elastic slacks), IPOPT otherwise; if the augmented
+            Lagrangian ends without a measured-feasible answer, IPOPT continues from it.
+            ``"alm"``: the paper's augmented Lagrangian with projected-Newton steps, one
+            sparse Cholesky factorization per step (:mod:`~torsal.geometry.optimize.alm`).
+            ``"ipopt"``: interior point, exact Hessian, MUMPS, real inequality constraints
+            (the solver of record).
             ``"lbfgs"``: the paper's baseline: scipy L-BFGS-B in rounds of 10 iterations with
             renormalization of the ``e_i`` after each round; constraints become penalties
             ``penalty * mean(min(c, 0)^2)``.
         max_iter : int, optional
-            Iteration limit (default 200 for IPOPT, 1000 for L-BFGS).
+            Iteration limit: Newton steps of the augmented Lagrangian (default 500), IPOPT
+            iterations (default 200), L-BFGS iterations (default 1000). Limits are counts,
+            so the answer does not depend on the machine's load.
         tol : float
             IPOPT's KKT tolerance, with the objective scaled by the number of vertices (the
             energies are means, so this makes the criterion per vertex and independent of the
-            mesh size). L-BFGS: stop when a round decreases the objective by less than ``tol``
+            mesh size). The augmented Lagrangian stops at a relative Newton decrement of
+            ``tol * 1e-2`` with every constraint holding as measured. L-BFGS: stop when a round decreases the objective by less than ``tol``
             times the starting objective.
         callback : callable, optional
             Called each iteration with ``{"iteration", "objective", "infeasibility",
@@ -1090,7 +985,14 @@ class CongruenceProblem:
         ipopt_options : dict, optional
             Extra IPOPT options (e.g. ``{"mumps_pivot_order": 7}``).
         max_seconds : float, optional
-            Wall-time limit of the solve; at the limit the best feasible iterate is returned.
+            A safety net, not a way to shape the result: a wall-time limit; at the limit the
+            best feasible iterate is returned and ``OptimizationResult.time_limited`` (and the
+            status) say that the answer depends on the machine's load.
+        certify : bool
+            After the augmented Lagrangian, IPOPT with all constraints from its answer and
+            multipliers (warm start): a KKT point to IPOPT's tolerances; ``solver`` of the
+            result is then ``"alm+ipopt"`` (kept as the augmented Lagrangian's answer, with a
+            status that says so, where IPOPT does not converge).
         keep_best : bool
             When the solver stops early (iteration or time limit, callback) or ends on an
             iterate that misses a constraint as measured, return the lowest-objective iterate
@@ -1125,144 +1027,12 @@ class CongruenceProblem:
         OptimizationResult
             ``success`` needs a converged solver *and* every constraint holding as measured.
         """
-        t_call = time.perf_counter()
-        build_s = self.build(solver)
-        build_s += self.build("ipopt")    # the main NLP also evaluates energies and constraints
-        mode = self._mode(solver)
-        b = self._built[mode]
-        start = self._start(solver, b, initial, warm_start)
-        tols = dict(angle_tol_deg=float(angle_tol_deg), constraint_tol=float(constraint_tol))
-
-        def worst(e):
-            m = self.measure(e, **tols).values()
-            return max((x.worst / x.tolerance if x.tolerance > 0 else x.worst for x in m), default=0.0)
-
-        monitor = SolveMonitor(worst, callback, max_seconds, t0=t_call)
-        run = self._run(solver, b, mode, start, monitor, max_iter=max_iter, tol=tol, verbose=verbose,
-                        ipopt_options=ipopt_options, try_unconstrained=try_unconstrained, penalty=penalty)
-        build_s += run.build_seconds
-        if monitor.timed_out:
-            run = run._replace(status=f"time limit of {max_seconds:g} s reached", ok=False)
-        e = b.unpack(run.x, run.frames)
-        if self.normalize == "renormalize" or solver == "lbfgs":
-            e = _renormalize(e.ravel()).reshape(-1, 3)
-        finite = bool(np.isfinite(e).all())
-        collapsed = (self._collapse(start.e0, e) if finite and solver == "ipopt" and self.hessian == "guarded"
-                     and b.hessian == "gauss-newton" else None)
-        if collapsed is not None:
-            # the Gauss-Newton steps reached a trivial zero of the energies: solve again from
-            # the same start with the exact Hessian (kept for this problem's structure)
-            self._exact_after_collapse = True
-            self._built.pop(mode, None)
-            res = self.solve(solver, max_iter, tol, callback, warm_start=warm_start, initial=initial,
-                             raise_on_failure=raise_on_failure, verbose=verbose, constraint_tol=constraint_tol,
-                             angle_tol_deg=angle_tol_deg, penalty=penalty, ipopt_options=ipopt_options,
-                             try_unconstrained=try_unconstrained, max_seconds=max_seconds, keep_best=keep_best)
-            return replace(res, iterations=res.iterations + run.iterations,
-                           build_seconds=res.build_seconds + build_s,
-                           solve_seconds=res.solve_seconds + run.solve_seconds,
-                           status=f"Gauss-Newton: {collapsed}; exact Hessian: {res.status}")
-        res = self._package(solver, b, e, run, monitor, before=start.before, build_seconds=build_s,
-                            keep_best=keep_best, tols=tols)
-        if raise_on_failure and not res.success:
-            raise OptimizationError(f"congruence optimization failed: {res.status}", res)
-        return res
-
-    def _start(self, solver: str, b: Built, initial, warm_start: bool) -> _Start:
-        """Where :meth:`solve` starts: ``initial``, the last answer (warm start) or the
-        congruence's directions (moved off the line-bundle apex, :meth:`_off_the_apex`)."""
-        e0, lam_g0, warm = self._directions(), None, False
-        if initial is not None:
-            init = np.asarray(initial, dtype=float)
-            if init.size != self.n_var or not np.isfinite(init).all():
-                raise ValueError(f"initial must be a finite ({self.n_var // 3}, 3) array")
-            e0 = init.reshape(-1, 3)
-        elif warm_start and self._last is not None:
-            e0 = self._last["e"]
-            lam_g0 = self._last.get("lam_g") if solver == "ipopt" else None
-            warm = lam_g0 is not None and lam_g0.size == b.n_g and b.n_g > 0
-        if not warm and initial is None:
-            e0 = self._off_the_apex(e0)
-        before = self._evaluate(e0)[0]
-        x0, frames = b.pack(e0)
-        p = b.parameters(self._current(), frames)
-        return _Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p)
-
-    def _run(self, solver: str, b: Built, mode: str, start: _Start, monitor: SolveMonitor, *,
-             max_iter: int | None, tol: float, verbose: bool, ipopt_options: dict | None,
-             try_unconstrained: bool, penalty: float) -> _Run:
-        """Run IPOPT (its passes, then the anchored form's outer rounds) or L-BFGS from ``start``."""
-        t0 = time.perf_counter()
-        if solver != "ipopt":
-            r = lbfgs(b, start.x0, start.p, monitor, max_iter=max_iter or 1000, tol=tol, penalty=penalty)
-            return _Run(x=r.x, lam_g=None, iterations=r.iterations, status=r.status, ok=r.converged,
-                        active=None, working=None, frames=start.frames, build_seconds=0.0,
-                        solve_seconds=time.perf_counter() - t0)
-        strategy = IpoptStrategy(self, monitor, start.frames, limit=max_iter or 200, tol=tol, verbose=verbose,
-                                 options=ipopt_options)
-        self._strategy = strategy
-        try:
-            out = strategy.solve(b, mode, start.warm, start.lam_g0, start.x0, start.p, try_unconstrained)
-            frames = strategy.frames     # re-centred when a pass started elsewhere
-            if self._anchored_terms():
-                out = self._anchored_rounds(strategy, b, out, frames, max_iter or 200)
-        finally:
-            self._strategy = None
-        solve_s = time.perf_counter() - t0 - strategy.build_seconds
-        return _Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
-                    active=out.constraints_active, working=out.working, frames=frames,
-                    build_seconds=strategy.build_seconds, solve_seconds=solve_s)
-
-    def _package(self, solver: str, b: Built, e: np.ndarray, run: _Run, monitor: SolveMonitor, *,
-                 before: dict, build_seconds: float, keep_best: bool, tols: dict) -> OptimizationResult:
-        """The :class:`OptimizationResult` of the answer ``e`` (stacked (N, 3)), measured.
-
-        Falls back to the monitor's best feasible iterate (``keep_best``), writes the misses
-        into the status and keeps the answer (and a converged solve's multipliers) for a
-        warm start.
-        """
-        status, ok, lam_g, working = run.status, run.ok, run.lam_g, run.working
-        finite = bool(np.isfinite(e).all())
-        meas = self.measure(e, **tols) if finite else {}
-        holds = finite and all(m.holds for m in meas.values())
-        from_iteration = None
-        best = monitor.best
-        if keep_best and best is not None and (not holds or (not ok and best.objective < self._evaluate(e)[1])):
-            # stopped early or ended infeasible: the best iterate that held every constraint
-            e, from_iteration, lam_g, working = best.directions, best.iteration, None, None
-            meas, holds, finite = self.measure(e, **tols), True, True
-            status += f"; returned the best feasible iterate (iteration {best.iteration})"
-        if finite:
-            after, fval = self._evaluate(e)[:2]
-        else:
-            after, fval = {}, math.nan
-            status += "; the solution contains NaN"
-        worst_c = worst_missed(meas)
-        if not finite:
-            worst_c = ("NaN", -1, math.inf)
-        elif worst_c is not None:
-            m = meas[worst_c[0]]
-            status += (f"; constraint {worst_c[0]!r} missed by {worst_c[2]:.3g} {m.unit} (measured) "
-                       f"on {len(m.missed)} elements, worst {worst_c[1]}")
-        ok = bool(ok and holds and finite)
-        if finite:
-            congs = self._congruences(e)
-            # multipliers only from a converged solve: a warm start (mu_init 1e-6) from an
-            # unconverged iterate's multipliers was slower than a cold one (bench row 7c:
-            # re-solve 152 s after a 90 s first solve)
-            self._last = {"e": e, "lam_g": lam_g if ok else None, "active": run.active,
-                          "working": working if ok else None}
-        else:
-            congs = list(self._blocks)
-        return OptimizationResult(congruence=congs[0], success=ok, status=status, iterations=run.iterations,
-                                  build_seconds=build_seconds, solve_seconds=run.solve_seconds,
-                                  energies_before=before, energies_after=after,
-                                  max_violation={k: m.worst for k, m in meas.items()}, worst_constraint=worst_c,
-                                  congruences=tuple(congs), solver=solver, objective=float(fval),
-                                  constraints_active=run.active,
-                                  working_set=None if working is None else _working_ids(b, working),
-                                  violated={k: m.missed for k, m in meas.items()}, measured=meas,
-                                  history=monitor.history, from_iteration=from_iteration)
+        opts = SolveOptions(solver=solver, max_iter=max_iter, tol=tol, callback=callback, warm_start=warm_start,
+                            initial=initial, raise_on_failure=raise_on_failure, verbose=verbose,
+                            constraint_tol=constraint_tol, angle_tol_deg=angle_tol_deg, penalty=penalty,
+                            ipopt_options=ipopt_options, try_unconstrained=try_unconstrained,
+                            max_seconds=max_seconds, keep_best=keep_best, certify=certify)
+        return SolveCall(self, opts).run()
 
 
 def _split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float, name: str = "min_torsal_angle") -> Term:
@@ -1282,16 +1052,11 @@ def _lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float) -> Term:
                 lower=0.0, upper=0.0, lift=True)
 
 
-def _is_anchored(t: Term) -> bool:
-    """Whether ``t`` is a torsal-angle term in the anchored form (its rows re-anchored in rounds)."""
-    return t.element is not None and t.element.fn.name() == "c_ang_anchored"
-
-
 def _unlifted(t: Term) -> Term:
-    """A lifted or anchored torsal-angle term as the split form over the same faces (for L-BFGS)."""
-    if not (t.lift or _is_anchored(t)):
+    """A lifted torsal-angle term as the split form over the same faces (for L-BFGS)."""
+    if not t.lift:
         return t
-    m = t.size // (3 if t.lift else 2)
+    m = t.size // 3
     return replace(_split_angle_term(t.elements[:m], t.idx[:m, ::3] // 3, t.data[:m], float(t.par[0, 0]),
                                      float(t.par[0, 1]), t.bound, t.name), block=t.block,
                    idx=np.tile(t.idx[:m], (2, 1)))

@@ -30,29 +30,40 @@ import scipy.sparse as sp
 PROJECTED_ITERATIONS = 10
 
 
-def psd_projection(a: np.ndarray) -> np.ndarray:
-    """The nearest positive semidefinite matrices (Frobenius norm) of a batch of symmetric ones.
+def psd_projection(a: np.ndarray, *, mode: str = "clamp") -> np.ndarray:
+    """Positive semidefinite versions of a batch of symmetric matrices.
 
     Parameters
     ----------
     a : (m, n, n) array
         Symmetric matrices.
+    mode : {"clamp", "abs"}
+        ``"clamp"``: the nearest positive semidefinite matrix (Frobenius norm),
+        ``V max(L, 0) V^T`` for ``a = V L V^T`` (negative eigenvalues clamped to 0).
+        ``"abs"``: ``V |L| V^T`` (negative eigenvalues mirrored): keeps the size of the
+        curvature along a direction that curves down, so a Newton step along it is not
+        unbounded by the projection.
 
     Returns
     -------
     (m, n, n) array
-        ``V max(L, 0) V^T`` for ``a = V L V^T`` (negative eigenvalues clamped to 0); matrices
-        that are already positive semidefinite come back unchanged.
+        Matrices that are already positive semidefinite come back unchanged. 2 x 2 blocks
+        (the chart's curvature per vertex) take the closed form of their eigenvalues.
 
     Examples
     --------
     >>> psd_projection(np.array([[[1.0, 0.0], [0.0, -2.0]]]))[0]
     array([[1., 0.],
            [0., 0.]])
+    >>> psd_projection(np.array([[[1.0, 0.0], [0.0, -2.0]]]), mode="abs")[0]
+    array([[1., 0.],
+           [0., 2.]])
     """
     a = np.array(a, dtype=float)
     if a.shape[0] == 0:
         return a
+    if a.shape[1] == 2:
+        return _psd_2x2(a, mode)
     # eigenvectors at once: on the NLP's element Hessians nearly every element has a negative
     # eigenvalue beyond rounding (measured on row 11), so a cheaper eigenvalue-only pass
     # first would cost more than it saves
@@ -60,7 +71,26 @@ def psd_projection(a: np.ndarray) -> np.ndarray:
     neg = np.flatnonzero(w[:, 0] < 0.0)
     if neg.size:
         v = v[neg]
-        a[neg] = (v * np.maximum(w[neg], 0.0)[:, None, :]) @ v.transpose(0, 2, 1)
+        wn = np.abs(w[neg]) if mode == "abs" else np.maximum(w[neg], 0.0)
+        a[neg] = (v * wn[:, None, :]) @ v.transpose(0, 2, 1)
+    return a
+
+
+def _psd_2x2(a: np.ndarray, mode: str) -> np.ndarray:
+    """:func:`psd_projection` of (m, 2, 2) symmetric matrices by their closed-form eigenvalues."""
+    p, q, r = a[:, 0, 0], a[:, 0, 1], a[:, 1, 1]
+    mean, rad = 0.5 * (p + r), np.hypot(0.5 * (p - r), q)
+    lo, hi = mean - rad, mean + rad
+    neg = lo < 0.0
+    if not neg.any():
+        return a
+    f = np.abs if mode == "abs" else (lambda x: np.maximum(x, 0.0))
+    l1, l2 = f(lo[neg]), f(hi[neg])
+    # a = lo P_lo + hi P_hi with P_hi = (a - lo I) / (hi - lo) (P_lo = I - P_hi); rad = 0: a = lo I
+    d = np.where(rad[neg] > 0, 2.0 * rad[neg], 1.0)
+    ph = (a[neg] - lo[neg, None, None] * np.eye(2)) / d[:, None, None]
+    ph = np.where((rad[neg] > 0)[:, None, None], ph, 0.0)
+    a[neg] = l1[:, None, None] * (np.eye(2) - ph) + l2[:, None, None] * ph
     return a
 
 
@@ -77,6 +107,7 @@ class Block:
     rows: np.ndarray
     cols: np.ndarray
     ids: np.ndarray
+    constraint: bool = False     # a constraint's element Hessians times its multipliers
 
     @property
     def n(self) -> int:
@@ -97,6 +128,12 @@ class ProjectedHessian(ca.Callback):
 
     #: project the blocks (True) or sum them as they are (the exact Hessian)
     project: bool = True
+    #: how a block is made positive semidefinite (:func:`psd_projection`)
+    mode: str = "clamp"
+    #: projected: the constraints' curvature (times their multipliers) projected (True) or
+    #: left out (False: the augmented Lagrangian's penalty supplies the curvature across
+    #: the constraints, ``rho J^T J``)
+    constraint_curvature: bool = True
 
     def __init__(self, name: str, symbols: list, rest: ca.MX, blocks: list[Block], n_var: int):
         ca.Callback.__init__(self)
@@ -141,17 +178,52 @@ class ProjectedHessian(ca.Callback):
     def has_eval_buffer(self):
         return True
 
-    def eval_buffer(self, arg, res):
-        # kept alive during the call; an empty input (no constraint rows) has no buffer
-        args = [np.frombuffer(a, dtype=float) if sp_.nnz() else np.zeros(0) for a, sp_ in zip(arg, self._in)]
-        for i, a in enumerate(args):
+    @property
+    def sparsity(self) -> ca.Sparsity:
+        """The output's sparsity (upper triangle, column-compressed)."""
+        return self._out
+
+    def pieces(self, args: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The rest's nonzeros and every block's element matrices (m, n, n) at ``(x, p, lam_f, lam_g)``."""
+        # kept alive during the call (casadi holds raw pointers); an empty input has no buffer
+        keep = [np.ascontiguousarray(a, dtype=float) if sp_.nnz() else _EMPTY for a, sp_ in zip(args, self._in)]
+        for i, a in enumerate(keep):
             self._buffer.set_arg(i, memoryview(a))
         self._eval_pieces()
-        vals = [self._res[0]]
-        for b, (iu, ju), v in zip(self.blocks, self._upper, self._res[1:]):
+        mats = []
+        for b, v in zip(self.blocks, self._res[1:]):
             a = np.zeros((v.shape[0], b.n, b.n))     # v: (m, nh), element-major (casadi column-major)
             a[:, b.rows, b.cols] = v
             a[:, b.cols, b.rows] = v
-            vals.append((psd_projection(a) if self.project else a)[:, iu, ju].ravel())
-        np.frombuffer(res[0], dtype=float)[:] = self._scatter @ np.concatenate(vals)
+            mats.append(a)
+        return self._res[0].copy(), mats
+
+    def combine(self, rest: np.ndarray, mats: list[np.ndarray], project: bool) -> np.ndarray:
+        """The output's nonzeros (in :attr:`sparsity` order) from :meth:`pieces`: the blocks
+        projected (``project``) or summed as they are (the exact Hessian)."""
+        vals = [rest]
+        for blk, (iu, ju), a in zip(self.blocks, self._upper, mats):
+            if project and blk.constraint and not self.constraint_curvature:
+                vals.append(np.zeros(a.shape[0] * iu.size))
+                continue
+            if project:
+                # elements whose matrix is zero (constraint rows without a multiplier) stay zero
+                live = np.flatnonzero(np.abs(a).reshape(len(a), -1).max(axis=1, initial=0.0) > 0)
+                a = a.copy()
+                a[live] = psd_projection(a[live], mode=self.mode)
+            vals.append(a[:, iu, ju].ravel())
+        return self._scatter @ np.concatenate(vals)
+
+    def nonzeros(self, args: list[np.ndarray]) -> np.ndarray:
+        """The output's nonzeros (in :attr:`sparsity` order) at ``(x, p, lam_f, lam_g)`` (numpy)."""
+        rest, mats = self.pieces(args)
+        return self.combine(rest, mats, self.project)
+
+    def eval_buffer(self, arg, res):
+        # kept alive during the call; an empty input (no constraint rows) has no buffer
+        args = [np.frombuffer(a, dtype=float) if sp_.nnz() else np.zeros(0) for a, sp_ in zip(arg, self._in)]
+        np.frombuffer(res[0], dtype=float)[:] = self.nonzeros(args)
         return 0
+
+
+_EMPTY = np.zeros(0)

@@ -1,6 +1,7 @@
 """What a solve returns: :class:`OptimizationResult`, its per-iteration history and errors."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -26,6 +27,9 @@ class IterationRecord(NamedTuple):
         means every constraint holds as measured; 0 without constraints).
     feasible : bool
         ``violation <= 1``.
+    cpu_seconds : float
+        Processor time of this process since the solve was called (``time.process_time``):
+        comparable between solvers on a busy machine, where wall time is not.
     """
 
     iteration: int
@@ -33,6 +37,7 @@ class IterationRecord(NamedTuple):
     objective: float
     violation: float
     feasible: bool
+    cpu_seconds: float = math.nan
 
 
 class OptimizationError(TorsalError, RuntimeError):
@@ -77,6 +82,8 @@ class OptimizationResult:
     congruences : tuple of Congruence
         All optimized congruences: this problem's first, then those joined by ``align_with``.
     solver : str
+        Who produced the answer: ``"alm"``, ``"ipopt"``, ``"alm+ipopt"`` (the augmented
+        Lagrangian's answer certified or continued by IPOPT) or ``"lbfgs"``.
     objective : float
     constraints_active : bool or None
         IPOPT with inequality constraints: False when the solve without them already met
@@ -99,6 +106,18 @@ class OptimizationResult:
         When the solver stopped early or ended infeasible and an earlier iterate was
         feasible (measured) with lower energy, the result is that iterate and this is its
         iteration number; None when the result is the solver's last iterate.
+    timings : dict[str, float]
+        Wall seconds per part: ``"build"`` (NLPs), ``"alm"``, ``"ipopt"``, ``"lbfgs"`` (each
+        solver that ran), ``"total"`` (the whole call, measuring included).
+    counts : dict
+        ``"iterations"``; for the augmented Lagrangian also ``"newton_steps"``,
+        ``"outer_iterations"``, ``"factorizations"`` (all sparse Cholesky factorizations),
+        ``"exact"`` (steps with the exact Hessian), ``"indefinite"`` (tries of it that were
+        not positive definite), ``"shifted"`` (projected matrices refactored with a larger
+        shift), ``"trials"`` (line-search evaluations) and ``"backend"`` (the factorization).
+    time_limited : bool
+        The safety net ``max_seconds`` cut the solve: the answer depends on the machine's
+        load (the status says so too).
     """
 
     congruence: Congruence
@@ -120,6 +139,9 @@ class OptimizationResult:
     measured: dict = field(default_factory=dict)
     history: list = field(default_factory=list)
     from_iteration: int | None = None
+    timings: dict = field(default_factory=dict)
+    counts: dict = field(default_factory=dict)
+    time_limited: bool = False
 
     @property
     def feasible(self) -> bool:
@@ -134,11 +156,12 @@ class OptimizationResult:
         vals = [m.values.min() for m in self.measured.values() if m.kind == "torsal_angle" and m.values.size]
         return float(min(vals)) if vals else None
 
-    def time_to(self, energy: float) -> float | None:
-        """Wall time (s) until the first measured-feasible iterate with objective <= ``energy``."""
+    def time_to(self, energy: float, *, cpu: bool = False) -> float | None:
+        """Wall time (s; processor time with ``cpu``) until the first measured-feasible
+        iterate with objective <= ``energy``."""
         for r in self.history:
             if r.feasible and r.objective <= energy:
-                return r.seconds
+                return r.cpu_seconds if cpu else r.seconds
         return None
 
     def summary(self) -> str:

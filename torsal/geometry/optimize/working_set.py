@@ -1,9 +1,11 @@
-"""The working set of inequality constraints (pass 2 of the IPOPT strategy)."""
+"""The working set of inequality constraints: pass 2 of the IPOPT strategy (:mod:`.ipopt`)."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+from .nlp import _bound_violation
 
 if TYPE_CHECKING:
     from .nlp import Built
@@ -31,3 +33,48 @@ def _working_ids(b: "Built", mask: np.ndarray) -> dict:
     return {t.name: np.unique(t.elements[mask[rows]]) for t, rows in zip(b.cons, b.g_slices)
             if t.lower < t.upper}
 
+
+class PassOutcome(NamedTuple):
+    """The answer of the pass that ended a solve.
+
+    ``constraints_active``: False when pass 1 (no inequalities) met them all, True when
+    inequalities were imposed, None without inequalities. ``working``: the working-set mask
+    over ``g`` when pass 2 answered, else None.
+    """
+
+    x: np.ndarray
+    lam_g: np.ndarray | None
+    iterations: int
+    status: str
+    converged: bool
+    constraints_active: bool | None
+    working: np.ndarray | None
+
+
+def working_set_pass(strategy, s_warm, s_cold, b: "Built", x, p, ws: np.ndarray, lam_g, budget: int,
+                     feas_tol: float) -> "PassOutcome":
+    """Pass 2: IPOPT with the inequalities outside ``ws`` unbounded, adding those the answer
+    violates (and their near-active companions) until it violates none.
+
+    An inequality left out and met with slack has a zero multiplier, so the answer is a
+    KKT point of the whole problem; IPOPT meanwhile carries barrier terms (and their
+    indefinite curvature) only for the few elements that matter.
+    """
+    iters, status, ok = 0, "", False
+    ws = ws.copy()
+    while budget - iters > 0:
+        args = dict(x0=x, p=p, lbg=np.where(ws, b.lbg, -np.inf), ubg=np.where(ws, b.ubg, np.inf))
+        if lam_g is not None:
+            args.update(lam_g0=np.where(ws, lam_g, 0.0), lam_x0=np.zeros(b.n_var))
+        r = strategy.call(s_warm if lam_g is not None else s_cold, b, args, budget - iters)
+        x, lam_g, status, ok = r.x, r.lam_g, r.status, r.converged
+        iters += r.iterations
+        if not ok:
+            break
+        g = np.asarray(b.evaluate(x, p)[2]).ravel()
+        new = (_bound_violation(g, b.lbg, b.ubg) > feas_tol) & ~ws
+        if not new.any():
+            break
+        ws |= _near_bounds(g, b) | new
+        lam_g, ok = None, False          # cold: the new elements have no multipliers yet
+    return PassOutcome(x, lam_g, iters, status, ok, True, ws)

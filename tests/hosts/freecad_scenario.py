@@ -1,0 +1,105 @@
+"""Run inside FreeCAD (``freecadcmd``) by test_freecad.py: the parametric fins object end to
+end. Writes what it measured as JSON to ``$TORSAL_SCENARIO_OUT``. FreeCAD is imported inside
+:func:`main`, so pytest can import this file outside FreeCAD."""
+import json
+import os
+import time
+
+
+def _solids(obj):
+    s = obj.Shape
+    return {"n": len(s.Solids), "valid": all(x.isValid() for x in s.Solids),
+            "volumes": [x.Volume for x in s.Solids],
+            "bbox": [s.BoundBox.XMin, s.BoundBox.YMin, s.BoundBox.ZMin, s.BoundBox.XMax, s.BoundBox.YMax,
+             s.BoundBox.ZMax]}
+
+
+def _files(obj):
+    """What the run wrote, read with the standard library: report.json and parts.csv."""
+    import csv
+
+    out = os.path.join(os.path.dirname(obj.DesignRun), "out")
+    with open(os.path.join(out, "report.json")) as fh:
+        report = json.load(fh)
+    with open(os.path.join(out, "parts.csv"), newline="") as fh:
+        names = [r["part_id"] for r in csv.DictReader(fh)]
+    return {"report_parts": report["fabrication"]["parts"], "csv_parts": names,
+            "report_buildable": report["fabrication"]["assembly"]["buildable"],
+            "report_blocked": report["light"]["blocked_share"]}
+
+
+def _record(obj, seconds):
+    return {**_solids(obj), **_files(obj), "state": list(obj.State), "parts": list(obj.PartNames),
+            "groups": list(obj.PartGroups), "buildable": obj.Buildable,
+            "sun_blocked": obj.SunBlocked, "report": obj.Report, "design_run": obj.DesignRun,
+            "stages_run": list(obj.StagesRun), "stages_cached": list(obj.StagesCached),
+            "seconds": seconds}
+
+
+def _recompute(doc, obj):
+    t = time.time()
+    doc.recompute()
+    return _record(obj, time.time() - t)
+
+
+def main():
+    import sys
+
+    import FreeCAD
+
+    from torsal.freecad import make_fins
+    from torsal.hosts.freecad.feature import FinsFeature
+
+    sys.path.insert(0, os.environ["TORSAL_EXAMPLES"])
+    from bspline_facade import facade_face     # the example's B-spline facade (12 m x 6 m)
+
+    out = {}
+    design, folder = os.environ["TORSAL_SCENARIO_DESIGN"], os.environ["TORSAL_SCENARIO_DIR"]
+    doc = FreeCAD.newDocument("facade")
+    fins = make_fins(doc, design)
+    fins.OutputFolder = os.path.join(folder, "fins-job")
+    out["properties"] = {"Spacing": fins.Spacing.Value, "Depth": fins.Depth.Value,
+                         "Thickness": fins.Thickness.Value,
+                         "MinTorsalAngle": fins.MinTorsalAngle.Value, "SunStart": fins.SunStart,
+                         "SunEnd": fins.SunEnd, "SunHours": list(fins.SunHours),
+                         "read_only": {n: fins.getEditorMode(n) for n in
+                                       ("Buildable", "SunBlocked", "Report", "Spacing")}}
+    out["first"] = _recompute(doc, fins)
+
+    fins.Spacing = fins.Spacing.Value * 1.25
+    out["spacing"] = _recompute(doc, fins)
+
+    face = doc.addObject("Part::Feature", "Facade")
+    face.Shape = facade_face()
+    fins.Surface = (face, ["Face1"])
+    out["surface"] = _recompute(doc, fins)
+    f = face.Shape.Faces[0]
+    # how far the fin plates stand from the face (connectors sit off it, in the corners)
+    plates = [x for x, g in zip(fins.Shape.Solids, fins.PartGroups) if g != "connector"]
+    out["surface"]["distances"] = [x.distToShape(f)[0] for x in plates[:: max(1, len(plates) // 30)]]
+    out["surface"]["face_bbox"] = [f.BoundBox.XMin, f.BoundBox.YMin, f.BoundBox.ZMin,
+                                   f.BoundBox.XMax, f.BoundBox.YMax, f.BoundBox.ZMax]
+    out["surface"]["surface_type"] = type(f.Surface).__name__
+
+    path = os.path.join(folder, "facade.FCStd")
+    doc.saveAs(path)
+    FreeCAD.closeDocument(doc.Name)
+    doc = FreeCAD.openDocument(path)
+    fins = doc.getObject("Fins")
+    out["reopened"] = {**_record(fins, 0.0),
+                       "proxy": type(fins.Proxy).__name__,
+                       "is_fins_feature": isinstance(fins.Proxy, FinsFeature),
+                       "surface_link": [fins.Surface[0].Name, list(fins.Surface[1])]}
+    fins.touch()
+    out["after_reopen"] = _recompute(doc, fins)
+
+    # a bad value: the object is marked invalid with torsal's message, its solids stay
+    fins.SunHours = [18.0, 9.0]
+    doc.recompute()
+    out["bad"] = {"state": list(fins.State), "n": len(fins.Shape.Solids)}
+    with open(os.environ["TORSAL_SCENARIO_OUT"], "w") as fh:
+        json.dump(out, fh)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,216 @@
+"""The parametric FreeCAD object in a real, headless FreeCAD (``freecadcmd``).
+
+``make test`` installs Debian's ``freecad-python3`` (FreeCAD 0.20, Python 3.11 like the venv)
+with apt-get when it is missing and it runs as root; otherwise the FreeCAD test is skipped and
+says why. The workbench is installed the way a user does it (``torsal freecad install``), into
+a scratch HOME, so the machine's FreeCAD is left alone.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from torsal.fabrication.solids import read_step
+from torsal.hosts.freecad.feature import FinsError, run_in_torsal
+from torsal.hosts.freecad.install import (FreeCADInstallError, install_workbench,
+                                          uninstall_workbench)
+from torsal.hosts.freecad.job import FinsJob, SurfaceGrid, effective_design, grid_mesh
+from torsal.hosts.results import read_parts
+
+HERE = Path(__file__).parent
+FREECADCMD = shutil.which("freecadcmd")
+TORSAL = Path(sys.executable).with_name("torsal")
+
+# the hosts' test-size facade: 28 vertices, about 90 parts; no DXF, 3DM or renders
+EXAMPLES = HERE.parents[1] / "examples" / "hosts"
+DESIGN = (EXAMPLES / "facade.toml").read_text()
+
+
+@pytest.fixture(scope="module")
+def scenario(tmp_path_factory):
+    """Install the workbench with the CLI into a scratch HOME, run freecad_scenario.py in
+    freecadcmd, return what it measured."""
+    if FREECADCMD is None:
+        pytest.skip("freecadcmd (FreeCAD) is missing, so the FreeCAD object is not tested; `make "
+                    "test` installs it as root, or:  sudo apt-get install -y freecad-python3")
+    tmp = tmp_path_factory.mktemp("freecad")
+    home = tmp / "home"
+    home.mkdir()
+    env = {**os.environ, "HOME": str(home), "XDG_CACHE_HOME": str(tmp / "cache")}
+    env.pop("XDG_DATA_HOME", None)
+    installed = subprocess.run([str(TORSAL), "freecad", "install"], env=env, capture_output=True,
+                               text=True, timeout=300)
+    assert installed.returncode == 0, installed.stderr
+    design = tmp / "design.toml"
+    design.write_text(DESIGN)
+    out = tmp / "scenario.json"
+    env.update(TORSAL_SCENARIO_DESIGN=str(design), TORSAL_SCENARIO_DIR=str(tmp),
+               TORSAL_SCENARIO_OUT=str(out), TORSAL_EXAMPLES=str(EXAMPLES))
+    code = (f"import runpy; runpy.run_path({str(HERE / 'freecad_scenario.py')!r}, "
+            "run_name='__main__')")
+    run = subprocess.run([FREECADCMD, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=900, cwd=tmp)
+    assert run.returncode == 0 and out.exists(), run.stdout[-3000:] + run.stderr[-3000:]
+    return {"data": json.loads(out.read_text()), "install": installed.stdout, "home": home,
+            "output": run.stdout + run.stderr,
+            "tmp": tmp, "env": env}
+
+
+def test_install_says_where_and_how_to_remove(scenario):
+    mod = scenario["home"] / ".local" / "share" / "FreeCAD" / "Mod" / "Torsal"
+    assert (mod / "Init.py").is_file() and (mod / "InitGui.py").is_file()
+    assert str(mod) in scenario["install"]
+    assert "torsal freecad uninstall" in scenario["install"] and f"rm -r {mod}" in scenario["install"]
+
+
+def test_properties_mirror_the_design_file(scenario):
+    p = scenario["data"]["properties"]
+    assert (p["Spacing"], p["Depth"], p["Thickness"]) == (1500.0, 400.0, 3.0)   # m -> mm
+    assert p["MinTorsalAngle"] == 0.0                                           # unset: off
+    assert (p["SunStart"], p["SunEnd"], p["SunHours"]) == ("2026-06-01", "2026-06-07", [13.0, 17.0])
+    assert p["read_only"]["Buildable"] == p["read_only"]["Report"] == ["ReadOnly"]
+    assert p["read_only"]["Spacing"] == []
+
+
+def _step_volumes(step):
+    """The STEP's solids read with OCP's XCAF reader, not FreeCAD's (names, volumes mm^3)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    out = []
+    for name, solid in read_step(step):
+        props = GProp_GProps()
+        BRepGProp.VolumeProperties_s(solid, props)
+        out.append((name, props.Mass()))
+    return out
+
+
+def test_recompute_gives_one_valid_solid_per_part(scenario):
+    first = scenario["data"]["first"]
+    assert first["state"] == ["Up-to-date"] and first["valid"]
+    assert first["n"] == len(first["parts"]) == first["report_parts"] > 50
+    assert first["parts"] == first["csv_parts"]
+    assert first["buildable"] == first["report_buildable"]
+    assert first["sun_blocked"] == pytest.approx(first["report_blocked"])
+    assert set(first["groups"]) <= {"family 0", "family 1", "connector", "interfering"}
+    assert Path(first["report"]).is_file()
+    # the solids FreeCAD holds are the STEP's, read by another reader: same volumes in order
+    # (the job folder holds the last recompute's STEP: the reopened document's solids)
+    reopened = scenario["data"]["after_reopen"]
+    job = Path(reopened["design_run"]).parent
+    names, volumes = zip(*_step_volumes(job / "out" / "fins.step"))
+    assert list(names) == reopened["parts"] == [p.name for p in read_parts(job / "out")]
+    np.testing.assert_allclose(reopened["volumes"], volumes, rtol=1e-6)
+
+
+def test_changing_spacing_reruns_from_the_remeshing_and_changes_the_solids(scenario):
+    first, second = scenario["data"]["first"], scenario["data"]["spacing"]
+    assert second["state"] == ["Up-to-date"] and second["valid"]
+    assert {"surface", "sun", "congruence"} <= set(second["stages_cached"])
+    assert {"remesh", "support", "fabrication"} <= set(second["stages_run"])
+    assert first["stages_cached"] == []
+    assert second["n"] < first["n"]               # wider spacing, fewer fins
+    assert second["parts"] != first["parts"]
+
+
+def test_a_linked_bspline_face_carries_the_fins(scenario):
+    s = scenario["data"]["surface"]
+    assert s["surface_type"] == "BSplineSurface"
+    assert s["state"] == ["Up-to-date"] and s["valid"] and s["n"] == len(s["parts"]) > 20
+    assert "surface" in s["stages_run"] and "sun" in s["stages_cached"]
+    # the fins stand on the face: each sampled fin plate touches it (up to the tessellation's
+    # chord error, a few mm at 0.94 m edges) and they cover its extent
+    assert max(s["distances"]) < 25.0
+    fb, sb = np.array(s["face_bbox"]), np.array(s["bbox"])
+    assert np.all(np.abs(sb[[0, 2, 3, 5]] - fb[[0, 2, 3, 5]]) < 0.1 * (fb[3] - fb[0]))
+    job = Path(s["design_run"]).parent
+    assert (job / "surface.obj").is_file()
+    assert "surface.obj" in (job / "design.toml").read_text()
+
+
+def test_the_document_saves_and_reopens_with_the_fins(scenario):
+    s, r, again = (scenario["data"][k] for k in ("surface", "reopened", "after_reopen"))
+    assert r["proxy"] == "FinsFeature" and r["is_fins_feature"]
+    assert r["surface_link"] == ["Facade", ["Face1"]]
+    assert r["n"] == s["n"] and r["parts"] == s["parts"] and r["valid"]
+    np.testing.assert_allclose(r["volumes"], s["volumes"], rtol=1e-9)
+    # recomputed after reopening: torsal is found again and every costly stage is cached
+    assert again["state"] == ["Up-to-date"] and again["n"] == s["n"]
+    assert {"congruence", "fabrication", "assembly"} <= set(again["stages_cached"])
+    np.testing.assert_allclose(again["volumes"], s["volumes"], rtol=1e-9)
+
+
+def test_a_bad_value_marks_the_object_invalid_and_keeps_its_solids(scenario):
+    bad = scenario["data"]["bad"]
+    assert "Invalid" in bad["state"]
+    assert bad["n"] == scenario["data"]["after_reopen"]["n"]
+    assert "sun.hours = [18.0, 9.0]" in scenario["output"]
+
+
+# ------------------------------------------------------------------ without FreeCAD
+def test_a_job_applies_the_properties_in_the_design_units(tmp_path):
+    design = tmp_path / "d.toml"
+    design.write_text(DESIGN.replace('units = "m"', 'units = "cm"'))
+    grid = SurfaceGrid(nu=3, nv=3, points=[[i * 1000.0, 0.0, j * 1000.0] for i in range(3)
+                                           for j in range(3)], inside=[True] * 9)
+    job = FinsJob(design=str(design), folder=str(tmp_path / "job"), spacing_mm=1200,
+                  depth_mm=300, thickness_mm=4, min_torsal_angle=25, sun_start="2026-07-01",
+                  sun_end="2026-07-02", sun_hours=[12, 15], surface=grid,
+                  strokes=[[[0, 0, 0], [2000, 0, 2000]]], stroke_width_mm=500)
+    data = effective_design(job)
+    assert data["fins"]["spacing"] == pytest.approx(120) and data["fins"]["depth"] == pytest.approx(30)
+    assert data["material"]["thickness_mm"] == 4
+    assert data["constraints"]["min_torsal_angle"] == 25
+    assert (data["sun"]["start"], data["sun"]["end"], data["sun"]["hours"]) == \
+        ("2026-07-01", "2026-07-02", [12, 15])
+    assert data["goals"]["strokes"] == [{"points": [[0, 0, 0], [200, 0, 200]], "width": 50}]
+    v, f = grid_mesh(grid, 0.1)
+    assert v.shape == (9, 3) and f.shape == (8, 3) and v.max() == pytest.approx(200)
+    assert data["surface"] == {"mesh": str(tmp_path / "job" / "surface.obj")}
+    assert (tmp_path / "job" / "surface.obj").read_text().count("\nf ") == 8
+    # 0 switches the constraint off
+    job.min_torsal_angle = 0
+    assert "min_torsal_angle" not in effective_design(job).get("constraints", {})
+
+
+def test_a_bad_property_is_reported_by_key(tmp_path):
+    design = tmp_path / "d.toml"
+    design.write_text(DESIGN)
+    job = FinsJob(design=str(design), folder=str(tmp_path / "job"), sun_hours=[18, 9])
+    with pytest.raises(FinsError, match=r"(?s)bad input.*sun.hours = \[18.0, 9.0\]"):
+        run_in_torsal(job)
+    assert not (tmp_path / "job" / "out").exists()
+
+
+def test_install_refuses_a_folder_that_is_not_its_own(tmp_path):
+    (tmp_path / "Torsal").mkdir()
+    (tmp_path / "Torsal" / "mine.txt").write_text("someone's")
+    with pytest.raises(FreeCADInstallError, match="not torsal's workbench"):
+        install_workbench(tmp_path)
+    with pytest.raises(FreeCADInstallError, match="left alone"):
+        uninstall_workbench(tmp_path)
+    assert (tmp_path / "Torsal" / "mine.txt").exists()
+    other = tmp_path / "mods"
+    folder = install_workbench(other, python="/opt/torsal/bin/python")
+    assert "/opt/torsal/bin/python" in (folder / "Init.py").read_text()
+    compile((folder / "Init.py").read_text(), "Init.py", "exec")
+    compile((folder / "InitGui.py").read_text(), "InitGui.py", "exec")
+    assert uninstall_workbench(other) == folder and not folder.exists()
+    assert uninstall_workbench(other) is None
+
+
+def test_the_cli_names_a_mod_folder_it_cannot_use(tmp_path, capsys):
+    from torsal.pipeline.cli import main
+
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    assert main(["freecad", "install", "--mod-dir", str(blocker)]) == 2
+    err = capsys.readouterr().err
+    assert "cannot create" in err and str(blocker) in err and "Traceback" not in err
+    assert main(["freecad", "uninstall", "--mod-dir", str(tmp_path)]) == 0
+    assert "no torsal workbench was installed there" in capsys.readouterr().out

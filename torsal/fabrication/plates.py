@@ -1,0 +1,703 @@
+"""Plate and slot solids (OpenCascade through OCP): the construction kernel of :mod:`.solids`.
+
+Every part is thickened about its mid-plane by ``thickness``: the plate is a closed
+polyhedral shell (top face ``p + t/2 m``, bottom ``p - t/2 m`` with the mitre vectors ``m``
+of :class:`~.parts.Part`, side faces along the ``a`` and ``b`` edges, end caps) built as one
+B-rep (shared vertices and edges, each face on the plane of its corners; the faces are sewn
+only where corners nearly coincide): folds are mitred on the bisector plane, so no boolean
+fuse is needed and the plate volume equals ``sum(panel area) * thickness`` up to the twist of
+side faces. Egg-crate slots are then cut with one boolean per part (a box per panel touching
+the slot, centred on the node line, ``thickness + clearance`` wide, through the plate).
+
+Every solid is checked with BRepCheck (build123d's ``is_valid``); an invalid one is repaired
+with ``ShapeFix`` and if it stays invalid an :class:`InvalidSolidError` names the part:
+nothing is written silently. The slots are checked too (the cut must remove the slot area of
+the unrolled part times the thickness); where OpenCascade cannot cut them (thin, oblique
+plates of real structures) the sound plate is kept without them (:class:`SlotCutError`).
+The STEP solids are nominal: the cutting process (kerf, reliefs) lives in the DXF only.
+
+Also the meshing of OCC shapes for previews (:func:`_mesh`, :func:`_triangles`).
+
+Units: the ``unit`` of the fin system (mm by default).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from torsal.core.errors import TorsalError
+
+from .model import Part, SlotSide
+from .unroll import unroll
+
+__all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SINGLE_BOX_FOLD",
+           "MESH_TOLERANCE"]
+
+
+class InvalidSolidError(TorsalError, RuntimeError):
+    """A part's solid is not valid OpenCascade geometry even after repair."""
+
+    def __init__(self, parts: list[str], detail: str = ""):
+        self.parts = parts
+        super().__init__(f"invalid solid for part(s) {', '.join(parts)}" + (f": {detail}" if detail else ""))
+
+
+class SlotCutError(InvalidSolidError):
+    """The plate of a part is sound but OpenCascade could not cut its slots (a boolean failure
+    on a thin, oblique plate). ``plate`` is the valid solid without slots (a build123d ``Solid``
+    from :func:`part_solid`, an OCC shape inside the module)."""
+
+    def __init__(self, parts: list[str], detail: str = "", plate=None, nodes=()):
+        super().__init__(parts, detail)
+        self.plate = plate
+        self.nodes = list(nodes)
+
+
+#: build123d's point tolerance: a polygon whose last point is farther than this from its first
+#: is closed by repeating the first (as ``Wire.make_polygon(close=True)``)
+_CLOSE_TOL = 1e-6
+
+
+def _dedup(points) -> np.ndarray:
+    """Points (n, 3) without consecutive repeats (degenerate twisted sides) and without a last
+    point repeating the first."""
+    pts = np.asarray(points, float)
+    keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-12]
+    pts = pts[keep]
+    if len(pts) > 3 and np.linalg.norm(pts[-1] - pts[0]) <= 1e-12:
+        pts = pts[:-1]
+    return pts
+
+
+def _polygon_face(pts: np.ndarray):
+    """Planar OCC face bounded by the closed polygon ``pts`` (n, 3), built as build123d's
+    ``Face(Wire.make_polygon(pts, close=True))`` does (same OCC calls: the wire is fixed,
+    the face made on its plane and its orientation fixed). ValueError if OpenCascade finds
+    the points not coplanar."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeFace, BRepBuilderAPI_MakePolygon
+    from OCP.BRepLib import BRepLib_FindSurface
+    from OCP.gp import gp_Pnt
+    from OCP.ShapeFix import ShapeFix_Face, ShapeFix_Shape
+    from OCP.TopoDS import TopoDS
+
+    poly = BRepBuilderAPI_MakePolygon()
+    for p in pts:
+        poly.Add(gp_Pnt(float(p[0]), float(p[1]), float(p[2])))
+    if np.linalg.norm(pts[0] - pts[-1]) > _CLOSE_TOL:
+        poly.Add(gp_Pnt(float(pts[0, 0]), float(pts[0, 1]), float(pts[0, 2])))
+    wire = poly.Wire()
+    if not BRep_Tool.IsClosed_s(wire):
+        raise ValueError("Face can only be created with closed wires")
+    if not BRepLib_FindSurface(wire, OnlyPlane=True).Found():
+        raise ValueError("Cannot build face(s): wires not planar")
+    fix = ShapeFix_Shape(wire)
+    fix.Perform()
+    maker = BRepBuilderAPI_MakeFace(TopoDS.Wire(fix.Shape()), True)
+    maker.Build()
+    if not maker.IsDone():
+        raise ValueError(f"Cannot build face(s): {maker.Error()}")
+    face_fix = ShapeFix_Face(maker.Face())
+    face_fix.FixOrientation()
+    face_fix.Perform()
+    return TopoDS.Face(face_fix.Result())
+
+
+def _face(points, planar_tol: float, planar: bool | None = None) -> list:
+    """OCC faces through the points: one planar face, or a fan of triangles if they are not
+    coplanar (to ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's
+    1e-7). ``planar``: that test, done already (by :func:`_coplanar`) for points without
+    repeats."""
+    pts = _dedup(points) if planar is None else np.asarray(points, float)
+    if len(pts) < 3:
+        return []
+    if planar is None:
+        planar = len(pts) == 3 or bool(_coplanar(pts[None], planar_tol)[0])
+    if planar:
+        try:
+            return [_polygon_face(pts)]
+        except ValueError:       # OpenCascade finds it not planar enough: use triangles
+            if len(pts) == 3:
+                raise
+    return [_polygon_face(pts[[0, i, i + 1]]) for i in range(1, len(pts) - 1)]
+
+
+def _coplanar(pts: np.ndarray, planar_tol: float) -> np.ndarray:
+    """Whether each polygon of ``pts`` (F, n, 3) is within ``min(planar_tol * size, 1e-9)`` of
+    its best-fit plane (size: its bounding-box diagonal)."""
+    c = pts.mean(axis=1, keepdims=True)
+    normal = np.linalg.svd(pts - c)[2][:, 2]                                  # (F, 3)
+    size = np.linalg.norm(pts.max(axis=1) - pts.min(axis=1), axis=1)
+    off = np.abs(np.einsum("fni,fi->fn", pts - c, normal)).max(axis=1)
+    return off <= np.minimum(planar_tol * size, 1e-9)
+
+
+def _fan_volume(points) -> float:
+    """Signed volume contribution (divergence theorem) of a face as :func:`_face` builds it:
+    repeated points dropped, a fan of triangles from the first point."""
+    pts = _dedup(points)
+    if len(pts) < 3:
+        return 0.0
+    return float(np.einsum("j,ij->", pts[0], np.cross(pts[1:-1], pts[2:])) / 6.0)
+
+
+def _box(origin, x_dir, z_dir, length, width, height):
+    """OCC box ``length x width x height`` from ``origin`` along ``x_dir``, ``z_dir x x_dir``,
+    ``z_dir`` (as build123d's ``Solid.make_box`` on that plane)."""
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+
+    def unit(v):
+        v = np.asarray(v, float)
+        return gp_Dir(*map(float, v / np.linalg.norm(v)))
+
+    ax = gp_Ax2(gp_Pnt(*map(float, origin)), unit(z_dir), unit(x_dir))
+    return BRepPrimAPI_MakeBox(ax, float(length), float(width), float(height)).Shape()
+
+
+def _volume(shape) -> float:
+    """Volume of an OCC shape (signed: negative for a solid turned inside out)."""
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.VolumeProperties_s(shape, props)
+    return props.Mass()
+
+
+def _is_valid(shape) -> bool:
+    """BRepCheck of an OCC shape (as build123d's ``is_valid``)."""
+    from OCP.BRepCheck import BRepCheck_Analyzer
+
+    chk = BRepCheck_Analyzer(shape)
+    chk.SetParallel(True)
+    return chk.IsValid()
+
+
+def _valid(shape, repair: bool):
+    """The shape if BRepCheck finds it valid, else (with ``repair``) what ShapeFix makes of it
+    if that is valid, else None."""
+    if _is_valid(shape):
+        return shape
+    if not repair:
+        return None
+    from OCP.ShapeFix import ShapeFix_Shape
+
+    fix = ShapeFix_Shape(shape)
+    fix.Perform()
+    fixed = _downcast(fix.Shape())
+    return fixed if _is_valid(fixed) else None
+
+
+def _downcast(shape):
+    """The OCC shape as its own type (TopoDS_Solid, TopoDS_Compound, ...)."""
+    from OCP.TopAbs import TopAbs_COMPOUND, TopAbs_SHELL, TopAbs_SOLID
+    from OCP.TopoDS import TopoDS
+
+    cast = {TopAbs_SOLID: TopoDS.Solid, TopAbs_COMPOUND: TopoDS.Compound,
+            TopAbs_SHELL: TopoDS.Shell}.get(shape.ShapeType())
+    return cast(shape) if cast is not None else shape
+
+
+def _solids_of(shape) -> list:
+    """The OCC solids in a shape."""
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    out, exp = [], TopExp_Explorer(shape, TopAbs_SOLID)
+    while exp.More():
+        out.append(TopoDS.Solid(exp.Current()))
+        exp.Next()
+    return out
+
+
+#: degrees: a slot on a fold flatter than this is cut with one box on the fold's bisector plane
+#: (two nearly coplanar boxes make OpenCascade's boolean leave slivers or split the plate)
+SINGLE_BOX_FOLD = 20.0
+
+
+def slot_boxes(part: Part, thickness: float) -> list:
+    """Cutting boxes of the slots of a part: per panel adjacent to the slotted node line, a box
+    in the panel plane centred on the node line, ``width`` wide, from ``2 width`` outside the
+    open edge to ``depth`` inside, ``2 thickness`` through the plate. On a fold flatter than
+    :data:`SINGLE_BOX_FOLD` one box on the bisector plane, ``width cos(fold/2)`` wide (so the
+    slot is ``width`` wide in both panels)."""
+    boxes = []
+    k = len(part.panels)
+    normals = part.normals
+    for s in part.slots:
+        pos = s.position
+        if pos == 0:
+            a, b = part.panels[0, 0], part.panels[0, 3]
+        else:
+            a, b = part.panels[pos - 1, 1], part.panels[pos - 1, 2]
+        start, other = (b, a) if SlotSide(s.side) == SlotSide.B else (a, b)
+        u = other - start
+        u = u / np.linalg.norm(u)
+        # beyond the open edge by 2 widths and the node line's length: an edge slanted
+        # along the line leaves no web across the slot's mouth
+        over = 2.0 * s.width + float(np.linalg.norm(b - a))
+        if 0 < pos < k:
+            n1, n2 = normals[pos - 1], normals[pos]
+            c = float(np.clip(n1 @ n2, -1.0, 1.0))
+            if np.degrees(np.arccos(c)) < SINGLE_BOX_FOLD:
+                n = (n1 + n2) / np.linalg.norm(n1 + n2)
+                uu = u - (u @ n) * n
+                uu /= np.linalg.norm(uu)
+                v = np.cross(n, uu)
+                w = s.width * np.sqrt(0.5 * (1.0 + c))          # width * cos(fold / 2)
+                corner = start - over * uu - 0.5 * w * v - thickness * n
+                boxes.append(_box(corner, uu, n, over + s.depth, w, 2.0 * thickness))
+                continue
+        for j in (pos - 1, pos):
+            if not 0 <= j < k:
+                continue
+            n = normals[j]
+            v = np.cross(n, u)
+            corner = start - over * u - 0.5 * s.width * v - thickness * n
+            boxes.append(_box(corner, u, n, over + s.depth, s.width, 2.0 * thickness))
+    return boxes
+
+
+def _plate_outlines(part: Part, thickness: float):
+    """Every face outline of a part's plate (F, 4, 3) and its orientation sign (F,): per panel
+    top (``p + t/2 m``), bottom (same diagonal as the top if warped; sign -1: it is oriented
+    inwards), the a side and the b side; then the start and end caps."""
+    q, m = part.panels, part.miters
+    k = len(q)
+    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
+    node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
+    top = q + 0.5 * thickness * m[node]
+    bot = q - 0.5 * thickness * m[node]
+    sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
+                      np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
+    caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],
+                     [top[-1, 2], top[-1, 1], bot[-1, 1], bot[-1, 2]]])
+    return (np.concatenate([sides.reshape(-1, 4, 3), caps]),
+            np.r_[np.tile([1.0, -1.0, 1.0, 1.0], k), 1.0, 1.0])
+
+
+#: BRepBuilderAPI_Sewing's default tolerance: corners closer than this are one point when sewn
+_SEW_TOL = 1e-6
+
+
+def _fans(pts: np.ndarray, planar_tol: float) -> list:
+    """Index lists of the planar pieces of polygons with the same number of corners
+    (F, n, 3): the whole polygon if its corners are coplanar (:func:`_coplanar`), else a fan of
+    triangles from its first corner (as :func:`_face`)."""
+    n = pts.shape[1]
+    planar = np.ones(len(pts), bool) if n == 3 else _coplanar(pts, planar_tol)
+    fan = [[0, i, i + 1] for i in range(1, n - 1)]
+    return [[list(range(n))] if ok else fan for ok in planar]
+
+
+def _plate_direct(part: Part, thickness: float, planar_tol: float):
+    """The plate of a part built as a B-rep directly: one vertex per distinct corner, one edge
+    per pair of corners that bound a face (shared by its two faces), one planar face per
+    outline on the plane through its corners (a fan of triangles where the corners are not
+    coplanar, as :func:`_face`), all in one shell: no sewing and no shape healing, which find
+    nothing to do on these faces and took two thirds of a part's solid. Returns the OCC solid
+    (not yet validated) and the volume of the polyhedron (divergence theorem over its faces).
+    ValueError where this construction does not give a closed shell (:func:`_plate` then
+    sews the faces)."""
+    from OCP.BRep import BRep_Builder, BRep_Tool
+    from OCP.BRepBuilderAPI import (BRepBuilderAPI_MakeEdge, BRepBuilderAPI_MakeFace,
+                                    BRepBuilderAPI_MakeVertex)
+    from OCP.gp import gp_Dir, gp_Pln, gp_Pnt
+    from OCP.TopoDS import TopoDS, TopoDS_Shell, TopoDS_Solid, TopoDS_Wire
+
+    outlines, sign = _plate_outlines(part, thickness)
+    # the bottom turned round from its first corner (the fan's diagonal stays that of the top)
+    outlines[sign < 0] = outlines[sign < 0][:, [0, 3, 2, 1]]
+    # distinct corners: coincident points (collapsed corners of degenerate panels) are one vertex
+    flat = outlines.reshape(-1, 3)
+    if not np.abs(flat).max() < 1e6:
+        raise ValueError("coordinates too large for the vertex table")
+    _, first, ids = np.unique(np.round(flat / 1e-12).astype(np.int64), axis=0,
+                              return_index=True, return_inverse=True)
+    ids = ids.reshape(outlines.shape[:2])
+    points = flat[first]
+    gaps = np.linalg.norm(points[:, None] - points[None], axis=2)
+    np.fill_diagonal(gaps, np.inf)
+    if gaps.min() <= _SEW_TOL:       # nearly coincident corners: sewing merges them
+        raise ValueError("corners closer than the sewing tolerance")
+    # the faces as vertex loops: quads with four distinct corners in one go, the others alone
+    clean = (ids != np.roll(ids, -1, axis=1)).all(axis=1)
+    loops = [ids[f][piece] for f, pieces in zip(np.flatnonzero(clean),
+                                                _fans(outlines[clean], planar_tol))
+             for piece in pieces]
+    for f in np.flatnonzero(~clean):
+        loop = np.array([x for i, x in enumerate(ids[f]) if x != ids[f][i - 1]])
+        if len(loop) >= 3:
+            loops += [loop[piece] for piece in _fans(points[loop][None], planar_tol)[0]]
+    sizes = np.array([len(x) for x in loops])
+    normals, centres, volume = [], [], 0.0
+    for n in np.unique(sizes):                       # polygons of n corners (3 or 4)
+        pts = points[np.array([x for x in loops if len(x) == n])]          # (F, n, 3)
+        area = 0.5 * np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)   # Newell
+        normals.append(area)
+        centres.append(pts.mean(axis=1))
+        # divergence theorem: fan of triangles from the first corner
+        volume += float(np.einsum("fi,fki->", pts[:, 0], np.cross(pts[:, 1:-1], pts[:, 2:])) / 6.0)
+    order = np.concatenate([np.flatnonzero(sizes == n) for n in np.unique(sizes)])
+    normals, centres = np.concatenate(normals), np.concatenate(centres)
+    length = np.linalg.norm(normals, axis=1)
+    if not (length > 0).all():
+        raise ValueError("a degenerate face")
+    normals = normals / length[:, None]
+
+    builder = BRep_Builder()
+    vertices = [BRepBuilderAPI_MakeVertex(gp_Pnt(*map(float, x))).Vertex() for x in points]
+    edges: dict = {}
+
+    def edge(i: int, j: int):
+        """The edge i -> j (shared: built once, from the lower vertex id)."""
+        a, b = (i, j) if i < j else (j, i)
+        e = edges.get((a, b))
+        if e is None:
+            e = edges[(a, b)] = BRepBuilderAPI_MakeEdge(vertices[a], vertices[b]).Edge()
+        return e if i < j else TopoDS.Edge(e.Reversed())
+
+    shell = TopoDS_Shell()
+    builder.MakeShell(shell)
+    for f, n, c in zip(order, normals.tolist(), centres.tolist()):
+        loop = loops[f].tolist()
+        wire = TopoDS_Wire()
+        builder.MakeWire(wire)
+        for i, j in zip(loop, loop[1:] + loop[:1]):
+            builder.Add(wire, edge(i, j))
+        wire.Closed(True)
+        mk = BRepBuilderAPI_MakeFace(gp_Pln(gp_Pnt(*c), gp_Dir(*n)), wire, True)
+        if not mk.IsDone():
+            raise ValueError(f"a face is not made: {mk.Error()}")
+        builder.Add(shell, mk.Face())
+    if not BRep_Tool.IsClosed_s(shell):
+        raise ValueError("the faces do not close")
+    shell.Closed(True)
+    solid = TopoDS_Solid()
+    builder.MakeSolid(solid)
+    builder.Add(solid, shell)
+    return solid, volume
+
+
+def _plate(part: Part, thickness: float, planar_tol: float):
+    """The plate of a part as a closed OCC solid (not yet validated) and the volume of the
+    polyhedron it is built from (divergence theorem over its faces): built directly
+    (:func:`_plate_direct`), else its faces sewn."""
+    try:
+        return _plate_direct(part, thickness, planar_tol)
+    except ValueError:
+        return _plate_sewn(part, thickness, planar_tol)
+
+
+def _plate_sewn(part: Part, thickness: float, planar_tol: float):
+    """:func:`_plate` by sewing faces made one by one (:func:`_face`)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Sewing
+    from OCP.ShapeFix import ShapeFix_Solid
+    from OCP.TopoDS import TopoDS
+
+    outlines, sign = _plate_outlines(part, thickness)
+    # outlines without repeated corners (all but degenerate twisted sides) in one go
+    clean = (np.linalg.norm(outlines - np.roll(outlines, -1, axis=1), axis=2) > 1e-12).all(axis=1)
+    planar = np.zeros(len(outlines), bool)
+    planar[clean] = _coplanar(outlines[clean], planar_tol)
+    p0, p1, p2, p3 = (outlines[clean, i] for i in range(4))
+    poly_volume = float(sign[clean] @ (np.einsum("fi,fi->f", p0, np.cross(p1, p2) + np.cross(p2, p3))
+                                       / 6.0))
+    sewing = BRepBuilderAPI_Sewing()
+    for pts, sgn, ok, flat in zip(outlines, sign, clean, planar):
+        for f in _face(pts, planar_tol, planar=bool(flat) if ok else None):
+            sewing.Add(f)
+        if not ok:
+            poly_volume += sgn * _fan_volume(pts)
+    sewing.Perform()
+    try:
+        shell = TopoDS.Shell(sewing.SewedShape())
+    except Exception as e:           # a compound of pieces: OCC's Standard_TypeMismatch
+        raise InvalidSolidError([part.name], f"the plate's faces do not sew into one shell "
+                                f"({type(e).__name__})") from None
+    if not BRep_Tool.IsClosed_s(shell):
+        raise InvalidSolidError([part.name], "the plate's faces do not sew into a closed shell")
+    return ShapeFix_Solid().SolidFromShell(shell), poly_volume
+
+
+def _labelled(shape, part: Part):
+    """build123d ``Solid`` of an OCC solid, labelled with the part id and coloured by family."""
+    from build123d import Color, Solid
+
+    solid = Solid(shape)
+    solid.label = part.name
+    solid.color = Color(*part.color)
+    return solid
+
+
+def part_solid(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
+    """The thickened, slotted solid of one part (build123d ``Solid``), labelled and coloured.
+
+    Raises
+    ------
+    InvalidSolidError
+        If the solid is invalid and cannot be repaired.
+    SlotCutError
+        If the plate is sound but its slots could not be cut (``plate``: the labelled plate).
+    """
+    try:
+        shape = _part_shape(part, thickness, repair=repair, planar_tol=planar_tol)
+    except SlotCutError as e:
+        e.plate = _labelled(e.plate, part)
+        raise
+    return _labelled(shape, part)
+
+
+def _part_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol: float = 1e-9):
+    """:func:`part_solid` as a bare OCC shape (what worker processes send back); a
+    :class:`SlotCutError` carries the plate as an OCC shape too."""
+    from OCP.TopoDS import TopoDS
+
+    q, m = part.panels, part.miters
+    if not (np.isfinite(q).all() and np.isfinite(m).all()):
+        raise InvalidSolidError([part.name], "non-finite panel or mitre coordinates")
+    solid, poly_volume = _plate(part, thickness, planar_tol)
+    volume = _volume(solid)
+    if volume < 0:                   # sewn inside out: turn it round
+        solid = TopoDS.Solid(solid.Reversed())
+        volume = -volume
+    # a closed, valid shell can still be garbage (e.g. a bow-tie panel): the solid must have the
+    # volume of the polyhedron it was built from, and that the volume sum(panel area) *
+    # thickness up to the twist of its side faces (which grows on narrow panels that meet the
+    # node lines obliquely, mitred: a few percent at most)
+    expected = float(part.panel_areas.sum()) * thickness
+    if not abs(volume - abs(poly_volume)) <= 1e-3 * abs(poly_volume):
+        raise InvalidSolidError([part.name], f"plate volume {volume:.6g} differs from that of "
+                                f"its faces {abs(poly_volume):.6g}: the faces do not sew into a sound solid")
+    if not abs(volume - expected) <= 0.05 * expected:
+        raise InvalidSolidError([part.name], f"plate volume {volume:.6g} differs from panel "
+                                f"area x thickness {expected:.6g}: broken or self-intersecting panels")
+    if not part.slots:
+        plate = _valid(solid, repair)
+        if plate is None:
+            raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
+        return plate
+    # the slots are cut into the plate as built and the result is checked (BRepCheck, volume,
+    # probes); the plate itself is checked only when that fails: a sound cut of a broken
+    # plate does not pass those checks, and checking both cost 15 % of a slotted part
+    try:
+        return _slotted(solid, part, thickness, volume, repair)
+    except SlotCutError as e:
+        failure = e
+    plate = _valid(solid, repair)
+    if plate is None:
+        raise InvalidSolidError([part.name], "BRepCheck failed after ShapeFix")
+    if plate is not solid:           # repaired: cut the repaired plate (as it always was)
+        try:
+            return _slotted(plate, part, thickness, volume, repair)
+        except SlotCutError as e:
+            failure = e
+    failure.plate = plate
+    raise failure
+
+
+def _slotted(plate, part: Part, thickness: float, plate_volume: float, repair: bool):
+    """The plate (OCC solid of ``plate_volume``) with the part's slots cut, checked: valid,
+    a plausible volume, about slot area x thickness removed, every slot open and the web
+    beyond it kept. SlotCutError (``plate`` not set) otherwise."""
+    nodes = sorted({s.node for s in part.slots})
+    try:
+        solid = _cut(plate, slot_boxes(part, thickness))
+        pieces = _solids_of(solid)
+        if not pieces:
+            raise ValueError("the boolean cut returned nothing")
+        solid = pieces[0] if len(pieces) == 1 else _main_piece(part, thickness, plate_volume, pieces)
+        solid = _valid(solid, repair)
+        if solid is None:
+            raise ValueError("BRepCheck failed after ShapeFix")
+        volume = _volume(solid)
+        if not 0.5 * plate_volume < volume <= plate_volume * (1 + 1e-9):
+            raise ValueError(f"volume {volume:.6g} after cutting slots is implausible for a "
+                             f"plate of {plate_volume:.6g}")
+        # every slot is open where it should be and the web beyond it is kept (on folds the
+        # boxes in both panel planes take a little more than slot area x thickness)
+        removed = _slot_record_area(part) * thickness
+        if not 0.3 * removed <= plate_volume - volume <= 3.0 * removed + 1e-6 * plate_volume:
+            raise ValueError(f"the slots removed {plate_volume - volume:.6g} instead of about "
+                             f"{removed:.6g} (slot area x thickness)")
+        _check_slots(solid, part)
+    except InvalidSolidError as e:
+        raise SlotCutError([part.name], str(e), nodes=nodes) from None
+    except Exception as e:     # OpenCascade failures
+        raise SlotCutError([part.name], f"cutting the slots at nodes {nodes} failed: "
+                           f"{type(e).__name__}: {e}", nodes=nodes) from None
+    return solid
+
+
+def _cut(shape, tools: list):
+    """``shape`` minus the ``tools`` (OCC boolean cut, then coplanar faces merged), as
+    build123d's ``Shape.cut`` does it."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
+    from OCP.collections import List_TopoDS_Shape
+
+    args, tls = List_TopoDS_Shape(), List_TopoDS_Shape()
+    args.Append(shape)
+    for t in tools:
+        tls.Append(t)
+    op = BRepAlgoAPI_Cut()
+    op.SetArguments(args)
+    op.SetTools(tls)
+    # one thread: the solids are built one process per core already (OCC's threads cost
+    # 10 % more CPU on 7a's parts for the same shapes)
+    op.SetRunParallel(False)
+    op.SetUseOBB(True)          # oriented boxes: fewer face pairs intersected, same result
+    op.SetToFillHistory(False)  # which face came from which is never asked
+    op.Build()
+    if not op.IsDone():
+        raise ValueError("the boolean cut failed")
+    result = _downcast(op.Shape())
+    unify = ShapeUpgrade_UnifySameDomain(result, True, True, True)
+    unify.AllowInternalEdges(False)
+    try:
+        unify.Build()
+        result = _downcast(unify.Shape())
+    except Exception:        # merging faces is cosmetic: keep the uncleaned result
+        pass
+    return result
+
+
+def _check_slots(solid, part: Part) -> None:
+    """Raise ValueError unless, for every slot, a point in the slot (on the mid-plane, halfway
+    down) is outside the OCC solid and a point of the web beyond it is inside."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_IN, TopAbs_OUT
+
+    q = part.panels
+    k = len(q)
+    cls = BRepClass3d_SolidClassifier(solid)      # one classifier for every probe of the solid
+    for s in part.slots:
+        pos = s.position
+        a, b = (q[0, 0], q[0, 3]) if pos == 0 else (q[pos - 1, 1], q[pos - 1, 2])
+        start, other = (b, a) if SlotSide(s.side) == SlotSide.B else (a, b)
+        u = other - start
+        length = np.linalg.norm(u)
+        u = u / length
+        j = pos if pos < k else pos - 1
+        into = q[j].mean(axis=0) - start
+        into -= (into @ u) * u
+        into /= np.linalg.norm(into)
+        off = 0.25 * s.width * into
+        probes = [(start + 0.5 * s.depth * u + off, TopAbs_OUT, "is not cut")]
+        if s.depth < 0.99 * length:       # a web is left (not a full-depth end slot)
+            probes.append((start + (s.depth + 0.5 * (length - s.depth)) * u + off, TopAbs_IN,
+                           "cut through the web"))
+        for x, want, what in probes:
+            cls.Perform(gp_Pnt(*map(float, x)), 1e-6)
+            if cls.State() != want:
+                raise ValueError(f"the slot at node {s.node} {what}")
+
+
+def _slot_record_area(part: Part) -> float:
+    """Area the slots take out of the part from their records (``unit``^2): ``width x depth``
+    each, half of it at a part end (the slot is centred on the end edge). Equal to the
+    unrolled outline's (:func:`_slot_area`) to 1e-4 on example 7a's 152 slotted parts, without
+    unrolling the part (a tenth of a worker's time)."""
+    k = len(part.panels)
+    return float(sum(s.width * s.depth * (1.0 if 0 < s.position < k else 0.5) for s in part.slots))
+
+
+def _slot_area(part: Part) -> float:
+    """Area the slots take out of the unrolled part (``unit``^2)."""
+    from shapely.geometry import Polygon
+
+    u = unroll(part)
+    return float(sum(Polygon(f).area for f in u.panels) - u.outline.area)
+
+
+def _main_piece(part: Part, thickness: float, plate_volume: float, pieces: list):
+    """The plate left after cutting the slots when OpenCascade's boolean returned several
+    pieces (OCC solids): on thin, oblique plates it sometimes splits the cut-out off instead of
+    removing it, or leaves slivers. The unrolled outline says what must be left (``plate - slot
+    area x thickness``); the piece of that volume is kept, else the part is reported."""
+    nodes = sorted({s.node for s in part.slots})
+    try:
+        removed = _slot_area(part) * thickness
+    except ValueError as e:
+        raise InvalidSolidError([part.name], f"the slots at nodes {nodes} cut the plate apart ({e})")
+    expected = plate_volume - removed
+    volumes = [_volume(x) for x in pieces]
+    best = int(np.argmin([abs(v - expected) for v in volumes]))
+    if not abs(volumes[best] - expected) <= 0.05 * removed + 1e-6 * plate_volume:
+        raise InvalidSolidError([part.name], f"the slots at nodes {nodes} split the plate into "
+                                f"{len(pieces)} pieces (volumes {sorted(round(v, 1) for v in volumes)}, "
+                                f"expected one of {expected:.6g})")
+    return pieces[best]
+
+
+def _build_one(part: Part, thickness: float, repair: bool):
+    """``(status, OCC shape or None, detail)`` for one part; status ``ok``, ``unslotted`` (the
+    valid plate without slots) or ``bad``."""
+    try:
+        return "ok", _part_shape(part, thickness, repair=repair), ""
+    except SlotCutError as e:
+        return "unslotted", e.plate, (e.nodes, str(e))
+    except InvalidSolidError as e:
+        return "bad", None, str(e)
+    except Exception as e:  # OpenCascade errors: report by part id
+        return "bad", None, f"{part.name}: {type(e).__name__}: {e}"
+
+
+def _face_triangles(shape, tolerance: float, angular_tolerance: float = 0.1) -> list:
+    """``[(vertices (k, 3), triangles (m, 3) into them)]`` per face of an OCC shape, meshed as
+    build123d's ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer
+    order, reversed faces' triangles turned round, so every triangle faces out)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopLoc import TopLoc_Location
+    from OCP.TopoDS import TopoDS
+
+    _mesh(shape, tolerance, angular_tolerance)
+    faces, exp = {}, TopExp_Explorer(shape, TopAbs_FACE)
+    while exp.More():                        # each face once, in the order first met
+        faces[hash(exp.Current())] = exp.Current()
+        exp.Next()
+    out = []
+    for f in faces.values():
+        face = TopoDS.Face(f)
+        loc = TopLoc_Location()
+        poly = BRep_Tool.Triangulation_s(face, loc)
+        pts = [poly.Node(j) for j in range(1, poly.NbNodes() + 1)]
+        if not loc.IsIdentity():
+            trsf = loc.Transformation()
+            pts = [p.Transformed(trsf) for p in pts]
+        v = np.array([(p.X(), p.Y(), p.Z()) for p in pts], float).reshape(-1, 3)
+        # one triangle at a time: poly.Triangles() copies the whole array on every call
+        t = np.array([poly.Triangle(i).Get() for i in range(1, poly.NbTriangles() + 1)],
+                     dtype=np.int64).reshape(-1, 3) - 1
+        out.append((v, t[:, [0, 2, 1]] if face.Orientation() == TopAbs_REVERSED else t))
+    return out
+
+
+def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
+    """Vertices (n, 3) and triangles (m, 3) of an OCC shape: its faces' triangles
+    (:func:`_face_triangles`) in one array, vertices not shared between faces."""
+    faces = _face_triangles(shape, tolerance, angular_tolerance)
+    if not faces:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    offsets = np.cumsum([0] + [len(v) for v, _ in faces[:-1]])
+    return (np.concatenate([v for v, _ in faces]),
+            np.concatenate([t + o for (_, t), o in zip(faces, offsets)]))
+
+
+#: preview meshes (3DM, glTF, STL): deflection as a fraction of the plate thickness
+MESH_TOLERANCE = 0.05
+
+
+def _mesh(shape, tolerance: float, angular_tolerance: float = 0.1, *, threads: bool = True) -> None:
+    """Mesh an OCC shape (BRepMesh, deflection relative to the edge size; ``threads``: one per
+    face in parallel, the same triangles) unless it has a triangulation that fine."""
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
+
+    if not BRepTools.Triangulation_s(shape, tolerance):
+        BRepMesh_IncrementalMesh(shape, tolerance, True, angular_tolerance, threads)

@@ -1,0 +1,323 @@
+"""Worker processes that build the solids of a fin system, and the build itself.
+
+The solids (:mod:`.plates`) are independent per part: a :class:`WorkerPool` of processes
+(forked from a clean server that has imported OpenCascade) builds them and sends them back as
+OpenCascade binary BReps, with their preview meshes if asked. The fabrication stage starts the
+pool ahead (:func:`prepare_workers`: the processes take seconds to start, while the stage
+builds its parts), :func:`start_solids` hands the parts to it and returns at once
+(:class:`PendingSolids`), and the exports collect the shapes (:func:`solid_shapes`). The
+prepared pool is held in a context variable (one per thread or task), not in a module global:
+the pool object owns its processes and its start-up thread.
+
+Units: the ``unit`` of the fin system (mm by default).
+"""
+from __future__ import annotations
+
+import threading
+from contextvars import ContextVar
+
+from torsal.core.parallel import usable_workers
+
+from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _labelled, _mesh
+
+__all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
+           "release_workers", "start_solids", "build_solids", "solid_shapes"]
+
+
+def _to_bytes(shape) -> bytes:
+    """OpenCascade binary BRep of a shape (OCC shapes do not pickle; bytes do)."""
+    import io
+
+    from OCP.BinTools import BinTools
+
+    buf = io.BytesIO()
+    BinTools.Write_s(shape, buf)
+    return buf.getvalue()
+
+
+def _from_bytes(data: bytes):
+    """The OCC shape of :func:`_to_bytes`."""
+    import io
+
+    from OCP.BinTools import BinTools
+    from OCP.TopoDS import TopoDS_Shape
+
+    shape = TopoDS_Shape()
+    BinTools.Read_s(shape, io.BytesIO(data))
+    return _downcast(shape)
+
+
+def _build_chunk(args):
+    """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
+    worker never imports build123d), and the CPU seconds that took."""
+    import time
+
+    parts, thickness, repair, mesh = args
+    cpu = time.process_time()
+    out = []
+    for p in parts:
+        status, shape, detail = _build_one(p, thickness, repair)
+        if shape is not None and mesh:       # the triangles travel with the BRep
+            _mesh(shape, MESH_TOLERANCE * thickness, threads=False)
+        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
+    return out, time.process_time() - cpu
+
+
+def default_workers(n_parts: int) -> int:
+    """Processes for building ``n_parts`` solids: one per available core, 1 for small jobs
+    (starting the workers, which import OpenCascade, costs about as much as building 200
+    parts)."""
+    import os
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, min(cores, n_parts // 200))
+
+
+class WorkerPool:
+    """A pool of worker processes being started (from a thread: the first start waits seconds
+    for the fork server to import OpenCascade), to build solids with later."""
+
+    def __init__(self, workers: int, mesh: bool = False):
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers, self.mesh = workers, mesh
+        # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can
+        # deadlock in the child: workers are forked from a clean server that has imported
+        # this module
+        if "forkserver" in mp.get_all_start_methods():
+            ctx = mp.get_context("forkserver")
+            ctx.set_forkserver_preload(["torsal.fabrication.workers", "OCP.BRepAlgoAPI"])
+        else:
+            ctx = mp.get_context("spawn")
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        self.error: BaseException | None = None
+        self._starter = threading.Thread(target=self._start, daemon=True)
+        self._starter.start()
+
+    def _start(self) -> None:
+        try:              # each submission starts one more process, up to ``workers``
+            for _ in range(self.workers):
+                self.pool.submit(_ready)
+        except BaseException as e:        # re-raised by PendingSolids.result()
+            self.error = e
+
+    def started(self) -> None:
+        """Wait until the processes are started (or failed to)."""
+        self._starter.join()
+
+    def shutdown(self, cancel: bool = False) -> None:
+        """Stop the pool: wait for its work, or (``cancel``) drop it and return at once: a
+        process still being started holds the pool's lock for seconds, so a thread waits for
+        it and shuts the pool down."""
+        if not cancel:
+            self._starter.join()
+            self.pool.shutdown(wait=True)
+            return
+        threading.Thread(target=self.pool.shutdown, kwargs={"wait": False, "cancel_futures": True},
+                         daemon=True).start()
+
+
+def _ready() -> None:
+    """Worker: nothing (a submission that makes the pool start a process)."""
+
+
+#: worker processes started ahead by :func:`prepare_workers`, taken by the next build (in this
+#: thread or task)
+_PREPARED: ContextVar[WorkerPool | None] = ContextVar("torsal_prepared_workers", default=None)
+
+
+def prepare_workers(n_parts: int, *, workers: int | None = None, mesh: bool = False) -> int:
+    """Start the worker processes for about ``n_parts`` solids now (in the background), so
+    that :func:`start_solids` finds them ready: the caller builds its parts meanwhile (the
+    fabrication stage: its FinSystem takes as long as the workers take to start). With
+    ``mesh`` they also mesh every solid for the previews (3DM, glTF, STL at the default
+    tolerance), which then only read the triangles. Returns the number of processes started
+    (0: the solids will be built in this process). :func:`release_workers` stops them if no
+    build comes."""
+    release_workers()
+    n = _workers_for(n_parts, workers)
+    if n > 1:
+        _PREPARED.set(WorkerPool(n, mesh))
+    return n if n > 1 else 0
+
+
+def release_workers() -> None:
+    """Stop worker processes started by :func:`prepare_workers` and not used."""
+    w = _PREPARED.get()
+    if w is not None:
+        _PREPARED.set(None)
+        w.shutdown(cancel=True)
+
+
+def _take_workers(workers: int) -> WorkerPool:
+    """The prepared workers if there are ``workers`` of them, else new ones."""
+    w = _PREPARED.get()
+    if w is not None and w.workers == workers:
+        _PREPARED.set(None)
+        return w
+    release_workers()
+    return WorkerPool(workers)
+
+
+class PendingSolids:
+    """Solids being built by worker processes (:func:`start_solids`): the caller goes on with
+    other work (unrolling, nesting, DXF) and :meth:`result` collects them. Holds the pool
+    until then; :meth:`cancel` drops work not yet started."""
+
+    def __init__(self, parts: list, thickness: float, repair: bool, workers: int):
+        self.parts, self.thickness, self.repair, self.workers = parts, thickness, repair, workers
+        # interleaved chunks of about equal work; a few per worker so that none waits long
+        n_chunks = min(len(parts), 4 * workers)
+        chunks = [parts[i::n_chunks] for i in range(n_chunks)]
+        self._workers = _take_workers(workers)
+        self._pool = self._workers.pool
+        self._futures: list = []
+        self._error: BaseException | None = None
+        # submitting waits for the processes to start: a thread does that, so the caller
+        # goes on at once
+        self._starter = threading.Thread(target=self._submit, args=(chunks,), daemon=True)
+        self._starter.start()
+
+    def _submit(self, chunks) -> None:
+        try:
+            self._workers.started()
+            if self._workers.error is not None:
+                raise self._workers.error
+            for c in chunks:
+                self._futures.append(self._pool.submit(
+                    _build_chunk, (c, self.thickness, self.repair, self._workers.mesh)))
+        except BaseException as e:        # re-raised by result()
+            self._error = e
+
+    def result(self) -> list:
+        """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits)."""
+        self._starter.join()
+        try:
+            if self._error is not None:
+                raise self._error
+            done = [f.result() for f in self._futures]
+        finally:
+            self._pool.shutdown(wait=True)
+        res = {}
+        #: CPU seconds the workers spent building (what the caller's clock does not see)
+        self.cpu_seconds = sum(cpu for _, cpu in done)
+        for rows, _ in done:
+            for name, status, data, detail in rows:
+                res[name] = (status, None if data is None else _from_bytes(data), detail)
+        return [(p.name,) + res[p.name] for p in self.parts]
+
+    def cancel(self) -> None:
+        """Stop: chunks not yet started are dropped, the workers end after their current one."""
+        self._starter.join()
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _workers_for(n_parts: int, workers: int | None) -> int:
+    """Worker processes for ``n_parts`` solids: ``workers`` or :func:`default_workers`, no more
+    than this process may use (:func:`~torsal.core.parallel.usable_workers`)."""
+    return usable_workers(default_workers(n_parts) if workers is None else workers)
+
+
+def start_solids(fin_system, *, repair: bool = True, workers: int | None = None) -> PendingSolids | None:
+    """Start building the solids of a :class:`~.parts.FinSystem` in worker processes and return
+    at once (:class:`PendingSolids`), or None if they would be built in this process (one
+    worker: small jobs, one core) or are built already. :func:`build_solids` with ``pending``
+    collects them; meanwhile this process can unroll, nest and write the sheets."""
+    memo = getattr(fin_system, "_solid_shapes", None)
+    if getattr(fin_system, "_solids", None) is not None or (
+            memo is not None and memo[0] == _parts_key(fin_system)):
+        return None
+    parts = list(fin_system.parts)
+    workers = _workers_for(len(parts), workers)
+    if workers <= 1:
+        return None
+    return PendingSolids(parts, fin_system.thickness, repair, workers)
+
+
+def build_solids(fin_system, *, repair: bool = True, workers: int | None = None,
+                 pending: PendingSolids | None = None) -> dict:
+    """``{part name: Solid}`` for every part of a :class:`~.parts.FinSystem` (plates and
+    connectors), build123d solids labelled with the part id and coloured by family.
+
+    Solids are independent per part: with ``workers > 1`` (default :func:`default_workers`)
+    they are built in worker processes (forked from a clean server process) and sent back as
+    OpenCascade binary BReps; ``pending`` (:func:`start_solids`) collects such a build
+    started earlier. All parts are attempted; if any is invalid an
+    :class:`InvalidSolidError` listing every invalid part id is raised. Shapes built already
+    for the exports (:func:`solid_shapes`) are labelled, not built again.
+    """
+    memo = getattr(fin_system, "_solid_shapes", None)
+    if pending is None and memo is not None and memo[0] == _parts_key(fin_system):
+        shapes = memo[1]
+    else:
+        shapes = _collect(fin_system, repair, workers, pending)
+    by_name = {p.name: p for p in fin_system.parts}
+    return {name: _labelled(shape, by_name[name]) for name, shape in shapes.items()}
+
+
+def solid_shapes(fin_system, *, repair: bool = True, workers: int | None = None) -> dict:
+    """``{part name: OCC solid}`` of a :class:`~.parts.FinSystem`: the shapes of its build123d
+    solids if it has them, else built (or collected from :meth:`~.parts.FinSystem.start_solids`)
+    as :func:`build_solids` does and kept on the fin system, without build123d (what the
+    exports need)."""
+    built = getattr(fin_system, "_solids", None)
+    if built is not None:
+        return {name: s.wrapped for name, s in built.items()}
+    key = _parts_key(fin_system)
+    memo = getattr(fin_system, "_solid_shapes", None)
+    if memo is not None and memo[0] == key:
+        return memo[1]
+    pending, fin_system._pending = getattr(fin_system, "_pending", None), None
+    shapes = _collect(fin_system, repair, workers, pending)
+    fin_system._solid_shapes = (key, shapes)
+    return shapes
+
+
+def _parts_key(fin_system) -> tuple:
+    """Which parts (objects) the fin system has: shapes kept for other parts are stale."""
+    return tuple(id(p) for p in fin_system.parts)
+
+
+def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSolids | None) -> dict:
+    """``{part name: OCC solid}``: built here or by worker processes, or collected from
+    ``pending``; sets ``fin_system.unslotted_solids`` (and warns); InvalidSolidError naming
+    every invalid part."""
+    import time
+
+    parts = list(fin_system.parts)
+    t = fin_system.thickness
+    workers = _workers_for(len(parts), workers)
+    if pending is None and workers > 1:
+        pending = PendingSolids(parts, t, repair, workers)
+    if pending is not None:
+        rows = pending.result()
+        cpu = pending.cpu_seconds
+    else:
+        cpu = time.process_time()
+        rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
+        cpu = time.process_time() - cpu
+    # CPU seconds of the last build, in whichever process it ran (for benchmarks)
+    fin_system.solids_cpu_seconds = cpu
+    out, bad, detail, unslotted = {}, [], [], []
+    for name, status, shape, info in rows:
+        if status == "bad":
+            bad.append(name)
+            detail.append(info)
+            continue
+        out[name] = shape
+        if status == "unslotted":
+            unslotted.append((name, info[0], info[1]))
+    fin_system.unslotted_solids = unslotted
+    if unslotted:
+        import warnings
+
+        warnings.warn(
+            f"{len(unslotted)} parts are modelled without their slots (OpenCascade could not cut "
+            f"them into the thin, oblique plate; the unrolled cutting outlines do have them): "
+            + "; ".join(f"{n} (slots at nodes {v})" for n, v, _ in unslotted[:8])
+            + (" ..." if len(unslotted) > 8 else "") + "; see FinSystem.unslotted_solids",
+            stacklevel=4)
+    if bad:
+        raise InvalidSolidError(bad, "; ".join(detail))
+    return out

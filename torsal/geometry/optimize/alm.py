@@ -1,0 +1,461 @@
+"""The augmented Lagrangian with projected-Newton inner steps (Wang et al. 2013, 4.1, eq. (9)).
+
+The paper solves eq. (9) with its hyperbolicity and angle constraints by an augmented
+Lagrangian. This is that method for the same casadi NLP (:class:`~torsal.geometry.optimize.nlp.Built`
+in tangent mode, every constraint row an inequality or equality ``l <= c(x) <= u``):
+
+Outer iterations (Powell-Hestenes-Rockafellar, the safeguarded form of Birgin and
+Martinez, *Practical Augmented Lagrangian Methods for Constrained Optimization*, 2014,
+Algorithm 4.1, with one penalty per row as in Conn, Gould and Toint's LANCELOT)::
+
+    L_A(x) = F(x) + sum_j rho_j / 2 dist(c_j(x) + lam_j / rho_j, [l_j, u_j])^2 - lam_j^2 / (2 rho_j)
+
+with ``F = |V| f`` (the energies are means: this makes them sums, as IPOPT's objective
+scaling does) and each constraint term's rows scaled by one factor, the inverse median of
+their gradient norms at the start. After each inner minimization ``lam <- mu =
+rho (t - P(t))``, ``t = c + lam / rho`` (safeguarded to ``|lam| <= LAM_MAX``); a row's
+penalty grows by ``GAMMA`` only when its complementarity measure ``V_j = c_j - P(c_j +
+lam_j / rho_j)`` did not fall below ``TAU`` times its last value (and is not already within
+the tolerance): rows that converge keep their penalty, so the penalties of the few hard
+rows grow without making every other row stiff. The inner tolerance tightens by ``0.1``
+per outer iteration down to the final one.
+
+Inner iterations: Newton steps on ``L_A`` in the gnomonic chart, re-centred at every
+iterate (a retraction on the unit spheres: each step starts at ``z = 0``). The Newton
+matrix is one symmetric positive definite matrix::
+
+    K = sum_e P(H_e) + sum_j P(mu_j H_cj) + P(chart) + rho J_A^T J_A + delta I
+
+with every energy element's and constraint element's Hessian projected to positive
+semidefinite (:mod:`.projected`), ``J_A`` the rows whose penalty is active (the
+Gauss-Newton part of the penalty), and a small adaptive ``delta`` (Levenberg-Marquardt:
+divided by 10 after a full step, times 10 after a short one). ``K``'s pattern is the
+union over all rows, fixed for the NLP, so its ordering and symbolic factorization are
+computed once (:class:`~torsal.geometry.optimize.factor.SparseCholesky`), also across
+re-solves. A backtracking Armijo line search on ``L_A`` takes the step.
+
+Stopping is on the geometry: a solve has converged when every constraint holds as
+measured on the congruence (torsal angles in degrees, ``c_hyp / delta^2``, see
+:mod:`.measure`), the inner gradient is below the final tolerance and every row's
+complementarity measure is below ``VTOL``. Limits are counts (Newton steps), never time,
+so a solve's answer does not depend on the machine's load.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, NamedTuple
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from .factor import NotPositiveDefinite, SparseCholesky
+from .history import SolveMonitor
+from .nlp import Built, _from_tangent, tangent_frames
+
+#: penalty growth factor of a row whose complementarity did not decrease enough
+GAMMA = 10.0
+#: a row's complementarity must fall below this share of its last value to keep its penalty
+TAU = 0.5
+#: safeguard of the multiplier estimates (scaled units)
+LAM_MAX = 1e8
+#: largest penalty (scaled units)
+RHO_MAX = 1e10
+#: first penalty, relative to the energies' curvature per variable
+RHO_START = 10.0
+#: complementarity / violation tolerance of the scaled rows (~ radians of line rotation)
+VTOL = 1e-4
+#: the projected Newton matrix carries the constraints' projected curvature (else only rho J^T J)
+CONSTRAINT_CURVATURE = False
+#: the relative Newton decrement that ends a solve, per unit of ``solve(tol=...)`` (1e-4 -> 1e-6)
+DECREMENT_PER_TOL = 1e-2
+#: the Newton decrement is relative to |L_A|, or to this share of the start's objective where
+#: that is larger (a design whose energies reach zero)
+FLOOR = 1e-8
+#: a warm re-solve: penalties capped at this multiple of a cold start's, first inner tolerance
+WARM_RHO_CAP = 100.0
+WARM_EPS = 1e-5
+#: first inner tolerance (Newton decrement relative to |L_A|)
+EPS_START = 1e-3
+#: Newton steps per inner minimization
+INNER_MAX = 40
+#: multiplier updates per solve: a row stuck at a bound it cannot reach (zero gradient, e.g.
+#: hyperbolicity exactly 0 under a margin) takes no Newton step, so only this ends the solve
+OUTER_MAX = 60
+#: largest turn of one line in one Newton step (gnomonic coordinate, ~ radians)
+MAX_TURN = 0.5
+_DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
+
+#: the exact Hessian is tried after a full projected step that turned no line by more than this
+TURN_EXACT = 0.05
+#: a step shorter than this raises the Levenberg-Marquardt shift
+SHORT_STEP = 0.1
+#: how the energies' element Hessians are made positive semidefinite (:func:`.projected.psd_projection`)
+PROJECTION = "clamp"
+#: re-centre the chart when a line has moved this far from the centre (gnomonic coordinate)
+RECENTRE = 0.25
+#: Armijo's sufficient decrease
+ARMIJO = 1e-4
+
+
+@dataclass
+class AlmState:
+    """Where a warm re-solve starts: the answer's directions, multipliers, penalties and row
+    scales (the scales stay fixed so that multipliers and penalties keep their meaning)."""
+
+    e: np.ndarray             # (N, 3) unit directions
+    lam: np.ndarray           # (n_g,) multipliers of the scaled rows (PHR sign: mu)
+    rho: np.ndarray           # (n_g,) penalties of the scaled rows
+    scale: np.ndarray         # (n_g,) row scales
+    delta: float = 1e-8       # the Levenberg-Marquardt shift (relative)
+
+
+class AlmRun(NamedTuple):
+    """The answer of :func:`alm` and how it ended."""
+
+    e: np.ndarray             # (N, 3) directions
+    lam_g: np.ndarray         # multipliers in IPOPT's convention (grad f + J^T lam_g = 0)
+    iterations: int           # Newton steps
+    outer: int                # outer iterations (multiplier updates)
+    factorizations: int
+    status: str
+    converged: bool
+    state: AlmState
+    counts: dict              # line-search trials, shifted retries, the backend
+
+
+class _Numeric:
+    """A casadi Function evaluated into preallocated numpy arrays (no DM conversions)."""
+
+    def __init__(self, fn: ca.Function):
+        self.fn = fn
+        self.buf, self.call = fn.buffer()
+        self.out = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
+        for i, r in enumerate(self.out):
+            self.buf.set_res(i, memoryview(r))
+
+    def __call__(self, *args) -> list[np.ndarray]:
+        keep = [np.ascontiguousarray(a, dtype=float) for a in args]
+        for i, a in enumerate(keep):
+            self.buf.set_arg(i, memoryview(a))
+        self.call()
+        return [r.copy() for r in self.out]
+
+
+@dataclass
+class NewtonSystem:
+    """The fixed pattern of ``K`` (upper triangle) and where each piece's values go.
+
+    Pieces: the projected Lagrangian Hessian's nonzeros, every row's ``J_j^T J_j`` (upper
+    triangle of the outer product of its nonzeros), the diagonal.
+    """
+
+    n: int
+    hess_pos: np.ndarray      # position in K of each Hessian nonzero
+    jac_rows: np.ndarray      # (nnz_J,) row of each Jacobian nonzero
+    jac_cols: np.ndarray
+    pair_a: np.ndarray        # pairs of Jacobian nonzeros of one row (a, b), col_a <= col_b
+    pair_b: np.ndarray
+    pair_pos: np.ndarray      # their position in K
+    diag_pos: np.ndarray      # (n,)
+    chol: SparseCholesky
+    counts: dict = field(default_factory=lambda: {"factorizations": 0})
+
+    @classmethod
+    def of(cls, b: Built, backend: str | None = None) -> "NewtonSystem":
+        n = b.n_var
+        hs = b.hess_lag.sparsity
+        h_col = np.repeat(np.arange(n), np.diff(np.asarray(hs.colind())))
+        h_row = np.asarray(hs.row(), dtype=np.int64)
+        js = b.jac_g.sparsity_out(1)
+        j_col = np.repeat(np.arange(js.size2()), np.diff(np.asarray(js.colind())))
+        j_row = np.asarray(js.row(), dtype=np.int64)
+        # pairs of nonzeros in the same row: sort the nonzeros by row
+        order = np.lexsort((j_col, j_row))
+        rows_sorted = j_row[order]
+        starts = np.searchsorted(rows_sorted, np.arange(b.n_g + 1))
+        pa, pb = [], []
+        counts = np.diff(starts)
+        for k in np.unique(counts):
+            if k == 0:
+                continue
+            rs = np.flatnonzero(counts == k)
+            iu, ju = np.triu_indices(k)
+            base = starts[rs][:, None]
+            pa.append(order[(base + iu).ravel()])
+            pb.append(order[(base + ju).ravel()])
+        pa = np.concatenate(pa) if pa else np.zeros(0, np.int64)
+        pb = np.concatenate(pb) if pb else np.zeros(0, np.int64)
+        ca_, cb_ = j_col[pa], j_col[pb]
+        p_row, p_col = np.minimum(ca_, cb_), np.maximum(ca_, cb_)
+        d = np.arange(n)
+        keys = np.concatenate([h_col * n + h_row, p_col * n + p_row, d * n + d])
+        ukey, pos = np.unique(keys, return_inverse=True)
+        pos = pos.ravel()
+        col, row = ukey // n, ukey % n
+        pattern = sp.csc_matrix((np.ones(ukey.size), row, np.searchsorted(col, np.arange(n + 1))), shape=(n, n))
+        nh, npair = h_row.size, pa.size
+        return cls(n, pos[:nh], j_row, j_col, pa, pb, pos[nh:nh + npair], pos[nh + npair:],
+                   SparseCholesky(pattern, backend))
+
+    def values(self, hess: np.ndarray, jac: np.ndarray, w_rows: np.ndarray, shift: float) -> np.ndarray:
+        """``K``'s values: ``hess + J^T diag(w_rows) J + shift I`` (``jac`` the Jacobian's nonzeros)."""
+        k = np.bincount(self.hess_pos, weights=hess, minlength=self.chol.nnz)
+        if self.pair_a.size:
+            w = w_rows[self.jac_rows[self.pair_a]]
+            sel = w > 0
+            k += np.bincount(self.pair_pos[sel], weights=w[sel] * jac[self.pair_a[sel]] * jac[self.pair_b[sel]],
+                             minlength=self.chol.nnz)
+        k[self.diag_pos] += shift
+        return k
+
+    def jt(self, jac: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``J^T v``."""
+        return np.bincount(self.jac_cols, weights=jac * v[self.jac_rows], minlength=self.n)
+
+
+class _Point(NamedTuple):
+    """One evaluated iterate in the current chart."""
+
+    z: np.ndarray             # chart coordinates
+    F: float                  # |V| f
+    grad: np.ndarray          # grad F
+    g: np.ndarray             # constraint rows (unscaled)
+    jac: np.ndarray           # their Jacobian's nonzeros
+
+
+class _Merit(NamedTuple):
+    value: float              # L_A
+    mu: np.ndarray            # (n_g,) multiplier estimates rho (t - P(t))
+    active: np.ndarray        # (n_g,) bool: t outside [l, u]
+
+
+def _phr(c: np.ndarray, lam: np.ndarray, rho: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> _Merit:
+    """The PHR terms of scaled rows ``c`` with bounds ``[lo, hi]`` (see the module docstring)."""
+    t = c + lam / rho
+    pt = np.clip(t, lo, hi)
+    r = t - pt
+    return _Merit(float(np.sum(0.5 * rho * r * r - 0.5 * lam * lam / rho)), rho * r, r != 0.0)
+
+
+class AugmentedLagrangian:
+    """One augmented-Lagrangian solve of a tangent-mode NLP ``b`` (see the module docstring).
+
+    ``p0``: the NLP's parameters (frames are replaced at every iterate); ``monitor`` gets
+    every Newton iterate (measured history, best feasible iterate, the user's callback, the
+    safety-net time limit); ``feasible(e)`` says whether every constraint holds as measured.
+    """
+
+    def __init__(self, b: Built, p0: np.ndarray, monitor: SolveMonitor, feasible: Callable[[np.ndarray], bool],
+                 *, max_steps: int, tol: float, backend: str | None = None, projection: str | None = None):
+        if b.mode != "tangent" or b.n_lift or b.n_slack:
+            raise ValueError("the augmented Lagrangian needs the tangent NLP without lifted variables or slacks")
+        self.b, self.monitor, self.feasible = b, monitor, feasible
+        self.p = np.array(p0, dtype=float)
+        # the final inner tolerance: L_A within tol * DECREMENT_PER_TOL (relative) of its minimum
+        self.max_steps, self.tol = int(max_steps), float(tol) * DECREMENT_PER_TOL
+        self.sF = float(max(b.n_vertices, 1))
+        if not hasattr(b, "alm_cache"):
+            b.alm_cache = {}
+        key = ("system", backend)
+        if key not in b.alm_cache:
+            b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.point))
+        self.sys, self._pt = b.alm_cache[key]
+        b.hess_lag.mode = projection or PROJECTION
+        b.hess_lag.project = True
+        b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
+        self.lo, self.hi = b.lbg, b.ubg
+        self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
+                       "backend": self.sys.chol.backend}
+
+    # ------------------------------------------------------------------ evaluations
+    def _recentre(self, e: np.ndarray) -> np.ndarray:
+        """Frames of the chart at the directions ``e`` (``z = 0`` there); returns the frames."""
+        frames = tangent_frames(e)
+        self.p[:self.b.n_frames] = frames.ravel()
+        return frames
+
+    def _point(self, z: np.ndarray) -> _Point:
+        """``F``, ``grad F``, ``c``, ``J``'s nonzeros at chart coordinates ``z`` (one evaluation)."""
+        f, grad, g, jac = self._pt(z, self.p)
+        return _Point(z, float(f[0]) * self.sF, grad * self.sF, g, jac)
+
+    def _hessian(self, mu_unscaled: np.ndarray) -> np.ndarray:
+        """The projected Lagrangian Hessian's nonzeros (multipliers ``mu_unscaled``)."""
+        return self._hessians(mu_unscaled, exact=False)[1]
+
+    def _hessians(self, mu_unscaled: np.ndarray, exact: bool, z: np.ndarray | None = None
+                  ) -> tuple[np.ndarray | None, np.ndarray]:
+        """``(exact or None, projected)`` Lagrangian Hessians at ``z`` from one evaluation of the blocks."""
+        x = np.zeros(self.b.n_var) if z is None else z
+        h = self.b.hess_lag
+        rest, mats = h.pieces([x, self.p, np.array([self.sF]), mu_unscaled])
+        return (h.combine(rest, mats, False) if exact else None), h.combine(rest, mats, True)
+
+    # ------------------------------------------------------------------ the solve
+    def _initial(self, jac: np.ndarray, warm: AlmState | None) -> AlmState:
+        """Multipliers, penalties and row scales of a cold start (or the warm ones)."""
+        b, sys = self.b, self.sys
+        # rows scaled to unit gradients: a penalty curvature RHO_START times the energies'
+        # typical curvature per variable (median of the projected Hessian's diagonal)
+        h0 = sys.values(self._hessian(np.zeros(b.n_g)), jac, np.zeros(b.n_g), 0.0)[sys.diag_pos]
+        r0 = RHO_START * max(float(np.median(h0)), 1e-6)
+        if warm is not None and warm.lam.size == b.n_g:
+            # the multipliers carry over; penalties that grew for the old problem's hard rows
+            # are capped, so the changed problem's first steps are not stiff
+            return AlmState(e=warm.e, lam=warm.lam.copy(), rho=np.minimum(warm.rho, WARM_RHO_CAP * r0),
+                            scale=warm.scale, delta=warm.delta)
+        s = _row_scales(b, jac, sys)
+        return AlmState(e=np.zeros((0, 3)), lam=np.zeros(b.n_g), rho=np.full(b.n_g, r0), scale=s, delta=1e-8)
+
+    def _direction(self, z, gl, jac, mu, w, try_exact: bool) -> tuple[np.ndarray | None, bool]:
+        """The Newton direction ``-K^-1 grad L_A``: with the exact Hessian when asked and it is
+        positive definite (one factorization), else the projected one (one factorization,
+        more only if rounding makes it fail: then with a larger shift)."""
+        sys = self.sys
+        exact_h, hess = self._hessians(mu, exact=try_exact, z=z)
+        for h, exact in ((exact_h, True), (hess, False)):
+            if h is None:
+                continue
+            base = sys.values(h, jac, w, 0.0)
+            scale = max(1.0, float(np.mean(np.abs(base[sys.diag_pos]))))
+            for _ in range(1 if exact else 8):
+                k = base.copy()
+                k[sys.diag_pos] += self.rel * scale
+                self.counts["factorizations"] += 1
+                try:
+                    sys.chol.factor(k)
+                except NotPositiveDefinite:
+                    self.counts["indefinite" if exact else "shifted"] += 1
+                    if not exact:
+                        self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
+                    continue
+                d = -sys.chol.solve(gl)
+                # a descent direction, or the factorization was not what it claimed
+                if np.all(np.isfinite(d)) and (float(gl @ d) < 0 or not np.any(gl)):
+                    self.counts["exact"] += int(exact)
+                    return d, exact
+                self.counts["indefinite" if exact else "shifted"] += 1
+                if exact:
+                    break
+                self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
+        return None, False
+
+    def _line_search(self, pt: _Point, d, slope, LA, lam, rho, s, lo, hi) -> tuple[float, _Point] | None:
+        """Backtracking Armijo on ``L_A`` along ``d`` from ``pt`` (halving): the step and the
+        new point, or None."""
+        alpha = 1.0
+        for _ in range(30):
+            self.counts["trials"] += 1
+            q = self._point(pt.z + alpha * d)
+            if np.isfinite(q.F) and q.F + _phr(s * q.g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
+                return alpha, q
+            alpha *= 0.5
+        return None
+
+    def solve(self, e0: np.ndarray, warm: AlmState | None) -> AlmRun:
+        """Outer PHR iterations around inner Newton minimizations, from ``e0`` (or ``warm``)."""
+        b, sys = self.b, self.sys
+        e = np.asarray(e0, dtype=float).reshape(-1, 3)
+        frames = self._recentre(e)
+        pt = self._point(np.zeros(b.n_var))
+        floor = FLOOR * max(abs(pt.F), 1.0)
+        st = self._initial(pt.jac, warm)
+        s, lam, rho, self.rel = st.scale, st.lam, st.rho, st.delta
+        lo, hi = s * self.lo, s * self.hi
+        # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
+        eps = EPS_START if warm is None else max(WARM_EPS, self.tol)
+        v_prev = np.full(b.n_g, np.inf)
+        steps = outer = 0
+        wait, backoff, near = 0, 1, False     # when to try the exact Hessian
+        status, converged, dec = "", False, np.inf
+        self.monitor.start_pass(None)
+        while not status:
+            for inner in range(INNER_MAX):      # ---- inner minimization of L_A(., lam, rho)
+                if steps >= self.max_steps:
+                    break
+                m = _phr(s * pt.g, lam, rho, lo, hi)
+                LA = pt.F + m.value
+                gl = pt.grad + sys.jt(pt.jac, s * m.mu)
+                w = np.where(m.active, rho * s * s, 0.0)
+                tried = wait == 0 and near
+                d, exact = self._direction(pt.z, gl, pt.jac, s * m.mu, w, tried)
+                wait = max(wait - 1, 0)
+                if tried and not exact:        # indefinite: back off before the next try
+                    wait, backoff = backoff, min(2 * backoff, 32)
+                if d is None:
+                    status = "the Newton matrix could not be factored"
+                    break
+                slope = float(gl @ d)
+                # relative to |L_A|, or to a floor of the start's objective (zero-residual designs)
+                dec = -0.5 * slope / max(abs(LA), abs(pt.F), floor)
+                if dec <= eps:
+                    break
+                turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
+                if turn > MAX_TURN:
+                    d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
+                found = self._line_search(pt, d, slope, LA, lam, rho, s, lo, hi)
+                steps += 1
+                if found is None:
+                    self.rel = min(self.rel * 100.0, 1e4)
+                    if self.rel >= 1e4:
+                        status = "the line search found no decrease"
+                    continue
+                alpha, pt = found
+                if alpha * turn < 1e-12:      # rounding: no step left to take
+                    break
+                if exact and (alpha < 1.0 or turn > MAX_TURN):
+                    wait, backoff = backoff, min(2 * backoff, 32)   # not yet Newton's region
+                elif exact:
+                    backoff = 1
+                near = alpha == 1.0 and turn < TURN_EXACT
+                # Levenberg-Marquardt: less shift after a long step, more after a very short one
+                # (a short step at a kink of the penalty's active set is not the shift's fault)
+                self.rel = (max(self.rel * 0.1, 1e-10) if alpha >= 0.5
+                            else min(self.rel * 10.0, 1e-2) if alpha < SHORT_STEP else self.rel)
+                if _DEBUG:
+                    print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {pt.F:.6e} dec {dec:.1e} eps {eps:.1e} "
+                          f"alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} act {int(m.active.sum())} "
+                          f"rho {np.median(rho):.1e}/{rho.max():.1e}")
+                e = _from_tangent(pt.z, frames)
+                if float(np.abs(pt.z).max(initial=0.0)) > RECENTRE:     # keep the chart near its centre
+                    frames = self._recentre(e)
+                    pt = self._point(np.zeros(b.n_var))
+                inf = float(np.max(np.maximum(np.maximum(self.lo - pt.g, pt.g - self.hi), 0.0), initial=0.0))
+                if self.monitor.iterate(e, pt.F / self.sF, inf):
+                    status = "time limit (safety net) reached" if self.monitor.timed_out else "stopped by callback"
+                    break
+            if status:
+                break
+            # ---- outer update: multipliers, and the penalties of rows that did not improve
+            outer += 1
+            m = _phr(s * pt.g, lam, rho, lo, hi)
+            lam = np.clip(m.mu, -LAM_MAX, LAM_MAX)
+            v = s * pt.g - np.clip(s * pt.g + lam / rho, lo, hi)
+            vmax = float(np.abs(v).max(initial=0.0))
+            if eps <= self.tol and dec <= self.tol and vmax <= VTOL and self.feasible(e):
+                status, converged = f"converged: measured feasible, Newton decrement {dec:.1e}", True
+            elif steps >= self.max_steps:
+                status = f"Maximum_Iterations_Exceeded ({steps} Newton steps)"
+            elif outer >= OUTER_MAX:
+                status = f"Maximum_Iterations_Exceeded ({outer} multiplier updates)"
+            grow = (np.abs(v) > TAU * np.abs(v_prev)) & (np.abs(v) > VTOL)
+            rho = np.where(grow & ~converged, np.minimum(rho * GAMMA, RHO_MAX), rho)
+            v_prev = v
+            eps = max(self.tol, 0.1 * eps)
+        lam_g = s * lam / self.sF           # IPOPT's multipliers: grad f + J^T lam_g = 0
+        state = AlmState(e=e.copy(), lam=lam, rho=rho, scale=s, delta=self.rel)
+        return AlmRun(e, lam_g, steps, outer, self.counts["factorizations"], status, converged, state,
+                      dict(self.counts))
+
+
+def _row_scales(b: Built, jac: np.ndarray, sys: NewtonSystem) -> np.ndarray:
+    """One scale per constraint term: the inverse median gradient norm of its rows."""
+    norms = np.sqrt(np.bincount(sys.jac_rows, weights=jac * jac, minlength=b.n_g))
+    s = np.ones(b.n_g)
+    for rows in b.g_slices:
+        nz = norms[rows][norms[rows] > 0]
+        med = float(np.median(nz)) if nz.size else 1.0
+        s[rows] = 1.0 / min(max(med, 1e-6), 1e6)
+    return s

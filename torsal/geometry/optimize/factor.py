@@ -1,0 +1,202 @@
+"""Sparse Cholesky factorization of a fixed pattern: analysed once, refactored every Newton step.
+
+The augmented Lagrangian (:mod:`.alm`) factors one symmetric positive definite matrix per
+Newton step, always over the same sparsity pattern (the union of every row's pattern, see
+:class:`~torsal.geometry.optimize.alm.NewtonSystem`). The fill-reducing ordering and the
+symbolic factorization are computed once per pattern and kept with the NLP, so a warm
+re-solve pays only numeric factorizations.
+
+Backends (:data:`BACKENDS`, the first available is the default; chosen by measurement on
+the Newton matrices of the Fig. 12 rows, ``benchmarks/optimize_bench.py --tables factor``):
+``"qdldl"`` (LDL^T with AMD ordering, ``Solver.update`` refactors on the same pattern: the
+symbolic analysis is done once; a dependency of torsal), ``"cholmod"`` (SuiteSparse CHOLMOD,
+supernodal, through ``sksparse`` where it is installed), ``"csparse"`` (casadi's own
+``csparsecholesky``: symbolic analysis once, then numeric factorizations; up-looking, no
+supernodes, so slower on these matrices), ``"splu"`` (scipy's SuperLU, a fallback that
+always works: it refactors from scratch). The wheels that bundle CHOLMOD without a
+refactorization call (cholespy, sksparse-minimal) repeat the analysis at every step and
+were no faster than qdldl's update.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+#: the backends in order of preference (the first that imports is the default)
+BACKENDS = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
+
+
+class NotPositiveDefinite(ArithmeticError):
+    """The matrix handed to :meth:`SparseCholesky.factor` is not positive definite."""
+
+
+class SparseCholesky:
+    """Factor ``A`` (symmetric positive definite, given by its upper triangle) over one pattern.
+
+    Parameters
+    ----------
+    pattern : scipy.sparse.csc_matrix
+        The upper triangle's pattern (sorted indices; the values are ignored), (n, n).
+    backend : str, optional
+        One of :data:`BACKENDS`; default the first one available.
+
+    Examples
+    --------
+    >>> a = sp.csc_matrix(np.triu([[4.0, 1.0], [1.0, 3.0]]))
+    >>> f = SparseCholesky(a)
+    >>> f.factor(a.data)
+    >>> np.round(f.solve(np.array([1.0, 2.0])), 6)
+    array([0.090909, 0.636364])
+    """
+
+    def __init__(self, pattern: sp.csc_matrix, backend: str | None = None):
+        pattern = sp.csc_matrix(pattern)
+        pattern.sort_indices()
+        self.n = pattern.shape[0]
+        self.indptr, self.indices = pattern.indptr.copy(), pattern.indices.copy()
+        self.nnz = int(self.indices.size)
+        self.backend = backend or default_backend()
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        self.factorizations = 0
+        self.analyses = 0
+        self._impl = None
+        # the full symmetric matrix from the upper triangle: positions of each entry in it
+        col = np.repeat(np.arange(self.n), np.diff(self.indptr))
+        row = self.indices
+        off = row != col
+        r = np.concatenate([row, col[off]])
+        c = np.concatenate([col, row[off]])
+        src = np.concatenate([np.arange(self.nnz), np.flatnonzero(off)])
+        order = np.lexsort((r, c))
+        self._full_src = src[order]
+        self._full_indices = r[order].astype(np.int32)
+        self._full_indptr = np.searchsorted(c[order], np.arange(self.n + 1)).astype(np.int32)
+
+    def upper(self, data: np.ndarray) -> sp.csc_matrix:
+        return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+    def full(self, data: np.ndarray) -> sp.csc_matrix:
+        return sp.csc_matrix((np.asarray(data)[self._full_src], self._full_indices, self._full_indptr),
+                             shape=(self.n, self.n))
+
+    def factor(self, data: np.ndarray) -> None:
+        """Numeric factorization with the upper triangle's values ``data`` (pattern order).
+
+        Raises :class:`NotPositiveDefinite` if a pivot is not positive.
+        """
+        self.factorizations += 1
+        getattr(self, "_factor_" + self.backend.replace("-", "_"))(np.asarray(data, dtype=float))
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        return np.asarray(getattr(self, "_solve_" + self.backend.replace("-", "_"))(np.asarray(rhs, dtype=float))).ravel()
+
+    # ------------------------------------------------------------------ CHOLMOD (sksparse)
+    def _factor_cholmod(self, data):
+        from sksparse.cholmod import CholmodNotPositiveDefiniteError, analyze
+
+        a = self.full(data)
+        if self._impl is None:
+            self._impl = analyze(a, mode="supernodal", ordering_method="best")
+            self.analyses += 1
+        try:
+            self._impl.cholesky_inplace(a)
+        except CholmodNotPositiveDefiniteError as exc:
+            raise NotPositiveDefinite(str(exc)) from None
+
+    def _solve_cholmod(self, rhs):
+        return self._impl(rhs)
+
+    # ------------------------------------------------------------------ CHOLMOD (sksparse-minimal)
+    def _factor_cholmod_minimal(self, data):
+        # no refactorization call in this wheel: ordering and symbolic analysis every time
+        from sksparse_minimal import SparseCholesky as Chol
+
+        try:
+            self._impl = Chol(self.full(data))
+            inv_d = self._impl.solve_D(np.ones(self.n))     # 1 / D of LDL^T (1 for LL^T)
+        except Exception as exc:      # CHOLMOD's "not positive definite"
+            raise NotPositiveDefinite(str(exc)) from None
+        if not np.all(np.isfinite(inv_d) & (inv_d > 0)):
+            raise NotPositiveDefinite("a pivot of CHOLMOD's factorization is not positive")
+
+    def _solve_cholmod_minimal(self, rhs):
+        return self._impl.solve_A(rhs)
+
+    # ------------------------------------------------------------------ QDLDL
+    def _factor_qdldl(self, data):
+        import qdldl
+
+        a = self.upper(data)
+        if self._impl is None:
+            self._impl = qdldl.Solver(a, upper=True)
+            self.analyses += 1
+        else:
+            self._impl.update(a, upper=True)
+        # LDL^T without pivoting (a quasi-definite solver): positive definite iff every pivot
+        # of D is positive (factors() returns L, D and the ordering)
+        if np.any(np.asarray(self._impl.factors()[1]) <= 0):
+            raise NotPositiveDefinite("a pivot of the LDL^T factorization is not positive")
+
+    def _solve_qdldl(self, rhs):
+        return self._impl.solve(rhs)
+
+    # ------------------------------------------------------------------ casadi csparsecholesky
+    def _factor_csparse(self, data):
+        import casadi as ca
+
+        if self._impl is None:
+            spy = ca.Sparsity(self.n, self.n, self._full_indptr.astype(np.int64).tolist(),
+                              self._full_indices.astype(np.int64).tolist())
+            self._impl = (ca.Linsol("alm_kkt", "csparsecholesky", spy), spy)
+            self.analyses += 1
+        solver, spy = self._impl
+        a = ca.DM(spy, np.asarray(data)[self._full_src])
+        if self.analyses == 1 and self.factorizations == 1:
+            solver.sfact(a)
+        try:
+            solver.nfact(a)
+        except RuntimeError as exc:
+            raise NotPositiveDefinite(str(exc)) from None
+        self._a = a
+
+    def _solve_csparse(self, rhs):
+        import casadi as ca
+
+        return np.asarray(self._impl[0].solve(self._a, ca.DM(rhs)))
+
+    # ------------------------------------------------------------------ scipy SuperLU
+    def _factor_splu(self, data):
+        from scipy.sparse.linalg import splu
+
+        try:
+            self._impl = splu(self.full(data), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                              options={"SymmetricMode": True})
+        except RuntimeError as exc:     # exactly singular
+            raise NotPositiveDefinite(str(exc)) from None
+        if np.any(self._impl.U.diagonal() <= 0):
+            raise NotPositiveDefinite("a pivot of the LU factorization is not positive")
+
+    def _solve_splu(self, rhs):
+        return self._impl.solve(rhs)
+
+
+def available(backend: str) -> bool:
+    """Whether ``backend``'s package imports on this machine."""
+    try:
+        if backend == "cholmod":
+            import sksparse.cholmod  # noqa: F401
+        elif backend == "cholmod-minimal":
+            import sksparse_minimal  # noqa: F401
+        elif backend == "qdldl":
+            import qdldl  # noqa: F401
+        elif backend == "csparse":
+            import casadi  # noqa: F401
+    except ImportError:
+        return False
+    return backend in BACKENDS
+
+
+def default_backend() -> str:
+    """The first of :data:`BACKENDS` that is available."""
+    return next(b for b in BACKENDS if available(b))

@@ -1,0 +1,323 @@
+"""The parametric fins object: a FreeCAD ``Part::FeaturePython`` whose properties are the
+design file's main keys.
+
+>>> import FreeCAD                                          # doctest: +SKIP
+>>> from torsal.freecad import make_fins                    # doctest: +SKIP
+>>> doc = FreeCAD.newDocument("facade")                     # doctest: +SKIP
+>>> fins = make_fins(doc, "examples/7a_facade_block.toml")  # doctest: +SKIP
+>>> doc.recompute()                                         # doctest: +SKIP
+>>> fins.Buildable, len(fins.Shape.Solids)                  # doctest: +SKIP
+(True, 2129)
+
+A recompute writes a :class:`~torsal.hosts.freecad.job.FinsJob` and runs it with the Python of
+torsal's environment (:mod:`torsal.hosts.freecad.job` says why not inside FreeCAD); the stage
+cache in the job folder re-runs only the stages whose inputs changed. The solids come back with
+FreeCAD's ``Part.read`` (never ``Import.insert``: FreeCAD 0.20's crashes on a STEP with two or
+more labelled shapes), one per part, in the order of ``PartNames``.
+
+FreeCAD is imported inside the functions: this module is importable (and its doctests run)
+outside FreeCAD too.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...core.errors import TorsalError
+from ...core.units import scale
+from ...pipeline.design_file import load_design_file
+from .job import FinsJob, FinsOutcome
+from .sampling import face_grid, linked_face, wire_polylines
+
+__all__ = ["FinsFeature", "FinsError", "ViewProviderFins", "make_fins", "torsal_python",
+           "job_folder", "run_in_torsal", "PROPERTIES", "ICON"]
+
+#: the workbench's and the object's icon
+ICON = Path(__file__).with_name("torsal.svg")
+
+
+class FinsError(TorsalError, RuntimeError):
+    """The fins could not be made; FreeCAD marks the object invalid and shows this message."""
+
+
+@dataclass(frozen=True)
+class _Prop:
+    type: str
+    name: str
+    group: str
+    doc: str
+    read_only: bool = False
+
+
+#: The object's properties: design keys (editable) and results (read-only).
+PROPERTIES: tuple[_Prop, ...] = (
+    _Prop("App::PropertyFile", "DesignFile", "Design", "the torsal design file (TOML) the other "
+          "properties override"),
+    _Prop("App::PropertyLength", "Spacing", "Design", "fins.spacing: fin spacing"),
+    _Prop("App::PropertyLength", "Depth", "Design", "fins.depth: fin depth along the lines"),
+    _Prop("App::PropertyLength", "Thickness", "Design", "material.thickness_mm: plate thickness"),
+    _Prop("App::PropertyAngle", "MinTorsalAngle", "Design", "constraints.min_torsal_angle: "
+          "smallest angle between the two torsal planes of a face; 0 = no constraint"),
+    _Prop("App::PropertyLinkSub", "Surface", "Design", "the design surface: a face (or a shape of "
+          "one face) tessellated by torsal; empty = the design file's surface"),
+    _Prop("App::PropertyLength", "MeshEdge", "Design", "edge length of the Surface's "
+          "tessellation; 0 = half the spacing"),
+    _Prop("App::PropertyLinkList", "Strokes", "Design", "goals.strokes: wires the torsal "
+          "directions follow (Fig. 7b); empty = the design file's strokes"),
+    _Prop("App::PropertyLength", "StrokeWidth", "Design", "goals.strokes[].width: faces within "
+          "this distance follow a stroke; 0 = torsal's default"),
+    _Prop("App::PropertyString", "SunStart", "Sun", "sun.start (YYYY-MM-DD); empty with SunEnd "
+          "= the design file's sun (dates, EPW or vectors)"),
+    _Prop("App::PropertyString", "SunEnd", "Sun", "sun.end (YYYY-MM-DD), included"),
+    _Prop("App::PropertyFloatList", "SunHours", "Sun", "sun.hours: [h0, h1] local clock hours"),
+    _Prop("App::PropertyPath", "OutputFolder", "Result", "where torsal writes (design.toml, "
+          "out/ with report.html, STEP, DXF and the stage cache); empty = beside the saved "
+          "document, or the user cache"),
+    _Prop("App::PropertyBool", "Buildable", "Result", "the assembly check: no parts interfere "
+          "and each can be inserted", True),
+    _Prop("App::PropertyFloat", "SunBlocked", "Result", "share of the design sun the fins block "
+          "(report.json light.blocked_share), 0..1", True),
+    _Prop("App::PropertyFile", "Report", "Result", "report.html of the last recompute", True),
+    _Prop("App::PropertyFile", "DesignRun", "Result", "the design file the last recompute ran "
+          "(the properties applied): `torsal design` runs it too", True),
+    _Prop("App::PropertyStringList", "PartNames", "Result", "part names, one per solid of Shape, "
+          "in order", True),
+    _Prop("App::PropertyStringList", "PartGroups", "Result", "family 0, family 1, connector or "
+          "interfering, one per solid", True),
+    _Prop("App::PropertyStringList", "StagesRun", "Result", "stages the last recompute ran", True),
+    _Prop("App::PropertyStringList", "StagesCached", "Result", "stages it took from the cache", True),
+)
+
+
+def _add_properties(obj) -> None:
+    for p in PROPERTIES:
+        if p.name not in obj.PropertiesList:
+            obj.addProperty(p.type, p.name, p.group, p.doc)
+            if p.read_only:
+                obj.setEditorMode(p.name, 1)
+
+
+def torsal_python() -> str:
+    """The Python of torsal's environment, which runs the stages: ``$TORSAL_PYTHON`` (set by
+    the workbench that ``torsal freecad install`` writes), else this Python when it is not
+    FreeCAD's."""
+    env = os.environ.get("TORSAL_PYTHON")
+    if env:
+        return env
+    if Path(sys.executable).name.startswith("python"):
+        return sys.executable
+    raise FinsError("torsal's Python is unknown (TORSAL_PYTHON is not set): install the workbench "
+                    "with `torsal freecad install` from torsal's environment and restart FreeCAD")
+
+
+def job_folder(obj) -> Path:
+    """Where ``obj``'s job runs: its ``OutputFolder``; else ``<document>.torsal/<name>`` beside
+    a saved document; else ``~/.cache/torsal/freecad/<document id>/<name>``."""
+    if obj.OutputFolder:
+        return Path(obj.OutputFolder)
+    doc = obj.Document
+    if doc.FileName:
+        return Path(doc.FileName).with_suffix(".torsal") / obj.Name
+    cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return cache / "torsal" / "freecad" / doc.Uid / obj.Name
+
+
+def run_in_torsal(job: FinsJob, *, log=None) -> FinsOutcome:
+    """Run ``job`` with :func:`torsal_python` (``python -m torsal.hosts.freecad``); ``log``
+    gets each progress line. Raises :class:`FinsError` with torsal's message on bad input."""
+    folder = Path(job.folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = job.write(folder / "job.json")
+    (folder / "result.json").unlink(missing_ok=True)
+    # FreeCAD's own Python settings must not leak into torsal's Python
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONHOME", "PYTHONPATH")}
+    proc = subprocess.Popen([torsal_python(), "-m", "torsal.hosts.freecad", str(path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    for line in proc.stdout:
+        if log is not None:
+            log(line.rstrip("\n"))
+    err = proc.stderr.read().strip()
+    if proc.wait() != 0:
+        what = "bad input" if proc.returncode == 2 else f"a bug in torsal (exit status {proc.returncode})"
+        raise FinsError(f"torsal could not make the fins ({what}): {err or 'no message'}")
+    data = json.loads((folder / "result.json").read_text())
+    return FinsOutcome(**data)
+
+
+def _mm(quantity) -> float | None:
+    value = float(getattr(quantity, "Value", quantity))
+    return value if value > 0 else None
+
+
+class FinsFeature:
+    """The proxy of a fins object (``obj.Proxy``): adds the :data:`PROPERTIES` and makes the
+    fins on recompute. Its state is all in the properties, so documents save and reopen with
+    the fins (the solids are stored in the document; torsal is imported again on reopen)."""
+
+    def __init__(self, obj):
+        _add_properties(obj)
+        obj.Proxy = self
+
+    # -------------------------------------------------------------- FreeCAD protocol
+    def onDocumentRestored(self, obj):
+        _add_properties(obj)   # a document of an older torsal gains the newer properties
+
+    def dumps(self):           # FreeCAD >= 0.21
+        return None
+
+    def loads(self, state):
+        return None
+
+    def __getstate__(self):    # FreeCAD 0.20
+        return None
+
+    def __setstate__(self, state):
+        return None
+
+    def execute(self, obj):
+        import FreeCAD
+        import Part
+
+        def log(line):
+            try:
+                ev = json.loads(line)
+            except ValueError:
+                FreeCAD.Console.PrintMessage(f"torsal: {line}\n")
+                return
+            if ev.get("event") in ("done", "cached"):   # one line a stage; the rest to the log
+                took = f" ({ev['seconds']:.1f} s)" if "seconds" in ev else ""
+                FreeCAD.Console.PrintMessage(f"torsal: {ev['stage']} {ev['event']}{took}\n")
+            else:
+                FreeCAD.Console.PrintLog(f"torsal: {ev.get('stage')} {ev.get('event')}\n")
+
+        outcome = run_in_torsal(self.job(obj), log=log)
+        shape = Part.read(outcome.step)
+        if len(shape.Solids) != len(outcome.parts):
+            raise FinsError(f"{outcome.step} holds {len(shape.Solids)} solids for "
+                            f"{len(outcome.parts)} parts in parts.csv")
+        obj.Shape = shape
+        obj.Buildable = outcome.buildable
+        obj.SunBlocked = float(outcome.sun_blocked or 0.0)
+        obj.Report, obj.DesignRun = outcome.report, outcome.design
+        obj.PartNames = list(outcome.parts)
+        bad = set(outcome.interfering)
+        obj.PartGroups = ["interfering" if n in bad else g
+                          for n, g in zip(outcome.parts, outcome.families)]
+        obj.StagesRun, obj.StagesCached = list(outcome.stages_run), list(outcome.stages_cached)
+        if not outcome.buildable:
+            FreeCAD.Console.PrintWarning(f"torsal: {obj.Label} is NOT buildable: "
+                                         f"{outcome.problems}\n")
+
+    # -------------------------------------------------------------- the job
+    def job(self, obj) -> FinsJob:
+        """The :class:`~torsal.hosts.freecad.job.FinsJob` of ``obj``'s properties (the linked
+        surface and strokes sampled here, in FreeCAD)."""
+        if not obj.DesignFile:
+            raise FinsError(f"{obj.Label}: DesignFile is empty: give a torsal design file (TOML)")
+        spacing = _mm(obj.Spacing)
+        edge = _mm(obj.MeshEdge) or (spacing or 1000.0) / 2
+        surface = face_grid(linked_face(obj.Surface), edge) if obj.Surface else None
+        strokes = wire_polylines(obj.Strokes, edge / 2) if obj.Strokes else None
+        hours = list(obj.SunHours)
+        if hours and len(hours) != 2:
+            raise FinsError(f"{obj.Label}: SunHours must be two numbers [h0, h1], got {hours}")
+        return FinsJob(
+            design=str(obj.DesignFile), folder=str(job_folder(obj)),
+            spacing_mm=spacing, depth_mm=_mm(obj.Depth), thickness_mm=_mm(obj.Thickness),
+            min_torsal_angle=float(obj.MinTorsalAngle.Value), sun_start=obj.SunStart or None,
+            sun_end=obj.SunEnd or None, sun_hours=hours or None, surface=surface,
+            strokes=strokes, stroke_width_mm=_mm(obj.StrokeWidth))
+
+
+class ViewProviderFins:
+    """How the fins look in FreeCAD's 3D view: coloured by :class:`~torsal.hosts.results.PartGroup`
+    (family 0 blue, family 1 orange, connectors grey, interfering parts red)."""
+
+    def __init__(self, vobj):
+        vobj.Proxy = self
+
+    def attach(self, vobj):
+        self.Object = vobj.Object
+
+    def getIcon(self):
+        return str(ICON)
+
+    def updateData(self, obj, prop):
+        if prop in ("Shape", "PartGroups") and obj.ViewObject is not None:
+            colors = face_colors(obj)
+            if colors:
+                obj.ViewObject.DiffuseColor = colors
+
+    def onChanged(self, vobj, prop):
+        return None
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None
+
+    def __getstate__(self):
+        return None
+
+    def __setstate__(self, state):
+        return None
+
+
+def face_colors(obj) -> list[tuple[float, float, float]]:
+    """One colour per face of ``obj.Shape``, by the group of the solid it belongs to ([] when
+    the groups do not match the solids)."""
+    from ..results import GROUP_COLORS, PartGroup
+
+    solids, groups = obj.Shape.Solids, list(obj.PartGroups)
+    if len(solids) != len(groups):
+        return []
+    return [GROUP_COLORS[PartGroup(g)] for s, g in zip(solids, groups) for _ in s.Faces]
+
+
+def make_fins(doc, design_path, *, surface=None, strokes=(), name: str = "Fins"):
+    """A fins object in ``doc`` for the design file ``design_path``: its properties take the
+    file's values (lengths in mm), ``Surface`` and ``Strokes`` the given links. Call
+    ``doc.recompute()`` to make the fins.
+
+    Parameters
+    ----------
+    doc : FreeCAD document
+    design_path : path
+        A torsal design file; read and checked now (a bad file raises
+        :class:`~torsal.pipeline.design_file.DesignFileError` naming the key).
+    surface : (object, [face names]) or object, optional
+        The design surface; default the design file's.
+    strokes : sequence of objects with wires, optional
+    name : str
+        The object's name (FreeCAD makes it unique).
+
+    Returns
+    -------
+    the ``Part::FeaturePython`` object (``obj.Proxy`` is a :class:`FinsFeature`).
+    """
+    import FreeCAD
+
+    path = Path(design_path).resolve()
+    spec = load_design_file(path)
+    to_mm = scale(spec.units, "mm")
+    obj = doc.addObject("Part::FeaturePython", name)
+    FinsFeature(obj)
+    obj.DesignFile = str(path)
+    obj.Spacing = spec.fins.spacing * to_mm
+    obj.Depth = spec.fins.depth * to_mm
+    obj.Thickness = spec.material.thickness_mm
+    obj.MinTorsalAngle = spec.constraints.min_torsal_angle or 0.0
+    if spec.sun.start is not None:
+        obj.SunStart, obj.SunEnd = str(spec.sun.start), str(spec.sun.end)
+    obj.SunHours = [float(h) for h in spec.sun.hours]
+    if surface is not None:
+        obj.Surface = surface if isinstance(surface, tuple) else (surface, [])
+    obj.Strokes = list(strokes)
+    if FreeCAD.GuiUp:
+        ViewProviderFins(obj.ViewObject)
+    return obj
