@@ -13,11 +13,14 @@ from dataclasses import replace
 
 import numpy as np
 
+from torsal.core.units import UNIT_TO_MM
+
 from ..joints import connector_variants
 from ..model import (CONNECTOR_FAMILY, FIXING_FAMILY, JointKind, Part, _cross, _miter,
                      quad_normals)
 from .clash import ClashFinder
 from .ends import CONNECTOR_GAP
+from .fasteners import fastener_for, min_leg
 from .proximity import _quad_distances, _slab_depths, _swept_distances
 
 #: a part's path into place is blocked where its swept solid and a plate in place overlap by
@@ -533,23 +536,28 @@ class AssemblyPlanner:
             return None
         a, b, options = site
         old = (c.panels.copy(), c.miters.copy())
-        for opt in options:
-            side1, side2, panel1, panel2, cdir, angle, _ = opt
+        shortest = min_leg(fastener_for(fs.thickness * UNIT_TO_MM[fs.unit]), thickness=fs.thickness,
+                           unit=fs.unit)
+        places = [(opt, q) for opt in options
+                  for q in connector_variants(a, b, *opt[:4], thickness=fs.thickness,
+                                              gap=CONNECTOR_GAP * fs.thickness)
+                  if not (q.shape == old[0].shape and np.allclose(q, old[0]))]
+        # places whose legs take a bolt first (another corner or side at full size before a
+        # smaller one in the same corner: a bracket without holes is not fastened)
+        places.sort(key=lambda oq: _leg_length(oq[1]) < shortest)
+        for opt, q in places:
+            _, _, _, _, cdir, angle, _ = opt
             cdir = np.asarray(cdir, float) / np.linalg.norm(cdir)
-            for q in connector_variants(a, b, side1, side2, panel1, panel2, thickness=fs.thickness,
-                                        gap=CONNECTOR_GAP * fs.thickness):
-                if q.shape == old[0].shape and np.allclose(q, old[0]):
-                    continue
-                n = quad_normals(q)
-                c.panels, c.miters = q, np.array([n[0], _miter(n[0], n[1]), n[1]])
-                paths.replace(c)
-                if not self._evict_fixings(paths, c, cdir) and (
-                        also is None or not self._evict_fixings(paths, *also)):
-                    fs.joints[k] = replace(fs.joints[k], connector_direction=cdir, angle=float(angle))
-                    fs._moved_connectors.append(c.name)
-                    # the place used first: its legs lie on these panels (for the holes)
-                    fs._sites[c.name] = (a, b, [opt] + [o for o in options if o is not opt])
-                    return c
+            n = quad_normals(q)
+            c.panels, c.miters = q, np.array([n[0], _miter(n[0], n[1]), n[1]])
+            paths.replace(c)
+            if not self._evict_fixings(paths, c, cdir) and (
+                    also is None or not self._evict_fixings(paths, *also)):
+                fs.joints[k] = replace(fs.joints[k], connector_direction=cdir, angle=float(angle))
+                fs._moved_connectors.append(c.name)
+                # the place used first: its legs lie on these panels (for the holes)
+                fs._sites[c.name] = (a, b, [opt] + [o for o in options if o is not opt])
+                return c
         c.panels, c.miters = old
         paths.replace(c)
         return None
@@ -611,3 +619,8 @@ class AssemblyPlanner:
                 gone.add(key)
                 out.append((key[0], key[1], q.name[:-4], int(q.edges[j]), int(q.nodes[j]), why))
         return out
+
+
+def _leg_length(q: np.ndarray) -> float:
+    """The shorter leg of a bent connector (2, 4, 3): bend line to free edge."""
+    return float(min(np.linalg.norm(q[0, 1] - q[0, 0]), np.linalg.norm(q[1, 1] - q[1, 0])))
