@@ -139,3 +139,51 @@ def test_holes_are_drilled_in_the_dxf_where_the_parts_say(fs, tmp_path):
     c = fs.connectors[0]
     assert holes["F0-S000-P00"] + holes["F1-S000-P00"] >= len(c.holes)
     assert holes[c.name] == 4 and c.family == CONNECTOR_FAMILY
+
+
+#: the earlier good run of test_bad_input without its min_torsal_angle: one sun on a nearly
+#: flat patch, whose optimum is a bundle of nearly parallel lines (torsal planes crossing at a
+#: few degrees); fins 5 mm deep in cm units
+PARALLEL_LINES = """
+name = "one sun, parallel lines"
+units = "cm"
+[surface]
+generator = "facade_patch"
+params = { nu = 4, nv = 4 }
+[sun]
+vectors = [[0.3, -0.8, 0.5]]
+[fins]
+spacing = 3.0
+depth = 0.5
+[outputs]
+step = true
+rhino_3dm = false
+renders = false
+dxf = true
+light_samples = 100
+"""
+
+
+def test_a_degenerate_one_sun_design_builds_or_names_what_to_do(tmp_path, capsys):
+    # it once ended in a traceback-like 'invalid solid ... plate volume differs' at the
+    # assembly stage: now it builds (its too narrow panels left out and named), or, where a
+    # plate cannot be made, the run ends with exit 2 naming the parts and what to change
+    import json
+
+    from torsal.pipeline.cli import main
+
+    (tmp_path / "d.toml").write_text(PARALLEL_LINES)
+    rc = main(["design", str(tmp_path / "d.toml"), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    if rc == 0:
+        r = json.loads((tmp_path / "out" / "report.json").read_text())
+        fa = r["fabrication"]
+        assert fa["assembly"]["buildable"] and fa["assembly"]["interfering_pairs"] == 0
+        # what was left out is named, and counted as a share of the fins
+        assert fa["panels_left_out"] == len(fa["panels_left_out_list"])
+        assert fa["panels_left_out_share"] == pytest.approx(fa["panels_left_out"] / r["support"]["edges"])
+        assert (tmp_path / "out" / "fins.step").exists()
+    else:
+        assert rc == 2 and "invalid solid for part" in err and "min_torsal_angle" in err
+        assert not (tmp_path / "out" / "report.json").exists()
