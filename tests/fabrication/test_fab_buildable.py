@@ -141,27 +141,18 @@ def test_holes_are_drilled_in_the_dxf_where_the_parts_say(fs, tmp_path):
     assert holes[c.name] == 4 and c.family == CONNECTOR_FAMILY
 
 
-#: the earlier good run of test_bad_input without its min_torsal_angle: one sun on a nearly
-#: flat patch, whose optimum is a bundle of nearly parallel lines (torsal planes crossing at a
-#: few degrees); fins 5 mm deep in cm units
-PARALLEL_LINES = """
-name = "one sun, parallel lines"
-units = "cm"
-[surface]
-generator = "facade_patch"
-params = { nu = 4, nv = 4 }
-[sun]
-vectors = [[0.3, -0.8, 0.5]]
-[fins]
-spacing = 3.0
-depth = 0.5
-[outputs]
-step = true
-rhino_3dm = false
-renders = false
-dxf = true
-light_samples = 100
-"""
+def parallel_lines_design() -> str:
+    """The earlier good run of test_bad_input (``EARLIER_DESIGN``) without its
+    min_torsal_angle: one sun on a nearly flat patch, whose optimum is a bundle of nearly
+    parallel lines (torsal planes crossing at a few degrees); fins 5 mm deep in cm units; STEP
+    written."""
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "test_bad_input.py").read_text()
+    start = text.index('EARLIER_DESIGN = """') + len('EARLIER_DESIGN = """')
+    design = text[start:text.index('"""', start)]
+    assert "min_torsal_angle = 40\n" in design and "step = false" in design
+    return design.replace("min_torsal_angle = 40\n", "").replace("step = false", "step = true")
 
 
 def test_a_degenerate_one_sun_design_builds_or_names_what_to_do(tmp_path, capsys):
@@ -172,7 +163,7 @@ def test_a_degenerate_one_sun_design_builds_or_names_what_to_do(tmp_path, capsys
 
     from torsal.pipeline.cli import main
 
-    (tmp_path / "d.toml").write_text(PARALLEL_LINES)
+    (tmp_path / "d.toml").write_text(parallel_lines_design())
     rc = main(["design", str(tmp_path / "d.toml"), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert "Traceback" not in err
