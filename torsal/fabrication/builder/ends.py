@@ -213,6 +213,11 @@ class EndJoiner:
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0 if end == 0 else -1] = m
+        # parts of this family that end here later (butted against the carrying plate, on
+        # either side of it) are trimmed clear of this end too: it stands where the plate's
+        # fin goes on, which their trim against the plate alone does not see
+        fs._ends_at.setdefault((p.family, node), []).extend(
+            (n_end, v_end, side_n) for side_n in (nk, -nk))
         host, i = fs._where[ref]
         # the seam is a wall of both for their paths into place (normal turned to each)
         n_p = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
