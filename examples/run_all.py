@@ -42,7 +42,7 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} |" + " |" * 12 + f" {paper} |"
+        return f"| {key} | failed: {err} |" + " |" * 15 + f" {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
@@ -51,7 +51,8 @@ def row(key: str, r: dict | None, err: str | None) -> str:
             f"{100 * li['transparency']:.0f}% ({louvers(li, 'transparency')}) | "
             f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {sheets_cell(fa)} | "
             f"{min_torsal_angle(c)} | "
-            f"{interfering_cell(fa.get('assembly'))}{left_out_cell(fa)} | {paper} |")
+            f"{interfering_cell(fa.get('assembly'))} | {connector_cell(fa)} | {fastener_cell(fa)} | "
+            f"{left_out_cell(fa, s['edges'])} | {paper} |")
 
 
 def louvers(li: dict, key: str) -> str:
@@ -100,10 +101,27 @@ def interfering_cell(a: dict | None) -> str:
     return cell
 
 
-def left_out_cell(fa: dict) -> str:
-    """Fin panels the fabrication left out (not built, not in the light measurement)."""
+def left_out_cell(fa: dict, fins: int) -> str:
+    """Fin panels the fabrication left out (not built, not in the light measurement), as a share
+    of the structure's fins."""
     n = fa.get("panels_left_out", 0)
-    return f"; {n} panels left out" if n else ""
+    share = fa.get("panels_left_out_share", n / fins if fins else 0.0)
+    return f"{n} ({100 * share:.1f}%)"
+
+
+def connector_cell(fa: dict) -> str:
+    """Separate connectors (brackets, splice plates) and their share of all parts; fixings."""
+    if "connectors" not in fa:
+        return "-"
+    return (f"{fa['connectors']} ({100 * fa['connector_share']:.0f}%); "
+            f"{fa['fixings']} fixings")
+
+
+def fastener_cell(fa: dict) -> str:
+    """Bolts (through connectors and fins) and anchors (fixings into the building)."""
+    if "bolts" not in fa:
+        return "-"
+    return f"{fa['bolts']} bolts + {fa['anchors']} anchors"
 
 
 def _pad(line: str, bars: int) -> str:
@@ -129,8 +147,9 @@ def main():
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
              "sheets / area bound | utilization (DXF) | "
-             "min torsal angle, measured (deg) | interfering pairs | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "min torsal angle, measured (deg) | interfering pairs | connectors (share of parts); fixings | "
+             "fasteners | fin panels left out | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:

@@ -125,8 +125,8 @@ def test_dxf_fold_angles_match_the_parts(tmp_path):
     want = sorted(f"{'M' if a >= 0 else 'V'} {abs(np.degrees(a)):.1f}°"
                   for p in fs.parts for a in p.fold_angles if abs(a) > 1e-9)
     assert sorted(texts) == want
-    # the plates' 6 folds, and one bend per connector (bracket)
-    assert len(want) == 6 + len(fs.connectors) and fs.connectors
+    # the plates' 6 folds, and one bend per connector (bracket) and fixing
+    assert len(want) == 6 + len(fs.connectors) + len(fs.fixings) and fs.connectors
 
 
 def test_bill_of_materials(fs, tmp_path):
@@ -136,7 +136,8 @@ def test_bill_of_materials(fs, tmp_path):
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     assert list(rows[0]) == ["part_id", "family", "strip", "panels", "area_m2", "perimeter_m",
-                             "cut_length_m", "fold_count", "mass_kg", "sheet", "kind"]
+                             "cut_length_m", "fold_count", "mass_kg", "sheet", "kind", "holes",
+                             "hole_diameter_mm", "fasteners", "fastener"]
     assert [r["part_id"] for r in rows] == [p.name for p in fs.parts]
     sheets = lay.sheet_of
     for r in rows:

@@ -72,8 +72,9 @@ def test_step_reread_with_ocp_has_valid_named_solids_and_volume(sphere_fs, tmp_p
         assert rgb == pytest.approx(fs.part(c.label).color, abs=1e-3)
     # 3. the raw file names every part in a PRODUCT entity
     text = path.read_text(errors="ignore")
-    assert sorted(set(re.findall(r"PRODUCT\('((?:F\d-S\d+-P\d+)|(?:C-N\d+-\d+))'", text))) == names
-    assert set(fam.values()) == {0, 1, -2}           # plates of both families, connectors
+    assert sorted(set(re.findall(r"PRODUCT\('((?:F\d-S\d+-P\d+)|(?:C-N\d+-\d+)|(?:A-E\d+-\d+))'",
+                                 text))) == names
+    assert set(fam.values()) == {0, 1, -2, -3}       # plates of both families, connectors, fixings
 
 
 def test_volume_equals_unrolled_area_times_thickness(sphere_fs):
@@ -218,8 +219,8 @@ def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(s
     bom = {r["part_id"]: r for r in fs.bill_of_materials(tmp_path / "parts.csv")}
     layers = {i: model.Layers.FindIndex(i).FullPath for i in range(len(model.Layers))}
     kinds = {r["kind"] for r in bom.values()} - {"plate"}
-    assert kinds and set(layers.values()) == {"family 0", "family 1", "connectors"} | {
-        f"connectors::{k}" for k in kinds}
+    assert "fixing" in kinds and set(layers.values()) == {"family 0", "family 1", "connectors", "fixings"} | {
+        f"connectors::{k}" for k in kinds - {"fixing"}}
     shapes = solid_shapes(fs)
     seen = set()
     for o in model.Objects:
@@ -228,7 +229,8 @@ def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(s
         assert name in bom and name not in seen
         seen.add(name)
         row = bom[name]
-        want = (f"connectors::{row['kind']}" if row["kind"] != "plate" else f"family {row['family']}")
+        want = ("fixings" if row["kind"] == "fixing" else f"connectors::{row['kind']}"
+                if row["kind"] != "plate" else f"family {row['family']}")
         assert layers[o.Attributes.LayerIndex] == want
         # the Brep's vertices are the solid's corners
         pts = corners(shapes[name])

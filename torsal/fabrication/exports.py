@@ -5,13 +5,14 @@ Units: the ``unit`` of the fin system (mm by default); STEP files are written in
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from torsal.core.atomic import atomic_path
 
-from .model import CONNECTOR_FAMILY
+from .model import CONNECTOR_FAMILY, FIXING_FAMILY
 from .plates import MESH_TOLERANCE, _face_triangles, _triangles
 from .workers import solid_shapes
 
@@ -199,7 +200,8 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     """Rhino 3DM (through rhino3dm): one closed, valid Brep per part (:func:`brep_of`), named
     with the part id (as in parts.csv), on a layer per family (``family 0``, ``family 1``,
     ``developable``) and, for connectors, a sublayer of ``connectors`` per joint kind
-    (``connectors::butt-bracket``, ...), coloured by family; model units set to ``unit``.
+    (``connectors::butt-bracket``, ...), the fixings to the building on ``fixings``, coloured
+    by family; model units set to ``unit``.
     ``tolerance``: the deflection of the curved faces (fastener holes), default
     :data:`~.plates.MESH_TOLERANCE` x thickness; plane faces are exact."""
     import rhino3dm
@@ -226,20 +228,32 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
         return layers[key]
 
     shapes = solid_shapes(fin_system)
+    meshed: list[str] = []
     for p in fin_system.parts:
         if p.family == CONNECTOR_FAMILY:
             layer("connectors", p.color)
             index = layer(kind_of.get(p.name, "connector"), p.color, parent="connectors")
+        elif p.family == FIXING_FAMILY:
+            index = layer("fixings", p.color)
         else:
             index = layer(f"family {p.family}" if p.family >= 0 else "developable", p.color)
         brep = brep_of(shapes[p.name], tol)
-        if not (brep.IsSolid and brep.IsValid):
-            raise RuntimeError(f"part {p.name}: rhino3dm made no valid closed Brep of its solid")
         attr = rhino3dm.ObjectAttributes()
         attr.Name = p.name
         attr.LayerIndex = index
         attr.ColorSource = rhino3dm.ObjectColorSource.ColorFromLayer
-        model.Objects.AddBrep(brep, attr)
+        if brep is not None and brep.IsSolid and brep.IsValid:
+            model.Objects.AddBrep(brep, attr)
+        else:
+            # rhino3dm could not join the faces into a valid solid (a sliver face of a small
+            # connector): the part as its closed mesh, named, rather than no file at all
+            meshed.append(p.name)
+            model.Objects.AddMesh(_rhino_mesh(shapes[p.name], tol, quads=False), attr)
+    if meshed:
+        warnings.warn(f"fins.3dm: {len(meshed)} parts are closed meshes, not Breps (rhino3dm made "
+                      f"no valid solid of them): {', '.join(meshed[:8])}"
+                      + (" ..." if len(meshed) > 8 else "") + "; the STEP has their solids",
+                      stacklevel=2)
 
     with atomic_path(path) as tmp:
         if not model.Write(str(tmp), 7):
@@ -259,6 +273,17 @@ def brep_of(shape, tolerance: float):
     doubles with that value, one per edge) when that makes the Brep valid."""
     import rhino3dm
 
+    brep = rhino3dm.Brep.CreateFromMesh(_rhino_mesh(shape, tolerance), True)
+    if brep is None or brep.IsValid:
+        return brep
+    return _with_edge_tolerances(brep)
+
+
+def _rhino_mesh(shape, tolerance: float, *, quads: bool = True):
+    """The rhino3dm ``Mesh`` of an OCC solid's faces (:func:`brep_of`), welded: planar quads
+    as quads (with ``quads``), the rest as triangles."""
+    import rhino3dm
+
     faces = _face_triangles(shape, tolerance)
     pts = np.concatenate([v for v, _ in faces]) if faces else np.zeros((0, 3))
     scale = max(1.0, float(np.abs(pts).max(initial=0.0)))
@@ -272,16 +297,13 @@ def brep_of(shape, tolerance: float):
     for v, t in faces:
         g = ids[offset:offset + len(v)][t]           # the face's triangles, welded ids
         offset += len(v)
-        quad = _quad(g) if len(v) == 4 and len(t) == 2 else None
+        quad = _quad(g) if quads and len(v) == 4 and len(t) == 2 else None
         if quad is not None:
             mesh.Faces.AddFace(*map(int, quad))
         else:
             for a, b, c in g:
                 mesh.Faces.AddFace(int(a), int(b), int(c))
-    brep = rhino3dm.Brep.CreateFromMesh(mesh, True)
-    if brep is None or brep.IsValid:
-        return brep
-    return _with_edge_tolerances(brep)
+    return mesh
 
 
 def _quad(tris: np.ndarray):

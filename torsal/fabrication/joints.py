@@ -94,7 +94,8 @@ from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
-           "place_connector", "corners", "mitre_trim", "JointKind"]
+           "place_connector", "connector_variants", "corner_point", "fixing_panels", "corners",
+           "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -229,36 +230,90 @@ def _inside(leg: np.ndarray, panel: np.ndarray, tol: float) -> bool:
     return poly.buffer(tol).contains(Polygon(Q))
 
 
-def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarray,
-                    panel2: np.ndarray, *, thickness: float, leg: float | None = None,
-                    gap: float = 0.0) -> np.ndarray | None:
-    """A connector (2, 4, 3) on the node line ``a -> b`` between two plate panels, or None.
+def connector_variants(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarray,
+                       panel2: np.ndarray, *, thickness: float, leg: float | None = None,
+                       gap: float = 0.0, min_leg: float | None = None):
+    """Every connector (2, 4, 3) on the node line ``a -> b`` between two plate panels whose
+    legs lie inside their panels, largest first (a generator; see :func:`place_connector`).
 
-    ``side1``, ``side2`` as in :func:`bracket_panels`; ``panel1``, ``panel2`` (4, 3) are the
-    panels the legs lie on: the legs are shortened (down to ``2 t``) and the stretch along the
-    node line narrowed (from the middle half of it) until both legs lie inside their panels.
-    ``gap`` is left between the connector and the plates' faces.
+    The stretch along the node line narrows (from the middle half of it) and the legs shorten
+    (down to ``min_leg``, default ``2 t``) in five steps; a variant is given where the outer 60 %
+    of each leg lies on its panel (nearer the bend a leg may pass the trimmed end of a butted
+    part, the clearance, or a convex fold line).
     """
     t = thickness
     leg = 6.0 * t if leg is None else leg
+    shortest = 2.0 * t if min_leg is None else min_leg
     line = b - a
     depth = float(np.linalg.norm(line))
     u = line / depth
-    offset = t + gap                 # t/2 of the plate + t/2 of the connector
+    # t/2 of the plate + t/2 of the connector; a real panel is planar only to the structure's
+    # tolerance: the gap is kept from the corner that stands out most towards the connector
+    proud = max(0.0, float(((panel1 - panel1.mean(axis=0)) @ side1[0]).max()),
+                float(((panel2 - panel2.mean(axis=0)) @ side2[0]).max()))
+    offset = t + gap + proud
     for lo, f in ((0.25, 1.0), (0.25, 0.6), (0.3, 0.45), (0.35, 0.33), (0.4, 0.33)):
-        ell = max(2.0 * t, f * leg)
+        ell = max(shortest, f * leg)
         if (1 - 2 * lo) * depth < 2.0 * t:
             break
         q = bracket_panels(a + lo * depth * u, a + (1 - lo) * depth * u, side1, side2, offset, ell)
-        # the outer 60 % of each leg must lie on its panel; nearer the bend a leg may pass the
-        # trimmed end of a butted part (the clearance) or a convex fold line
         outer0 = np.array([q[0, 0], q[0, 0] + 0.6 * (q[0, 1] - q[0, 0]),
                            q[0, 3] + 0.6 * (q[0, 2] - q[0, 3]), q[0, 3]])
         outer1 = np.array([q[1, 1] + 0.6 * (q[1, 0] - q[1, 1]), q[1, 1], q[1, 2],
                            q[1, 2] + 0.6 * (q[1, 3] - q[1, 2])])
         if _inside(outer0, panel1, 1e-6 * depth) and _inside(outer1, panel2, 1e-6 * depth):
-            return q
-    return None
+            yield q
+
+
+def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarray,
+                    panel2: np.ndarray, *, thickness: float, leg: float | None = None,
+                    gap: float = 0.0, min_leg: float | None = None) -> np.ndarray | None:
+    """A connector (2, 4, 3) on the node line ``a -> b`` between two plate panels, or None.
+
+    ``side1``, ``side2`` as in :func:`bracket_panels`; ``panel1``, ``panel2`` (4, 3) are the
+    panels the legs lie on: the legs are shortened (down to ``min_leg``, default ``2 t``) and
+    the stretch along the node line narrowed (from the middle half of it) until both legs lie
+    inside their panels (the first of :func:`connector_variants`). ``gap`` is left between the
+    connector and the plates' faces.
+    """
+    return next(connector_variants(a, b, side1, side2, panel1, panel2, thickness=thickness,
+                                   leg=leg, gap=gap, min_leg=min_leg), None)
+
+
+def corner_point(n1: np.ndarray, n2: np.ndarray, o1: float, o2: float) -> np.ndarray:
+    """Vector ``x`` in the span of unit normals ``n1``, ``n2`` with ``x . n1 = o1`` and
+    ``x . n2 = o2``: from a point of the line where two planes meet to the line where their
+    offsets by ``o1`` and ``o2`` meet (the mitre times ``o`` when both offsets are ``o``).
+
+    >>> corner_point(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), 2.0, 3.0)
+    array([2., 3., 0.])
+    """
+    c = float(n1 @ n2)
+    det = 1.0 - c * c
+    if not det > 1e-12:
+        raise ValueError("parallel planes have no corner")
+    return ((o1 - c * o2) * n1 + (o2 - c * o1) * n2) / det
+
+
+def fixing_panels(p0: np.ndarray, p1: np.ndarray, fin, surface, *, thickness: float,
+                  gap: float, legs: tuple[float, float]) -> np.ndarray:
+    """Mid-surface (2, 4, 3) of a fixing: a bent angle of the fin's sheet on the fin's foot
+    ``p0 -> p1`` (a stretch of its ``a`` edge, on the design surface), one leg flat on the fin,
+    the other flat on the surface (the building), ``gap`` off both.
+
+    ``fin`` / ``surface`` are ``(n, v)`` as for :func:`bracket_panels`: the unit normal turned
+    towards the fixing and the unit direction from the foot into the fin, and along the
+    surface away from the fin. The fin's mid-plane is ``t/2`` inside its face, the surface is
+    the face itself; ``legs`` are the leg lengths (fin, surface). Quads as
+    :func:`bracket_panels`: leg 1 (on the fin) from its free edge to the bend, leg 2 from the
+    bend to its free edge.
+    """
+    (n1, v1), (n2, v2) = fin, surface
+    x = corner_point(n1, n2, thickness + gap, 0.5 * thickness + gap)
+    c0, c1 = p0 + x, p1 + x
+    l1, l2 = legs
+    return np.array([[c0 + l1 * v1, c0, c1, c1 + l1 * v1],
+                     [c0, c0 + l2 * v2, c1 + l2 * v2, c1]])
 
 
 def corners(v_cont: list, v_butt: np.ndarray, line: np.ndarray,
@@ -427,6 +482,50 @@ def mitre_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray,
             raise _Untrimmable(f"panel too short ({L:.3g}) to trim by {s:.3g}")
         out[cc] = quad[cc] + (s / L) * u
     return out
+
+
+#: degrees: a plate panel that meets a part's end panel within this of a straight, flat
+#: continuation (into directions at least ``180 -`` this apart, normals within this) continues
+#: it: the two are joined on a seam (a splice plate across it), not butted
+CONTINUE_ANGLE = 12.0
+
+
+def continues(n_end: np.ndarray, v_end: np.ndarray, n_other: np.ndarray, v_other: np.ndarray, *,
+              tol: float = CONTINUE_ANGLE) -> bool:
+    """Whether a plate panel (unit normal ``n_other``, unit direction ``v_other`` from the node
+    line into it) continues an end panel (``n_end``, ``v_end``) through the node line, flat
+    within ``tol`` degrees: a fin of the other family that carries the end's fin on (the
+    remesher's two families meet that way at a boundary corner).
+
+    >>> x, y, z = np.eye(3)
+    >>> continues(z, x, z, -x), continues(z, x, y, -x)
+    (True, False)
+    """
+    c = np.cos(np.radians(tol))
+    return bool(v_end @ v_other <= -c and abs(n_end @ n_other) >= c)
+
+
+def seam_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray, gap: float,
+              others, m_end: np.ndarray, clear: float, h: float) -> dict:
+    """Corners of an end panel that ends on a seam with a plate panel continuing it: moved back
+    from the seam plane (unit normal ``seam``, through the node line at ``pa``) by ``gap``
+    (:func:`mitre_trim`), and further where needed so that its end face (mitre ``m_end``,
+    half thickness ``h``) clears the plate panels ``others`` ``[(n, v)]`` that meet it there
+    at an angle by ``clear`` (:func:`trim_corner`). Raises :class:`_Untrimmable`."""
+    moved = mitre_trim(quad, start, seam, pa, gap)
+    if not others:
+        return moved
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0)
+    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in others]
+    for cc, oc in ((ia, ja), (ib, jb)):
+        x = trim_corner(quad, cc, oc, panels, pa, m_end, clear, h)
+        u = quad[oc] - quad[cc]
+        if (x - quad[cc]) @ u > (moved[cc] - quad[cc]) @ u:
+            if (x - quad[cc]) @ u >= 0.5 * (u @ u):
+                raise _Untrimmable("panel too short to trim clear of the plate")
+            moved[cc] = x
+    return moved
 
 
 def into_direction(quad: np.ndarray, start: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -45,6 +45,7 @@ from torsal.core.atomic import atomic_path
 from torsal.core.units import INSUNITS, UNIT_TO_MM
 from torsal.core.errors import TorsalError
 
+from .builder.fasteners import part_fastening
 from .cutting import Cutting, relief_centres
 
 __all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "shelf_pack", "merge_layouts", "sheet_svg",
@@ -636,7 +637,8 @@ def read_dxf_parts(path, *, layer: str | None = None) -> tuple[list[Polygon], li
 
 # ---------------------------------------------------------------------------- BOM
 BOM_COLUMNS = ["part_id", "family", "strip", "panels", "area_m2", "perimeter_m", "cut_length_m",
-               "fold_count", "mass_kg", "sheet", "kind"]
+               "fold_count", "mass_kg", "sheet", "kind", "holes", "hole_diameter_mm", "fasteners",
+               "fastener"]
 
 
 def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout: Layout | None = None) -> list[dict]:
@@ -647,14 +649,17 @@ def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout:
     holes), ``mass_kg = area * thickness * density`` with ``density`` in kg/m^3 (default
     aluminium, 2700), ``sheet`` the 1-based sheet number from ``layout`` (empty if none),
     ``kind`` ``plate`` for a fin plate, else the joint kind of a connector (``butt-bracket``,
-    ``mitre-splice``); a connector's ``family`` is -2 and its ``strip`` the node it sits at.
+    ``mitre-splice``) or ``fixing``; a connector's ``family`` is -2 and its ``strip`` the node
+    it sits at, a fixing's -3 and the structure edge it fixes. ``holes``, ``hole_diameter_mm``,
+    ``fasteners`` and ``fastener`` count the holes and the bolts and anchors through a
+    connector's or fixing's own holes (:func:`~torsal.fabrication.builder.fasteners.part_fastening`).
     Returns the rows; writes ``path`` (atomically) if given.
     """
     if density <= 0:
         raise ValueError(f"density must be > 0 kg/m^3, got {density}")
     to_m = UNIT_TO_MM[fin_system.unit] / 1000.0
     sheets = layout.sheet_of if layout is not None else {}
-    kind_of = {j.connector: j.kind.value for j in getattr(fin_system, "joints", []) if j.connector}
+    fastening = part_fastening(fin_system)
     rows = []
     for p in fin_system.parts:
         u = fin_system.unrolled()[p.name]
@@ -666,7 +671,7 @@ def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout:
             "area_m2": round(area, 8), "perimeter_m": round(gross.exterior.length * to_m, 6),
             "cut_length_m": round(cut * to_m, 6), "fold_count": u.fold_count,
             "mass_kg": round(area * fin_system.thickness * to_m * density, 6),
-            "sheet": sheets.get(p.name, ""), "kind": kind_of.get(p.name, "plate"),
+            "sheet": sheets.get(p.name, ""), **fastening[p.name],
         })
     if path is not None:
         buf = io.StringIO()

@@ -14,8 +14,8 @@ Example
 >>> q = np.array([[[0, 0, 0], [1, 0, 0], [1, 0, 1], [0, 0, 1]]], float)
 >>> quad_normals(q)
 array([[ 0., -1.,  0.]])
->>> str(PartId(1, 3, 0)), str(PartId(CONNECTOR_FAMILY, 123, 1))
-('F1-S003-P00', 'C-N0123-1')
+>>> str(PartId(1, 3, 0)), str(PartId(CONNECTOR_FAMILY, 123, 1)), str(PartId(FIXING_FAMILY, 45, 0))
+('F1-S003-P00', 'C-N0123-1', 'A-E0045-0')
 """
 from __future__ import annotations
 
@@ -25,18 +25,21 @@ from enum import Enum
 import numpy as np
 
 __all__ = [
-    "FamilySplit", "SlotSide", "PartId", "Slot", "Crossing", "Part", "Joint", "JointKind",
-    "FAMILY_COLORS", "CONNECTOR_FAMILY", "MITER_LIMIT", "fold_angles", "quad_normals",
-    "panel_widths",
+    "FamilySplit", "SlotSide", "PartId", "Slot", "Crossing", "Part", "Joint", "JointKind", "Hole",
+    "FAMILY_COLORS", "CONNECTOR_FAMILY", "FIXING_FAMILY", "MITER_LIMIT", "fold_angles",
+    "quad_normals", "panel_widths",
 ]
 
 #: family number of connector parts (brackets, splices): named ``C-N<node>-<index>``
 CONNECTOR_FAMILY = -2
+#: family number of fixings (the angles that fix a fin to the building, on the design surface
+#: A): named ``A-E<structure edge>-<index>``
+FIXING_FAMILY = -3
 
 #: RGB colours (0..1) by family: family 0 orange, family 1 blue, developables green,
-#: connectors grey
+#: connectors grey, fixings dark red
 FAMILY_COLORS = {0: (0.93, 0.55, 0.14), 1: (0.16, 0.45, 0.78), -1: (0.30, 0.65, 0.30),
-                 CONNECTOR_FAMILY: (0.55, 0.55, 0.58)}
+                 CONNECTOR_FAMILY: (0.55, 0.55, 0.58), FIXING_FAMILY: (0.55, 0.16, 0.16)}
 
 
 class FamilySplit(str, Enum):
@@ -59,7 +62,8 @@ class PartId:
     (number of the strip within its family, in :meth:`SupportStructure.fins` order) and
     ``index`` (number of the part along the strip). Connectors have ``family`` =
     :data:`CONNECTOR_FAMILY`, ``strip`` = the structure node they sit at and ``index`` their
-    number at that node."""
+    number at that node; fixings ``family`` = :data:`FIXING_FAMILY`, ``strip`` = the structure
+    edge (fin panel) they fix and ``index`` their number on it."""
 
     family: int
     strip: int
@@ -68,6 +72,8 @@ class PartId:
     def __str__(self) -> str:
         if self.family == CONNECTOR_FAMILY:       # connectors: node number, index at the node
             return f"C-N{self.strip:04d}-{self.index}"
+        if self.family == FIXING_FAMILY:          # fixings: structure edge, index on it
+            return f"A-E{self.strip:04d}-{self.index}"
         fam = "D" if self.family < 0 else f"F{self.family}"
         return f"{fam}-S{self.strip:03d}-P{self.index:02d}"
 
@@ -138,6 +144,9 @@ class JointKind(str, Enum):
     #: two parts of one strip split on a mild fold, mitred on the fold's bisector plane and
     #: fastened with a bent splice plate across the seam
     MITRE_SPLICE = "mitre-splice"
+    #: a fin fixed to the building: a bent angle (a part of its own, ``A-E<edge>-<i>``) bolted
+    #: to the fin and anchored to the design surface A where the fin stands on it
+    FIXING = "fixing"
 
 
 @dataclass(frozen=True)
@@ -153,7 +162,8 @@ class Joint:
         Names of the joined parts, exactly as in ``parts.csv`` and the STEP labels: for an
         egg-crate the family-0 part(s) then the family-1 part(s); for a butt joint the
         continuous plate, then the butted part, then the connector; for a mitre the earlier
-        part, the later one, then the connector.
+        part, the later one, then the connector; for a fixing the fixing, then the fin (the
+        fixing is set in place first, fixed to the building, and the fin goes on it).
     insert_direction : (3,) float
         Unit vector (model coordinates, i.e. the fin system's frame) along which the later
         part slides into place: for an egg-crate the family-1 plate moves onto the family-0
@@ -162,7 +172,7 @@ class Joint:
         for a butt joint the butted part's one insertion direction (that slide direction if
         it is slotted too, else a node axis or a line between the faces it ends against, see
         :mod:`~torsal.fabrication.joints`); for a mitre the later part moves towards the
-        earlier one.
+        earlier one; for a fixing the direction the fin comes down onto its fixings.
     connector : str or None
         Name of the connector part (bracket or splice plate), ``None`` for an egg-crate.
     connector_direction : (3,) float or None
@@ -287,6 +297,37 @@ def _miter(n1: np.ndarray, n2: np.ndarray) -> np.ndarray:
 
 
 
+@dataclass(frozen=True, eq=False)
+class Hole:
+    """A round hole through a plate, for a bolt or a rivet (drilled or cut with the outline).
+
+    Attributes
+    ----------
+    center : (3,) float
+        Centre on the plate's mid-surface, in the part's model frame and ``unit`` (the fin
+        system's frame, like :attr:`Part.panels`); the hole's axis is the normal of the panel
+        it is in.
+    diameter : float
+        Hole diameter (``unit``): the fastener's clearance hole (ISO 273 medium), see
+        :mod:`torsal.fabrication.builder.fasteners`.
+    panel : int
+        Index of the panel of the part the hole is in (-1: not known; find the panel whose
+        mid-plane holds ``center``).
+    fastener : str
+        The fastener that goes through it, e.g. ``"M6 bolt"`` or ``"M8 anchor"`` (a matching hole
+        in the plate a connector lies on names the same fastener).
+    shared : bool
+        The bolt through it is counted at another connector's hole: two connectors on the two
+        faces of a plate, one bolt through both and the plate.
+    """
+
+    center: np.ndarray
+    diameter: float
+    panel: int = -1
+    fastener: str = ""
+    shared: bool = False
+
+
 @dataclass
 class Part:
     """One buildable plate: a chain of planar panels folded on node lines.
@@ -311,6 +352,11 @@ class Part:
     color : (3,) float
     span : (lo, hi)
         Panels ``lo..hi-1`` of the strip this part was cut from.
+    holes : tuple of Hole
+        Holes for the fasteners: those of a connector or fixing (bolts through it and the plate
+        it lies on, anchors into the building) and the matching holes in a fin plate (same
+        centre projected on the plate's mid-plane, same diameter). Empty until the fin system
+        is finished (:mod:`torsal.fabrication.builder.fasteners`).
     """
 
     id: PartId
@@ -329,6 +375,7 @@ class Part:
     #: square and listed in ``untrimmed_joints``) or ``"dropped"`` (next to a dropped
     #: degenerate panel: square end, trimmed like a strip end)
     ends: tuple = ("end", "end")
+    holes: tuple = ()
 
     @property
     def name(self) -> str:

@@ -89,11 +89,13 @@ from .nesting import nest_parts
 from .builder.clash import ClashFinder
 from .builder.crossings import CrossingSlotter
 from .builder.ends import EndJoiner
+from .builder.fasteners import FastenerLayout
+from .builder.fixings import FIXING_SPACING, FixingPlacer
 from .builder.memo import Memo
 from .builder.paths import AssemblyPlanner
 from .builder.strips import StripCutter, _plate_panels, _read_strips
 from .joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, choose_joinery
-from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, MITER_LIMIT, Crossing, FamilySplit, Joint,
+from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, FIXING_FAMILY, MITER_LIMIT, Crossing, FamilySplit, Joint,
                     JointKind, Part, PartId, Slot, SlotSide, fold_angles, panel_widths,
                     quad_normals)
 from .unroll import unroll
@@ -111,8 +113,8 @@ __all__ = [
     "MITER_LIMIT", "panel_widths",
 ]
 
-#: how often :class:`FinSystem` rebuilds, leaving out end panels that cannot be trimmed
-MAX_REBUILDS = 8
+#: how often :class:`FinSystem` rebuilds at most, changing joints and leaving out panels
+MAX_REBUILDS = 16
 
 
 class FinSystem:
@@ -198,7 +200,8 @@ class FinSystem:
                  fit_sheet: tuple[float, float] | None = (2500.0, 1250.0), fit_margin: float = 10.0,
                  model_unit: str = "m", unit: str = "mm", min_panel_width: float | None = None,
                  min_crossing_angle: float = MIN_CROSSING_ANGLE,
-                 max_crossing_fold: float = MAX_CROSSING_FOLD):
+                 max_crossing_fold: float = MAX_CROSSING_FOLD,
+                 fixing_spacing: float | None = FIXING_SPACING):
         self._check_common(thickness, clearance, model_unit, unit, max_panels)
         if not 0.0 < slot_ratio < 1.0:
             raise ValueError(f"slot_ratio must be in (0, 1), got {slot_ratio}")
@@ -222,6 +225,9 @@ class FinSystem:
         self.max_part_length = max_part_length
         self._set_fit(fit_sheet, fit_margin)
         self._set_min_width(min_panel_width)
+        if fixing_spacing is not None and not (np.isfinite(fixing_spacing) and fixing_spacing > 0):
+            raise ValueError(f"fixing_spacing must be > 0 (or None: no fixings), got {fixing_spacing}")
+        self.fixing_spacing = None if fixing_spacing is None else float(fixing_spacing)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
         self.parts: list[Part] = []
@@ -268,24 +274,44 @@ class FinSystem:
         extra: dict[int, set] = {}
         forced: dict[int, str] = {}
         left_out: list[tuple[str, int, int, str]] = []
+        #: (strip index, panel of the strip) that take no fixing: one there was in a part's way
+        self._fixing_exclude: set = set()
+        #: (strip index, node line of the strip) where a split for the sheet must not be: a
+        #: mitred seam there could not be trimmed
+        self._avoid_splits: set = set()
+        #: node -> family whose plate the other family's parts end against there, where an end
+        #: could not be trimmed the way the joinery first chose (the joint changed)
+        self._base_at: dict[int, int] = {}
         for attempt in range(MAX_REBUILDS + 1):
+            self._rebuilds = attempt
             self._reset_state()
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 self._build_from_structure(extra, forced)
             new = {(si, i): rec for si, i, *rec in self._untrimmable + ClashFinder(self)._stray_parts()
                    if i not in extra.get(si, ())}
+            swapped = len(self._base_at)
+            new_forced = self._change_joints(new, forced)
+            # joints changed at T and L junctions, splits moved off seams that could not be
+            # trimmed: build again
+            moved = self._bad_seams - self._avoid_splits
+            self._avoid_splits |= moved
+            changed = bool(moved) or len(self._base_at) > swapped
             new.update({(si, i): rec for si, i, *rec in self._clashing_panels(leaving=set(new))})
-            new_forced = {v: why for v, why in self._unslidable.items() if v not in forced}
+            new_forced.update((v, why) for v, why in self._unslidable.items()
+                              if v not in forced and v not in new_forced)
             new_forced.update((v, why) for v, why in AssemblyPlanner(self)._break_cycles(forced).items()
                               if v not in new_forced)
-            checked = not (new or new_forced)
+            checked = not (new or new_forced or changed)
+            excluded = set()
             if checked:
                 # the joints are settled: now the paths into place (they change with every
                 # panel left out and every joint changed, so they are looked at last)
                 self._check_paths()
                 new = {(si, i): rec for si, i, *rec in AssemblyPlanner(self)._blocked_panels()}
-            if not (new or new_forced) or attempt == MAX_REBUILDS:
+                excluded = {(si, i) for _, si, i in self._evicted} - self._fixing_exclude
+            self._fixing_exclude |= excluded
+            if not (new or new_forced or changed) or attempt == MAX_REBUILDS:
                 if not checked:
                     self._check_paths()     # out of rebuilds: at least the clear directions
                 break
@@ -298,6 +324,8 @@ class FinSystem:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         # slots that would cut a part in two: once, on the final parts (it unrolls them all)
         CrossingSlotter(self)._resolve_slot_splits()
+        # the fasteners' holes, in the connectors, fixings and the plates they lie on
+        FastenerLayout(self)._drill()
         if left_out:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
@@ -308,6 +336,24 @@ class FinSystem:
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
                 stacklevel=3)
+
+    def _change_joints(self, new: dict, forced: dict) -> dict:
+        """Part ends that could not be butt-trimmed against the other family's plate (``new``,
+        the panels about to be left out): where the joint at that node was not changed yet,
+        change it instead (the other family's parts end against this plate: at a crossing the
+        other family is split, :data:`forced`; at a T or L junction ``_base_at``) and keep the
+        panel. Returns the crossings to split the other way; removes the kept panels from
+        ``new``."""
+        out: dict[int, tuple] = {}
+        for key, (node, fam) in sorted(self._swappable.items()):
+            if key not in new or node in self._base_at or node in forced or node in out:
+                continue
+            if node in {x.node for x in self.joinery}:
+                out[node] = (1 - fam, f"the ends of family {fam} cannot be trimmed against "
+                             f"family {1 - fam} there: split family {1 - fam}")
+            self._base_at[node] = fam
+            del new[key]
+        return out
 
     def _init_joints(self) -> None:
         #: every joint of the assembly (egg-crate, butt + bracket, mitre + splice)
@@ -321,6 +367,10 @@ class FinSystem:
         #: part ends that could not be trimmed: (strip index, panel of the strip, strip name,
         #: structure edge, node, reason)
         self._untrimmable: list[tuple] = []
+        #: of those, the butt joints that may change: (strip index, panel) -> (node, family)
+        self._swappable: dict[tuple, tuple] = {}
+        #: mitred seams that could not be trimmed: (strip index, node line of the strip)
+        self._bad_seams: set = set()
         #: crossings an egg-crate cannot join (node -> reason): butted in the next build
         self._unslidable: dict[int, str] = {}
         #: parts whose path into place is blocked: [(part, [(panel, plate, its panel, distance)])]
@@ -329,6 +379,19 @@ class FinSystem:
         self._walls: dict[str, list] = {}
         #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
         self._ends_at: dict[tuple[int, int], list] = {}
+        #: part name -> [(part across a mitred seam, seam normal turned to it, its panel there)]
+        self._seams: dict[str, list] = {}
+        #: connector name -> (a, b, options): the places it may go (see EndJoiner._record)
+        self._sites: dict[str, tuple] = {}
+        #: the fixings (parts) and fixing name -> (plate name, panel index) it lies on
+        self._fixings: list[Part] = []
+        self._fixing_sites: dict[str, tuple[str, int]] = {}
+        #: fixings taken out of a part's way: (name, strip index, panel of the strip)
+        self._evicted: list[tuple] = []
+        #: connectors moved to another place of their site so that their path is clear, and
+        #: connectors left out where the part they fasten has another at that node
+        self._moved_connectors: list[str] = []
+        self._dropped_connectors: list[str] = []
 
     @staticmethod
     def _check_common(thickness, clearance, model_unit, unit, max_panels):
@@ -380,6 +443,7 @@ class FinSystem:
         self.max_part_length = max_part_length
         self._set_fit(fit_sheet, fit_margin)
         self._set_min_width(min_panel_width)
+        self.fixing_spacing = None          # free strips: no design surface to fix them to
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
         self.crossings, self.parts, self.untrimmed_joints = [], [], []
@@ -471,7 +535,15 @@ class FinSystem:
                       + sorted(self._connectors, key=lambda p: p.id))
         self.joints = [dataclasses.replace(j, depth=float(st.depth[j.node])) if j.node >= 0 else j
                        for j in self.joints]
-        AssemblyPlanner(self)._set_butt_directions()
+        planner = AssemblyPlanner(self)
+        planner._set_butt_directions()
+        # the plates that carry the others are fixed to the building; they come down onto
+        # their fixings along their mean node axis
+        roots = planner._roots()
+        FixingPlacer(self)._place(roots, {p.name: planner._root_direction(p) for p in roots},
+                                  exclude=getattr(self, "_fixing_exclude", set()))
+        self.parts += sorted(self._fixings, key=lambda p: p.id)
+        planner._set_root_directions()
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
@@ -501,18 +573,28 @@ class FinSystem:
 
     @property
     def n_panels(self) -> int:
-        """Fin panels in the plates (connectors not counted)."""
-        return int(sum(len(p.panels) for p in self.parts if p.family != CONNECTOR_FAMILY))
+        """Fin panels in the plates (connectors and fixings not counted)."""
+        return int(sum(len(p.panels) for p in self.plates))
+
+    @property
+    def plates(self) -> list[Part]:
+        """The fin plates (every part but the connectors and fixings)."""
+        return [p for p in self.parts if p.family not in (CONNECTOR_FAMILY, FIXING_FAMILY)]
 
     @property
     def connectors(self) -> list[Part]:
         """The connector parts (brackets, splice plates), named ``C-N<node>-<i>``."""
         return [p for p in self.parts if p.family == CONNECTOR_FAMILY]
 
+    @property
+    def fixings(self) -> list[Part]:
+        """The fixings (angles that fix the plates to the building), named ``A-E<edge>-<i>``."""
+        return [p for p in self.parts if p.family == FIXING_FAMILY]
+
     def __repr__(self) -> str:
         return (f"FinSystem({len(self.parts)} parts, {self.n_panels} panels, "
                 f"{len(self.crossings)} crossings, {len(self.connectors)} connectors, "
-                f"t={self.thickness:g} {self.unit})")
+                f"{len(self.fixings)} fixings, t={self.thickness:g} {self.unit})")
 
     # ------------------------------------------------------------------ solids (solids.py)
     def solids(self, *, repair: bool = True, workers: int | None = None) -> dict:
@@ -571,7 +653,7 @@ class FinSystem:
         :func:`torsal.fabrication.nesting.nest_parts` for ``options`` (``nester``, ``cutting``,
         ``time_limit``, ``seed``, ...). By default the fast bottom-left nester, the connectors
         in rows after the plates."""
-        return nest_parts(self.unrolled(), connectors={p.name for p in self.connectors},
+        return nest_parts(self.unrolled(), connectors={p.name for p in self.connectors + self.fixings},
                           sheet=sheet, gap=gap, margin=margin, rotations=rotations,
                           unit=self.unit, **options)
 

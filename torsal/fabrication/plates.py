@@ -36,9 +36,15 @@ __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SIN
 class InvalidSolidError(TorsalError, RuntimeError):
     """A part's solid is not valid OpenCascade geometry even after repair."""
 
+    #: what a designer can do about it (said after the detail)
+    ADVICE = ("; its fin panels are twisted or folded back too far to make a plate: keep the fins' "
+              "torsal planes apart ([constraints] min_torsal_angle, e.g. 30) or smooth the "
+              "congruence (weights.fair), or remesh the surface more finely")
+
     def __init__(self, parts: list[str], detail: str = ""):
         self.parts = parts
-        super().__init__(f"invalid solid for part(s) {', '.join(parts)}" + (f": {detail}" if detail else ""))
+        super().__init__(f"invalid solid for part(s) {', '.join(parts)}" + (f": {detail}" if detail else "")
+                         + (self.ADVICE if type(self) is InvalidSolidError else ""))
 
 
 class SlotCutError(InvalidSolidError):

@@ -14,7 +14,7 @@ import pickle
 
 from .design_file import DesignSpec
 
-__all__ = ["fin_system"]
+__all__ = ["fin_system", "fabrication_summary"]
 
 #: (key, FinSystem) of the last call: the fabrication and assembly stages of one run share it
 _last: tuple[str, object] | None = None
@@ -60,3 +60,34 @@ def fin_system(spec: DesignSpec, structure):
     fs = FinSystem(structure, thickness, **options)
     _last = (key, fs) if key is not None else None
     return fs
+
+
+def fabrication_summary(fs) -> dict:
+    """What a workshop prices a fin system by, for the ``fabrication`` report section: part
+    counts (``plates``, ``connectors``: brackets and splice plates, ``fixings``), the
+    ``connector_share`` (separate connectors of all parts), the fasteners (``bolts`` through
+    connectors and fins, ``anchors`` into the building, and ``fasteners_by_joint``: per joint
+    kind the connectors, bolts, anchors, connectors without room for a hole and the fastener
+    sizes, from the holes of :mod:`torsal.fabrication.builder.fasteners`) and the
+    ``panels_left_out_share`` (fin panels not built, of the structure's fins).
+
+    >>> fabrication_summary(fs)["connector_share"]                    # doctest: +SKIP
+    0.43
+    """
+    from ..fabrication.builder.fasteners import fastener_counts
+
+    counts = fastener_counts(fs)
+    parts = len(fs.parts)
+    left = len(getattr(fs, "coplanar_panels", [])) + len(fs.dropped_panels)
+    fins = len(fs.structure.edges) if fs.structure is not None else fs.n_panels + left
+    return {
+        "plates": len(fs.plates), "connectors": len(fs.connectors), "fixings": len(fs.fixings),
+        "connector_share": len(fs.connectors) / parts if parts else 0.0,
+        "bolts": int(sum(c.bolts for c in counts.values())),
+        "anchors": int(sum(c.anchors for c in counts.values())),
+        "fasteners_by_joint": {k: {"connectors": c.connectors, "bolts": c.bolts,
+                                   "anchors": c.anchors, "without_holes": c.unfastened,
+                                   "fastener": c.fastener}
+                               for k, c in counts.items()},
+        "panels_left_out_share": left / fins if fins else 0.0,
+    }

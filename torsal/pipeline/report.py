@@ -493,6 +493,27 @@ def _left_out_cell(fa: dict) -> str:
             f"{named}{more}")
 
 
+def _fastener_rows(fa: dict) -> list:
+    """Rows of the connectors, fixings and fasteners a workshop counts (see
+    :func:`torsal.pipeline.fins.fabrication_summary`)."""
+    if "connectors" not in fa:
+        return []
+    share = fa.get("panels_left_out_share")
+    rows = [("plates / connectors / fixings",
+             f"{fa['plates']} / {fa['connectors']} / {fa['fixings']}"),
+            ("connector share (separate connectors of all parts)",
+             f"{100 * fa['connector_share']:.0f}%"),
+            ("fasteners", f"{fa['bolts']} bolts, {fa['anchors']} anchors into the building")]
+    for kind, c in fa.get("fasteners_by_joint", {}).items():
+        rows.append((f"&nbsp;&nbsp;{html.escape(kind)}",
+                     f"{c['connectors']} parts, {c['bolts']} bolts, {c['anchors']} anchors"
+                     + (f", {c['without_holes']} without room for a hole" if c["without_holes"] else "")
+                     + (f" ({html.escape(c['fastener'])})" if c["fastener"] else "")))
+    if share is not None:
+        rows.append(("share of fin panels left out", f"{100 * share:.1f}%"))
+    return rows
+
+
 def _assembly_html(a: dict, max_steps: int = 300) -> str:
     """Section 5: the assembly check (verdict, numbers, picture) and the assembly sequence."""
     verdict = ('<span class="ok">buildable</span>' if a["buildable"] else
@@ -513,10 +534,12 @@ def _assembly_html(a: dict, max_steps: int = 300) -> str:
         out.append(f'<img src="{a["picture"]}" alt="parts, interfering ones in red">')
     seq = a.get("sequence", [])
     if seq:
-        def direction(d):
-            return "set in place" if d is None else "(" + ", ".join(f"{x:+.2f}" for x in d) + ")"
+        def direction(d, part=""):
+            if d is None:      # a fixing (A-E...) is fixed to the building first
+                return "fixed to the building" if part.startswith("A-") else "set in place"
+            return "(" + ", ".join(f"{x:+.2f}" for x in d) + ")"
 
-        srows = [(st["step"], html.escape(st["part"]), direction(st["insert_direction"]),
+        srows = [(st["step"], html.escape(st["part"]), direction(st["insert_direction"], st["part"]),
                   html.escape(" ".join(st["joints"])), html.escape(" ".join(st["partners"])),
                   '<span class="ok">clear</span>' if st["clear"] else '<span class="bad">collides</span>')
                  for st in seq[:max_steps]]
@@ -645,7 +668,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
         rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
                 ("sheet utilization", fa["utilization"]),
                 *_nesting_rows(fa.get("nesting"), fa.get("cutting")),
-                ("fin panels left out", _left_out_cell(fa)),
+                ("fin panels left out", _left_out_cell(fa))] + _fastener_rows(fa) + [
                 ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
                 ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
         secs.append("<h2>4. Fabrication</h2>" + _table(rows))

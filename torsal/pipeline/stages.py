@@ -15,7 +15,7 @@ from .design_file import DesignSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
-from .fins import fin_system
+from .fins import fabrication_summary, fin_system
 from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
 from .errors import DesignError
@@ -399,7 +399,7 @@ def run_fabrication(inp: StageInputs) -> dict:
                     "reason": f"narrower than a plate ({w:.1f} mm)"}
                    for s_, e, w in fs.dropped_panels])
     return {"report": {
-        "parts": int(len(fs.parts)), "panels": int(fs.n_panels),
+        "parts": int(len(fs.parts)), "panels": int(fs.n_panels), **fabrication_summary(fs),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
         "nesting": _nesting_report(layout, out / "sheets" if spec.outputs.dxf else None),

@@ -12,8 +12,8 @@ import warnings
 
 import numpy as np
 
-from ..joints import (_Untrimmable, butt_trim, corners, into_direction, mitre_trim, place_connector,
-                      trim_further)
+from ..joints import (_Untrimmable, butt_trim, continues, corners, into_direction, mitre_trim,
+                      place_connector, seam_trim, trim_further)
 from ..model import (CONNECTOR_FAMILY, FAMILY_COLORS, Joint, JointKind, Part, PartId, _cross,
                      _fold_deg, _miter, quad_normals)
 from .strips import _Strips
@@ -83,7 +83,15 @@ class EndJoiner:
                     # halves of family 0, which bridges family 0's seam
                     bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
                     b = base.get((fam, node))
-                    butted = fam in (0, 1) and (cont[other, node] or (fam == 1 and present[other, node]))
+                    swapped = fs._base_at.get(node) if fam in (0, 1) else None
+                    if swapped is not None:
+                        # the joint changed here (an end that could not be trimmed): the parts
+                        # of the other family end against this family's plate, or this one's
+                        # against the other's
+                        butted = swapped == other and bool(present[other, node])
+                    else:
+                        butted = fam in (0, 1) and (cont[other, node] or
+                                                    (fam == 1 and present[other, node]))
                     if butted:
                         trimmed[end] = self._butt(p, end, node, g, st, gap, h,
                                                   bridge=fam == 1 and bridged)
@@ -128,6 +136,10 @@ class EndJoiner:
         fs = self.fs
         j = 0 if end == 0 else len(p.panels) - 1
         quad = p.panels[j]
+        n_end, v_end = quad_normals(quad[None])[0], into_direction(quad, end == 0)[2]
+        carried = [k for k, (n, v, _) in enumerate(panels) if continues(n_end, v_end, n, v)]
+        if carried and self._continuation(p, end, node, panels, carried[0], st, h):
+            return True
         try:
             moved, m_end, nbar = fs._cached(butt_trim, quad, end == 0, [(n, v) for n, v, _ in panels],
                                            st.a[node], gap, h)
@@ -140,6 +152,10 @@ class EndJoiner:
         except _Untrimmable as why:
             fs.untrimmed_joints.append((p.name, node, str(why)))
             self._note_untrimmable(p, j, node, str(why))
+            si = getattr(fs, "_strip_of", {}).get(p.name)
+            if si is not None and p.family in (0, 1):
+                # the joint may change instead: the other family's parts butt against this one
+                fs._swappable[(si, p.span[0] + j)] = (node, p.family)
             return False
         fs._ends_at.setdefault((p.family, node), []).append(
             (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
@@ -150,12 +166,90 @@ class EndJoiner:
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0 if end == 0 else -1] = m_end
-        cont = [(n, v, self._panel_quad(ref)) for n, v, ref in panels]
+        cont = [(n, v, self._panel_quad(ref), self._host(ref)) for n, v, ref in panels]
         names = tuple(sorted({fs._where[ref][0].name for _, _, ref in panels}))
         self._bracket(p, j, node, cont, names, st.a[node], st.b[node],
                       insert=_slide(nbar, quad, st.a[node] - st.b[node]),
                       n_corners=2 if bridge else 1)
         return True
+
+    def _continuation(self, p: Part, end: int, node: int, panels, k: int, st: "_Strips",
+                      h: float) -> bool:
+        """End ``end`` of ``p`` where a panel of the other family's plate (``panels[k]``)
+        carries its fin on, flat (:func:`~.joints.continues`): trimmed back from the seam
+        between them by the clearance (the other panel is not trimmed; more where the other
+        plate folds there, its mitred corner standing out) and clear of the plate's other
+        panels, and joined to the carrying plate by a splice plate across the seam, on the side
+        away from those panels. False (unchanged) if it cannot be trimmed so."""
+        fs = self.fs
+        j = 0 if end == 0 else len(p.panels) - 1
+        quad = p.panels[j]
+        a, b = st.a[node], st.b[node]
+        line = (b - a) / np.linalg.norm(b - a)
+        n_end = quad_normals(quad[None])[0]
+        nk, vk, ref = panels[k]
+        nk = nk if nk @ n_end >= 0 else -nk
+        m = _miter(n_end, nk)
+        seam = _cross(line, m)
+        seam = seam / np.linalg.norm(seam)
+        rest = [(n, v) for i, (n, v, _) in enumerate(panels) if i != k]
+        # the splice plate goes on the side of the seam that no other panel at the node is on
+        v_end = into_direction(quad, end == 0)[2]
+        away = [w for w in fs._dirs.get(node, []) if min(np.linalg.norm(w - v_end),
+                                                           np.linalg.norm(w - vk)) > 1e-6]
+        sides = {float(np.sign(w @ n_end)) for w in away if abs(w @ n_end) > 1e-3}
+        if len(sides) > 1:
+            return False               # plates on both sides of the seam: no room for a splice
+        side = -sides.pop() if sides else 1.0
+        # the other plate's mitred fold (if it folds here) stands out by h tan(fold / 2)
+        fold = max((_fold_deg(nk, n if n @ nk >= 0 else -n) for n, _ in rest), default=0.0)
+        fold = max(fold, _fold_deg(n_end, nk))
+        gap = fs.clearance + h * np.tan(np.radians(min(fold, 120.0)) / 2)
+        try:
+            moved = fs._cached(seam_trim, quad, end == 0, seam, a, gap, rest, m,
+                               0.5 * fs.thickness + 0.5 * fs.clearance, h)
+        except _Untrimmable:
+            return False
+        for cc, x in moved.items():
+            quad[cc] = x
+        p.miters[0 if end == 0 else -1] = m
+        # parts of this family that end here later (butted against the carrying plate, on
+        # either side of it) are trimmed clear of this end too: it stands where the plate's
+        # fin goes on, which their trim against the plate alone does not see
+        fs._ends_at.setdefault((p.family, node), []).extend(
+            (n_end, v_end, side_n) for side_n in (nk, -nk))
+        host, i = fs._where[ref]
+        # the seam is a wall of both for their paths into place (normal turned to each)
+        n_p = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
+        for q, n_in, panel, other in ((p, n_p, j, host), (host, -n_p, i, p)):
+            fs._walls.setdefault(q.name, []).append(n_in)
+            fs._seams.setdefault(q.name, []).append((other.name, n_in, panel, node))
+        self._seam_splice(p, j, host, i, node, side * n_end, a, b)
+        return True
+
+    def _seam_splice(self, e: Part, je: int, p: Part, jp: int, node: int, towards, a, b) -> None:
+        """A bent splice plate across the seam where panel ``je`` of ``e`` ends and panel ``jp``
+        of ``p`` carries it on, on the side of the seam the unit vector ``towards`` points to
+        (no other plate at the node is there); the joint is a mitre with a splice (the two
+        parts in either order)."""
+        fs = self.fs
+        qe, qp = e.panels[je], p.panels[jp]
+        u = (b - a) / np.linalg.norm(b - a)
+        v1, v2 = qe.mean(axis=0) - a, qp.mean(axis=0) - a
+        v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
+        v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
+        n1, n2 = quad_normals(qe[None])[0], quad_normals(qp[None])[0]
+        n2 = n2 if n2 @ n1 >= 0 else -n2
+        fold = _fold_deg(n1, n2)
+        s = 1.0 if towards @ n1 >= 0 else -1.0
+        hosts = ((e.name, je), (p.name, jp))
+        opts = [((s * n1, v1), (s * n2, v2), qe, qp, -(n1 + n2) * s, fold, hosts)]
+        q = fs._cached(place_connector, a, b, *opts[0][:4], thickness=fs.thickness,
+                       gap=CONNECTOR_GAP * fs.thickness)
+        names = tuple(sorted((e.name, p.name)))
+        self._record(JointKind.MITRE_SPLICE, node, names, -v1, q, opts[0][4], fold, e.name,
+                     "the panels are too small for a splice plate",
+                     site=(a.copy(), b.copy(), opts) if q is not None else None)
 
     def _seam_walls(self, prev: Part | None, p: Part) -> None:
         """The two parts of a strip split on a mitre touch on the fold's bisector plane: each is
@@ -165,9 +259,13 @@ class EndJoiner:
         if plane is None:
             return
         a, seam = plane
-        for q, quad in ((p, p.panels[0]), (prev, prev.panels[-1])):
+        for q, quad, other, end in ((p, p.panels[0], prev, 0), (prev, prev.panels[-1], p, -1)):
             n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
             fs._walls.setdefault(q.name, []).append(n)
+            # (the other part, the plane's normal turned towards this one, this one's panel
+            # there, the node)
+            fs._seams.setdefault(q.name, []).append((other.name, n, end % len(q.panels),
+                                                     int(q.nodes[0 if end == 0 else -1])))
 
     def _mitre_gap(self, prev: Part | None, p: Part, node: int) -> None:
         """Trim both parts of a mitred seam back from the fold's bisector plane by
@@ -184,6 +282,13 @@ class EndJoiner:
                 moved = mitre_trim(quad, start, seam, a, 0.5 * fs.clearance)
             except _Untrimmable as why:
                 fs.untrimmed_joints.append((q.name, node, f"mitred seam: {why}"))
+                si = getattr(fs, "_strip_of", {}).get(p.name)
+                if si is not None and (si, p.span[0]) not in fs._avoid_splits:
+                    # move the split off this node line in the next build
+                    fs._bad_seams.add((si, p.span[0]))
+                else:
+                    self._note_untrimmable(q, 0 if start else len(q.panels) - 1, node,
+                                           f"mitred seam: {why}")
                 continue
             for cc, x in moved.items():
                 quad[cc] = x
@@ -199,6 +304,11 @@ class EndJoiner:
         fs = self.fs
         part, i = fs._where[ref]
         return part.panels[i]
+
+    def _host(self, ref) -> tuple[str, int]:
+        """(part name, panel index) of the strip panel ``ref``."""
+        part, i = self.fs._where[ref]
+        return part.name, i
 
     def _fold_butt(self, p: Part, prev: Part | None, quads, node: int, gap, h, *,
                    bracket: bool = True) -> bool:
@@ -229,14 +339,17 @@ class EndJoiner:
             quad[cc] = x
         p.miters[0] = m_end
         if prev is not None and node >= 0 and bracket:
-            self._bracket(p, 0, node, [(nprev, into, prev.panels[-1])], (prev.name,), pa, pb,
+            self._bracket(p, 0, node, [(nprev, into, prev.panels[-1],
+                                        (prev.name, len(prev.panels) - 1))], (prev.name,), pa, pb,
                           insert=_slide(nbar, quad, pa - pb))
         return True
 
     def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert,
                  n_corners: int = 1) -> None:
         """Bent brackets in the most open corner(s) between panel ``j`` of the butted part ``p``
-        and a panel ``(n, v, quad)`` of the continuous plate ``cont``; records the joint(s)."""
+        and a panel ``(n, v, quad, (part name, panel))`` of the continuous plate ``cont``;
+        records the joint(s), and for each bracket the other corners it may move to
+        (``_sites``)."""
         fs = self.fs
         quad = p.panels[j]
         line = pb - pa
@@ -246,20 +359,28 @@ class EndJoiner:
         vb = vb / np.linalg.norm(vb)
         # other parts' panels and the brackets already there must not be in the corner
         obstacles = [v for v in fs._dirs.get(node, [])] + fs._bracket_dirs.get(node, [])
-        picks = fs._cached(corners, [v for _, v, _ in cont], vb, line, obstacles)[:n_corners]
+        every = fs._cached(corners, [v for _, v, _, _ in cont], vb, line, obstacles)
+        picks = every[:n_corners]
+        nb0 = quad_normals(quad[None])[0]
+
+        def option(i, angle):
+            nc, vc, qc, host = cont[i]
+            nc = nc if nc @ vb > 0 else -nc
+            nb = nb0 if nb0 @ vc > 0 else -nb0
+            return ((nc, vc), (nb, vb), qc, quad, -(vc + vb), angle, (host, (p.name, j)))
+
         placed = 0
         why = "no corner between 25 and 172 deg for a bracket"
         for i, angle in picks:
-            nc, vc, qc = cont[i]
-            nb = quad_normals(quad[None])[0]
-            nc = nc if nc @ vb > 0 else -nc
-            nb = nb if nb @ vc > 0 else -nb
-            q = fs._cached(place_connector, pa, pb, (nc, vc), (nb, vb), qc, quad, thickness=fs.thickness,
-                                gap=CONNECTOR_GAP * fs.thickness)
+            opt = option(i, angle)
+            q = fs._cached(place_connector, pa, pb, *opt[:4], thickness=fs.thickness,
+                           gap=CONNECTOR_GAP * fs.thickness)
             why = "the panels are too small for a bracket"
             if q is not None:
+                others = [option(k, a) for k, a in every if (k, a) not in picks]
                 self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, q,
-                             -(vc + vb), angle, p.name, why)
+                             opt[4], angle, p.name, why, site=(pa, pb, [opt] + others))
+                vc = opt[0][1]
                 fs._bracket_dirs.setdefault(node, []).append((vc + vb) / np.linalg.norm(vc + vb))
                 placed += 1
         if not placed:
@@ -281,18 +402,29 @@ class EndJoiner:
         fold = _fold_deg(n1, n2)
         q = None
         why = "the other family's plate passes on both sides of the seam"
+        site = None
         if len(other) < 2:
             side = -(other[0][1] @ (n1 + n2)) if other else (v1 + v2) @ (n1 + n2)
             s = 1.0 if side >= 0 else -1.0
-            q = fs._cached(place_connector, pa, pb, (s * n1, v1), (s * n2, v2), qe, qp,
-                                thickness=fs.thickness, gap=CONNECTOR_GAP * fs.thickness)
+            hosts = ((e.name, len(e.panels) - 1), (p.name, 0))
+            # either side of the seam where no plate of the other family is (the first: the
+            # one away from it, or the convex side)
+            opts = [((sg * n1, v1), (sg * n2, v2), qe, qp, -(n1 + n2) * sg, fold, hosts)
+                    for sg in ((s, -s) if not other else (s,))]
+            q = fs._cached(place_connector, pa, pb, *opts[0][:4], thickness=fs.thickness,
+                           gap=CONNECTOR_GAP * fs.thickness)
             why = "the panels are too small for a splice plate"
+            site = (pa.copy(), pb.copy(), opts)
         cdir = -(n1 + n2) * (1.0 if q is None else s)
-        self._record(JointKind.MITRE_SPLICE, node, (e.name, p.name), -v2, q, cdir, fold, p.name, why)
+        self._record(JointKind.MITRE_SPLICE, node, (e.name, p.name), -v2, q, cdir, fold, p.name, why,
+                     site=site)
 
-    def _record(self, kind, node, names, insert, q, cdir, angle, part, why) -> None:
+    def _record(self, kind, node, names, insert, q, cdir, angle, part, why, *, site=None) -> None:
         """Append a :class:`Joint` (and its connector part built from the quads ``q``, or an
-        entry of ``unconnected_joints`` if there is none)."""
+        entry of ``unconnected_joints`` if there is none). ``site``: ``(a, b, options)`` where
+        the connector may go instead, each option ``(side1, side2, panel1, panel2, direction,
+        angle, hosts)`` as :func:`~.joints.connector_variants` takes them, the first the one
+        used; ``hosts`` the (part name, panel) each leg lies on (``_sites``)."""
         fs = self.fs
         conn = None
         if q is not None:
@@ -305,6 +437,8 @@ class EndJoiner:
             fs._connectors.append(c)
             conn = c.name
             names = names + (conn,)
+            if site is not None:
+                fs._sites[conn] = site
         else:
             fs.unconnected_joints.append((part, node, why))
         unit = lambda x: None if x is None else np.asarray(x, float) / np.linalg.norm(x)  # noqa: E731

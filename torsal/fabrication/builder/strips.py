@@ -161,9 +161,12 @@ class StripCutter:
                 "finely or move the boundary if these fins are needed", stacklevel=3)
 
     def _split_ranges(self, quads: np.ndarray, closed: bool,
-                      drop: np.ndarray | None = None, extra_cuts=()) -> list[tuple[int, int]]:
+                      drop: np.ndarray | None = None, extra_cuts=(),
+                      avoid=frozenset()) -> list[tuple[int, int]]:
         """Panel ranges [lo, hi) of the parts of one strip (dropped panels left out), cut also
-        at the node lines ``extra_cuts`` (crossings joined by butt joints)."""
+        at the node lines ``extra_cuts`` (crossings joined by butt joints); the cuts for the
+        sheet are moved off the node lines ``avoid`` (a mitred seam there could not be
+        trimmed) where they can be."""
         fs = self.fs
         k = len(quads)
         drop = np.zeros(k, dtype=bool) if drop is None else np.asarray(drop, dtype=bool)
@@ -205,11 +208,12 @@ class StripCutter:
             out = split
         if fs.fit_sheet is not None:
             fs._oversize = []
-            out = [r for lo, hi in out for r in self._fit(quads, lo, hi)]
+            out = [r for lo, hi in out for r in self._fit(quads, lo, hi, avoid)]
         return out
 
-    def _fit(self, quads: np.ndarray, lo: int, hi: int) -> list[tuple[int, int]]:
-        """Halve [lo, hi) until the unrolled part fits ``fit_sheet`` (any orientation)."""
+    def _fit(self, quads: np.ndarray, lo: int, hi: int, avoid=frozenset()) -> list[tuple[int, int]]:
+        """Halve [lo, hi) until the unrolled part fits ``fit_sheet`` (any orientation), at the
+        node line nearest the middle that is not in ``avoid``."""
         fs = self.fs
         if hi - lo <= 1:
             if not self._fits(quads[lo:hi]):
@@ -218,7 +222,10 @@ class StripCutter:
         if self._fits(quads[lo:hi]):
             return [(lo, hi)]
         mid = (lo + hi) // 2
-        return self._fit(quads, lo, mid) + self._fit(quads, mid, hi)
+        free = [j for j in range(lo + 1, hi) if j not in avoid]
+        if free:
+            mid = min(free, key=lambda j: (abs(j - mid), j))
+        return self._fit(quads, lo, mid, avoid) + self._fit(quads, mid, hi, avoid)
 
     def _fits(self, quads: np.ndarray) -> bool:
         """Whether panels ``quads`` unrolled fit ``fit_sheet`` (remembered across rebuilds:
@@ -289,7 +296,12 @@ class StripCutter:
             at = {int(v): j for j, v in enumerate(strip.vertices)}
             split_here = {at[x.node] for x in joinery.values()
                           if x.split == fam and x.node in at and 0 < at[x.node] < len(q) + strip.closed}
-            ranges = self._split_ranges(q, strip.closed, drop, extra_cuts=split_here)
+            # where the joint changed (an end of the other family could not be trimmed against
+            # this plate), this plate is split and butted against the other family's instead
+            split_here |= {at[v] for v, base in fs._base_at.items()
+                           if base != fam and v in at and 0 < at[v] < len(q) + strip.closed}
+            ranges = self._split_ranges(q, strip.closed, drop, extra_cuts=split_here,
+                                        avoid={j for s_, j in fs._avoid_splits if s_ == si})
             if fs.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1:
                 # family 1 is cut at every node where a family-0 plate is
                 cuts = sorted({0, len(q)} | {j for j in range(1, len(q))
