@@ -102,6 +102,35 @@ def test_ipopt_certifies_the_augmented_lagrangians_answer():
     assert "ipopt" in cert.timings and "alm" in cert.timings
 
 
+def _mirror_canopy(c, weight=0.1):
+    """Light perpendicular to a sun and torsal planes asked to face it (as Fig. 13's
+    mirrors): the energies' optimum without hyperbolicity has elliptic faces."""
+    return (CongruenceProblem(c).normal().fair().perpendicular(SUN, weight=weight)
+            .torsal_plane(np.arange(len(c.faces)), normals=[0, 0.3, 1], weight=50).hyperbolic())
+
+
+def test_auto_continues_a_missed_hyperbolicity_with_the_augmented_lagrangian():
+    """Hyperbolicity is the only inequality and IPOPT's pass without it misses it: "auto"
+    continues from that pass's answer with the augmented Lagrangian (not IPOPT's
+    working-set pass), ends measured-feasible with an energy no higher than IPOPT's, and a
+    warm re-solve stays with the augmented Lagrangian."""
+    c = Congruence.from_normals(canopy(nu=7, nv=7))
+    free = _mirror_canopy(c)
+    free._terms.pop("hyperbolic")
+    h = free.solve(solver="ipopt").congruence.hyperbolicity()
+    assert (h < -1e-6 * c.delta ** 2).any()          # the energies' optimum is not hyperbolic
+    p = _mirror_canopy(c)
+    auto = p.solve()
+    ipopt = _mirror_canopy(c).solve(solver="ipopt", max_iter=500)
+    assert auto.solver == "ipopt+alm" and auto.success, auto.status
+    assert ipopt.success and auto.objective <= ipopt.objective * 1.01
+    assert auto.congruence.hyperbolicity().min() >= -1e-6 * c.delta ** 2
+    assert {"ipopt pass 1", "alm"} <= set(auto.timings)
+    p.set_weight("perpendicular", 0.12)
+    again = p.solve()
+    assert again.solver == "alm" and again.success, again.status
+
+
 def test_a_warm_resolve_takes_fewer_steps_than_a_cold_one():
     """After the sun moves by 3 degrees, the re-solve from the last optimum (directions,
     multipliers, penalties) needs fewer Newton steps than a cold solve of the changed problem,

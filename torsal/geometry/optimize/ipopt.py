@@ -172,13 +172,17 @@ class IpoptStrategy:
                         bool(stats.get("success", False)) and not capped)
 
 
-    def solve(self, b: Built, mode: str, warm: bool, lam_g0, x0, p, try_unconstrained: bool) -> PassOutcome:
+    def solve(self, b: Built, mode: str, warm: bool, lam_g0, x0, p, try_unconstrained: bool, *,
+              handover: bool = False) -> PassOutcome:
         """IPOPT in up to three passes (see ``try_unconstrained`` of ``CongruenceProblem.solve``).
 
         1. without the inequality constraints; kept if it meets them;
         2. with only the inequalities that pass 1 violates or nearly meets (the working set),
            from pass 1's answer, growing the set while the answer violates others;
         3. with all of them, from the start.
+
+        ``handover``: where pass 1 converged but misses an inequality, stop there (passes 2
+        and 3 are left to the augmented Lagrangian, ``solver="auto"``).
         """
         limit, problem = self.limit, self.problem
 
@@ -213,6 +217,8 @@ class IpoptStrategy:
             viol = _bound_violation(g1, b.lbg, b.ubg) > feas_tol
             if r1.converged and not viol.any():
                 return PassOutcome(r1.x, None, iters, status, True, False, None)
+            if r1.converged and handover:
+                return PassOutcome(r1.x, None, iters, status, False, None, None, handed_over=True)
             # (not with lifted forms: their rows tie the lifted variables to the directions)
             if r1.converged and not b.n_lift and viol[ineq].mean() <= _WORKING_SET_MAX_SHARE:
                 g1 = np.asarray(b.evaluate(r1.x, p)[2]).ravel()

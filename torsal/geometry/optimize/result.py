@@ -83,7 +83,8 @@ class OptimizationResult:
         All optimized congruences: this problem's first, then those joined by ``align_with``.
     solver : str
         Who produced the answer: ``"alm"``, ``"ipopt"``, ``"alm+ipopt"`` (the augmented
-        Lagrangian's answer certified or continued by IPOPT) or ``"lbfgs"``.
+        Lagrangian's answer certified or continued by IPOPT), ``"ipopt+alm"`` (IPOPT's pass
+        without inequalities continued by the augmented Lagrangian) or ``"lbfgs"``.
     objective : float
     constraints_active : bool or None
         IPOPT with inequality constraints: False when the solve without them already met

@@ -12,7 +12,9 @@ strategy, each in its own module:
 ``solver="auto"`` (the default) takes the augmented Lagrangian where the NLP has inequality
 rows other than hyperbolicity (torsal-angle bounds, angles to lines, custom rows) and it can
 solve it (tangent chart, no lifted variables or slacks), IPOPT otherwise (no such rows:
-IPOPT's projected-Newton passes with their working set are at the paper's T there); if the
+IPOPT's pass without inequalities answers most such designs at the paper's T). Where that
+pass misses an inequality, the augmented Lagrangian continues from its answer (``solver`` of
+the result ``"ipopt+alm"``) instead of IPOPT's working-set and all-constraint passes; if the
 augmented Lagrangian ends without a measured-feasible answer, IPOPT continues from it with all
 constraints. Whatever runs, the answer is measured on the geometry
 (:mod:`.measure`) before it is returned.
@@ -154,13 +156,21 @@ def route(problem: "CongruenceProblem", solver: str) -> str:
 def _has_bounding_rows(problem: "CongruenceProblem") -> bool:
     """Inequality rows other than hyperbolicity (a torsal-angle bound, an angle to a line, a
     custom constraint). Hyperbolicity alone (Fig. 12 rows 7a, 7b, 10, 11, 13) is inactive almost
-    everywhere, and IPOPT's working-set passes solve those rows as the unconstrained problems
-    they are: measured 2026-11-26, row 11 in 9.9 s against the augmented Lagrangian's 134 s, row
-    7a in 0.4 s with a min torsal angle of 18.8 deg against 1.6 (the augmented Lagrangian drives
-    its zero-residual energies to 1e-16, where the torsal directions of 18 faces nearly merge);
-    row 13 is the exception (IPOPT 37 s, the augmented Lagrangian 9 s), benchmarks/optimize_bench.py."""
+    everywhere, and IPOPT's pass without inequalities answers rows 7a, 7b and 11 as the
+    unconstrained problems they are (row 11: the augmented Lagrangian is 10 times slower; 7a:
+    it drives the zero-residual energies to 1e-16, where the torsal directions of 16 faces
+    nearly merge, against IPOPT's 2 at 1e-10); row 13, where that pass misses hyperbolicity,
+    is continued by the augmented Lagrangian (:meth:`SolveCall._continue_with_alm`),
+    benchmarks/optimize_bench.py."""
     return any(t.constraint and t.lower < t.upper and t.kind != "hyperbolicity"
                for t in problem._term_list(problem.normalize))
+
+
+def _hyperbolic_margin(problem: "CongruenceProblem") -> bool:
+    """``hyperbolic(margin > 0)``: a face at a line bundle has ``c_hyp = 0`` with zero gradient,
+    so the augmented Lagrangian's steps cannot lift it to the margin (measured: 500 Newton
+    steps without converging on a 1e-6 and a 2e-3 margin); IPOPT's passes keep those designs."""
+    return any(t.kind == "hyperbolicity" and t.bound > 0 for t in problem._terms.values())
 
 
 def alm_unsupported(problem: "CongruenceProblem") -> str | None:
@@ -184,6 +194,8 @@ class SolveCall:
         problem, opts = self.problem, self.opts
         t_call, c_call = time.perf_counter(), time.process_time()
         solver = route(problem, opts.solver)
+        if solver == "ipopt" and self._resumes_alm():
+            solver = "alm"     # a re-solve continues with the strategy whose state it keeps
         build_s = problem.build(solver)
         if solver != "alm":
             build_s += problem.build("ipopt")    # the main NLP also evaluates energies and constraints
@@ -295,20 +307,59 @@ class SolveCall:
         return IpoptStrategy(self.problem, monitor, frames, limit=limit, tol=opts.tol, verbose=opts.verbose,
                              options=opts.ipopt_options)
 
+    def _resumes_alm(self) -> bool:
+        """``"auto"`` re-solves from an answer of the augmented Lagrangian (its multipliers and
+        penalties kept): it continues with the augmented Lagrangian."""
+        problem, opts = self.problem, self.opts
+        return (opts.solver == "auto" and opts.warm_start and opts.initial is None
+                and (problem._last or {}).get("alm") is not None and alm_unsupported(problem) is None)
+
     def _run_ipopt(self, b: Built, start: Start, monitor: SolveMonitor, t0: float) -> Run:
-        """IPOPT in its passes (:meth:`IpoptStrategy.solve`)."""
+        """IPOPT in its passes (:meth:`IpoptStrategy.solve`). ``"auto"``: where pass 1 (no
+        inequalities) misses one, the augmented Lagrangian continues from its answer instead
+        of IPOPT's working-set and all-constraint passes (:meth:`_continue_with_alm`)."""
         problem, opts = self.problem, self.opts
         strategy = self._strategy(monitor, start.frames, opts.max_iter or 200)
+        handover = opts.solver == "auto" and alm_unsupported(problem) is None and not _hyperbolic_margin(problem)
         problem._strategy = strategy
         try:
             out = strategy.solve(b, problem._mode("ipopt"), start.warm, start.lam_g0, start.x0, start.p,
-                                 opts.try_unconstrained)
+                                 opts.try_unconstrained, handover=handover)
         finally:
             problem._strategy = None
         s = time.perf_counter() - t0 - strategy.build_seconds
-        return Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
-                   active=out.constraints_active, working=out.working, frames=strategy.frames,
-                   build_seconds=strategy.build_seconds, solve_seconds=s, solver="ipopt", timings={"ipopt": s})
+        run = Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
+                  active=out.constraints_active, working=out.working, frames=strategy.frames,
+                  build_seconds=strategy.build_seconds, solve_seconds=s, solver="ipopt", timings={"ipopt": s})
+        if out.handed_over and not (monitor.timed_out or monitor.stopped_by_user):
+            return self._continue_with_alm(b, start, run, monitor)
+        return run
+
+    def _continue_with_alm(self, b: Built, start: Start, pass1: Run, monitor: SolveMonitor) -> Run:
+        """The augmented Lagrangian with all constraints from IPOPT's pass-1 answer (the energies'
+        optimum, which misses some inequalities).
+
+        IPOPT's working-set pass carries barrier terms on every face near its bound: on Fig.
+        12 row 13 (hyperbolicity binds on about 2 % of the faces, 18 % in the working set) it
+        took 78 iterations against the augmented Lagrangian's 8 Newton steps
+        (benchmarks/optimize_bench.py)."""
+        problem = self.problem
+        t0 = time.perf_counter()
+        build_s = problem.build("alm")
+        ba = problem._built[problem._key("alm")]
+        e1 = b.unpack(pass1.x, pass1.frames)
+        x0, frames = ba.pack(e1)
+        start = start._replace(e0=e1, x0=x0, frames=frames, p=ba.parameters(problem._current(), frames),
+                               resume=False, warm=False, lam_g0=None)
+        run = self._run_alm(ba, start, monitor, time.perf_counter())
+        x, frames = b.pack(ba.unpack(run.x, run.frames))
+        return run._replace(
+            x=x, frames=frames, iterations=pass1.iterations + run.iterations,
+            status=f"IPOPT without inequalities: {pass1.status} ({pass1.iterations} iterations), "
+                   f"missed some; augmented Lagrangian: {run.status}",
+            build_seconds=pass1.build_seconds + build_s + run.build_seconds,
+            solve_seconds=pass1.solve_seconds + (time.perf_counter() - t0 - build_s),
+            solver="ipopt+" + run.solver, timings={"ipopt pass 1": pass1.solve_seconds, **(run.timings or {})})
 
     def _run_alm(self, b: Built, start: Start, monitor: SolveMonitor, t0: float) -> Run:
         """The augmented Lagrangian from ``start`` (:mod:`.alm`), warm from the last answer's

@@ -39,7 +39,9 @@ class PassOutcome(NamedTuple):
 
     ``constraints_active``: False when pass 1 (no inequalities) met them all, True when
     inequalities were imposed, None without inequalities. ``working``: the working-set mask
-    over ``g`` when pass 2 answered, else None.
+    over ``g`` when pass 2 answered, else None. ``handed_over``: pass 1 missed an inequality
+    and the solve asked to stop there (``IpoptStrategy.solve(handover=True)``): ``x`` is pass
+    1's answer, for the augmented Lagrangian to continue from.
     """
 
     x: np.ndarray
@@ -49,6 +51,7 @@ class PassOutcome(NamedTuple):
     converged: bool
     constraints_active: bool | None
     working: np.ndarray | None
+    handed_over: bool = False
 
 
 def working_set_pass(strategy, s_warm, s_cold, b: "Built", x, p, ws: np.ndarray, lam_g, budget: int,
