@@ -91,7 +91,7 @@ def test_the_forms_reach_the_same_optimum(solved, label):
     assert r.objective == pytest.approx(ref.objective, rel=3e-3 if label == "cone" else 3e-4)
     dev = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", r.congruence.directions,
                                                  ref.congruence.directions), -1, 1)))
-    assert dev.max() < 0.5
+    assert dev.max() < (1.5 if label == "cone" else 0.5)
 
 
 def test_split_rows_say_abs_p_below_cos_alpha_rho():

@@ -43,7 +43,9 @@ def test_min_torsal_angle_holds_as_measured_or_the_result_says_where_not(patch, 
     if res.success:
         assert below.size == 0
     else:
-        assert below.size > 0 or "time" in res.status or "Iterations" in res.status
+        # the faces that miss the bound, or why the answer stopped
+        assert (below.size > 0 or "time" in res.status or "Iterations" in res.status
+                or (res.feasible and "feasible iterate" in res.status)), res.status
     # on this patch every bound up to 60 deg is reached; at 80 deg (the torsal planes nearly
     # orthogonal) the answer may be measured-feasible without a certified optimum, and says so
     assert res.success or (alpha == 80 and res.feasible and "feasible iterate" in res.status), res.status
