@@ -110,12 +110,13 @@ def test_example_runs_small(path, tmp_path):
     if alpha is not None:
         m = c["constraints"]["min_torsal_angle"]
         assert m["n_missing"] == 0 and m["measured"] >= alpha - 0.1, m
-        # re-read the written lines with plain numpy and measure the angle of eq. (1)
+        # re-read the written lines with plain numpy and measure the angle the torsal planes
+        # of eq. (1) cross at
         text = (tmp_path / "congruence.ply").read_text().split("end_header\n", 1)[1].split("\n")
         nv = c["vertices"]
         ve = np.array([[float(x) for x in ln.split()] for ln in text[:nv]])
         faces = np.array([[int(x) for x in ln.split()[1:]] for ln in text[nv:nv + c["faces"]]])
-        ang = Congruence(ve[:, :3], faces, ve[:, 3:]).torsal_angle()
+        ang = Congruence(ve[:, :3], faces, ve[:, 3:]).torsal_plane_angle()
         assert np.isfinite(ang).all() and ang.min() >= alpha - 0.1
         assert "min_torsal_angle (measured; bound" in (tmp_path / "report.html").read_text()
     if c["working_set"]:            # IPOPT imposed the inequalities on a few faces: say so

@@ -240,10 +240,10 @@ def test_working_set_imposes_only_the_constraints_that_matter(facade):
 
 def test_min_torsal_angle_holds_on_every_face(facade):
     free = _shading_problem(facade).solve()
-    assert np.nanmin(free.congruence.torsal_angle()) < 35
+    assert np.nanmin(free.congruence.torsal_plane_angle()) < 35
     res = _shading_problem(facade).hyperbolic().min_torsal_angle(40).solve()
     assert res.success, res.status
-    ang = res.congruence.torsal_angle()
+    ang = res.congruence.torsal_plane_angle()        # the fins' crossing angle, 4.1
     assert np.isfinite(ang).all()
     assert ang.min() >= 40 - 1e-3
 

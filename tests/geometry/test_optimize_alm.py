@@ -73,7 +73,7 @@ def test_the_bound_is_active_in_the_agreement_cases(case):
     optimum misses it on some face."""
     surface, make, bound = CASES[case]
     free = make(surface()).solve()
-    assert np.nan_to_num(free.congruence.torsal_angle()).min() < bound - 1
+    assert np.nan_to_num(free.congruence.torsal_plane_angle()).min() < bound - 1
 
 
 def test_alm_result_says_who_solved_and_counts_its_work():
@@ -232,6 +232,6 @@ def test_the_family_of_constrained_designs_ends_measured_feasible():
     assert np.mean(ok) >= 0.95, [(n, a, r.status) for n, a, r in results if not r.success]
     for _, a, r in results:
         if r.success:
-            assert np.nan_to_num(r.congruence.torsal_angle()).min() >= a - 0.1
+            assert np.nan_to_num(r.congruence.torsal_plane_angle()).min() >= a - 0.1
         else:
             assert any(len(v) for v in r.violated.values()) or "converged" not in r.status

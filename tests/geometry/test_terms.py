@@ -186,7 +186,8 @@ def test_hyperbolicity_is_discriminant_of_eq3():
 
 
 def _torsal_angle_numpy(a, e):
-    """Acute angle between the two torsal directions at the barycenter (deg), NaN if elliptic."""
+    """Acute angle (deg) at which the two torsal planes cross at the barycenter (each spanned by
+    the line e_c and a torsal direction), NaN if elliptic."""
     fr = face_frame(a.reshape(-1, 3), np.arange(3 * len(a)).reshape(len(a), 3), e.reshape(-1, 3))
     g = torsal_coefficients(fr)
     disc = g[:, 1] ** 2 - g[:, 0] * g[:, 2]
@@ -200,7 +201,8 @@ def _torsal_angle_numpy(a, e):
             r = np.roots([g[m, 2], 2 * g[m, 1]])  # v/u for the nonzero root, plus u-axis... (v = 0)
             uv = [np.array([1.0, 0.0]), np.array([1.0, r[0].real])]
         t = [x[0] * fr.a_u[m] + x[1] * fr.a_v[m] for x in uv]
-        c = abs(t[0] @ t[1]) / (np.linalg.norm(t[0]) * np.linalg.norm(t[1]))
+        n = [np.cross(fr.e[m], x) for x in t]
+        c = abs(n[0] @ n[1]) / (np.linalg.norm(n[0]) * np.linalg.norm(n[1]))
         out[m] = np.degrees(np.arccos(min(c, 1.0)))
     return out
 
@@ -222,13 +224,17 @@ def test_torsal_angle_constraint_sign_matches_the_actual_angle(alpha):
 
 
 def test_torsal_angle_closed_form_tan2():
-    """tan^2(theta) = 4 (g1^2 - g0 g2) det M / T^2 against the numerically computed angle."""
+    """tan^2(theta) = 4 (g1^2 - g0 g2) det M / T^2 against the numerically computed angle
+    between the torsal planes, with M the metric of the face edges projected along the line."""
     a, e = _random_faces(100)
     fr = face_frame(a.reshape(-1, 3), np.arange(300).reshape(100, 3), e.reshape(-1, 3))
     g = torsal_coefficients(fr)
-    E = np.einsum("ij,ij->i", fr.a_u, fr.a_u)
-    F = np.einsum("ij,ij->i", fr.a_u, fr.a_v)
-    G = np.einsum("ij,ij->i", fr.a_v, fr.a_v)
+    n = fr.e / np.linalg.norm(fr.e, axis=1, keepdims=True)
+    pu = fr.a_u - np.einsum("ij,ij->i", fr.a_u, n)[:, None] * n
+    pv = fr.a_v - np.einsum("ij,ij->i", fr.a_v, n)[:, None] * n
+    E = np.einsum("ij,ij->i", pu, pu)
+    F = np.einsum("ij,ij->i", pu, pv)
+    G = np.einsum("ij,ij->i", pv, pv)
     Tq = g[:, 0] * G - 2 * g[:, 1] * F + g[:, 2] * E
     D = g[:, 1] ** 2 - g[:, 0] * g[:, 2]
     ang = _torsal_angle_numpy(a, e)

@@ -569,8 +569,35 @@ class Congruence:
                     out[:, k, i] = n[i] * inv_len
         return out
 
+    def torsal_plane_angle(self) -> np.ndarray:
+        """Angle at which the two torsal planes cross, degrees in [0, 90], (F,); NaN where undefined.
+
+        The planes share the line ``e_c``, so this is the angle between the torsal directions
+        seen along the line (projected orthogonally to ``e_c``): the "transversality of torsal
+        planes" that Wang et al. 2013, 4.1 bound with c_ang. It is the angle at which the fins
+        of the two families cross. It is at most :meth:`torsal_angle` where the lines are
+        orthogonal to the face and smaller where they lean towards it.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from torsal.geometry.congruence import Congruence
+        >>> a = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+        >>> e = np.array([[0, 0, 1], [0.1, 0, 1], [0, -0.1, 1.0]])   # torsal directions x, y
+        >>> f = np.array([[0, 1, 2]])
+        >>> float(Congruence(a, f, e).torsal_plane_angle()[0].round(1))
+        89.9
+        >>> lean = Congruence(a, f, e + [1, 1, 0])      # the lines lean 55 deg along x + y
+        >>> float(lean.torsal_angle()[0]), float(lean.torsal_plane_angle()[0].round(1))
+        (90.0, 60.0)
+        """
+        n = self.torsal_planes()
+        s = np.linalg.norm(np.cross(n[:, 0], n[:, 1]), axis=1)
+        return np.degrees(np.arcsin(np.clip(s, 0.0, 1.0)))
+
     def torsal_angle(self) -> np.ndarray:
-        """Angle between the two torsal directions, degrees in [0, 90], (F,); NaN where undefined."""
+        """Angle between the two torsal directions in the face, degrees in [0, 90], (F,); NaN
+        where undefined. :meth:`torsal_plane_angle` is the angle the fins cross at."""
         t = self._torsal[0]
         c = np.clip(np.abs(_dot3(_c(t[:, 0]), _c(t[:, 1]))), 0.0, 1.0)
         return np.degrees(np.arccos(c))

@@ -110,8 +110,7 @@ def congruence_gate(congruence, min_angle: float = MIN_CROSSING_ANGLE) -> dict:
     ``faces_below`` (count), ``faces`` (the first indices, smallest angle first),
     ``min_plane_angle_deg`` and a ``message`` ('' when every face is fine).
     """
-    n = congruence.torsal_planes()
-    ang = np.degrees(np.arcsin(np.clip(np.linalg.norm(np.cross(n[:, 0], n[:, 1]), axis=1), 0, 1)))
+    ang = congruence.torsal_plane_angle()
     ok = np.isfinite(ang)
     below = np.flatnonzero(ok & (ang < min_angle))
     below = below[np.argsort(ang[below])]
@@ -120,8 +119,8 @@ def congruence_gate(congruence, min_angle: float = MIN_CROSSING_ANGLE) -> dict:
         msg = (f"{below.size} faces have torsal planes crossing at less than {min_angle:g} deg "
                f"(down to {ang[below[0]]:.1f} deg; faces {below[:_NAMED].tolist()}"
                f"{' ...' if below.size > _NAMED else ''}): fins crossing there cannot be "
-               "slotted together; raise constraints.min_torsal_angle to keep the torsal "
-               "directions apart")
+               "slotted together; set constraints.min_torsal_angle (the angle the torsal "
+               f"planes cross at) to {min_angle:g} or more")
     return {"min_crossing_angle_deg": float(min_angle), "faces_below": int(below.size),
             "faces": below[:_NAMED].tolist(),
             "min_plane_angle_deg": float(ang[ok].min()) if ok.any() else None, "message": msg}

@@ -316,7 +316,9 @@ class WeightsSpec(_Spec):
 class ConstraintsSpec(_Spec):
     hyperbolic: bool = True
     hyperbolic_margin: float = Field(0.0, ge=0)
-    min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees")
+    min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees; the torsal "
+                                           "planes (the fins of the two families) cross at this "
+                                           "angle or more (c_ang, paper 4.1)")
     torsal_angle_form: TorsalAngleForm | None = Field(
         None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
         "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")

@@ -192,8 +192,9 @@ def run_congruence(inp: StageInputs) -> dict:
             "working_set": None if r.working_set is None
             else {k: int(len(x)) for k, x in r.working_set.items()},
             "min_hyperbolicity": float(np.nanmin(c.hyperbolicity())),
-            "min_torsal_angle_deg": float(np.nanmin(c.torsal_angle()))
-            if np.isfinite(c.torsal_angle()).any() else None,
+            # the angle the constraint bounds: torsal planes, the fins of the two families
+            "min_torsal_angle_deg": float(np.nanmin(c.torsal_plane_angle()))
+            if np.isfinite(c.torsal_plane_angle()).any() else None,
             "hyperbolic_share": float(c.is_hyperbolic().mean()),
             # measured on the geometry, not the NLP: each constraint's bound, worst value and
             # the faces (vertices) that miss it by more than its tolerance

@@ -1,6 +1,6 @@
 """Regular forms of the torsal-angle constraint c_ang (Wang et al. 2013, 4.1).
 
-The constraint "torsal directions at least ``alpha`` apart" is ``|p| <= cos(alpha) rho`` in
+The constraint "torsal planes crossing at least ``alpha``" is ``|p| <= cos(alpha) rho`` in
 the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
 :func:`torsal.geometry.optimize.terms.torsal_form_invariants_sx`). Two smooth ways to impose it:
 
@@ -56,10 +56,11 @@ def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
     ``S' = R^-T S R^-1 = [[u + v, w], [w, u - v]]`` in the orthonormal frame ``(a_u/|a_u|, ...)``
     (Gram-Schmidt of the face edges). ``u = p`` is its isotropic part and ``v^2 + w^2 = rho^2``
     its strength squared (:func:`torsal.geometry.optimize.terms.torsal_form_invariants_sx`): the torsal
-    directions are at least ``alpha`` apart iff ``|u| <= cos(alpha) sqrt(v^2 + w^2)``.
+    planes cross at ``alpha`` or more iff ``|u| <= cos(alpha) sqrt(v^2 + w^2)``. ``M`` is the face
+    metric seen along the line (:func:`torsal.geometry.optimize.terms.plane_metric_sx`).
     """
     g0, g1, g2 = T.torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
-    E, F, G = ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+    E, F, G = T.plane_metric_sx(a_u, a_v, e)     # the face seen along the line
     r11 = ca.sqrt(E)
     r12 = F / r11
     r22 = ca.sqrt(E * G - F * F) / r11

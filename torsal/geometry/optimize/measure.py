@@ -83,12 +83,12 @@ class Measurement(NamedTuple):
 
 
 def torsal_angle_deg(c: Congruence, faces: np.ndarray) -> np.ndarray:
-    """Measured acute angle between the torsal directions (degrees), 0 where there are none.
+    """Measured acute angle at which the torsal planes cross (degrees), 0 where there are none.
 
     A non-hyperbolic face (eq. (2) < 0) and a line bundle have no torsal directions; they
     count as angle 0 so that they fail any angle bound.
     """
-    ang = c.torsal_angle()[faces]
+    ang = c.torsal_plane_angle()[faces]
     return np.where(np.isfinite(ang), ang, 0.0)
 
 

@@ -602,7 +602,7 @@ class CongruenceProblem:
     def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
                          min_strength: float = 1e-3,
                          form: TorsalAngleForm | str = TorsalAngleForm.SPLIT) -> "CongruenceProblem":
-        """Torsal directions at least ``alpha_deg`` apart on every face (c_ang, Wang et al. 2013, 4.1).
+        """Torsal planes crossing at ``alpha_deg`` or more on every face (the fins of the two families) (c_ang, Wang et al. 2013, 4.1).
 
         ``form="split"`` (default): two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
 

@@ -61,6 +61,7 @@ __all__ = [
     "torsal_alignment_element",
     "hyperbolicity_element",
     "torsal_angle_element",
+    "plane_metric_sx",
     "torsal_angle_sx",
     "torsal_form_invariants_sx",
     "torsal_angle_cone_element",
@@ -443,13 +444,30 @@ def hyperbolicity_element(delta: float) -> ElementTerm:
     return ElementTerm("hyperbolic", ca.Function("c_hyp", [x, data, par], [c]), 3)
 
 
-def torsal_angle_sx(a_u, a_v, e_u, e_v, e, cos2, sin2):
-    """Smooth form of "the torsal directions enclose an angle >= alpha" (c_ang).
+def plane_metric_sx(a_u, a_v, e):
+    """``(E, G12, G)``: the face metric of ``a_u``, ``a_v`` seen along the line ``e``.
 
-    Wang et al. 2013, 4.1 names c_ang but does not print it. Derivation: the torsal
-    directions are the null directions ``(u, v)`` of the quadratic form of eq. (1),
-    ``S = [[g0, g1], [g1, g2]]``, mapped to 3D as ``u a_u + v a_v``; the face metric is
-    ``M = [[E, G12], [G12, G]]`` (``E = <a_u, a_u>``, ``G12 = <a_u, a_v>``, ``G = <a_v, a_v>``).
+    The two torsal planes share the line, so the angle at which they cross is the angle
+    between the torsal directions projected orthogonally to ``e`` ("transversality of torsal
+    planes", Wang et al. 2013, 4.1): ``x -> x - <x, e> e / <e, e>``. The projected metric is
+    ``M - w w^T / <e, e>`` with ``w = (<a_u, e>, <a_v, e>)``; rational, so smooth for ``e != 0``.
+    """
+    ee = ca.dot(e, e)
+    wu, wv = ca.dot(a_u, e), ca.dot(a_v, e)
+    return (ca.dot(a_u, a_u) - wu * wu / ee, ca.dot(a_u, a_v) - wu * wv / ee,
+            ca.dot(a_v, a_v) - wv * wv / ee)
+
+
+def torsal_angle_sx(a_u, a_v, e_u, e_v, e, cos2, sin2):
+    """Smooth form of "the torsal planes cross at an angle >= alpha" (c_ang).
+
+    Wang et al. 2013, 4.1 names c_ang ("transversality of torsal planes") but does not print
+    it. Derivation: the torsal directions are the null directions ``(u, v)`` of the quadratic
+    form of eq. (1), ``S = [[g0, g1], [g1, g2]]``, mapped to 3D as ``u a_u + v a_v``; the
+    planes they span with the line ``e`` cross at the angle between these directions projected
+    orthogonally to ``e``, measured by the metric ``M = [[E, G12], [G12, G]]`` of
+    :func:`plane_metric_sx` (the face metric seen along the line; the angle in the face itself
+    can stay large while the planes, and the fins in them, nearly coincide).
     In coordinates orthonormal for ``M`` the form has matrix ``S' = R^-T S R^-1`` with
     eigenvalues ``m1 > 0 > m2`` (hyperbolic case); its null lines make angles ``+-phi``
     with the first eigenvector, ``tan^2 phi = -m1/m2``, so the angle between them obeys::
@@ -468,14 +486,14 @@ def torsal_angle_sx(a_u, a_v, e_u, e_v, e, cos2, sin2):
     ``c_ang >= 0`` implies ``c_hyp >= 0``. A line bundle (all ``g = 0``) gives ``c_ang = 0``.
     """
     g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
-    E, G12, G = ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+    E, G12, G = plane_metric_sx(a_u, a_v, e)
     det_m = E * G - G12 * G12
     t = g0 * G - 2.0 * g1 * G12 + g2 * E
     return 4.0 * (g1 * g1 - g0 * g2) * det_m * cos2 - t * t * sin2
 
 
 def torsal_angle_element(delta: float) -> ElementTerm:
-    """c_ang(face) / delta^6 >= 0: torsal directions at least ``alpha`` apart (see
+    """c_ang(face) / delta^6 >= 0: torsal planes crossing at least ``alpha`` (see
     :func:`torsal_angle_sx` for the derivation). ``par = [cos^2 alpha, sin^2 alpha]``.
     ``c_ang`` scales like ``delta^6 (delta kappa)^2``; dividing by ``delta^6`` makes it
     dimensionless.
@@ -496,7 +514,7 @@ def torsal_angle_element(delta: float) -> ElementTerm:
 
 
 def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
-    """``(p, rho^2)`` of the torsal form in coordinates orthonormal for the face metric.
+    """``(p, rho^2)`` of the torsal form in coordinates orthonormal for the face metric seen along the line.
 
     With ``S = [[g0, g1], [g1, g2]]`` (eq. (1)) and the metric ``M`` of :func:`torsal_angle_sx`,
     ``S' = M^-1/2 S M^-1/2`` has eigenvalues ``m1 >= m2``; ``p = (m1 + m2) / 2 = T / (2 det M)``
@@ -506,7 +524,7 @@ def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
     the acute angle ``theta`` with ``cos theta = |p| / rho``. A line bundle has ``p = rho = 0``.
     """
     g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
-    E, G12, G = ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+    E, G12, G = plane_metric_sx(a_u, a_v, e)
     det_m = E * G - G12 * G12
     t = g0 * G - 2.0 * g1 * G12 + g2 * E
     p = t / (2.0 * det_m)
@@ -517,7 +535,7 @@ def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
 def torsal_angle_cone_element(delta: float) -> ElementTerm:
     """c_ang as a cone with a strength floor: ``cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0``.
 
-    The regular form of "torsal directions at least ``alpha`` apart" (Wang et al. 2013, 4.1)
+    The regular form of "torsal planes crossing at least ``alpha``" (Wang et al. 2013, 4.1)
     that :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` imposes;
     ``p``, ``rho`` from :func:`torsal_form_invariants_sx` with ``a`` in units of ``delta`` (so
     ``rho`` is the difference of the torsal form's eigenvalues per edge length, radians per
