@@ -324,7 +324,9 @@ class ConstraintsSpec(_Spec):
         "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
     solver: Solver = Field(Solver.AUTO, description="the congruence optimizer: auto (the augmented "
                            "Lagrangian for a design with min_torsal_angle or another bound that binds, IPOPT "
-                           "where hyperbolic is the only inequality or there is none), alm, "
+                           "where hyperbolic is the only inequality or there is none, the "
+                           "augmented Lagrangian continuing where IPOPT's pass without the "
+                           "inequalities misses hyperbolicity), alm, "
                            "ipopt (the solver of record) or lbfgs (the paper's baseline); report.json "
                            "says which one produced the design")
     certify: bool = Field(False, description="IPOPT certifies the augmented Lagrangian's answer as a "
