@@ -22,7 +22,8 @@ of it, if it folds there) by ``clearance/2`` and a bracket joins them. Panels me
 sharper than ``max_fold_angle`` are split into separate parts: the later part is butt-trimmed
 against the square end of the earlier one, with a bracket. Strips with more than
 ``max_panels`` panels, longer than ``max_part_length`` along their ``a`` and ``b`` edges, or
-whose unrolled outline does not fit ``fit_sheet`` (halved until it does) are split too;
+whose unrolled outline does not fit ``fit_sheet`` (cut into the longest runs that fit) are
+split too;
 closed strips are always cut into at least two parts. Those splits meet on the bisector plane
 of the fold (mitred) with a splice plate, or, at a crossing, are butted against the crossing
 plate. Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
@@ -153,8 +154,9 @@ class FinSystem:
         Split strips into parts of at most this many panels.
     fit_sheet : (width, height) or None
         Sheet size (``unit``, default 2500 x 1250 mm): a part whose unrolled outline does not fit
-        the sheet (less ``fit_margin`` all round) in any orientation is halved until it does (a
-        single panel that is still too large is left for :meth:`layout` to report). Pass the
+        the sheet (less ``fit_margin`` all round) in any orientation is cut into the longest
+        runs that do (a single panel that is still too large is left for :meth:`layout` to
+        report). Pass the
         sheet you will nest on; ``None`` keeps whole strips.
     model_unit, unit : str
         One of ``mm, cm, m, in, ft``; the structure is scaled by ``model_unit -> unit``.
