@@ -43,6 +43,7 @@ class InvalidSolidError(TorsalError, RuntimeError):
 
     def __init__(self, parts: list[str], detail: str = ""):
         self.parts = parts
+        self.detail = detail
         super().__init__(f"invalid solid for part(s) {', '.join(parts)}" + (f": {detail}" if detail else "")
                          + (self.ADVICE if type(self) is InvalidSolidError else ""))
 
@@ -646,8 +647,8 @@ def _build_one(part: Part, thickness: float, repair: bool):
         return "ok", _part_shape(part, thickness, repair=repair), ""
     except SlotCutError as e:
         return "unslotted", e.plate, (e.nodes, str(e))
-    except InvalidSolidError as e:
-        return "bad", None, str(e)
+    except InvalidSolidError as e:       # the detail only: the caller names the parts and advises
+        return "bad", None, f"{part.name}: {e.detail}" if e.detail else part.name
     except Exception as e:  # OpenCascade errors: report by part id
         return "bad", None, f"{part.name}: {type(e).__name__}: {e}"
 

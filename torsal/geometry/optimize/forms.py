@@ -87,8 +87,8 @@ def torsal_form_coordinates_element() -> T.ElementTerm:
     >>> e = np.array([0, 0, 1, 0.1, 0, 1, 0, -0.1, 1.0])   # torsal directions at 90 deg
     >>> fn = torsal_form_coordinates_element().fn
     >>> u, v, w = (float(fn(e, a, [0.7, 1e-3] + list(k))) for k in np.eye(3))
-    >>> round(float(abs(u) / np.hypot(v, w)), 6)            # cos of the torsal angle
-    0.0
+    >>> round(float(np.degrees(np.arccos(abs(u) / np.hypot(v, w)))), 2)  # the planes' angle
+    89.94
     """
     x, data, par = T.face_symbols(3, n_par=5)
     a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
