@@ -165,6 +165,7 @@ def run_congruence(inp: StageInputs) -> dict:
         c2 = r.congruences[1]
         extra = {"substructure_vertices": np.asarray(c2.vertices),
                  "substructure_directions": np.asarray(c2.directions)}
+    plane_angle = c.torsal_plane_angle()     # the angle the constraint bounds: the fins' crossing
     return {
         **extra,
         "directions": np.asarray(c.directions),
@@ -192,9 +193,8 @@ def run_congruence(inp: StageInputs) -> dict:
             "working_set": None if r.working_set is None
             else {k: int(len(x)) for k, x in r.working_set.items()},
             "min_hyperbolicity": float(np.nanmin(c.hyperbolicity())),
-            # the angle the constraint bounds: torsal planes, the fins of the two families
-            "min_torsal_angle_deg": float(np.nanmin(c.torsal_plane_angle()))
-            if np.isfinite(c.torsal_plane_angle()).any() else None,
+            "min_torsal_angle_deg": float(np.nanmin(plane_angle))
+            if np.isfinite(plane_angle).any() else None,
             "hyperbolic_share": float(c.is_hyperbolic().mean()),
             # measured on the geometry, not the NLP: each constraint's bound, worst value and
             # the faces (vertices) that miss it by more than its tolerance
