@@ -216,9 +216,9 @@ class StripCutter:
         from its start, each part is the longest run that fits, ending at the last node line
         before that which is not in ``avoid`` (where there is one).
 
-        Why the longest run and not halves: a strip a little longer than a sheet halved gives
-        two parts just over half a sheet long, of which no three fit a sheet's length (7a: 134
-        of 172 plates; 44 sheets at best with the rows nester). Filled to the sheet's length,
+        Why the longest run and not halves: halving left 134 of 7a's 172 plates just over half
+        a sheet long, and rows of such halves leave a strip of every sheet empty (44 sheets at
+        best with the rows nester). Filled to the sheet's length,
         the parts pack to 38 sheets (80 %) and the short rests fill the gaps. A subrun of a run
         that fits also fits, so the longest run is found by bisection."""
         fs = self.fs
