@@ -30,7 +30,7 @@ from .model import Part, SlotSide
 from .unroll import unroll
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SINGLE_BOX_FOLD",
-           "MESH_TOLERANCE"]
+           "SLOT_CUT_FUZZY", "MESH_TOLERANCE"]
 
 
 class InvalidSolidError(TorsalError, RuntimeError):
@@ -221,6 +221,10 @@ def _solids_of(shape) -> list:
 #: degrees: a slot on a fold flatter than this is cut with one box on the fold's bisector plane
 #: (two nearly coplanar boxes make OpenCascade's boolean leave slivers or split the plate)
 SINGLE_BOX_FOLD = 20.0
+
+#: fraction of the plate thickness: OpenCascade's fuzzy tolerance for the second try of a slot
+#: cut whose exact boolean failed (see :func:`_slotted`)
+SLOT_CUT_FUZZY = 0.005
 
 
 def slot_boxes(part: Part, thickness: float) -> list:
@@ -508,39 +512,54 @@ def _part_shape(part: Part, thickness: float, *, repair: bool = True, planar_tol
 def _slotted(plate, part: Part, thickness: float, plate_volume: float, repair: bool):
     """The plate (OCC solid of ``plate_volume``) with the part's slots cut, checked: valid,
     a plausible volume, about slot area x thickness removed, every slot open and the web
-    beyond it kept. SlotCutError (``plate`` not set) otherwise."""
+    beyond it kept. SlotCutError (``plate`` not set) otherwise.
+
+    The cut is tried exactly first, then with OpenCascade's fuzzy tolerance of
+    :data:`SLOT_CUT_FUZZY` x thickness: on thin plates met obliquely the exact boolean can
+    return an empty shape (example 7c's F1-S014-P00, 3 mm, volume 0) where the fuzzy one
+    cuts the slot (0.015 mm, far below any cutting process's kerf)."""
     nodes = sorted({s.node for s in part.slots})
-    try:
-        solid = _cut(plate, slot_boxes(part, thickness))
-        pieces = _solids_of(solid)
-        if not pieces:
-            raise ValueError("the boolean cut returned nothing")
-        solid = pieces[0] if len(pieces) == 1 else _main_piece(part, thickness, plate_volume, pieces)
-        solid = _valid(solid, repair)
-        if solid is None:
-            raise ValueError("BRepCheck failed after ShapeFix")
-        volume = _volume(solid)
-        if not 0.5 * plate_volume < volume <= plate_volume * (1 + 1e-9):
-            raise ValueError(f"volume {volume:.6g} after cutting slots is implausible for a "
-                             f"plate of {plate_volume:.6g}")
-        # every slot is open where it should be and the web beyond it is kept (on folds the
-        # boxes in both panel planes take a little more than slot area x thickness)
-        removed = _slot_record_area(part) * thickness
-        if not 0.3 * removed <= plate_volume - volume <= 3.0 * removed + 1e-6 * plate_volume:
-            raise ValueError(f"the slots removed {plate_volume - volume:.6g} instead of about "
-                             f"{removed:.6g} (slot area x thickness)")
-        _check_slots(solid, part)
-    except InvalidSolidError as e:
-        raise SlotCutError([part.name], str(e), nodes=nodes) from None
-    except Exception as e:     # OpenCascade failures
-        raise SlotCutError([part.name], f"cutting the slots at nodes {nodes} failed: "
-                           f"{type(e).__name__}: {e}", nodes=nodes) from None
+    for fuzzy in (0.0, SLOT_CUT_FUZZY * thickness):
+        try:
+            return _slotted_once(plate, part, thickness, plate_volume, repair, fuzzy)
+        except InvalidSolidError as e:
+            failure = SlotCutError([part.name], str(e), nodes=nodes)
+        except Exception as e:     # OpenCascade failures
+            failure = SlotCutError([part.name], f"cutting the slots at nodes {nodes} failed: "
+                                   f"{type(e).__name__}: {e}", nodes=nodes)
+    raise failure
+
+
+def _slotted_once(plate, part: Part, thickness: float, plate_volume: float, repair: bool,
+                  fuzzy: float):
+    """One try of :func:`_slotted` with the boolean's ``fuzzy`` tolerance (``unit``); raises
+    on a failed or implausible cut."""
+    solid = _cut(plate, slot_boxes(part, thickness), fuzzy=fuzzy)
+    pieces = _solids_of(solid)
+    if not pieces:
+        raise ValueError("the boolean cut returned nothing")
+    solid = pieces[0] if len(pieces) == 1 else _main_piece(part, thickness, plate_volume, pieces)
+    solid = _valid(solid, repair)
+    if solid is None:
+        raise ValueError("BRepCheck failed after ShapeFix")
+    volume = _volume(solid)
+    if not 0.5 * plate_volume < volume <= plate_volume * (1 + 1e-9):
+        raise ValueError(f"volume {volume:.6g} after cutting slots is implausible for a "
+                         f"plate of {plate_volume:.6g}")
+    # every slot is open where it should be and the web beyond it is kept (on folds the
+    # boxes in both panel planes take a little more than slot area x thickness)
+    removed = _slot_record_area(part) * thickness
+    if not 0.3 * removed <= plate_volume - volume <= 3.0 * removed + 1e-6 * plate_volume:
+        raise ValueError(f"the slots removed {plate_volume - volume:.6g} instead of about "
+                         f"{removed:.6g} (slot area x thickness)")
+    _check_slots(solid, part)
     return solid
 
 
-def _cut(shape, tools: list):
+def _cut(shape, tools: list, *, fuzzy: float = 0.0):
     """``shape`` minus the ``tools`` (OCC boolean cut, then coplanar faces merged), as
-    build123d's ``Shape.cut`` does it."""
+    build123d's ``Shape.cut`` does it; ``fuzzy``: OpenCascade's fuzzy tolerance (``unit``,
+    0: exact)."""
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
     from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
     from OCP.collections import List_TopoDS_Shape
@@ -557,6 +576,8 @@ def _cut(shape, tools: list):
     op.SetRunParallel(False)
     op.SetUseOBB(True)          # oriented boxes: fewer face pairs intersected, same result
     op.SetToFillHistory(False)  # which face came from which is never asked
+    if fuzzy > 0:
+        op.SetFuzzyValue(fuzzy)
     op.Build()
     if not op.IsDone():
         raise ValueError("the boolean cut failed")
