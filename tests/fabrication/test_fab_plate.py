@@ -95,18 +95,9 @@ def test_corners_closer_than_the_sewing_tolerance_are_sewn():
     assert abs(solids._volume(shape)) == pytest.approx(0.5 * 120 * 80 * t, rel=1e-6)
 
 
-def test_slot_in_a_thin_oblique_plate_is_cut():
-    """Example 7c's F1-S014-P00 (3 mm, two panels met obliquely by a 5.2 mm slot 199 mm deep):
-    OpenCascade's exact boolean returned an empty shape and the part was modelled without its
-    slot, so the assembly check found it blocked by its egg-crate partner. The fuzzy retry
-    (``SLOT_CUT_FUZZY``) cuts it: the slot is open, measured independently with a point
-    classifier at the slot's middle, and slot area x thickness is removed."""
-    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
-    from OCP.gp import gp_Pnt
-    from OCP.TopAbs import TopAbs_IN, TopAbs_OUT
-
+def _oblique_slotted_part():
+    """Example 7c's F1-S014-P00 (3 mm; see the test below) and its slot's depth and width."""
     from torsal.fabrication.model import Slot, SlotSide
-    from torsal.fabrication.plates import _part_shape
 
     panels = np.array([[[-5999.83052476, 13.31229996, 3477.24277357],
                         [-5864.20972631, -26.21847629, 3547.10035039],
@@ -119,10 +110,27 @@ def test_slot_in_a_thin_oblique_plate_is_cut():
     miters = np.array([[0.50824604, 0.47565775, -0.71793849],
                        [0.49272643, 0.43513779, -0.75577099],
                        [0.55841155, 0.42875937, -0.71946299]])
-    depth, width, t = 199.3660994649929, 5.163270815622281, 3.0
+    depth, width = 199.3660994649929, 5.163270815622281
     part = Part(PartId(1, 14, 0), panels, np.array([6, 205, 208]), np.array([466, 270]),
                 slots=[Slot(node=205, position=1, side=SlotSide.B, depth=depth, width=width,
                             partner="F0-S001-P00")], miters=miters)
+    return part, depth, width
+
+
+def test_slot_in_a_thin_oblique_plate_is_cut():
+    """Example 7c's F1-S014-P00 (3 mm, two panels met obliquely by a 5.2 mm slot 199 mm deep):
+    OpenCascade's exact boolean returned an empty shape and the part was modelled without its
+    slot, so the assembly check found it blocked by its egg-crate partner. The fuzzy retry
+    (``SLOT_CUT_FUZZY``) cuts it: the slot is open, measured independently with a point
+    classifier at the slot's middle, and slot area x thickness is removed."""
+    from OCP.BRepClass3d import BRepClass3d_SolidClassifier
+    from OCP.gp import gp_Pnt
+    from OCP.TopAbs import TopAbs_IN, TopAbs_OUT
+
+    from torsal.fabrication.plates import _part_shape
+
+    part, depth, width = _oblique_slotted_part()
+    panels, t = part.panels, 3.0
     shape = _part_shape(part, t)
     # the slot runs from the node line's B end (panels[0, 2]) towards its A end (panels[0, 1]),
     # centred on the node line: probe the mid-plane across the slot and along it
@@ -145,3 +153,26 @@ def test_slot_in_a_thin_oblique_plate_is_cut():
             assert state(along, 0.75 * width, panel) == TopAbs_IN     # and no wider
         # the web beyond the slot is kept
         assert state(depth + 0.5 * (length - depth), 0.4 * width, panel) == TopAbs_IN
+
+
+def test_oblique_slotted_plate_is_a_solid_brep_in_3dm(tmp_path):
+    """The fuzzy cut of that plate leaves a membrane of zero thickness (coincident faces of
+    opposite orientation) inside the OCC solid; fins.3dm drops it and writes the part as a
+    closed Brep (rhino3dm made none before: the part went into fins.3dm as a mesh). Re-read
+    from the file: a valid solid around the plate's panels."""
+    rhino3dm = pytest.importorskip("rhino3dm")
+    from torsal.fabrication.exports import brep_of
+    from torsal.fabrication.plates import _part_shape
+
+    part, _, _ = _oblique_slotted_part()
+    shape = _part_shape(part, 3.0)
+    model = rhino3dm.File3dm()
+    model.Objects.AddBrep(brep_of(shape, 0.15))
+    assert model.Write(str(tmp_path / "part.3dm"), 7)
+    brep = rhino3dm.File3dm.Read(str(tmp_path / "part.3dm")).Objects[0].Geometry
+    assert isinstance(brep, rhino3dm.Brep) and brep.IsSolid and brep.IsValid
+    # its vertices span the plate: its panels' box, widened by at most the thickness
+    v = np.array([[x.Location.X, x.Location.Y, x.Location.Z] for x in brep.Vertices])
+    pts = part.panels.reshape(-1, 3)
+    assert np.all(np.abs(v.min(axis=0) - pts.min(axis=0)) < 3.0)
+    assert np.all(np.abs(v.max(axis=0) - pts.max(axis=0)) < 3.0)

@@ -281,7 +281,10 @@ def brep_of(shape, tolerance: float):
 
 def _rhino_mesh(shape, tolerance: float, *, quads: bool = True):
     """The rhino3dm ``Mesh`` of an OCC solid's faces (:func:`brep_of`), welded: planar quads
-    as quads (with ``quads``), the rest as triangles."""
+    as quads (with ``quads``), the rest as triangles. Pairs of coincident triangles of
+    opposite orientation (a membrane of zero thickness inside the solid, which a fuzzy slot
+    cut can leave: :data:`~.plates.SLOT_CUT_FUZZY`) are dropped: they enclose no volume and
+    make the mesh non-manifold."""
     import rhino3dm
 
     faces = _face_triangles(shape, tolerance)
@@ -290,20 +293,38 @@ def _rhino_mesh(shape, tolerance: float, *, quads: bool = True):
     _, first, ids = np.unique(np.round(pts / (1e-9 * scale)).astype(np.int64), axis=0,
                               return_index=True, return_inverse=True)
     ids = ids.ravel()
+    offsets = np.cumsum([0] + [len(v) for v, _ in faces])
+    welded = [ids[o:o + len(v)][t] for o, (v, t) in zip(offsets, faces)]
+    membrane = _membrane(np.concatenate(welded) if welded else np.zeros((0, 3), int))
     mesh = rhino3dm.Mesh()
     for x in pts[first]:             # double precision (Add keeps single precision)
         mesh.Vertices.AddPoint3d(float(x[0]), float(x[1]), float(x[2]))
-    offset = 0
-    for v, t in faces:
-        g = ids[offset:offset + len(v)][t]           # the face's triangles, welded ids
-        offset += len(v)
-        quad = _quad(g) if quads and len(v) == 4 and len(t) == 2 else None
+    for (v, t), g in zip(faces, welded):
+        keep = [tuple(sorted(map(int, tri))) not in membrane for tri in g]
+        quad = _quad(g) if quads and len(v) == 4 and len(t) == 2 and all(keep) else None
         if quad is not None:
             mesh.Faces.AddFace(*map(int, quad))
         else:
-            for a, b, c in g:
-                mesh.Faces.AddFace(int(a), int(b), int(c))
+            for (a, b, c), k in zip(g, keep):
+                if k:
+                    mesh.Faces.AddFace(int(a), int(b), int(c))
     return mesh
+
+
+def _membrane(tris: np.ndarray) -> set:
+    """The vertex sets (sorted tuples) of triangles ``tris`` (n, 3) that occur twice with
+    opposite orientations."""
+    key = np.sort(tris, axis=1)
+    # the orientation: the parity of the vertices' inversions (a cyclic turn keeps it)
+    a, b, c = np.asarray(tris).T
+    parity = ((a > b).astype(int) + (a > c) + (b > c)) % 2
+    seen: dict = {}
+    out = set()
+    for k, par in zip(map(tuple, key.tolist()), parity.tolist()):
+        if k in seen and seen[k] != par:
+            out.add(k)
+        seen.setdefault(k, par)
+    return out
 
 
 def _quad(tris: np.ndarray):
