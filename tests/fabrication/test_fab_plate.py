@@ -176,3 +176,41 @@ def test_oblique_slotted_plate_is_a_solid_brep_in_3dm(tmp_path):
     pts = part.panels.reshape(-1, 3)
     assert np.all(np.abs(v.min(axis=0) - pts.min(axis=0)) < 3.0)
     assert np.all(np.abs(v.max(axis=0) - pts.max(axis=0)) < 3.0)
+
+
+_FORKED_SHAPE = None
+
+
+def _triangles_in_child(q):
+    from torsal.fabrication.assembly.occ import _boundary_triangles
+    q.put(len(_boundary_triangles(_FORKED_SHAPE)))
+
+
+def test_forked_assembly_worker_meshes_after_a_threaded_mesh_in_the_parent():
+    """The assembly check's forked workers triangulate solids whose mesh is incomplete (the
+    oblique slotted plate above: its membrane faces do not mesh at the check's deflection).
+    After the parent has meshed in parallel (the 3DM export does), OpenCascade's thread
+    pool has no threads in the child: a parallel mesh there waited for ever (7c's assembly
+    stage hung). The workers mesh serially; the child ends with the plate's triangles."""
+    import multiprocessing
+
+    from build123d import Box, Cylinder
+
+    from torsal.fabrication.plates import _mesh, _part_shape
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork on this platform: the assembly check runs its jobs in-process")
+    global _FORKED_SHAPE
+    part, _, _ = _oblique_slotted_part()
+    _FORKED_SHAPE = _part_shape(part, 3.0)
+    _mesh((Box(5, 5, 5) - Cylinder(1, 20)).wrapped, 0.01)       # the parent's thread pool
+    ctx = multiprocessing.get_context("fork")
+    q = ctx.Queue()
+    child = ctx.Process(target=_triangles_in_child, args=(q,))
+    child.start()
+    child.join(60)
+    hung = child.is_alive()
+    if hung:
+        child.kill()
+    assert not hung
+    assert q.get(timeout=5) > 20

@@ -674,17 +674,19 @@ def _build_one(part: Part, thickness: float, repair: bool):
         return "bad", None, f"{part.name}: {type(e).__name__}: {e}"
 
 
-def _face_triangles(shape, tolerance: float, angular_tolerance: float = 0.1) -> list:
+def _face_triangles(shape, tolerance: float, angular_tolerance: float = 0.1, *,
+                    threads: bool = True) -> list:
     """``[(vertices (k, 3), triangles (m, 3) into them)]`` per face of an OCC shape, meshed as
     build123d's ``Shape.tessellate`` does (BRepMesh to ``tolerance``, faces in explorer
-    order, reversed faces' triangles turned round, so every triangle faces out)."""
+    order, reversed faces' triangles turned round, so every triangle faces out).
+    ``threads=False`` in forked processes (see :func:`_mesh`)."""
     from OCP.BRep import BRep_Tool
     from OCP.TopAbs import TopAbs_FACE, TopAbs_REVERSED
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopLoc import TopLoc_Location
     from OCP.TopoDS import TopoDS
 
-    _mesh(shape, tolerance, angular_tolerance)
+    _mesh(shape, tolerance, angular_tolerance, threads=threads)
     faces, exp = {}, TopExp_Explorer(shape, TopAbs_FACE)
     while exp.More():                        # each face once, in the order first met
         faces[hash(exp.Current())] = exp.Current()
@@ -706,10 +708,10 @@ def _face_triangles(shape, tolerance: float, angular_tolerance: float = 0.1) -> 
     return out
 
 
-def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1):
+def _triangles(shape, tolerance: float, angular_tolerance: float = 0.1, *, threads: bool = True):
     """Vertices (n, 3) and triangles (m, 3) of an OCC shape: its faces' triangles
     (:func:`_face_triangles`) in one array, vertices not shared between faces."""
-    faces = _face_triangles(shape, tolerance, angular_tolerance)
+    faces = _face_triangles(shape, tolerance, angular_tolerance, threads=threads)
     if not faces:
         return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
     offsets = np.cumsum([0] + [len(v) for v, _ in faces[:-1]])
@@ -723,7 +725,11 @@ MESH_TOLERANCE = 0.05
 
 def _mesh(shape, tolerance: float, angular_tolerance: float = 0.1, *, threads: bool = True) -> None:
     """Mesh an OCC shape (BRepMesh, deflection relative to the edge size; ``threads``: one per
-    face in parallel, the same triangles) unless it has a triangulation that fine."""
+    face in parallel, the same triangles) unless it has a triangulation that fine.
+
+    A forked process must pass ``threads=False``: OpenCascade's thread pool, once started
+    in the parent (e.g. by the 3DM export), has no threads in the child, and a parallel mesh
+    there waits for them for ever (7c's assembly check hung so, 2026-11-26)."""
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
     from OCP.BRepTools import BRepTools
 

@@ -293,5 +293,5 @@ def _boundary_triangles(shape) -> np.ndarray:
 
     if not BRepTools.Triangulation_s(shape, 0.1):
         _mesh([shape], 1.0)           # serially (a check meshes its solids before any fork)
-    v, f = _triangles(shape, 0.1)
+    v, f = _triangles(shape, 0.1, threads=False)     # forked workers call this
     return v[f].reshape(-1, 3, 3)
