@@ -7,7 +7,10 @@ with the paper's Fig. 12 row (Wang et al. 2013). Times are wall-clock seconds on
 that ran this script.
 """
 import argparse
+import os
+import subprocess
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 
 from torsal.core.atomic import atomic_path, write_json
@@ -133,6 +136,19 @@ def _pad(line: str, bars: int) -> str:
     return "|" + "|".join(cells) + "|"
 
 
+def provenance(started: datetime, seconds: float, loads: list[float], keys: list[str]) -> str:
+    """The line under the table: when, on which commit, how long and at what load the rows
+    were measured (the times depend on all three)."""
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE, text=True,
+                                capture_output=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown commit"
+    return (f"Rows {', '.join(keys)} measured in one run of `examples/run_all.py`, "
+            f"{started:%Y-%m-%d %H:%M} UTC, commit {commit}, {seconds / 60:.0f} min, "
+            f"load average {min(loads):.0f} to {max(loads):.0f} on {os.cpu_count()} cores.")
+
+
 def _figure_key(key: str):
     """Figure order: 7a < 7b < ... < 9 < 10 < 11 < 13."""
     return int("".join(ch for ch in key if ch.isdigit())), key
@@ -150,15 +166,18 @@ def main():
              "min torsal angle, measured (deg) | interfering pairs | connectors (share of parts); fixings | "
              "fasteners | fin panels left out | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    started, t0, loads, keys = datetime.now(timezone.utc), time.perf_counter(), [os.getloadavg()[0]], []
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
         if args.only and key not in args.only:
             continue
+        keys.append(key)
         try:
             r, err = run(path, out), None
         except Exception as exc:  # report and go on with the other examples
             r, err = None, f"{type(exc).__name__}: {exc}".replace("|", "/")[:200]
         lines.append(row(key, r, err))
+        loads.append(os.getloadavg()[0])
         print(lines[-1], flush=True)
         if r is not None:
             write_json(out / path.stem / "timings.json", {"wall_s": r["wall_s"], "stage_s": r["stage_s"]})
@@ -170,10 +189,14 @@ def main():
         if args.only:  # keep the rows of the examples not re-run
             new = {ln.split("|")[1].strip(): ln for ln in lines[2:]}
             kept = [_pad(ln, lines[0].replace("\\|", "").count("|")) for ln in old.strip().splitlines()[2:]
-                    if ln.split("|")[1].strip() not in new]
+                    if ln.startswith("|") and ln.split("|")[1].strip() not in new]
             rows = sorted(kept + list(new.values()), key=lambda ln: _figure_key(ln.split("|")[1].strip()))
             lines = lines[:2] + rows
-        table = "\n".join(lines)
+        # the provenance lines of earlier runs are kept while a row they measured is kept
+        notes = [ln for ln in old.strip().splitlines() if ln.startswith("Rows ")
+                 and set(ln[5:].split(" measured")[0].split(", ")) - set(keys)] if args.only else []
+        notes.append(provenance(started, time.perf_counter() - t0, loads, keys))
+        table = "\n".join(lines) + "\n\n" + "\n".join(notes)
         with atomic_path(readme) as tmp:
             tmp.write_text(head + BEGIN + "\n" + table + "\n" + END + tail)
     print("\n".join(lines))
