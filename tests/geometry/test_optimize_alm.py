@@ -190,6 +190,30 @@ def test_newton_matrix_is_the_projected_hessian_plus_the_penalty_gauss_newton_pa
     np.testing.assert_allclose(sys_.jt(jnz, v), jac.T @ v, atol=1e-10)
 
 
+def test_the_projected_matrix_and_the_line_search_values_skip_what_they_do_not_need():
+    """The augmented Lagrangian's cheaper evaluations give the same numbers: the projected
+    Hessian without the constraints' element Hessians (left out of it) and the line search's
+    value-only function (objective and rows of a point)."""
+    c = Congruence.from_normals(facade_patch(nu=6, nv=5))
+    p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
+    p.build("alm")
+    b = p._built["tangent/alm"]
+    h = b.hess_lag
+    par = b.parameters(p._current(), tangent_frames(c.directions))
+    x = 0.01 * np.random.default_rng(2).standard_normal(b.n_var)
+    args = [x, par, np.array([float(b.n_vertices)]), np.linspace(-1.0, 1.0, b.n_g)]
+    h.constraint_curvature = False
+    full, without = h.pieces(args, constraints=True), h.pieces(args, constraints=False)
+    assert any(m is None for m in without[1]) and all(m is not None for m in full[1])
+    np.testing.assert_array_equal(h.combine(*without, True), h.combine(*full, True))
+    # the constraints' element Hessians (times their multipliers) are there in the full pieces
+    assert max(np.abs(m).max() for m, blk in zip(full[1], h.blocks) if blk.constraint) > 0
+    f, grad, g, jac = (np.asarray(v).ravel() for v in b.point(x, par))
+    fv, gv = (np.asarray(v).ravel() for v in b.value(x, par))
+    np.testing.assert_allclose(fv, f, rtol=1e-14)
+    np.testing.assert_allclose(gv, g, rtol=1e-14, atol=1e-14)
+
+
 def test_phr_terms_of_lower_and_upper_bounds():
     """The PHR term of l <= c <= u: its value and multiplier estimate against the formula
     rho/2 dist(c + lam/rho, [l, u])^2 - lam^2 / (2 rho)."""

@@ -407,6 +407,9 @@ class Built:
         #: everything of a point at once (the augmented Lagrangian's evaluation: one pass
         #: over the shared chart and gathers)
         self.point = ca.Function("nlp_point", [x_all, p], [f, grad, g, jac], ["x", "p"], ["f", "grad", "g", "jac"])
+        #: the objective and the constraint rows only (the augmented Lagrangian's line-search
+        #: trials: half the cost of a point)
+        self.value = ca.Function("nlp_value", [x_all, p], [f, g], ["x", "p"], ["f", "g"])
         symbols = [x_all, p, asm.lam_f, asm.lam_g]
         if asm.projected:
             self.hess_lag = ProjectedHessian("nlp_hess_l", symbols, hess, asm.blocks, self.n_var)
