@@ -529,8 +529,14 @@ class Built:
             lbx[lo + 1:lo + 3 * m:3], ubx[lo + 1:lo + 3 * m:3] = -1.0, 1.0
         return lbx, ubx
 
-    def evaluate(self, x: np.ndarray, p: np.ndarray):
-        """(energies, objective, c) at ``x`` without the elastic slacks and their penalty."""
+    def evaluate(self, x: np.ndarray, p: np.ndarray, rows: bool = True):
+        """(energies, objective, c) at ``x`` without the elastic slacks and their penalty.
+
+        ``rows=False``: the energies and the objective only (they do not depend on lifted
+        variables, which are then not fitted: the rows ``c`` of a lifted form are not valid)."""
+        x = np.asarray(x, dtype=float).ravel()
+        if not rows and x.size != self.n_var:
+            x = np.concatenate([x[:self.n_dir], np.zeros(self.n_lift + self.n_slack)])
         return self._evaluate(self.full(x, p), p)
 
     def full(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
