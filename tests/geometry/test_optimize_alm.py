@@ -157,6 +157,27 @@ def test_a_warm_resolve_takes_fewer_steps_than_a_cold_one():
     assert q.solve().counts["newton_steps"] < cold.counts["newton_steps"]
 
 
+def test_a_warm_resolve_of_a_lifted_design_takes_fewer_iterations_and_stays_feasible():
+    """A lifted min_torsal_angle (the design's choice for IPOPT, example 7d) is re-solved by
+    IPOPT from the last optimum and its multipliers: fewer iterations than a cold solve of the
+    changed problem, the same optimum, every face measured at the bound or above."""
+    c = Congruence.from_normals(facade_patch(nu=9, nv=9))
+    turned = np.array([[np.cos(0.05), -np.sin(0.05), 0], [np.sin(0.05), np.cos(0.05), 0], [0, 0, 1]]) @ SUN
+
+    def make(sun):
+        return (CongruenceProblem(c).normal().fair().perpendicular(sun, weight=10).closeness(weight=0.1)
+                .hyperbolic().min_torsal_angle(50, form="lift"))
+
+    p = make(SUN)
+    assert p.solve().solver == "ipopt"
+    p.perpendicular(turned, weight=10)
+    warm, cold = p.solve(), make(turned).solve()
+    assert warm.success and cold.success and warm.solver == "ipopt"
+    assert warm.iterations < cold.iterations
+    assert warm.objective == pytest.approx(cold.objective, rel=0.01)
+    assert np.nan_to_num(warm.congruence.torsal_plane_angle()).min() >= 50 - 0.1
+
+
 def test_results_do_not_depend_on_time():
     """Counts, not time, end a solve: two runs give the same answer bit for bit."""
     c = Congruence.from_normals(canopy(nu=6, nv=6))
@@ -188,6 +209,30 @@ def test_newton_matrix_is_the_projected_hessian_plus_the_penalty_gauss_newton_pa
     # J^T v
     v = np.arange(b.n_g, dtype=float)
     np.testing.assert_allclose(sys_.jt(jnz, v), jac.T @ v, atol=1e-10)
+
+
+def test_the_projected_matrix_and_the_line_search_values_skip_what_they_do_not_need():
+    """The augmented Lagrangian's cheaper evaluations give the same numbers: the projected
+    Hessian without the constraints' element Hessians (left out of it) and the line search's
+    value-only function (objective and rows of a point)."""
+    c = Congruence.from_normals(facade_patch(nu=6, nv=5))
+    p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
+    p.build("alm")
+    b = p._built["tangent/alm"]
+    h = b.hess_lag
+    par = b.parameters(p._current(), tangent_frames(c.directions))
+    x = 0.01 * np.random.default_rng(2).standard_normal(b.n_var)
+    args = [x, par, np.array([float(b.n_vertices)]), np.linspace(-1.0, 1.0, b.n_g)]
+    h.constraint_curvature = False
+    full, without = h.pieces(args, constraints=True), h.pieces(args, constraints=False)
+    assert any(m is None for m in without[1]) and all(m is not None for m in full[1])
+    np.testing.assert_array_equal(h.combine(*without, True), h.combine(*full, True))
+    # the constraints' element Hessians (times their multipliers) are there in the full pieces
+    assert max(np.abs(m).max() for m, blk in zip(full[1], h.blocks) if blk.constraint) > 0
+    f, grad, g, jac = (np.asarray(v).ravel() for v in b.point(x, par))
+    fv, gv = (np.asarray(v).ravel() for v in b.value(x, par))
+    np.testing.assert_allclose(fv, f, rtol=1e-14)
+    np.testing.assert_allclose(gv, g, rtol=1e-14, atol=1e-14)
 
 
 def test_phr_terms_of_lower_and_upper_bounds():

@@ -272,8 +272,8 @@ class AugmentedLagrangian:
             b.alm_cache = {}
         key = ("system", backend)
         if key not in b.alm_cache:
-            b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.point))
-        self.sys, self._pt = b.alm_cache[key]
+            b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.point), _Numeric(b.value))
+        self.sys, self._pt, self._val = b.alm_cache[key]
         b.hess_lag.mode = projection or PROJECTION
         b.hess_lag.project = True
         b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
@@ -304,7 +304,10 @@ class AugmentedLagrangian:
         exact Hessian is positive definite)."""
         x = np.zeros(self.b.n_var) if z is None else z
         h = self.b.hess_lag
-        rest, mats = h.pieces([x, self.p, np.array([self.sF]), mu_unscaled])
+        # the projected matrix leaves the constraints' curvature out (CONSTRAINT_CURVATURE): their
+        # element Hessians are evaluated only for the exact one
+        rest, mats = h.pieces([x, self.p, np.array([self.sF]), mu_unscaled],
+                              constraints=exact or h.constraint_curvature)
         return (h.combine(rest, mats, False) if exact else None), lambda: h.combine(rest, mats, True)
 
     # ------------------------------------------------------------------ the solve
@@ -363,9 +366,12 @@ class AugmentedLagrangian:
         alpha = 1.0
         for _ in range(30):
             self.counts["trials"] += 1
-            q = self._point(pt.z + alpha * d)
-            if np.isfinite(q.F) and q.F + _phr(s * q.g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
-                return alpha, q
+            # the objective and the rows only (half the cost of a point); the accepted one in full
+            z = pt.z + alpha * d
+            f, g = self._val(z, self.p)
+            F = float(f[0]) * self.sF
+            if np.isfinite(F) and F + _phr(s * g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
+                return alpha, self._point(z)
             alpha *= 0.5
         return None
 

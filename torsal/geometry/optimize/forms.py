@@ -26,6 +26,7 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
 """
 from __future__ import annotations
 
+import functools
 from enum import Enum
 
 import casadi as ca
@@ -72,6 +73,7 @@ def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
     return 0.5 * (s11 + s22), 0.5 * (s11 - s22), s12
 
 
+@functools.lru_cache(maxsize=None)
 def torsal_form_coordinates_element() -> T.ElementTerm:
     """One coordinate of the torsal form of a face, ``k . (u, v, w)`` (lifted form of c_ang).
 
@@ -97,6 +99,7 @@ def torsal_form_coordinates_element() -> T.ElementTerm:
     return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_lift", [x, data, par], [c]), 3)
 
 
+@functools.lru_cache(maxsize=None)
 def torsal_angle_split_element() -> T.ElementTerm:
     """One half of c_ang in split form: ``cos(alpha) sqrt(rho^2 + s^2) - s - sign * p >= 0``.
 

@@ -13,7 +13,7 @@ from typing import NamedTuple
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from .history import SolveMonitor
 from .nlp import Built, _bound_violation
@@ -161,7 +161,7 @@ class IpoptStrategy:
         # products) spin between calls: measured on row 7c, 26 s of system time per 28 s solve
         # with two threads, 3 s with one, same wall time on an idle machine; on a busy one
         # the spinning thread takes a core from other work
-        with threadpool_limits(limits=1, user_api="blas"):
+        with _one_blas_thread():
             r = s(**args)
         stats = s.stats()
         capped = self.monitor.capped
@@ -280,6 +280,19 @@ class IpoptStrategy:
 #: while waiting for a busy core. Measured on row 7c, 80 IPOPT iterations, load 11 on 2
 #: cores: 45.0 s wall with OpenBLAS's default (2 threads), 28.5 s with 1, same iterates.
 BLAS_THREADS = 1
+
+
+_CONTROLLER: ThreadpoolController | None = None
+
+
+def _one_blas_thread():
+    """A context with numpy's BLAS on one thread. The libraries are scanned once per process
+    (``threadpool_limits`` scans every loaded library at each call: 8 ms of a 7a re-solve's
+    50 ms of processor time)."""
+    global _CONTROLLER
+    if _CONTROLLER is None:
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=1, user_api="blas")
 
 
 def _limit_blas_threads() -> None:

@@ -407,6 +407,9 @@ class Built:
         #: everything of a point at once (the augmented Lagrangian's evaluation: one pass
         #: over the shared chart and gathers)
         self.point = ca.Function("nlp_point", [x_all, p], [f, grad, g, jac], ["x", "p"], ["f", "grad", "g", "jac"])
+        #: the objective and the constraint rows only (the augmented Lagrangian's line-search
+        #: trials: half the cost of a point)
+        self.value = ca.Function("nlp_value", [x_all, p], [f, g], ["x", "p"], ["f", "g"])
         symbols = [x_all, p, asm.lam_f, asm.lam_g]
         if asm.projected:
             self.hess_lag = ProjectedHessian("nlp_hess_l", symbols, hess, asm.blocks, self.n_var)
@@ -526,8 +529,14 @@ class Built:
             lbx[lo + 1:lo + 3 * m:3], ubx[lo + 1:lo + 3 * m:3] = -1.0, 1.0
         return lbx, ubx
 
-    def evaluate(self, x: np.ndarray, p: np.ndarray):
-        """(energies, objective, c) at ``x`` without the elastic slacks and their penalty."""
+    def evaluate(self, x: np.ndarray, p: np.ndarray, rows: bool = True):
+        """(energies, objective, c) at ``x`` without the elastic slacks and their penalty.
+
+        ``rows=False``: the energies and the objective only (they do not depend on lifted
+        variables, which are then not fitted: the rows ``c`` of a lifted form are not valid)."""
+        x = np.asarray(x, dtype=float).ravel()
+        if not rows and x.size != self.n_var:
+            x = np.concatenate([x[:self.n_dir], np.zeros(self.n_lift + self.n_slack)])
         return self._evaluate(self.full(x, p), p)
 
     def full(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:

@@ -823,15 +823,16 @@ class CongruenceProblem:
                 cur["penalty:" + k] = _unlifted(t)
         return cur
 
-    def _evaluate(self, e: np.ndarray):
+    def _evaluate(self, e: np.ndarray, rows: bool = True):
         """(energies dict, objective, g, built) at stacked directions ``e`` with the main NLP
-        (IPOPT's, or the augmented Lagrangian's when only that one is built: same values)."""
+        (IPOPT's, or the augmented Lagrangian's when only that one is built: same values);
+        ``rows=False``: ``g`` is not valid where the NLP has lifted variables (not fitted)."""
         b = self._built.get(self.normalize) or self._built.get(self._key("alm"))
         if b is None:
             self.build("ipopt")
             b = self._built[self.normalize]
         x, fr = b.pack(e)
-        ev, f, g = b.evaluate(x, b.parameters(self._current(), fr))
+        ev, f, g = b.evaluate(x, b.parameters(self._current(), fr), rows=rows)
         out = {k: float(v) for k, v in zip(b.energy_names, np.asarray(ev).ravel())}
         out["total"] = float(f)
         return out, float(f), np.asarray(g).ravel(), b
@@ -844,7 +845,7 @@ class CongruenceProblem:
         e = self._directions() if directions is None else np.asarray(directions, float).reshape(-1, 3)
         if e.size != self.n_var:
             raise ValueError(f"directions must have {self.n_var // 3} rows, got {e.size // 3}")
-        return self._evaluate(e)[0]
+        return self._evaluate(e, rows=False)[0]
 
 
     def _congruences(self, e: np.ndarray) -> list[Congruence]:

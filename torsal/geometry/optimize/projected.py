@@ -139,6 +139,8 @@ class ProjectedHessian(ca.Callback):
         ca.Callback.__init__(self)
         self.blocks = blocks
         self._pieces = ca.Function(name + "_pieces", symbols, [rest] + [b.values for b in blocks])
+        self._name, self._symbols, self._rest = name, symbols, rest
+        self._energy_only = None     # the pieces without the constraints' blocks (built on first use)
         self._in = [s.sparsity() for s in symbols]
         # global positions: the rest's nonzeros, then every block's full local upper triangle
         rs = rest.sparsity()
@@ -183,28 +185,52 @@ class ProjectedHessian(ca.Callback):
         """The output's sparsity (upper triangle, column-compressed)."""
         return self._out
 
-    def pieces(self, args: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
-        """The rest's nonzeros and every block's element matrices (m, n, n) at ``(x, p, lam_f, lam_g)``."""
+    def pieces(self, args: list[np.ndarray], constraints: bool = True
+               ) -> tuple[np.ndarray, list[np.ndarray | None]]:
+        """The rest's nonzeros and every block's element matrices (m, n, n) at ``(x, p, lam_f, lam_g)``.
+
+        ``constraints=False``: the constraints' blocks are not evaluated (None in their place;
+        the augmented Lagrangian's projected matrix leaves them out: on Fig. 12 row 9 they are
+        10,000 of the 17,400 element Hessians of a step).
+        """
+        if constraints or not any(b.constraint for b in self.blocks):
+            buffer, call, res, blocks = self._buffer, self._eval_pieces, self._res, self.blocks
+        else:
+            if self._energy_only is None:
+                keep_b = [b for b in self.blocks if not b.constraint]
+                fn = ca.Function(self._name + "_pieces_e", self._symbols, [self._rest] + [b.values for b in keep_b])
+                r = [np.zeros(self._res[0].size)] + [np.zeros((b.values.size2(), b.values.size1())) for b in keep_b]
+                buf, ev = fn.buffer()
+                for i, x in enumerate(r):
+                    buf.set_res(i, memoryview(x))
+                self._energy_only = (fn, buf, ev, r)
+            _, buffer, call, res = self._energy_only
+            it = iter(res[1:])
+            res = [res[0]] + [None if b.constraint else next(it) for b in self.blocks]
+            blocks = self.blocks
         # kept alive during the call (casadi holds raw pointers); an empty input has no buffer
         keep = [np.ascontiguousarray(a, dtype=float) if sp_.nnz() else _EMPTY for a, sp_ in zip(args, self._in)]
         for i, a in enumerate(keep):
-            self._buffer.set_arg(i, memoryview(a))
-        self._eval_pieces()
+            buffer.set_arg(i, memoryview(a))
+        call()
         mats = []
-        for b, v in zip(self.blocks, self._res[1:]):
+        for b, v in zip(blocks, res[1:]):
+            if v is None:
+                mats.append(None)
+                continue
             a = np.zeros((v.shape[0], b.n, b.n))     # v: (m, nh), element-major (casadi column-major)
             a[:, b.rows, b.cols] = v
             a[:, b.cols, b.rows] = v
             mats.append(a)
-        return self._res[0].copy(), mats
+        return res[0].copy(), mats
 
     def combine(self, rest: np.ndarray, mats: list[np.ndarray], project: bool) -> np.ndarray:
         """The output's nonzeros (in :attr:`sparsity` order) from :meth:`pieces`: the blocks
         projected (``project``) or summed as they are (the exact Hessian)."""
         vals = [rest]
         for blk, (iu, ju), a in zip(self.blocks, self._upper, mats):
-            if project and blk.constraint and not self.constraint_curvature:
-                vals.append(np.zeros(a.shape[0] * iu.size))
+            if a is None or (project and blk.constraint and not self.constraint_curvature):
+                vals.append(np.zeros(blk.ids.shape[0] * iu.size))
                 continue
             if project:
                 # elements whose matrix is zero (constraint rows without a multiplier) stay zero

@@ -253,7 +253,7 @@ class SolveCall:
             warm = lam_g0 is not None and lam_g0.size == b.n_g and b.n_g > 0
         if not resume and opts.initial is None:
             e0 = self._off_the_apex(e0)
-        before = problem._evaluate(e0)[0]
+        before = problem._evaluate(e0, rows=False)[0]
         x0, frames = b.pack(e0)
         p = b.parameters(problem._current(), frames)
         return Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p, resume=resume)
@@ -455,13 +455,13 @@ class SolveCall:
         from_iteration = None
         best = monitor.best
         if opts.keep_best and best is not None and (
-                not holds or (not ok and best.objective < problem._evaluate(e)[1])):
+                not holds or (not ok and best.objective < problem._evaluate(e, rows=False)[1])):
             # stopped early or ended infeasible: the best iterate that held every constraint
             e, from_iteration, lam_g, working = best.directions, best.iteration, None, None
             meas, holds, finite = problem.measure(e, **tols), True, True
             status += f"; returned the best feasible iterate (iteration {best.iteration})"
         if finite:
-            after, fval = problem._evaluate(e)[:2]
+            after, fval = problem._evaluate(e, rows=False)[:2]
         else:
             after, fval = {}, math.nan
             status += "; the solution contains NaN"
