@@ -95,7 +95,8 @@ from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
            "place_connector", "connector_variants", "corner_point", "fixing_panels", "corners",
-           "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind"]
+           "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind", "MIN_TRIM_SINE",
+           "BRACKET_TRIM_SINE"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -108,6 +109,17 @@ MAX_SLOT_SKEW = 2.0
 #: degrees: brackets are bent to corners between these angles (the bend is 180 - angle)
 MIN_BRACKET_ANGLE = 25.0
 MAX_BRACKET_ANGLE = 172.0
+#: sine of the least angle at which the edges of a butted end panel may meet the plate it is
+#: trimmed against (1.1 deg): each corner moves ``gap / sine`` along its edge, so an edge that
+#: runs nearly along the plate (a sheared panel whose edges run nearly along the node line, or
+#: plates crossing at a few degrees) is trimmed back by up to 50 times the gap (about 9 cm at
+#: 3 mm sheet); a panel shorter than twice its trim is still left out
+MIN_TRIM_SINE = 0.02
+#: below this sine (11.5 deg) a trimmed end is kept only where its bracket still fits on it
+#: (:meth:`torsal.fabrication.builder.ends.EndJoiner._butt`): the long trim may take away the
+#: panel the bracket's leg would lie on. Until 2026-11 no end was trimmed below it: example 9
+#: left 103 of its 867 panels out for it, the hypar canopy 19 of 178
+BRACKET_TRIM_SINE = 0.2
 
 
 class _Untrimmable(Exception):
@@ -402,12 +414,15 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2
     return quad[cc] + s_req * u
 
 
-def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float, h: float):
+def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float, h: float, *,
+              min_sine: float = MIN_TRIM_SINE):
     """Trim an end panel (``start``: its ``a_i b_i`` edge, else ``a_j b_j``) against a plate.
 
     ``panels`` are the plate's ``(n, v)`` at the node, ``pa`` a point of the node line. The end
-    cap is laid along the plate's mean plane. Returns ``(moved corners {index: point}, end
-    mitre vector, mean plate normal turned towards the part)``; raises :class:`_Untrimmable`.
+    cap is laid along the plate's mean plane. An edge meeting a panel of the plate at less than
+    ``asin(min_sine)`` cannot be trimmed (:data:`MIN_TRIM_SINE`). Returns ``(moved corners
+    {index: point}, end mitre vector, mean plate normal turned towards the part)``; raises
+    :class:`_Untrimmable`.
     """
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
     far = quad[[ja, jb]].mean(axis=0)
@@ -421,13 +436,13 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     if 1.0 - d * d < 0.04:
         # nearly parallel plates (< 11.5 deg): an end cap along the plate would be a long
         # sliver; cut the end square to the part instead and pull it back until it clears
-        m_end, min_cos = npan, 0.05
+        m_end = npan
     else:
         # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
-        m_end, min_cos = (npan - d * nbar) / (1.0 - d * d), 0.2
+        m_end = (npan - d * nbar) / (1.0 - d * d)
     line = quad[ib] - quad[ia]
     line = line / np.linalg.norm(line)
-    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_cos, line=line)
+    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_sine, line=line)
              for cc, oc in ((ia, ja), (ib, jb))}
     if not all(np.isfinite(x).all() for x in moved.values()):
         raise _Untrimmable("trim failed (non-finite)")
