@@ -175,11 +175,11 @@ class EndJoiner:
                                n_corners=2 if bridge else 1)
         if not placed and self._shallow(quad0, end == 0, panels, st.a[node], gap, h):
             # trimmed along the plate (an edge meets it at under 11.5 deg) and no bracket fits on
-            # what is left: not kept unfastened; as an end that cannot be trimmed, the joint
-            # changes there or the panel is left out in the next build
-            self._untrimmable(p, j, node, "it meets the plate at under "
-                              f"{np.degrees(np.arcsin(BRACKET_TRIM_SINE)):.1f} deg and no "
-                              "bracket fits on it once trimmed")
+            # what is left: not kept unfastened, left out as before (not the joint changed: the
+            # other family's ends would butt against this sheared panel, with no room either)
+            self._note_untrimmable(p, j, node, "it meets the plate at under "
+                                   f"{np.degrees(np.arcsin(BRACKET_TRIM_SINE)):.1f} deg and no "
+                                   "bracket fits on it once trimmed")
         return True
 
     def _continuation(self, p: Part, end: int, node: int, panels, k: int, st: "_Strips",
