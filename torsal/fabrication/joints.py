@@ -16,8 +16,10 @@ every node the joint is chosen from the real geometry of the plates there:
 * **Butt joint with a bracket** (:attr:`JointKind.BUTT_BRACKET`) everywhere else a part ends
   against a plate: at the boundary (T and L junctions, as before), where a strip must fold at a
   crossing or the plates cross too obliquely for a slot (the strip that folds more is split
-  there, the other stays continuous), and where a strip is split at a crossing for length or
-  sheet size. The end panel is trimmed back until its end face (along the continuous plate's
+  there, the other stays continuous), and where a family-1 strip is split at a crossing for
+  length or sheet size (a family-0 strip split at an egg-crate crossing stays in it: its two
+  parts meet on a mitred seam inside the family-1 plate's slot, each slotted at its end, and
+  the crossing holds both without a connector). The end panel is trimmed back until its end face (along the continuous plate's
   mean plane) clears both faces of that plate by ``clearance/2``; a bent bracket of the same
   sheet (:func:`bracket_panels`) sits in the corner between the two plates, one leg flat on
   each, and is a part of its own (``C-N<node>-<index>``: solid, cutting outline, parts-list
@@ -49,9 +51,10 @@ neighbouring fin of a rough congruence may stand in the way of a slide along the
 the part takes the first clear direction its joints allow, else the cheaper panel of the pair
 in the way is left out (rules in :mod:`.parts`).
 
-**End panels that cannot be trimmed are left out.** A part end meeting the plate it ends
-against within about 12 degrees (it lies along that plate and duplicates its fin) cannot be
-trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
+**End panels that cannot be trimmed are left out.** A part end whose edges meet the plate it
+ends against within :data:`MIN_TRIM_SINE` (1.1 degrees: it lies along that plate and
+duplicates its fin), or within :data:`BRACKET_TRIM_SINE` (11.5 degrees) where its bracket no
+longer fits on the trimmed panel, cannot be trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
 warned) and the strip ends one node earlier, joined there as usual. A part joined to nothing
 (no joint, no slot) whose panels pass through another part's is left out the same way: the
 structure runs through itself there.
@@ -95,7 +98,8 @@ from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
            "place_connector", "connector_variants", "corner_point", "fixing_panels", "corners",
-           "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind"]
+           "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind", "MIN_TRIM_SINE",
+           "BRACKET_TRIM_SINE"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -108,6 +112,17 @@ MAX_SLOT_SKEW = 2.0
 #: degrees: brackets are bent to corners between these angles (the bend is 180 - angle)
 MIN_BRACKET_ANGLE = 25.0
 MAX_BRACKET_ANGLE = 172.0
+#: sine of the least angle at which the edges of a butted end panel may meet the plate it is
+#: trimmed against (1.1 deg): each corner moves ``gap / sine`` along its edge, so an edge that
+#: runs nearly along the plate (a sheared panel whose edges run nearly along the node line, or
+#: plates crossing at a few degrees) is trimmed back by up to 50 times the gap (about 9 cm at
+#: 3 mm sheet); a panel shorter than twice its trim is still left out
+MIN_TRIM_SINE = 0.02
+#: below this sine (11.5 deg) a trimmed end is kept only where its bracket still fits on it
+#: (:meth:`torsal.fabrication.builder.ends.EndJoiner._butt`): the long trim may take away the
+#: panel the bracket's leg would lie on. Until 2026-11 no end was trimmed below it: example 9
+#: left 103 of its 867 panels out for it, the hypar canopy 19 of 178
+BRACKET_TRIM_SINE = 0.2
 
 
 class _Untrimmable(Exception):
@@ -402,12 +417,15 @@ def trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, *, min_cos: float = 0.2
     return quad[cc] + s_req * u
 
 
-def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float, h: float):
+def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float, h: float, *,
+              min_sine: float = MIN_TRIM_SINE):
     """Trim an end panel (``start``: its ``a_i b_i`` edge, else ``a_j b_j``) against a plate.
 
     ``panels`` are the plate's ``(n, v)`` at the node, ``pa`` a point of the node line. The end
-    cap is laid along the plate's mean plane. Returns ``(moved corners {index: point}, end
-    mitre vector, mean plate normal turned towards the part)``; raises :class:`_Untrimmable`.
+    cap is laid along the plate's mean plane. An edge meeting a panel of the plate at less than
+    ``asin(min_sine)`` cannot be trimmed (:data:`MIN_TRIM_SINE`). Returns ``(moved corners
+    {index: point}, end mitre vector, mean plate normal turned towards the part)``; raises
+    :class:`_Untrimmable`.
     """
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
     far = quad[[ja, jb]].mean(axis=0)
@@ -421,13 +439,13 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     if 1.0 - d * d < 0.04:
         # nearly parallel plates (< 11.5 deg): an end cap along the plate would be a long
         # sliver; cut the end square to the part instead and pull it back until it clears
-        m_end, min_cos = npan, 0.05
+        m_end = npan
     else:
         # end cap along the other plate's mean plane: m.n_panel = 1, m.nbar = 0
-        m_end, min_cos = (npan - d * nbar) / (1.0 - d * d), 0.2
+        m_end = (npan - d * nbar) / (1.0 - d * d)
     line = quad[ib] - quad[ia]
     line = line / np.linalg.norm(line)
-    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_cos, line=line)
+    moved = {cc: trim_corner(quad, cc, oc, panels, pa, m_end, gap, h, min_cos=min_sine, line=line)
              for cc, oc in ((ia, ja), (ib, jb))}
     if not all(np.isfinite(x).all() for x in moved.values()):
         raise _Untrimmable("trim failed (non-finite)")

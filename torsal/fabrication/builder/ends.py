@@ -12,8 +12,8 @@ import warnings
 
 import numpy as np
 
-from ..joints import (_Untrimmable, butt_trim, continues, corners, into_direction, mitre_trim,
-                      place_connector, seam_trim, trim_further)
+from ..joints import (BRACKET_TRIM_SINE, _Untrimmable, butt_trim, continues, corners,
+                      into_direction, mitre_trim, place_connector, seam_trim, trim_further)
 from ..model import (CONNECTOR_FAMILY, FAMILY_COLORS, Joint, JointKind, Part, PartId, _cross,
                      _fold_deg, _miter, quad_normals)
 from .strips import _Strips
@@ -84,7 +84,12 @@ class EndJoiner:
                     bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
                     b = base.get((fam, node))
                     swapped = fs._base_at.get(node) if fam in (0, 1) else None
-                    if swapped is not None:
+                    # a seam inside the other family's slot (FinSystem._seams_in_slots): the
+                    # crossing holds both ends, no bracket, no splice plate
+                    seamed = kind == "miter" and (fam, node) in getattr(fs, "_seam_crossings", ())
+                    if seamed:
+                        butted = False
+                    elif swapped is not None:
                         # the joint changed here (an end that could not be trimmed): the parts
                         # of the other family end against this family's plate, or this one's
                         # against the other's
@@ -102,7 +107,7 @@ class EndJoiner:
                         prev = self._previous(parts, p, st.quads[si])
                         trimmed[0] = self._fold_butt(p, prev, st.quads[si], node, gap, h,
                                                      bracket=not bridged)
-                    elif kind == "miter" and end == 0 and not bridged:
+                    elif kind == "miter" and end == 0 and not bridged and not seamed:
                         prev = self._previous(parts, p, st.quads[si])
                         if prev is not None:
                             self._splice(prev, p, node, g)
@@ -151,11 +156,7 @@ class EndJoiner:
                                      gap, h)
         except _Untrimmable as why:
             fs.untrimmed_joints.append((p.name, node, str(why)))
-            self._note_untrimmable(p, j, node, str(why))
-            si = getattr(fs, "_strip_of", {}).get(p.name)
-            if si is not None and p.family in (0, 1):
-                # the joint may change instead: the other family's parts butt against this one
-                fs._swappable[(si, p.span[0] + j)] = (node, p.family)
+            self._untrimmable(p, j, node, str(why))
             return False
         fs._ends_at.setdefault((p.family, node), []).append(
             (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
@@ -163,14 +164,22 @@ class EndJoiner:
         centre = quad.mean(axis=0) - st.a[node]
         fs._walls.setdefault(p.name, []).extend(
             n if centre @ n >= 0 else -n for n in [n for n, _, _ in panels] + [n for n, _ in others])
+        quad0 = quad.copy()
         for cc, x in moved.items():
             quad[cc] = x
         p.miters[0 if end == 0 else -1] = m_end
         cont = [(n, v, self._panel_quad(ref), self._host(ref)) for n, v, ref in panels]
         names = tuple(sorted({fs._where[ref][0].name for _, _, ref in panels}))
-        self._bracket(p, j, node, cont, names, st.a[node], st.b[node],
-                      insert=_slide(nbar, quad, st.a[node] - st.b[node]),
-                      n_corners=2 if bridge else 1)
+        placed = self._bracket(p, j, node, cont, names, st.a[node], st.b[node],
+                               insert=_slide(nbar, quad, st.a[node] - st.b[node]),
+                               n_corners=2 if bridge else 1)
+        if not placed and self._shallow(quad0, end == 0, panels, st.a[node], gap, h):
+            # trimmed along the plate (an edge meets it at under 11.5 deg) and no bracket fits on
+            # what is left: not kept unfastened, left out as before (not the joint changed: the
+            # other family's ends would butt against this sheared panel, with no room either)
+            self._note_untrimmable(p, j, node, "it meets the plate at under "
+                                   f"{np.degrees(np.arcsin(BRACKET_TRIM_SINE)):.1f} deg and no "
+                                   "bracket fits on it once trimmed")
         return True
 
     def _continuation(self, p: Part, end: int, node: int, panels, k: int, st: "_Strips",
@@ -293,6 +302,27 @@ class EndJoiner:
             for cc, x in moved.items():
                 quad[cc] = x
 
+    def _untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
+        """Panel ``j`` of ``p``, butted at ``node``, is left out in the next build, unless the
+        joint there changes instead (``_swappable``: the other family's parts then butt against
+        this plate)."""
+        fs = self.fs
+        self._note_untrimmable(p, j, node, why)
+        si = getattr(fs, "_strip_of", {}).get(p.name)
+        if si is not None and p.family in (0, 1):
+            fs._swappable[(si, p.span[0] + j)] = (node, p.family)
+
+    def _shallow(self, quad, start: bool, panels, pa, gap, h) -> bool:
+        """Whether the end of ``quad`` butted against ``panels`` could be trimmed only because
+        its edges may meet the plate at down to :data:`~.joints.MIN_TRIM_SINE`, not
+        :data:`~.joints.BRACKET_TRIM_SINE`."""
+        try:
+            self.fs._cached(butt_trim, quad, start, [(n, v) for n, v, _ in panels], pa, gap, h,
+                            min_sine=BRACKET_TRIM_SINE)
+        except _Untrimmable:
+            return True
+        return False
+
     def _note_untrimmable(self, p: Part, j: int, node: int, why: str) -> None:
         """Remember panel ``j`` of ``p`` (strip index, panel of the strip) to leave it out."""
         fs = self.fs
@@ -345,11 +375,11 @@ class EndJoiner:
         return True
 
     def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert,
-                 n_corners: int = 1) -> None:
+                 n_corners: int = 1) -> int:
         """Bent brackets in the most open corner(s) between panel ``j`` of the butted part ``p``
         and a panel ``(n, v, quad, (part name, panel))`` of the continuous plate ``cont``;
         records the joint(s), and for each bracket the other corners it may move to
-        (``_sites``)."""
+        (``_sites``). Returns the number of brackets placed."""
         fs = self.fs
         quad = p.panels[j]
         line = pb - pa
@@ -386,6 +416,7 @@ class EndJoiner:
         if not placed:
             self._record(JointKind.BUTT_BRACKET, node, names + (p.name,), insert, None, None,
                          picks[0][1] if picks else 90.0, p.name, why)
+        return placed
 
     def _splice(self, e: Part, p: Part, node: int, other) -> None:
         """A bent splice plate across the mitred seam between ``e`` (ending at ``node``) and
