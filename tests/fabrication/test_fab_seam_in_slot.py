@@ -18,7 +18,6 @@ from fab_structures import flat_structure
 from shapely.geometry import Polygon
 
 from torsal.fabrication import FinSystem, JointKind, verify_assembly
-from torsal.fabrication.model import _oriented_size
 
 T, C = 3.0, 0.5
 
@@ -75,28 +74,3 @@ def test_the_connectors_it_saves_on_the_parts_list(fs, monkeypatch):
     assert len(at7) >= 2
     assert len(before.connectors) - len(fs.connectors) >= len(at7)
     assert before.n_panels == fs.n_panels == 22
-
-
-def test_a_part_too_long_to_share_a_nesting_row_is_halved_where_the_cut_is_free():
-    # 8 x 3 grid, 0.1 m apart, on a 1000 x 500 mm sheet (980 mm usable): every row is one part
-    # 700 mm long, more than half the sheet (no other row shares its nesting row) and short
-    # of REST_SPLIT. The middle row crosses columns at egg-crates: cut in the slot of the
-    # crossing nearest its middle, no connector. The outer rows end against the columns'
-    # ends (T junctions, no slot): a cut would need a splice plate, they stay whole
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        fs = FinSystem(flat_structure(8, 3, step=0.1), thickness=T, clearance=C,
-                       fit_sheet=(1000.0, 500.0))
-    rows = sorted(p.name for p in fs.plates if p.family == 0)
-    assert rows == ["F0-S000-P00", "F0-S001-P00", "F0-S001-P01", "F0-S002-P00"]
-    left, right = fs.part("F0-S001-P00"), fs.part("F0-S001-P01")
-    assert (len(left.panels), len(right.panels)) in ((3, 4), (4, 3))
-    seam = int(left.nodes[-1])
-    [x] = [j for j in fs.joints if j.node == seam]
-    assert x.kind == JointKind.EGG_CRATE and x.connector is None
-    assert not [c for c in fs.connectors if c.id.strip == seam]
-    # the halves are under half the usable sheet long: two share a nesting row
-    for p in (left, right):
-        assert 250 < _oriented_size(fs.unrolled()[p.name].outline)[0] < 490
-    r = verify_assembly(fs, workers=1)
-    assert r.buildable and r.interfering_pairs == 0 and not r.blocked, r.problems()

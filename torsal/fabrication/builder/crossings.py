@@ -75,33 +75,14 @@ class CrossingSlotter:
             # along a - b), or the other way round where family 1 slides in along b - a
             side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
             for p, pos in l0:
-                p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], st.b[node]),
-                                    w0, "+".join(names1)))
+                p.slots.append(Slot(node, pos, side0, d0, w0, "+".join(names1)))
             for p, pos in l1:
-                p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], st.b[node]),
-                                    w1, "+".join(names0)))
+                p.slots.append(Slot(node, pos, side1, d1, w1, "+".join(names0)))
             w = max(w0, w1)
             fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
             fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                      direction, None, None, float(x.angle)))
-
-    @staticmethod
-    def _end_depth(p: Part, pos: int, side: SlotSide, depth: float, a: np.ndarray,
-                   b: np.ndarray) -> float:
-        """The depth of a slot of ``p`` at node line ``pos`` (node ``a -> b``) so that it ends
-        where the partner's begins: a slot at a part's end is measured from its trimmed end
-        edge, whose corner has moved along the ``a`` or ``b`` edge (a strip split inside the
-        slot, trimmed back from its seam), a few tenths of a millimetre along the node line
-        (on the hypar canopy that left 2-4 mm^3 of the two plates overlapping)."""
-        k = len(p.panels)
-        if 0 < pos < k:
-            return depth
-        corner = (p.panels[0, 3] if pos == 0 else p.panels[-1, 2]) if side == SlotSide.B else (
-            p.panels[0, 0] if pos == 0 else p.panels[-1, 1])
-        start, other = (b, a) if side == SlotSide.B else (a, b)
-        u = (other - start) / np.linalg.norm(other - start)
-        return float(depth - (corner - start) @ u)
 
     def _slide_plan(self, st: "_Strips", at_node) -> dict:
         """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
