@@ -16,10 +16,8 @@ every node the joint is chosen from the real geometry of the plates there:
 * **Butt joint with a bracket** (:attr:`JointKind.BUTT_BRACKET`) everywhere else a part ends
   against a plate: at the boundary (T and L junctions, as before), where a strip must fold at a
   crossing or the plates cross too obliquely for a slot (the strip that folds more is split
-  there, the other stays continuous), and where a family-1 strip is split at a crossing for
-  length or sheet size (a family-0 strip split at an egg-crate crossing stays in it: its two
-  parts meet on a mitred seam inside the family-1 plate's slot, each slotted at its end, and
-  the crossing holds both without a connector). The end panel is trimmed back until its end face (along the continuous plate's
+  there, the other stays continuous), and where a strip is split at a crossing for length or
+  sheet size. The end panel is trimmed back until its end face (along the continuous plate's
   mean plane) clears both faces of that plate by ``clearance/2``; a bent bracket of the same
   sheet (:func:`bracket_panels`) sits in the corner between the two plates, one leg flat on
   each, and is a part of its own (``C-N<node>-<index>``: solid, cutting outline, parts-list
@@ -51,10 +49,9 @@ neighbouring fin of a rough congruence may stand in the way of a slide along the
 the part takes the first clear direction its joints allow, else the cheaper panel of the pair
 in the way is left out (rules in :mod:`.parts`).
 
-**End panels that cannot be trimmed are left out.** A part end whose edges meet the plate it
-ends against within :data:`MIN_TRIM_SINE` (1.1 degrees: it lies along that plate and
-duplicates its fin), or within :data:`BRACKET_TRIM_SINE` (11.5 degrees) where its bracket no
-longer fits on the trimmed panel, cannot be trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
+**End panels that cannot be trimmed are left out.** A part end meeting the plate it ends
+against within about 12 degrees (it lies along that plate and duplicates its fin) cannot be
+trimmed clear of it: that end panel is left out (named in ``FinSystem.coplanar_panels``,
 warned) and the strip ends one node earlier, joined there as usual. A part joined to nothing
 (no joint, no slot) whose panels pass through another part's is left out the same way: the
 structure runs through itself there.

@@ -26,9 +26,7 @@ whose unrolled outline does not fit ``fit_sheet`` (cut into the longest runs tha
 split too;
 closed strips are always cut into at least two parts. Those splits meet on the bisector plane
 of the fold (mitred) with a splice plate, or, at a crossing, are butted against the crossing
-plate; a family-0 strip split at an egg-crate crossing meets there on its mitred seam inside
-the family-1 plate's slot, both parts slotted at their ends and held by it, without a
-connector (:meth:`FinSystem._seams_in_slots`). Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
+plate. Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
 :attr:`FinSystem.joints` lists every joint (:class:`~.model.Joint`).
 
 Every part goes in along one direction (:mod:`.joints`, "one insertion direction per part"):
@@ -283,9 +281,6 @@ class FinSystem:
         #: (strip index, node line of the strip) where a split for the sheet must not be: a
         #: mitred seam there could not be trimmed
         self._avoid_splits: set = set()
-        #: nodes where a family-1 strip split inside family 0's slot would close its seam while
-        #: sliding in (:meth:`CrossingSlotter._slide_plan`): butted there as before
-        self._seams_refused: set = set()
         #: node -> family whose plate the other family's parts end against there, where an end
         #: could not be trimmed the way the joinery first chose (the joint changed)
         self._base_at: dict[int, int] = {}
@@ -303,10 +298,7 @@ class FinSystem:
             # trimmed: build again
             moved = self._bad_seams - self._avoid_splits
             self._avoid_splits |= moved
-            refused = len(self._seams_refused)
-            self._seams_refused |= self._refuse_seams
-            changed = (bool(moved) or len(self._base_at) > swapped
-                       or len(self._seams_refused) > refused)
+            changed = bool(moved) or len(self._base_at) > swapped
             new.update({(si, i): rec for si, i, *rec in self._clashing_panels(leaving=set(new))})
             new_forced.update((v, why) for v, why in self._unslidable.items()
                               if v not in forced and v not in new_forced)
@@ -383,8 +375,6 @@ class FinSystem:
         self._bad_seams: set = set()
         #: crossings an egg-crate cannot join (node -> reason): butted in the next build
         self._unslidable: dict[int, str] = {}
-        #: family-1 seams inside a slot that cannot stay there (nodes): butted in the next build
-        self._refuse_seams: set = set()
         #: parts whose path into place is blocked: [(part, [(panel, plate, its panel, distance)])]
         self._blocked_paths: list = []
         #: part name -> [unit normal of a plate it butts against, turned towards the part]
@@ -541,7 +531,6 @@ class FinSystem:
                 for end in (0, 1):
                     if p.ends[end] in ("miter", "fold"):
                         cont[fam, int(p.nodes[-end])] = False
-        self._seam_crossings = self._seams_in_slots(st, part_of_strip, joinery, cont)
         EndJoiner(self)._join_ends(st, part_of_strip, plate, cont)
         CrossingSlotter(self)._slot_crossings(st, part_of_strip, joinery, cont)
         self.parts = ([p for parts in part_of_strip for p in parts]
@@ -560,32 +549,6 @@ class FinSystem:
         names = [p.name for p in self.parts]
         assert len(set(names)) == len(names)
         self._fin_depth = st.depth
-
-    def _seams_in_slots(self, st, part_of_strip, joinery, cont) -> set:
-        """``{(family, node)}``: where a strip is split on a mild fold (mitred, for its length
-        or the sheet) at an egg-crate crossing whose other plate passes through whole. Its two
-        parts meet on the mitred seam inside that plate's slot, each slotted at its end: the
-        crossing plate holds both ends (as ribs longer than a sheet are jointed at a notch in a
-        waffle structure), so the seam needs no splice plate and neither end a bracket (issue
-        27: 7a's splits had two brackets each, four where the other family had to be split
-        too to keep the parts from butting on each other in a cycle). A family-1 part slides
-        in along the mean axis of all its crossings: where that would close its seam's
-        clearance, the seam is refused (``_seams_refused``) and the split butted as before."""
-        out = set()
-        if self.family_split != FamilySplit.EGG_CRATE:
-            return out
-        for si, parts in enumerate(part_of_strip):
-            fam = st.fins[si].family
-            if fam not in (0, 1):
-                continue
-            for p in parts:
-                v = int(p.nodes[0])
-                x = joinery.get(v)
-                if (p.ends[0] == "miter" and x is not None and x.kind == JointKind.EGG_CRATE
-                        and cont[1 - fam, v] and v not in self._base_at
-                        and not (fam == 1 and v in self._seams_refused)):
-                    out.add((fam, v))
-        return out
 
     # ------------------------------------------------------------------ the phases' hooks
     def _drop_mask(self, quads: np.ndarray) -> np.ndarray:

@@ -34,15 +34,12 @@ class CrossingSlotter:
         fs = self.fs
         t, c = fs.thickness, fs.clearance
         at_node: dict[int, list[list[tuple[Part, int]]]] = {}
-        # a family split inside the other's slot is slotted at both its parts' ends
-        seams = getattr(fs, "_seam_crossings", set())
-        whole = cont | np.array([[(f, v) in seams for v in range(cont.shape[1])] for f in (0, 1)])
         for strip, parts in zip(st.fins, part_of_strip):
             for p in parts:
                 for pos, node in enumerate(p.nodes):
                     node = int(node)
                     x = joinery.get(node)
-                    if x is not None and x.kind == JointKind.EGG_CRATE and whole[0, node] and whole[1, node]:
+                    if x is not None and x.kind == JointKind.EGG_CRATE and cont[0, node] and cont[1, node]:
                         at_node.setdefault(node, [[], []])[strip.family].append((p, pos))
         fs._plan = self._slide_plan(st, at_node)
         for node in sorted(at_node):
@@ -55,15 +52,9 @@ class CrossingSlotter:
             d1 = d - d0
             # the family-1 plate slides along its own direction, a little off this node axis:
             # both slots are wider by the sideways travel over the fin depth, on either side
-            plans = [fs._plan[p.name] for p, _ in l1]
-            direction, sense = plans[0]
-            if len({s_ for _, s_ in plans}) > 1:
-                # the two parts of a family-1 strip split in this slot would slide in from
-                # opposite edges: one slot cannot take both; split it as before (next build)
-                fs._refuse_seams.add(node)
+            direction, sense = fs._plan[l1[0][0].name]
             ax = sense * (st.a[node] - st.b[node]) / d
-            # (the widest the slide of any of its family-1 parts needs)
-            skew = max(np.arctan2(np.linalg.norm(_cross(dd, ax)), dd @ ax) for dd, _ in plans)
+            skew = np.arctan2(np.linalg.norm(_cross(direction, ax)), direction @ ax)
             extra = 2.0 * d * np.tan(skew)
             w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
                             fold_other=x.folds[1]) + extra
@@ -75,33 +66,14 @@ class CrossingSlotter:
             # along a - b), or the other way round where family 1 slides in along b - a
             side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
             for p, pos in l0:
-                p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], st.b[node]),
-                                    w0, "+".join(names1)))
+                p.slots.append(Slot(node, pos, side0, d0, w0, "+".join(names1)))
             for p, pos in l1:
-                p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], st.b[node]),
-                                    w1, "+".join(names0)))
+                p.slots.append(Slot(node, pos, side1, d1, w1, "+".join(names0)))
             w = max(w0, w1)
             fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
             fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                      direction, None, None, float(x.angle)))
-
-    @staticmethod
-    def _end_depth(p: Part, pos: int, side: SlotSide, depth: float, a: np.ndarray,
-                   b: np.ndarray) -> float:
-        """The depth of a slot of ``p`` at node line ``pos`` (node ``a -> b``) so that it ends
-        where the partner's begins: a slot at a part's end is measured from its trimmed end
-        edge, whose corner has moved along the ``a`` or ``b`` edge (a strip split inside the
-        slot, trimmed back from its seam), a few tenths of a millimetre along the node line
-        (on the hypar canopy that left 2-4 mm^3 of the two plates overlapping)."""
-        k = len(p.panels)
-        if 0 < pos < k:
-            return depth
-        corner = (p.panels[0, 3] if pos == 0 else p.panels[-1, 2]) if side == SlotSide.B else (
-            p.panels[0, 0] if pos == 0 else p.panels[-1, 1])
-        start, other = (b, a) if side == SlotSide.B else (a, b)
-        u = (other - start) / np.linalg.norm(other - start)
-        return float(depth - (corner - start) @ u)
 
     def _slide_plan(self, st: "_Strips", at_node) -> dict:
         """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
@@ -133,11 +105,7 @@ class CrossingSlotter:
                 run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
                 sense = min(run_in, key=run_in.get)
                 # the butted end may close its gap (clearance / 2) over a travel of the depth
-                seams = [v for v in nodes if (1, v) in getattr(fs, "_seam_crossings", ())]
-                if run_in[sense] > 0.5 * fs.clearance / float(st.depth[nodes].max()) and seams:
-                    # a seam inside a slot may close: split there as before (next build)
-                    fs._refuse_seams.update(seams)
-                elif run_in[sense] > 0.5 * fs.clearance / float(st.depth[nodes].max()):
+                if run_in[sense] > 0.5 * fs.clearance / float(st.depth[nodes].max()):
                     for v in nodes:
                         fs._unslidable.setdefault(v, (1,
                             f"{name} would run into a plate it butts against while sliding "

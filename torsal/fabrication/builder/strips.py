@@ -15,14 +15,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..model import (FAMILY_COLORS, MITER_LIMIT, FamilySplit, JointKind, Part, PartId, _bowtie, _fold_deg,
+from ..model import (FAMILY_COLORS, MITER_LIMIT, FamilySplit, Part, PartId, _bowtie, _fold_deg,
                      _miter, _oriented_size, _safe_normals, panel_widths)
 from ..unroll import unroll
-
-
-#: parts that unroll longer than half the sheet and shorter than this share of it are halved
-#: where that needs no connector (:meth:`StripCutter._halve`)
-REST_SPLIT = 0.85
 
 
 class _Strips(NamedTuple):
@@ -167,13 +162,11 @@ class StripCutter:
 
     def _split_ranges(self, quads: np.ndarray, closed: bool,
                       drop: np.ndarray | None = None, extra_cuts=(),
-                      avoid=frozenset(), free=frozenset()) -> list[tuple[int, int]]:
+                      avoid=frozenset()) -> list[tuple[int, int]]:
         """Panel ranges [lo, hi) of the parts of one strip (dropped panels left out), cut also
         at the node lines ``extra_cuts`` (crossings joined by butt joints); the cuts for the
         sheet are moved off the node lines ``avoid`` (a mitred seam there could not be
-        trimmed) where they can be; a part between half a sheet and :data:`REST_SPLIT` of it
-        long is cut in two at a node line of ``free`` (where a cut needs no connector:
-        :meth:`_halve`)."""
+        trimmed) where they can be."""
         fs = self.fs
         k = len(quads)
         drop = np.zeros(k, dtype=bool) if drop is None else np.asarray(drop, dtype=bool)
@@ -216,40 +209,7 @@ class StripCutter:
         if fs.fit_sheet is not None:
             fs._oversize = []
             out = [r for lo, hi in out for r in self._fit(quads, lo, hi, avoid)]
-            if free:
-                out = [r for lo, hi in out for r in self._halve(quads, lo, hi, free - set(avoid))]
         return out
-
-    def _halve(self, quads: np.ndarray, lo: int, hi: int, free) -> list[tuple[int, int]]:
-        """[lo, hi) cut in two at the node line of ``free`` nearest its middle (along the
-        ``a`` and ``b`` edges) where it unrolls between half a sheet and :data:`REST_SPLIT` of
-        the sheet's length (less the margins): such a part shares a row of the nesting with
-        no other plate (two of them do not fit one sheet length), its halves do. Measured on
-        7a, where a strip split at an egg-crate crossing needs no connector (its parts meet
-        in the slot): 39 sheets at 77 % without halving, 37 at 82 % with it (sparrow, 120 s
-        at load 6; 38 at 80 % before the seams in the slots), for 6 more brackets (84)."""
-        fs = self.fs
-        inner = [j for j in range(lo + 1, hi) if j in free]
-        if not inner:
-            return [(lo, hi)]
-        length = fs._cached(self._unrolled_length, np.ascontiguousarray(quads[lo:hi]))
-        sheet = max(fs.fit_sheet) - 2.0 * fs.fit_margin
-        if not 0.5 * sheet < length < REST_SPLIT * sheet:
-            return [(lo, hi)]
-        seg = np.maximum(np.linalg.norm(quads[lo:hi, 1] - quads[lo:hi, 0], axis=1),
-                         np.linalg.norm(quads[lo:hi, 2] - quads[lo:hi, 3], axis=1))
-        run = np.r_[0.0, np.cumsum(seg)]
-        j = min(inner, key=lambda j: abs(run[j - lo] - 0.5 * run[-1]))
-        return [(lo, j), (j, hi)]
-
-    @staticmethod
-    def _unrolled_length(quads: np.ndarray) -> float:
-        """The long side of the minimum rotated rectangle of ``quads`` unrolled (inf if they
-        overlap themselves unrolled)."""
-        try:
-            return _oriented_size(unroll(quads, slots=[]).outline)[0]
-        except ValueError:
-            return float("inf")
 
     def _fit(self, quads: np.ndarray, lo: int, hi: int, avoid=frozenset()) -> list[tuple[int, int]]:
         """Cut [lo, hi) into parts whose unrolled outline fits ``fit_sheet`` (any orientation):
@@ -358,15 +318,8 @@ class StripCutter:
             # this plate), this plate is split and butted against the other family's instead
             split_here |= {at[v] for v, base in fs._base_at.items()
                            if base != fam and v in at and 0 < at[v] < len(q) + strip.closed}
-            # egg-crate crossings of family 0 with a family-1 plate: a cut there needs no
-            # connector (FinSystem._seams_in_slots), so a part too long to share a nesting row is
-            # halved there
-            free = ({j for j, v in enumerate(strip.vertices)
-                     if (x := joinery.get(int(v))) is not None and x.kind == JointKind.EGG_CRATE
-                     and st.passes[1, int(v)]} if fam == 0 else set())
             ranges = self._split_ranges(q, strip.closed, drop, extra_cuts=split_here,
-                                        avoid={j for s_, j in fs._avoid_splits if s_ == si},
-                                        free=free)
+                                        avoid={j for s_, j in fs._avoid_splits if s_ == si})
             if fs.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1:
                 # family 1 is cut at every node where a family-0 plate is
                 cuts = sorted({0, len(q)} | {j for j in range(1, len(q))
