@@ -17,6 +17,7 @@ scatters them into IPOPT's Hessian sparsity.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -114,6 +115,25 @@ class Block:
         return int(self.ids.shape[1])
 
 
+class _BoundPieces(NamedTuple):
+    """A casadi Function of the Hessian's pieces (the rest, then each block's element
+    matrices) whose outputs casadi writes straight into numpy arrays (no DM conversions)."""
+    fn: ca.Function
+    buffer: object
+    call: object
+    res: list
+
+    @classmethod
+    def of(cls, name: str, symbols: list, rest: ca.MX, blocks: list) -> "_BoundPieces":
+        fn = ca.Function(name, symbols, [rest] + [b.values for b in blocks])
+        res = [np.zeros(rest.sparsity().nnz())] + [np.zeros((b.values.size2(), b.values.size1()))
+                                                   for b in blocks]
+        buffer, call = fn.buffer()
+        for i, r in enumerate(res):
+            buffer.set_res(i, memoryview(r))
+        return cls(fn, buffer, call, res)
+
+
 class ProjectedHessian(ca.Callback):
     """The Lagrangian Hessian ``rest + sum_b P(block_b)`` as a casadi Function for IPOPT.
 
@@ -138,8 +158,8 @@ class ProjectedHessian(ca.Callback):
     def __init__(self, name: str, symbols: list, rest: ca.MX, blocks: list[Block], n_var: int):
         ca.Callback.__init__(self)
         self.blocks = blocks
-        self._pieces = ca.Function(name + "_pieces", symbols, [rest] + [b.values for b in blocks])
         self._name, self._symbols, self._rest = name, symbols, rest
+        self._all = _BoundPieces.of(name + "_pieces", symbols, rest, blocks)
         self._energy_only = None     # the pieces without the constraints' blocks (built on first use)
         self._in = [s.sparsity() for s in symbols]
         # global positions: the rest's nonzeros, then every block's full local upper triangle
@@ -158,11 +178,6 @@ class ProjectedHessian(ca.Callback):
         col, row = ukey // n_var, ukey % n_var
         colind = np.searchsorted(col, np.arange(n_var + 1))
         self._out = ca.Sparsity(n_var, n_var, colind.astype(np.int64).tolist(), row.astype(np.int64).tolist())
-        # the pieces' outputs, written by casadi into numpy arrays (no DM conversions)
-        self._res = [np.zeros(rs.nnz())] + [np.zeros((b.values.size2(), b.values.size1())) for b in blocks]
-        self._buffer, self._eval_pieces = self._pieces.buffer()
-        for i, r in enumerate(self._res):
-            self._buffer.set_res(i, memoryview(r))
         self.construct(name, {})
 
     def get_n_in(self):
@@ -194,27 +209,22 @@ class ProjectedHessian(ca.Callback):
         10,000 of the 17,400 element Hessians of a step).
         """
         if constraints or not any(b.constraint for b in self.blocks):
-            buffer, call, res, blocks = self._buffer, self._eval_pieces, self._res, self.blocks
+            bound = self._all
+            res = bound.res
         else:
             if self._energy_only is None:
-                keep_b = [b for b in self.blocks if not b.constraint]
-                fn = ca.Function(self._name + "_pieces_e", self._symbols, [self._rest] + [b.values for b in keep_b])
-                r = [np.zeros(self._res[0].size)] + [np.zeros((b.values.size2(), b.values.size1())) for b in keep_b]
-                buf, ev = fn.buffer()
-                for i, x in enumerate(r):
-                    buf.set_res(i, memoryview(x))
-                self._energy_only = (fn, buf, ev, r)
-            _, buffer, call, res = self._energy_only
-            it = iter(res[1:])
-            res = [res[0]] + [None if b.constraint else next(it) for b in self.blocks]
-            blocks = self.blocks
+                self._energy_only = _BoundPieces.of(self._name + "_pieces_e", self._symbols, self._rest,
+                                                    [b for b in self.blocks if not b.constraint])
+            bound = self._energy_only
+            it = iter(bound.res[1:])
+            res = [bound.res[0]] + [None if b.constraint else next(it) for b in self.blocks]
         # kept alive during the call (casadi holds raw pointers); an empty input has no buffer
         keep = [np.ascontiguousarray(a, dtype=float) if sp_.nnz() else _EMPTY for a, sp_ in zip(args, self._in)]
         for i, a in enumerate(keep):
-            buffer.set_arg(i, memoryview(a))
-        call()
+            bound.buffer.set_arg(i, memoryview(a))
+        bound.call()
         mats = []
-        for b, v in zip(blocks, res[1:]):
+        for b, v in zip(self.blocks, res[1:]):
             if v is None:
                 mats.append(None)
                 continue
