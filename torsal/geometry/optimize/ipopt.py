@@ -29,6 +29,7 @@ class IpoptRun(NamedTuple):
     iterations: int
     status: str
     converged: bool
+    lam_x: np.ndarray | None = None     # the bound multipliers (casadi's sign: lam_x = z_U - z_L)
 
 
 class _IterationCallback(ca.Callback):
@@ -64,8 +65,23 @@ class _IterationCallback(ca.Callback):
             return ca.Sparsity.dense(self.np_)
         return ca.Sparsity(0, 0)
 
-    def eval(self, arg):
-        return [ca.DM(1 if self.owner._report_iteration(arg) else 0)]
+    def eval(self, arg):    # (casadi calls eval_buffer; kept for a casadi without buffers)
+        return [ca.DM(1 if self.owner._report_iteration(
+            {k: np.asarray(arg[_OUT.index(k)], dtype=float).ravel() for k in ("x", "f", "g")}) else 0)]
+
+    def has_eval_buffer(self):
+        return True
+
+    def eval_buffer(self, arg, res):
+        """The iterate read from casadi's buffers without copies (a DM per output and its
+        conversion to numpy cost about 1 ms per iteration at 4,000 variables)."""
+        it = {k: np.frombuffer(arg[_OUT.index(k)], dtype=float) if arg[_OUT.index(k)] is not None
+              else np.zeros(0) for k in ("x", "f", "g")}
+        np.frombuffer(res[0], dtype=float)[0] = 1.0 if self.owner._report_iteration(it) else 0.0
+        return 0
+
+
+_OUT = ca.nlpsol_out()     # the names of IPOPT's outputs, the callback's inputs
 
 
 
@@ -82,15 +98,17 @@ class IpoptStrategy:
         self.limit, self.tol, self.verbose, self.options = limit, tol, verbose, options
         self.active: Built | None = None
         self.build_seconds = 0.0
+        self.last: IpoptRun | None = None      # the last run (its bound multipliers for a warm start)
 
     # ------------------------------------------------------------------ iteration reports
-    def report(self, arg) -> bool:
+    def report(self, it: dict) -> bool:
+        """One IPOPT iterate, ``it`` the arrays ``"x"``, ``"f"`` and ``"g"`` (views into
+        casadi's buffers, valid during the call); True stops IPOPT."""
         b = self.active
-        x = np.asarray(arg[ca.nlpsol_out().index("x")]).ravel()
-        g = np.asarray(arg[ca.nlpsol_out().index("g")]).ravel()
+        x, g = it["x"], it["g"]
         inf = float(np.max(_bound_violation(g, b.lbg, b.ubg))) if g.size else 0.0
         # the objective of eq. (9): without the elastic penalty (0 where every constraint holds)
-        f = float(arg[ca.nlpsol_out().index("f")]) - b.penalty(x, self.p)
+        f = float(it["f"][0]) - b.penalty(x, self.p)
         stop = self.monitor.iterate(b.unpack(x, self.frames), f, inf)
         if isinstance(b.hess_lag, ProjectedHessian):   # projected first, exact after
             b.hess_lag.project = self.monitor.phase_iteration < PROJECTED_ITERATIONS
@@ -137,9 +155,13 @@ class IpoptStrategy:
                 b.hessian_shifts[skey] = _hessian_shift(b, x0, p, ip)
             if b.hessian_shifts[skey] > 0:
                 ip["first_hessian_perturbation"] = b.hessian_shifts[skey]
+        # no nlp_grad (casadi's symbolic gradient of the Lagrangian, for multipliers it would
+        # recompute): IPOPT returns x, f, g and the multipliers itself, and the element
+        # values may then be compiled kernels, which casadi cannot differentiate
         opts = {"ipopt": ip, "print_time": bool(verbose), "grad_f": b.grad_f, "jac_g": b.jac_g,
                 "hess_lag": b.hess_lag, "iteration_callback": cb, "error_on_fail": False,
-                "calc_lam_p": False}
+                "calc_lam_p": False, "calc_lam_x": False, "calc_f": False, "calc_g": False,
+                "no_nlp_grad": True}
         s = ca.nlpsol("congruence", "ipopt", {"x": b.x, "p": b.p, "f": b.f_expr, "g": b.g_expr}, opts)
         _limit_blas_threads()     # the plugin (and its BLAS) is loaded now
         b.solvers[key] = (s, cb)
@@ -167,13 +189,14 @@ class IpoptStrategy:
         capped = self.monitor.capped
         self.monitor.cap = None
         status = "Maximum_Iterations_Exceeded" if capped else str(stats.get("return_status", "unknown"))
-        return IpoptRun(np.asarray(r["x"]).ravel(), np.asarray(r["lam_g"]).ravel(),
-                        int(stats.get("iter_count", 0)), status,
-                        bool(stats.get("success", False)) and not capped)
+        self.last = IpoptRun(np.asarray(r["x"]).ravel(), np.asarray(r["lam_g"]).ravel(),
+                             int(stats.get("iter_count", 0)), status,
+                             bool(stats.get("success", False)) and not capped, np.asarray(r["lam_x"]).ravel())
+        return self.last
 
 
     def solve(self, b: Built, mode: str, warm: bool, lam_g0, x0, p, try_unconstrained: bool, *,
-              handover: bool = False) -> PassOutcome:
+              handover: bool = False, lam_x0: np.ndarray | None = None) -> PassOutcome:
         """IPOPT in up to three passes (see ``try_unconstrained`` of ``CongruenceProblem.solve``).
 
         1. without the inequality constraints; kept if it meets them;
@@ -182,7 +205,10 @@ class IpoptStrategy:
         3. with all of them, from the start.
 
         ``handover``: where pass 1 converged but misses an inequality, stop there (passes 2
-        and 3 are left to the augmented Lagrangian, ``solver="auto"``).
+        and 3 are left to the augmented Lagrangian, ``solver="auto"``). ``lam_x0``: the last
+        solve's bound multipliers for a warm pass 3 (a lifted form's bounds ``r >= s``,
+        ``|t| <= 1``: without them IPOPT starts with the bound multipliers at 0, so its first
+        step repairs the dual infeasibility that leaves, 1 to 2 iterations on row 7d).
         """
         limit, problem = self.limit, self.problem
 
@@ -244,7 +270,8 @@ class IpoptStrategy:
             x0, p = self._recentre(b, x0, p)
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
         if warm:
-            args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
+            fits = lam_x0 is not None and lam_x0.size == b.n_var
+            args.update(lam_g0=lam_g0, lam_x0=lam_x0 if fits else np.zeros(b.n_var))
         r = self.call(sw if warm else cold(), b, args, (limit - iters) if iters else None)
         return PassOutcome(r.x, r.lam_g, iters + r.iterations, r.status, r.converged,
                            True if ineq.any() else None, None)
