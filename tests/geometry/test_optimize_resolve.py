@@ -116,3 +116,21 @@ def test_ipopt_solves_with_compiled_values(tmp_path, monkeypatch):
     np.testing.assert_allclose(r1.congruence.directions, r0.congruence.directions, atol=1e-10)
     for a, b_ in zip(v0, v1):
         np.testing.assert_allclose(a, b_, rtol=1e-9, atol=1e-13)
+
+
+def test_a_resolve_starts_near_or_far_from_stationarity(solved):
+    """A small change (a weight x1.01) leaves the optimum near stationarity: IPOPT's warm start
+    as it is ("near"). The sun turned by 15 degrees does not: the iterate and the bound
+    multipliers are pushed off their bounds ("far"), and the answer is the cold one."""
+    c, p, first = solved
+    q = _lifted(c).warm_start_from(p.optimum)
+    q.set_weight("perpendicular", 10.1)
+    near = q.solve()
+    kinds = {k[0] for k in q._built["tangent"].solvers}
+    assert near.success and "near" in kinds and "far" not in kinds
+    turned = np.array([[np.cos(0.26), -np.sin(0.26), 0], [np.sin(0.26), np.cos(0.26), 0], [0, 0, 1]]) @ SUN
+    q.perpendicular(turned, weight=10.1)
+    far, cold = q.solve(), _lifted(c, turned).set_weight("perpendicular", 10.1).solve()
+    assert "far" in {k[0] for k in q._built["tangent"].solvers}
+    assert far.success and cold.success
+    assert far.objective == pytest.approx(cold.objective, rel=0.01)

@@ -577,6 +577,19 @@ class Built:
             self._numeric_values = NumericFunction(self._evaluate)
         return self._numeric_values(x, p)
 
+    def derivatives(self, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
+        """The objective's gradient (n_var,) and the rows' Jacobian (n_g, n_var) at all variables
+        ``x`` (through casadi's buffers, :class:`NumericFunction`)."""
+        if getattr(self, "_numeric_derivatives", None) is None:
+            self._numeric_derivatives = (NumericFunction(self.grad_f), NumericFunction(self.jac_g))
+        nf, nj = self._numeric_derivatives
+        gs, js = self.grad_f.sparsity_out(1), self.jac_g.sparsity_out(1)
+        grad = np.zeros(self.n_var)
+        grad[np.asarray(gs.row(), dtype=np.int64)] = nf(x, p)[1]
+        jac = sp.csc_matrix((nj(x, p)[1], np.asarray(js.row(), dtype=np.int64),
+                             np.asarray(js.colind(), dtype=np.int64)), shape=(self.n_g, self.n_var))
+        return grad, jac
+
     def full(self, x: np.ndarray, p: np.ndarray | None = None) -> np.ndarray:
         """``x`` (directions only, or all variables) as all variables: lifted variables from
         the directions (:meth:`lifted_values`, needs ``p``), slacks kept or 0."""
