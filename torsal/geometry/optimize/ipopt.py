@@ -29,6 +29,7 @@ class IpoptRun(NamedTuple):
     iterations: int
     status: str
     converged: bool
+    lam_x: np.ndarray | None = None     # the bound multipliers (casadi's sign: lam_x = z_U - z_L)
 
 
 class _IterationCallback(ca.Callback):
@@ -64,8 +65,23 @@ class _IterationCallback(ca.Callback):
             return ca.Sparsity.dense(self.np_)
         return ca.Sparsity(0, 0)
 
-    def eval(self, arg):
-        return [ca.DM(1 if self.owner._report_iteration(arg) else 0)]
+    def eval(self, arg):    # (casadi calls eval_buffer; kept for a casadi without buffers)
+        return [ca.DM(1 if self.owner._report_iteration(
+            {k: np.asarray(arg[_OUT.index(k)], dtype=float).ravel() for k in ("x", "f", "g")}) else 0)]
+
+    def has_eval_buffer(self):
+        return True
+
+    def eval_buffer(self, arg, res):
+        """The iterate read from casadi's buffers without copies (a DM per output and its
+        conversion to numpy cost about 1 ms per iteration at 4,000 variables)."""
+        it = {k: np.frombuffer(arg[_OUT.index(k)], dtype=float) if arg[_OUT.index(k)] is not None
+              else np.zeros(0) for k in ("x", "f", "g")}
+        np.frombuffer(res[0], dtype=float)[0] = 1.0 if self.owner._report_iteration(it) else 0.0
+        return 0
+
+
+_OUT = ca.nlpsol_out()     # the names of IPOPT's outputs, the callback's inputs
 
 
 
@@ -82,24 +98,28 @@ class IpoptStrategy:
         self.limit, self.tol, self.verbose, self.options = limit, tol, verbose, options
         self.active: Built | None = None
         self.build_seconds = 0.0
+        self.last: IpoptRun | None = None      # the last run (its bound multipliers for a warm start)
 
     # ------------------------------------------------------------------ iteration reports
-    def report(self, arg) -> bool:
+    def report(self, it: dict) -> bool:
+        """One IPOPT iterate, ``it`` the arrays ``"x"``, ``"f"`` and ``"g"`` (views into
+        casadi's buffers, valid during the call); True stops IPOPT."""
         b = self.active
-        x = np.asarray(arg[ca.nlpsol_out().index("x")]).ravel()
-        g = np.asarray(arg[ca.nlpsol_out().index("g")]).ravel()
+        x, g = it["x"], it["g"]
         inf = float(np.max(_bound_violation(g, b.lbg, b.ubg))) if g.size else 0.0
         # the objective of eq. (9): without the elastic penalty (0 where every constraint holds)
-        f = float(arg[ca.nlpsol_out().index("f")]) - b.penalty(x, self.p)
+        f = float(it["f"][0]) - b.penalty(x, self.p)
         stop = self.monitor.iterate(b.unpack(x, self.frames), f, inf)
         if isinstance(b.hess_lag, ProjectedHessian):   # projected first, exact after
             b.hess_lag.project = self.monitor.phase_iteration < PROJECTED_ITERATIONS
         return stop
 
     # ------------------------------------------------------------------ solvers
-    def solver(self, b: Built, warm: bool, x0: np.ndarray, p: np.ndarray):
+    def solver(self, b: Built, warm: bool | str, x0: np.ndarray, p: np.ndarray):
         """The (cached) IPOPT solver of ``b``; the cold and the warm-start variant are built together.
 
+        ``warm``: False (cold), True (warm: a certification, a working-set pass) or a key of
+        :data:`RESOLVE_OPTIONS` (the designer's re-solve, see :meth:`_resolve_variant`).
         ``x0``, ``p``: the start of the first solve, where IPOPT's first Hessian
         regularization is estimated (see :func:`_hessian_shift`).
         """
@@ -125,10 +145,9 @@ class IpoptStrategy:
               # trial factorizations, less over-damped steps
               "first_hessian_perturbation": 1.0, "perturb_inc_fact_first": 3.0}
         if warm:
-            ip.update({"warm_start_init_point": "yes", "mu_init": 1e-6,
-                       "warm_start_bound_push": 1e-9, "warm_start_bound_frac": 1e-9,
-                       "warm_start_slack_bound_push": 1e-9, "warm_start_slack_bound_frac": 1e-9,
-                       "warm_start_mult_bound_push": 1e-9})
+            ip.update({"warm_start_init_point": "yes", "mu_init": 1e-6, **_push(1e-9)})
+        if warm in RESOLVE_OPTIONS:
+            ip.update(RESOLVE_OPTIONS[warm])
         ip.update(options or {})
         if "first_hessian_perturbation" not in (options or {}):
             # the estimate is in IPOPT's scaled units: one per objective scaling
@@ -137,9 +156,13 @@ class IpoptStrategy:
                 b.hessian_shifts[skey] = _hessian_shift(b, x0, p, ip)
             if b.hessian_shifts[skey] > 0:
                 ip["first_hessian_perturbation"] = b.hessian_shifts[skey]
+        # no nlp_grad (casadi's symbolic gradient of the Lagrangian, for multipliers it would
+        # recompute): IPOPT returns x, f, g and the multipliers itself, and the element
+        # values may then be compiled kernels, which casadi cannot differentiate
         opts = {"ipopt": ip, "print_time": bool(verbose), "grad_f": b.grad_f, "jac_g": b.jac_g,
                 "hess_lag": b.hess_lag, "iteration_callback": cb, "error_on_fail": False,
-                "calc_lam_p": False}
+                "calc_lam_p": False, "calc_lam_x": False, "calc_f": False, "calc_g": False,
+                "no_nlp_grad": True}
         s = ca.nlpsol("congruence", "ipopt", {"x": b.x, "p": b.p, "f": b.f_expr, "g": b.g_expr}, opts)
         _limit_blas_threads()     # the plugin (and its BLAS) is loaded now
         b.solvers[key] = (s, cb)
@@ -167,13 +190,14 @@ class IpoptStrategy:
         capped = self.monitor.capped
         self.monitor.cap = None
         status = "Maximum_Iterations_Exceeded" if capped else str(stats.get("return_status", "unknown"))
-        return IpoptRun(np.asarray(r["x"]).ravel(), np.asarray(r["lam_g"]).ravel(),
-                        int(stats.get("iter_count", 0)), status,
-                        bool(stats.get("success", False)) and not capped)
+        self.last = IpoptRun(np.asarray(r["x"]).ravel(), np.asarray(r["lam_g"]).ravel(),
+                             int(stats.get("iter_count", 0)), status,
+                             bool(stats.get("success", False)) and not capped, np.asarray(r["lam_x"]).ravel())
+        return self.last
 
 
     def solve(self, b: Built, mode: str, warm: bool, lam_g0, x0, p, try_unconstrained: bool, *,
-              handover: bool = False) -> PassOutcome:
+              handover: bool = False, lam_x0: np.ndarray | None = None) -> PassOutcome:
         """IPOPT in up to three passes (see ``try_unconstrained`` of ``CongruenceProblem.solve``).
 
         1. without the inequality constraints; kept if it meets them;
@@ -182,7 +206,10 @@ class IpoptStrategy:
         3. with all of them, from the start.
 
         ``handover``: where pass 1 converged but misses an inequality, stop there (passes 2
-        and 3 are left to the augmented Lagrangian, ``solver="auto"``).
+        and 3 are left to the augmented Lagrangian, ``solver="auto"``). ``lam_x0``: the last
+        solve's bound multipliers for a warm pass 3 (a lifted form's bounds ``r >= s``,
+        ``|t| <= 1``: without them IPOPT starts with the bound multipliers at 0, so its first
+        step repairs the dual infeasibility that leaves, 1 to 2 iterations on row 7d).
         """
         limit, problem = self.limit, self.problem
 
@@ -243,11 +270,26 @@ class IpoptStrategy:
         if not warm:
             x0, p = self._recentre(b, x0, p)
         args = dict(x0=x0, p=p, lbg=b.lbg, ubg=b.ubg)
+        s = cold()
         if warm:
-            args.update(lam_g0=lam_g0, lam_x0=np.zeros(b.n_var))
-        r = self.call(sw if warm else cold(), b, args, (limit - iters) if iters else None)
+            lam_x0 = lam_x0 if lam_x0 is not None and lam_x0.size == b.n_var else np.zeros(b.n_var)
+            args.update(x0=b.full(x0, p), lam_g0=lam_g0, lam_x0=lam_x0)
+            s = self.solver(b, self._resolve_variant(b, args), x0, p)
+        r = self.call(s, b, args, (limit - iters) if iters else None)
         return PassOutcome(r.x, r.lam_g, iters + r.iterations, r.status, r.converged,
                            True if ineq.any() else None, None)
+
+    def _resolve_variant(self, b: Built, args: dict) -> str:
+        """``"near"`` where the warm start (all variables and multipliers in ``args``) is within
+        :data:`NEAR_KKT` times the tolerance of stationarity, else ``"far"`` (see
+        :data:`RESOLVE_OPTIONS`). The residual is IPOPT's dual infeasibility of the objective
+        scaled per vertex, ``|V| max |grad f + J^T lam_g + lam_x|`` (without IPOPT's
+        gradient-based scaling, which only lowers it): a weight, a stroke or a bound changed
+        by a little leaves it near (Fig. 12 row 7d, light weights x1.2: 4e-4), the sun
+        turned by 5 degrees far (3.8)."""
+        grad, jac = b.derivatives(args["x0"], args["p"])
+        r = grad + jac.T @ np.asarray(args["lam_g0"], dtype=float) + args["lam_x0"]
+        return "near" if max(b.n_vertices, 1) * float(np.max(np.abs(r), initial=0.0)) <= NEAR_KKT * self.tol else "far"
 
     def _recentre(self, b: Built, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The gnomonic chart re-centred at ``x`` (tangent mode): frames at its directions, ``z = 0``.
@@ -274,6 +316,31 @@ class IpoptStrategy:
     def _stopped(self, status: str) -> bool:
         """The monitor stopped IPOPT (the user's callback or the time limit), not a cap."""
         return status == "User_Requested_Stop" and (self.monitor.stopped_by_user or self.monitor.timed_out)
+
+def _push(v: float) -> dict:
+    """IPOPT's warm-start pushes of the iterate and the bound multipliers off their bounds."""
+    return {k: v for k in ("warm_start_bound_push", "warm_start_bound_frac", "warm_start_slack_bound_push",
+                           "warm_start_slack_bound_frac", "warm_start_mult_bound_push")}
+
+
+#: IPOPT's options of the designer's re-solve from the last optimum (pass 3, warm), on top of
+#: the warm start's. Both stop at IPOPT's acceptable constraint violation (1e-7, not 1e-9): a
+#: start at a KKT point takes its Newton steps, then spent one or two more on the last digits
+#: of the lifted rows (row 7d, light weights x1.2: 4 -> 2 iterations), far below what the
+#: answer is measured at (0.1 degree; the warm answer is measured on the geometry like any
+#: other). "far" (the start is not near stationarity, :meth:`IpoptStrategy._resolve_variant`):
+#: the iterate and the bound multipliers pushed 1e-4 off their bounds, not 1e-9, so the
+#: active set can change without the fraction-to-boundary rule cutting every step (row 7d,
+#: the sun turned by 5 degrees: 51 -> 20 iterations, a cold solve of the changed problem 51).
+#: "near" orders the KKT matrix by QAMD, not METIS: each solve analyses the matrix afresh and a
+#: re-solve near its answer factors it only a few times (row 7d, 2 iterations: analysis 31-39
+#: -> 3 ms of processor time, the factorizations no slower, the same iterates).
+RESOLVE_OPTIONS = {"near": {"constr_viol_tol": 1e-7, "mumps_pivot_order": 6},
+                   "far": {"constr_viol_tol": 1e-7, **_push(1e-4)}}
+
+#: a warm start within this many times ``tol`` of stationarity is "near" (see RESOLVE_OPTIONS)
+NEAR_KKT = 100.0
+
 
 #: Threads of the BLAS under IPOPT's MUMPS (casadi's own OpenBLAS); ``$TORSAL_BLAS_THREADS``
 #: overrides. One: MUMPS's fronts on these meshes are small, and a second BLAS thread spins

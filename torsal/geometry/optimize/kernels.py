@@ -91,7 +91,7 @@ class Local:
     """
 
     def __init__(self, fn: ca.Function, k: int, tangent: bool, jit: bool = False, constraint: bool = False,
-                 residual: ca.Function | None = None, jit_values: bool = False):
+                 residual: ca.Function | None = None):
         x = ca.SX.sym("x", 3 * k)
         d = ca.SX.sym("d", fn.size1_in(1))
         p = ca.SX.sym("p", fn.size1_in(2))
@@ -126,11 +126,11 @@ class Local:
         self.hess = ca.Function(fn.name() + "_hess", ins + [coef], [coef * hnz])
         self.jac = ca.Function(fn.name() + "_jac", ins, [jnz])
         self.lag_e = ca.Function(fn.name() + "_lag", ins + [coef], [coef * ge])
-        if jit and jit_values:
-            # the augmented Lagrangian's NLP: nothing differentiates f and g symbolically
-            self.val = _jit(self.val)
         if jit:
-            # values stay interpreted (IPOPT's NLP): casadi differentiates the NLP's f and g itself
+            # nothing differentiates the NLP's f and g symbolically (IPOPT's nlpsol is built
+            # without its nlp_grad, see ipopt.IpoptStrategy.solver): the values compile too
+            # (Fig. 12 row 7d: an evaluation of f 2.3 -> 0.6 ms, of g 2.4 -> 0.7 ms)
+            self.val = _jit(self.val)
             self.grad, self.hess = _jit(self.grad), _jit(self.hess)
             if constraint:
                 self.jac = _jit(self.jac)

@@ -889,9 +889,10 @@ class CongruenceProblem:
                                 value_tol=constraint_tol) for t in cons}
 
     # ------------------------------------------------------------------ solving
-    def _report_iteration(self, arg) -> bool:
-        """IPOPT's iteration callback (cached with the solver) -> the solve in progress."""
-        return self._strategy.report(arg) if self._strategy is not None else False
+    def _report_iteration(self, it: dict) -> bool:
+        """IPOPT's iteration callback (cached with the solver) -> the solve in progress
+        (``it``: the iterate's ``"x"``, ``"f"``, ``"g"``, see ``IpoptStrategy.report``)."""
+        return self._strategy.report(it) if self._strategy is not None else False
 
     @property
     def optimum(self) -> Optimum | None:
@@ -905,7 +906,7 @@ class CongruenceProblem:
             return None
         last = self._last
         return Optimum(directions=np.array(last["e"]), lam_g=last.get("lam_g"), alm=last.get("alm"),
-                       active=last.get("active"), working=last.get("working"))
+                       active=last.get("active"), working=last.get("working"), lam_x=last.get("lam_x"))
 
     def warm_start_from(self, optimum: Optimum) -> "CongruenceProblem":
         """The next :meth:`solve` starts from ``optimum`` (of this problem or one of the same
@@ -927,7 +928,7 @@ class CongruenceProblem:
         if e.size != self.n_var or not np.isfinite(e).all():
             raise ValueError(f"the optimum has {e.size // 3} directions; this problem has {self.n_var // 3}")
         self._last = {"e": e.reshape(-1, 3), "lam_g": optimum.lam_g, "alm": optimum.alm,
-                      "active": optimum.active, "working": optimum.working}
+                      "active": optimum.active, "working": optimum.working, "lam_x": optimum.lam_x}
         return self
 
     def solve(self, solver: str = SOLVERS[0], max_iter: int | None = None, tol: float = 1e-4,

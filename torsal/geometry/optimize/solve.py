@@ -95,7 +95,8 @@ class Optimum:
     :meth:`~torsal.geometry.optimize.CongruenceProblem.warm_start_from`).
 
     ``directions`` (N, 3) stacked over the aligned congruences; ``lam_g`` IPOPT's multipliers
-    of a converged solve (or None); ``alm`` the augmented Lagrangian's multipliers,
+    of a converged solve (or None), ``lam_x`` its bound multipliers (a lifted form's bounds;
+    or None); ``alm`` the augmented Lagrangian's multipliers,
     penalties and row scales (:class:`~torsal.geometry.optimize.alm.AlmState`, or None);
     ``active`` and ``working`` IPOPT's passes (see ``OptimizationResult``).
     """
@@ -105,6 +106,7 @@ class Optimum:
     alm: AlmState | None = None
     active: bool | None = None
     working: np.ndarray | None = None
+    lam_x: np.ndarray | None = None
 
 
 class Start(NamedTuple):
@@ -118,6 +120,7 @@ class Start(NamedTuple):
     frames: np.ndarray              # (n, 9) tangent frames of ``Built.pack`` ((0, 9) if unused)
     p: np.ndarray                   # the NLP's parameters at the start
     resume: bool = False            # starts from the last answer (its multipliers, penalties)
+    lam_x0: np.ndarray | None = None  # IPOPT's bound multipliers of the last solve (warm start)
 
 
 class Run(NamedTuple):
@@ -136,6 +139,7 @@ class Run(NamedTuple):
     alm: AlmRun | None = None       # the augmented Lagrangian's run (state for a warm re-solve)
     solver: str = ""                # who produced the answer ("alm", "ipopt", "alm+ipopt", ...)
     timings: dict | None = None     # seconds per part
+    lam_x: np.ndarray | None = None  # IPOPT's bound multipliers of the answer (None: not IPOPT's)
 
 
 def route(problem: "CongruenceProblem", solver: str) -> str:
@@ -241,7 +245,7 @@ class SolveCall:
         """Where the solve starts: ``initial``, the last answer (warm start) or the
         congruence's directions (moved off the line-bundle apex, :meth:`_off_the_apex`)."""
         problem, opts = self.problem, self.opts
-        e0, lam_g0, warm, resume = problem._directions(), None, False, False
+        e0, lam_g0, lam_x0, warm, resume = problem._directions(), None, None, False, False
         if opts.initial is not None:
             init = np.asarray(opts.initial, dtype=float)
             if init.size != problem.n_var or not np.isfinite(init).all():
@@ -251,12 +255,14 @@ class SolveCall:
             e0, resume = problem._last["e"], True
             lam_g0 = problem._last.get("lam_g") if solver == "ipopt" else None
             warm = lam_g0 is not None and lam_g0.size == b.n_g and b.n_g > 0
+            lam_x0 = problem._last.get("lam_x") if warm else None
         if not resume and opts.initial is None:
             e0 = self._off_the_apex(e0)
         before = problem._evaluate(e0, rows=False)[0]
         x0, frames = b.pack(e0)
         p = b.parameters(problem._current(), frames)
-        return Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p, resume=resume)
+        return Start(e0=e0, lam_g0=lam_g0, warm=warm, before=before, x0=x0, frames=frames, p=p, resume=resume,
+                     lam_x0=lam_x0)
 
     def _off_the_apex(self, e: np.ndarray) -> np.ndarray:
         """The start moved off the line-bundle apex where a torsal-angle bound needs it.
@@ -324,13 +330,14 @@ class SolveCall:
         problem._strategy = strategy
         try:
             out = strategy.solve(b, problem._mode("ipopt"), start.warm, start.lam_g0, start.x0, start.p,
-                                 opts.try_unconstrained, handover=handover)
+                                 opts.try_unconstrained, handover=handover, lam_x0=start.lam_x0)
         finally:
             problem._strategy = None
         s = time.perf_counter() - t0 - strategy.build_seconds
         run = Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
                   active=out.constraints_active, working=out.working, frames=strategy.frames,
-                  build_seconds=strategy.build_seconds, solve_seconds=s, solver="ipopt", timings={"ipopt": s})
+                  build_seconds=strategy.build_seconds, solve_seconds=s, solver="ipopt", timings={"ipopt": s},
+                  lam_x=self._bound_multipliers(strategy, b, out.lam_g))
         if out.handed_over and not (monitor.timed_out or monitor.stopped_by_user):
             return self._continue_with_alm(b, start, run, monitor)
         return run
@@ -420,7 +427,17 @@ class SolveCall:
         return Run(x=out.x, lam_g=out.lam_g, iterations=run.iterations + out.iterations,
                    status=f"{run.status}; {how}: {out.status} ({out.iterations} iterations)", ok=out.converged,
                    active=True, working=None, frames=frames, build_seconds=run.build_seconds + build_s,
-                   solve_seconds=run.solve_seconds + t_ip, alm=r, solver="alm+ipopt", timings=timings)
+                   solve_seconds=run.solve_seconds + t_ip, alm=r, solver="alm+ipopt", timings=timings,
+                   lam_x=self._bound_multipliers(strategy, b, out.lam_g))
+
+    @staticmethod
+    def _bound_multipliers(strategy: IpoptStrategy, b: Built, lam_g) -> np.ndarray | None:
+        """The bound multipliers of the IPOPT run that gave the answer (its last run, on ``b``),
+        or None where no multipliers are kept (pass 1's answer: ``lam_g`` None)."""
+        last = strategy.last
+        if lam_g is None or last is None or last.lam_x is None or last.lam_x.size != b.n_var:
+            return None
+        return last.lam_x
 
     # ------------------------------------------------------------------ the answer
     def _collapse(self, e_start: np.ndarray, e_end: np.ndarray) -> str | None:
@@ -479,6 +496,7 @@ class SolveCall:
             # unconverged iterate's multipliers was slower than a cold one
             problem._last = {"e": e, "lam_g": lam_g if ok else None, "active": run.active,
                              "working": working if ok else None,
+                             "lam_x": run.lam_x if ok and lam_g is not None else None,
                              "alm": run.alm.state if run.alm is not None and from_iteration is None else None}
         else:
             congs = list(problem._blocks)
