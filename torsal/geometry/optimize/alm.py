@@ -55,7 +55,7 @@ import scipy.sparse as sp
 
 from .factor import NotPositiveDefinite, SparseCholesky
 from .history import SolveMonitor
-from .nlp import Built, _from_tangent, tangent_frames
+from .nlp import Built, NumericFunction, _from_tangent, tangent_frames
 
 #: penalty growth factor of a row whose complementarity did not decrease enough
 GAMMA = 10.0
@@ -92,7 +92,10 @@ OUTER_MAX = 60
 #: an acceptable answer (IPOPT's acceptable level: ``acceptable_obj_change_tol`` and a looser
 #: ``acceptable_compl_inf_tol``): measured feasible, at the final inner tolerance, every
 #: row's complementarity within ACCEPT_VTOL, and an inner minimization that used all its
-#: INNER_MAX steps changed the objective by less than ACCEPT_OBJ_CHANGE (relative). On
+#: INNER_MAX steps, or two in a row, changed the objective by less than ACCEPT_OBJ_CHANGE
+#: (relative; one short inner minimization is not enough: on example 9 one ended on its
+#: decrement 4e-5 from where it began, and after the next multiplier update the objective
+#: fell 33 %). On
 #: example 9 the steps after that point alternate full steps with steps the line search cuts
 #: to 1/1000 at the kinks of the penalty (2,000 rows at the bound): 203 of its 353 Newton
 #: steps went to the last 0.12 % of the objective
@@ -155,24 +158,6 @@ class AlmRun(NamedTuple):
     converged: bool
     state: AlmState
     counts: dict              # line-search trials, shifted retries, the backend
-
-
-class _Numeric:
-    """A casadi Function evaluated into preallocated numpy arrays (no DM conversions)."""
-
-    def __init__(self, fn: ca.Function):
-        self.fn = fn
-        self.buf, self.call = fn.buffer()
-        self.out = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-        for i, r in enumerate(self.out):
-            self.buf.set_res(i, memoryview(r))
-
-    def __call__(self, *args) -> list[np.ndarray]:
-        keep = [np.ascontiguousarray(a, dtype=float) for a in args]
-        for i, a in enumerate(keep):
-            self.buf.set_arg(i, memoryview(a))
-        self.call()
-        return [r.copy() for r in self.out]
 
 
 @dataclass
@@ -292,7 +277,7 @@ class AugmentedLagrangian:
             b.alm_cache = {}
         key = ("system", backend)
         if key not in b.alm_cache:
-            b.alm_cache[key] = (NewtonSystem.of(b, backend), _Numeric(b.point), _Numeric(b.value))
+            b.alm_cache[key] = (NewtonSystem.of(b, backend), NumericFunction(b.point), NumericFunction(b.value))
         self.sys, self._pt, self._val = b.alm_cache[key]
         b.hess_lag.mode = projection or PROJECTION
         b.hess_lag.project = True
@@ -390,7 +375,9 @@ class AugmentedLagrangian:
             z = pt.z + alpha * d
             f, g = self._val(z, self.p)
             F = float(f[0]) * self.sF
-            if np.isfinite(F) and F + _phr(s * g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope:
+            # a trial where a row is not defined (NaN: a line turned onto a degenerate face) fails
+            if (np.isfinite(F) and np.all(np.isfinite(g))
+                    and F + _phr(s * g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope):
                 return alpha, self._point(z)
             alpha *= 0.5
         return None
@@ -410,6 +397,7 @@ class AugmentedLagrangian:
         eps = EPS_START if warm is None else max(WARM_EPS, self.tol)
         v_prev = np.full(b.n_g, np.inf)
         banded = 0
+        calm = 0                              # outer iterations in a row at the acceptable level
         steps = outer = 0
         wait, backoff, near = 0, 1, False     # when to try the exact Hessian
         status, converged, dec = "", False, np.inf
@@ -491,12 +479,13 @@ class AugmentedLagrangian:
             if _DEBUG:
                 print(f"  outer {outer}: objective change {change:.1e}, complementarity {vmax:.1e}, "
                       f"all inner steps used {full}")
+            calm = (calm + 1 if eps <= self.tol and change <= ACCEPT_OBJ_CHANGE and vmax <= ACCEPT_VTOL
+                    and abs(pt.F) > accept_above else 0)
             if eps <= self.tol and dec <= self.tol and vmax <= VTOL and self.feasible(e):
                 status, converged = f"converged: measured feasible, Newton decrement {dec:.1e}", True
-            elif (eps <= self.tol and full and change <= ACCEPT_OBJ_CHANGE and vmax <= ACCEPT_VTOL
-                  and abs(pt.F) > accept_above and self.feasible(e)):
+            elif (calm >= 2 or calm and full) and self.feasible(e):
                 status, converged = (f"converged to an acceptable level: measured feasible, the objective "
-                                     f"changed by {change:.1e} over {INNER_MAX} Newton steps"), True
+                                     f"changed by {change:.1e} over the last inner minimization"), True
             elif steps >= self.max_steps:
                 status = f"Maximum_Iterations_Exceeded ({steps} Newton steps)"
             elif outer >= OUTER_MAX:
