@@ -479,6 +479,7 @@ class AssemblyPlanner:
         where none is clear it is listed in ``_blocked_paths`` like a plate."""
         fs = self.fs
         where = {j.connector: k for k, j in enumerate(fs.joints) if j.connector}
+        moves = len(fs._moved_connectors)
         for c in sorted(fs.connectors, key=lambda c: c.name):
             k = where.get(c.name)
             if k is None:
@@ -506,7 +507,12 @@ class AssemblyPlanner:
                 paths.remove(c.name)
                 continue
             fs._blocked_paths.append((c, h))
-        # a connector moved for a later one may now stand in the way of one between them
+        # a connector moved for a later one may now stand in the way of one between them;
+        # where none moved, the parts only went away since each path was found clear (fixings
+        # evicted, connectors dropped), so no path is checked twice (example 9: 648
+        # connectors, none moved, 2.4 s a build)
+        if len(fs._moved_connectors) == moves:
+            return
         blocked = {p.name for p, _ in fs._blocked_paths}
         for c in sorted(fs.connectors, key=lambda c: c.name):
             k = where.get(c.name)
