@@ -377,8 +377,18 @@ def run_fabrication(inp: StageInputs) -> dict:
             fs.start_solids()
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
+    # the nester (an anytime search in a wall-clock budget) runs in a process of its own
+    # while this one collects the solids and writes STEP and 3DM; joined before the DXF
+    nesting = None
     try:
-        layout = _nest(inp, fs)
+        nesting = _nest(inp, fs)
+        if spec.outputs.step:
+            fs.export_step(out / "fins.step")
+            written["step"] = "fins.step"
+        if spec.outputs.rhino_3dm:
+            fs.export_3dm(out / "fins.3dm")
+            written["3dm"] = "fins.3dm"
+        layout = nesting.result()
         if spec.outputs.dxf:
             paths = layout.export_dxf(out / "sheets" / "fins.dxf")
             written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
@@ -387,13 +397,9 @@ def run_fabrication(inp: StageInputs) -> dict:
             written["bom"] = "parts.csv"
     except BaseException:
         fs.cancel_solids()
+        if nesting is not None:
+            nesting.cancel()
         raise
-    if spec.outputs.step:
-        fs.export_step(out / "fins.step")
-        written["step"] = "fins.step"
-    if spec.outputs.rhino_3dm:
-        fs.export_3dm(out / "fins.3dm")
-        written["3dm"] = "fins.3dm"
     left_out = ([{"strip": s_, "edge": int(e), "node": int(v), "reason": why}
                  for s_, e, v, why in getattr(fs, "coplanar_panels", [])]
                 + [{"strip": s_, "edge": int(e), "node": None,
@@ -415,7 +421,8 @@ def run_fabrication(inp: StageInputs) -> dict:
 
 
 def _nest(inp: StageInputs, fs):
-    """The design's sheets: its [cutting] process and [nesting] options."""
+    """The design's sheets, started in a process of their own (``.result()``: the layout):
+    its [cutting] process and [nesting] options."""
     from ..fabrication.cutting import Cutting
     from ..fabrication.nesting import Nester
 
@@ -424,12 +431,12 @@ def _nest(inp: StageInputs, fs):
     cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
                                   relief=c.relief, unit=fs.unit)
     nester = n.nester or (Nester.SPARROW if spec.outputs.dxf else Nester.BOTTOM_LEFT)
-    return fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
-                     nester=nester, time_limit=n.time_limit_s, seed=n.seed,
-                     rotation_step=n.rotation_step_deg,
-                     progress=lambda done, left: inp.progress(
-                         "progress", {"phase": "nesting sheets", "done": done,
-                                      "total": done + left}))
+    return fs.start_layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                           nester=nester, time_limit=n.time_limit_s, seed=n.seed,
+                           rotation_step=n.rotation_step_deg,
+                           progress=lambda done, left: inp.progress(
+                               "progress", {"phase": "nesting sheets", "done": done,
+                                            "total": done + left}))
 
 
 def _nesting_report(layout, sheets_dir) -> dict:
