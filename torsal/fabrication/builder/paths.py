@@ -21,7 +21,7 @@ from ..model import (CONNECTOR_FAMILY, FIXING_FAMILY, JointKind, Part, _cross, _
 from .clash import ClashFinder
 from .ends import CONNECTOR_GAP
 from .fasteners import fastener_for, min_leg
-from .proximity import _quad_distances, _slab_depths, _swept_distances
+from .proximity import _quad_distances, _slab_depths, _swept_and_still_distances
 
 #: a part's path into place is blocked where its swept solid and a plate in place overlap by
 #: more than this fraction of the thickness (less is touching, e.g. corners that meet)
@@ -174,9 +174,8 @@ class _PathCheck:
         block the path (rules in the class text; ``loose``: the panel is a connector's or
         fixing's)."""
         reach = self.t + 0.5 * self.c
-        swept = _swept_distances(p.panels, vec, quads)                        # (k, m)
-        i, j = np.divmod(np.arange(swept.size), len(quads))
-        still = _quad_distances(p.panels[i], quads[j]).reshape(swept.shape)
+        # (k, m): nearest on the way and in place (the swept region's first face is the panel)
+        swept, still = _swept_and_still_distances(p.panels, vec, quads)
         # panels at a joint (nearer in place than plates can be apart) must not come nearer;
         # any others that come that near are checked as solids. A connector or fixing is at a
         # joint only with what it lies on (a thickness apart): nothing crosses it
