@@ -667,11 +667,12 @@ class FinSystem:
                      margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270), **options):
         """:meth:`layout` in a process of its own: returns at once a
         :class:`~torsal.fabrication.nesting.background.PendingNesting` whose ``result()`` is
-        the layout (this process writes the solids' files meanwhile)."""
+        the layout (this process writes the solids' files meanwhile); with ``dxf`` (a path)
+        the sheets are written there too (``.sheets``)."""
         from .nesting.background import start_nesting
 
-        progress = options.pop("progress", None)
-        return start_nesting(self.unrolled(), progress=progress,
+        progress, dxf = options.pop("progress", None), options.pop("dxf", None)
+        return start_nesting(self.unrolled(), progress=progress, dxf=dxf,
                              **self._nest_options(sheet, gap, margin, rotations, options))
 
     def bill_of_materials(self, path, *, density: float = 2700.0, layout=None):

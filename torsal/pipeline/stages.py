@@ -389,9 +389,8 @@ def run_fabrication(inp: StageInputs) -> dict:
             fs.export_3dm(out / "fins.3dm")
             written["3dm"] = "fins.3dm"
         layout = nesting.result()
-        if spec.outputs.dxf:
-            paths = layout.export_dxf(out / "sheets" / "fins.dxf")
-            written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
+        if spec.outputs.dxf:      # written and read back by the nesting process
+            written["dxf"] = [str(Path(p).relative_to(out)) for p in nesting.sheets.paths]
         if spec.outputs.bom:
             fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
             written["bom"] = "parts.csv"
@@ -409,7 +408,7 @@ def run_fabrication(inp: StageInputs) -> dict:
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels), **fabrication_summary(fs),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
-        "nesting": _nesting_report(layout, out / "sheets" if spec.outputs.dxf else None),
+        "nesting": _nesting_report(layout, nesting.sheets),
         "cutting": _cutting_report(layout),
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
@@ -432,6 +431,7 @@ def _nest(inp: StageInputs, fs):
                                   relief=c.relief, unit=fs.unit)
     nester = n.nester or (Nester.SPARROW if spec.outputs.dxf else Nester.BOTTOM_LEFT)
     return fs.start_layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                           dxf=inp.out / "sheets" / "fins.dxf" if spec.outputs.dxf else None,
                            nester=nester, time_limit=n.time_limit_s, seed=n.seed,
                            rotation_step=n.rotation_step_deg,
                            progress=lambda done, left: inp.progress(
@@ -439,11 +439,10 @@ def _nest(inp: StageInputs, fs):
                                             "total": done + left}))
 
 
-def _nesting_report(layout, sheets_dir) -> dict:
+def _nesting_report(layout, sheets) -> dict:
     """Sheets used, the area bound, utilization (of the layout, and of the DXF files read back
-    with ezdxf when written) and the nester's time."""
-    from ..fabrication.layout import read_dxf_parts
-
+    with ezdxf when written: ``sheets``, :class:`~torsal.fabrication.nesting.background.SheetFiles`)
+    and the nester's time."""
     st = layout.stats
     sheet_area = layout.sheet[0] * layout.sheet[1]
     rep = {"nester": st.method, "sheets": int(layout.n_sheets),
@@ -453,12 +452,8 @@ def _nesting_report(layout, sheets_dir) -> dict:
            "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
            "fallback_parts": int(st.fallback_parts), "rotation": st.rotation,
            "time_limited": bool(st.time_limited)}
-    if sheets_dir is not None and layout.n_sheets:
-        area = 0.0
-        for s in range(layout.n_sheets):
-            polys, _, _ = read_dxf_parts(sheets_dir / f"fins_sheet{s + 1:02d}.dxf")
-            area += sum(p.area for p in polys)
-        rep["utilization_dxf"] = float(area / (layout.n_sheets * sheet_area))
+    if sheets is not None and layout.n_sheets:
+        rep["utilization_dxf"] = float(sheets.area_read_back / (layout.n_sheets * sheet_area))
     return rep
 
 

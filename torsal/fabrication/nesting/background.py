@@ -5,8 +5,9 @@ budget; the fabrication stage meanwhile collects the solids and writes the STEP 
 work of this process that does not need the sheets. :func:`start_nesting` starts
 :func:`~.api.nest_parts` in a separate process (forked from the clean server the solids'
 workers come from) and returns at once; :meth:`PendingNesting.result` waits for its
-:class:`~torsal.fabrication.layout.Layout` (the DXF and the parts list are written from it
-afterwards). The nest is the same as in this process: same parts, options, seed and budget.
+:class:`~torsal.fabrication.layout.Layout` (the parts list is written from it afterwards). Asked
+to, that process also writes the DXF sheets and reads them back (:func:`write_sheets`), which
+needs nothing but the layout. The nest is the same as in this process: same parts, options, seed and budget.
 Progress is relayed from the nesting process by a thread of this one; an error in the nester is
 raised again by :meth:`~PendingNesting.result` (same type where it pickles).
 
@@ -27,23 +28,47 @@ from __future__ import annotations
 import multiprocessing as mp
 import pickle
 import threading
-from typing import Callable
+from pathlib import Path
+from typing import Callable, NamedTuple
 
 from torsal.core.parallel import usable_workers
 
-__all__ = ["start_nesting", "PendingNesting"]
+__all__ = ["start_nesting", "PendingNesting", "SheetFiles", "write_sheets"]
 
 
-def _nest_in_child(unrolled, options: dict, queue) -> None:
-    """Nesting process: ``("progress", (done, left))`` while it runs, then ``("done",
-    layout)`` or ``("error", exception)`` on ``queue``."""
+class SheetFiles(NamedTuple):
+    """The cutting sheets written: ``paths`` one DXF per sheet, ``area_read_back`` the parts'
+    area (unit^2) in those files as ezdxf reads them back (:func:`~..layout.read_dxf_parts`)."""
+
+    paths: list
+    area_read_back: float
+
+
+def write_sheets(layout, path) -> SheetFiles:
+    """Write the DXF (and SVG) sheets of ``layout`` next to ``path`` and read them back."""
+    from ..layout import read_dxf_parts
+
+    paths = layout.export_dxf(path)
+    area = sum(p.area for f in paths for p in read_dxf_parts(f)[0])
+    return SheetFiles([Path(f) for f in paths], float(area))
+
+
+def _nest_and_write(unrolled, options: dict, dxf, progress):
+    """``(layout, SheetFiles or None)``: the nest, and its sheets written to ``dxf``."""
     from .api import nest_parts
 
+    layout = nest_parts(unrolled, progress=progress, **options)
+    return layout, (write_sheets(layout, dxf) if dxf is not None else None)
+
+
+def _nest_in_child(unrolled, options: dict, dxf, queue) -> None:
+    """Nesting process: ``("progress", (done, left))`` while it runs, then ``("done",
+    (layout, sheets))`` or ``("error", exception)`` on ``queue``."""
     def progress(done: int, left: int) -> None:
         queue.put(("progress", (done, left)))
 
     try:
-        layout = nest_parts(unrolled, progress=progress, **options)
+        layout = _nest_and_write(unrolled, options, dxf, progress)
     except BaseException as exc:            # re-raised in the parent
         try:
             pickle.dumps(exc)
@@ -58,15 +83,19 @@ class PendingNesting:
     """A nest started by :func:`start_nesting`: :meth:`result` waits for its layout,
     :meth:`cancel` stops it."""
 
-    def __init__(self, unrolled, options: dict, progress: Callable[[int, int], None] | None):
-        self._unrolled, self._options, self._progress = unrolled, options, progress
+    def __init__(self, unrolled, options: dict, progress: Callable[[int, int], None] | None,
+                 dxf=None):
+        self._unrolled, self._options, self._progress, self._dxf = unrolled, options, progress, dxf
         self._layout = self._error = None
+        #: the sheets written (:class:`SheetFiles`, with ``dxf``), after :meth:`result`
+        self.sheets: SheetFiles | None = None
         self._process = None
         if usable_workers(2) < 2:
             return                            # nested in this process, when asked for
         ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
         self._queue = ctx.Queue()
-        self._process = ctx.Process(target=_nest_in_child, args=(unrolled, options, self._queue),
+        self._process = ctx.Process(target=_nest_in_child,
+                                    args=(unrolled, options, dxf, self._queue),
                                     name="torsal-nesting", daemon=True)
         self._process.start()
         self._done = threading.Event()
@@ -90,7 +119,7 @@ class PendingNesting:
                         self._progress(*value)
                     continue
                 if kind == "done":
-                    self._layout = value
+                    self._layout, self.sheets = value
                 else:
                     self._error = value
                 return
@@ -100,9 +129,10 @@ class PendingNesting:
     def result(self):
         """The :class:`~torsal.fabrication.layout.Layout` (waits for the nesting process)."""
         if self._process is None:
-            from .api import nest_parts
-
-            return nest_parts(self._unrolled, progress=self._progress, **self._options)
+            if self._layout is None:
+                self._layout, self.sheets = _nest_and_write(self._unrolled, self._options,
+                                                            self._dxf, self._progress)
+            return self._layout
         self._done.wait()
         self._process.join()
         if self._error is not None:
@@ -116,8 +146,10 @@ class PendingNesting:
             self._process.join()
 
 
-def start_nesting(unrolled, *, progress: Callable[[int, int], None] | None = None,
+def start_nesting(unrolled, *, progress: Callable[[int, int], None] | None = None, dxf=None,
                   **options) -> PendingNesting:
     """Start :func:`~.api.nest_parts` of ``unrolled`` (``{name: Unrolled or Polygon}``) with
-    ``options`` (its keyword arguments) in a process of its own and return at once."""
-    return PendingNesting(unrolled, options, progress)
+    ``options`` (its keyword arguments) in a process of its own and return at once; with
+    ``dxf`` (a path) that process also writes the sheets there and reads them back
+    (:func:`write_sheets`; ``PendingNesting.sheets``)."""
+    return PendingNesting(unrolled, options, progress, dxf)
