@@ -294,3 +294,24 @@ def test_panel_crossing_a_strip_of_its_family_is_left_out_and_the_rest_is_builda
     sol = kept.solids(workers=1)
     r = check_assembly({n: sol[n] for n in pair}, workers=1)
     assert [tuple(sorted(x.parts)) for x in r.interfering] == [pair]
+
+
+def test_the_parts_near_each_path_are_those_placed_before_whose_boxes_meet_it(sphere_fs):
+    # the checker's plans against the definition, part by part (one box test each)
+    from torsal.fabrication.assembly import AssemblyChecker, joints_of
+    from torsal.fabrication.assembly.occ import _bbox
+
+    sol = sphere_fs.solids()
+    chk = AssemblyChecker(list(sol), list(sol.values()), joints_of(sphere_fs), workers=1)
+    chk.boxes = np.array([_bbox(s) for s in chk.shapes]).reshape(-1, 2, 3)
+    plans = chk._plans()
+    order = [k for k, *_ in plans]
+    tol, seen = chk.tolerance, 0
+    for r, (k, _, _, cands) in enumerate(plans):
+        for d, travel, others in cands:
+            lo = np.minimum(chk.boxes[k, 0], chk.boxes[k, 0] - travel * d) - tol
+            hi = np.maximum(chk.boxes[k, 1], chk.boxes[k, 1] - travel * d) + tol
+            assert others == [o for o in order[:r] if (chk.boxes[o, 0] <= hi).all()
+                              and (lo <= chk.boxes[o, 1]).all()]
+            seen += len(others)
+    assert seen > len(plans)

@@ -82,6 +82,43 @@ def test_a_bracket_whose_path_a_plate_blocks_moves_to_the_free_corner(fs, monkey
     assert [s.part for s in r.blocked] == [k.name] and r.interfering_pairs == 0
 
 
+def _connector_path_checks(monkeypatch, structure) -> tuple[list[int], object]:
+    """Build ``structure`` counting, per connector check of a build, how often a connector's
+    path is looked at."""
+    from torsal.fabrication.builder import paths as paths_mod
+
+    counts: list[int] = []
+    hits, check = paths_mod._PathCheck.hits, AssemblyPlanner._check_connectors
+
+    def counted_hits(self, p, d, **kw):
+        if p.family == CONNECTOR_FAMILY and counts:
+            counts[-1] += 1
+        return hits(self, p, d, **kw)
+
+    def counted_check(self, paths):
+        counts.append(0)
+        check(self, paths)
+
+    monkeypatch.setattr(paths_mod._PathCheck, "hits", counted_hits)
+    monkeypatch.setattr(AssemblyPlanner, "_check_connectors", counted_check)
+    return counts, _build(structure)
+
+
+def test_connector_paths_are_checked_again_only_after_a_connector_moved(monkeypatch):
+    # without the row O nothing blocks the bracket: its path is found clear once a build (the
+    # second look, for connectors moved later, has nothing to look at)
+    s = corner_blocked_structure()
+    keep = np.array([0, 1, 3, 4])
+    free = SupportStructure(s.vertices_a, s.vertices_b, [], s.edges[keep], s.edge_family[keep])
+    counts, built = _connector_path_checks(monkeypatch, free)
+    assert len(built.connectors) == 1 and built._moved_connectors == []
+    assert counts and all(n == 1 for n in counts)
+    assert verify_assembly(built, workers=1).buildable
+    # with O the bracket moves to the free corner: every connector's path is looked at again
+    counts, built = _connector_path_checks(monkeypatch, corner_blocked_structure())
+    assert built._moved_connectors and counts[-1] >= 3
+
+
 def test_fixings_on_surface_a_in_the_step_the_parts_list_and_first_in_the_sequence(fs, tmp_path):
     fixings = fs.fixings
     # W (the plate P butts against) carries the others; O stands on its own: both are fixed

@@ -281,6 +281,24 @@ def test_swept_distances_known_values():
     assert _swept_distances(floor, [0, 3.0, 0], post)[0, 0] == 0.0
 
 
+def test_swept_and_in_place_distances_come_from_one_pass():
+    from torsal.fabrication.builder.proximity import (_quad_distances, _swept_and_still_distances,
+                                                      _swept_distances)
+
+    floor = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],
+                      [[1, 0, 0], [2, 0, 0.5], [2, 1, 0.5], [1, 1, 0]]], float)
+    wall = np.array([[[3, -1, -1], [3, 2, -1], [3, 2, 1], [3, -1, 1]],
+                     [[0.5, 1.2, -1], [0.6, 1.2, -1], [0.6, 1.2, 1], [0.5, 1.2, 1]]], float)
+    swept, still = _swept_and_still_distances(floor, [1.5, 0, 0], wall)
+    np.testing.assert_array_equal(swept, _swept_distances(floor, [1.5, 0, 0], wall))
+    i, j = np.divmod(np.arange(4), 2)
+    np.testing.assert_array_equal(still, _quad_distances(floor[i], wall[j]).reshape(2, 2))
+    # in place: the floor 2 from the wall, its second panel 1 (its far edge at x = 2), the post
+    # 0.2 beside the floor
+    assert still[0, 0] == pytest.approx(2.0) and still[1, 0] == pytest.approx(1.0)
+    assert still[0, 1] == pytest.approx(0.2)
+
+
 def test_slab_depths_known_values():
     from torsal.fabrication.builder.proximity import _slab_depths
 

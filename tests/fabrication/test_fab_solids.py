@@ -331,6 +331,26 @@ def test_prepared_workers_mesh_the_solids_the_exports_read(sphere_fs, tmp_path):
         np.testing.assert_array_equal(f, f0)
         np.testing.assert_allclose(v, v0, rtol=0, atol=1e-9)
     S.release_workers()
+    # the workers made the 3DM's Breps too: the file holds the same solids as one whose Breps
+    # this process makes (read back with rhino3dm: names, closed valid Breps, vertices, faces)
+    import rhino3dm
+
+    assert fs._breps[0] == S._parts_key(fs) and set(fs._breps[2]) == set(serial)
+    assert all(b is not None for b in fs._breps[2].values())
+    here = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
+
+    def breps(path):
+        out = {}
+        for o in rhino3dm.File3dm.Read(str(path)).Objects:
+            g = o.Geometry
+            assert isinstance(g, rhino3dm.Brep) and g.IsSolid and g.IsValid
+            out[o.Attributes.Name] = (len(g.Vertices), len(g.Faces), len(g.Edges),
+                                      round(g.GetBoundingBox().Min.Z, 9), round(g.GetBoundingBox().Max.X, 9))
+        return out
+
+    assert breps(fs.export_3dm(tmp_path / "workers.3dm")) == \
+        breps(here.export_3dm(tmp_path / "here.3dm")) and len(breps(tmp_path / "here.3dm")) == len(serial)
+    assert getattr(here, "_breps", None) is None
 
 
 def test_slot_area_from_the_records_is_the_unrolled_one(sphere_fs):

@@ -155,3 +155,53 @@ def test_only_small_parts_and_a_full_sheet(tmp_path):
     check_sheets(reread(lay.export_dxf(tmp_path / "p.dxf", svg=False)), parts, W, H, sep, edge,
                  lay.n_sheets)
     assert lay.n_sheets == 2
+
+
+def test_nesting_in_its_own_process_gives_the_same_sheets_and_relays_progress(fins, tmp_path):
+    from torsal.fabrication.nesting import Nester, nest_parts
+    from torsal.fabrication.nesting.background import start_nesting
+
+    cut = Cutting.for_process("laser")
+    opts = dict(sheet=(1000.0, 500.0), gap=4.0, margin=8.0, cutting=cut)
+    # rows: no search, so the layout is the same wherever it is made
+    here = nest_parts(fins, nester=Nester.ROWS, **opts)
+    there = start_nesting(fins, nester=Nester.ROWS, dxf=tmp_path / "fins.dxf", **opts)
+    assert there._process is not None            # a process of its own (2 workers usable)
+    got = there.result()
+    assert got.n_sheets == here.n_sheets
+    assert [(p.name, p.sheet, round(p.rotation, 9)) for p in got.placements] == \
+        [(p.name, p.sheet, round(p.rotation, 9)) for p in here.placements]
+    # the sheets it wrote, read back here with ezdxf alone: every part once, apart, inside
+    sep, edge = spacing(4.0, 8.0, cut)
+    files = there.sheets
+    assert [p.name for p in files.paths] == [f"fins_sheet{s + 1:02d}.dxf" for s in range(got.n_sheets)]
+    util = check_sheets(reread(files.paths), fins, 1000.0, 500.0, sep, edge, got.n_sheets)
+    assert files.area_read_back / (got.n_sheets * 1000.0 * 500.0) == pytest.approx(util, rel=1e-9)
+    # sparrow empties the rows' second sheet in the other process; its progress comes here
+    seen = []
+    lay = start_nesting(TRIANGLES, nester=Nester.SPARROW, sheet=(1000.0, 500.0), gap=4.0,
+                        margin=8.0, time_limit=8, seed=0,
+                        progress=lambda done, left: seen.append((done, left))).result()
+    assert lay.n_sheets == 1 and lay.stats.sheets_emptied == 1
+    assert seen and seen[-1][0] == 1
+
+
+def test_nesting_in_its_own_process_raises_the_nesters_error_and_stops_when_cancelled():
+    from torsal.core.parallel import limit_workers
+    from torsal.fabrication.nesting import Nester
+    from torsal.fabrication.nesting.background import start_nesting
+
+    big = {"huge": box(0, 0, 2000, 100)}
+    pending = start_nesting(big, nester=Nester.ROWS, sheet=(1000.0, 500.0), gap=4.0, margin=8.0)
+    with pytest.raises(PartTooLargeError, match="does not fit"):
+        pending.result()
+    # cancelled: the process ends at once, within its budget of 60 s
+    pending = start_nesting(TRIANGLES, nester=Nester.SPARROW, sheet=(1000.0, 500.0), gap=4.0,
+                            margin=8.0, time_limit=60, seed=0)
+    pending.cancel()
+    assert not pending._process.is_alive()
+    # one worker: nested here, when asked for
+    with limit_workers(1):
+        pending = start_nesting(TRIANGLES, nester=Nester.ROWS, sheet=(1000.0, 500.0), gap=4.0,
+                                margin=8.0)
+    assert pending._process is None and pending.result().n_sheets == 2 and pending.sheets is None

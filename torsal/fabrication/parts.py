@@ -655,9 +655,25 @@ class FinSystem:
         :func:`torsal.fabrication.nesting.nest_parts` for ``options`` (``nester``, ``cutting``,
         ``time_limit``, ``seed``, ...). By default the fast bottom-left nester, the connectors
         in rows after the plates."""
-        return nest_parts(self.unrolled(), connectors={p.name for p in self.connectors + self.fixings},
-                          sheet=sheet, gap=gap, margin=margin, rotations=rotations,
-                          unit=self.unit, **options)
+        return nest_parts(self.unrolled(), **self._nest_options(sheet, gap, margin, rotations, options))
+
+    def _nest_options(self, sheet, gap, margin, rotations, options: dict) -> dict:
+        """The keyword arguments of :func:`~torsal.fabrication.nesting.nest_parts` for this
+        fin system's parts (connectors and fixings named, its unit)."""
+        return dict(connectors={p.name for p in self.connectors + self.fixings}, sheet=sheet,
+                    gap=gap, margin=margin, rotations=rotations, unit=self.unit, **options)
+
+    def start_layout(self, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
+                     margin: float = 10.0, rotations: Sequence[float] = (0, 90, 180, 270), **options):
+        """:meth:`layout` in a process of its own: returns at once a
+        :class:`~torsal.fabrication.nesting.background.PendingNesting` whose ``result()`` is
+        the layout (this process writes the solids' files meanwhile); with ``dxf`` (a path)
+        the sheets are written there too (``.sheets``)."""
+        from .nesting.background import start_nesting
+
+        progress, dxf = options.pop("progress", None), options.pop("dxf", None)
+        return start_nesting(self.unrolled(), progress=progress, dxf=dxf,
+                             **self._nest_options(sheet, gap, margin, rotations, options))
 
     def bill_of_materials(self, path, *, density: float = 2700.0, layout=None):
         """CSV parts list; see :func:`torsal.fabrication.layout.bill_of_materials`."""

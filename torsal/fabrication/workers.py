@@ -19,6 +19,7 @@ from contextvars import ContextVar
 from torsal.core.parallel import usable_workers
 
 from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _labelled, _mesh
+from .rhino import encoded_brep
 
 __all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
            "release_workers", "start_solids", "build_solids", "solid_shapes"]
@@ -49,7 +50,9 @@ def _from_bytes(data: bytes):
 
 def _build_chunk(args):
     """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
-    worker never imports build123d), and the CPU seconds that took."""
+    worker never imports build123d), and the CPU seconds that took. With ``mesh`` also the
+    3DM's Brep of each (:func:`~.rhino.encoded_brep` at the default tolerance; None where
+    it is not a valid solid: the 3DM then takes the part's mesh)."""
     import time
 
     parts, thickness, repair, mesh = args
@@ -57,9 +60,11 @@ def _build_chunk(args):
     out = []
     for p in parts:
         status, shape, detail = _build_one(p, thickness, repair)
+        brep = None
         if shape is not None and mesh:       # the triangles travel with the BRep
             _mesh(shape, MESH_TOLERANCE * thickness, threads=False)
-        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
+            brep = encoded_brep(shape, MESH_TOLERANCE * thickness)
+        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail, brep))
     return out, time.process_time() - cpu
 
 
@@ -202,9 +207,13 @@ class PendingSolids:
         res = {}
         #: CPU seconds the workers spent building (what the caller's clock does not see)
         self.cpu_seconds = sum(cpu for _, cpu in done)
+        #: with ``mesh``: {part name: encoded 3DM Brep or None} (:func:`~.rhino.encoded_brep`)
+        self.breps = {}
         for rows, _ in done:
-            for name, status, data, detail in rows:
+            for name, status, data, detail, brep in rows:
                 res[name] = (status, None if data is None else _from_bytes(data), detail)
+                if self._workers.mesh:
+                    self.breps[name] = brep
         return [(p.name,) + res[p.name] for p in self.parts]
 
     def cancel(self) -> None:
@@ -293,6 +302,8 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
     if pending is not None:
         rows = pending.result()
         cpu = pending.cpu_seconds
+        if pending.breps:       # the 3DM's Breps, made by the workers at the default tolerance
+            fin_system._breps = (_parts_key(fin_system), MESH_TOLERANCE * t, pending.breps)
     else:
         cpu = time.process_time()
         rows = [(p.name,) + _build_one(p, t, repair) for p in parts]

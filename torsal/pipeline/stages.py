@@ -377,23 +377,28 @@ def run_fabrication(inp: StageInputs) -> dict:
             fs.start_solids()
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
+    # the nester (an anytime search in a wall-clock budget) runs in a process of its own
+    # while this one collects the solids and writes STEP and 3DM; joined before the DXF
+    nesting = None
     try:
-        layout = _nest(inp, fs)
-        if spec.outputs.dxf:
-            paths = layout.export_dxf(out / "sheets" / "fins.dxf")
-            written["dxf"] = [str(Path(p).relative_to(out)) for p in paths]
+        nesting = _nest(inp, fs)
+        if spec.outputs.step:
+            fs.export_step(out / "fins.step")
+            written["step"] = "fins.step"
+        if spec.outputs.rhino_3dm:
+            fs.export_3dm(out / "fins.3dm")
+            written["3dm"] = "fins.3dm"
+        layout = nesting.result()
+        if spec.outputs.dxf:      # written and read back by the nesting process
+            written["dxf"] = [str(Path(p).relative_to(out)) for p in nesting.sheets.paths]
         if spec.outputs.bom:
             fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
             written["bom"] = "parts.csv"
     except BaseException:
         fs.cancel_solids()
+        if nesting is not None:
+            nesting.cancel()
         raise
-    if spec.outputs.step:
-        fs.export_step(out / "fins.step")
-        written["step"] = "fins.step"
-    if spec.outputs.rhino_3dm:
-        fs.export_3dm(out / "fins.3dm")
-        written["3dm"] = "fins.3dm"
     left_out = ([{"strip": s_, "edge": int(e), "node": int(v), "reason": why}
                  for s_, e, v, why in getattr(fs, "coplanar_panels", [])]
                 + [{"strip": s_, "edge": int(e), "node": None,
@@ -403,7 +408,7 @@ def run_fabrication(inp: StageInputs) -> dict:
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels), **fabrication_summary(fs),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
-        "nesting": _nesting_report(layout, out / "sheets" if spec.outputs.dxf else None),
+        "nesting": _nesting_report(layout, nesting.sheets),
         "cutting": _cutting_report(layout),
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
@@ -415,7 +420,8 @@ def run_fabrication(inp: StageInputs) -> dict:
 
 
 def _nest(inp: StageInputs, fs):
-    """The design's sheets: its [cutting] process and [nesting] options."""
+    """The design's sheets, started in a process of their own (``.result()``: the layout):
+    its [cutting] process and [nesting] options."""
     from ..fabrication.cutting import Cutting
     from ..fabrication.nesting import Nester
 
@@ -424,19 +430,19 @@ def _nest(inp: StageInputs, fs):
     cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
                                   relief=c.relief, unit=fs.unit)
     nester = n.nester or (Nester.SPARROW if spec.outputs.dxf else Nester.BOTTOM_LEFT)
-    return fs.layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
-                     nester=nester, time_limit=n.time_limit_s, seed=n.seed,
-                     rotation_step=n.rotation_step_deg,
-                     progress=lambda done, left: inp.progress(
-                         "progress", {"phase": "nesting sheets", "done": done,
-                                      "total": done + left}))
+    return fs.start_layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                           dxf=inp.out / "sheets" / "fins.dxf" if spec.outputs.dxf else None,
+                           nester=nester, time_limit=n.time_limit_s, seed=n.seed,
+                           rotation_step=n.rotation_step_deg,
+                           progress=lambda done, left: inp.progress(
+                               "progress", {"phase": "nesting sheets", "done": done,
+                                            "total": done + left}))
 
 
-def _nesting_report(layout, sheets_dir) -> dict:
+def _nesting_report(layout, sheets) -> dict:
     """Sheets used, the area bound, utilization (of the layout, and of the DXF files read back
-    with ezdxf when written) and the nester's time."""
-    from ..fabrication.layout import read_dxf_parts
-
+    with ezdxf when written: ``sheets``, :class:`~torsal.fabrication.nesting.background.SheetFiles`)
+    and the nester's time."""
     st = layout.stats
     sheet_area = layout.sheet[0] * layout.sheet[1]
     rep = {"nester": st.method, "sheets": int(layout.n_sheets),
@@ -446,12 +452,8 @@ def _nesting_report(layout, sheets_dir) -> dict:
            "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
            "fallback_parts": int(st.fallback_parts), "rotation": st.rotation,
            "time_limited": bool(st.time_limited)}
-    if sheets_dir is not None and layout.n_sheets:
-        area = 0.0
-        for s in range(layout.n_sheets):
-            polys, _, _ = read_dxf_parts(sheets_dir / f"fins_sheet{s + 1:02d}.dxf")
-            area += sum(p.area for p in polys)
-        rep["utilization_dxf"] = float(area / (layout.n_sheets * sheet_area))
+    if sheets is not None and layout.n_sheets:
+        rep["utilization_dxf"] = float(sheets.area_read_back / (layout.n_sheets * sheet_area))
     return rep
 
 

@@ -21,7 +21,7 @@ from ..model import (CONNECTOR_FAMILY, FIXING_FAMILY, JointKind, Part, _cross, _
 from .clash import ClashFinder
 from .ends import CONNECTOR_GAP
 from .fasteners import fastener_for, min_leg
-from .proximity import _quad_distances, _slab_depths, _swept_distances
+from .proximity import _quad_distances, _slab_depths, _swept_and_still_distances
 
 #: a part's path into place is blocked where its swept solid and a plate in place overlap by
 #: more than this fraction of the thickness (less is touching, e.g. corners that meet)
@@ -174,9 +174,8 @@ class _PathCheck:
         block the path (rules in the class text; ``loose``: the panel is a connector's or
         fixing's)."""
         reach = self.t + 0.5 * self.c
-        swept = _swept_distances(p.panels, vec, quads)                        # (k, m)
-        i, j = np.divmod(np.arange(swept.size), len(quads))
-        still = _quad_distances(p.panels[i], quads[j]).reshape(swept.shape)
+        # (k, m): nearest on the way and in place (the swept region's first face is the panel)
+        swept, still = _swept_and_still_distances(p.panels, vec, quads)
         # panels at a joint (nearer in place than plates can be apart) must not come nearer;
         # any others that come that near are checked as solids. A connector or fixing is at a
         # joint only with what it lies on (a thickness apart): nothing crosses it
@@ -479,6 +478,7 @@ class AssemblyPlanner:
         where none is clear it is listed in ``_blocked_paths`` like a plate."""
         fs = self.fs
         where = {j.connector: k for k, j in enumerate(fs.joints) if j.connector}
+        moves = len(fs._moved_connectors)
         for c in sorted(fs.connectors, key=lambda c: c.name):
             k = where.get(c.name)
             if k is None:
@@ -506,7 +506,12 @@ class AssemblyPlanner:
                 paths.remove(c.name)
                 continue
             fs._blocked_paths.append((c, h))
-        # a connector moved for a later one may now stand in the way of one between them
+        # a connector moved for a later one may now stand in the way of one between them;
+        # where none moved, the parts only went away since each path was found clear (fixings
+        # evicted, connectors dropped), so no path is checked twice (example 9: 648
+        # connectors, none moved, 2.4 s a build)
+        if len(fs._moved_connectors) == moves:
+            return
         blocked = {p.name for p, _ in fs._blocked_paths}
         for c in sorted(fs.connectors, key=lambda c: c.name):
             k = where.get(c.name)

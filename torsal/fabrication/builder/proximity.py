@@ -175,14 +175,22 @@ def _swept_distances(moving: np.ndarray, vector: np.ndarray, others: np.ndarray)
     """(k, m) least distance of the mid-surface of panel ``moving[i]`` (k, 4, 3), anywhere on
     its way from ``moving + vector`` to its place, from panel ``others[j]`` (m, 4, 3): the
     distance of the region it sweeps (:func:`_swept_faces`; 0 where a panel lies inside it)."""
+    return _swept_and_still_distances(moving, vector, others)[0]
+
+
+def _swept_and_still_distances(moving: np.ndarray, vector: np.ndarray,
+                               others: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`_swept_distances`, the (k, m) distances in place, ``_quad_distances`` of every
+    pair): the first face of each swept region is the panel in place, so both come from one
+    pass of :func:`_quad_distances`."""
     k, m = len(moving), len(others)
     if not (k and m):
-        return np.zeros((k, m))
+        return np.zeros((k, m)), np.zeros((k, m))
     faces = _swept_faces(moving, vector).reshape(-1, 4, 3)               # (6k, 4, 3)
     f, o = np.divmod(np.arange(len(faces) * m), m)
-    d = _quad_distances(faces[f], others[o]).reshape(k, 6, m).min(axis=1)
+    d = _quad_distances(faces[f], others[o]).reshape(k, 6, m)
     inside = _inside_sweeps(others.reshape(-1, 3), moving, vector).reshape(m, 4, k).any(axis=1)
-    return np.where(inside.T, 0.0, d)
+    return np.where(inside.T, 0.0, d.min(axis=1)), d[:, 0]
 
 
 def _slab_depths(moving: np.ndarray, vector: np.ndarray, others: np.ndarray,
