@@ -280,20 +280,3 @@ def test_the_family_of_constrained_designs_ends_measured_feasible():
             assert np.nan_to_num(r.congruence.torsal_plane_angle()).min() >= a - 0.1
         else:
             assert any(len(v) for v in r.violated.values()) or "converged" not in r.status
-
-
-def test_an_acceptable_level_ends_a_slow_tail_measured_feasible(monkeypatch):
-    """IPOPT's acceptable level: a full inner minimization at the final tolerance that changed the
-    objective little ends the solve, measured feasible, near the strict answer, in fewer steps.
-    (The threshold is raised so that the small family facade at 80 deg reaches it.)"""
-    import torsal.geometry.optimize.alm as alm
-
-    model = next(m for m in design_family(20, size=5) if m.name == "facade-6")
-    strict = model.make(80).solve(solver="alm")
-    monkeypatch.setattr(alm, "ACCEPT_OBJ_CHANGE", 1e-2)
-    acceptable = model.make(80).solve(solver="alm")
-    assert "converged: measured feasible" in strict.status
-    assert "acceptable level" in acceptable.status and acceptable.success
-    assert acceptable.iterations < strict.iterations
-    assert np.nan_to_num(acceptable.congruence.torsal_plane_angle()).min() >= 80 - 0.1
-    assert acceptable.objective == pytest.approx(strict.objective, rel=0.01)
