@@ -295,11 +295,22 @@ _SEW_TOL = 1e-6
 def _fans(pts: np.ndarray, planar_tol: float) -> list:
     """Index lists of the planar pieces of polygons with the same number of corners
     (F, n, 3): the whole polygon if its corners are coplanar (:func:`_coplanar`), else a fan of
-    triangles from its first corner (as :func:`_face`)."""
+    triangles from its first corner (as :func:`_face`); a warped quad with a reflex corner
+    at 1 or 3 is split on the diagonal 1-3 instead, the one inside it: the diagonal 0-2 lies
+    outside, and its two triangles would overlap, one turned against the other (a self-
+    overlapping shell whose solid OpenCascade classifies, and so heals and intersects, as
+    inside out: example 7c's F0-S001-P00 at 3db0016)."""
     n = pts.shape[1]
     planar = np.ones(len(pts), bool) if n == 3 else _coplanar(pts, planar_tol)
     fan = [[0, i, i + 1] for i in range(1, n - 1)]
-    return [[list(range(n))] if ok else fan for ok in planar]
+    if n != 4:
+        return [[list(range(n))] if ok else fan for ok in planar]
+    area = np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)                 # Newell, (F, 3)
+    d = pts[:, 2] - pts[:, 0]
+    inside = ((np.einsum("fi,fi->f", np.cross(pts[:, 1] - pts[:, 0], d), area) > 0)
+              & (np.einsum("fi,fi->f", np.cross(d, pts[:, 3] - pts[:, 0]), area) > 0))
+    return [[list(range(n))] if ok else fan if good else [[1, 2, 3], [1, 3, 0]]
+            for ok, good in zip(planar, inside)]
 
 
 def _plate_direct(part: Part, thickness: float, planar_tol: float):
