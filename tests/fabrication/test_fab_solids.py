@@ -335,8 +335,8 @@ def test_prepared_workers_mesh_the_solids_the_exports_read(sphere_fs, tmp_path):
     # this process makes (read back with rhino3dm: names, closed valid Breps, vertices, faces)
     import rhino3dm
 
-    assert fs._breps[0] == S._parts_key(fs) and set(fs._breps[2]) == set(serial)
-    assert all(b is not None for b in fs._breps[2].values())
+    assert fs._breps.key == S._parts_key(fs) and set(fs._breps.breps) == set(serial)
+    assert all(b is not None for b in fs._breps.breps.values())
     here = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
 
     def breps(path):

@@ -231,7 +231,7 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     shapes = solid_shapes(fin_system)
     # the Breps the solids' workers made for this file (the same brep_of, in parallel)
     made = getattr(fin_system, "_breps", None)
-    made = made[2] if made is not None and made[0] == _parts_key(fin_system) and made[1] == tol else {}
+    made = made.breps if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol else {}
     meshed: list[str] = []
     for p in fin_system.parts:
         if p.family == CONNECTOR_FAMILY:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import threading
 from contextvars import ContextVar
+from typing import NamedTuple
 
 from torsal.core.parallel import usable_workers
 
@@ -283,6 +284,16 @@ def solid_shapes(fin_system, *, repair: bool = True, workers: int | None = None)
     return shapes
 
 
+class WorkerBreps(NamedTuple):
+    """The 3DM Breps the solids' workers made (:func:`~.rhino.encoded_brep`): for which parts
+    (``key``, :func:`_parts_key`), at which ``tolerance``, and ``breps`` {part name: encoded
+    Brep or None}."""
+
+    key: tuple
+    tolerance: float
+    breps: dict
+
+
 def _parts_key(fin_system) -> tuple:
     """Which parts (objects) the fin system has: shapes kept for other parts are stale."""
     return tuple(id(p) for p in fin_system.parts)
@@ -303,7 +314,7 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
         rows = pending.result()
         cpu = pending.cpu_seconds
         if pending.breps:       # the 3DM's Breps, made by the workers at the default tolerance
-            fin_system._breps = (_parts_key(fin_system), MESH_TOLERANCE * t, pending.breps)
+            fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t, pending.breps)
     else:
         cpu = time.process_time()
         rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
