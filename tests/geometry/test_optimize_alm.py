@@ -280,3 +280,19 @@ def test_the_family_of_constrained_designs_ends_measured_feasible():
             assert np.nan_to_num(r.congruence.torsal_plane_angle()).min() >= a - 0.1
         else:
             assert any(len(v) for v in r.violated.values()) or "converged" not in r.status
+
+
+def test_the_predicted_active_set_takes_a_canopy_to_80_degrees(monkeypatch):
+    """A small canopy of the family at min_torsal_angle 80: each Newton step that moves rows
+    across their penalty's kink is replaced by the step of the active set it predicts
+    (semismooth Newton on the step's model). With it the augmented Lagrangian converges,
+    measured feasible, within 200 Newton steps; without it the line search cuts the steps
+    short and 200 are not enough."""
+    from torsal.geometry.optimize import alm
+
+    member = {m.name: m for m in design_family(20, size=7)}["canopy-11"]
+    r = member.make(80).solve(solver="alm", max_iter=200)
+    assert r.success and r.counts["predicted"] > 0
+    assert np.nan_to_num(r.congruence.torsal_plane_angle()).min() >= 80 - 0.1
+    monkeypatch.setattr(alm, "PREDICT", 0)
+    assert not member.make(80).solve(solver="alm", max_iter=200).success
