@@ -19,6 +19,7 @@ import scipy.sparse as sp
 
 from .catalogue import Term
 from .kernels import Local, _chart_functions, _jit
+from .numeric import NumericFunction
 from .projected import Block, ProjectedHessian
 
 def _to_casadi(m: sp.spmatrix) -> ca.DM:
@@ -27,37 +28,6 @@ def _to_casadi(m: sp.spmatrix) -> ca.DM:
     spy = ca.Sparsity(m.shape[0], m.shape[1], m.indptr.astype(np.int64).tolist(),
                       m.indices.astype(np.int64).tolist())
     return ca.DM(spy, m.data)
-
-
-class NumericFunction:
-    """A casadi Function evaluated from and into numpy arrays through its buffers.
-
-    A call with numpy arguments converts each to a DM and each output back (about 1.5 ms per
-    30,000 parameters, several times the evaluation itself on Fig. 12 row 7d); here casadi
-    reads the arguments and writes the outputs in place. Returns copies of the outputs (flat
-    nonzeros).
-
-    >>> x = ca.MX.sym("x", 3)
-    >>> f = NumericFunction(ca.Function("f", [x], [2 * x, ca.sum1(x)]))
-    >>> [a.tolist() for a in f(np.array([1.0, 2.0, 3.0]))]
-    [[2.0, 4.0, 6.0], [6.0]]
-    """
-
-    def __init__(self, fn: ca.Function):
-        self.fn = fn
-        self.buffer, self.call = fn.buffer()
-        self.out = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-        for i, r in enumerate(self.out):
-            self.buffer.set_res(i, memoryview(r))
-
-    def __call__(self, *args) -> list[np.ndarray]:
-        keep = [np.ascontiguousarray(a, dtype=float).ravel() for a in args]   # alive during the call
-        for i, (a, n) in enumerate(zip(keep, (self.fn.nnz_in(i) for i in range(len(keep))))):
-            if a.size != n:
-                raise ValueError(f"{self.fn.name()}: argument {i} has {a.size} entries, expected {n}")
-            self.buffer.set_arg(i, memoryview(a))
-        self.call()
-        return [r.copy() for r in self.out]
 
 
 def _bound_violation(g: np.ndarray, lower, upper) -> np.ndarray:

@@ -17,11 +17,12 @@ scatters them into IPOPT's Hessian sparsity.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
+
+from .numeric import NumericFunction
 
 #: IPOPT iterations per run with the projected Hessian; the exact Hessian after them.
 #: Projected Newton converges linearly where an element's exact Hessian is indefinite at the
@@ -115,23 +116,11 @@ class Block:
         return int(self.ids.shape[1])
 
 
-class _BoundPieces(NamedTuple):
-    """A casadi Function of the Hessian's pieces (the rest, then each block's element
-    matrices) whose outputs casadi writes straight into numpy arrays (no DM conversions)."""
-    fn: ca.Function
-    buffer: object
-    call: object
-    res: list
-
-    @classmethod
-    def of(cls, name: str, symbols: list, rest: ca.MX, blocks: list) -> "_BoundPieces":
-        fn = ca.Function(name, symbols, [rest] + [b.values for b in blocks])
-        res = [np.zeros(rest.sparsity().nnz())] + [np.zeros((b.values.size2(), b.values.size1()))
-                                                   for b in blocks]
-        buffer, call = fn.buffer()
-        for i, r in enumerate(res):
-            buffer.set_res(i, memoryview(r))
-        return cls(fn, buffer, call, res)
+def _bound_pieces(name: str, symbols: list, rest: ca.MX, blocks: list) -> NumericFunction:
+    """A casadi Function of the Hessian's pieces (the rest's nonzeros, then each block's
+    element matrices as ``(m, nh)``) that writes straight into numpy arrays (no copies)."""
+    fn = ca.Function(name, symbols, [rest] + [b.values for b in blocks])
+    return NumericFunction(fn, copy=False, shapes=[None] + [(b.values.size2(), b.values.size1()) for b in blocks])
 
 
 class ProjectedHessian(ca.Callback):
@@ -159,7 +148,7 @@ class ProjectedHessian(ca.Callback):
         ca.Callback.__init__(self)
         self.blocks = blocks
         self._name, self._symbols, self._rest = name, symbols, rest
-        self._all = _BoundPieces.of(name + "_pieces", symbols, rest, blocks)
+        self._all = _bound_pieces(name + "_pieces", symbols, rest, blocks)
         self._energy_only = None     # the pieces without the constraints' blocks (built on first use)
         self._in = [s.sparsity() for s in symbols]
         # global positions: the rest's nonzeros, then every block's full local upper triangle
@@ -209,20 +198,18 @@ class ProjectedHessian(ca.Callback):
         10,000 of the 17,400 element Hessians of a step).
         """
         if constraints or not any(b.constraint for b in self.blocks):
-            bound = self._all
-            res = bound.res
+            bound, energy_only = self._all, False
         else:
             if self._energy_only is None:
-                self._energy_only = _BoundPieces.of(self._name + "_pieces_e", self._symbols, self._rest,
-                                                    [b for b in self.blocks if not b.constraint])
-            bound = self._energy_only
-            it = iter(bound.res[1:])
-            res = [bound.res[0]] + [None if b.constraint else next(it) for b in self.blocks]
-        # kept alive during the call (casadi holds raw pointers); an empty input has no buffer
-        keep = [np.ascontiguousarray(a, dtype=float) if sp_.nnz() else _EMPTY for a, sp_ in zip(args, self._in)]
-        for i, a in enumerate(keep):
-            bound.buffer.set_arg(i, memoryview(a))
-        bound.call()
+                self._energy_only = _bound_pieces(self._name + "_pieces_e", self._symbols, self._rest,
+                                                  [b for b in self.blocks if not b.constraint])
+            bound, energy_only = self._energy_only, True
+        # an empty input (no constraint rows) is passed as an empty array
+        res = bound(*[np.ascontiguousarray(a, dtype=float) if sp_.nnz() else _EMPTY
+                      for a, sp_ in zip(args, self._in)])
+        if energy_only:
+            it = iter(res[1:])
+            res = [res[0]] + [None if b.constraint else next(it) for b in self.blocks]
         mats = []
         for b, v in zip(self.blocks, res[1:]):
             if v is None:
