@@ -545,12 +545,33 @@ def seam_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray, g
 
 def into_direction(quad: np.ndarray, start: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(a, b, v)`` of a panel's end node line (``start``: ``a_i b_i``) and the unit direction
-    from that line into the panel, square to it."""
+    from that line into the panel, square to it: towards the panel's centre, turned round where
+    the panel lies on the other side of that line (:func:`toward_panel`)."""
     a, b = (quad[0], quad[3]) if start else (quad[1], quad[2])
     u = (b - a) / np.linalg.norm(b - a)
     v = quad.mean(axis=0) - a
     v = v - (v @ u) * u
-    return a, b, v / np.linalg.norm(v)
+    return a, b, toward_panel(v / np.linalg.norm(v), quad, start)
+
+
+def toward_panel(v: np.ndarray, quad: np.ndarray, start: bool, normal=None) -> np.ndarray:
+    """The direction ``v`` (3,), square to an end node line of ``quad`` (4, 3) (``start``: its
+    ``a_i b_i`` edge, corners 0, 3; else ``a_j b_j``, corners 1, 2), turned round if it points
+    away from the side of that line the panel lies on there: the left of the edge as the quad's
+    outline runs (3 -> 0, or 1 -> 2) seen from its Newell normal (``normal``, else computed).
+
+    The direction to the panel's centre (how ``v`` is found) is on that side for a convex
+    panel, but not for a sheared dart whose far edge runs across the node line's extension
+    (one corner reflex): a butt trim that took its side from the centre left the butted end
+    standing in that panel (example 7c at 700dfc6, 10.7 mm3).
+
+    >>> dart = np.array([[0, 0, 0], [7, -0.4, 0], [10.8, 0.7, 0], [4, 0, 0.0]])  # reflex at b_i
+    >>> bool(dart.mean(axis=0)[1] > 0), toward_panel(np.array([0, 1.0, 0]), dart, True)
+    (True, array([-0., -1., -0.]))
+    """
+    n = quad_normals(quad[None])[0] if normal is None else normal
+    edge = quad[0] - quad[3] if start else quad[2] - quad[1]
+    return -v if _cross(n, edge) @ v < 0 else v
 
 
 def fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:

@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..joints import toward_panel
 from ..model import (FAMILY_COLORS, MITER_LIMIT, FamilySplit, Part, PartId, _bowtie, _fold_deg,
                      _miter, _oriented_size, _safe_normals, panel_widths)
 from ..unroll import unroll
@@ -109,7 +110,8 @@ def _plate_panels(st: _Strips) -> dict:
                 ni = np.linalg.norm(into)
                 if not ni > 1e-9 * st.depth[v]:
                     continue           # panel centre on the node line: no direction
-                lst.append((nq[i], into / ni, (si, i)))
+                # (the side the panel lies on along the node line: not its centre's for a dart)
+                lst.append((nq[i], toward_panel(into / ni, q[i], i == j, nq[i]), (si, i)))
     return plate
 
 
