@@ -26,7 +26,7 @@ import numpy as np
 
 from torsal.core.errors import TorsalError
 
-from .model import Part, SlotSide
+from .model import Part, SlotSide, slab_faces
 from .unroll import unroll
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SINGLE_BOX_FOLD",
@@ -274,12 +274,8 @@ def _plate_outlines(part: Part, thickness: float):
     """Every face outline of a part's plate (F, 4, 3) and its orientation sign (F,): per panel
     top (``p + t/2 m``), bottom (same diagonal as the top if warped; sign -1: it is oriented
     inwards), the a side and the b side; then the start and end caps."""
-    q, m = part.panels, part.miters
-    k = len(q)
-    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
-    node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
-    top = q + 0.5 * thickness * m[node]
-    bot = q - 0.5 * thickness * m[node]
+    k = len(part.panels)
+    top, bot = slab_faces(part.panels, part.miters, thickness)
     sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
                       np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
     caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],

@@ -545,7 +545,9 @@ class AssemblyPlanner:
                            unit=fs.unit)
         places = [(opt, q) for opt in options
                   for q in connector_variants(a, b, *opt[:4], thickness=fs.thickness,
-                                              gap=CONNECTOR_GAP * fs.thickness)
+                                              gap=CONNECTOR_GAP * fs.thickness,
+                                              plates=tuple(fs.part(n).slab_corners(j, fs.thickness)
+                                                           for n, j in opt[6]))
                   if not (q.shape == old[0].shape and np.allclose(q, old[0]))]
         # places whose legs take a bolt first (another corner or side at full size before a
         # smaller one in the same corner: a bracket without holes is not fastened)
