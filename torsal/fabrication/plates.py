@@ -26,7 +26,7 @@ import numpy as np
 
 from torsal.core.errors import TorsalError
 
-from .model import Part, SlotSide, slab_faces
+from .model import Part, SlotSide, _cross, slab_faces
 from .unroll import unroll
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SINGLE_BOX_FOLD",
@@ -157,10 +157,10 @@ def _triangles_inside(pts: np.ndarray) -> np.ndarray:
     fan = np.array([[0, i, i + 1] for i in range(1, n - 1)]).reshape(-1, 3)
     out = np.broadcast_to(fan, (f, n - 2, 3)).copy()
     if n == 4:
-        area = np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)             # Newell, (F, 3)
+        area = _cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)             # Newell, (F, 3)
         d = pts[:, 2] - pts[:, 0]
-        inside = ((np.einsum("fi,fi->f", np.cross(pts[:, 1] - pts[:, 0], d), area) > 0)
-                  & (np.einsum("fi,fi->f", np.cross(d, pts[:, 3] - pts[:, 0]), area) > 0))
+        inside = ((np.einsum("fi,fi->f", _cross(pts[:, 1] - pts[:, 0], d), area) > 0)
+                  & (np.einsum("fi,fi->f", _cross(d, pts[:, 3] - pts[:, 0]), area) > 0))
         out[~inside] = [[1, 2, 3], [1, 3, 0]]
     return out
 
@@ -171,7 +171,7 @@ def _polygon_volumes(pts: np.ndarray) -> np.ndarray:
     :func:`_triangles_inside` tiles it."""
     pts = np.asarray(pts, float)
     t = pts[np.arange(len(pts))[:, None, None], _triangles_inside(pts)]        # (F, n-2, 3, 3)
-    return np.einsum("fki,fki->f", t[:, :, 0], np.cross(t[:, :, 1], t[:, :, 2])) / 6.0
+    return np.einsum("fki,fki->f", t[:, :, 0], _cross(t[:, :, 1], t[:, :, 2])) / 6.0
 
 
 def _fan_volume(points) -> float:
@@ -377,7 +377,7 @@ def _plate_direct(part: Part, thickness: float, planar_tol: float):
     normals, centres, volume = [], [], 0.0
     for n in np.unique(sizes):                       # polygons of n corners (3 or 4)
         pts = points[np.array([x for x in loops if len(x) == n])]          # (F, n, 3)
-        area = 0.5 * np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)   # Newell
+        area = 0.5 * _cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)   # Newell
         normals.append(area)
         centres.append(pts.mean(axis=1))
         volume += float(_polygon_volumes(pts).sum())        # divergence theorem
