@@ -175,7 +175,8 @@ class _PathCheck:
         fixing's)."""
         reach = self.t + 0.5 * self.c
         # (k, m): nearest on the way and in place (the swept region's first face is the panel)
-        swept, still = _swept_and_still_distances(p.panels, vec, quads)
+        # (pairs farther apart than the reach block nothing: not measured)
+        swept, still = _swept_and_still_distances(p.panels, vec, quads, within=reach)
         # panels at a joint (nearer in place than plates can be apart) must not come nearer;
         # any others that come that near are checked as solids. A connector or fixing is at a
         # joint only with what it lies on (a thickness apart): nothing crosses it
