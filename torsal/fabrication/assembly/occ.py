@@ -295,6 +295,18 @@ def _face_prism(face, v: np.ndarray):
     return pr
 
 
+def _meshed_triangles(shape) -> np.ndarray | None:
+    """:func:`_boundary_triangles` of a meshed shape, or None where a face has no
+    triangulation (a degenerate face that BRepMesh leaves out: a prism's side swept along its
+    own edge has no area)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+
+    if any(BRep_Tool.Triangulation_s(f, TopLoc_Location()) is None for f in _faces(shape)):
+        return None
+    return _boundary_triangles(shape)
+
+
 def _boundary_triangles(shape) -> np.ndarray:
     """(t, 3, 3) corners of the triangles of a shape's boundary (exact for planar faces),
     meshed first if it is not (:class:`~.checker.AssemblyChecker` keeps them per solid)."""

@@ -10,7 +10,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .occ import _Face, _bbox, _boundary_triangles, _face_prism, _face_records, _near, _shape, common_volume
+from .occ import (_Face, _bbox, _boundary_triangles, _face_prism, _face_records, _meshed_triangles,
+                  _near, _shape, common_volume)
 from .separation import prisms_clear, surfaces_clear
 
 __all__ = ["swept_overlap"]
@@ -55,14 +56,14 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
             face = faces[n]
             if n not in prisms:
                 pr = _face_prism(face.face, v)
-                prisms[n] = None if pr is None else (pr, _bbox(pr), _boundary_triangles(pr))
+                prisms[n] = None if pr is None else (pr, _bbox(pr), _meshed_triangles(pr))
             if prisms[n] is None:
                 continue
             pr, pb, ptri = prisms[n]
             if (pb[0] > ob[1]).any() or (ob[0] > pb[1]).any() or not _near(pr, oshape, 1e-3):
                 continue
             # the hull's separating axes miss the prism's side normals: its triangles do not
-            if surfaces_clear(ptri, otri, pb, ob):
+            if ptri is not None and surfaces_clear(ptri, otri, pb, ob):
                 continue
             try:
                 total += common_volume(pr, o)
