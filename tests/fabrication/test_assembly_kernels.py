@@ -159,3 +159,40 @@ def test_solid_clear_against_known_overlaps_and_contacts():
     assert _clear(_box(3, 3, 4, at=(1, 1, 0)), ell)
     assert not _clear(_box(3, 3, 4, at=(0.99, 1, 0)), ell)
     assert not _clear(ell, _box(3, 3, 4, at=(1, 1, 0)))
+
+
+def test_surfaces_clear_agrees_with_the_exact_boolean():
+    """Bent plates (L-shaped, like a bracket) and blocks placed at random near, into and in
+    the inner corner of each other: where surfaces_clear says apart the exact boolean gives 0;
+    it proves apart a block in the bend's corner 0.05 off both legs, which the convex cover
+    (solid_clear) cannot, and never a block touching a face."""
+    from torsal.fabrication.assembly import _bbox, _mesh, solid_clear, solid_cover
+    from torsal.fabrication.assembly.separation import surfaces_clear
+
+    def parts(a, b):
+        a, b = getattr(a, "wrapped", a), getattr(b, "wrapped", b)
+        _mesh([a, b], 1.0)
+        return a, b, _boundary_triangles(a), _boundary_triangles(b), _bbox(a), _bbox(b)
+
+    ell = _box(10, 1, 4) + _box(1, 8, 4)
+    a, b, ta, tb, ba, bb = parts(ell, _box(3, 3, 4, at=(1.05, 1.05, 0)))
+    assert surfaces_clear(ta, tb, ba, bb) and surfaces_clear(tb, ta, bb, ba)
+    assert not solid_clear(solid_cover(a), tb, bb)
+    # touching one leg (a face in contact), or 0.01 into it: undecided
+    for at in ((1.0, 1.05, 0), (0.99, 1.05, 0)):
+        assert not surfaces_clear(*parts(ell, _box(3, 3, 4, at=at))[2:])
+    # wholly inside a block: boundaries apart, but not apart
+    assert not surfaces_clear(*parts(_box(20, 20, 20, at=(-5, -5, -5)), ell)[2:])
+    rng = np.random.default_rng(7)
+    decided = undecided = 0
+    for _ in range(24):
+        other = _box(*rng.uniform(0.5, 3, 3), at=rng.uniform(-2, 9, 3), rotate_z=rng.uniform(0, 90))
+        a, b, ta, tb, ba, bb = parts(ell, other)
+        clear = surfaces_clear(ta, tb, ba, bb)
+        assert surfaces_clear(tb, ta, bb, ba) == clear           # either way round
+        if clear:
+            decided += 1
+            assert common_volume(a, b) == pytest.approx(0.0, abs=1e-9)
+        else:
+            undecided += 1
+    assert decided > 0 and undecided > 0

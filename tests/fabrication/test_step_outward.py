@@ -5,14 +5,17 @@ point at infinity; on this long (978 mm), thin (at most 127 mm across), non-conv
 classification comes out IN and the plate came back inside out: the assembly check's common of
 it and the bracket at node 197 beside it was all of the bracket (4,314 mm^3), while the solids
 as built are 0.05 mm apart. Rebuilt here from the two parts of that build (mm, moved near the
-origin); seconds.
+origin); seconds. The same plate, and panels warped with a reflex corner at 1 or 3, built by
+the sewn fallback (faces one by one) are split on the same inner diagonal.
 """
 import numpy as np
+import pytest
 
 from torsal.fabrication.assembly.occ import _signed_volume, common_volume
 from torsal.fabrication.exports import read_step, write_step
-from torsal.fabrication.model import CONNECTOR_FAMILY, Part, PartId
-from torsal.fabrication.plates import _part_shape
+from torsal.fabrication.model import CONNECTOR_FAMILY, Part, PartId, quad_normals
+from torsal.fabrication.plates import (_coplanar, _fan_volume, _part_shape, _plate_outlines,
+                                       _plate_sewn)
 
 T = 3.0   # mm, the plates' and the connector's thickness in example 7c
 
@@ -47,3 +50,48 @@ def test_sliver_plate_reread_from_step_is_not_inside_out(tmp_path):
         assert v > 0 and abs(v - _signed_volume(built[name])) < 1e-6 * v, name
     # the bracket does not cut the plate re-read (was 4,314 mm^3: all of the bracket)
     assert common_volume(reread[BRACKET.name], reread[PLATE.name]) == 0.0
+
+
+def _prism_volume(part: Part, thickness: float, tri) -> float:
+    """Volume of a one-panel plate computed apart from the solid builder: its top and bottom
+    faces (corners +- t/2 x mitre) tiled by the triangles ``tri`` of the panel, each
+    triangle with the one under it a prism of three tetrahedra (side faces planar)."""
+    q, m = part.panels[0], part.miters[[0, 1, 1, 0]]
+    top, bot = q + 0.5 * thickness * m, q - 0.5 * thickness * m
+
+    def tet(a, b, c, d):
+        return np.linalg.det(np.array([b - a, c - a, d - a])) / 6.0
+
+    v = 0.0
+    for i, j, k in tri:
+        a, b, c, a2, b2, c2 = top[i], top[j], top[k], bot[i], bot[j], bot[k]
+        v += tet(a, b, c, a2) + tet(b, c, a2, b2) + tet(c, a2, b2, c2)
+    return abs(v)
+
+
+def _warped(reflex: int) -> Part:
+    """A 100 mm panel warped by 4 mm whose corner ``reflex`` (1 or 3) is reflex."""
+    q = np.array([[0.0, 0, 0], [100, 0, 0], [100, 100, 0], [0, 100, 0]])
+    q[reflex] = [62.0, 38.0, 4.0] if reflex == 3 else [38.0, 62.0, 4.0]
+    n = quad_normals(q[None])[0]
+    return Part(id=PartId(0, 9, reflex), nodes=np.array([1, 2]), edges=np.array([0]), span=(0, 1),
+                panels=q[None], miters=np.array([n, n]))
+
+
+@pytest.mark.parametrize("part", [PLATE, _warped(1), _warped(3)],
+                         ids=["7c-F0-S001", "reflex-1", "reflex-3"])
+def test_sewn_fallback_splits_a_reflex_quad_inside(part):
+    # the fallback that sews faces made one by one (taken where the direct B-rep is not
+    # closed) splits a warped quad on the diagonal inside it (1-3), as the direct one does:
+    # with the fan from corner 0 it gave 7c's plate inside out (-41,092 mm^3)
+    assert not _coplanar(_plate_outlines(part, T)[0][:1], 1e-9)[0]        # the top is warped
+    solid, poly_volume = _plate_sewn(part, T, 1e-9)
+    expected = _prism_volume(part, T, [[1, 2, 3], [1, 3, 0]])
+    assert _signed_volume(solid) > 0
+    assert _signed_volume(solid) == pytest.approx(expected, rel=1e-9)
+    assert poly_volume == pytest.approx(expected, rel=1e-9)
+    # and so is the volume of its faces as the fallback sums it for outlines with repeats
+    faces = zip(*_plate_outlines(part, T))
+    assert sum(s * _fan_volume(f) for f, s in faces) == pytest.approx(expected, rel=1e-9)
+    # (the outside diagonal on the top and the bottom bounds the same volume, up to its sign:
+    # the sewn shell overlapped itself and OpenCascade gave it -41,092 mm^3 on 7c's plate)

@@ -94,7 +94,8 @@ from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 
 __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
-           "place_connector", "connector_variants", "corner_point", "fixing_panels", "corners",
+           "place_connector", "connector_variants", "connector_offset", "corner_point",
+           "fixing_panels", "corners",
            "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind", "MIN_TRIM_SINE",
            "BRACKET_TRIM_SINE"]
 
@@ -242,16 +243,47 @@ def _inside(leg: np.ndarray, panel: np.ndarray, tol: float) -> bool:
     return poly.buffer(tol).contains(Polygon(Q))
 
 
+def connector_offset(a: np.ndarray, b: np.ndarray, side1, side2, offset: float, plates, *,
+                     thickness: float, gap: float) -> float:
+    """The offset of a connector's mid-surface off its plates' mid-planes (``offset``, or more)
+    that keeps it ``gap`` clear of both plates' solids.
+
+    On the convex side of a joint (each plate turning away from the other's connector side,
+    ``v2 . n1 < 0``: a splice plate round the outside of a seam) the connector's face is the
+    outer envelope of its two legs' planes, so a plate corner standing past the node line
+    (the mitred edge of a plate that folds there stands out by ``t/2 tan(fold/2)``) lies under
+    the *other* leg too, and must clear that leg's plane: the connector moves out along its
+    mitre until every corner does (example 9 at 3db0016: a splice on the convex side of a plate
+    folding 51 degrees at the node met the plate's mitred edge, 2 mm^3; now 0.17 mm off it).
+    Both legs move alike: legs at two offsets would slide the bend along nearly coplanar
+    plates by the difference over the sine of their angle. On the concave side (a bracket in
+    a corner under 180 degrees) each leg has only its own plate under it. ``plates``: the
+    (k, 3) corners of each plate's solid around its panel (:meth:`~.model.Part.slab_corners`),
+    ``a -> b`` the node line (the connector's legs are offset from points of it; a normal
+    not quite square to it, on warped panels, tilts the leg's plane along it: the farther end
+    counts).
+    """
+    (n1, v1), (n2, v2) = side1, side2
+    if plates is None or not v2 @ n1 < 0:
+        return offset
+    # leg j's face (t/2 off its mid-surface) stays gap below every corner of the other plate
+    need = max(float((np.asarray(pl) @ n).max() - min(a @ n, b @ n)) + 0.5 * thickness + gap
+               for pl, n in ((plates[1], n1), (plates[0], n2)))
+    # a corner clear but for rounding does not move the connector
+    return need if need > offset + 1e-6 * thickness else offset
+
+
 def connector_variants(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarray,
                        panel2: np.ndarray, *, thickness: float, leg: float | None = None,
-                       gap: float = 0.0, min_leg: float | None = None):
+                       gap: float = 0.0, min_leg: float | None = None, plates=None):
     """Every connector (2, 4, 3) on the node line ``a -> b`` between two plate panels whose
     legs lie inside their panels, largest first (a generator; see :func:`place_connector`).
 
     The stretch along the node line narrows (from the middle half of it) and the legs shorten
     (down to ``min_leg``, default ``2 t``) in five steps; a variant is given where the outer 60 %
     of each leg lies on its panel (nearer the bend a leg may pass the trimmed end of a butted
-    part, the clearance, or a convex fold line).
+    part, the clearance, or a convex fold line). ``plates``: the corners of the two plates'
+    solids there, which the connector clears (:func:`connector_offset`).
     """
     t = thickness
     leg = 6.0 * t if leg is None else leg
@@ -263,7 +295,8 @@ def connector_variants(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.nd
     # tolerance: the gap is kept from the corner that stands out most towards the connector
     proud = max(0.0, float(((panel1 - panel1.mean(axis=0)) @ side1[0]).max()),
                 float(((panel2 - panel2.mean(axis=0)) @ side2[0]).max()))
-    offset = t + gap + proud
+    offset = connector_offset(a, b, side1, side2, t + gap + proud, plates, thickness=t,
+                              gap=gap)
     for lo, f in ((0.25, 1.0), (0.25, 0.6), (0.3, 0.45), (0.35, 0.33), (0.4, 0.33)):
         ell = max(shortest, f * leg)
         if (1 - 2 * lo) * depth < 2.0 * t:
@@ -279,17 +312,19 @@ def connector_variants(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.nd
 
 def place_connector(a: np.ndarray, b: np.ndarray, side1, side2, panel1: np.ndarray,
                     panel2: np.ndarray, *, thickness: float, leg: float | None = None,
-                    gap: float = 0.0, min_leg: float | None = None) -> np.ndarray | None:
+                    gap: float = 0.0, min_leg: float | None = None,
+                    plates=None) -> np.ndarray | None:
     """A connector (2, 4, 3) on the node line ``a -> b`` between two plate panels, or None.
 
     ``side1``, ``side2`` as in :func:`bracket_panels`; ``panel1``, ``panel2`` (4, 3) are the
     panels the legs lie on: the legs are shortened (down to ``min_leg``, default ``2 t``) and
     the stretch along the node line narrowed (from the middle half of it) until both legs lie
     inside their panels (the first of :func:`connector_variants`). ``gap`` is left between the
-    connector and the plates' faces.
+    connector and the plates' faces, and their solids' corners ``plates`` (see
+    :func:`connector_offset`).
     """
     return next(connector_variants(a, b, side1, side2, panel1, panel2, thickness=thickness,
-                                   leg=leg, gap=gap, min_leg=min_leg), None)
+                                   leg=leg, gap=gap, min_leg=min_leg, plates=plates), None)
 
 
 def corner_point(n1: np.ndarray, n2: np.ndarray, o1: float, o2: float) -> np.ndarray:

@@ -27,7 +27,7 @@ import numpy as np
 __all__ = [
     "FamilySplit", "SlotSide", "PartId", "Slot", "Crossing", "Part", "Joint", "JointKind", "Hole",
     "FAMILY_COLORS", "CONNECTOR_FAMILY", "FIXING_FAMILY", "MITER_LIMIT", "fold_angles",
-    "quad_normals", "panel_widths",
+    "quad_normals", "panel_widths", "slab_faces",
 ]
 
 #: family number of connector parts (brackets, splices): named ``C-N<node>-<index>``
@@ -280,6 +280,21 @@ def _bowtie(quads: np.ndarray) -> np.ndarray:
 
 
 
+def slab_faces(panels: np.ndarray, miters: np.ndarray, thickness: float) -> tuple[np.ndarray, np.ndarray]:
+    """Top and bottom faces (k, 4, 3) each of a thickened chain of panels (k, 4, 3) with the
+    offset vectors ``miters`` (k+1, 3) at its node lines: ``panel +- thickness/2 * mitre`` of
+    the corner's node line (corners 0, 3 on node line j, corners 1, 2 on j + 1), as the
+    plate's solid is built (:mod:`torsal.fabrication.plates`).
+
+    >>> top, bottom = slab_faces(np.zeros((1, 4, 3)), np.array([[0, 0, 1.0]] * 2), 2.0)
+    >>> top[0, :, 2].tolist(), bottom[0, :, 2].tolist()
+    ([1.0, 1.0, 1.0, 1.0], [-1.0, -1.0, -1.0, -1.0])
+    """
+    q, m = np.asarray(panels, float), np.asarray(miters, float)
+    node = np.arange(len(q))[:, None] + np.array([0, 1, 1, 0])
+    return q + 0.5 * thickness * m[node], q - 0.5 * thickness * m[node]
+
+
 def _oriented_size(poly) -> tuple[float, float]:
     """Side lengths (long, short) of the minimum rotated rectangle of a shapely polygon."""
     rect = np.asarray(poly.minimum_rotated_rectangle.exterior.coords)[:4]
@@ -405,6 +420,13 @@ class Part:
         """Diagonal of the bounding box of the part (``unit``)."""
         p = self.panels.reshape(-1, 3)
         return float(np.linalg.norm(p.max(0) - p.min(0)))
+
+    def slab_corners(self, j: int, thickness: float) -> np.ndarray:
+        """(8, 3) corners of panel ``j`` of the thickened plate (its top face's four, then its
+        bottom face's, :func:`slab_faces`): what stands out of the panel's plane, e.g. past
+        a node line where the plate folds (its mitred edge)."""
+        top, bottom = slab_faces(self.panels[j:j + 1], self.miters[j:j + 2], thickness)
+        return np.concatenate([top[0], bottom[0]])
 
     def __repr__(self) -> str:
         return f"Part({self.name}, panels={len(self.panels)}, slots={len(self.slots)})"

@@ -26,7 +26,7 @@ import numpy as np
 
 from torsal.core.errors import TorsalError
 
-from .model import Part, SlotSide
+from .model import Part, SlotSide, _cross, slab_faces
 from .unroll import unroll
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SINGLE_BOX_FOLD",
@@ -110,9 +110,9 @@ def _polygon_face(pts: np.ndarray):
 
 
 def _face(points, planar_tol: float, planar: bool | None = None) -> list:
-    """OCC faces through the points: one planar face, or a fan of triangles if they are not
-    coplanar (to ``min(planar_tol * size, 1e-9)`` in absolute units, below OpenCascade's
-    1e-7). ``planar``: that test, done already (by :func:`_coplanar`) for points without
+    """OCC faces through the points: one planar face, or triangles (:func:`_triangles_inside`)
+    if they are not coplanar (to ``min(planar_tol * size, 1e-9)`` in absolute units, below
+    OpenCascade's 1e-7). ``planar``: that test, done already (by :func:`_coplanar`) for points without
     repeats."""
     pts = _dedup(points) if planar is None else np.asarray(points, float)
     if len(pts) < 3:
@@ -125,7 +125,7 @@ def _face(points, planar_tol: float, planar: bool | None = None) -> list:
         except ValueError:       # OpenCascade finds it not planar enough: use triangles
             if len(pts) == 3:
                 raise
-    return [_polygon_face(pts[[0, i, i + 1]]) for i in range(1, len(pts) - 1)]
+    return [_polygon_face(pts[t]) for t in _triangles_inside(pts[None])[0]]
 
 
 def _coplanar(pts: np.ndarray, planar_tol: float) -> np.ndarray:
@@ -138,13 +138,49 @@ def _coplanar(pts: np.ndarray, planar_tol: float) -> np.ndarray:
     return off <= np.minimum(planar_tol * size, 1e-9)
 
 
+def _triangles_inside(pts: np.ndarray) -> np.ndarray:
+    """Corner indices (F, n - 2, 3) of triangles that tile each polygon of ``pts`` (F, n, 3),
+    as :func:`_face` and :func:`_plate_direct` build a face whose corners are not coplanar:
+    a fan from corner 0, but a quad is split on its diagonal that lies inside it, 1-3 where
+    corner 1 or 3 is reflex (seen along its Newell normal): on the diagonal 0-2 outside it the
+    two triangles would overlap, one turned against the other, and a solid of such faces is a
+    self-overlapping shell that OpenCascade classifies, and so heals and intersects, as inside
+    out (example 7c's F0-S001-P00 at 3db0016).
+
+    >>> _triangles_inside(np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.1]]]))[0].tolist()
+    [[0, 1, 2], [0, 2, 3]]
+    >>> _triangles_inside(np.array([[[0, 0, 0], [2, 0, 0], [2, 2, 0], [1.5, 0.5, 0.1]]]))[0].tolist()
+    [[1, 2, 3], [1, 3, 0]]
+    """
+    pts = np.asarray(pts, float)
+    f, n = pts.shape[:2]
+    fan = np.array([[0, i, i + 1] for i in range(1, n - 1)]).reshape(-1, 3)
+    out = np.broadcast_to(fan, (f, n - 2, 3)).copy()
+    if n == 4:
+        area = _cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)             # Newell, (F, 3)
+        d = pts[:, 2] - pts[:, 0]
+        inside = ((np.einsum("fi,fi->f", _cross(pts[:, 1] - pts[:, 0], d), area) > 0)
+                  & (np.einsum("fi,fi->f", _cross(d, pts[:, 3] - pts[:, 0]), area) > 0))
+        out[~inside] = [[1, 2, 3], [1, 3, 0]]
+    return out
+
+
+def _polygon_volumes(pts: np.ndarray) -> np.ndarray:
+    """Signed volume contributions (F,) of polygons (F, n, 3) as faces of a closed surface
+    (divergence theorem: the sum over the faces is the volume it bounds), each tiled as
+    :func:`_triangles_inside` tiles it."""
+    pts = np.asarray(pts, float)
+    t = pts[np.arange(len(pts))[:, None, None], _triangles_inside(pts)]        # (F, n-2, 3, 3)
+    return np.einsum("fki,fki->f", t[:, :, 0], _cross(t[:, :, 1], t[:, :, 2])) / 6.0
+
+
 def _fan_volume(points) -> float:
     """Signed volume contribution (divergence theorem) of a face as :func:`_face` builds it:
-    repeated points dropped, a fan of triangles from the first point."""
+    repeated points dropped, triangles as :func:`_triangles_inside`."""
     pts = _dedup(points)
     if len(pts) < 3:
         return 0.0
-    return float(np.einsum("j,ij->", pts[0], np.cross(pts[1:-1], pts[2:])) / 6.0)
+    return float(_polygon_volumes(pts[None])[0])
 
 
 def _box(origin, x_dir, z_dir, length, width, height):
@@ -274,12 +310,8 @@ def _plate_outlines(part: Part, thickness: float):
     """Every face outline of a part's plate (F, 4, 3) and its orientation sign (F,): per panel
     top (``p + t/2 m``), bottom (same diagonal as the top if warped; sign -1: it is oriented
     inwards), the a side and the b side; then the start and end caps."""
-    q, m = part.panels, part.miters
-    k = len(q)
-    # node index of each quad corner: 0, 3 -> j; 1, 2 -> j + 1
-    node = np.arange(k)[:, None] + np.array([0, 1, 1, 0])
-    top = q + 0.5 * thickness * m[node]
-    bot = q - 0.5 * thickness * m[node]
+    k = len(part.panels)
+    top, bot = slab_faces(part.panels, part.miters, thickness)
     sides = np.stack([top, bot, np.stack([top[:, 1], top[:, 0], bot[:, 0], bot[:, 1]], 1),
                       np.stack([top[:, 3], top[:, 2], bot[:, 2], bot[:, 3]], 1)], axis=1)
     caps = np.array([[top[0, 0], top[0, 3], bot[0, 3], bot[0, 0]],
@@ -294,23 +326,12 @@ _SEW_TOL = 1e-6
 
 def _fans(pts: np.ndarray, planar_tol: float) -> list:
     """Index lists of the planar pieces of polygons with the same number of corners
-    (F, n, 3): the whole polygon if its corners are coplanar (:func:`_coplanar`), else a fan of
-    triangles from its first corner (as :func:`_face`); a warped quad with a reflex corner
-    at 1 or 3 is split on the diagonal 1-3 instead, the one inside it: the diagonal 0-2 lies
-    outside, and its two triangles would overlap, one turned against the other (a self-
-    overlapping shell whose solid OpenCascade classifies, and so heals and intersects, as
-    inside out: example 7c's F0-S001-P00 at 3db0016)."""
+    (F, n, 3): the whole polygon if its corners are coplanar (:func:`_coplanar`), else
+    triangles inside it (:func:`_triangles_inside`, as :func:`_face`)."""
     n = pts.shape[1]
     planar = np.ones(len(pts), bool) if n == 3 else _coplanar(pts, planar_tol)
-    fan = [[0, i, i + 1] for i in range(1, n - 1)]
-    if n != 4:
-        return [[list(range(n))] if ok else fan for ok in planar]
-    area = np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)                 # Newell, (F, 3)
-    d = pts[:, 2] - pts[:, 0]
-    inside = ((np.einsum("fi,fi->f", np.cross(pts[:, 1] - pts[:, 0], d), area) > 0)
-              & (np.einsum("fi,fi->f", np.cross(d, pts[:, 3] - pts[:, 0]), area) > 0))
-    return [[list(range(n))] if ok else fan if good else [[1, 2, 3], [1, 3, 0]]
-            for ok, good in zip(planar, inside)]
+    tri = _triangles_inside(pts)
+    return [[list(range(n))] if ok else t.tolist() for ok, t in zip(planar, tri)]
 
 
 def _plate_direct(part: Part, thickness: float, planar_tol: float):
@@ -356,11 +377,10 @@ def _plate_direct(part: Part, thickness: float, planar_tol: float):
     normals, centres, volume = [], [], 0.0
     for n in np.unique(sizes):                       # polygons of n corners (3 or 4)
         pts = points[np.array([x for x in loops if len(x) == n])]          # (F, n, 3)
-        area = 0.5 * np.cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)   # Newell
+        area = 0.5 * _cross(pts, np.roll(pts, -1, axis=1)).sum(axis=1)   # Newell
         normals.append(area)
         centres.append(pts.mean(axis=1))
-        # divergence theorem: fan of triangles from the first corner
-        volume += float(np.einsum("fi,fki->", pts[:, 0], np.cross(pts[:, 1:-1], pts[:, 2:])) / 6.0)
+        volume += float(_polygon_volumes(pts).sum())        # divergence theorem
     order = np.concatenate([np.flatnonzero(sizes == n) for n in np.unique(sizes)])
     normals, centres = np.concatenate(normals), np.concatenate(centres)
     length = np.linalg.norm(normals, axis=1)
@@ -424,9 +444,7 @@ def _plate_sewn(part: Part, thickness: float, planar_tol: float):
     clean = (np.linalg.norm(outlines - np.roll(outlines, -1, axis=1), axis=2) > 1e-12).all(axis=1)
     planar = np.zeros(len(outlines), bool)
     planar[clean] = _coplanar(outlines[clean], planar_tol)
-    p0, p1, p2, p3 = (outlines[clean, i] for i in range(4))
-    poly_volume = float(sign[clean] @ (np.einsum("fi,fi->f", p0, np.cross(p1, p2) + np.cross(p2, p3))
-                                       / 6.0))
+    poly_volume = float(sign[clean] @ _polygon_volumes(outlines[clean]))
     sewing = BRepBuilderAPI_Sewing()
     for pts, sgn, ok, flat in zip(outlines, sign, clean, planar):
         for f in _face(pts, planar_tol, planar=bool(flat) if ok else None):

@@ -286,7 +286,8 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
     outline = shapely.set_precision(outline, 0.0)
     label, label_angle, label_height = _label(flat, outline)
     fl = np.stack([flat[:-1, 1], flat[:-1, 2]], axis=1) if k > 1 else np.zeros((0, 2, 2))
-    holes = [(flat_point(quads, flat, np.asarray(h.center, float)), float(h.diameter))
+    frames = _panel_frames(quads) if getattr(strip, "holes", ()) else None
+    holes = [(flat_point(quads, flat, np.asarray(h.center, float), frames=frames), float(h.diameter))
              for h in getattr(strip, "holes", ())]
     return Unrolled(name=name, panels=flat, fold_angles=fold_angles(quads), fold_lines=fl,
                     slots=rects, outline=outline, label_position=label, label_angle=label_angle,
@@ -294,10 +295,12 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
                     slot_records=list(slots), holes=holes)
 
 
-def flat_point(quads: np.ndarray, flat: np.ndarray, point: np.ndarray) -> np.ndarray:
+def flat_point(quads: np.ndarray, flat: np.ndarray, point: np.ndarray, *,
+               frames: list | None = None) -> np.ndarray:
     """Where a point on a part's plate (3D, on or near a panel) lies on the unrolled part (2,):
     on the panel it projects into (the nearest such panel's plane; else the nearest panel),
-    carried by the rigid motion that lays that panel flat.
+    carried by the rigid motion that lays that panel flat. ``frames``: the panels' frames of
+    :func:`_panel_frames`, made once for all the points of a part.
 
     >>> q = np.array([[[0, 0, 0], [2, 0, 0], [2, 0, 1], [0, 0, 1]]], float)
     >>> u = unroll(q)
@@ -306,12 +309,9 @@ def flat_point(quads: np.ndarray, flat: np.ndarray, point: np.ndarray) -> np.nda
     True
     """
     best = None
-    for i, quad in enumerate(quads):
-        fr = _plane_frame(quad)
-        local = (quad - fr[0]) @ fr[1:3].T
+    for i, (fr, local, poly) in enumerate(_panel_frames(quads) if frames is None else frames):
         x = (point - fr[0]) @ fr[1:3].T
         off = abs(float((point - fr[0]) @ fr[3]))
-        poly = Polygon(local)
         outside = 0.0 if poly.covers(Point(x)) else poly.distance(Point(x))
         key = (outside, off)
         if best is None or key < best[0]:
@@ -319,6 +319,17 @@ def flat_point(quads: np.ndarray, flat: np.ndarray, point: np.ndarray) -> np.nda
     _, i, local, x = best
     r, t = _rigid_2d(local, flat[i])
     return r @ x + t
+
+
+def _panel_frames(quads: np.ndarray) -> list:
+    """Per panel of ``quads`` (k, 4, 3): its plane frame (:func:`_plane_frame`), its corners
+    in that frame (4, 2) and their polygon (what :func:`flat_point` looks points up in)."""
+    out = []
+    for quad in quads:
+        fr = _plane_frame(quad)
+        local = (quad - fr[0]) @ fr[1:3].T
+        out.append((fr, local, Polygon(local)))
+    return out
 
 
 def _label(flat: np.ndarray, outline: Polygon) -> tuple[np.ndarray, float, float]:

@@ -20,7 +20,7 @@ from .occ import (_bbox, _boundary_triangles, _face_records, _inside, _mesh, _ne
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
 from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
-from .separation import solid_clear, solid_cover
+from .separation import solid_clear, solid_cover, surfaces_clear
 from .sweep import swept_overlap
 from .workers import map_jobs
 
@@ -106,7 +106,8 @@ class AssemblyChecker:
             # the cheap exact test proves apart has nothing in common; the others get the boolean
             (ta, ba, tba), (tb, bb, tbb) = self.triangles(i), self.triangles(j)
             if solid_clear(self.cover(i), tb, bb, triangle_boxes=tbb) or \
-                    solid_clear(self.cover(j), ta, ba, triangle_boxes=tba):
+                    solid_clear(self.cover(j), ta, ba, triangle_boxes=tba) or \
+                    surfaces_clear(ta, tb, ba, bb, triangle_boxes=tbb):
                 return i, j, 0.0, 0.0, ""
             return i, j, 0.0, common_volume(a, b), ""
         except Exception as e:   # OpenCascade failures: reported per pair, never assumed clear
@@ -117,7 +118,8 @@ class AssemblyChecker:
         k, vector, others, stop_above = job
         return k, swept_overlap(self.shapes[k], vector, [self.shapes[o] for o in others],
                                 stop_above=stop_above, faces=self.faces(k),
-                                triangles=lambda n: self.triangles(others[n])[0])
+                                triangles=lambda n: self.triangles(others[n])[0],
+                                boxes=lambda n: self.boxes[others[n]])
 
     def _map(self, method: str, jobs: list, what: str) -> list:
         return map_jobs(self, method, jobs, workers=self.workers, progress=self.progress,

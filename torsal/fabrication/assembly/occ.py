@@ -161,16 +161,27 @@ def _boolean_common(a, b, fuzzy: float):
     return op
 
 
+def _first_vertex(shape):
+    """The first vertex of a shape as :func:`_vertices` lists them (a ``gp_Pnt``; None: it
+    has none), without visiting the others."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    ex = TopExp_Explorer(shape, TopAbs_VERTEX)
+    return BRep_Tool.Pnt_s(TopoDS.Vertex(ex.Current())) if ex.More() else None
+
+
 def _inside(shape, solid) -> bool:
-    """A vertex of ``shape`` lies strictly inside ``solid``."""
+    """A vertex of ``shape`` (its first) lies strictly inside ``solid``."""
     from OCP.BRepClass3d import BRepClass3d_SolidClassifier
-    from OCP.gp import gp_Pnt
     from OCP.TopAbs import TopAbs_IN
 
-    v = _vertices(shape)
-    if not len(v):
+    p = _first_vertex(shape)
+    if p is None:
         return False
-    cls = BRepClass3d_SolidClassifier(solid, gp_Pnt(*map(float, v[0])), 1e-7)
+    cls = BRepClass3d_SolidClassifier(solid, p, 1e-7)
     return cls.State() == TopAbs_IN
 
 
@@ -282,6 +293,18 @@ def _face_prism(face, v: np.ndarray):
     BRepLib.OrientClosedSolid_s(pr)
     _mesh([pr], 1.0)
     return pr
+
+
+def _meshed_triangles(shape) -> np.ndarray | None:
+    """:func:`_boundary_triangles` of a meshed shape, or None where a face has no
+    triangulation (a degenerate face that BRepMesh leaves out: a prism's side swept along its
+    own edge has no area)."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+
+    if any(BRep_Tool.Triangulation_s(f, TopLoc_Location()) is None for f in _faces(shape)):
+        return None
+    return _boundary_triangles(shape)
 
 
 def _boundary_triangles(shape) -> np.ndarray:

@@ -179,3 +179,71 @@ def solid_clear(cover: list[tuple[_Face, np.ndarray]], other_triangles: np.ndarr
     return bool(prisms_clear([f for f, _ in cover], np.array([w for _, w in cover]),
                              other_triangles, other_box, eps=eps,
                              triangle_boxes=triangle_boxes).all())
+
+
+
+def _triangles_apart(ta: np.ndarray, tb: np.ndarray, eps: float) -> np.ndarray:
+    """(n,) whether triangles ``ta[k]`` and ``tb[k]`` (n, 3, 3) are apart by more than ``eps``
+    along one of their separating axes: the two normals, the nine cross products of their
+    edges and, for coplanar ones, the six normals of their edges in their planes (a complete
+    set for two triangles: a pair that none of them separates touches or crosses)."""
+    c = 0.5 * (ta.mean(axis=1) + tb.mean(axis=1))                      # centred: less round-off
+    a, b = ta - c[:, None], tb - c[:, None]
+    ea, eb = a[:, [1, 2, 0]] - a, b[:, [1, 2, 0]] - b                  # (n, 3, 3) edges
+    na, nb = _cross(ea[:, 0], ea[:, 1]), _cross(eb[:, 0], eb[:, 1])
+    axes = np.concatenate([na[:, None], nb[:, None],
+                           _cross(ea[:, :, None], eb[:, None]).reshape(-1, 9, 3),
+                           _cross(na[:, None], ea), _cross(nb[:, None], eb)], axis=1)  # (n, 17, 3)
+    norm = np.sqrt((axes * axes).sum(axis=2))
+    scale = max(float(np.abs(a).max(initial=0.0)), float(np.abs(b).max(initial=0.0)), 1.0)
+    ok = norm > 1e-9 * scale ** 3                                     # parallel edges: no axis
+    pa, pb = axes @ a.transpose(0, 2, 1), axes @ b.transpose(0, 2, 1)  # (n, 17, 3)
+    gap = np.maximum(pb.min(axis=2) - pa.max(axis=2), pa.min(axis=2) - pb.max(axis=2))
+    return (ok & (gap > eps * norm)).any(axis=1)
+
+
+def surfaces_clear(triangles_a: np.ndarray, triangles_b: np.ndarray, box_a: np.ndarray,
+                   box_b: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                   triangle_boxes=None) -> bool:
+    """Whether the solids bounded by two closed triangulated surfaces ``triangles_a``,
+    ``triangles_b`` (t, 3, 3; exact for planar faces), boxes ``box_a``, ``box_b`` (2, 3),
+    provably have no volume in common (True: exact within ``eps``; False: undecided).
+
+    Their boundaries are apart when every triangle of one is more than ``eps`` from every
+    triangle of the other whose box meets its own (:func:`_triangles_apart`); two solids with
+    boundaries apart have no volume in common unless one lies inside the other (ray parity
+    of one corner, looked at only where the boxes nest). Boundaries that touch leave it
+    undecided: two solids can share volume with boundaries that only touch (coplanar faces,
+    an edge along a face). Unlike :func:`solid_clear` it needs no convex cover, so it proves
+    apart what lies in a slot's notch or along a bent connector's legs. ``triangle_boxes``:
+    the (min, max) corners of the triangles of ``b``, if known.
+
+    >>> import numpy as np
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    >>> quads = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    >>> tri = np.array([cube[[q[0], q[i], q[i + 1]]] for q in quads for i in (1, 2)])
+    >>> box = np.array([[0.0, 0, 0], [1, 1, 1]])
+    >>> surfaces_clear(tri, tri + [1.001, 0, 0], box, box + [1.001, 0, 0])
+    True
+    >>> surfaces_clear(tri, tri + [0.999, 0, 0], box, box + [0.999, 0, 0])
+    False
+    >>> small = 0.25 + 0.5 * tri                                 # inside the cube, apart from its faces
+    >>> surfaces_clear(tri, small, box, 0.25 + 0.5 * box), surfaces_clear(tri, small + 2, box, 2.25 + 0.5 * box)
+    (False, True)
+    """
+    ta = np.asarray(triangles_a, float).reshape(-1, 3, 3)
+    tb = np.asarray(triangles_b, float).reshape(-1, 3, 3)
+    if not len(ta) or not len(tb):
+        return False
+    bmin, bmax = triangle_boxes if triangle_boxes is not None else (tb.min(axis=1), tb.max(axis=1))
+    amin, amax = ta.min(axis=1) - eps, ta.max(axis=1) + eps
+    ia, ib = np.nonzero((bmin[None] <= amax[:, None]).all(axis=2)
+                        & (bmax[None] >= amin[:, None]).all(axis=2))
+    if len(ia) and not _triangles_apart(ta[ia], tb[ib], eps).all():
+        return False
+    # boundaries apart: one inside the other is the only way left to share volume
+    for t_in, box_in, t_out, box_out in ((ta, box_a, tb, box_b), (tb, box_b, ta, box_a)):
+        if (box_in[0] >= box_out[0]).all() and (box_in[1] <= box_out[1]).all():
+            if _inside_by_ray(t_in[0, 0], t_out) is not False:
+                return False
+    return True

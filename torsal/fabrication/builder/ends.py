@@ -45,6 +45,34 @@ def _seam_plane(p: Part) -> tuple[np.ndarray, np.ndarray] | None:
     return a, seam / np.linalg.norm(seam)
 
 
+def seam_splice(e: Part, je: int, p: Part, jp: int, a, b, towards, *, thickness: float,
+                gap: float, memo=None):
+    """The splice plate across a seam where panel ``je`` of part ``e`` ends on the node line
+    ``a -> b`` and panel ``jp`` of part ``p`` carries its fin on (flat within
+    :data:`~.joints.CONTINUE_ANGLE`), on the side the unit vector ``towards`` points to, ``gap``
+    off both plates' solids (:func:`~.joints.place_connector`). Returns ``(quads (2, 4, 3) or
+    None, option)``, the option as ``FinSystem._sites`` keeps them: ``(side1, side2, panel1,
+    panel2, direction, fold angle, hosts)``. ``memo``: a kernel cache
+    (``FinSystem._cached``)."""
+    qe, qp = e.panels[je], p.panels[jp]
+    u = (b - a) / np.linalg.norm(b - a)
+    v1, v2 = qe.mean(axis=0) - a, qp.mean(axis=0) - a
+    v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
+    v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
+    n1, n2 = quad_normals(qe[None])[0], quad_normals(qp[None])[0]
+    n2 = n2 if n2 @ n1 >= 0 else -n2
+    fold = _fold_deg(n1, n2)
+    s = 1.0 if towards @ n1 >= 0 else -1.0
+    opt = ((s * n1, v1), (s * n2, v2), qe, qp, -(n1 + n2) * s, fold, ((e.name, je), (p.name, jp)))
+    # p folds at this node line where its other panel stands on the far side of the seam:
+    # its mitred edge stands out past the line, under the leg on e
+    plates = (e.slab_corners(je, thickness), p.slab_corners(jp, thickness))
+    args = (place_connector, a, b, *opt[:4])
+    kw = {"thickness": thickness, "gap": gap, "plates": plates}
+    q = memo(*args, **kw) if memo is not None else args[0](*args[1:], **kw)
+    return q, opt
+
+
 class EndJoiner:
     """Joins the part ends of a fin system ``fs`` under construction: fills its ``joints``,
     connectors, ``untrimmed_joints``, ``unconnected_joints`` and the faces each butted part
@@ -234,26 +262,15 @@ class EndJoiner:
     def _seam_splice(self, e: Part, je: int, p: Part, jp: int, node: int, towards, a, b) -> None:
         """A bent splice plate across the seam where panel ``je`` of ``e`` ends and panel ``jp``
         of ``p`` carries it on, on the side of the seam the unit vector ``towards`` points to
-        (no other plate at the node is there); the joint is a mitre with a splice (the two
-        parts in either order)."""
+        (no other plate at the node is there; :func:`seam_splice`); the joint is a mitre with
+        a splice (the two parts in either order)."""
         fs = self.fs
-        qe, qp = e.panels[je], p.panels[jp]
-        u = (b - a) / np.linalg.norm(b - a)
-        v1, v2 = qe.mean(axis=0) - a, qp.mean(axis=0) - a
-        v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
-        v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
-        n1, n2 = quad_normals(qe[None])[0], quad_normals(qp[None])[0]
-        n2 = n2 if n2 @ n1 >= 0 else -n2
-        fold = _fold_deg(n1, n2)
-        s = 1.0 if towards @ n1 >= 0 else -1.0
-        hosts = ((e.name, je), (p.name, jp))
-        opts = [((s * n1, v1), (s * n2, v2), qe, qp, -(n1 + n2) * s, fold, hosts)]
-        q = fs._cached(place_connector, a, b, *opts[0][:4], thickness=fs.thickness,
-                       gap=CONNECTOR_GAP * fs.thickness)
+        q, opt = seam_splice(e, je, p, jp, a, b, towards, thickness=fs.thickness,
+                             gap=CONNECTOR_GAP * fs.thickness, memo=fs._cached)
         names = tuple(sorted((e.name, p.name)))
-        self._record(JointKind.MITRE_SPLICE, node, names, -v1, q, opts[0][4], fold, e.name,
+        self._record(JointKind.MITRE_SPLICE, node, names, -opt[0][1], q, opt[4], opt[5], e.name,
                      "the panels are too small for a splice plate",
-                     site=(a.copy(), b.copy(), opts) if q is not None else None)
+                     site=(a.copy(), b.copy(), [opt]) if q is not None else None)
 
     def _seam_walls(self, prev: Part | None, p: Part) -> None:
         """The two parts of a strip split on a mitre touch on the fold's bisector plane: each is
@@ -398,6 +415,8 @@ class EndJoiner:
         why = "no corner between 25 and 172 deg for a bracket"
         for i, angle in picks:
             opt = option(i, angle)
+            # (no plate corners: in a corner under 180 deg each leg has only its own plate
+            # under it, see joints.connector_offset)
             q = fs._cached(place_connector, pa, pb, *opt[:4], thickness=fs.thickness,
                            gap=CONNECTOR_GAP * fs.thickness)
             why = "the panels are too small for a bracket"
@@ -438,7 +457,9 @@ class EndJoiner:
             opts = [((sg * n1, v1), (sg * n2, v2), qe, qp, -(n1 + n2) * sg, fold, hosts)
                     for sg in ((s, -s) if not other else (s,))]
             q = fs._cached(place_connector, pa, pb, *opts[0][:4], thickness=fs.thickness,
-                           gap=CONNECTOR_GAP * fs.thickness)
+                           gap=CONNECTOR_GAP * fs.thickness,
+                           plates=(e.slab_corners(len(e.panels) - 1, fs.thickness),
+                                   p.slab_corners(0, fs.thickness)))
             why = "the panels are too small for a splice plate"
             site = (pa.copy(), pb.copy(), opts)
         cdir = -(n1 + n2) * (1.0 if q is None else s)

@@ -34,7 +34,7 @@ import numpy as np
 
 from torsal.core.units import UNIT_TO_MM
 
-from ..model import CONNECTOR_FAMILY, FIXING_FAMILY, Hole, Part, quad_normals
+from ..model import CONNECTOR_FAMILY, FIXING_FAMILY, Hole, Part, _cross, quad_normals
 
 __all__ = ["Fastener", "fastener_for", "anchor_for", "min_leg", "row_count", "leg_holes",
            "connector_holes", "matching_hole", "EDGE_FACTOR", "PITCH_FACTOR", "CLEARANCE_HOLES",
@@ -155,7 +155,7 @@ def matching_hole(hole: Hole, plate: Part, panel: int, *, margin: float = 0.0) -
     c = hole.center - ((hole.center - quad[0]) @ n) * n
     e1 = quad[1] - quad[0] if np.linalg.norm(quad[1] - quad[0]) > 0 else quad[2] - quad[3]
     e1 = e1 / np.linalg.norm(e1)
-    e2 = np.cross(n, e1)
+    e2 = _cross(n, e1)
     poly = np.c_[(quad - quad[0]) @ e1, (quad - quad[0]) @ e2]
     x = np.array([(c - quad[0]) @ e1, (c - quad[0]) @ e2])
     edges = np.roll(poly, -1, axis=0) - poly

@@ -175,7 +175,8 @@ class _PathCheck:
         fixing's)."""
         reach = self.t + 0.5 * self.c
         # (k, m): nearest on the way and in place (the swept region's first face is the panel)
-        swept, still = _swept_and_still_distances(p.panels, vec, quads)
+        # (pairs farther apart than the reach block nothing: not measured)
+        swept, still = _swept_and_still_distances(p.panels, vec, quads, within=reach)
         # panels at a joint (nearer in place than plates can be apart) must not come nearer;
         # any others that come that near are checked as solids. A connector or fixing is at a
         # joint only with what it lies on (a thickness apart): nothing crosses it
@@ -545,7 +546,9 @@ class AssemblyPlanner:
                            unit=fs.unit)
         places = [(opt, q) for opt in options
                   for q in connector_variants(a, b, *opt[:4], thickness=fs.thickness,
-                                              gap=CONNECTOR_GAP * fs.thickness)
+                                              gap=CONNECTOR_GAP * fs.thickness,
+                                              plates=tuple(fs.part(n).slab_corners(j, fs.thickness)
+                                                           for n, j in opt[6]))
                   if not (q.shape == old[0].shape and np.allclose(q, old[0]))]
         # places whose legs take a bolt first (another corner or side at full size before a
         # smaller one in the same corner: a bracket without holes is not fastened)

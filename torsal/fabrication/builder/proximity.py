@@ -35,7 +35,7 @@ def _quads_on(p: np.ndarray, q: np.ndarray, gap: float) -> bool:
     c = p.mean(axis=1)                                                  # (k, 3)
     tris = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])           # (T, 3, 3)
     v0, e1, e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
-    n = np.cross(e1, e2)
+    n = _cross(e1, e2)
     area2 = np.linalg.norm(n, axis=1)
     ok = area2 > 0
     n = n / np.where(ok, area2, 1.0)[:, None]
@@ -81,7 +81,7 @@ def _point_triangle_distances(x, tri) -> np.ndarray:
     ok = den > 1e-12 * d00 * d11
     den = np.where(ok, den, 1.0)
     v, u = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
-    n = np.cross(e1, e2)
+    n = _cross(e1, e2)
     plane = np.abs((w * n).sum(-1)) / np.where(ok, np.linalg.norm(n, axis=-1), 1.0)
     edges = np.minimum.reduce([_segment_distances(x, x, tri[..., i, :], tri[..., (i + 1) % 3, :])
                                for i in range(3)])
@@ -96,14 +96,14 @@ def _edges_pierce(p: np.ndarray, q: np.ndarray, *, eps: float = 1e-9) -> np.ndar
     d = np.roll(p, -1, axis=1)[:, :, None] - e0
     tris = np.stack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]], axis=1)[:, None]  # (m, 1, 2, 3, 3)
     v0, v1, v2 = tris[..., 0, :], tris[..., 1, :] - tris[..., 0, :], tris[..., 2, :] - tris[..., 0, :]
-    pv = np.cross(d, v2)
+    pv = _cross(d, v2)
     det = (pv * v1).sum(-1)
     ok = np.abs(det) > 1e-12 * np.linalg.norm(v1, axis=-1) * np.linalg.norm(v2, axis=-1) * \
         np.linalg.norm(d, axis=-1)
     inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
     tv = e0 - v0
     u = (tv * pv).sum(-1) * inv
-    qv = np.cross(tv, v1)
+    qv = _cross(tv, v1)
     v = (d * qv).sum(-1) * inv
     t = (v2 * qv).sum(-1) * inv
     hit = ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)
@@ -178,17 +178,30 @@ def _swept_distances(moving: np.ndarray, vector: np.ndarray, others: np.ndarray)
     return _swept_and_still_distances(moving, vector, others)[0]
 
 
-def _swept_and_still_distances(moving: np.ndarray, vector: np.ndarray,
-                               others: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _swept_and_still_distances(moving: np.ndarray, vector: np.ndarray, others: np.ndarray, *,
+                               within: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(:func:`_swept_distances`, the (k, m) distances in place, ``_quad_distances`` of every
     pair): the first face of each swept region is the panel in place, so both come from one
-    pass of :func:`_quad_distances`."""
+    pass of :func:`_quad_distances`. With ``within``, only the pairs whose boxes (the region
+    a panel sweeps, and the other panel) come within that distance are measured; the others
+    are farther apart than that and get ``inf`` (the same values otherwise: pair by pair)."""
     k, m = len(moving), len(others)
     if not (k and m):
         return np.zeros((k, m)), np.zeros((k, m))
     faces = _swept_faces(moving, vector).reshape(-1, 4, 3)               # (6k, 4, 3)
-    f, o = np.divmod(np.arange(len(faces) * m), m)
-    d = _quad_distances(faces[f], others[o]).reshape(k, 6, m)
+    if within is None:
+        f, o = np.divmod(np.arange(len(faces) * m), m)
+        d = _quad_distances(faces[f], others[o]).reshape(k, 6, m)
+    else:
+        region = faces.reshape(k, -1, 3)
+        lo, hi = region.min(axis=1) - within, region.max(axis=1) + within
+        near = (((others.min(axis=1)[None] <= hi[:, None]) & (others.max(axis=1)[None] >= lo[:, None]))
+                .all(axis=2))                                            # (k, m)
+        i, o = np.nonzero(near)
+        f = (6 * i[:, None] + np.arange(6)).ravel()                      # the 6 faces of panel i
+        o6 = np.repeat(o, 6)
+        d = np.full((k, 6, m), np.inf)
+        d[np.repeat(i, 6), np.tile(np.arange(6), len(i)), o6] = _quad_distances(faces[f], others[o6])
     inside = _inside_sweeps(others.reshape(-1, 3), moving, vector).reshape(m, 4, k).any(axis=1)
     return np.where(inside.T, 0.0, d.min(axis=1)), d[:, 0]
 
