@@ -255,6 +255,15 @@ class _Direction(NamedTuple):
     h: np.ndarray             # that Hessian's nonzeros (the predicted steps reuse it)
 
 
+class _Search(NamedTuple):
+    """How a line search ended: a step (``alpha``, the new ``point``), rows that wrecked the
+    full step (``jump``), or neither (no decrease found)."""
+
+    alpha: float = 0.0
+    point: _Point | None = None
+    jump: np.ndarray | None = None
+
+
 class _Merit(NamedTuple):
     value: float              # L_A
     mu: np.ndarray            # (n_g,) multiplier estimates rho (t - P(t))
@@ -296,8 +305,8 @@ class AugmentedLagrangian:
         b.hess_lag.project = True
         b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
         self.lo, self.hi = b.lbg, b.ubg
-        self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0, "predicted": 0, "erratic": 0,
-                       "backend": self.sys.chol.backend}
+        self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
+                       "predicted": 0, "erratic": 0, "backend": self.sys.chol.backend}
 
     # ------------------------------------------------------------------ evaluations
     def _recentre(self, e: np.ndarray) -> np.ndarray:
@@ -420,12 +429,11 @@ class AugmentedLagrangian:
             d, used, piece = nxt, pred, True
         return d if float(gl @ d) < 0.0 else nd.d
 
-    def _line_search(self, pt: _Point, d, slope, LA, lam, rho, s, lo, hi, erratic: bool = False
-                     ) -> tuple[float, _Point] | np.ndarray | None:
+    def _line_search(self, pt: _Point, d, slope, LA, lam, rho, s, lo, hi, erratic: bool = False) -> _Search:
         """Backtracking Armijo on ``L_A`` along ``d`` from ``pt`` (halving): the step and the
-        new point, or None. With ``erratic``: where the full step fails because rows left
-        their bounds by more than their linear model says (by ``ERRATIC_JUMP``), those rows
-        (a bool mask) instead."""
+        new point (both None where no step decreases ``L_A``). With ``erratic``: where the
+        full step fails because rows left their bounds by more than their linear model says
+        (by ``ERRATIC_JUMP``), those rows instead (``jump``, no step taken)."""
         alpha = 1.0
         for _ in range(30):
             self.counts["trials"] += 1
@@ -436,16 +444,16 @@ class AugmentedLagrangian:
             # a trial where a row is not defined (NaN: a line turned onto a degenerate face) fails
             if (np.isfinite(F) and np.all(np.isfinite(g))
                     and F + _phr(s * g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope):
-                return alpha, self._point(z)
+                return _Search(alpha, self._point(z))
             if erratic and alpha == 1.0 and np.all(np.isfinite(g)):
                 lin = s * (pt.g + self.sys.jv(pt.jac, d))
                 y = s * g + lam / rho
                 out = (y < lo) | (y > hi)
                 jump = out & (np.abs(s * g - lin) > ERRATIC_JUMP)
                 if jump.any():
-                    return jump
+                    return _Search(jump=jump)
             alpha *= 0.5
-        return None
+        return _Search()
 
     def solve(self, e0: np.ndarray, warm: AlmState | None) -> AlmRun:
         """Outer PHR iterations around inner Newton minimizations, from ``e0`` (or ``warm``)."""
@@ -502,24 +510,24 @@ class AugmentedLagrangian:
                     if turn > MAX_TURN:
                         d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
                     found = self._line_search(pt, d, slope, LA, lam, rho, s, lo, hi, erratic=attempt < 2)
-                    if not isinstance(found, np.ndarray):
+                    if found.jump is None:
                         break
                     # rows that jumped far past their linear model (a pole of the row): their
                     # penalty curvature goes into K, which holds the step back from the pole
-                    erratic |= found
+                    erratic |= found.jump
                     self.counts["erratic"] += 1
                     w = np.where(band | erratic, rho * s * s, 0.0)
                     d = self._solve(nd.h, nd.exact, pt.jac, w, gl)
                     if d is None:
-                        found = None
+                        found = _Search()
                         break
                 steps += 1
-                if found is None:
+                if found.point is None:
                     self.rel = min(self.rel * 100.0, 1e4)
                     if self.rel >= 1e4:
                         status = "the line search found no decrease"
                     continue
-                alpha, pt = found
+                alpha, pt = found.alpha, found.point
                 if alpha * turn < 1e-12:      # rounding: no step left to take
                     break
                 if exact and (alpha < 1.0 or turn > MAX_TURN):
