@@ -9,6 +9,7 @@ splice plate across the seam. Lengths in the fin system's ``unit``.
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,27 @@ def _seam_plane(p: Part) -> tuple[np.ndarray, np.ndarray] | None:
     return a, seam / np.linalg.norm(seam)
 
 
+class _SeamLegs(NamedTuple):
+    """The two panels meeting at a seam, seen from its node line: ``v1``, ``v2`` the unit
+    directions from the line into each panel (towards its centre, square to the line),
+    ``n1``, ``n2`` their normals (:func:`~.model.quad_normals`)."""
+
+    v1: np.ndarray
+    v2: np.ndarray
+    n1: np.ndarray
+    n2: np.ndarray
+
+
+def _seam_legs(qe: np.ndarray, qp: np.ndarray, a: np.ndarray, b: np.ndarray) -> _SeamLegs:
+    """:class:`_SeamLegs` of the panels ``qe``, ``qp`` (4, 3) at the node line ``a -> b``,
+    where a splice plate's two legs go."""
+    u = (b - a) / np.linalg.norm(b - a)
+    v1, v2 = qe.mean(axis=0) - a, qp.mean(axis=0) - a
+    v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
+    v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
+    return _SeamLegs(v1, v2, quad_normals(qe[None])[0], quad_normals(qp[None])[0])
+
+
 def seam_splice(e: Part, je: int, p: Part, jp: int, a, b, towards, *, thickness: float,
                 gap: float, memo=None):
     """The splice plate across a seam where panel ``je`` of part ``e`` ends on the node line
@@ -55,11 +77,7 @@ def seam_splice(e: Part, je: int, p: Part, jp: int, a, b, towards, *, thickness:
     panel2, direction, fold angle, hosts)``. ``memo``: a kernel cache
     (``FinSystem._cached``)."""
     qe, qp = e.panels[je], p.panels[jp]
-    u = (b - a) / np.linalg.norm(b - a)
-    v1, v2 = qe.mean(axis=0) - a, qp.mean(axis=0) - a
-    v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
-    v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
-    n1, n2 = quad_normals(qe[None])[0], quad_normals(qp[None])[0]
+    v1, v2, n1, n2 = _seam_legs(qe, qp, a, b)
     n2 = n2 if n2 @ n1 >= 0 else -n2
     fold = _fold_deg(n1, n2)
     s = 1.0 if towards @ n1 >= 0 else -1.0
@@ -438,12 +456,7 @@ class EndJoiner:
         fs = self.fs
         qe, qp = e.panels[-1], p.panels[0]
         pa, pb = qp[0], qp[3]
-        u = (pb - pa) / np.linalg.norm(pb - pa)
-        v1 = qe.mean(axis=0) - pa
-        v2 = qp.mean(axis=0) - pa
-        v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
-        v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
-        n1, n2 = quad_normals(qe[None])[0], quad_normals(qp[None])[0]
+        v1, v2, n1, n2 = _seam_legs(qe, qp, pa, pb)
         fold = _fold_deg(n1, n2)
         q = None
         why = "the other family's plate passes on both sides of the seam"
