@@ -484,8 +484,9 @@ class AugmentedLagrangian:
                 # near the answer (a warm start, or the final inner tolerance) the active set
                 # has settled: rows at the kink keep their curvature (NEAR), for NEAR_STEPS
                 # Newton steps at most (where it takes longer, the answer was not near)
+                t = s * pt.g + lam / rho        # the rows' shifted values
                 if (warm is not None or eps <= self.tol) and banded < NEAR_STEPS:
-                    band, banded = m.active | _near(s * pt.g + lam / rho, lo, hi), banded + 1
+                    band, banded = m.active | _near(t, lo, hi), banded + 1
                 else:
                     band = m.active
                 w = np.where(band | erratic, rho * s * s, 0.0)
@@ -502,7 +503,6 @@ class AugmentedLagrangian:
                 dec = -0.5 * float(gl @ nd.d) / max(abs(LA), abs(pt.F), floor)
                 if dec <= eps:
                     break
-                t = s * pt.g + lam / rho
                 d = self._predict(pt, nd, gl, t, w, rho, s, lo, hi)
                 for attempt in range(3):
                     slope = float(gl @ d)

@@ -289,7 +289,8 @@ class IpoptStrategy:
         turned by 5 degrees far (3.8)."""
         grad, jac = b.derivatives(args["x0"], args["p"])
         r = grad + jac.T @ np.asarray(args["lam_g0"], dtype=float) + args["lam_x0"]
-        return "near" if max(b.n_vertices, 1) * float(np.max(np.abs(r), initial=0.0)) <= NEAR_KKT * self.tol else "far"
+        residual = max(b.n_vertices, 1) * float(np.max(np.abs(r), initial=0.0))
+        return "near" if residual <= NEAR_KKT * self.tol else "far"
 
     def _recentre(self, b: Built, x: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The gnomonic chart re-centred at ``x`` (tangent mode): frames at its directions, ``z = 0``.
