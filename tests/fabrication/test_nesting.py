@@ -186,6 +186,48 @@ def test_nesting_in_its_own_process_gives_the_same_sheets_and_relays_progress(fi
     assert seen and seen[-1][0] == 1
 
 
+def test_a_result_that_arrives_as_the_nesting_process_ends_is_not_lost():
+    """The race CI met on a busy machine: ``get`` timed out, then the process put its layout
+    and ended before ``is_alive`` was asked; the layout was in the pipe, yet reported lost."""
+    import queue
+    import threading
+
+    from torsal.fabrication.nesting.background import PendingNesting
+
+    class LateQueue:                      # the layout arrives just after the first timeout
+        def __init__(self, *messages):
+            self.messages, self.timed_out = list(messages), False
+
+        def get(self, timeout):
+            if not self.timed_out:
+                self.timed_out = True
+                raise queue.Empty
+            if not self.messages:
+                raise queue.Empty
+            return self.messages.pop(0)
+
+    class Ended:
+        exitcode = 0
+
+        def is_alive(self):
+            return False
+
+    def reader(q):
+        pending = PendingNesting.__new__(PendingNesting)
+        pending._queue, pending._process, pending._progress = q, Ended(), None
+        pending._layout = pending._error = pending.sheets = None
+        pending._done = threading.Event()
+        pending._read()
+        assert pending._done.is_set()
+        return pending
+
+    got = reader(LateQueue(("done", ("the layout", "the sheets"))))
+    assert (got._error, got._layout, got.sheets) == (None, "the layout", "the sheets")
+    # an ended process that left nothing: said so, with its exit code
+    lost = reader(LateQueue())
+    assert lost._layout is None and "ended without a result (exit code 0)" in str(lost._error)
+
+
 def test_nesting_in_its_own_process_raises_the_nesters_error_and_stops_when_cancelled():
     from torsal.core.parallel import limit_workers
     from torsal.fabrication.nesting import Nester

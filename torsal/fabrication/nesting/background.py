@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import pickle
+import queue
 import threading
 from pathlib import Path
 from typing import Callable, NamedTuple
@@ -102,18 +103,35 @@ class PendingNesting:
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
 
+    def _next(self):
+        """The nesting process's next message, or ``None`` when it ended and left none.
+
+        A message put just before the process ends can arrive after a ``get`` timed out and
+        before ``is_alive`` says it ended (a busy machine widens that window): what an ended
+        process put is already in the pipe (its queue's feeder thread is joined at exit), so
+        the queue is read once more before the process is said to have left no result."""
+        while True:
+            try:
+                return self._queue.get(timeout=1.0)
+            except queue.Empty:
+                if self._process.is_alive():
+                    continue
+            try:
+                return self._queue.get(timeout=1.0)
+            except queue.Empty:
+                return None
+
     def _read(self) -> None:
         """Relay the nesting process's progress; keep its layout or error."""
         try:
             while True:
-                try:
-                    kind, value = self._queue.get(timeout=1.0)
-                except Exception:              # queue.Empty: is the process still there?
-                    if self._process.is_alive():
-                        continue
-                    kind, value = "error", RuntimeError(
+                message = self._next()
+                if message is None:
+                    self._error = RuntimeError(
                         f"the nesting process ended without a result (exit code "
                         f"{self._process.exitcode})")
+                    return
+                kind, value = message
                 if kind == "progress":
                     if self._progress is not None:
                         self._progress(*value)
