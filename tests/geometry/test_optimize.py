@@ -98,6 +98,13 @@ def test_compiled_kernels_give_the_same_derivatives(tmp_path, monkeypatch):
     assert len(list((tmp_path / "kernels").glob("tk_*.so"))) >= 6
     assert sorted(x.name for x in tmp_path.iterdir()) == ["kernels"]
     assert not list((tmp_path / "kernels").glob(".tk_*"))
+    # a second build of the same terms loads the same kernels, from this process's memo
+    from torsal.geometry.optimize.kernels import Local
+    from torsal.geometry.optimize.terms import torsal_angle_element
+
+    fn = torsal_angle_element(1.0).fn
+    k1, k2 = (Local(fn, 3, True, jit=True) for _ in range(2))
+    assert k1.hess is k2.hess and k1.hess.class_name() == "External"
 
 
 # ----------------------------------------------------------------------- normal congruences

@@ -32,52 +32,67 @@ def _kernel_cache_dir():
     return Path(os.environ.get("TORSAL_KERNEL_CACHE", Path.home() / ".cache" / "torsal" / "kernels"))
 
 
+#: kernels loaded in this process, by their library (named by the hash of their code): a build
+#: of another problem with the same terms loads no library again
+_LOADED: dict[str, ca.Function] = {}
+
+
 def _jit(fn: ca.Function) -> ca.Function:
     """``fn`` compiled to a shared library with the system C compiler, cached on disk.
 
     casadi generates the C code; its hash (with the casadi version) names the library in
     :func:`_kernel_cache_dir` (``$TORSAL_KERNEL_CACHE``), so each kernel is compiled once per
-    machine (about a second) and loaded with ``casadi.external`` afterwards. Falls back to
-    the interpreted ``fn`` if anything fails (no compiler, read-only cache, ...).
+    machine (about a second) and loaded with ``casadi.external`` afterwards, once per process.
+    The code is hashed from memory: a kernel already compiled costs no temporary folder (37 of
+    them were 0.1 of row 7a's 0.65 s build). Falls back to the interpreted ``fn`` if anything
+    fails (no compiler, read-only cache, ...).
     """
     import hashlib
     import os
     import shutil
-    import subprocess
-    import tempfile
 
     try:
         cc = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
         if cc is None:
             return fn
-        with tempfile.TemporaryDirectory(prefix="torsal_jit_") as tmp:
-            # generated into a private folder (never the caller's working directory); the
-            # fixed file name keeps the code, and so the hash, independent of the process
-            cg = ca.CodeGenerator("tk.c", {"with_header": False})
-            cg.add(fn)
-            src = cg.generate(tmp + os.sep)
-            code = open(src).read()
-            h = hashlib.sha1((ca.__version__ + code).encode()).hexdigest()[:16]
-            cache = _kernel_cache_dir()
-            lib = cache / f"tk_{h}.so"
+        # the fixed file name keeps the code, and so the hash, independent of the process
+        cg = ca.CodeGenerator("tk.c", {"with_header": False})
+        cg.add(fn)
+        h = hashlib.sha1((ca.__version__ + cg.dump()).encode()).hexdigest()[:16]
+        lib = _kernel_cache_dir() / f"tk_{h}.so"
+        if str(lib) not in _LOADED:
             if not lib.exists():
-                cache.mkdir(parents=True, exist_ok=True)
-                out = os.path.join(tmp, "tk.so")
-                subprocess.run([cc, "-O2", "-shared", "-fPIC", src, "-o", out, "-lm"],
-                               check=True, capture_output=True, timeout=120)
-                # copy under a private name in the cache, then rename: a process that loads
-                # the kernel concurrently never sees a half-written library
-                fd, part = tempfile.mkstemp(prefix=".tk_", suffix=".so.part", dir=cache)
-                os.close(fd)
-                try:
-                    shutil.copyfile(out, part)
-                    os.replace(part, lib)
-                finally:
-                    if os.path.exists(part):
-                        os.unlink(part)
-            return ca.external(fn.name(), str(lib))
+                _compile(cg, lib, cc)
+            _LOADED[str(lib)] = ca.external(fn.name(), str(lib))
+        return _LOADED[str(lib)]
     except Exception:   # pragma: no cover - any failure keeps the interpreted kernel
         return fn
+
+
+def _compile(cg: ca.CodeGenerator, lib, cc: str) -> None:
+    """Compile the code of ``cg`` into the library ``lib`` (a path in the kernel cache)."""
+    import os
+    import shutil
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="torsal_jit_") as tmp:
+        # generated into a private folder (never the caller's working directory)
+        src = cg.generate(tmp + os.sep)
+        lib.parent.mkdir(parents=True, exist_ok=True)
+        out = os.path.join(tmp, "tk.so")
+        subprocess.run([cc, "-O2", "-shared", "-fPIC", src, "-o", out, "-lm"],
+                       check=True, capture_output=True, timeout=120)
+        # copy under a private name in the cache, then rename: a process that loads the
+        # kernel concurrently never sees a half-written library
+        fd, part = tempfile.mkstemp(prefix=".tk_", suffix=".so.part", dir=lib.parent)
+        os.close(fd)
+        try:
+            shutil.copyfile(out, part)
+            os.replace(part, lib)
+        finally:
+            if os.path.exists(part):
+                os.unlink(part)
 
 
 class Local:
