@@ -457,122 +457,177 @@ class AugmentedLagrangian:
 
     def solve(self, e0: np.ndarray, warm: AlmState | None) -> AlmRun:
         """Outer PHR iterations around inner Newton minimizations, from ``e0`` (or ``warm``)."""
-        b, sys = self.b, self.sys
+        run = self._start(e0, warm)
+        self.monitor.start_pass(None)
+        while not run.status:
+            self._minimize(run)
+            if run.status:
+                break
+            self._update(run)
+        lam_g = run.s * run.lam / self.sF           # IPOPT's multipliers: grad f + J^T lam_g = 0
+        state = AlmState(e=run.e.copy(), lam=run.lam, rho=run.rho, scale=run.s, delta=self.rel)
+        return AlmRun(run.e, lam_g, run.steps, run.outer, self.counts["factorizations"], run.status,
+                      run.converged, state, dict(self.counts))
+
+    def _start(self, e0: np.ndarray, warm: AlmState | None) -> "_Run":
+        """The run's state at ``e0``: the chart, the first point, multipliers and penalties."""
+        b = self.b
         e = np.asarray(e0, dtype=float).reshape(-1, 3)
         frames = self._recentre(e)
         pt = self._point(np.zeros(b.n_var))
-        floor = FLOOR * max(abs(pt.F), 1.0)
         st = self._initial(pt.jac, warm)
-        s, lam, rho, self.rel = st.scale, st.lam, st.rho, st.delta
-        lo, hi = s * self.lo, s * self.hi
-        # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
-        eps = EPS_START if warm is None else max(WARM_EPS, self.tol)
-        v_prev = np.full(b.n_g, np.inf)
-        banded = 0
-        erratic = np.zeros(b.n_g, bool)
-        steps = outer = 0
-        wait, backoff, near = 0, 1, False     # when to try the exact Hessian
-        status, converged, dec = "", False, np.inf
-        self.monitor.start_pass(None)
-        while not status:
-            for inner in range(INNER_MAX):      # ---- inner minimization of L_A(., lam, rho)
-                if steps >= self.max_steps:
-                    break
-                m = _phr(s * pt.g, lam, rho, lo, hi)
-                LA = pt.F + m.value
-                gl = pt.grad + sys.jt(pt.jac, s * m.mu)
-                # near the answer (a warm start, or the final inner tolerance) the active set
-                # has settled: rows at the kink keep their curvature (NEAR), for NEAR_STEPS
-                # Newton steps at most (where it takes longer, the answer was not near)
-                t = s * pt.g + lam / rho        # the rows' shifted values
-                if (warm is not None or eps <= self.tol) and banded < NEAR_STEPS:
-                    band, banded = m.active | _near(t, lo, hi), banded + 1
-                else:
-                    band = m.active
-                w = np.where(band | erratic, rho * s * s, 0.0)
-                tried = wait == 0 and near
-                nd = self._direction(pt.z, gl, pt.jac, s * m.mu, w, tried)
-                exact = nd is not None and nd.exact
-                wait = max(wait - 1, 0)
-                if tried and not exact:        # indefinite: back off before the next try
-                    wait, backoff = backoff, min(2 * backoff, 32)
-                if nd is None:
-                    status = "the Newton matrix could not be factored"
-                    break
-                # relative to |L_A|, or to a floor of the start's objective (zero-residual designs)
-                dec = -0.5 * float(gl @ nd.d) / max(abs(LA), abs(pt.F), floor)
-                if dec <= eps:
-                    break
-                d = self._predict(pt, nd, gl, t, w, rho, s, lo, hi)
-                for attempt in range(3):
-                    slope = float(gl @ d)
-                    turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
-                    if turn > MAX_TURN:
-                        d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
-                    found = self._line_search(pt, d, slope, LA, lam, rho, s, lo, hi, erratic=attempt < 2)
-                    if found.jump is None:
-                        break
-                    # rows that jumped far past their linear model (a pole of the row): their
-                    # penalty curvature goes into K, which holds the step back from the pole
-                    erratic |= found.jump
-                    self.counts["erratic"] += 1
-                    w = np.where(band | erratic, rho * s * s, 0.0)
-                    d = self._solve(nd.h, nd.exact, pt.jac, w, gl)
-                    if d is None:
-                        found = _Search()
-                        break
-                steps += 1
-                if found.point is None:
-                    self.rel = min(self.rel * 100.0, 1e4)
-                    if self.rel >= 1e4:
-                        status = "the line search found no decrease"
-                    continue
-                alpha, pt = found.alpha, found.point
-                if alpha * turn < 1e-12:      # rounding: no step left to take
-                    break
-                if exact and (alpha < 1.0 or turn > MAX_TURN):
-                    wait, backoff = backoff, min(2 * backoff, 32)   # not yet Newton's region
-                elif exact:
-                    backoff = 1
-                near = alpha == 1.0 and turn < TURN_EXACT
-                # Levenberg-Marquardt: less shift after a long step, more after a very short one
-                # (a short step at a kink of the penalty's active set is not the shift's fault)
-                self.rel = (max(self.rel * 0.1, 1e-10) if alpha >= 0.5
-                            else min(self.rel * 10.0, 1e-2) if alpha < SHORT_STEP else self.rel)
-                if _DEBUG:
-                    print(f"  step {steps:4d} outer {outer} LA {LA:.6e} F {pt.F:.6e} dec {dec:.1e} eps {eps:.1e} "
-                          f"alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} act {int(m.active.sum())} "
-                          f"rho {np.median(rho):.1e}/{rho.max():.1e} err {int(erratic.sum())}")
-                e = _from_tangent(pt.z, frames)
-                if float(np.abs(pt.z).max(initial=0.0)) > RECENTRE:     # keep the chart near its centre
-                    frames = self._recentre(e)
-                    pt = self._point(np.zeros(b.n_var))
-                inf = float(np.max(np.maximum(np.maximum(self.lo - pt.g, pt.g - self.hi), 0.0), initial=0.0))
-                if self.monitor.iterate(e, pt.F / self.sF, inf):
-                    status = "time limit (safety net) reached" if self.monitor.timed_out else "stopped by callback"
-                    break
-            if status:
-                break
-            # ---- outer update: multipliers, and the penalties of rows that did not improve
-            outer += 1
-            m = _phr(s * pt.g, lam, rho, lo, hi)
-            lam = np.clip(m.mu, -LAM_MAX, LAM_MAX)
-            v = s * pt.g - np.clip(s * pt.g + lam / rho, lo, hi)
-            vmax = float(np.abs(v).max(initial=0.0))
-            if eps <= self.tol and dec <= self.tol and vmax <= VTOL and self.feasible(e):
-                status, converged = f"converged: measured feasible, Newton decrement {dec:.1e}", True
-            elif steps >= self.max_steps:
-                status = f"Maximum_Iterations_Exceeded ({steps} Newton steps)"
-            elif outer >= OUTER_MAX:
-                status = f"Maximum_Iterations_Exceeded ({outer} multiplier updates)"
-            grow = (np.abs(v) > TAU * np.abs(v_prev)) & (np.abs(v) > VTOL)
-            rho = np.where(grow & ~converged, np.minimum(rho * GAMMA, RHO_MAX), rho)
-            v_prev = v
-            eps = max(self.tol, 0.1 * eps)
-        lam_g = s * lam / self.sF           # IPOPT's multipliers: grad f + J^T lam_g = 0
-        state = AlmState(e=e.copy(), lam=lam, rho=rho, scale=s, delta=self.rel)
-        return AlmRun(e, lam_g, steps, outer, self.counts["factorizations"], status, converged, state,
-                      dict(self.counts))
+        self.rel = st.delta
+        return _Run(e=e, frames=frames, pt=pt, s=st.scale, lam=st.lam, rho=st.rho,
+                    lo=st.scale * self.lo, hi=st.scale * self.hi, warm=warm is not None,
+                    floor=FLOOR * max(abs(pt.F), 1.0),
+                    # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
+                    eps=EPS_START if warm is None else max(WARM_EPS, self.tol),
+                    v_prev=np.full(b.n_g, np.inf), erratic=np.zeros(b.n_g, bool))
+
+    def _minimize(self, run: "_Run") -> None:
+        """One inner minimization of ``L_A(., lam, rho)``: Newton steps until the decrement is
+        below the inner tolerance, the step limit, or an ending (``run.status``)."""
+        for _ in range(INNER_MAX):
+            if run.steps >= self.max_steps or not self._newton_step(run) or run.status:
+                return
+
+    def _newton_step(self, run: "_Run") -> bool:
+        """One Newton step of the inner minimization; False where the minimization is over."""
+        sys, pt, s, lam, rho = self.sys, run.pt, run.s, run.lam, run.rho
+        m = _phr(s * pt.g, lam, rho, run.lo, run.hi)
+        LA = pt.F + m.value
+        gl = pt.grad + sys.jt(pt.jac, s * m.mu)
+        # near the answer (a warm start, or the final inner tolerance) the active set has
+        # settled: rows at the kink keep their curvature (NEAR), for NEAR_STEPS Newton steps at
+        # most (where it takes longer, the answer was not near)
+        t = s * pt.g + lam / rho        # the rows' shifted values
+        if (run.warm or run.eps <= self.tol) and run.banded < NEAR_STEPS:
+            band, run.banded = m.active | _near(t, run.lo, run.hi), run.banded + 1
+        else:
+            band = m.active
+        w = np.where(band | run.erratic, rho * s * s, 0.0)
+        tried = run.wait == 0 and run.near
+        nd = self._direction(pt.z, gl, pt.jac, s * m.mu, w, tried)
+        exact = nd is not None and nd.exact
+        run.wait = max(run.wait - 1, 0)
+        if tried and not exact:        # indefinite: back off before the next try
+            run.wait, run.backoff = run.backoff, min(2 * run.backoff, 32)
+        if nd is None:
+            run.status = "the Newton matrix could not be factored"
+            return False
+        # relative to |L_A|, or to a floor of the start's objective (zero-residual designs)
+        run.dec = -0.5 * float(gl @ nd.d) / max(abs(LA), abs(pt.F), run.floor)
+        if run.dec <= run.eps:
+            return False
+        d = self._predict(pt, nd, gl, t, w, rho, s, run.lo, run.hi)
+        found, turn = self._step(run, nd, d, gl, LA, band)
+        run.steps += 1
+        if found.point is None:
+            self.rel = min(self.rel * 100.0, 1e4)
+            if self.rel >= 1e4:
+                run.status = "the line search found no decrease"
+            return True
+        alpha, run.pt = found.alpha, found.point
+        if alpha * turn < 1e-12:      # rounding: no step left to take
+            return False
+        if exact and (alpha < 1.0 or turn > MAX_TURN):
+            run.wait, run.backoff = run.backoff, min(2 * run.backoff, 32)   # not yet Newton's region
+        elif exact:
+            run.backoff = 1
+        run.near = alpha == 1.0 and turn < TURN_EXACT
+        # Levenberg-Marquardt: less shift after a long step, more after a very short one
+        # (a short step at a kink of the penalty's active set is not the shift's fault)
+        self.rel = (max(self.rel * 0.1, 1e-10) if alpha >= 0.5
+                    else min(self.rel * 10.0, 1e-2) if alpha < SHORT_STEP else self.rel)
+        if _DEBUG:
+            print(f"  step {run.steps:4d} outer {run.outer} LA {LA:.6e} F {run.pt.F:.6e} dec {run.dec:.1e} "
+                  f"eps {run.eps:.1e} alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} "
+                  f"act {int(m.active.sum())} rho {np.median(rho):.1e}/{rho.max():.1e} err {int(run.erratic.sum())}")
+        self._moved(run)
+        return True
+
+    def _step(self, run: "_Run", nd: _Direction, d: np.ndarray, gl: np.ndarray, LA: float,
+              band: np.ndarray) -> tuple[_Search, float]:
+        """The line search along ``d`` (capped at :data:`MAX_TURN`), retried where rows near a
+        pole wrecked the full step (their curvature then joins ``K``); ``(search, turn)``."""
+        s, rho = run.s, run.rho
+        for attempt in range(3):
+            slope = float(gl @ d)
+            turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
+            if turn > MAX_TURN:
+                d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
+            found = self._line_search(run.pt, d, slope, LA, run.lam, rho, s, run.lo, run.hi, erratic=attempt < 2)
+            if found.jump is None:
+                return found, turn
+            # rows that jumped far past their linear model (a pole of the row): their penalty
+            # curvature goes into K, which holds the step back from the pole
+            run.erratic |= found.jump
+            self.counts["erratic"] += 1
+            w = np.where(band | run.erratic, rho * s * s, 0.0)
+            d = self._solve(nd.h, nd.exact, run.pt.jac, w, gl)
+            if d is None:
+                return _Search(), turn
+        return found, turn
+
+    def _moved(self, run: "_Run") -> None:
+        """After a step: the directions, the chart re-centred where it drifted, the monitor."""
+        b = self.b
+        run.e = _from_tangent(run.pt.z, run.frames)
+        if float(np.abs(run.pt.z).max(initial=0.0)) > RECENTRE:     # keep the chart near its centre
+            run.frames = self._recentre(run.e)
+            run.pt = self._point(np.zeros(b.n_var))
+        g = run.pt.g
+        inf = float(np.max(np.maximum(np.maximum(self.lo - g, g - self.hi), 0.0), initial=0.0))
+        if self.monitor.iterate(run.e, run.pt.F / self.sF, inf):
+            run.status = "time limit (safety net) reached" if self.monitor.timed_out else "stopped by callback"
+
+    def _update(self, run: "_Run") -> None:
+        """The outer update: multipliers, the penalties of rows that did not improve, the
+        inner tolerance; and whether the solve has ended (``run.status``)."""
+        s, pt = run.s, run.pt
+        run.outer += 1
+        m = _phr(s * pt.g, run.lam, run.rho, run.lo, run.hi)
+        run.lam = np.clip(m.mu, -LAM_MAX, LAM_MAX)
+        v = s * pt.g - np.clip(s * pt.g + run.lam / run.rho, run.lo, run.hi)
+        vmax = float(np.abs(v).max(initial=0.0))
+        if run.eps <= self.tol and run.dec <= self.tol and vmax <= VTOL and self.feasible(run.e):
+            run.status, run.converged = f"converged: measured feasible, Newton decrement {run.dec:.1e}", True
+        elif run.steps >= self.max_steps:
+            run.status = f"Maximum_Iterations_Exceeded ({run.steps} Newton steps)"
+        elif run.outer >= OUTER_MAX:
+            run.status = f"Maximum_Iterations_Exceeded ({run.outer} multiplier updates)"
+        grow = (np.abs(v) > TAU * np.abs(run.v_prev)) & (np.abs(v) > VTOL)
+        run.rho = np.where(grow & ~run.converged, np.minimum(run.rho * GAMMA, RHO_MAX), run.rho)
+        run.v_prev = v
+        run.eps = max(self.tol, 0.1 * run.eps)
+
+
+@dataclass
+class _Run:
+    """The state of one augmented-Lagrangian solve, between its Newton steps."""
+
+    e: np.ndarray             # (N, 3) directions
+    frames: np.ndarray        # the chart's frames
+    pt: _Point                # the current point in that chart
+    s: np.ndarray             # (n_g,) row scales
+    lam: np.ndarray           # (n_g,) multipliers (scaled rows)
+    rho: np.ndarray           # (n_g,) penalties
+    lo: np.ndarray            # (n_g,) scaled bounds
+    hi: np.ndarray
+    warm: bool                # a warm re-solve
+    floor: float              # the Newton decrement's floor (FLOOR of the start's objective)
+    eps: float                # the inner tolerance
+    v_prev: np.ndarray        # (n_g,) the last complementarity measures
+    erratic: np.ndarray       # (n_g,) bool: rows near a pole (their curvature stays in K)
+    banded: int = 0           # Newton steps taken with the band of NEAR rows
+    steps: int = 0            # Newton steps
+    outer: int = 0            # multiplier updates
+    wait: int = 0             # Newton steps before the exact Hessian is tried again
+    backoff: int = 1
+    near: bool = False        # the last step was a full short one: try the exact Hessian
+    status: str = ""
+    converged: bool = False
+    dec: float = math.inf     # the last Newton decrement
 
 
 def _near(t: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
