@@ -32,7 +32,7 @@ demo: $(STAMP)
 	$(VENV)/bin/torsal design examples/7a_facade_block.toml --out out/7a
 
 test: $(STAMP) chromium freecad
-	$(PY) -m pytest -n 2
+	$(PY) -m pytest -n 2 --durations=15
 
 # the report's 3D view is checked in a real headless browser: Debian's chromium, installed
 # if missing and we can (root + apt-get); else the browser test is skipped and says why
