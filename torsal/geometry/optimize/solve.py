@@ -431,7 +431,7 @@ class SolveCall:
                 status += (f" but lowered the objective from {problem._evaluate(r.e, rows=False)[1]:.6g} "
                            f"to {lower.objective:.6g}, feasible as measured: its best feasible iterate "
                            f"(iteration {lower.iteration})")
-                run = run._replace(x=x, frames=frames, lam_g=None)
+                run = run._replace(x=x, frames=frames, lam_g=None, solver="alm+ipopt")   # IPOPT's design
             return run._replace(status=status, iterations=run.iterations + out.iterations,
                                 build_seconds=run.build_seconds + build_s, timings=timings)
         how = "certified by IPOPT" if not rescue else "continued by IPOPT"
