@@ -196,3 +196,42 @@ def test_surfaces_clear_agrees_with_the_exact_boolean():
         else:
             undecided += 1
     assert decided > 0 and undecided > 0
+
+
+class _PerProcess:
+    """Jobs that answer with their process id and what this process made before."""
+
+    def __init__(self):
+        self.made = 0
+
+    def make(self, x):
+        import os
+
+        self.made += 1
+        return os.getpid(), 10 * x
+
+    def made_here(self, x):
+        import os
+
+        return os.getpid(), self.made, x
+
+
+def test_job_pool_keeps_its_workers_for_every_map():
+    # the assembly check maps its pairs and then its paths over one pool: the same worker
+    # processes (not forked afresh, not this one) answer both maps, in order, and what a
+    # worker made in the first map it still has in the second
+    import os
+    from collections import Counter
+
+    from torsal.fabrication.assembly.workers import JobPool
+
+    with JobPool(_PerProcess(), workers=2) as pool:
+        first = pool.map("make", list(range(40)))
+        second = pool.map("made_here", list(range(40)))
+        few = pool.map("made_here", [1, 2])          # too few to send out: run here
+    assert [v for _, v in first] == [10 * x for x in range(40)]
+    assert [x for _, _, x in second] == list(range(40))
+    made_by = Counter(pid for pid, _ in first)
+    assert os.getpid() not in made_by
+    assert all(made == made_by[pid] for pid, made, _ in second)
+    assert [(pid, made) for pid, made, _ in few] == [(os.getpid(), 0)] * 2

@@ -22,7 +22,7 @@ from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placemen
 from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
 from .separation import solid_clear, solid_cover, surfaces_clear
 from .sweep import swept_overlap
-from .workers import map_jobs
+from .workers import JobPool
 
 __all__ = ["AssemblyChecker", "check_assembly", "verify_assembly"]
 
@@ -122,8 +122,7 @@ class AssemblyChecker:
                                 boxes=lambda n: self.boxes[others[n]])
 
     def _map(self, method: str, jobs: list, what: str) -> list:
-        return map_jobs(self, method, jobs, workers=self.workers, progress=self.progress,
-                        what=what)
+        return self._pool.map(method, jobs, progress=self.progress, what=what)
 
     # ------------------------------------------------------------------ the check
     def run(self) -> AssemblyCheck:
@@ -132,10 +131,14 @@ class AssemblyChecker:
         _mesh(self.shapes, self.tolerance)
         try:
             self.boxes = np.array([_bbox(s) for s in self.shapes]).reshape(-1, 2, 3)
-            touching, interfering, failed = self._touching_pairs()
-            order = self._assembly_order()
+            # one pool of workers for the pairs and every try of the paths: a worker keeps the
+            # face records, covers and triangles it made (forked after the meshing and boxes)
+            with JobPool(self, workers=self.workers) as self._pool:
+                touching, interfering, failed = self._touching_pairs()
+                order = self._assembly_order()
         finally:
             self._kept.clear()
+            self._pool = None
         kinds = Counter(j.kind for j in self.joints)
         # connector parts (brackets, splice plates) by the kind of joint they fasten
         connectors = Counter(j.kind for j in
