@@ -235,3 +235,22 @@ def test_job_pool_keeps_its_workers_for_every_map():
     assert os.getpid() not in made_by
     assert all(made == made_by[pid] for pid, made, _ in second)
     assert [(pid, made) for pid, made, _ in few] == [(os.getpid(), 0)] * 2
+
+
+def test_inside_answers_outside_the_box_without_classifying():
+    # the checker's inside test: False at once where the first vertex lies outside the other
+    # solid's box (by more than the classifier's tolerance), else OpenCascade's classifier;
+    # the same answers as the classifier alone for a box inside another, one touching its
+    # face from outside (its first vertex on the face), one beside it and one far away
+    from torsal.fabrication.assembly import AssemblyChecker
+    from torsal.fabrication.assembly.occ import _bbox, _inside
+
+    big = _box(4, 4, 4)
+    solids = [big, _box(1, 1, 1, at=(1, 1, 1)), _box(1, 1, 1, at=(4, 1, 1)),
+              _box(1, 1, 1, at=(4.5, 1, 1)), _box(1, 1, 1, at=(40, 1, 1))]
+    chk = AssemblyChecker([f"s{k}" for k in range(len(solids))], solids, workers=1)
+    chk.boxes = np.array([_bbox(s) for s in chk.shapes]).reshape(-1, 2, 3)
+    got = [[chk._inside(k, o) for o in range(len(solids))] for k in range(len(solids))]
+    occ = [[_inside(chk.shapes[k], chk.shapes[o]) for o in range(len(solids))] for k in range(len(solids))]
+    assert got == occ
+    assert got[1][0] and not any(got[k][0] for k in (2, 3, 4))

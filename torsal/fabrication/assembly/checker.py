@@ -15,8 +15,8 @@ from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
-from .occ import (_bbox, _boundary_triangles, _face_records, _inside, _mesh, _near, _shape,
-                  _vertices, common_volume)
+from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _first_vertex,
+                  _inside, _mesh, _near, _shape, _vertices, common_volume)
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
 from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
@@ -99,7 +99,7 @@ class AssemblyChecker:
         i, j = job
         try:
             a, b = self.shapes[i], self.shapes[j]
-            if not _near(a, b, self.tolerance) and not (_inside(a, b) or _inside(b, a)):
+            if not _near(a, b, self.tolerance) and not (self._inside(i, j) or self._inside(j, i)):
                 return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside
             # within the tolerance on the triangulations (exact for planar faces): touching;
             # the exact distance (solid_distance) would cost ten booleans a pair. A pair that
@@ -112,6 +112,18 @@ class AssemblyChecker:
             return i, j, 0.0, common_volume(a, b), ""
         except Exception as e:   # OpenCascade failures: reported per pair, never assumed clear
             return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
+
+    def _inside(self, k: int, other: int) -> bool:
+        """:func:`~.occ._inside` of solid ``k`` in solid ``other``: a point outside the box
+        of ``other`` (a solid lies in its box) is not inside it, without classifying it."""
+        p = _first_vertex(self.shapes[k])
+        if p is None:
+            return False
+        lo, hi = self.boxes[other]
+        xyz = np.array([p.X(), p.Y(), p.Z()])
+        if (xyz < lo - INSIDE_TOLERANCE).any() or (xyz > hi + INSIDE_TOLERANCE).any():
+            return False
+        return _inside(self.shapes[k], self.shapes[other])
 
     def sweep(self, job) -> tuple:
         """``(k, [swept overlap with each other])`` of solid ``k`` moved by ``vector``."""
