@@ -18,6 +18,7 @@ from .rhino import _membrane, _quad, _rhino_mesh, _with_edge_tolerances, brep_of
 from .workers import _parts_key, solid_shapes
 
 __all__ = ["export_step", "write_step", "read_step", "start_read_step", "PendingStepRead",
+           "binary_round_trip",
            "export_mesh", "export_3dm", "brep_of"]
 
 
@@ -172,7 +173,8 @@ def read_step(path) -> list[tuple[str, object]]:
 
 def _read_in_child(path: str, conn) -> None:
     """Reading process: ``("done", [(name, BRep bytes)])`` of :func:`read_step` (shapes do not
-    pickle; OpenCascade's binary form keeps them exactly) or ``("error", exception)``."""
+    pickle: OpenCascade's binary form, see :func:`binary_round_trip`) or ``("error",
+    exception)``."""
     from .workers import _to_bytes
 
     try:
@@ -181,6 +183,16 @@ def _read_in_child(path: str, conn) -> None:
         message = ("error", exc if isinstance(exc, OSError) else RuntimeError(f"{type(exc).__name__}: {exc}"))
     conn.send(message)
     conn.close()
+
+
+def binary_round_trip(solids: list[tuple[str, object]]) -> list[tuple[str, object]]:
+    """``[(name, solid)]`` written to OpenCascade's binary form and read back: the form in
+    which solids read in another process arrive (:class:`PendingStepRead`), so that a check of
+    them does not depend on where they were read (vertices keep every bit; a plane's direction
+    is normalized again on reading)."""
+    from .workers import _from_bytes, _to_bytes
+
+    return [(name, _from_bytes(_to_bytes(solid))) for name, solid in solids]
 
 
 class PendingStepRead:
@@ -207,9 +219,10 @@ class PendingStepRead:
         child.close()
 
     def result(self) -> list[tuple[str, object]]:
-        """``[(name, TopoDS_Solid)]``, as :func:`read_step` returns them (waits)."""
+        """``[(name, TopoDS_Solid)]`` of :func:`read_step`, in OpenCascade's binary form
+        (:func:`binary_round_trip`) wherever they were read (waits)."""
         if self._process is None:
-            return read_step(self.path)
+            return binary_round_trip(read_step(self.path))
         from .workers import _from_bytes
 
         try:

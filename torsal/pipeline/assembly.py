@@ -106,15 +106,18 @@ def drop_prefetched_solids() -> None:
 
 
 def _step_solids(path: Path):
-    """``read_step(path)``, taken from :func:`prefetch_step_solids` when it read this file."""
+    """``read_step(path)`` in OpenCascade's binary form, taken from
+    :func:`prefetch_step_solids` when it read this file: the check gets the same solids
+    whether they were read in the background or here."""
     global _prefetched
     from ..fabrication import read_step
+    from ..fabrication.exports import binary_round_trip
 
     pre = _prefetched
     if pre is not None and pre[0] == path.resolve() and pre[1] == _stamp(path):
         _prefetched = None
         return pre[2].result()
-    return read_step(path)
+    return binary_round_trip(read_step(path))
 
 
 def _solids(inp: StageInputs):
