@@ -319,7 +319,12 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     shapes = solid_shapes(fin_system)
     # the Breps the solids' workers made for this file (the same brep_of, in parallel)
     made = getattr(fin_system, "_breps", None)
-    made = made.breps if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol else {}
+    if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol:
+        made = made.breps
+    else:
+        if made is not None and hasattr(made.breps, "cancel"):
+            made.breps.cancel()       # Breps the workers were making for other parts or tolerance
+        made = {}
     meshed: list[str] = []
     for p in fin_system.parts:
         if p.family == CONNECTOR_FAMILY:
