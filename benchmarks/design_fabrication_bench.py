@@ -58,15 +58,19 @@ congruence 72.8 s, fabrication 46.8 s, assembly 40.2 s, everything else 6 s.
 
 Issue 25's 90 s, 2026-11-26 15:38-15:48 (the congruence of main fcdeee4's augmented
 Lagrangian: 1,409 parts, 54 sheets, 63 panels left out), before = main 18e008f, after =
-a6383f5 (build branch). One core was busy with the lead's optimizer benchmark throughout
-(load 2.5-4), so the wall seconds are close to the CPU seconds. The same parts, joints and
-verdicts in both rows (the assembly stage's ``STEP re-read s`` is now its wait for the
-background read: the reader's own 8 s are not in ``both stages CPU s``)::
+a6383f5 and 410ba6a (build branch; 410ba6a: the workers make the 3DM's Breps after the
+solids, so ``STEP s`` no longer waits for them and ``3DM s`` does). One core was busy with the
+lead's optimizer benchmark throughout (load 2.5-4), so the wall seconds are close to the CPU
+seconds. The same parts, joints and verdicts in every row, and the same fins.3dm (1,409 valid
+Brep solids, the same vertices, faces, edges and boxes; the assembly stage's ``STEP re-read
+s`` is now its wait for the background read: the reader's own 8 s are not in ``both stages
+CPU s``)::
 
     | run | commit | parts | parts hash | joints hash | verdicts hash | buildable | fabrication s | fabrication CPU s | solid workers CPU s | nester CPU s | fin system s | STEP s | 3DM s | wait for nester s | parts list s | assembly s | assembly CPU s | assembly workers CPU s | STEP re-read s | pairs s | paths s | both stages s | both stages CPU s (all processes) | load |
     |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
     | before | 18e008f | 1409 | f108a7dc327f | 2857921d7a8f | a426eec31c3c | True | 51.5 | 26.1 | 15.2 | 2.0 | 18.1 | 23.7 | 3.6 | 0.0 | 0.1 | 40.4 | 12.7 | 27.2 | 8.1 | 13.9 | 15.0 | 91.9 | 83.1 | 2.55 / 3.26 |
     | after | a6383f5 | 1409 | f108a7dc327f | 2857921d7a8f | a426eec31c3c | True | 57.9 | 27.5 | 15.7 | 2.0 | 20.0 | 24.1 | 7.5 | 0.0 | 0.2 | 30.9 | 4.0 | 23.4 | 4.2 | 12.3 | 11.7 | 88.9 | 72.6 | 3.26 / 3.23 |
+    | after | 410ba6a | 1409 | f108a7dc327f | 2857921d7a8f | a426eec31c3c | True | 53.9 | 23.2 | 15.0 | 2.1 | 14.6 | 18.5 | 14.8 | 0.0 | 0.1 | 27.7 | 3.7 | 21.4 | 2.0 | 11.6 | 11.1 | 81.7 | 65.3 | 3.18 / 3.92 |
 
 Each piece alone in one process, before and after taking turns (load 2.5-4), CPU seconds:
 
@@ -86,6 +90,12 @@ End to end (example 9, the congruence from the stage cache; stage seconds, load 
     | assembly (its wait for the STEP read; pairs; paths; picture) | 40.8 (7.7 read; 14.2; 14.9; 1.7) | 29.2 (2.5; 11.8; 11.8; 1.5) |
     | report | 2.6 | 2.1 |
     | after the congruence, wall | 106.6 | 97.5 |
+
+A third run (410ba6a, 15:57, load 4.1-4.4: two of the lead's optimizer jobs) took 110.3 s
+after the congruence: support 17.6 s (IPOPT alone, 7.4 s at load 2.7), fabrication 57.7 s
+(fin system 16.4, the solids 9.5, STEP 9.1, 3DM 14.9), assembly 28.8 s (its wait for the read
+0.3 s): with both cores taken by others the stages only trade places; the seconds that leave
+the critical path show on a quiet machine.
 
 Where the rest goes (after, CPU seconds alone): the support stage is IPOPT (eq. 8, 11 solves,
 7.4-9 s); the fin system 12.8 s, single-threaded: 8.4 s in its 7 builds of the joinery
