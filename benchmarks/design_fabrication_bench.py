@@ -97,6 +97,15 @@ after the congruence: support 17.6 s (IPOPT alone, 7.4 s at load 2.7), fabricati
 0.3 s): with both cores taken by others the stages only trade places; the seconds that leave
 the critical path show on a quiet machine.
 
+Back to back at 16:12-16:16 (load 3.0-3.8, one of the lead's jobs running), after the
+congruence: after (410ba6a) 100.2 s = support 8.2, fabrication 57.5 (fin system 17.6, solids
+9.1, STEP 9.2, 3DM 14.9), devices + light 2.4, assembly 28.3 (read wait 0.9, pairs 12.8, paths
+11.5), report 3.0; before (18e008f) 103.8 s = support 9.1, fabrication 53.4 (fin system 20.4,
+solids 18.8, STEP 4.3, 3DM 3.7), devices + light 1.1, assembly 37.1 (read 7.4, pairs 12.8,
+paths 13.9), report 2.2; this process's CPU 51.6 -> 41.8 s. Under such load the STEP write and
+the 3DM's wait share the cores with the Breps and the background read (the work moved, it did
+not go away).
+
 Where the rest goes (after, CPU seconds alone): the support stage is IPOPT (eq. 8, 11 solves,
 7.4-9 s); the fin system 12.8 s, single-threaded: 8.4 s in its 7 builds of the joinery
 (strips 2.4, ends 3.5, fixings 1.2, butt directions 0.7) and 4.0 s in the two checks of the
