@@ -55,6 +55,67 @@ what turned 7c's plate round, so it stays); the check's 370 remaining booleans a
 truly touch (90, common volumes up to 6e-4 mm^3) and path prisms sliding along a face. End to
 end (``examples/run_all.py --only 9``, 13:25, load 3.0-3.6, after 623a96d): 166 s, of which
 congruence 72.8 s, fabrication 46.8 s, assembly 40.2 s, everything else 6 s.
+
+Issue 25's 90 s, 2026-11-26 15:38-15:48 (the congruence of main fcdeee4's augmented
+Lagrangian: 1,409 parts, 54 sheets, 63 panels left out), before = main 18e008f, after =
+a6383f5 and 410ba6a (build branch; 410ba6a: the workers make the 3DM's Breps after the
+solids, so ``STEP s`` no longer waits for them and ``3DM s`` does). One core was busy with the
+lead's optimizer benchmark throughout (load 2.5-4), so the wall seconds are close to the CPU
+seconds. The same parts, joints and verdicts in every row, and the same fins.3dm (1,409 valid
+Brep solids, the same vertices, faces, edges and boxes; the assembly stage's ``STEP re-read
+s`` is now its wait for the background read: the reader's own 8 s are not in ``both stages
+CPU s``)::
+
+    | run | commit | parts | parts hash | joints hash | verdicts hash | buildable | fabrication s | fabrication CPU s | solid workers CPU s | nester CPU s | fin system s | STEP s | 3DM s | wait for nester s | parts list s | assembly s | assembly CPU s | assembly workers CPU s | STEP re-read s | pairs s | paths s | both stages s | both stages CPU s (all processes) | load |
+    |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|
+    | before | 18e008f | 1409 | f108a7dc327f | 2857921d7a8f | a426eec31c3c | True | 51.5 | 26.1 | 15.2 | 2.0 | 18.1 | 23.7 | 3.6 | 0.0 | 0.1 | 40.4 | 12.7 | 27.2 | 8.1 | 13.9 | 15.0 | 91.9 | 83.1 | 2.55 / 3.26 |
+    | after | a6383f5 | 1409 | f108a7dc327f | 2857921d7a8f | a426eec31c3c | True | 57.9 | 27.5 | 15.7 | 2.0 | 20.0 | 24.1 | 7.5 | 0.0 | 0.2 | 30.9 | 4.0 | 23.4 | 4.2 | 12.3 | 11.7 | 88.9 | 72.6 | 3.26 / 3.23 |
+    | after | 410ba6a | 1409 | f108a7dc327f | 2857921d7a8f | a426eec31c3c | True | 53.9 | 23.2 | 15.0 | 2.1 | 14.6 | 18.5 | 14.8 | 0.0 | 0.1 | 27.7 | 3.7 | 21.4 | 2.0 | 11.6 | 11.1 | 81.7 | 65.3 | 3.18 / 3.92 |
+
+Each piece alone in one process, before and after taking turns (load 2.5-4), CPU seconds:
+
+    | piece | before (18e008f) | after (a6383f5) |
+    |---|---|---|
+    | fin system (two checks of the paths; the second looks up what the first measured) | 16.1, 17.3 | 12.8, 12.8 |
+    | assembly check, one process (the inside test skips solids outside the other's box) | 22.8 | 21.1 |
+    | assembly check, two workers: this process + workers (one pool for pairs and paths, 679f2e9) | 2.7 + 24.9 | 2.7 + 23.4 |
+
+End to end (example 9, the congruence from the stage cache; stage seconds, load 2.7-4.2):
+
+    | stage | before (18e008f) | after |
+    |---|---|---|
+    | support | 7.4 | 9.0 |
+    | fabrication (fin system, solids, STEP, 3DM, sheets, parts list) | 54.1 | 54.0 |
+    | devices + light | 1.3 | 2.3 |
+    | assembly (its wait for the STEP read; pairs; paths; picture) | 40.8 (7.7 read; 14.2; 14.9; 1.7) | 29.2 (2.5; 11.8; 11.8; 1.5) |
+    | report | 2.6 | 2.1 |
+    | after the congruence, wall | 106.6 | 97.5 |
+
+A third run (410ba6a, 15:57, load 4.1-4.4: two of the lead's optimizer jobs) took 110.3 s
+after the congruence: support 17.6 s (IPOPT alone, 7.4 s at load 2.7), fabrication 57.7 s
+(fin system 16.4, the solids 9.5, STEP 9.1, 3DM 14.9), assembly 28.8 s (its wait for the read
+0.3 s): with both cores taken by others the stages only trade places; the seconds that leave
+the critical path show on a quiet machine.
+
+Back to back at 16:12-16:16 (load 3.0-3.8, one of the lead's jobs running), after the
+congruence: after (410ba6a) 100.2 s = support 8.2, fabrication 57.5 (fin system 17.6, solids
+9.1, STEP 9.2, 3DM 14.9), devices + light 2.4, assembly 28.3 (read wait 0.9, pairs 12.8, paths
+11.5), report 3.0; before (18e008f) 103.8 s = support 9.1, fabrication 53.4 (fin system 20.4,
+solids 18.8, STEP 4.3, 3DM 3.7), devices + light 1.1, assembly 37.1 (read 7.4, pairs 12.8,
+paths 13.9), report 2.2; this process's CPU 51.6 -> 41.8 s. Under such load the STEP write and
+the 3DM's wait share the cores with the Breps and the background read (the work moved, it did
+not go away).
+
+Where the rest goes (after, CPU seconds alone): the support stage is IPOPT (eq. 8, 11 solves,
+7.4-9 s); the fin system 12.8 s, single-threaded: 8.4 s in its 7 builds of the joinery
+(strips 2.4, ends 3.5, fixings 1.2, butt directions 0.7) and 4.0 s in the two checks of the
+paths; the solid workers 15-19 s, of which the 3DM's Breps 8 s (meshing 1.8, rhino3dm's mesh
+1.9, CreateFromMesh 0.5, the edge-tolerance repair's encode and decode 3.0, the encoding 1.0);
+STEP write 3.5 s and its re-read 8.3 s (parse 2-2.7, transfer and healing 5-6), one after the
+other on the critical path; the check's meshing 1.9 s and paths' plans 1 s in one process,
+its pairs 12 s and paths 9-11 s in two workers. On a quiet machine the stages after the
+congruence add up to about 60 s by these numbers (support 8, fin system 13, solids 11.5, STEP
+3.5, the read 8.5 beside the 3DM and light, check 15).
 """
 from __future__ import annotations
 

@@ -196,3 +196,61 @@ def test_surfaces_clear_agrees_with_the_exact_boolean():
         else:
             undecided += 1
     assert decided > 0 and undecided > 0
+
+
+class _PerProcess:
+    """Jobs that answer with their process id and what this process made before."""
+
+    def __init__(self):
+        self.made = 0
+
+    def make(self, x):
+        import os
+
+        self.made += 1
+        return os.getpid(), 10 * x
+
+    def made_here(self, x):
+        import os
+
+        return os.getpid(), self.made, x
+
+
+def test_job_pool_keeps_its_workers_for_every_map():
+    # the assembly check maps its pairs and then its paths over one pool: the same worker
+    # processes (not forked afresh, not this one) answer both maps, in order, and what a
+    # worker made in the first map it still has in the second
+    import os
+    from collections import Counter
+
+    from torsal.fabrication.assembly.workers import JobPool
+
+    with JobPool(_PerProcess(), workers=2) as pool:
+        first = pool.map("make", list(range(40)))
+        second = pool.map("made_here", list(range(40)))
+        few = pool.map("made_here", [1, 2])          # too few to send out: run here
+    assert [v for _, v in first] == [10 * x for x in range(40)]
+    assert [x for _, _, x in second] == list(range(40))
+    made_by = Counter(pid for pid, _ in first)
+    assert os.getpid() not in made_by
+    assert all(made == made_by[pid] for pid, made, _ in second)
+    assert [(pid, made) for pid, made, _ in few] == [(os.getpid(), 0)] * 2
+
+
+def test_inside_answers_outside_the_box_without_classifying():
+    # the checker's inside test: False at once where the first vertex lies outside the other
+    # solid's box (by more than the classifier's tolerance), else OpenCascade's classifier;
+    # the same answers as the classifier alone for a box inside another, one touching its
+    # face from outside (its first vertex on the face), one beside it and one far away
+    from torsal.fabrication.assembly import AssemblyChecker
+    from torsal.fabrication.assembly.occ import _bbox, _inside
+
+    big = _box(4, 4, 4)
+    solids = [big, _box(1, 1, 1, at=(1, 1, 1)), _box(1, 1, 1, at=(4, 1, 1)),
+              _box(1, 1, 1, at=(4.5, 1, 1)), _box(1, 1, 1, at=(40, 1, 1))]
+    chk = AssemblyChecker([f"s{k}" for k in range(len(solids))], solids, workers=1)
+    chk.boxes = np.array([_bbox(s) for s in chk.shapes]).reshape(-1, 2, 3)
+    got = [[chk._inside(k, o) for o in range(len(solids))] for k in range(len(solids))]
+    occ = [[_inside(chk.shapes[k], chk.shapes[o]) for o in range(len(solids))] for k in range(len(solids))]
+    assert got == occ
+    assert got[1][0] and not any(got[k][0] for k in (2, 3, 4))

@@ -141,3 +141,30 @@ def test_butted_part_blocked_every_way_leaves_out_the_cheaper_panel(monkeypatch)
         kept = _build(blocked_slide_structure(behind=behind))
         r = verify_assembly(kept, workers=1)
         assert [s.part for s in r.blocked] == ["F1-S000-P00"] and r.interfering_pairs == 0
+
+
+def test_path_checks_remembered_across_rebuilds_give_the_same_hits():
+    # the second check of the paths during a fin system's rebuilds looks its blocking pairs
+    # and overlaps up in the rebuilds' memo: the same hits, panel for panel and distance for
+    # distance, as measured afresh, and the second pass measures nothing again
+    from torsal.fabrication.builder.memo import Memo
+    from torsal.fabrication.builder.paths import _PathCheck
+
+    fs = _build(blocked_slide_structure(behind=True))
+    assert "_memo" not in fs.__dict__                   # built: no memo is kept
+
+    def rows(paths):
+        out = []
+        for p in paths.bodies:
+            for d in np.eye(3)[[0, 2]]:
+                out += [(p.name, a, o.name, b, dist) for a, o, b, dist in paths.hits(p, d)]
+            out += [(p.name, a, o.name, b, dist) for a, o, b, dist in paths.overlaps(p)]
+        return out
+
+    fresh = rows(_PathCheck(fs))
+    assert any(r[0] == "F1-S000-P00" for r in fresh)    # the blocked slide is among them
+    fs.__dict__["_memo"] = memo = Memo()
+    first = rows(_PathCheck(fs))
+    n = len(memo.table)
+    assert first == fresh and n > 0
+    assert rows(_PathCheck(fs)) == fresh and len(memo.table) == n

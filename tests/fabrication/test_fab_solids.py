@@ -362,3 +362,38 @@ def test_slot_area_from_the_records_is_the_unrolled_one(sphere_fs):
     assert slotted
     for p in slotted:
         assert S._slot_record_area(p) == pytest.approx(S._slot_area(p), rel=1e-3)
+
+
+def test_workers_make_the_breps_after_the_solids_and_can_be_stopped(sphere_fs, tmp_path):
+    """With mesh=True the workers hand over the solids first and make the 3DM's Breps after
+    (the caller writes the STEP file meanwhile): collected when the 3DM reads them, their CPU
+    seconds added to solids_cpu_seconds; cancel_solids stops them, and the 3DM is then made
+    here, with the same Breps."""
+    import rhino3dm
+
+    from torsal.fabrication import FinSystem
+    from torsal.fabrication import solids as S
+
+    def fresh():
+        fs = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
+        assert S.prepare_workers(len(fs.parts), workers=2, mesh=True) == 2
+        assert fs.start_solids(workers=2)
+        S.solid_shapes(fs)                       # the solids, while the Breps are being made
+        return fs
+
+    def breps(path):
+        return {o.Attributes.Name: (len(o.Geometry.Vertices), len(o.Geometry.Faces), o.Geometry.IsValid)
+                for o in rhino3dm.File3dm.Read(str(path)).Objects}
+
+    fs = fresh()
+    pending = fs._breps.breps
+    assert not isinstance(pending, dict)
+    cpu = fs.solids_cpu_seconds
+    assert set(pending) == {p.name for p in fs.parts} and all(pending.values())
+    assert fs.solids_cpu_seconds > cpu
+    workers = breps(fs.export_3dm(tmp_path / "workers.3dm"))
+    stopped = fresh()
+    stopped.cancel_solids()
+    assert dict(stopped._breps.breps) == {}
+    assert breps(stopped.export_3dm(tmp_path / "here.3dm")) == workers
+    assert len(workers) == len(fs.parts) and all(ok for _, _, ok in workers.values())

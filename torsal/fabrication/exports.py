@@ -17,7 +17,9 @@ from .plates import MESH_TOLERANCE, _triangles
 from .rhino import _membrane, _quad, _rhino_mesh, _with_edge_tolerances, brep_of  # noqa: F401
 from .workers import _parts_key, solid_shapes
 
-__all__ = ["export_step", "write_step", "read_step", "export_mesh", "export_3dm", "brep_of"]
+__all__ = ["export_step", "write_step", "read_step", "start_read_step", "PendingStepRead",
+           "binary_round_trip",
+           "export_mesh", "export_3dm", "brep_of"]
 
 
 def export_step(fin_system, path) -> Path:
@@ -169,6 +171,92 @@ def read_step(path) -> list[tuple[str, object]]:
     return out
 
 
+def _read_in_child(path: str, conn) -> None:
+    """Reading process: ``("done", [(name, BRep bytes)])`` of :func:`read_step` (shapes do not
+    pickle: OpenCascade's binary form, see :func:`binary_round_trip`) or ``("error",
+    exception)``."""
+    from .workers import _to_bytes
+
+    try:
+        message = ("done", [(name, _to_bytes(solid)) for name, solid in read_step(path)])
+    except BaseException as exc:            # raised again in the parent
+        message = ("error", exc if isinstance(exc, OSError) else RuntimeError(f"{type(exc).__name__}: {exc}"))
+    conn.send(message)
+    conn.close()
+
+
+def binary_round_trip(solids: list[tuple[str, object]]) -> list[tuple[str, object]]:
+    """``[(name, solid)]`` written to OpenCascade's binary form and read back: the form in
+    which solids read in another process arrive (:class:`PendingStepRead`), so that a check of
+    them does not depend on where they were read (vertices keep every bit; a plane's direction
+    is normalized again on reading)."""
+    from .workers import _from_bytes, _to_bytes
+
+    return [(name, _from_bytes(_to_bytes(solid))) for name, solid in solids]
+
+
+class PendingStepRead:
+    """:func:`read_step` of one file running in a process of its own (:func:`start_read_step`):
+    :meth:`result` waits for its solids, :meth:`cancel` stops it. Where no second process
+    may be started (a daemonic worker, :func:`~torsal.core.parallel.limit_workers` ``(1)``),
+    :meth:`result` reads the file in this process."""
+
+    def __init__(self, path):
+        import multiprocessing as mp
+
+        from torsal.core.parallel import usable_workers
+
+        self.path = Path(path)
+        self._process = self._conn = None
+        if usable_workers(2) < 2:
+            return
+        # forked from the clean server the solids' workers come from (OpenCascade imported)
+        ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
+        self._conn, child = ctx.Pipe(duplex=False)
+        self._process = ctx.Process(target=_read_in_child, args=(str(self.path), child),
+                                    name="torsal-read-step", daemon=True)
+        self._process.start()
+        child.close()
+
+    def result(self) -> list[tuple[str, object]]:
+        """``[(name, TopoDS_Solid)]`` of :func:`read_step`, in OpenCascade's binary form
+        (:func:`binary_round_trip`) wherever they were read (waits)."""
+        if self._process is None:
+            return binary_round_trip(read_step(self.path))
+        from .workers import _from_bytes
+
+        try:
+            kind, value = self._conn.recv()
+        except EOFError:
+            raise RuntimeError(f"the process reading {self.path} ended without a result "
+                               f"(exit code {self._process.join() or self._process.exitcode})") from None
+        finally:
+            self._conn.close()
+        self._process.join()
+        if kind == "error":
+            raise value
+        return [(name, _from_bytes(data)) for name, data in value]
+
+    def cancel(self) -> None:
+        """Stop the reading process."""
+        if self._process is not None and self._process.is_alive():
+            self._process.terminate()
+            self._process.join()
+
+
+def start_read_step(path) -> PendingStepRead:
+    """Start :func:`read_step` of ``path`` in a process of its own and return at once: the
+    caller goes on (writes other files, measures light) while OpenCascade's reader parses
+    and heals the file; ``.result()`` gives its ``[(name, solid)]`` in OpenCascade's binary
+    form (vertices bit for bit; each plane's direction normalized again on reading, which
+    moves a volume by round-off, about 1e-15 of it).
+
+    >>> pending = start_read_step("fins.step")          # doctest: +SKIP
+    >>> solids = pending.result()                        # doctest: +SKIP
+    """
+    return PendingStepRead(path)
+
+
 def _tessellate(fin_system, tolerance: float | None):
     tol = tolerance if tolerance is not None else MESH_TOLERANCE * fin_system.thickness
     return {name: _triangles(shape, tol) for name, shape in solid_shapes(fin_system).items()}
@@ -231,7 +319,12 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     shapes = solid_shapes(fin_system)
     # the Breps the solids' workers made for this file (the same brep_of, in parallel)
     made = getattr(fin_system, "_breps", None)
-    made = made.breps if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol else {}
+    if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol:
+        made = made.breps
+    else:
+        if made is not None and hasattr(made.breps, "cancel"):
+            made.breps.cancel()       # Breps the workers were making for other parts or tolerance
+        made = {}
     meshed: list[str] = []
     for p in fin_system.parts:
         if p.family == CONNECTOR_FAMILY:

@@ -621,10 +621,14 @@ class FinSystem:
         return self._pending is not None
 
     def cancel_solids(self) -> None:
-        """Drop a build started by :meth:`start_solids` (e.g. when a later step failed)."""
+        """Drop a build started by :meth:`start_solids` (e.g. when a later step failed), and
+        the 3DM's Breps its workers may still be making."""
         pending, self._pending = getattr(self, "_pending", None), None
         if pending is not None:
             pending.cancel()
+        made = getattr(self, "_breps", None)
+        if made is not None and hasattr(made.breps, "cancel"):
+            made.breps.cancel()
 
     def export_step(self, path) -> "object":
         """One STEP assembly with a named, coloured solid per part (``unit``)."""

@@ -14,6 +14,7 @@ Units: the ``unit`` of the fin system (mm by default).
 from __future__ import annotations
 
 import threading
+from collections.abc import Mapping
 from contextvars import ContextVar
 from typing import NamedTuple
 
@@ -51,9 +52,8 @@ def _from_bytes(data: bytes):
 
 def _build_chunk(args):
     """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
-    worker never imports build123d), and the CPU seconds that took. With ``mesh`` also the
-    3DM's Brep of each (:func:`~.rhino.encoded_brep` at the default tolerance; None where
-    it is not a valid solid: the 3DM then takes the part's mesh)."""
+    worker never imports build123d), and the CPU seconds that took. With ``mesh`` each is
+    meshed at the default tolerance first (the triangles travel with the BRep)."""
     import time
 
     parts, thickness, repair, mesh = args
@@ -61,11 +61,21 @@ def _build_chunk(args):
     out = []
     for p in parts:
         status, shape, detail = _build_one(p, thickness, repair)
-        brep = None
-        if shape is not None and mesh:       # the triangles travel with the BRep
+        if shape is not None and mesh:
             _mesh(shape, MESH_TOLERANCE * thickness, threads=False)
-            brep = encoded_brep(shape, MESH_TOLERANCE * thickness)
-        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail, brep))
+        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
+    return out, time.process_time() - cpu
+
+
+def _brep_chunk(args):
+    """Worker: the 3DM's Brep (:func:`~.rhino.encoded_brep`; None where it is not a valid
+    solid: the 3DM then takes the part's mesh) of each solid ``(name, binary BRep)`` as the
+    process that asked has it (read from the same bytes, meshed), and the CPU seconds."""
+    import time
+
+    rows, tolerance = args
+    cpu = time.process_time()
+    out = [(name, encoded_brep(_from_bytes(data), tolerance)) for name, data in rows]
     return out, time.process_time() - cpu
 
 
@@ -197,25 +207,46 @@ class PendingSolids:
             self._error = e
 
     def result(self) -> list:
-        """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits)."""
+        """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits). With
+        ``mesh`` the workers then make the 3DM's Breps (:meth:`breps`) while the caller
+        writes the STEP file: the solids come first, the Breps are wanted only for the 3DM."""
         self._starter.join()
         try:
             if self._error is not None:
                 raise self._error
             done = [f.result() for f in self._futures]
-        finally:
+        except BaseException:
             self._pool.shutdown(wait=True)
-        res = {}
+            raise
+        res, data_of = {}, {}
         #: CPU seconds the workers spent building (what the caller's clock does not see)
         self.cpu_seconds = sum(cpu for _, cpu in done)
-        #: with ``mesh``: {part name: encoded 3DM Brep or None} (:func:`~.rhino.encoded_brep`)
-        self.breps = {}
         for rows, _ in done:
-            for name, status, data, detail, brep in rows:
+            for name, status, data, detail in rows:
                 res[name] = (status, None if data is None else _from_bytes(data), detail)
-                if self._workers.mesh:
-                    self.breps[name] = brep
+                data_of[name] = data
+        self._brep_futures = []
+        if self._workers.mesh:
+            rows = [(p.name, data_of[p.name]) for p in self.parts if data_of[p.name] is not None]
+            n_chunks = min(len(rows), 4 * self.workers)
+            tol = MESH_TOLERANCE * self.thickness
+            self._brep_futures = [self._pool.submit(_brep_chunk, (rows[i::n_chunks], tol))
+                                  for i in range(n_chunks)]
+        else:
+            self._pool.shutdown(wait=True)
         return [(p.name,) + res[p.name] for p in self.parts]
+
+    def breps(self) -> dict:
+        """With ``mesh``, after :meth:`result`: {part name: encoded 3DM Brep or None}
+        (:func:`~.rhino.encoded_brep` of the solid as :meth:`result` gave it; a part without
+        a solid is not listed); waits for the workers, then stops them. ``brep_cpu_seconds``:
+        their CPU seconds."""
+        try:
+            done = [f.result() for f in self._brep_futures]
+        finally:
+            self._pool.shutdown(wait=True)
+        self.brep_cpu_seconds = sum(cpu for _, cpu in done)
+        return {name: brep for rows, _ in done for name, brep in rows}
 
     def cancel(self) -> None:
         """Stop: chunks not yet started are dropped, the workers end after their current one."""
@@ -287,11 +318,43 @@ def solid_shapes(fin_system, *, repair: bool = True, workers: int | None = None)
 class WorkerBreps(NamedTuple):
     """The 3DM Breps the solids' workers made (:func:`~.rhino.encoded_brep`): for which parts
     (``key``, :func:`_parts_key`), at which ``tolerance``, and ``breps`` {part name: encoded
-    Brep or None}."""
+    Brep or None} (a :class:`_PendingBreps` while the workers make them)."""
 
     key: tuple
     tolerance: float
-    breps: dict
+    breps: Mapping
+
+
+class _PendingBreps(Mapping):
+    """{part name: encoded Brep or None} that the solids' workers are still making
+    (:meth:`PendingSolids.breps`): waits for them when first read, and adds their CPU seconds
+    to the fin system's ``solids_cpu_seconds``."""
+
+    def __init__(self, pending: PendingSolids, fin_system):
+        self._pending, self._fin_system, self._breps = pending, fin_system, None
+
+    def _get(self) -> dict:
+        if self._breps is None:
+            self._breps = self._pending.breps()
+            fs = self._fin_system
+            fs.solids_cpu_seconds = getattr(fs, "solids_cpu_seconds", 0.0) + self._pending.brep_cpu_seconds
+            self._pending = self._fin_system = None
+        return self._breps
+
+    def cancel(self) -> None:
+        if self._pending is not None:
+            self._pending.cancel()
+            self._pending = self._fin_system = None
+            self._breps = {}
+
+    def __getitem__(self, name):
+        return self._get()[name]
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
 
 
 def _parts_key(fin_system) -> tuple:
@@ -313,8 +376,9 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
     if pending is not None:
         rows = pending.result()
         cpu = pending.cpu_seconds
-        if pending.breps:       # the 3DM's Breps, made by the workers at the default tolerance
-            fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t, pending.breps)
+        if pending._brep_futures:    # the 3DM's Breps, being made by the workers meanwhile
+            fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t,
+                                            _PendingBreps(pending, fin_system))
     else:
         cpu = time.process_time()
         rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
@@ -341,5 +405,8 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
             + (" ..." if len(unslotted) > 8 else "") + "; see FinSystem.unslotted_solids",
             stacklevel=4)
     if bad:
+        made = getattr(fin_system, "_breps", None)
+        if made is not None and hasattr(made.breps, "cancel"):
+            made.breps.cancel()        # no 3DM of an invalid set of solids: stop the workers
         raise InvalidSolidError(bad, "; ".join(detail))
     return out

@@ -17,13 +17,17 @@ crossing), each a small report section naming faces or nodes.
 """
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
 from .errors import DesignError
 from .stage import StageInputs
 
-__all__ = ["run_assembly", "UnbuildableDesignError", "unbuildable_message",
-           "congruence_gate", "support_gate", "MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD"]
+__all__ = ["run_assembly", "UnbuildableDesignError", "unbuildable_message", "prefetch_step_solids",
+           "drop_prefetched_solids", "congruence_gate", "support_gate", "MIN_CROSSING_ANGLE",
+           "MAX_CROSSING_FOLD"]
 
 # the joinery's limits: one source, the joint builder's (torsal.fabrication.joints)
 from ..fabrication.joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE
@@ -65,13 +69,62 @@ def unbuildable_message(assembly: dict) -> str:
     return "the design is not buildable: " + "; ".join(out)
 
 
+#: (path, file stamp, PendingStepRead) of the STEP file being re-read in the background
+_prefetched: tuple | None = None
+
+
+def _stamp(path: Path) -> tuple:
+    """What tells one written file from the next at the same path (a file written anew by
+    ``atomic_path`` is a new inode)."""
+    st = os.stat(path)
+    return (st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+def prefetch_step_solids(path) -> None:
+    """Start re-reading the STEP file the fabrication stage just wrote in a process of its own
+    (:func:`~torsal.fabrication.exports.start_read_step`): OpenCascade's reader (seconds for
+    a thousand parts) runs while the fabrication stage writes its other files and the light
+    is measured, and the assembly stage takes its solids: those its own
+    :func:`~torsal.fabrication.read_step` of that file would give, sent in OpenCascade's
+    binary form (vertices bit for bit; a plane's direction is normalized again on reading,
+    which moves volumes by round-off, about 1e-15 of them). Only the last file is kept; a
+    file changed since is read again."""
+    global _prefetched
+    from ..fabrication.exports import start_read_step
+
+    drop_prefetched_solids()
+    path = Path(path)
+    _prefetched = (path.resolve(), _stamp(path), start_read_step(path))
+
+
+def drop_prefetched_solids() -> None:
+    """Stop a re-read started by :func:`prefetch_step_solids` (a later step failed)."""
+    global _prefetched
+    pre, _prefetched = _prefetched, None
+    if pre is not None:
+        pre[2].cancel()
+
+
+def _step_solids(path: Path):
+    """``read_step(path)`` in OpenCascade's binary form, taken from
+    :func:`prefetch_step_solids` when it read this file: the check gets the same solids
+    whether they were read in the background or here."""
+    global _prefetched
+    from ..fabrication import read_step
+    from ..fabrication.exports import binary_round_trip
+
+    pre = _prefetched
+    if pre is not None and pre[0] == path.resolve() and pre[1] == _stamp(path):
+        _prefetched = None
+        return pre[2].result()
+    return binary_round_trip(read_step(path))
+
+
 def _solids(inp: StageInputs):
     fab = inp["fabrication"]
     step = fab.get("files", {}).get("step")
     if step and (inp.out / step).exists():
-        from ..fabrication import read_step
-
-        return read_step(inp.out / step)
+        return _step_solids(inp.out / step)
     from .fins import fin_system
 
     return fin_system(inp.spec, inp["support"]["structure"]).solids()

@@ -14,7 +14,8 @@ import numpy as np
 from .design_file import DesignSpec
 from ..geometry.congruence import Congruence
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
-from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
+from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
+                       prefetch_step_solids, run_assembly, support_gate)
 from .fins import fabrication_summary, fin_system
 from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
@@ -385,6 +386,9 @@ def run_fabrication(inp: StageInputs) -> dict:
         if spec.outputs.step:
             fs.export_step(out / "fins.step")
             written["step"] = "fins.step"
+            # the assembly stage checks the solids as this file gives them: read it again
+            # in the background while the 3DM, the parts list and the light are made
+            prefetch_step_solids(out / "fins.step")
         if spec.outputs.rhino_3dm:
             fs.export_3dm(out / "fins.3dm")
             written["3dm"] = "fins.3dm"
@@ -396,6 +400,7 @@ def run_fabrication(inp: StageInputs) -> dict:
             written["bom"] = "parts.csv"
     except BaseException:
         fs.cancel_solids()
+        drop_prefetched_solids()
         if nesting is not None:
             nesting.cancel()
         raise

@@ -15,14 +15,14 @@ from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
-from .occ import (_bbox, _boundary_triangles, _face_records, _inside, _mesh, _near, _shape,
-                  _vertices, common_volume)
+from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _first_vertex,
+                  _inside, _mesh, _near, _shape, _vertices, common_volume)
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
 from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
 from .separation import solid_clear, solid_cover, surfaces_clear
 from .sweep import swept_overlap
-from .workers import map_jobs
+from .workers import JobPool
 
 __all__ = ["AssemblyChecker", "check_assembly", "verify_assembly"]
 
@@ -99,7 +99,7 @@ class AssemblyChecker:
         i, j = job
         try:
             a, b = self.shapes[i], self.shapes[j]
-            if not _near(a, b, self.tolerance) and not (_inside(a, b) or _inside(b, a)):
+            if not _near(a, b, self.tolerance) and not (self._inside(i, j) or self._inside(j, i)):
                 return i, j, float("inf"), 0.0, ""     # boundaries apart, neither inside
             # within the tolerance on the triangulations (exact for planar faces): touching;
             # the exact distance (solid_distance) would cost ten booleans a pair. A pair that
@@ -113,6 +113,18 @@ class AssemblyChecker:
         except Exception as e:   # OpenCascade failures: reported per pair, never assumed clear
             return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
 
+    def _inside(self, k: int, other: int) -> bool:
+        """:func:`~.occ._inside` of solid ``k`` in solid ``other``: a point outside the box
+        of ``other`` (a solid lies in its box) is not inside it, without classifying it."""
+        p = _first_vertex(self.shapes[k])
+        if p is None:
+            return False
+        lo, hi = self.boxes[other]
+        xyz = np.array([p.X(), p.Y(), p.Z()])
+        if (xyz < lo - INSIDE_TOLERANCE).any() or (xyz > hi + INSIDE_TOLERANCE).any():
+            return False
+        return _inside(self.shapes[k], self.shapes[other])
+
     def sweep(self, job) -> tuple:
         """``(k, [swept overlap with each other])`` of solid ``k`` moved by ``vector``."""
         k, vector, others, stop_above = job
@@ -122,8 +134,7 @@ class AssemblyChecker:
                                 boxes=lambda n: self.boxes[others[n]])
 
     def _map(self, method: str, jobs: list, what: str) -> list:
-        return map_jobs(self, method, jobs, workers=self.workers, progress=self.progress,
-                        what=what)
+        return self._pool.map(method, jobs, progress=self.progress, what=what)
 
     # ------------------------------------------------------------------ the check
     def run(self) -> AssemblyCheck:
@@ -132,10 +143,14 @@ class AssemblyChecker:
         _mesh(self.shapes, self.tolerance)
         try:
             self.boxes = np.array([_bbox(s) for s in self.shapes]).reshape(-1, 2, 3)
-            touching, interfering, failed = self._touching_pairs()
-            order = self._assembly_order()
+            # one pool of workers for the pairs and every try of the paths: a worker keeps the
+            # face records, covers and triangles it made (forked after the meshing and boxes)
+            with JobPool(self, workers=self.workers) as self._pool:
+                touching, interfering, failed = self._touching_pairs()
+                order = self._assembly_order()
         finally:
             self._kept.clear()
+            self._pool = None
         kinds = Counter(j.kind for j in self.joints)
         # connector parts (brackets, splice plates) by the kind of joint they fasten
         connectors = Counter(j.kind for j in

@@ -173,6 +173,10 @@ def _first_vertex(shape):
     return BRep_Tool.Pnt_s(TopoDS.Vertex(ex.Current())) if ex.More() else None
 
 
+#: unit: the classifier's tolerance of :func:`_inside` (a point nearer the boundary is ON)
+INSIDE_TOLERANCE = 1e-7
+
+
 def _inside(shape, solid) -> bool:
     """A vertex of ``shape`` (its first) lies strictly inside ``solid``."""
     from OCP.BRepClass3d import BRepClass3d_SolidClassifier
@@ -181,7 +185,7 @@ def _inside(shape, solid) -> bool:
     p = _first_vertex(shape)
     if p is None:
         return False
-    cls = BRepClass3d_SolidClassifier(solid, p, 1e-7)
+    cls = BRepClass3d_SolidClassifier(solid, p, INSIDE_TOLERANCE)
     return cls.State() == TopAbs_IN
 
 

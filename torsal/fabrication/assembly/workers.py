@@ -3,6 +3,9 @@
 Each forked worker inherits the :class:`~.checker.AssemblyChecker` that started it (nothing is
 pickled: OpenCascade shapes do not pickle) through the pool's initializer, and keeps it for
 the pool's life; the process that runs the check keeps nothing once the pool is closed.
+:class:`JobPool` keeps one pool for several maps (the check's pairs, then its paths, try after
+try): what a worker made for one map (a solid's face records, cover and triangles) serves the
+next, where a pool per map forked fresh workers that made it all again.
 
 Example
 -------
@@ -19,7 +22,7 @@ from typing import Callable
 
 from torsal.core.parallel import usable_workers
 
-__all__ = ["map_jobs"]
+__all__ = ["map_jobs", "JobPool"]
 
 #: the checker a forked worker inherited (set by :func:`_adopt` in the worker only)
 _ADOPTED = None
@@ -36,24 +39,77 @@ def _run(job):
     return getattr(_ADOPTED, method)(arg)
 
 
+#: fewer jobs than this run in the calling process (forking costs more than they do)
+MIN_FORKED_JOBS = 8
+
+
+def _serial(owner, method: str, jobs: list, progress, what: str) -> list:
+    out = []
+    fn = getattr(owner, method)
+    for n, job in enumerate(jobs):
+        out.append(fn(job))
+        if progress:
+            progress(what, n + 1, len(jobs))
+    return out
+
+
+def _imap(pool, workers: int, method: str, jobs: list, progress, what: str) -> list:
+    out = []
+    tasks = [(method, job) for job in jobs]
+    for n, r in enumerate(pool.imap(_run, tasks, chunksize=max(1, len(jobs) // (8 * workers)))):
+        out.append(r)
+        if progress:
+            progress(what, n + 1, len(jobs))
+    return out
+
+
+def _forks(workers: int) -> int:
+    """Worker processes to fork: ``workers`` as far as this process may (0: run here)."""
+    workers = usable_workers(workers)
+    return workers if workers > 1 and "fork" in multiprocessing.get_all_start_methods() else 0
+
+
 def map_jobs(owner, method: str, jobs: list, *, workers: int,
              progress: Callable[[str, int, int], None] | None = None, what: str = "") -> list:
     """``[owner.<method>(job) for job in jobs]`` in order, over forked processes when
     ``workers > 1`` and there are enough jobs (each worker inherits ``owner``)."""
-    out = []
-    workers = usable_workers(workers)
-    if workers <= 1 or len(jobs) < 8 or "fork" not in multiprocessing.get_all_start_methods():
-        fn = getattr(owner, method)
-        for n, job in enumerate(jobs):
-            out.append(fn(job))
-            if progress:
-                progress(what, n + 1, len(jobs))
-        return out
-    ctx = multiprocessing.get_context("fork")
-    with ctx.Pool(workers, initializer=_adopt, initargs=(owner,)) as pool:
-        tasks = [(method, job) for job in jobs]
-        for n, r in enumerate(pool.imap(_run, tasks, chunksize=max(1, len(jobs) // (8 * workers)))):
-            out.append(r)
-            if progress:
-                progress(what, n + 1, len(jobs))
-    return out
+    with JobPool(owner, workers=workers if len(jobs) >= MIN_FORKED_JOBS else 1) as pool:
+        return pool.map(method, jobs, progress=progress, what=what)
+
+
+class JobPool:
+    """Forked worker processes that inherit ``owner`` (as it is when the pool opens: set what
+    the jobs read first) and run several maps of its methods, keeping what they made between
+    them; with one worker (or where this process may not fork) the jobs run here. A context
+    manager: the processes end when it closes.
+
+    >>> class Twice:
+    ...     def double(self, x):
+    ...         return 2 * x
+    >>> with JobPool(Twice(), workers=1) as pool:
+    ...     pool.map("double", [1, 2]), pool.map("double", [3])
+    ([2, 4], [6])
+    """
+
+    def __init__(self, owner, *, workers: int):
+        self.owner, self.workers = owner, _forks(workers)
+        self._pool = None
+
+    def __enter__(self) -> "JobPool":
+        if self.workers:
+            ctx = multiprocessing.get_context("fork")
+            self._pool = ctx.Pool(self.workers, initializer=_adopt, initargs=(self.owner,))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.terminate()       # as ``with Pool()`` does: every map has returned
+            self._pool.join()
+            self._pool = None
+
+    def map(self, method: str, jobs: list, *,
+            progress: Callable[[str, int, int], None] | None = None, what: str = "") -> list:
+        """``[owner.<method>(job) for job in jobs]`` in order (few jobs: in this process)."""
+        if self._pool is None or len(jobs) < MIN_FORKED_JOBS:
+            return _serial(self.owner, method, jobs, progress, what)
+        return _imap(self._pool, self.workers, method, jobs, progress, what)

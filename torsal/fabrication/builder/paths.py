@@ -49,6 +49,42 @@ def _assembly_order(names: list[str], after: dict) -> list[str]:
     return order
 
 
+def _blocking_pairs(panels: np.ndarray, moving_loose: bool, vec: np.ndarray, quads: np.ndarray,
+                    loose: np.ndarray, t: float, c: float):
+    """``(ii, jj, swept)``: the pairs (panel ``ii`` of the moving part, panel ``jj`` of
+    ``quads`` (m, 4, 3)) that block the path of ``panels`` (k, 4, 3) moved by ``vec`` (3,)
+    into place, and the swept distances (k, m) (rules in :class:`_PathCheck`'s text;
+    ``moving_loose``: the moving part is a connector or fixing, ``loose`` (m,) bool: the
+    panel is one's; ``t`` thickness, ``c`` clearance)."""
+    reach = t + 0.5 * c
+    # (k, m): nearest on the way and in place (the swept region's first face is the panel)
+    # (pairs farther apart than the reach block nothing: not measured)
+    swept, still = _swept_and_still_distances(panels, vec, quads, within=reach)
+    # panels at a joint (nearer in place than plates can be apart) must not come nearer;
+    # any others that come that near are checked as solids. A connector or fixing is at a
+    # joint only with what it lies on (a thickness apart): nothing crosses it
+    joint = still < reach
+    loose = moving_loose | loose
+    joint &= ~loose[None, :] | (still >= 0.98 * t)
+    near = ~joint & (swept < reach)
+    ii, jj = np.nonzero(near)
+    near[ii, jj] = _slab_depths(panels[ii], vec, quads[jj], t) > SLAB_TOUCH * t
+    ii, jj = np.nonzero(near | (joint & (swept < still - 0.5 * c)))
+    return ii, jj, swept
+
+
+def _overlapping_pairs(panels: np.ndarray, quads: np.ndarray, t: float, c: float):
+    """``(i, j, distance, deep)``: the pairs (panel ``i`` of ``panels`` (k, 4, 3), panel ``j``
+    of ``quads`` (m, 4, 3)) whose mid-surfaces come within ``t + c/2``, their distances, and
+    whether the two thickened panels overlap by more than :data:`SLAB_TOUCH` of ``t``."""
+    i, j = np.divmod(np.arange(len(panels) * len(quads)), len(quads))
+    dist = _quad_distances(panels[i], quads[j])
+    keep = dist < t + 0.5 * c
+    i, j, dist = i[keep], j[keep], dist[keep]
+    deep = _slab_depths(panels[i], np.zeros(3), quads[j], t) > SLAB_TOUCH * t
+    return i, j, dist, deep
+
+
 class _PathCheck:
     """The paths of parts into place, checked against the parts that may be in place before
     them, on the panels' mid-surfaces (:func:`_swept_distances`).
@@ -70,6 +106,8 @@ class _PathCheck:
 
     def __init__(self, fs):
         self.t, self.c = fs.thickness, fs.clearance
+        #: the memo of the fin system's rebuilds (None once it is built)
+        self._memo = fs._cached if "_memo" in fs.__dict__ else None
         plates = [p for p in fs.parts if p.family not in (CONNECTOR_FAMILY, FIXING_FAMILY)]
         fixings = sorted((p for p in fs.parts if p.family == FIXING_FAMILY), key=lambda p: p.name)
         conns = sorted((p for p in fs.parts if p.family == CONNECTOR_FAMILY), key=lambda p: p.name)
@@ -171,23 +209,13 @@ class _PathCheck:
     def _blocking(self, p: Part, vec: np.ndarray, quads: np.ndarray, loose: np.ndarray):
         """``(panels of p, indices into quads, swept distances (k, m))``: the pairs of the
         panels of ``p`` moved by ``vec`` into place and the panels ``quads`` (m, 4, 3) that
-        block the path (rules in the class text; ``loose``: the panel is a connector's or
-        fixing's)."""
-        reach = self.t + 0.5 * self.c
-        # (k, m): nearest on the way and in place (the swept region's first face is the panel)
-        # (pairs farther apart than the reach block nothing: not measured)
-        swept, still = _swept_and_still_distances(p.panels, vec, quads, within=reach)
-        # panels at a joint (nearer in place than plates can be apart) must not come nearer;
-        # any others that come that near are checked as solids. A connector or fixing is at a
-        # joint only with what it lies on (a thickness apart): nothing crosses it
-        joint = still < reach
-        loose = (p.family in (CONNECTOR_FAMILY, FIXING_FAMILY)) | loose
-        joint &= ~loose[None, :] | (still >= 0.98 * self.t)
-        near = ~joint & (swept < reach)
-        ii, jj = np.nonzero(near)
-        near[ii, jj] = _slab_depths(p.panels[ii], vec, quads[jj], self.t) > SLAB_TOUCH * self.t
-        ii, jj = np.nonzero(near | (joint & (swept < still - 0.5 * self.c)))
-        return ii, jj, swept
+        block the path (:func:`_blocking_pairs`; ``loose``: the panel is a connector's or
+        fixing's). During the rebuilds of a fin system it is looked up in their memo: the
+        second check of the paths finds most parts, their paths and their neighbours as the
+        first left them."""
+        args = (p.panels, p.family in (CONNECTOR_FAMILY, FIXING_FAMILY), vec, quads, loose,
+                self.t, self.c)
+        return self._memo(_blocking_pairs, *args) if self._memo else _blocking_pairs(*args)
 
     def _seam_hits(self, p: Part, d: np.ndarray, length: float) -> list[tuple]:
         """Mitred seams of ``p`` with parts in place before it that its path closes: the end
@@ -216,11 +244,8 @@ class _PathCheck:
         cand = np.flatnonzero(((self.lo <= hi) & (self.hi >= lo)).all(axis=1))
         if not len(cand):
             return []
-        i, j = np.divmod(np.arange(len(p.panels) * len(cand)), len(cand))
-        dist = _quad_distances(p.panels[i], self.quads[cand][j])
-        keep = dist < reach
-        i, j, dist = i[keep], j[keep], dist[keep]
-        deep = _slab_depths(p.panels[i], np.zeros(3), self.quads[cand[j]], self.t) > SLAB_TOUCH * self.t
+        args = (p.panels, self.quads[cand], self.t, self.c)
+        i, j, dist, deep = self._memo(_overlapping_pairs, *args) if self._memo else _overlapping_pairs(*args)
         out = []
         for a, b, dd, hit in zip(i, j, dist, deep):
             body = self.bodies[self.owner[cand[b]]]
