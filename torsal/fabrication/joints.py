@@ -460,8 +460,8 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     :class:`_Untrimmable`.
     """
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = quad[[ja, jb]].mean(axis=0)
-    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    far = far_side(quad, start, pa)
+    panels = [(nk if far @ nk >= 0 else -nk, vk) for nk, vk in panels]
     nbar = sum((nk for nk, _ in panels), np.zeros(3))
     if not np.linalg.norm(nbar) > 1e-6:
         raise _Untrimmable("no usable panel of the other plate there")
@@ -492,8 +492,8 @@ def trim_further(quad: np.ndarray, start: bool, panels, pa: np.ndarray, m_end: n
     two would overlap in the corner they make). ``quad`` is the untrimmed panel. Raises
     :class:`_Untrimmable`."""
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = quad[[ja, jb]].mean(axis=0)
-    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    far = far_side(quad, start, pa)
+    panels = [(nk if far @ nk >= 0 else -nk, vk) for nk, vk in panels]
     out = dict(moved)
     for cc, oc in ((ia, ja), (ib, jb)):
         x = trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
@@ -518,8 +518,7 @@ def mitre_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray,
     :class:`_Untrimmable` if an edge runs (nearly) along the plane or the panel is too short.
     """
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = quad[[ja, jb]].mean(axis=0)
-    s_n = seam if (far - pa) @ seam >= 0 else -seam
+    s_n = seam if far_side(quad, start, pa) @ seam >= 0 else -seam
     out = {}
     for cc, oc in ((ia, ja), (ib, jb)):
         u = quad[oc] - quad[cc]
@@ -566,8 +565,8 @@ def seam_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray, g
     if not others:
         return moved
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = quad[[ja, jb]].mean(axis=0)
-    panels = [(nk if (far - pa) @ nk >= 0 else -nk, vk) for nk, vk in others]
+    far = far_side(quad, start, pa)
+    panels = [(nk if far @ nk >= 0 else -nk, vk) for nk, vk in others]
     for cc, oc in ((ia, ja), (ib, jb)):
         x = trim_corner(quad, cc, oc, panels, pa, m_end, clear, h)
         u = quad[oc] - quad[cc]
@@ -607,6 +606,30 @@ def toward_panel(v: np.ndarray, quad: np.ndarray, start: bool, normal=None) -> n
     n = quad_normals(quad[None])[0] if normal is None else normal
     edge = quad[0] - quad[3] if start else quad[2] - quad[1]
     return -v if _cross(n, edge) @ v < 0 else v
+
+
+def far_side(quad: np.ndarray, start: bool, pa: np.ndarray) -> np.ndarray:
+    """The vector (3,) from ``pa``, a point of an end node line of ``quad`` (4, 3) (``start``:
+    its ``a_i b_i`` edge), to the middle of the panel's far edge, its part square to the line
+    turned round where that middle lies across the line from the panel (a sheared dart whose
+    far edge runs across the line's extension, :func:`toward_panel`): its dot product with a
+    plate's normal says which side of a plate through that line the panel stands on.
+
+    The far edge's middle alone put example 7c's dart at node 84 across the plate it was
+    butted against in a first build. Such an end is untrimmable either way (the edge from its
+    reflex corner runs to the other side of the plate) and the joint changes; with the side
+    right, the angle its message names is that edge's.
+
+    >>> dart = np.array([[0, 0, 0], [7, -0.4, 0], [10.8, 0.7, 0], [4, 0, 0.0]])  # reflex at b_i
+    >>> far_side(dart, True, dart[0]).round(2)                      # middle (8.9, 0.15, 0)
+    array([ 8.9 , -0.15,  0.  ])
+    """
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    far = quad[[ja, jb]].mean(axis=0) - pa
+    u = quad[ib] - quad[ia]
+    u = u / np.linalg.norm(u)
+    w = far - (far @ u) * u
+    return far - 2.0 * w if toward_panel(w, quad, start) @ w < 0 else far
 
 
 def fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:

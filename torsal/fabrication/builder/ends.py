@@ -14,7 +14,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..joints import (BRACKET_TRIM_SINE, _Untrimmable, butt_trim, continues, corners,
-                      into_direction, mitre_trim, place_connector, seam_trim, trim_further)
+                      into_direction, mitre_trim, place_connector, seam_trim, toward_panel,
+                      trim_further)
 from ..model import (CONNECTOR_FAMILY, FAMILY_COLORS, Joint, JointKind, Part, PartId, _cross,
                      _fold_deg, _miter, quad_normals)
 from .strips import _Strips
@@ -46,9 +47,29 @@ def _seam_plane(p: Part) -> tuple[np.ndarray, np.ndarray] | None:
     return a, seam / np.linalg.norm(seam)
 
 
+def _into(quad: np.ndarray, start: bool, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Unit direction (3,) from the node line ``a -> b`` into ``quad`` (4, 3), which ends on it
+    (``start``: its ``a_i b_i`` edge), square to the line: towards the panel's centre, turned
+    round to the side the panel lies on along the line where the panel is a dart whose centre
+    is across it (:func:`~.joints.toward_panel`)."""
+    u = (b - a) / np.linalg.norm(b - a)
+    v = quad.mean(axis=0) - a
+    v = v - (v @ u) * u
+    return toward_panel(v / np.linalg.norm(v), quad, start)
+
+
+def _starts_on(quad: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether the edge of ``quad`` (4, 3) on the node line ``a -> b`` is its ``a_i b_i`` edge
+    (corners 0, 3; a trimmed end stands a little off the line), not its ``a_j b_j`` edge."""
+    u = (b - a) / np.linalg.norm(b - a)
+    r = quad - a
+    off = np.linalg.norm(r - np.outer(r @ u, u), axis=1)
+    return bool(off[0] + off[3] <= off[1] + off[2])
+
+
 class _SeamLegs(NamedTuple):
     """The two panels meeting at a seam, seen from its node line: ``v1``, ``v2`` the unit
-    directions from the line into each panel (towards its centre, square to the line),
+    directions from the line into each panel (square to the line, :func:`_into`),
     ``n1``, ``n2`` their normals (:func:`~.model.quad_normals`)."""
 
     v1: np.ndarray
@@ -60,10 +81,7 @@ class _SeamLegs(NamedTuple):
 def _seam_legs(qe: np.ndarray, qp: np.ndarray, a: np.ndarray, b: np.ndarray) -> _SeamLegs:
     """:class:`_SeamLegs` of the panels ``qe``, ``qp`` (4, 3) at the node line ``a -> b``,
     where a splice plate's two legs go."""
-    u = (b - a) / np.linalg.norm(b - a)
-    v1, v2 = qe.mean(axis=0) - a, qp.mean(axis=0) - a
-    v1, v2 = v1 - (v1 @ u) * u, v2 - (v2 @ u) * u
-    v1, v2 = v1 / np.linalg.norm(v1), v2 / np.linalg.norm(v2)
+    v1, v2 = _into(qe, _starts_on(qe, a, b), a, b), _into(qp, _starts_on(qp, a, b), a, b)
     return _SeamLegs(v1, v2, quad_normals(qe[None])[0], quad_normals(qp[None])[0])
 
 
@@ -202,7 +220,7 @@ class EndJoiner:
         fs._ends_at.setdefault((p.family, node), []).append(
             (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
         # every face it ends against, turned towards it: its insertion must not close those gaps
-        centre = quad.mean(axis=0) - st.a[node]
+        centre = _into(quad, end == 0, st.a[node], st.b[node])
         fs._walls.setdefault(p.name, []).extend(
             n if centre @ n >= 0 else -n for n in [n for n, _, _ in panels] + [n for n, _ in others])
         quad0 = quad.copy()
@@ -213,7 +231,7 @@ class EndJoiner:
         names = tuple(sorted({fs._where[ref][0].name for _, _, ref in panels}))
         placed = self._bracket(p, j, node, cont, names, st.a[node], st.b[node],
                                insert=_slide(nbar, quad, st.a[node] - st.b[node]),
-                               n_corners=2 if bridge else 1)
+                               n_corners=2 if bridge else 1, start=end == 0)
         if not placed and self._shallow(quad0, end == 0, panels, st.a[node], gap, h):
             # trimmed along the plate (an edge meets it at under 11.5 deg) and no bracket fits on
             # what is left: not kept unfastened, left out as before (not the joint changed: the
@@ -270,7 +288,7 @@ class EndJoiner:
             (n_end, v_end, side_n) for side_n in (nk, -nk))
         host, i = fs._where[ref]
         # the seam is a wall of both for their paths into place (normal turned to each)
-        n_p = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
+        n_p = seam if _into(quad, end == 0, a, b) @ seam >= 0 else -seam
         for q, n_in, panel, other in ((p, n_p, j, host), (host, -n_p, i, p)):
             fs._walls.setdefault(q.name, []).append(n_in)
             fs._seams.setdefault(q.name, []).append((other.name, n_in, panel, node))
@@ -298,8 +316,9 @@ class EndJoiner:
         if plane is None:
             return
         a, seam = plane
+        b = p.panels[0][3]
         for q, quad, other, end in ((p, p.panels[0], prev, 0), (prev, prev.panels[-1], p, -1)):
-            n = seam if (quad.mean(axis=0) - a) @ seam >= 0 else -seam
+            n = seam if _into(quad, end == 0, a, b) @ seam >= 0 else -seam
             fs._walls.setdefault(q.name, []).append(n)
             # (the other part, the plane's normal turned towards this one, this one's panel
             # there, the node)
@@ -388,7 +407,9 @@ class EndJoiner:
         try:
             if not np.linalg.norm(into) > 0:
                 raise _Untrimmable("the previous panel has no extent")
-            into = into / np.linalg.norm(into)
+            # the previous panel's side of the line, not its centre's (where it is a dart, its
+            # bracket's leg went off it: no bracket)
+            into = _into(quads[i_prev], False, pa, pb)
             moved, m_end, nbar = fs._cached(butt_trim, quad, True, [(nprev, into)], pa, gap, h)
             fs._walls.setdefault(p.name, []).append(nbar)
         except _Untrimmable as why:
@@ -401,22 +422,20 @@ class EndJoiner:
         if prev is not None and node >= 0 and bracket:
             self._bracket(p, 0, node, [(nprev, into, prev.panels[-1],
                                         (prev.name, len(prev.panels) - 1))], (prev.name,), pa, pb,
-                          insert=_slide(nbar, quad, pa - pb))
+                          insert=_slide(nbar, quad, pa - pb), start=True)
         return True
 
     def _bracket(self, p: Part, j: int, node: int, cont, names, pa, pb, *, insert,
-                 n_corners: int = 1) -> int:
+                 n_corners: int = 1, start: bool) -> int:
         """Bent brackets in the most open corner(s) between panel ``j`` of the butted part ``p``
         and a panel ``(n, v, quad, (part name, panel))`` of the continuous plate ``cont``;
         records the joint(s), and for each bracket the other corners it may move to
-        (``_sites``). Returns the number of brackets placed."""
+        (``_sites``); ``start``: ``p`` ends there with its start. Returns the number of
+        brackets placed."""
         fs = self.fs
         quad = p.panels[j]
         line = pb - pa
-        u = line / np.linalg.norm(line)
-        vb = quad.mean(axis=0) - pa
-        vb = vb - (vb @ u) * u
-        vb = vb / np.linalg.norm(vb)
+        vb = _into(quad, start, pa, pb)
         # other parts' panels and the brackets already there must not be in the corner
         obstacles = [v for v in fs._dirs.get(node, [])] + fs._bracket_dirs.get(node, [])
         every = fs._cached(corners, [v for _, v, _, _ in cont], vb, line, obstacles)
