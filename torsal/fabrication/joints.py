@@ -582,10 +582,24 @@ def into_direction(quad: np.ndarray, start: bool) -> tuple[np.ndarray, np.ndarra
     from that line into the panel, square to it: towards the panel's centre, turned round where
     the panel lies on the other side of that line (:func:`toward_panel`)."""
     a, b = (quad[0], quad[3]) if start else (quad[1], quad[2])
+    return a, b, direction_into(quad, start, a, b)
+
+
+def direction_into(quad: np.ndarray, start: bool, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Unit direction (3,) from the node line ``a -> b`` into ``quad`` (4, 3), which ends on it
+    (``start``: its ``a_i b_i`` edge), square to the line: towards the panel's centre, turned
+    round to the side the panel lies on along the line where the panel is a dart whose centre
+    is across it (:func:`toward_panel`). The line may be the node's, which a trimmed end
+    stands a little off.
+
+    >>> q = np.array([[0, 0, 0], [2, 0, 0], [2, 0, 1], [0, 0, 1.0]])
+    >>> direction_into(q, True, q[0], q[3]).round(6).tolist()
+    [1.0, 0.0, 0.0]
+    """
     u = (b - a) / np.linalg.norm(b - a)
     v = quad.mean(axis=0) - a
     v = v - (v @ u) * u
-    return a, b, toward_panel(v / np.linalg.norm(v), quad, start)
+    return toward_panel(v / np.linalg.norm(v), quad, start)
 
 
 def toward_panel(v: np.ndarray, quad: np.ndarray, start: bool, normal=None) -> np.ndarray:

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..joints import (BRACKET_TRIM_SINE, _Untrimmable, butt_trim, continues, corners,
-                      into_direction, mitre_trim, place_connector, seam_trim, toward_panel,
+                      direction_into, into_direction, mitre_trim, place_connector, seam_trim,
                       trim_further)
 from ..model import (CONNECTOR_FAMILY, FAMILY_COLORS, Joint, JointKind, Part, PartId, _cross,
                      _fold_deg, _miter, quad_normals)
@@ -47,17 +47,6 @@ def _seam_plane(p: Part) -> tuple[np.ndarray, np.ndarray] | None:
     return a, seam / np.linalg.norm(seam)
 
 
-def _into(quad: np.ndarray, start: bool, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Unit direction (3,) from the node line ``a -> b`` into ``quad`` (4, 3), which ends on it
-    (``start``: its ``a_i b_i`` edge), square to the line: towards the panel's centre, turned
-    round to the side the panel lies on along the line where the panel is a dart whose centre
-    is across it (:func:`~.joints.toward_panel`)."""
-    u = (b - a) / np.linalg.norm(b - a)
-    v = quad.mean(axis=0) - a
-    v = v - (v @ u) * u
-    return toward_panel(v / np.linalg.norm(v), quad, start)
-
-
 def _starts_on(quad: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
     """Whether the edge of ``quad`` (4, 3) on the node line ``a -> b`` is its ``a_i b_i`` edge
     (corners 0, 3; a trimmed end stands a little off the line), not its ``a_j b_j`` edge."""
@@ -69,7 +58,7 @@ def _starts_on(quad: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
 
 class _SeamLegs(NamedTuple):
     """The two panels meeting at a seam, seen from its node line: ``v1``, ``v2`` the unit
-    directions from the line into each panel (square to the line, :func:`_into`),
+    directions from the line into each panel (square to the line, :func:`~.joints.direction_into`),
     ``n1``, ``n2`` their normals (:func:`~.model.quad_normals`)."""
 
     v1: np.ndarray
@@ -81,7 +70,7 @@ class _SeamLegs(NamedTuple):
 def _seam_legs(qe: np.ndarray, qp: np.ndarray, a: np.ndarray, b: np.ndarray) -> _SeamLegs:
     """:class:`_SeamLegs` of the panels ``qe``, ``qp`` (4, 3) at the node line ``a -> b``,
     where a splice plate's two legs go."""
-    v1, v2 = _into(qe, _starts_on(qe, a, b), a, b), _into(qp, _starts_on(qp, a, b), a, b)
+    v1, v2 = direction_into(qe, _starts_on(qe, a, b), a, b), direction_into(qp, _starts_on(qp, a, b), a, b)
     return _SeamLegs(v1, v2, quad_normals(qe[None])[0], quad_normals(qp[None])[0])
 
 
@@ -220,7 +209,7 @@ class EndJoiner:
         fs._ends_at.setdefault((p.family, node), []).append(
             (quad_normals(quad[None])[0], into_direction(quad, end == 0)[2], nbar))
         # every face it ends against, turned towards it: its insertion must not close those gaps
-        centre = _into(quad, end == 0, st.a[node], st.b[node])
+        centre = direction_into(quad, end == 0, st.a[node], st.b[node])
         fs._walls.setdefault(p.name, []).extend(
             n if centre @ n >= 0 else -n for n in [n for n, _, _ in panels] + [n for n, _ in others])
         quad0 = quad.copy()
@@ -288,7 +277,7 @@ class EndJoiner:
             (n_end, v_end, side_n) for side_n in (nk, -nk))
         host, i = fs._where[ref]
         # the seam is a wall of both for their paths into place (normal turned to each)
-        n_p = seam if _into(quad, end == 0, a, b) @ seam >= 0 else -seam
+        n_p = seam if direction_into(quad, end == 0, a, b) @ seam >= 0 else -seam
         for q, n_in, panel, other in ((p, n_p, j, host), (host, -n_p, i, p)):
             fs._walls.setdefault(q.name, []).append(n_in)
             fs._seams.setdefault(q.name, []).append((other.name, n_in, panel, node))
@@ -318,7 +307,7 @@ class EndJoiner:
         a, seam = plane
         b = p.panels[0][3]
         for q, quad, other, end in ((p, p.panels[0], prev, 0), (prev, prev.panels[-1], p, -1)):
-            n = seam if _into(quad, end == 0, a, b) @ seam >= 0 else -seam
+            n = seam if direction_into(quad, end == 0, a, b) @ seam >= 0 else -seam
             fs._walls.setdefault(q.name, []).append(n)
             # (the other part, the plane's normal turned towards this one, this one's panel
             # there, the node)
@@ -409,7 +398,7 @@ class EndJoiner:
                 raise _Untrimmable("the previous panel has no extent")
             # the previous panel's side of the line, not its centre's (where it is a dart, its
             # bracket's leg went off it: no bracket)
-            into = _into(quads[i_prev], False, pa, pb)
+            into = direction_into(quads[i_prev], False, pa, pb)
             moved, m_end, nbar = fs._cached(butt_trim, quad, True, [(nprev, into)], pa, gap, h)
             fs._walls.setdefault(p.name, []).append(nbar)
         except _Untrimmable as why:
@@ -435,7 +424,7 @@ class EndJoiner:
         fs = self.fs
         quad = p.panels[j]
         line = pb - pa
-        vb = _into(quad, start, pa, pb)
+        vb = direction_into(quad, start, pa, pb)
         # other parts' panels and the brackets already there must not be in the corner
         obstacles = [v for v in fs._dirs.get(node, [])] + fs._bracket_dirs.get(node, [])
         every = fs._cached(corners, [v for _, v, _, _ in cont], vb, line, obstacles)
