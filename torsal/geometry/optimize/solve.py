@@ -425,12 +425,12 @@ class SolveCall:
             # minimum (row 9: 0.01777 -> 0.01736 in 100 iterations) and the lowest of them is
             # the better design
             status = run.status + f"; IPOPT did not certify it ({out.status}, {out.iterations} iterations)"
-            lower = self._lower_feasible(monitor, r, n_alm)
-            if lower is not None:
-                x, frames = b.pack(lower.directions)
-                status += (f" but lowered the objective from {problem._evaluate(r.e, rows=False)[1]:.6g} "
-                           f"to {lower.objective:.6g}, feasible as measured: its best feasible iterate "
-                           f"(iteration {lower.iteration})")
+            best = monitor.best                 # IPOPT's when numbered after the ALM's iterates
+            f_alm = problem._evaluate(r.e, rows=False)[1] if best is not None and best.iteration > n_alm else None
+            if f_alm is not None and best.objective < f_alm - 1e-9 * max(abs(f_alm), 1e-300):
+                x, frames = b.pack(best.directions)
+                status += (f" but lowered the objective from {f_alm:.6g} to {best.objective:.6g}, "
+                           f"feasible as measured: its best feasible iterate (iteration {best.iteration})")
                 run = run._replace(x=x, frames=frames, lam_g=None, solver="alm+ipopt")   # IPOPT's design
             return run._replace(status=status, iterations=run.iterations + out.iterations,
                                 build_seconds=run.build_seconds + build_s, timings=timings)
@@ -440,16 +440,6 @@ class SolveCall:
                    active=True, working=None, frames=frames, build_seconds=run.build_seconds + build_s,
                    solve_seconds=run.solve_seconds + t_ip, alm=r, solver="alm+ipopt", timings=timings,
                    lam_x=self._bound_multipliers(strategy, b, out.lam_g))
-
-    def _lower_feasible(self, monitor: SolveMonitor, r: AlmRun, after: int):
-        """The monitor's best feasible iterate where it is one of IPOPT's (numbered after
-        ``after``) and lower than the augmented Lagrangian's answer ``r`` by more than
-        rounding, else None."""
-        best = monitor.best
-        if best is None or best.iteration <= after:
-            return None
-        f_alm = self.problem._evaluate(r.e, rows=False)[1]
-        return best if best.objective < f_alm - 1e-9 * max(abs(f_alm), 1e-300) else None
 
     @staticmethod
     def _bound_multipliers(strategy: IpoptStrategy, b: Built, lam_g) -> np.ndarray | None:
