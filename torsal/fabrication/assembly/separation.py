@@ -181,7 +181,6 @@ def solid_clear(cover: list[tuple[_Face, np.ndarray]], other_triangles: np.ndarr
                              triangle_boxes=triangle_boxes).all())
 
 
-
 def _triangles_apart(ta: np.ndarray, tb: np.ndarray, eps: float) -> np.ndarray:
     """(n,) whether triangles ``ta[k]`` and ``tb[k]`` (n, 3, 3) are apart by more than ``eps``
     along one of their separating axes: the two normals, the nine cross products of their
