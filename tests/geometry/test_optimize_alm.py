@@ -264,8 +264,69 @@ def test_factorization_backends_agree_and_refuse_an_indefinite_matrix(backend):
         f.factor(scale * upper.data)
         np.testing.assert_allclose(scale * spd @ f.solve(rhs), rhs, atol=1e-9)
     assert f.factorizations == 2
+    indefinite = (upper - 20 * sp.identity(40)).tocsc()
+    if f.definite:
+        with pytest.raises(NotPositiveDefinite):
+            f.factor(indefinite.data)
+    else:
+        # MUMPS through casadi reads no inertia: it solves the indefinite matrix as it is (so
+        # the augmented Lagrangian proves an exact Hessian's step with another backend)
+        f.factor(indefinite.data)
+        full = indefinite + sp.triu(indefinite, 1).T
+        np.testing.assert_allclose(full @ f.solve(rhs), rhs, atol=1e-9)
+
+
+def test_a_failed_mumps_factorization_is_refused():
+    """casadi passes none of MUMPS's error codes on: a singular matrix must not come back as a
+    step (the solve's backward error gives it away)."""
+    if not available("mumps"):
+        pytest.skip("casadi has no mumps plugin")
+    upper = sp.triu(sp.random(30, 30, density=0.2, random_state=2) + sp.identity(30)).tocsc()
+    f = SparseCholesky(upper, "mumps")
+    f.factor(np.zeros(upper.nnz))
     with pytest.raises(NotPositiveDefinite):
-        f.factor((upper - 20 * sp.identity(40)).tocsc().data)
+        f.solve(np.ones(30))
+
+
+def test_mumps_prints_nothing():
+    """MUMPS writes to the process's standard output when a solver whose print levels were
+    never set is freed (through Fortran's buffered unit 6, so only a separate process sees it
+    all): a library call stays quiet."""
+    import subprocess
+    import sys
+
+    if not available("mumps"):
+        pytest.skip("casadi has no mumps plugin")
+    code = ("import numpy as np, scipy.sparse as sp\n"
+            "from torsal.geometry.optimize.factor import SparseCholesky\n"
+            "u = sp.triu(sp.random(30, 30, density=0.2, random_state=2) + 5 * sp.identity(30)).tocsc()\n"
+            "f = SparseCholesky(u, 'mumps')\n"
+            "f.factor(u.data)\n"
+            "assert np.all(np.isfinite(f.solve(np.ones(30))))\n"
+            "del f\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == ""
+
+
+def test_the_exact_hessians_step_is_proved_positive_definite_by_another_backend():
+    """With MUMPS (no inertia) as the Newton matrix's backend, an exact Hessian's step is
+    factored by qdldl, which refuses an indefinite matrix; the projected one stays on MUMPS."""
+    from torsal.geometry.optimize.alm import NewtonSystem
+
+    if not available("mumps"):
+        pytest.skip("casadi has no mumps plugin")
+    c = Congruence.from_normals(facade_patch(nu=6, nv=5))
+    p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
+    p.build("alm")
+    sys_ = NewtonSystem.of(p._built["tangent/alm"], "mumps")
+    assert not sys_.chol.definite
+    proof = sys_.proving()
+    assert proof.definite and proof.backend == "qdldl" and sys_.proving() is proof
+    k = sys_.values(np.zeros(sys_.hess_pos.size), np.zeros(sys_.jac_rows.size), np.zeros(sys_.n_rows), 1.0)
+    k[sys_.diag_pos[0]] = -1.0        # one negative pivot
+    with pytest.raises(NotPositiveDefinite):
+        proof.factor(k)
 
 
 def test_the_family_of_constrained_designs_ends_measured_feasible():

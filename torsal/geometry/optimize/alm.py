@@ -181,6 +181,7 @@ class NewtonSystem:
     diag_pos: np.ndarray      # (n,)
     chol: SparseCholesky
     counts: dict = field(default_factory=lambda: {"factorizations": 0})
+    chol_definite: SparseCholesky | None = None     # see proving()
 
     @classmethod
     def of(cls, b: Built, backend: str | None = None) -> "NewtonSystem":
@@ -229,6 +230,17 @@ class NewtonSystem:
                              minlength=self.chol.nnz)
         k[self.diag_pos] += shift
         return k
+
+    def proving(self) -> SparseCholesky:
+        """A factorization of ``K``'s pattern that proves ``K`` positive definite (the exact
+        Hessian's steps need the proof; the projected ``K`` is positive definite by
+        construction): :attr:`chol` itself where its backend reads its pivots, else a qdldl
+        one, analysed on first use."""
+        if self.chol.definite:
+            return self.chol
+        if self.chol_definite is None:
+            self.chol_definite = SparseCholesky(self.chol.upper(np.ones(self.chol.nnz)), "qdldl")
+        return self.chol_definite
 
     def jt(self, jac: np.ndarray, v: np.ndarray) -> np.ndarray:
         """``J^T v``."""
@@ -373,6 +385,7 @@ class AugmentedLagrangian:
         """``-(h + J^T diag(w) J + shift I)^-1 rhs``, a descent direction for ``rhs``; None where
         ``h`` is not positive definite (exact) or rounding defeats every shift (projected)."""
         sys = self.sys
+        chol = sys.proving() if exact else sys.chol
         base = sys.values(h, jac, w, 0.0)
         scale = max(1.0, float(np.mean(np.abs(base[sys.diag_pos]))))
         for _ in range(1 if exact else 8):
@@ -380,13 +393,13 @@ class AugmentedLagrangian:
             k[sys.diag_pos] += self.rel * scale
             self.counts["factorizations"] += 1
             try:
-                sys.chol.factor(k)
+                chol.factor(k)
+                d = -chol.solve(rhs)
             except NotPositiveDefinite:
                 self.counts["indefinite" if exact else "shifted"] += 1
                 if not exact:
                     self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
                 continue
-            d = -sys.chol.solve(rhs)
             # a descent direction, or the factorization was not what it claimed
             if np.all(np.isfinite(d)) and (float(rhs @ d) < 0 or not np.any(rhs)):
                 return d

@@ -23,7 +23,16 @@ import numpy as np
 import scipy.sparse as sp
 
 #: the backends in order of preference (the first that imports is the default)
-BACKENDS = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
+BACKENDS = ("mumps", "qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
+
+#: backends whose :meth:`SparseCholesky.factor` proves the matrix positive definite (their
+#: pivots are read); MUMPS through casadi reports no inertia, see :meth:`SparseCholesky.definite`
+PROVES_DEFINITE = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
+
+#: largest backward error ``|A x - b| / (|A| |x| + |b|)`` (infinity norms) of a MUMPS solve
+#: that is accepted: casadi does not pass MUMPS's error codes on, a failed factorization shows
+#: in the residual (a backward stable one leaves ~1e-16 even where ``A`` is ill-conditioned)
+MUMPS_BACKWARD_ERROR = 1e-8
 
 
 class NotPositiveDefinite(ArithmeticError):
@@ -89,7 +98,52 @@ class SparseCholesky:
         getattr(self, "_factor_" + self.backend.replace("-", "_"))(np.asarray(data, dtype=float))
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """``A^-1 rhs`` with the last :meth:`factor`'s matrix.
+
+        Raises :class:`NotPositiveDefinite` where the backend factors only here (MUMPS) and
+        its factorization failed.
+        """
         return np.asarray(getattr(self, "_solve_" + self.backend.replace("-", "_"))(np.asarray(rhs, dtype=float))).ravel()
+
+    @property
+    def definite(self) -> bool:
+        """Whether :meth:`factor` raises :class:`NotPositiveDefinite` for every matrix that is
+        not positive definite. MUMPS (through casadi) factors an indefinite matrix without
+        saying so: a caller that needs the proof (a Newton step from an exact Hessian) uses
+        another backend, see :data:`PROVES_DEFINITE`."""
+        return self.backend in PROVES_DEFINITE
+
+    # ------------------------------------------------------------------ MUMPS (casadi's)
+    def _factor_mumps(self, data):
+        import casadi as ca
+
+        if self._impl is None:
+            spy = ca.Sparsity(self.n, self.n, self.indptr.astype(np.int64).tolist(),
+                              self.indices.astype(np.int64).tolist())
+            # symmetric, given by the upper triangle; casadi's "posdef" False selects MUMPS's
+            # positive definite mode (SYM=1: no pivoting)
+            solver = ca.Linsol("alm_kkt", "mumps", spy, {"symmetric": True, "posdef": False})
+            # one factorization through the instance's own memory sets MUMPS's print levels
+            # to silent: else freeing that memory prints to standard output
+            eye = ca.DM(spy, (self.indices == np.repeat(np.arange(self.n), np.diff(self.indptr))).astype(float))
+            solver.sfact(eye)
+            solver.nfact(eye)
+            self._impl = (solver, spy)
+            self.analyses += 1
+        if not np.all(np.isfinite(data)):
+            raise NotPositiveDefinite("the matrix has entries that are not finite")
+        self._data = data
+
+    def _solve_mumps(self, rhs):
+        import casadi as ca
+
+        # casadi's Python Linsol analyses and factors inside solve(): one call per Newton step
+        # (MUMPS orders with its own AMD/METIS choice; the analysis is a small part of the time)
+        solver, spy = self._impl
+        x = np.asarray(solver.solve(ca.DM(spy, self._data), ca.DM(rhs))).ravel()
+        if not np.all(np.isfinite(x)) or _backward_error(self.upper(self._data), x, rhs) > MUMPS_BACKWARD_ERROR:
+            raise NotPositiveDefinite("MUMPS's factorization failed (the solve's residual is large)")
+        return x
 
     # ------------------------------------------------------------------ CHOLMOD (sksparse)
     def _factor_cholmod(self, data):
@@ -181,6 +235,15 @@ class SparseCholesky:
         return self._impl.solve(rhs)
 
 
+def _backward_error(upper: sp.csc_matrix, x: np.ndarray, b: np.ndarray) -> float:
+    """``|A x - b| / (|A| |x| + |b|)`` in infinity norms, ``A`` given by its upper triangle."""
+    ax = upper @ x + upper.T @ x - upper.diagonal() * x
+    a = abs(upper)
+    norm_a = float(np.max(a @ np.ones(a.shape[0]) + a.T @ np.ones(a.shape[0]) - a.diagonal(), initial=0.0))
+    den = norm_a * float(np.max(np.abs(x), initial=0.0)) + float(np.max(np.abs(b), initial=0.0))
+    return float(np.max(np.abs(ax - b), initial=0.0)) / den if den > 0 else 0.0
+
+
 def available(backend: str) -> bool:
     """Whether ``backend``'s package imports on this machine."""
     try:
@@ -192,6 +255,11 @@ def available(backend: str) -> bool:
             import qdldl  # noqa: F401
         elif backend == "csparse":
             import casadi  # noqa: F401
+        elif backend == "mumps":
+            import casadi
+
+            if not casadi.Linsol.has_plugin("mumps"):
+                return False
     except ImportError:
         return False
     return backend in BACKENDS
