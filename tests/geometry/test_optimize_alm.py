@@ -375,3 +375,25 @@ def test_a_certification_that_goes_lower_returns_ipopts_better_design(monkeypatc
     m = cert.measured["min_torsal_angle"]
     assert m.holds and float(np.nanmin(m.values)) >= 60.0 - 0.1
     assert cert.success
+
+
+def test_mumps_runs_on_one_blas_thread_unless_the_user_chose(monkeypatch):
+    """casadi's bundled OpenBLAS (under MUMPS, in IPOPT and the augmented Lagrangian) is set to
+    one thread by a solve; a thread count in the environment is the user's and stays."""
+    import ctypes
+
+    from torsal.geometry.optimize import factor
+
+    monkeypatch.setattr(factor, "_blas_threads", None)
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    assert factor.limit_mumps_threads() is None
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS")
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    n = factor.limit_mumps_threads()
+    if n is None:
+        pytest.skip("casadi has no OpenBLAS of its own on this platform")
+    import casadi
+    from pathlib import Path
+
+    lib = sorted(Path(casadi.__file__).parent.glob("libcasadi-tp-openblas*"))[0]
+    assert n == factor.MUMPS_BLAS_THREADS == ctypes.CDLL(str(lib)).openblas_get_num_threads()

@@ -8,16 +8,24 @@ re-solve pays only numeric factorizations.
 
 Backends (:data:`BACKENDS`, the first available is the default; chosen by measurement on
 the Newton matrices of the Fig. 12 rows, ``benchmarks/optimize_bench.py --tables factor``):
-``"qdldl"`` (LDL^T with AMD ordering, ``Solver.update`` refactors on the same pattern: the
-symbolic analysis is done once; a dependency of torsal), ``"cholmod"`` (SuiteSparse CHOLMOD,
-supernodal, through ``sksparse`` where it is installed), ``"csparse"`` (casadi's own
-``csparsecholesky``: symbolic analysis once, then numeric factorizations; up-looking, no
-supernodes, so slower on these matrices), ``"splu"`` (scipy's SuperLU, a fallback that
-always works: it refactors from scratch). The wheels that bundle CHOLMOD without a
-refactorization call (cholespy, sksparse-minimal) repeat the analysis at every step and
-were no faster than qdldl's update.
+``"mumps"`` (MUMPS through casadi, the same library IPOPT uses, so nothing more to install:
+multifrontal, dense BLAS on the fronts; casadi's Python interface analyses and factors at
+every solve, and still, per factor + solve on one BLAS thread, 7c 10 ms against qdldl's 10,
+row 9 29 ms against 50, row 11 0.3 s against 2.8 s; it reads no inertia, see
+:attr:`SparseCholesky.definite`), ``"qdldl"`` (LDL^T with AMD ordering, ``Solver.update``
+refactors on the same pattern: the symbolic analysis is done once; not supernodal, so its
+time grows with the fill: row 11's factor has 7.6 million entries), ``"cholmod"``
+(SuiteSparse CHOLMOD, supernodal, through ``sksparse`` where it is installed), ``"csparse"``
+(casadi's own ``csparsecholesky``; up-looking, no supernodes, so slower on these matrices),
+``"splu"`` (scipy's SuperLU, a fallback that always works: it refactors from scratch). The
+wheels that bundle CHOLMOD without a refactorization call (cholespy, sksparse-minimal)
+repeat the analysis at every step.
 """
 from __future__ import annotations
+
+import ctypes
+import os
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -242,6 +250,49 @@ def _backward_error(upper: sp.csc_matrix, x: np.ndarray, b: np.ndarray) -> float
     norm_a = float(np.max(a @ np.ones(a.shape[0]) + a.T @ np.ones(a.shape[0]) - a.diagonal(), initial=0.0))
     den = norm_a * float(np.max(np.abs(x), initial=0.0)) + float(np.max(np.abs(b), initial=0.0))
     return float(np.max(np.abs(ax - b), initial=0.0)) / den if den > 0 else 0.0
+
+
+#: threads of casadi's bundled OpenBLAS, the BLAS under MUMPS (IPOPT's linear solver and
+#: the augmented Lagrangian's): on these matrices' fronts (a few hundred rows) a second thread
+#: measured slower on 2 cores and erratic (7c's Newton matrix: 7 ms per factor + solve on one
+#: thread, 7-51 ms on two; row 11 by IPOPT: 10.5 s wall against 12.7 s, 9.9 s processor time
+#: against 12.9 s), and it competes with a design study's other workers
+MUMPS_BLAS_THREADS = 1
+
+_blas_threads: int | None = None
+
+
+def limit_mumps_threads() -> int | None:
+    """Set casadi's bundled OpenBLAS to :data:`MUMPS_BLAS_THREADS` threads, once per process.
+
+    A thread count the user chose (``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS`` in the
+    environment) is left as it is; numpy's own BLAS is never touched.
+
+    Returns
+    -------
+    int or None
+        The thread count now set, or None where it was left alone (the user's choice, or no
+        OpenBLAS of casadi's found).
+
+    Examples
+    --------
+    >>> limit_mumps_threads() in (None, MUMPS_BLAS_THREADS)
+    True
+    """
+    global _blas_threads
+    if _blas_threads is not None or "OPENBLAS_NUM_THREADS" in os.environ or "OMP_NUM_THREADS" in os.environ:
+        return _blas_threads
+    import casadi
+
+    for lib in sorted(Path(casadi.__file__).parent.glob("libcasadi-tp-openblas*")):
+        try:
+            blas = ctypes.CDLL(str(lib))
+            blas.openblas_set_num_threads(ctypes.c_int(MUMPS_BLAS_THREADS))
+            _blas_threads = int(blas.openblas_get_num_threads())
+            break
+        except (OSError, AttributeError):
+            continue
+    return _blas_threads
 
 
 def available(backend: str) -> bool:

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..congruence import Congruence
 from .alm import AlmRun, AlmState, AugmentedLagrangian
+from .factor import limit_mumps_threads
 from .history import SolveMonitor
 from .ipopt import IpoptStrategy
 from .lbfgs import lbfgs
@@ -197,6 +198,7 @@ class SolveCall:
     def run(self) -> OptimizationResult:
         problem, opts = self.problem, self.opts
         t_call, c_call = time.perf_counter(), time.process_time()
+        limit_mumps_threads()
         solver = route(problem, opts.solver)
         if solver == "ipopt" and self._resumes_alm():
             solver = "alm"     # a re-solve continues with the strategy whose state it keeps
