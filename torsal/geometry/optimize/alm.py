@@ -30,9 +30,11 @@ with every energy element's and constraint element's Hessian projected to positi
 semidefinite (:mod:`.projected`), ``J_A`` the rows whose penalty is active or within
 ``NEAR`` of becoming so (the Gauss-Newton part of the penalty), and a small adaptive ``delta`` (Levenberg-Marquardt:
 divided by 10 after a full step, times 10 after a short one). ``K``'s pattern is the
-union over all rows, fixed for the NLP, so its ordering and symbolic factorization are
-computed once (:class:`~torsal.geometry.optimize.factor.SparseCholesky`), also across
-re-solves. A backtracking Armijo line search on ``L_A`` takes the step.
+union over all rows, fixed for the NLP and kept across re-solves; MUMPS factors it
+(:class:`~torsal.geometry.optimize.factor.SparseCholesky`: multifrontal, measured 1.7-9x
+faster than qdldl's refactorization on rows 9 to 11), and an exact Hessian's step, which needs
+the proof that ``K`` is positive definite, is factored by qdldl (:meth:`NewtonSystem.proving`).
+A backtracking Armijo line search on ``L_A`` takes the step.
 
 Two things keep the full step where ``L_A``'s model holds. The active set the step itself
 predicts: a step that moves rows across the kink of their penalty is replaced by the step

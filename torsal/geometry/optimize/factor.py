@@ -123,32 +123,17 @@ class SparseCholesky:
 
     # ------------------------------------------------------------------ MUMPS (casadi's)
     def _factor_mumps(self, data):
-        import casadi as ca
-
         if self._impl is None:
-            spy = ca.Sparsity(self.n, self.n, self.indptr.astype(np.int64).tolist(),
-                              self.indices.astype(np.int64).tolist())
-            # symmetric, given by the upper triangle; casadi's "posdef" False selects MUMPS's
-            # positive definite mode (SYM=1: no pivoting)
-            solver = ca.Linsol("alm_kkt", "mumps", spy, {"symmetric": True, "posdef": False})
-            # one factorization through the instance's own memory sets MUMPS's print levels
-            # to silent: else freeing that memory prints to standard output
-            eye = ca.DM(spy, (self.indices == np.repeat(np.arange(self.n), np.diff(self.indptr))).astype(float))
-            solver.sfact(eye)
-            solver.nfact(eye)
-            self._impl = (solver, spy)
+            self._impl = _mumps_solve(self.n, self.indptr, self.indices)
             self.analyses += 1
         if not np.all(np.isfinite(data)):
             raise NotPositiveDefinite("the matrix has entries that are not finite")
         self._data = data
 
     def _solve_mumps(self, rhs):
-        import casadi as ca
-
-        # casadi's Python Linsol analyses and factors inside solve(): one call per Newton step
-        # (MUMPS orders with its own AMD/METIS choice; the analysis is a small part of the time)
-        solver, spy = self._impl
-        x = np.asarray(solver.solve(ca.DM(spy, self._data), ca.DM(rhs))).ravel()
+        # casadi analyses and factors inside the solve: one call per Newton step (MUMPS's
+        # ordering is a small part of the time)
+        x = self._impl(self._data, rhs)[0]
         if not np.all(np.isfinite(x)) or _backward_error(self.upper(self._data), x, rhs) > MUMPS_BACKWARD_ERROR:
             raise NotPositiveDefinite("MUMPS's factorization failed (the solve's residual is large)")
         return x
@@ -241,6 +226,27 @@ class SparseCholesky:
 
     def _solve_splu(self, rhs):
         return self._impl.solve(rhs)
+
+
+def _mumps_solve(n: int, indptr: np.ndarray, indices: np.ndarray):
+    """``(upper triangle's values, rhs) -> [A^-1 rhs]`` by MUMPS, a casadi Function called
+    through its buffers (:class:`~.numeric.NumericFunction`: converting the values to a DM on
+    every call cost 2.3 ms of 7c's 11 ms per step)."""
+    import casadi as ca
+
+    from .numeric import NumericFunction
+
+    spy = ca.Sparsity(n, n, indptr.astype(np.int64).tolist(), indices.astype(np.int64).tolist())
+    # symmetric, given by the upper triangle; casadi's "posdef" False selects MUMPS's positive
+    # definite mode (SYM=1: no pivoting)
+    solver = ca.Linsol("alm_kkt", "mumps", spy, {"symmetric": True, "posdef": False})
+    # one factorization through the solver's own memory sets MUMPS's print levels to silent
+    # (else freeing that memory prints to standard output); the Function's calls reuse it
+    eye = ca.DM(spy, (indices == np.repeat(np.arange(n), np.diff(indptr))).astype(float))
+    solver.sfact(eye)
+    solver.nfact(eye)
+    a, b = ca.MX.sym("a", spy), ca.MX.sym("b", n)
+    return NumericFunction(ca.Function("alm_kkt_solve", [a, b], [solver.solve(a, b)]))
 
 
 def _backward_error(upper: sp.csc_matrix, x: np.ndarray, b: np.ndarray) -> float:
