@@ -2,9 +2,10 @@
 
 The augmented Lagrangian (:mod:`.alm`) factors one symmetric positive definite matrix per
 Newton step, always over the same sparsity pattern (the union of every row's pattern, see
-:class:`~torsal.geometry.optimize.alm.NewtonSystem`). The fill-reducing ordering and the
-symbolic factorization are computed once per pattern and kept with the NLP, so a warm
-re-solve pays only numeric factorizations.
+:class:`~torsal.geometry.optimize.alm.NewtonSystem`). A backend that can keep the
+fill-reducing ordering and the symbolic factorization (qdldl, CHOLMOD) computes them once
+per pattern, kept with the NLP across re-solves; MUMPS through casadi orders at every call,
+and is still the fastest on these matrices (below).
 
 Backends (:data:`BACKENDS`, the first available is the default; chosen by measurement on
 the Newton matrices of the Fig. 12 rows, ``benchmarks/optimize_bench.py --tables factor``):
