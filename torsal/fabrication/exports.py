@@ -15,7 +15,7 @@ from torsal.core.atomic import atomic_path
 from .model import CONNECTOR_FAMILY, FIXING_FAMILY
 from .plates import MESH_TOLERANCE, _triangles
 from .rhino import _membrane, _quad, _rhino_mesh, _with_edge_tolerances, brep_of  # noqa: F401
-from .workers import _parts_key, solid_shapes
+from .workers import _parts_key, cancel_breps, solid_shapes
 
 __all__ = ["export_step", "write_step", "read_step", "start_read_step", "PendingStepRead",
            "binary_round_trip",
@@ -322,8 +322,7 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol:
         made = made.breps
     else:
-        if made is not None and hasattr(made.breps, "cancel"):
-            made.breps.cancel()       # Breps the workers were making for other parts or tolerance
+        cancel_breps(fin_system)      # Breps the workers were making for other parts or tolerance
         made = {}
     meshed: list[str] = []
     for p in fin_system.parts:

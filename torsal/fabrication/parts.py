@@ -626,9 +626,7 @@ class FinSystem:
         pending, self._pending = getattr(self, "_pending", None), None
         if pending is not None:
             pending.cancel()
-        made = getattr(self, "_breps", None)
-        if made is not None and hasattr(made.breps, "cancel"):
-            made.breps.cancel()
+        _solids.cancel_breps(self)
 
     def export_step(self, path) -> "object":
         """One STEP assembly with a named, coloured solid per part (``unit``)."""

@@ -24,7 +24,8 @@ from .plates import (  # noqa: F401
     _triangles, _valid, _volume, part_solid, slot_boxes)
 from .workers import (  # noqa: F401
     PendingSolids, WorkerPool, _collect, _from_bytes, _parts_key, _to_bytes, _workers_for,
-    build_solids, default_workers, prepare_workers, release_workers, solid_shapes, start_solids)
+    build_solids, cancel_breps, default_workers, prepare_workers, release_workers, solid_shapes,
+    start_solids)
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "build_solids", "start_solids",
            "solid_shapes", "write_step", "prepare_workers", "release_workers",

@@ -357,6 +357,14 @@ class _PendingBreps(Mapping):
         return len(self._get())
 
 
+def cancel_breps(fin_system) -> None:
+    """Stop the solids' workers still making the 3DM's Breps of ``fin_system`` (a
+    :class:`_PendingBreps` in its ``_breps``); nothing where they are made or none were asked."""
+    made = getattr(fin_system, "_breps", None)
+    if made is not None and isinstance(made.breps, _PendingBreps):
+        made.breps.cancel()
+
+
 def _parts_key(fin_system) -> tuple:
     """Which parts (objects) the fin system has: shapes kept for other parts are stale."""
     return tuple(id(p) for p in fin_system.parts)
@@ -405,8 +413,6 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
             + (" ..." if len(unslotted) > 8 else "") + "; see FinSystem.unslotted_solids",
             stacklevel=4)
     if bad:
-        made = getattr(fin_system, "_breps", None)
-        if made is not None and hasattr(made.breps, "cancel"):
-            made.breps.cancel()        # no 3DM of an invalid set of solids: stop the workers
+        cancel_breps(fin_system)        # no 3DM of an invalid set of solids: stop the workers
         raise InvalidSolidError(bad, "; ".join(detail))
     return out
