@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -69,8 +70,15 @@ def unbuildable_message(assembly: dict) -> str:
     return "the design is not buildable: " + "; ".join(out)
 
 
-#: (path, file stamp, PendingStepRead) of the STEP file being re-read in the background
-_prefetched: tuple | None = None
+class _Prefetch(NamedTuple):
+    """The STEP file being re-read in the background (:func:`prefetch_step_solids`)."""
+
+    path: Path                # resolved
+    stamp: tuple              # :func:`_stamp` of the file when the read started
+    read: object              # its :class:`~torsal.fabrication.exports.PendingStepRead`
+
+
+_prefetched: _Prefetch | None = None
 
 
 def _stamp(path: Path) -> tuple:
@@ -94,7 +102,7 @@ def prefetch_step_solids(path) -> None:
 
     drop_prefetched_solids()
     path = Path(path)
-    _prefetched = (path.resolve(), _stamp(path), start_read_step(path))
+    _prefetched = _Prefetch(path.resolve(), _stamp(path), start_read_step(path))
 
 
 def drop_prefetched_solids() -> None:
@@ -102,7 +110,7 @@ def drop_prefetched_solids() -> None:
     global _prefetched
     pre, _prefetched = _prefetched, None
     if pre is not None:
-        pre[2].cancel()
+        pre.read.cancel()
 
 
 def _step_solids(path: Path):
@@ -114,9 +122,10 @@ def _step_solids(path: Path):
     from ..fabrication.exports import binary_round_trip
 
     pre = _prefetched
-    if pre is not None and pre[0] == path.resolve() and pre[1] == _stamp(path):
+    if pre is not None and pre.path == path.resolve() and pre.stamp == _stamp(path):
         _prefetched = None
-        return pre[2].result()
+        return pre.read.result()
+    drop_prefetched_solids()        # of another file, or of this one before it changed
     return binary_round_trip(read_step(path))
 
 
