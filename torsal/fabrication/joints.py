@@ -460,8 +460,7 @@ def butt_trim(quad: np.ndarray, start: bool, panels, pa: np.ndarray, gap: float,
     :class:`_Untrimmable`.
     """
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = far_side(quad, start, pa)
-    panels = [(nk if far @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    panels = _facing(panels, quad, start, pa)
     nbar = sum((nk for nk, _ in panels), np.zeros(3))
     if not np.linalg.norm(nbar) > 1e-6:
         raise _Untrimmable("no usable panel of the other plate there")
@@ -492,8 +491,7 @@ def trim_further(quad: np.ndarray, start: bool, panels, pa: np.ndarray, m_end: n
     two would overlap in the corner they make). ``quad`` is the untrimmed panel. Raises
     :class:`_Untrimmable`."""
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = far_side(quad, start, pa)
-    panels = [(nk if far @ nk >= 0 else -nk, vk) for nk, vk in panels]
+    panels = _facing(panels, quad, start, pa)
     out = dict(moved)
     for cc, oc in ((ia, ja), (ib, jb)):
         x = trim_corner(quad, cc, oc, panels, pa, m_end, gap, h)
@@ -565,8 +563,7 @@ def seam_trim(quad: np.ndarray, start: bool, seam: np.ndarray, pa: np.ndarray, g
     if not others:
         return moved
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
-    far = far_side(quad, start, pa)
-    panels = [(nk if far @ nk >= 0 else -nk, vk) for nk, vk in others]
+    panels = _facing(others, quad, start, pa)
     for cc, oc in ((ia, ja), (ib, jb)):
         x = trim_corner(quad, cc, oc, panels, pa, m_end, clear, h)
         u = quad[oc] - quad[cc]
@@ -644,6 +641,14 @@ def far_side(quad: np.ndarray, start: bool, pa: np.ndarray) -> np.ndarray:
     u = u / np.linalg.norm(u)
     w = far - (far @ u) * u
     return far - 2.0 * w if toward_panel(w, quad, start) @ w < 0 else far
+
+
+def _facing(panels, quad: np.ndarray, start: bool, pa: np.ndarray) -> list:
+    """``panels`` ``[(n, v)]`` with each plate normal ``n`` (3,) turned to the side of the
+    plate that ``quad`` (4, 3), ending on the node line through ``pa``, stands on
+    (:func:`far_side`)."""
+    far = far_side(quad, start, pa)
+    return [(n if far @ n >= 0 else -n, v) for n, v in panels]
 
 
 def fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:
