@@ -34,6 +34,33 @@ def _noisy(n, max_deg, rng):
 
 # ----------------------------------------------------------------------- assembly is exact
 @pytest.mark.parametrize("form", ["split", "lift"])
+def test_lazy_nlp_values_match_the_eager_and_its_derived_expressions(facade, form):
+    """IPOPT's main NLP assembles its values first and its derivatives on first use: the values
+    equal an eagerly built NLP's and the derived objective and rows at the same point."""
+    from torsal.geometry.optimize.nlp import Built
+
+    v, f = facade_patch(nu=5, nv=4)
+    c = Congruence.from_normals((v, f))
+    p = (CongruenceProblem(c).normal().fair().fair_torsal().perpendicular(SUN)
+         .torsal_direction([1, 4], [1.0, 0, 0.2]).hyperbolic().min_torsal_angle(30, form=form))
+    p.build()
+    b = p._built["tangent"]
+    assert not b._derived
+    x, fr = b.pack(_noisy(c.directions, 20, np.random.default_rng(5)))
+    par = b.parameters(p._current(), fr)
+    x = b.full(x, par)
+    ev, fval, g = b.evaluate(x, par)
+    assert not b._derived and g.size == b.n_g > 0
+    eager = Built(b.terms, b.n_vertices, b.mode, hessian=b.hessian)
+    ev2, f2, g2 = eager.evaluate(x, par)
+    np.testing.assert_allclose(np.asarray(ev).ravel(), np.asarray(ev2).ravel(), rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose([fval, *g], [f2, *g2], rtol=1e-12, atol=1e-14)
+    f3, g3 = b.value(x, par)            # first use of a derived expression: assembled now
+    assert b._derived and b.derive() == 0.0
+    np.testing.assert_allclose([fval, *g], [float(f3), *np.asarray(g3).ravel()], rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("form", ["split", "lift"])
 @pytest.mark.parametrize("normalize", ["tangent", "constraint"])
 def test_assembled_gradient_and_hessian_match_finite_differences(facade, normalize, form):
     v, f = facade_patch(nu=5, nv=4)
@@ -186,6 +213,8 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
     # positive semidefinite by construction: no regularization estimate for pass 1
     pass1 = p._built["tangent/without-inequalities"]
     assert pass1.psd and not p._built["tangent"].psd and set(pass1.hessian_shifts.values()) <= {0.0}
+    # the main NLP only checked pass 1's rows: its derivatives were never assembled
+    assert not p._built["tangent"]._derived
     both = problem().hyperbolic().min_torsal_angle(5).solve("ipopt", try_unconstrained=False)
     assert both.success and both.constraints_active is True
     assert _angles_deg(both.congruence.directions, res.congruence.directions).max() < 0.05

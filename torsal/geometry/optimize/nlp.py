@@ -179,10 +179,13 @@ class _Assembly:
     expressions of the variables (the chart in tangent mode) and the accumulated objective,
     energies, constraint rows and derivative pieces; :meth:`finish` scatters the pieces.
     The Hessian is that of the Lagrangian ``lam_f f + lam_g^T g``, upper triangle.
+    ``derivatives=False``: the energies, the objective and the rows only (no kernel
+    derivatives, no chart Jacobians; the first stage of a lazily built NLP, see :class:`Built`).
     """
 
-    def __init__(self, lay: _Layout, jit: bool, hessian: str):
+    def __init__(self, lay: _Layout, jit: bool, hessian: str, derivatives: bool = True):
         self.lay, self.jit, self.hessian = lay, jit, hessian
+        self.derivatives = derivatives
         self.x_all = ca.MX.sym("x", lay.n_var)
         # the directions' variables (the lifted variables and slacks come after them)
         self.x = self.x_all[0:lay.n_dir] if lay.n_var > lay.n_dir else self.x_all
@@ -208,9 +211,11 @@ class _Assembly:
         self.Z = ca.reshape(self.x, 2, n)
         self.FR = ca.reshape(self.p[0:self.lay.n_frames], 9, n)
         chart, *derivs = _chart_functions()
+        self.e_all = ca.vec(chart.map(n)(self.Z, self.FR))
+        if not self.derivatives:
+            return
         self.chart_jac, self.chart_hess, self.chart_jtg, self.pair_jj = (
             (_jit(f) for f in derivs) if self.jit else derivs)
-        self.e_all = ca.vec(chart.map(n)(self.Z, self.FR))
         self.JV = self.chart_jac.map(n)(self.Z, self.FR)          # (6, n): 3x2 per vertex, column-major
         self.jv_all = ca.vec(self.JV)
 
@@ -226,6 +231,8 @@ class _Assembly:
         w = self.p[off]
         qe = ca.mtimes(_to_casadi(Qg), self.e_all)
         self._energy(t.scale * ca.dot(self.e_all, qe), w)
+        if not self.derivatives:
+            return
         ge = 2.0 * t.scale * w * qe
         coef = 2.0 * t.scale * w * lam_f
         if not self.lay.tangent:   # constant Hessian: added as a whole in finish
@@ -284,6 +291,9 @@ class _Assembly:
 
     def element(self, t: Term, off: int, go: int | None) -> None:
         """An element term: energy (``go`` None) or constraint rows from ``go`` on."""
+        if not self.derivatives:
+            self._element_values(t, off, go)
+            return
         L = self._kernels(t)
         args, xidx = self._element_args(t, off)
         m = t.size
@@ -307,11 +317,25 @@ class _Assembly:
         if self.lay.tangent and not L.gauss_newton:
             self.lag.add(ca.vec(L.lag_e.map(m)(*args, coef)), t.idx.ravel())
 
+    def _element_values(self, t: Term, off: int, go: int | None) -> None:
+        """An element term's values only: the element function itself, mapped (no kernels)."""
+        m, r = t.size, t.element.n_par
+        X = ca.reshape(self.e_all[t.idx.ravel().tolist()], t.idx.shape[1], m)
+        D = ca.DM(np.ascontiguousarray(t.data.T)) if t.element.n_data else ca.DM(0, m)
+        P = ca.reshape(self.p[off + 1:off + 1 + m * r], r, m) if r else ca.MX(0, m)
+        vals = t.element.fn.map(m)(X, D, P)
+        if go is None:
+            self._energy(t.scale * ca.sum2(vals), self.p[off])
+        else:
+            self.g_parts.append(ca.vec(vals))
+
     def lifted(self, t: Term, go: int, lo: int, off: int, row_term: int) -> None:
         """The lifted variables' part of a lifted term (``row_term``: its index among the
         constraint terms): its rows become ``G(e) - H(y)``."""
         dg, jp, hp = Built._lift(t, go, lo, self.x_all, self.p, self.lam_g, off)
         self.g_parts[row_term] = self.g_parts[row_term] - dg
+        if not self.derivatives:
+            return
         self.jac.add(*jp)
         self.hess.add(*hp)
 
@@ -353,10 +377,18 @@ class Built:
     ``mode``: ``"constraint"`` / ``"renormalize"`` / ``"penalty"`` (variables: the ``3 n``
     direction coordinates) or ``"tangent"`` (``2 n`` gnomonic coordinates around per-vertex
     frames that are NLP parameters, see :func:`_chart_functions`).
+
+    ``lazy=True``: only the values (:meth:`evaluate`) are assembled at first; the derivatives
+    and the NLP's expressions (:data:`DERIVED`) on their first use (:meth:`derive`). IPOPT's
+    main NLP is built so: where its pass without inequalities answers (Fig. 12 rows 7a, 7b,
+    11, 13), the main NLP only evaluates the energies and checks the rows.
     """
 
+    #: the attributes a lazily built NLP assembles on first use (:meth:`derive`)
+    DERIVED = frozenset({"x", "p", "f_expr", "g_expr", "grad_f", "jac_g", "point", "value", "hess_lag"})
+
     def __init__(self, terms: list[Term], n_vertices: int, mode: str, jit: bool = False,
-                 hessian: str = "exact", elastic: float = 0.0):
+                 hessian: str = "exact", elastic: float = 0.0, lazy: bool = False):
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
         self.hessian = hessian
@@ -368,16 +400,38 @@ class Built:
         self.p_offsets, self.n_par = lay.p_offsets, lay.n_par
         self.g_offsets, self.n_g = lay.g_offsets, lay.n_g
         self.g_slices = [slice(int(o), int(o) + t.size) for o, t in zip(lay.g_offsets, lay.cons)]
-        self._functions(self._assemble(lay, jit))
+        self._lay, self._jit, self._derived = lay, jit, not lazy
+        if lazy:
+            asm = self._assemble(lay, jit, derivatives=False)
+            self._evaluate = self._values_function(asm)
+        else:
+            self._functions(self._assemble(lay, jit))
         self._bounds()
         self.solvers: dict = {}
         # first Hessian regularization per IPOPT objective scaling (see _hessian_shift)
         self.hessian_shifts: dict[tuple, float] = {}
         self.seconds = time.perf_counter() - t0
 
-    def _assemble(self, lay: _Layout, jit: bool) -> _Assembly:
+    def __getattr__(self, name: str):
+        # only called for attributes not set: the derived ones of a lazy NLP, assembled now
+        if name in Built.DERIVED and not self.__dict__.get("_derived", True):
+            self.derive()
+            return getattr(self, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def derive(self) -> float:
+        """Assemble the derivatives and the NLP's expressions of a lazily built NLP (once);
+        returns the seconds it took (0 when done before)."""
+        if self._derived:
+            return 0.0
+        t0 = time.perf_counter()
+        self._derived = True
+        self._functions(self._assemble(self._lay, self._jit))
+        return time.perf_counter() - t0
+
+    def _assemble(self, lay: _Layout, jit: bool, derivatives: bool = True) -> _Assembly:
         """Every term's pieces, then the lifted terms' variables."""
-        asm = _Assembly(lay, jit, self.hessian)
+        asm = _Assembly(lay, jit, self.hessian, derivatives)
         ci = 0
         for t, off in zip(self.terms, lay.p_offsets):
             if t.matrix is not None:
@@ -396,8 +450,8 @@ class Built:
         """The casadi Functions of the NLP (with the elastic slacks) and of the plain values."""
         x_all, p, f = asm.x_all, asm.p, asm.f
         grad, g, jac, hess = asm.finish()
-        self._evaluate = ca.Function("evaluate", [x_all, p],
-                                     [ca.vertcat(*asm.e_vals) if asm.e_vals else ca.MX(0, 1), f, g])
+        if "_evaluate" not in self.__dict__:     # (a lazy NLP keeps its values-only one)
+            self._evaluate = self._values_function(asm, g)
         if self.n_slack:
             f, grad, g, jac, hess = self._elastic(x_all, p, f, grad, g, jac, hess)
         self.x, self.p = x_all, p
@@ -415,6 +469,15 @@ class Built:
             self.hess_lag = ProjectedHessian("nlp_hess_l", symbols, hess, asm.blocks, self.n_var)
         else:
             self.hess_lag = ca.Function("nlp_hess_l", symbols, [hess], ["x", "p", "lam_f", "lam_g"], ["hess"])
+
+    @staticmethod
+    def _values_function(asm: _Assembly, g=None) -> ca.Function:
+        """``[energies, objective, rows]`` of the variables and parameters (``g`` the rows, if
+        assembled already)."""
+        if g is None:
+            g = ca.vertcat(*asm.g_parts) if asm.g_parts else ca.MX(0, 1)
+        return ca.Function("evaluate", [asm.x_all, asm.p],
+                           [ca.vertcat(*asm.e_vals) if asm.e_vals else ca.MX(0, 1), asm.f, g])
 
     def _bounds(self) -> None:
         """Constraint and variable bounds and the flags the solvers read."""

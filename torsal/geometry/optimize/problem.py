@@ -782,8 +782,10 @@ class CongruenceProblem:
         mode = self._mode(solver)
         terms = self._term_list(mode)
         hessian = "projected-all" if solver == "alm" else self._hessian_of(False, terms)
+        # IPOPT's main NLP: derivatives on first use (pass 1 answers many designs without them)
         self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, hessian,
-                                 elastic=self.elastic if mode != "penalty" and solver != "alm" else 0.0)
+                                 elastic=self.elastic if mode != "penalty" and solver != "alm" else 0.0,
+                                 lazy=solver == "ipopt")
         return self._built[key].seconds
 
     def _key(self, solver: str) -> str:
