@@ -276,12 +276,10 @@ class _Assembly:
     def _element_args(self, t: Term, off: int):
         """The kernels' mapped arguments ``(X, D, P, JL)`` over the term's ``m`` elements, and
         the variable ids ``(m, k dof)`` of each element's local derivatives."""
-        m, r, dof = t.size, t.element.n_par, self.lay.dof
+        m, dof = t.size, self.lay.dof
         verts = t.idx[:, ::3] // 3
         xidx = (dof * verts[:, :, None] + np.arange(dof)).reshape(m, -1)
-        X = ca.reshape(self.e_all[t.idx.ravel().tolist()], t.idx.shape[1], m)
-        D = ca.DM(np.ascontiguousarray(t.data.T)) if t.element.n_data else ca.DM(0, m)
-        P = ca.reshape(self.p[off + 1:off + 1 + m * r], r, m) if r else ca.MX(0, m)
+        X, D, P = self._value_args(t, off)
         if self.lay.tangent:   # each element's vertices' chart Jacobians
             jidx = (6 * verts[:, :, None] + np.arange(6)).reshape(m, -1)
             JL = ca.reshape(self.jv_all[jidx.ravel().tolist()], jidx.shape[1], m)
@@ -317,13 +315,18 @@ class _Assembly:
         if self.lay.tangent and not L.gauss_newton:
             self.lag.add(ca.vec(L.lag_e.map(m)(*args, coef)), t.idx.ravel())
 
-    def _element_values(self, t: Term, off: int, go: int | None) -> None:
-        """An element term's values only: the element function itself, mapped (no kernels)."""
+    def _value_args(self, t: Term, off: int):
+        """The element function's mapped arguments ``(X, D, P)`` over the term's elements: the
+        directions, the data, the parameters."""
         m, r = t.size, t.element.n_par
         X = ca.reshape(self.e_all[t.idx.ravel().tolist()], t.idx.shape[1], m)
         D = ca.DM(np.ascontiguousarray(t.data.T)) if t.element.n_data else ca.DM(0, m)
         P = ca.reshape(self.p[off + 1:off + 1 + m * r], r, m) if r else ca.MX(0, m)
-        vals = t.element.fn.map(m)(X, D, P)
+        return X, D, P
+
+    def _element_values(self, t: Term, off: int, go: int | None) -> None:
+        """An element term's values only: the element function itself, mapped (no kernels)."""
+        vals = t.element.fn.map(t.size)(*self._value_args(t, off))
         if go is None:
             self._energy(t.scale * ca.sum2(vals), self.p[off])
         else:
