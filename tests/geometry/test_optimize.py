@@ -33,6 +33,27 @@ def _noisy(n, max_deg, rng):
 
 
 # ----------------------------------------------------------------------- assembly is exact
+def test_the_problems_nlps_share_their_element_kernels(facade, monkeypatch):
+    """Pass 1's NLP, the main one and the augmented Lagrangian's make each element function's
+    kernels once per problem: the second and third build add none."""
+    import torsal.geometry.optimize.nlp as nlp
+
+    made = []
+    local = nlp.Local
+    monkeypatch.setattr(nlp, "Local", lambda *a, **k: made.append(a[0]) or local(*a, **k))
+    v, f = facade_patch(nu=5, nv=4)
+    p = (CongruenceProblem(Congruence.from_normals((v, f))).normal().fair().fair_torsal().perpendicular(SUN)
+         .hyperbolic().min_torsal_angle(30))
+    p.build()
+    p._built["tangent"].derive()
+    first = len(made)
+    element_terms = {(id(t.element.fn), t.constraint) for t in p._term_list("tangent") if t.matrix is None}
+    assert first == len(element_terms) == len(p._kernels)
+    p._free_built("tangent")
+    p.build("alm")
+    assert len(made) == first
+
+
 @pytest.mark.parametrize("form", ["split", "lift"])
 def test_lazy_nlp_values_match_the_eager_and_its_derived_expressions(facade, form):
     """IPOPT's main NLP assembles its values first and its derivatives on first use: the values

@@ -183,7 +183,8 @@ class _Assembly:
     derivatives, no chart Jacobians; the first stage of a lazily built NLP, see :class:`Built`).
     """
 
-    def __init__(self, lay: _Layout, jit: bool, hessian: str, derivatives: bool = True):
+    def __init__(self, lay: _Layout, jit: bool, hessian: str, derivatives: bool = True,
+                 kernels: dict | None = None):
         self.lay, self.jit, self.hessian = lay, jit, hessian
         self.derivatives = derivatives
         self.x_all = ca.MX.sym("x", lay.n_var)
@@ -199,7 +200,9 @@ class _Assembly:
         self.jac, self.hess = _Parts(), _Parts()
         self.blocks: list[Block] = []   # hessian="projected": element Hessians, projected at evaluation
         self.quad_h = []       # (coefficient, upper triangle of Q) of the plain-mode quadratic terms
-        self.local: dict = {}  # element kernels, shared by the terms with the same function
+        # element kernels, shared by the terms with the same function (and, when given, by
+        # the other NLPs of the problem: see Built's ``kernels``)
+        self.local: dict = {} if kernels is None else kernels
         if lay.tangent:
             self._chart()
         else:
@@ -266,12 +269,13 @@ class _Assembly:
         asked), compiled once per element function."""
         el = t.element
         gn = self.hessian == "gauss-newton" and not t.constraint and el.residual is not None
-        key = (id(el.fn), self.lay.tangent, gn)
-        if key not in self.local:
-            self.local[key] = Local(el.fn, el.k, self.lay.tangent,
-                                    self.jit and not el.fn.name().startswith("custom_"),
-                                    t.constraint, residual=el.residual if gn else None)
-        return self.local[key]
+        key = (id(el.fn), self.lay.tangent, gn, self.jit, t.constraint)
+        kept = self.local.get(key)
+        if kept is None or kept[0] is not el.fn:     # (the function is kept: its id is not reused)
+            kept = self.local[key] = (el.fn, Local(el.fn, el.k, self.lay.tangent,
+                                                   self.jit and not el.fn.name().startswith("custom_"),
+                                                   t.constraint, residual=el.residual if gn else None))
+        return kept[1]
 
     def _element_args(self, t: Term, off: int):
         """The kernels' mapped arguments ``(X, D, P, JL)`` over the term's ``m`` elements, and
@@ -391,7 +395,7 @@ class Built:
     DERIVED = frozenset({"x", "p", "f_expr", "g_expr", "grad_f", "jac_g", "point", "value", "hess_lag"})
 
     def __init__(self, terms: list[Term], n_vertices: int, mode: str, jit: bool = False,
-                 hessian: str = "exact", elastic: float = 0.0, lazy: bool = False):
+                 hessian: str = "exact", elastic: float = 0.0, lazy: bool = False, kernels: dict | None = None):
         t0 = time.perf_counter()
         self.terms, self.mode, self.n_vertices = terms, mode, n_vertices
         self.hessian = hessian
@@ -403,7 +407,7 @@ class Built:
         self.p_offsets, self.n_par = lay.p_offsets, lay.n_par
         self.g_offsets, self.n_g = lay.g_offsets, lay.n_g
         self.g_slices = [slice(int(o), int(o) + t.size) for o, t in zip(lay.g_offsets, lay.cons)]
-        self._lay, self._jit, self._derived = lay, jit, not lazy
+        self._lay, self._jit, self._derived, self._kernels = lay, jit, not lazy, kernels
         if lazy:
             asm = self._assemble(lay, jit, derivatives=False)
             self._evaluate = self._values_function(asm)
@@ -434,7 +438,7 @@ class Built:
 
     def _assemble(self, lay: _Layout, jit: bool, derivatives: bool = True) -> _Assembly:
         """Every term's pieces, then the lifted terms' variables."""
-        asm = _Assembly(lay, jit, self.hessian, derivatives)
+        asm = _Assembly(lay, jit, self.hessian, derivatives, self._kernels)
         ci = 0
         for t, off in zip(self.terms, lay.p_offsets):
             if t.matrix is not None:

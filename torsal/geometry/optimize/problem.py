@@ -144,6 +144,7 @@ class CongruenceProblem:
         self._offsets: list[int] = [0]
         self._terms: dict[str, Term] = {}
         self._built: dict[str, Built] = {}
+        self._kernels: dict = {}   # element kernels, shared by the NLPs built (Built's ``kernels``)
         self._last: dict | None = None
         self._strategy = None    # the IPOPT solve in progress (ipopt.IpoptStrategy)
         self._edges_cache = None
@@ -785,7 +786,7 @@ class CongruenceProblem:
         # IPOPT's main NLP: derivatives on first use (pass 1 answers many designs without them)
         self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, hessian,
                                  elastic=self.elastic if mode != "penalty" and solver != "alm" else 0.0,
-                                 lazy=solver == "ipopt")
+                                 lazy=solver == "ipopt", kernels=self._kernels)
         return self._built[key].seconds
 
     def _key(self, solver: str) -> str:
@@ -811,7 +812,8 @@ class CongruenceProblem:
         if key in self._built:
             return self._built[key], 0.0
         terms = [t for t in self._term_list(mode) if not (t.constraint and (t.lower < t.upper or t.lift))]
-        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(True, terms))
+        self._built[key] = Built(terms, self.n_var // 3, mode, self.jit, self._hessian_of(True, terms),
+                                 kernels=self._kernels)
         return self._built[key], self._built[key].seconds
 
     def _directions(self) -> np.ndarray:
