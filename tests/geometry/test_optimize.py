@@ -52,6 +52,8 @@ def test_the_problems_nlps_share_their_element_kernels(facade, monkeypatch):
     p._free_built("tangent")
     p.build("alm")
     assert len(made) == first
+    p.remove("perpendicular")           # a new structure: the kernels go with the built NLPs
+    assert not p._built and not p._kernels
 
 
 @pytest.mark.parametrize("form", ["split", "lift"])

@@ -172,7 +172,7 @@ class CongruenceProblem:
         self._terms[term.name] = term
         if old is not None and old.signature() == term.signature():
             return self   # only parameters / weight changed: keep the built solver
-        self._built.clear()
+        self._forget_built()
         self._last = None
         self._exact_after_collapse = False
         return self
@@ -483,7 +483,7 @@ class CongruenceProblem:
         t = Term("align", False, T.torsal_alignment_element(1.0), idx, data,
                   np.zeros((len(fv), 0)), np.arange(len(fv)), scale=1.0 / len(fv),
                   weight=self._weight("align", weight))
-        self._built.clear()
+        self._forget_built()
         self._last = None
         return self._add(t)
 
@@ -595,7 +595,7 @@ class CongruenceProblem:
         fv, a = self._face_data(fi)
         old = self._terms.get("hyperbolic")
         if old is not None and bool(np.all(old.par[:, 0] <= 0)) != (margin <= 0):
-            self._built.clear()     # rows implied by min_torsal_angle only at margin <= 0
+            self._forget_built()     # rows implied by min_torsal_angle only at margin <= 0
         t = Term("hyperbolic", True, T.hyperbolicity_element(1.0), _var_index(fv, 0), a,
                   np.full((len(fi), 1), float(margin)), fi, kind="hyperbolicity", bound=float(margin))
         return self._add(t)
@@ -716,7 +716,7 @@ class CongruenceProblem:
         if name not in self._terms:
             raise KeyError(f"no term named {name!r}; terms: {sorted(self._terms)}")
         del self._terms[name]
-        self._built.clear()
+        self._forget_built()
         self._last = None
         return self
 
@@ -788,6 +788,12 @@ class CongruenceProblem:
                                  elastic=self.elastic if mode != "penalty" and solver != "alm" else 0.0,
                                  lazy=solver == "ipopt", kernels=self._kernels)
         return self._built[key].seconds
+
+    def _forget_built(self) -> None:
+        """The terms' structure changed: the built NLPs and their element kernels are dropped
+        (rebuilt at the next solve)."""
+        self._built.clear()
+        self._kernels.clear()
 
     def _key(self, solver: str) -> str:
         """The key of ``solver``'s NLP in ``self._built``."""
