@@ -260,13 +260,9 @@ def _spread(r) -> str:
     """Per congruence, the widest angle (degrees) of its lines from their mean direction. Near 0
     the lines are nearly parallel: row 11's energies reach zero only there (no torsal
     structure left to build), so a lower energy on that row is not a better design."""
-    out = []
-    for c in r.congruences:
-        d = np.asarray(c.directions, dtype=float)
-        m = d.mean(axis=0)
-        m /= np.linalg.norm(m)
-        out.append(f"{np.degrees(np.arccos(np.clip(d @ m, -1.0, 1.0))).max():.0f}")
-    return "/".join(out)
+    from torsal.geometry.congruence import direction_spread
+
+    return "/".join(f"{direction_spread(c.directions):.0f}" for c in r.congruences)
 
 
 def _load() -> str:

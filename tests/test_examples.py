@@ -12,7 +12,7 @@ EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.tom
 REPORT_KEYS = {
     "congruence": {"vertices", "faces", "build_s", "solve_s", "status", "energies",
                    "min_hyperbolicity", "min_torsal_angle_deg", "constraints_active",
-                   "working_set"},
+                   "working_set", "line_spread_deg"},
     "support": {"quads", "edges", "delta_pl_extracted", "delta_pl_optimized", "solve_s"},
     "light": {"blocked_share", "transparency", "baseline_louvers"},
     "fabrication": {"parts", "panels", "sheets", "utilization", "step", "dxf", "assembly"},
@@ -105,6 +105,14 @@ def test_example_runs_small(path, tmp_path):
     if d.spec.constraints.hyperbolic:
         hyp = c["constraints"]["hyperbolic"]
         assert hyp["max_violation"] <= hyp["tolerance"] and hyp["n_missing"] == 0, hyp
+    # the lines' spread, recomputed with plain numpy from the written congruence (the PLY's
+    # digits and arccos near 0 leave about 0.003 degrees)
+    rows = (tmp_path / "congruence.ply").read_text().split("end_header\n", 1)[1].split("\n")[:c["vertices"]]
+    e = np.array([[float(x) for x in ln.split()[3:6]] for ln in rows])
+    e /= np.linalg.norm(e, axis=1, keepdims=True)
+    mean = e.sum(axis=0) / np.linalg.norm(e.sum(axis=0))
+    assert abs(c["line_spread_deg"] - np.degrees(np.arccos(np.clip(e @ mean, -1, 1))).max()) < 0.01
+    assert "widest angle of the lines from their mean direction" in (tmp_path / "report.html").read_text()
     # a torsal-angle bound holds as measured on the written congruence (issue 16)
     alpha = d.spec.constraints.min_torsal_angle
     if alpha is not None:

@@ -164,3 +164,15 @@ def test_built_structure_leaves_out_the_fins_the_fabrication_did_not_build():
     # each fin is one planar quad a_i a_j b_j b_i of unit area: 5 left of 7
     m = b.fin_mesh()
     assert np.isclose(m.area, 5.0)
+
+
+def test_the_report_says_when_the_optimized_lines_are_nearly_parallel():
+    """Below NEARLY_PARALLEL_DEG the report's row says the fins all contain nearly one direction
+    (examples 7a and 7b end at 0.2 degrees); above, it gives the number only."""
+    from torsal.pipeline.report import NEARLY_PARALLEL_DEG, _spread_rows
+
+    rows = _spread_rows({"line_spread_deg": 0.16, "substructure_line_spread_deg": 7.0})
+    assert [r[0].split(" the ")[1].split(" from")[0] for r in rows] == ["lines", "substructure lines"]
+    assert rows[0][1].startswith("0.16 (nearly parallel") and rows[1][1] == "7.00"
+    assert "nearly parallel" not in _spread_rows({"line_spread_deg": NEARLY_PARALLEL_DEG})[0][1]
+    assert _spread_rows({}) == []        # a report cached before the key existed

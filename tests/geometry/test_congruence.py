@@ -283,3 +283,18 @@ def test_with_directions_shares_the_mesh_and_checks_the_directions():
         c.with_directions(d)
     with pytest.raises(ValueError, match="one row per vertex"):
         c.with_directions(d[:-1])
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.2, 7.0, 40.0])
+def test_direction_spread_of_a_cone_of_lines_is_its_half_angle(alpha):
+    """Lines on a cone of half-angle alpha around z (every azimuth, evenly): their mean is the
+    axis, so the widest angle from it is alpha; lengths do not matter."""
+    from torsal.geometry.congruence import direction_spread
+
+    phi = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    a = np.radians(alpha)
+    d = np.stack([np.sin(a) * np.cos(phi), np.sin(a) * np.sin(phi), np.full(12, np.cos(a))], axis=1)
+    d *= np.linspace(0.5, 3.0, 12)[:, None]
+    assert direction_spread(d) == pytest.approx(alpha, abs=1e-6)
+    # opposite lines cancel: no mean direction
+    assert np.isnan(direction_spread(np.array([[0, 0, 1.0], [0, 0, -1.0]])))

@@ -46,6 +46,7 @@ __all__ = [
     "solve_torsal_directions",
     "solve_focal_parameters",
     "normality_residual",
+    "direction_spread",
 ]
 
 _EPS = np.finfo(float).eps
@@ -274,6 +275,39 @@ def normality_residual(fr: FaceFrame, crosses: dict | None = None) -> np.ndarray
     """
     x = crosses or _frame_crosses(fr)
     return _dot3(x["a_u"], x["e_v"]) - _dot3(x["a_v"], x["e_u"])
+
+
+def direction_spread(directions: np.ndarray) -> float:
+    """The widest angle between a line and the lines' mean direction, degrees.
+
+    Near 0 the lines are nearly parallel: every face is close to a bundle at infinity. The
+    optimized congruences of Fig. 12 rows 7a and 7b end within 0.2 degrees of parallel (from
+    22), row 11's fins within 7 (from 38): their energies reach zero there (examples/README.md).
+
+    Parameters
+    ----------
+    directions : (n, 3) array
+        Line directions (any length but zero; the sign of a direction is kept).
+
+    Returns
+    -------
+    float
+        Degrees in [0, 180]; NaN for no lines or a zero mean direction.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = np.array([[0, 0, 1.0], [0, np.sin(np.radians(20)), np.cos(np.radians(20))]])
+    >>> round(direction_spread(d), 6)       # the mean lies halfway: 10 degrees from each
+    10.0
+    """
+    d = np.asarray(directions, dtype=float).reshape(-1, 3)
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    m = d.sum(axis=0)
+    norm = float(np.linalg.norm(m))
+    if d.shape[0] == 0 or norm <= ZERO_DIRECTION_RTOL * d.shape[0]:
+        return float("nan")
+    return float(np.degrees(np.arccos(np.clip(d @ (m / norm), -1.0, 1.0))).max())
 
 
 def _as_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:

@@ -24,7 +24,7 @@ from ..core.atomic import atomic_path
 
 __all__ = ["CACHE_VERSION", "MISSING", "StageCache", "stage_key"]
 
-CACHE_VERSION = "2"    # bump when a stage's cached value changes shape
+CACHE_VERSION = "3"    # bump when a stage's cached value changes shape (3: line_spread_deg)
 MISSING = object()     # what :meth:`StageCache.load` returns for no (usable) entry
 
 

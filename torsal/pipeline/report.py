@@ -617,6 +617,25 @@ def _light_html(li: dict, view: dict | None = None) -> str:
     return f"<table>{head}{''.join(rows)}</table>" + text
 
 
+#: lines within this many degrees of their mean direction are called nearly parallel in the
+#: report (examples 7a and 7b end within 0.2 degrees, 7d within 1.75, 11's fins within 7)
+NEARLY_PARALLEL_DEG = 1.0
+
+
+def _spread_rows(c: dict) -> list:
+    """The lines' spread (``line_spread_deg``; the substructure's too), said plainly where the
+    optimized lines are nearly parallel."""
+    rows = []
+    for key, what in (("line_spread_deg", "lines"), ("substructure_line_spread_deg", "substructure lines")):
+        v = c.get(key)
+        if v is None:
+            continue
+        note = (" (nearly parallel: every fin contains nearly the same direction, as the louvers and "
+                "egg-crates of section 3 do)" if v < NEARLY_PARALLEL_DEG else "")
+        rows.append((f"widest angle of the {what} from their mean direction (deg)", f"{v:.2f}{note}"))
+    return rows
+
+
 def design_report_html(report: dict, images: dict, title: str, *, view3d: str | None = None) -> str:
     """The HTML report: tables of every figure in ``report`` and the PNGs next to it, and the
     interactive 3D view ``view3d`` (an HTML fragment, see :mod:`torsal.pipeline.report_3d`) if given."""
@@ -629,7 +648,8 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                 ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
                 ("inequality constraints", _constraints_state(c)),
                 ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
-                 is not None else "n/a")]
+                 is not None else "n/a"),
+                *_spread_rows(c)]
         rows += _measured_constraint_rows(c)
         rows += [(f"energy {k} (before &rarr; after)",
                   f"{c['energies_before'].get(k, float('nan')):.4g} &rarr; {v:.4g}")

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .design_file import DesignSpec
-from ..geometry.congruence import Congruence
+from ..geometry.congruence import Congruence, direction_spread
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
                        prefetch_step_solids, run_assembly, support_gate)
@@ -167,6 +167,10 @@ def run_congruence(inp: StageInputs) -> dict:
         extra = {"substructure_vertices": np.asarray(c2.vertices),
                  "substructure_directions": np.asarray(c2.directions)}
     plane_angle = c.torsal_plane_angle()     # the angle the constraint bounds: the fins' crossing
+    if len(r.congruences) > 1:               # near 0: the lines turned (nearly) parallel
+        extra_report = {"substructure_line_spread_deg": direction_spread(r.congruences[1].directions)}
+    else:
+        extra_report = {}
     return {
         **extra,
         "directions": np.asarray(c.directions),
@@ -202,6 +206,9 @@ def run_congruence(inp: StageInputs) -> dict:
             "constraints": _measured_constraints(r),
             "converged": bool(r.success),
             "faces_without_torsal_directions": int((~np.isfinite(c.torsal_angle())).sum()),
+            # the widest angle of a line from the lines' mean direction (degrees): near 0 the
+            # optimized lines are nearly parallel, the fins close to plain louvers
+            "line_spread_deg": direction_spread(c.directions), **extra_report,
             # faces where the fins of the two families cross too obliquely to be slotted
             "joinery": congruence_gate(c),
         },
