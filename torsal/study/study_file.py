@@ -76,7 +76,8 @@ OBJECTIVE_KEYS = (
     "light.blocked_share", "light.transparency", "light.transparency_cone", "light.fin_area_m2",
     "light.view_out", "light.view_clear", "light.goal_share", "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
     "fabrication.utilization", "support.delta_pl_optimized", "support.edges",
-    "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "material_kg", "wall_s",
+    "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "congruence.line_spread_deg",
+    "material_kg", "wall_s",
 )
 
 
