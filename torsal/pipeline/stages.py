@@ -161,16 +161,13 @@ def run_congruence(inp: StageInputs) -> dict:
             f"the congruence optimization did not converge ({r.status}); worst constraint: "
             f"{max(r.max_violation, key=r.max_violation.get) if r.max_violation else 'none'}. "
             "Relax [constraints] (e.g. min_torsal_angle) or raise constraints.max_iter")
-    extra = {}
+    extra, extra_report = {}, {}
     if len(r.congruences) > 1:
         c2 = r.congruences[1]
         extra = {"substructure_vertices": np.asarray(c2.vertices),
                  "substructure_directions": np.asarray(c2.directions)}
+        extra_report = {"substructure_line_spread_deg": _spread(c2)}
     plane_angle = c.torsal_plane_angle()     # the angle the constraint bounds: the fins' crossing
-    if len(r.congruences) > 1:               # near 0: the lines turned (nearly) parallel
-        extra_report = {"substructure_line_spread_deg": direction_spread(r.congruences[1].directions)}
-    else:
-        extra_report = {}
     return {
         **extra,
         "directions": np.asarray(c.directions),
@@ -208,11 +205,17 @@ def run_congruence(inp: StageInputs) -> dict:
             "faces_without_torsal_directions": int((~np.isfinite(c.torsal_angle())).sum()),
             # the widest angle of a line from the lines' mean direction (degrees): near 0 the
             # optimized lines are nearly parallel, the fins close to plain louvers
-            "line_spread_deg": direction_spread(c.directions), **extra_report,
+            "line_spread_deg": _spread(c), **extra_report,
             # faces where the fins of the two families cross too obliquely to be slotted
             "joinery": congruence_gate(c),
         },
     }
+
+
+def _spread(c: Congruence) -> float | None:
+    """:func:`direction_spread` of the lines in degrees, None where it is undefined (JSON)."""
+    x = direction_spread(c.directions)
+    return x if np.isfinite(x) else None
 
 
 def _measured_constraints(r) -> dict:
