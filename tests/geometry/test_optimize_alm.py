@@ -397,3 +397,8 @@ def test_mumps_runs_on_one_blas_thread_unless_the_user_chose(monkeypatch):
 
     lib = sorted(Path(casadi.__file__).parent.glob("libcasadi-tp-openblas*"))[0]
     assert n == factor.MUMPS_BLAS_THREADS == ctypes.CDLL(str(lib)).openblas_get_num_threads()
+    # torsal's own knob wins over the general one
+    monkeypatch.setattr(factor, "_blas_threads", None)
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "2")
+    monkeypatch.setenv("TORSAL_BLAS_THREADS", "1")
+    assert factor.limit_mumps_threads() == 1 == ctypes.CDLL(str(lib)).openblas_get_num_threads()

@@ -260,20 +260,23 @@ def _backward_error(upper: sp.csc_matrix, x: np.ndarray, b: np.ndarray) -> float
 
 
 #: threads of casadi's bundled OpenBLAS, the BLAS under MUMPS (IPOPT's linear solver and
-#: the augmented Lagrangian's): on these matrices' fronts (a few hundred rows) a second thread
-#: measured slower on 2 cores and erratic (7c's Newton matrix: 7 ms per factor + solve on one
-#: thread, 7-51 ms on two; row 11 by IPOPT: 10.5 s wall against 12.7 s, 9.9 s processor time
-#: against 12.9 s), and it competes with a design study's other workers
+#: the augmented Lagrangian's; ``$TORSAL_BLAS_THREADS`` overrides): on these matrices' fronts
+#: (a few hundred rows) a second thread measured slower on 2 cores and erratic (7c's Newton
+#: matrix: 7 ms per factor + solve on one thread, 7-51 ms on two; row 11 by IPOPT: 10.5 s wall
+#: against 12.7 s, 9.9 s processor time against 12.9 s; row 7c, 80 IPOPT iterations at load 11:
+#: 28.5 s against 45.0 s, same iterates), and it competes with a design study's other workers
 MUMPS_BLAS_THREADS = 1
 
 _blas_threads: int | None = None
 
 
 def limit_mumps_threads() -> int | None:
-    """Set casadi's bundled OpenBLAS to :data:`MUMPS_BLAS_THREADS` threads, once per process.
+    """Set casadi's bundled OpenBLAS to :data:`MUMPS_BLAS_THREADS` threads (or
+    ``$TORSAL_BLAS_THREADS``), once per process.
 
-    A thread count the user chose (``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS`` in the
-    environment) is left as it is; numpy's own BLAS is never touched.
+    A thread count the user chose for every OpenBLAS (``OPENBLAS_NUM_THREADS`` or
+    ``OMP_NUM_THREADS`` in the environment, without ``TORSAL_BLAS_THREADS``) is left as it is;
+    numpy's own BLAS is never touched.
 
     Returns
     -------
@@ -287,14 +290,20 @@ def limit_mumps_threads() -> int | None:
     True
     """
     global _blas_threads
-    if _blas_threads is not None or "OPENBLAS_NUM_THREADS" in os.environ or "OMP_NUM_THREADS" in os.environ:
+    chosen = os.environ.get("TORSAL_BLAS_THREADS")
+    if _blas_threads is not None or chosen is None and (
+            "OPENBLAS_NUM_THREADS" in os.environ or "OMP_NUM_THREADS" in os.environ):
         return _blas_threads
     import casadi
 
+    try:
+        n = int(chosen) if chosen is not None else MUMPS_BLAS_THREADS
+    except ValueError:
+        n = MUMPS_BLAS_THREADS
     for lib in sorted(Path(casadi.__file__).parent.glob("libcasadi-tp-openblas*")):
         try:
             blas = ctypes.CDLL(str(lib))
-            blas.openblas_set_num_threads(ctypes.c_int(MUMPS_BLAS_THREADS))
+            blas.openblas_set_num_threads(ctypes.c_int(n))
             _blas_threads = int(blas.openblas_get_num_threads())
             break
         except (OSError, AttributeError):

@@ -15,6 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 from threadpoolctl import ThreadpoolController
 
+from .factor import limit_mumps_threads
 from .history import SolveMonitor
 from .nlp import Built, _bound_violation
 from .projected import PROJECTED_ITERATIONS, ProjectedHessian
@@ -164,7 +165,7 @@ class IpoptStrategy:
                 "calc_lam_p": False, "calc_lam_x": False, "calc_f": False, "calc_g": False,
                 "no_nlp_grad": True}
         s = ca.nlpsol("congruence", "ipopt", {"x": b.x, "p": b.p, "f": b.f_expr, "g": b.g_expr}, opts)
-        _limit_blas_threads()     # the plugin (and its BLAS) is loaded now
+        limit_mumps_threads()     # (once per process; solve() has done it before)
         b.solvers[key] = (s, cb)
         self.build_seconds += time.perf_counter() - t0
         return s
@@ -343,13 +344,6 @@ RESOLVE_OPTIONS = {"near": {"constr_viol_tol": 1e-7, "mumps_pivot_order": 6},
 NEAR_KKT = 100.0
 
 
-#: Threads of the BLAS under IPOPT's MUMPS (casadi's own OpenBLAS); ``$TORSAL_BLAS_THREADS``
-#: overrides. One: MUMPS's fronts on these meshes are small, and a second BLAS thread spins
-#: while waiting for a busy core. Measured on row 7c, 80 IPOPT iterations, load 11 on 2
-#: cores: 45.0 s wall with OpenBLAS's default (2 threads), 28.5 s with 1, same iterates.
-BLAS_THREADS = 1
-
-
 _CONTROLLER: ThreadpoolController | None = None
 
 
@@ -361,28 +355,6 @@ def _one_blas_thread():
     if _CONTROLLER is None:
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=1, user_api="blas")
-
-
-def _limit_blas_threads() -> None:
-    """Set the thread count of casadi's bundled OpenBLAS (not numpy's) once per process."""
-    import ctypes
-    import os
-    from pathlib import Path
-
-    global _BLAS_SET
-    if _BLAS_SET:
-        return
-    _BLAS_SET = True
-    try:
-        n = int(os.environ.get("TORSAL_BLAS_THREADS", BLAS_THREADS))
-        for lib in sorted(Path(ca.__file__).parent.glob("libcasadi-tp-openblas.so*")):
-            ctypes.CDLL(str(lib)).openblas_set_num_threads(n)
-            break
-    except (OSError, AttributeError, ValueError):   # another casadi build: keep its default
-        pass
-
-
-_BLAS_SET = False
 
 
 def _violated_count(b: Built, x: np.ndarray, p: np.ndarray, feas_tol: float = 1e-9) -> int:
