@@ -347,16 +347,19 @@ def test_the_predicted_active_set_takes_a_canopy_to_80_degrees(monkeypatch):
     """A small canopy of the family at min_torsal_angle 80: each Newton step that moves rows
     across their penalty's kink is replaced by the step of the active set it predicts
     (semismooth Newton on the step's model). With it the augmented Lagrangian converges,
-    measured feasible, within 200 Newton steps; without it the line search cuts the steps
-    short and 200 are not enough."""
+    measured feasible, in fewer than half the Newton steps it takes without it (measured: 68
+    against 148), where the line search cuts the steps short."""
     from torsal.geometry.optimize import alm
 
     member = {m.name: m for m in design_family(20, size=7)}["canopy-11"]
-    r = member.make(80).solve(solver="alm", max_iter=200)
+    r = member.make(80).solve(solver="alm", max_iter=300)
     assert r.success and r.counts["predicted"] > 0
     assert np.nan_to_num(r.congruence.torsal_plane_angle()).min() >= 80 - 0.1
     monkeypatch.setattr(alm, "PREDICT", 0)
-    assert not member.make(80).solve(solver="alm", max_iter=200).success
+    r0 = member.make(80).solve(solver="alm", max_iter=300)
+    assert r0.counts["predicted"] == 0
+    assert r.iterations < 0.6 * r0.iterations, (r.iterations, r0.iterations)
+    assert r0.counts["trials"] > 2 * r.counts["trials"]      # the cut steps
 
 
 def test_a_certification_that_goes_lower_returns_ipopts_better_design(monkeypatch):

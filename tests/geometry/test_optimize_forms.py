@@ -14,7 +14,7 @@ import pytest
 
 from torsal.geometry.congruence import Congruence
 from torsal.geometry.optimize import CongruenceProblem
-from torsal.geometry.optimize.forms import torsal_angle_split_element
+from torsal.geometry.optimize.forms import SPLIT_SCALE, torsal_angle_split_element
 from torsal.geometry.surfaces import facade_patch
 
 SUN = np.array([0.3, -0.8, -0.5]) / np.linalg.norm([0.3, -0.8, -0.5])
@@ -107,6 +107,42 @@ def test_split_rows_say_abs_p_below_cos_alpha_rho():
             rows = [float(fn(e.ravel(), a, [np.cos(np.radians(40)), 1e-6, s])) for s in (1, -1)]
             if abs(ang - 40) > 0.5:
                 assert (min(rows) >= 0) == (ang >= 40), (t, k, ang, rows)
+
+
+def test_split_rows_stay_bounded_where_a_line_turns_into_its_face():
+    """A face whose lines tilt into the face's plane: the torsal form's invariants grow without
+    bound (the face seen along the line degenerates), the split rows, divided by the form's
+    magnitude, stay within (1 + cos(alpha)) (1 + s / k) and still say what the torsal angle measured with
+    numpy says (feasible iff the planes cross at alpha or more)."""
+    import casadi as ca
+
+    from torsal.geometry.optimize import terms as T
+
+    x, data, _ = T.face_symbols(3, n_par=0)
+    inv = ca.Function("inv", [x, data], list(T.torsal_form_invariants_sx(*T._frame(T._split(x, 3),
+                                                                                     T._split(data, 3)))))
+    fn = torsal_angle_split_element().fn
+    a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
+    alpha = 40.0
+    ca40 = np.cos(np.radians(alpha))
+    mags, seen = {}, set()
+    for tilt in (60.0, 20.0, 5.0, 1.0, 0.2):          # the lines' angle with the face's plane
+        for spread in (0.05, 0.2):
+            for twist in (-1.0, 0.3, 1.0):
+                c0 = np.array([np.cos(np.radians(tilt)), 0.0, np.sin(np.radians(tilt))])
+                e = np.array([c0, c0 + [0, spread, spread * twist], c0 + [0, -spread * twist, spread]])
+                e /= np.linalg.norm(e, axis=1, keepdims=True)
+                p, rho2 = (float(v) for v in inv(e.ravel(), a))
+                mags[tilt, spread, twist] = np.hypot(p, np.sqrt(max(rho2, 0.0)))
+                rows = [float(fn(e.ravel(), a, [ca40, 1e-6, s])) for s in (1, -1)]
+                assert max(abs(r) for r in rows) <= (1 + ca40) * (1 + 1e-6 / SPLIT_SCALE), (tilt, rows)
+                ang = np.nan_to_num(Congruence(a.reshape(3, 3), np.array([[0, 1, 2]]), e).torsal_plane_angle())[0]
+                if abs(ang - alpha) > 0.5:
+                    assert (min(rows) >= 0) == (ang >= alpha), (tilt, spread, twist, ang, rows)
+                    seen.add(bool(ang >= alpha))
+    # the pole the division takes out: the same lines, tilted from 60 to 0.2 degrees
+    assert mags[0.2, 0.2, -1.0] > 30 * mags[60.0, 0.2, -1.0], mags
+    assert seen == {True, False}                        # both sides of the bound were met
 
 
 def test_hyperbolic_rows_implied_by_the_angle_bound_are_left_out_and_still_measured():

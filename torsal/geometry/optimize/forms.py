@@ -15,7 +15,10 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
   smoothing. Their curvature is that of ``sqrt(rho^2 + s^2)`` alone, ``<= 1/rho`` on feasible
   faces (the inherent curvature of a norm), not ``1/s``. The apex (a line bundle, ``rho = p
   = 0``) stays infeasible, value ``(cos(alpha) - 1) s < 0``, and a feasible face has the same
-  strength floor ``rho >= s tan(alpha)`` as the cone form.
+  strength floor ``rho >= s tan(alpha)`` as the cone form. Each row is divided by the form's
+  magnitude ``sqrt(p^2 + rho^2 + k^2)`` (:data:`SPLIT_SCALE`): the same feasible set, but
+  bounded rows where a line turns into its face's plane (there ``p`` and ``rho`` grow
+  without bound).
 - ``"lift"``: the coordinates ``(u, v, w)`` of the form in an orthonormal frame
   (:func:`torsal_form_coordinates_sx`, linear in ``g``) equal lifted variables
   ``(cos(alpha) r t, r cos(phi), r sin(phi))``; the bound is ``r >= s``, ``|t| <= 1`` on
@@ -99,13 +102,32 @@ def torsal_form_coordinates_element() -> T.ElementTerm:
     return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_lift", [x, data, par], [c]), 3)
 
 
+#: ``k`` of the split rows' divisor ``sqrt(p^2 + rho^2 + k^2)`` (the torsal form's magnitude,
+#: in the units of :func:`torsal.geometry.optimize.terms.torsal_form_invariants_sx` with the
+#: corners in units of ``delta``). Why divide: a face whose line turns into the face's plane
+#: sees its face degenerate (the metric along the line), and its ``p`` and ``rho`` grow without
+#: bound. Undivided, those rows jumped far past their linear model and wrecked full Newton
+#: steps (the augmented Lagrangian's "erratic" rows), and the solves of Fig. 12 row 9 ended
+#: at energies 0.0174-0.0178, 2-5 % above what the divided rows reach (0.0170). ``k`` keeps the
+#: divisor away from zero at the apex (``k = 0.01``: steps too stiff there, a face left
+#: non-hyperbolic on row 9). Measured with the augmented Lagrangian (Newton steps
+#: / final energy): k = 0.1: 7c 64 / 0.42723, row 9 161 / 0.01700; k = 0.2: 7c 32 / 0.42723,
+#: row 9 206 / 0.01704; k = 0.3: 7c 37, row 9 362 / 0.01718 (undivided: 7c 47 / 0.42721,
+#: row 9 105 / 0.01777; the divided rows to the final decrement of ``DECREMENT_PER_TOL`` in
+#: :mod:`.alm`); the 80 designs of the family (benchmarks/optimize_bench.py) all converged
+#: either way, the divided rows in half the processor time
+SPLIT_SCALE = 0.2
+
+
 @functools.lru_cache(maxsize=None)
 def torsal_angle_split_element() -> T.ElementTerm:
-    """One half of c_ang in split form: ``cos(alpha) sqrt(rho^2 + s^2) - s - sign * p >= 0``.
+    """One half of c_ang in split form: ``(cos(alpha) sqrt(rho^2 + s^2) - s - sign * p) / m >= 0``.
 
     ``x`` the face's 3 unit line directions (9), ``data`` its corners in units of ``delta``
     (9), ``par = [cos alpha, s, sign]`` with ``sign = +1`` or ``-1``; a face is imposed with
-    both signs, which together say ``|p| <= cos(alpha) sqrt(rho^2 + s^2) - s``.
+    both signs, which together say ``|p| <= cos(alpha) sqrt(rho^2 + s^2) - s``. The divisor
+    ``m = sqrt(p^2 + rho^2 + k^2)`` (``k`` = :data:`SPLIT_SCALE`) is positive, so it leaves
+    the feasible set as it is and bounds the rows: ``|row| <= (1 + cos(alpha)) (1 + s / k)``.
 
     Examples
     --------
@@ -123,5 +145,5 @@ def torsal_angle_split_element() -> T.ElementTerm:
     a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
     p, rho2 = T.torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c)
     s = par[1]
-    c = par[0] * ca.sqrt(rho2 + s * s) - s - par[2] * p
+    c = (par[0] * ca.sqrt(rho2 + s * s) - s - par[2] * p) / ca.sqrt(p * p + rho2 + SPLIT_SCALE ** 2)
     return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_split", [x, data, par], [c]), 3)
