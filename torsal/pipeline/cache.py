@@ -24,7 +24,9 @@ from ..core.atomic import atomic_path
 
 __all__ = ["CACHE_VERSION", "MISSING", "StageCache", "stage_key"]
 
-CACHE_VERSION = "3"    # bump when a stage's cached value changes shape (3: line_spread_deg)
+#: bump when a stage's cached value changes shape or, for the same inputs, its value (3:
+#: line_spread_deg; 4: the split torsal-angle rows divided by the form's magnitude, new optima)
+CACHE_VERSION = "4"
 MISSING = object()     # what :meth:`StageCache.load` returns for no (usable) entry
 
 
