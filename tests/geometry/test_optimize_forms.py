@@ -112,8 +112,8 @@ def test_split_rows_say_abs_p_below_cos_alpha_rho():
 def test_split_rows_stay_bounded_where_a_line_turns_into_its_face():
     """A face whose lines tilt into the face's plane: the torsal form's invariants grow without
     bound (the face seen along the line degenerates), the split rows, divided by the form's
-    magnitude, stay within (1 + cos(alpha)) (1 + s / k) and still say what the torsal angle measured with
-    numpy says (feasible iff the planes cross at alpha or more)."""
+    magnitude, stay within (1 + cos(alpha)) (1 + s / k) and still say what the torsal angle
+    measured with numpy says (feasible iff the planes cross at alpha or more)."""
     import casadi as ca
 
     from torsal.geometry.optimize import terms as T
@@ -136,7 +136,8 @@ def test_split_rows_stay_bounded_where_a_line_turns_into_its_face():
                 mags[tilt, spread, twist] = np.hypot(p, np.sqrt(max(rho2, 0.0)))
                 rows = [float(fn(e.ravel(), a, [ca40, 1e-6, s])) for s in (1, -1)]
                 assert max(abs(r) for r in rows) <= (1 + ca40) * (1 + 1e-6 / SPLIT_SCALE), (tilt, rows)
-                ang = np.nan_to_num(Congruence(a.reshape(3, 3), np.array([[0, 1, 2]]), e).torsal_plane_angle())[0]
+                face = Congruence(a.reshape(3, 3), np.array([[0, 1, 2]]), e)
+                ang = np.nan_to_num(face.torsal_plane_angle())[0]
                 if abs(ang - alpha) > 0.5:
                     assert (min(rows) >= 0) == (ang >= alpha), (tilt, spread, twist, ang, rows)
                     seen.add(bool(ang >= alpha))
