@@ -119,8 +119,8 @@ def test_split_rows_stay_bounded_where_a_line_turns_into_its_face():
     from torsal.geometry.optimize import terms as T
 
     x, data, _ = T.face_symbols(3, n_par=0)
-    inv = ca.Function("inv", [x, data], list(T.torsal_form_invariants_sx(*T._frame(T._split(x, 3),
-                                                                                     T._split(data, 3)))))
+    frame = T._frame(T._split(x, 3), T._split(data, 3))
+    inv = ca.Function("inv", [x, data], list(T.torsal_form_invariants_sx(*frame)))
     fn = torsal_angle_split_element().fn
     a = np.array([0, 0, 0, 1, 0, 0, 0, 1, 0.0])
     alpha = 40.0
@@ -130,12 +130,14 @@ def test_split_rows_stay_bounded_where_a_line_turns_into_its_face():
         for spread in (0.05, 0.2):
             for twist in (-1.0, 0.3, 1.0):
                 c0 = np.array([np.cos(np.radians(tilt)), 0.0, np.sin(np.radians(tilt))])
-                e = np.array([c0, c0 + [0, spread, spread * twist], c0 + [0, -spread * twist, spread]])
+                e = np.array([c0, c0 + [0, spread, spread * twist],
+                              c0 + [0, -spread * twist, spread]])
                 e /= np.linalg.norm(e, axis=1, keepdims=True)
                 p, rho2 = (float(v) for v in inv(e.ravel(), a))
                 mags[tilt, spread, twist] = np.hypot(p, np.sqrt(max(rho2, 0.0)))
                 rows = [float(fn(e.ravel(), a, [ca40, 1e-6, s])) for s in (1, -1)]
-                assert max(abs(r) for r in rows) <= (1 + ca40) * (1 + 1e-6 / SPLIT_SCALE), (tilt, rows)
+                bound = (1 + ca40) * (1 + 1e-6 / SPLIT_SCALE)
+                assert max(abs(r) for r in rows) <= bound, (tilt, rows)
                 face = Congruence(a.reshape(3, 3), np.array([[0, 1, 2]]), e)
                 ang = np.nan_to_num(face.torsal_plane_angle())[0]
                 if abs(ang - alpha) > 0.5:

@@ -110,8 +110,9 @@ def torsal_form_coordinates_element() -> T.ElementTerm:
 #: steps (the augmented Lagrangian's "erratic" rows), and the solves of Fig. 12 row 9 ended
 #: at energies 0.0174-0.0178, 2-5 % above what the divided rows reach (0.0170-0.0172). ``k``
 #: keeps the divisor away from zero at the apex (``k = 0.01``: on row 9 the line search found
-#: no decrease with a face left non-hyperbolic). Measured with the augmented Lagrangian (Newton steps / final
-#: energy, the divided rows to the final decrement of ``DECREMENT_PER_TOL`` in :mod:`.alm`):
+#: no decrease with a face left non-hyperbolic). Measured with the augmented Lagrangian
+#: (Newton steps / final energy, the divided rows to the final decrement of
+#: ``DECREMENT_PER_TOL`` in :mod:`.alm`):
 #: k = 0.1: 7c 64 / 0.42723, row 9 161 / 0.01700; k = 0.2: 7c 32 / 0.42723, row 9 206 /
 #: 0.01704; k = 0.25: 7c 31 / 0.42724, row 9 217 / 0.01716; k = 0.3: 7c 37, row 9 362 /
 #: 0.01718; undivided: 7c 47 / 0.42721, row 9 105 / 0.01777. The 80 designs of the family

@@ -15,7 +15,6 @@ import numpy as np
 import scipy.sparse as sp
 from threadpoolctl import ThreadpoolController
 
-from .factor import limit_mumps_threads
 from .history import SolveMonitor
 from .nlp import Built, _bound_violation
 from .projected import PROJECTED_ITERATIONS, ProjectedHessian
@@ -165,7 +164,6 @@ class IpoptStrategy:
                 "calc_lam_p": False, "calc_lam_x": False, "calc_f": False, "calc_g": False,
                 "no_nlp_grad": True}
         s = ca.nlpsol("congruence", "ipopt", {"x": b.x, "p": b.p, "f": b.f_expr, "g": b.g_expr}, opts)
-        limit_mumps_threads()     # (once per process; solve() has done it before)
         b.solvers[key] = (s, cb)
         self.build_seconds += time.perf_counter() - t0
         return s
