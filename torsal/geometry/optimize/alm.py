@@ -92,9 +92,18 @@ DECREMENT_PER_TOL = 1e-1
 #: facade at min_torsal_angle 40 (energies 6.3 -> 4e-8) took 13 Newton steps with it and 265
 #: with 1e-8, spent on the last 3e-8 of the energy
 FLOOR = 1e-4
-#: a warm re-solve: penalties capped at this multiple of a cold start's, first inner tolerance
+#: a warm re-solve: penalties capped at this multiple of a cold start's
 WARM_RHO_CAP = 100.0
-WARM_EPS = 1e-5
+#: a warm re-solve's first inner tolerance (relative Newton decrement; the final one is 1e-5 at
+#: ``solve(tol=1e-4)``). Its first multipliers are the last design's, off where the change moved the
+#: optimum, so its first inner minimization ends early and the multiplier update corrects them: row
+#: 9 after its bound was raised 2 degrees spent 40 Newton steps (the inner limit) at the last
+#: multipliers before the first measured-feasible iterate with 1e-5, and reached quality in 3.9 s
+#: against 6.2 (weight / sun changes 0.27 / 3.76 s against 0.29 / 3.79, 7c 0.31 / 0.51 / 0.26
+#: against 0.40 / 0.40 / 0.44; the doubly curved facade after a 5 degree sun turn 29 / 55 / 35
+#: Newton steps at 40 / 60 / 80 degrees against 29 / 52 / 35). 1e-3 (a cold start's) was no faster
+#: to quality and slower on the facade (34 / 61 / 35)
+WARM_EPS = 1e-4
 #: first inner tolerance (Newton decrement relative to |L_A|)
 EPS_START = 1e-3
 #: Newton steps per inner minimization
