@@ -238,22 +238,31 @@ def run_fig12_row(name, design, T, methods, lbfgs_iter):
         _designer_change(p)
         r2, w2, c2 = _timed(lambda: p.solve(solver=solver, **kw))
         runs[method] = dict(r=r, wall=wall, cpu=cpu, setup_w=setup_w, setup_c=setup_c, r2=r2, w2=w2, c2=c2)
-    feasible = [x.objective for run in runs.values() for x in run["r"].history if x.feasible]
-    best = min(feasible) if feasible else None
+    best = _best(run["r"] for run in runs.values())
+    best2 = _best(run["r2"] for run in runs.values())     # of the changed design
     out = []
     for method, run in runs.items():
-        r = run["r"]
+        r, r2 = run["r"], run["r2"]
         # within 1 % of the best, or 1e-8 absolutely where the best is (nearly) zero (7a, 7b)
         goal = None if best is None else best + max(0.01 * abs(best), 1e-8)
         ttq = None if goal is None else r.time_to(goal)
         ttc = None if goal is None else r.time_to(goal, cpu=True)
+        goal2 = None if best2 is None else best2 + max(0.01 * abs(best2), 1e-8)
+        ttq2 = None if goal2 is None else r2.time_to(goal2)
+        setup2 = run["w2"] - (r2.history[-1].seconds if r2.history else run["w2"])
         out.append(dict(row=name, V=nv, F=nf, T=T, method=method, solver=r.solver, wall=run["wall"],
                         cpu=run["cpu"], ttq=None if ttq is None else ttq + run["setup_w"],
                         ttc=None if ttc is None else ttc + run["setup_c"], it=r.iterations,
                         fact=r.counts.get("factorizations", "-"), ok=r.success, feasible=r.feasible,
-                        E=r.objective, best=best, w2=run["w2"], c2=run["c2"], it2=run["r2"].iterations,
-                        ok2=run["r2"].feasible, ang=r.min_torsal_angle_deg, spread=_spread(r), status=r.status))
+                        E=r.objective, best=best, w2=run["w2"], c2=run["c2"], it2=r2.iterations,
+                        ok2=r2.feasible, ttq2=None if ttq2 is None else ttq2 + setup2, ang=r.min_torsal_angle_deg, spread=_spread(r), status=r.status))
     return out
+
+
+def _best(results) -> float | None:
+    """The lowest objective of a measured-feasible iterate of any of ``results``."""
+    feasible = [x.objective for r in results for x in r.history if x.feasible]
+    return min(feasible) if feasible else None
 
 
 def _spread(r) -> str:
@@ -275,8 +284,9 @@ def _load() -> str:
 def print_fig12(rows, methods, lbfgs_iter):
     print("Fig. 12 rows: time to quality (measured-feasible, energy within 1% of the best any method reached)")
     print(_load())
+    print("re-solve: after the light weights x1.2, warm; its ttq against the best any method's re-solve reached")
     head = (f"{'row':>4} {'|V|':>6} {'T':>5} {'method':>9} {'by':>9} | {'wall':>6} {'cpu':>6} {'it':>5} {'fact':>5} | "
-            f"{'ttq':>6} {'ttq cpu':>7} {'<=T':>4} | {'re-solve':>8} {'cpu':>6} {'it':>4} {'<=T/5':>5} | "
+            f"{'ttq':>6} {'ttq cpu':>7} {'<=T':>4} | {'re-solve':>8} {'cpu':>6} {'it':>4} {'ttq':>6} {'<=T/5':>5} | "
             f"{'E':>10} {'E best':>10} {'min ang':>7} {'spread':>6} ok")
     print(head)
     print("-" * len(head))
@@ -288,7 +298,8 @@ def print_fig12(rows, methods, lbfgs_iter):
             print(f"{r['row']:>4} {r['V']:>6} {T:5.1f} {r['method']:>9} {r['solver']:>9} | {r['wall']:6.1f} "
                   f"{r['cpu']:6.1f} {r['it']:>5} {r['fact']!s:>5} | {_fmt(ttq, '6.1f'):>6} {_fmt(r['ttc'], '7.1f'):>7} "
                   f"{('yes' if ttq is not None and ttq <= T else 'NO'):>4} | {r['w2']:8.2f} {r['c2']:6.2f} "
-                  f"{r['it2']:>4} {('yes' if r['w2'] <= T / 5 else 'NO'):>5} | {r['E']:10.4e} "
+                  f"{r['it2']:>4} {_fmt(r['ttq2'], '6.2f'):>6} "
+                  f"{('yes' if r['ttq2'] is not None and r['ttq2'] <= T / 5 else 'NO'):>5} | {r['E']:10.4e} "
                   f"{_fmt(r['best'], '10.4e'):>10} {_fmt(r['ang'], '7.2f'):>7} {r['spread']:>6} "
                   f"{'yes' if r['ok'] else ('feasible' if r['feasible'] else 'NO: ' + r['status'][:60])}", flush=True)
 
