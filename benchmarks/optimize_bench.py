@@ -255,7 +255,8 @@ def run_fig12_row(name, design, T, methods, lbfgs_iter):
                         ttc=None if ttc is None else ttc + run["setup_c"], it=r.iterations,
                         fact=r.counts.get("factorizations", "-"), ok=r.success, feasible=r.feasible,
                         E=r.objective, best=best, w2=run["w2"], c2=run["c2"], it2=r2.iterations,
-                        ok2=r2.feasible, ttq2=None if ttq2 is None else ttq2 + setup2, ang=r.min_torsal_angle_deg, spread=_spread(r), status=r.status))
+                        ok2=r2.feasible, ttq2=None if ttq2 is None else ttq2 + setup2,
+                        ang=r.min_torsal_angle_deg, spread=_spread(r), status=r.status))
     return out
 
 
