@@ -358,10 +358,12 @@ def print_resolve(rows):
 def print_facade():
     print("The doubly curved 1,089-vertex facade (normal 2, fair 1, perp 10, hyperbolic, normals as start)")
     print(_load())
+    print("re-solve: after the sun turned by 5 degrees, warm from the answer")
     v, f = facade_patch(nu=33, nv=33)
     c = Congruence.from_normals((v, f))
     head = (f"{'angle':>5} {'solver':>6} {'by':>9} | {'wall':>6} {'cpu':>6} {'it':>4} {'fact':>5} | {'success':>7} "
-            f"{'min ang':>7} {'faces < bound-0.1':>17} | {'E':>10} | {'re-solve':>8} {'cpu':>6} {'it':>4}")
+            f"{'min ang':>7} {'faces < bound-0.1':>17} | {'E':>10} | {'re-solve':>8} {'cpu':>6} {'it':>4} "
+            f"{'success':>7} {'min ang':>7} {'E':>10}")
     print(head)
     print("-" * len(head))
     for angle in (40, 60, 80):
@@ -376,7 +378,8 @@ def print_facade():
             r2, w2, c2 = _timed(lambda: p.solve(solver=solver))
             print(f"{angle:>5} {solver:>6} {r.solver:>9} | {w:6.2f} {cp:6.2f} {r.iterations:>4} "
                   f"{r.counts.get('factorizations', '-')!s:>5} | {str(r.success):>7} {r.min_torsal_angle_deg:7.2f} "
-                  f"{below:>17} | {r.objective:10.4e} | {w2:8.2f} {c2:6.2f} {r2.iterations:>4}", flush=True)
+                  f"{below:>17} | {r.objective:10.4e} | {w2:8.2f} {c2:6.2f} {r2.iterations:>4} "
+                  f"{str(r2.success):>7} {r2.min_torsal_angle_deg:7.2f} {r2.objective:10.4e}", flush=True)
 
 
 def print_family(size: int, n: int):

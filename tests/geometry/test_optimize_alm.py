@@ -157,6 +157,33 @@ def test_a_warm_resolve_takes_fewer_steps_than_a_cold_one():
     assert q.solve().counts["newton_steps"] < cold.counts["newton_steps"]
 
 
+@pytest.mark.parametrize("bound", [40, 80])
+def test_a_warm_resolve_of_a_zero_residual_design_stops_at_its_designs_scale(bound):
+    """Energies that reach zero (normal, fair, perpendicular: the doubly curved facade of
+    issue 25): the warm re-solve after a 5 degree sun turn starts at the last optimum, near 0,
+    yet ends where a cold solve would, when what is left to gain is negligible against the
+    design's start (alm.FLOOR, carried in the warm state): fewer Newton steps than a cold
+    solve of the changed design (with its own start as the scale: 28 and 39 steps against 7
+    and 22), measured feasible, its energy as near zero as the cold answer's."""
+    c = Congruence.from_normals(facade_patch(nu=9, nv=9))
+    a = np.radians(5.0)
+    turned = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]]) @ SUN
+
+    def make(sun):
+        return (CongruenceProblem(c).normal(weight=2).fair(weight=1).perpendicular(sun, weight=10)
+                .hyperbolic().min_torsal_angle(bound))
+
+    p = make(SUN)
+    first = p.solve()
+    p.perpendicular(turned, weight=10)
+    warm, cold = p.solve(), make(turned).solve()
+    assert first.success and warm.success and cold.success
+    assert warm.counts["newton_steps"] < cold.counts["newton_steps"]
+    assert np.nan_to_num(warm.congruence.torsal_plane_angle()).min() >= bound - 0.1
+    start = sum(cold.energies_before.values())
+    assert warm.objective < 1e-5 * start and cold.objective < 1e-5 * start
+
+
 def test_a_warm_resolve_of_a_lifted_design_takes_fewer_iterations_and_stays_feasible():
     """A lifted min_torsal_angle (the design's choice for IPOPT, example 7d) is re-solved by
     IPOPT from the last optimum and its multipliers: fewer iterations than a cold solve of the

@@ -90,7 +90,11 @@ DECREMENT_PER_TOL = 1e-1
 #: that is larger (a design whose energies reach zero): such a solve ends when what is left
 #: to gain is below 1e-9 of its start (1e-4 x the final decrement 1e-5). The doubly curved
 #: facade at min_torsal_angle 40 (energies 6.3 -> 4e-8) took 13 Newton steps with it and 265
-#: with 1e-8, spent on the last 3e-8 of the energy
+#: with 1e-8, spent on the last 3e-8 of the energy. A warm re-solve keeps the floor of the
+#: solve it continues (:attr:`AlmState.floor`): its own start, the last optimum, is near zero
+#: there; with that as the scale, the facade re-solved after a 5 degree sun turn took 29 / 55 /
+#: 35 Newton steps at min_torsal_angle 40 / 60 / 80 (a cold solve 19 / 27 / 38), with the
+#: design's 2 / 8 / 32
 FLOOR = 1e-4
 #: a warm re-solve: penalties capped at this multiple of a cold start's
 WARM_RHO_CAP = 100.0
@@ -99,10 +103,10 @@ WARM_RHO_CAP = 100.0
 #: optimum, so its first inner minimization ends early and the multiplier update corrects them: row
 #: 9 after its bound was raised 2 degrees spent 40 Newton steps (the inner limit) at the last
 #: multipliers before the first measured-feasible iterate with 1e-5, and reached quality in 3.9 s
-#: against 6.2 (weight / sun changes 0.27 / 3.76 s against 0.29 / 3.79, 7c 0.31 / 0.51 / 0.26
-#: against 0.40 / 0.40 / 0.44; the doubly curved facade after a 5 degree sun turn 29 / 55 / 35
-#: Newton steps at 40 / 60 / 80 degrees against 29 / 52 / 35). 1e-3 (a cold start's) was no faster
-#: to quality and slower on the facade (34 / 61 / 35)
+#: against 6.2 (weight / sun changes 0.27 / 3.76 s against 0.29 / 3.79; 7c 0.31 / 0.51 / 0.26
+#: against 0.40 / 0.40 / 0.44). 1e-3 (a cold start's) was no faster to quality (row 9: 0.37 / 3.79 /
+#: 3.85 s). The doubly curved facade after a 5 degree sun turn (see FLOOR): 2 / 8 / 32 Newton steps
+#: at 40 / 60 / 80 degrees, with 1e-5 3 / 4 / 30, with 1e-3 2 / 8 / 49
 WARM_EPS = 1e-4
 #: first inner tolerance (Newton decrement relative to |L_A|)
 EPS_START = 1e-3
@@ -160,6 +164,7 @@ class AlmState:
     rho: np.ndarray           # (n_g,) penalties of the scaled rows
     scale: np.ndarray         # (n_g,) row scales
     delta: float = 1e-8       # the Levenberg-Marquardt shift (relative)
+    floor: float = 0.0        # the Newton decrement's floor of the solve it came from (FLOOR)
 
 
 class AlmRun(NamedTuple):
@@ -492,7 +497,8 @@ class AugmentedLagrangian:
                 break
             self._update(run)
         lam_g = run.s * run.lam / self.sF           # IPOPT's multipliers: grad f + J^T lam_g = 0
-        state = AlmState(e=run.e.copy(), lam=run.lam, rho=run.rho, scale=run.s, delta=self.rel)
+        state = AlmState(e=run.e.copy(), lam=run.lam, rho=run.rho, scale=run.s, delta=self.rel,
+                         floor=run.floor)
         return AlmRun(run.e, lam_g, run.steps, run.outer, self.counts["factorizations"], run.status,
                       run.converged, state, dict(self.counts))
 
@@ -506,7 +512,9 @@ class AugmentedLagrangian:
         self.rel = st.delta
         return _Run(e=e, frames=frames, pt=pt, s=st.scale, lam=st.lam, rho=st.rho,
                     lo=st.scale * self.lo, hi=st.scale * self.hi, warm=warm is not None,
-                    floor=FLOOR * max(abs(pt.F), 1.0),
+                    # a warm re-solve keeps its design's floor: its own start is the last
+                    # optimum, on a zero-residual design near 0 (see FLOOR)
+                    floor=max(FLOOR * max(abs(pt.F), 1.0), warm.floor if warm is not None else 0.0),
                     # inner tolerance: the Newton decrement relative to |L_A|, tightened per outer iteration
                     eps=EPS_START if warm is None else max(WARM_EPS, self.tol),
                     v_prev=np.full(b.n_g, np.inf), erratic=np.zeros(b.n_g, bool))
