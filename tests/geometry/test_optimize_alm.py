@@ -185,9 +185,9 @@ def test_a_warm_resolve_of_a_zero_residual_design_stops_at_its_designs_scale(bou
 
 
 def test_a_warm_resolve_of_a_lifted_design_takes_fewer_iterations_and_stays_feasible():
-    """A lifted min_torsal_angle (the design's choice for IPOPT, example 7d) is re-solved by
-    IPOPT from the last optimum and its multipliers: fewer iterations than a cold solve of the
-    changed problem, the same optimum, every face measured at the bound or above."""
+    """A lifted min_torsal_angle (a design's choice for IPOPT; example 7d's until 2026-11-27) is
+    re-solved by IPOPT from the last optimum and its multipliers: fewer iterations than a cold
+    solve of the changed problem, the same optimum, every face measured at the bound or above."""
     c = Congruence.from_normals(facade_patch(nu=9, nv=9))
     turned = np.array([[np.cos(0.05), -np.sin(0.05), 0], [np.sin(0.05), np.cos(0.05), 0], [0, 0, 1]]) @ SUN
 
