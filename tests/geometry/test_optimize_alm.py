@@ -19,6 +19,12 @@ from torsal.geometry.surfaces import canopy, facade_patch
 SUN = np.array([0.3, -0.8, -0.5]) / np.linalg.norm([0.3, -0.8, -0.5])
 
 
+def _about_z(v: np.ndarray, angle: float) -> np.ndarray:
+    """``v`` (3,) turned by ``angle`` (radians) about z: the sun moved along its daily path."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ v
+
+
 def _canopy(c):
     return CongruenceProblem(c).normal().fair().perpendicular([0.2, 0.3, -0.9]).closeness(weight=0.1).hyperbolic()
 
@@ -136,7 +142,7 @@ def test_a_warm_resolve_takes_fewer_steps_than_a_cold_one():
     multipliers, penalties) needs fewer Newton steps than a cold solve of the changed problem,
     and reaches the same optimum."""
     c = Congruence.from_normals(facade_patch(nu=9, nv=9))
-    turned = np.array([[np.cos(0.05), -np.sin(0.05), 0], [np.sin(0.05), np.cos(0.05), 0], [0, 0, 1]]) @ SUN
+    turned = _about_z(SUN, 0.05)
 
     def make(sun):
         return (CongruenceProblem(c).normal().fair().perpendicular(sun, weight=10).closeness(weight=0.1)
@@ -166,8 +172,7 @@ def test_a_warm_resolve_of_a_zero_residual_design_stops_at_its_designs_scale(bou
     solve of the changed design (with its own start as the scale: 28 and 39 steps against 7
     and 22), measured feasible, its energy as near zero as the cold answer's."""
     c = Congruence.from_normals(facade_patch(nu=9, nv=9))
-    a = np.radians(5.0)
-    turned = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]]) @ SUN
+    turned = _about_z(SUN, np.radians(5.0))
 
     def make(sun):
         return (CongruenceProblem(c).normal(weight=2).fair(weight=1).perpendicular(sun, weight=10)
@@ -189,7 +194,7 @@ def test_a_warm_resolve_of_a_lifted_design_takes_fewer_iterations_and_stays_feas
     re-solved by IPOPT from the last optimum and its multipliers: fewer iterations than a cold
     solve of the changed problem, the same optimum, every face measured at the bound or above."""
     c = Congruence.from_normals(facade_patch(nu=9, nv=9))
-    turned = np.array([[np.cos(0.05), -np.sin(0.05), 0], [np.sin(0.05), np.cos(0.05), 0], [0, 0, 1]]) @ SUN
+    turned = _about_z(SUN, 0.05)
 
     def make(sun):
         return (CongruenceProblem(c).normal().fair().perpendicular(sun, weight=10).closeness(weight=0.1)
