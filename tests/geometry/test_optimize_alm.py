@@ -12,6 +12,7 @@ from torsal.geometry.congruence import Congruence
 from torsal.geometry.optimize import CongruenceProblem
 from torsal.geometry.optimize.alm import NewtonSystem, _phr
 from torsal.geometry.optimize.factor import BACKENDS, NotPositiveDefinite, SparseCholesky, available
+from torsal.geometry.optimize import mumps
 from torsal.geometry.optimize.family import design_family
 from torsal.geometry.optimize.nlp import tangent_frames
 from torsal.geometry.surfaces import canopy, facade_patch
@@ -308,16 +309,70 @@ def test_factorization_backends_agree_and_refuse_an_indefinite_matrix(backend):
         np.testing.assert_allclose(full @ f.solve(rhs), rhs, atol=1e-9)
 
 
-def test_a_failed_mumps_factorization_is_refused():
-    """casadi passes none of MUMPS's error codes on: a singular matrix must not come back as a
-    step (the solve's backward error gives it away)."""
+@pytest.mark.parametrize("direct", [True, False])
+def test_a_failed_mumps_factorization_is_refused(direct, monkeypatch):
+    """A singular matrix must not come back as a step: MUMPS called directly says so
+    (INFOG(1) = -10); through casadi's interface, which passes none of MUMPS's error codes on,
+    the solve's backward error gives it away."""
     if not available("mumps"):
         pytest.skip("casadi has no mumps plugin")
+    if direct and not mumps.available():
+        pytest.skip("casadi's MUMPS is not the version torsal.geometry.optimize.mumps describes")
+    monkeypatch.setattr(mumps, "_checked", direct)
     upper = sp.triu(sp.random(30, 30, density=0.2, random_state=2) + sp.identity(30)).tocsc()
     f = SparseCholesky(upper, "mumps")
-    f.factor(np.zeros(upper.nnz))
+    assert f.definite is direct
     with pytest.raises(NotPositiveDefinite):
+        f.factor(np.zeros(upper.nnz))
         f.solve(np.ones(30))
+
+
+def test_mumps_counts_the_negative_eigenvalues_and_analyses_once():
+    """Called directly, MUMPS's LDL^T has as many negative pivots as the matrix has negative
+    eigenvalues (Sylvester's law of inertia; numpy's eigvalsh as the reference), over one
+    analysis of the pattern, and its solves match scipy's."""
+    from scipy.sparse.linalg import spsolve
+
+    if not mumps.available():
+        pytest.skip("casadi's MUMPS is not the version torsal.geometry.optimize.mumps describes")
+    rng = np.random.default_rng(3)
+    a = sp.random(60, 60, density=0.08, random_state=4)
+    pattern = sp.triu(a + a.T + sp.identity(60)).tocsc()
+    pattern.sort_indices()
+    m = mumps.Mumps(pattern.indptr, pattern.indices)
+    assert m.ordering is mumps.ORDERING
+    for shift in (-3.0, 0.5, 2.0, 4.0, 8.0):
+        # symmetric values on the fixed pattern, the spectrum moved by the shift
+        u = pattern.copy()
+        u.data = rng.standard_normal(u.nnz)
+        u.setdiag(u.diagonal() + shift)
+        u = sp.csc_matrix(u)
+        u.sort_indices()
+        full = (u + sp.triu(u, 1).T).toarray()
+        negative = int((np.linalg.eigvalsh(full) < 0).sum())
+        assert m.factor(u.data) == negative
+        rhs = rng.standard_normal(60)
+        np.testing.assert_allclose(m.solve(rhs), spsolve(sp.csc_matrix(full), rhs), rtol=1e-8, atol=1e-10)
+    f = SparseCholesky(pattern, "mumps")
+    for _ in range(3):
+        f.factor(pattern.data + 10 * (pattern.indices == np.repeat(np.arange(60), np.diff(pattern.indptr))))
+    assert f.factorizations == 3 and f.analyses == 1 and f.definite
+
+
+def test_mumps_of_another_version_is_left_to_casadi(monkeypatch):
+    """A library whose version is not the one whose C structure torsal describes is not called
+    directly: SparseCholesky keeps casadi's interface (and reads no inertia)."""
+    if not available("mumps"):
+        pytest.skip("casadi has no mumps plugin")
+    monkeypatch.setattr(mumps, "VERSIONS", (b"4.10.",))
+    monkeypatch.setattr(mumps, "_checked", None)
+    assert not mumps.available()
+    upper = sp.triu(sp.random(30, 30, density=0.2, random_state=2) + 5 * sp.identity(30)).tocsc()
+    f = SparseCholesky(upper, "mumps")
+    f.factor(upper.data)
+    full = upper + sp.triu(upper, 1).T
+    np.testing.assert_allclose(full @ f.solve(np.ones(30)), np.ones(30), atol=1e-9)
+    assert not f.definite and not isinstance(f._impl, mumps.Mumps)
 
 
 def test_mumps_prints_nothing():
@@ -341,20 +396,26 @@ def test_mumps_prints_nothing():
     assert out.stdout == ""
 
 
-def test_the_exact_hessians_step_is_proved_positive_definite_by_another_backend():
-    """With MUMPS (no inertia) as the Newton matrix's backend, an exact Hessian's step is
-    factored by qdldl, which refuses an indefinite matrix; the projected one stays on MUMPS."""
+@pytest.mark.parametrize("direct", [True, False])
+def test_the_exact_hessians_step_is_proved_positive_definite(direct, monkeypatch):
+    """An exact Hessian's step needs the proof that its Newton matrix is positive definite:
+    MUMPS called directly gives it (its negative pivots); where only casadi's interface to it
+    is there (no inertia), the step is factored by qdldl. Either refuses an indefinite matrix."""
     from torsal.geometry.optimize.alm import NewtonSystem
 
     if not available("mumps"):
         pytest.skip("casadi has no mumps plugin")
+    if direct and not mumps.available():
+        pytest.skip("casadi's MUMPS is not the version torsal.geometry.optimize.mumps describes")
+    monkeypatch.setattr(mumps, "_checked", direct)
     c = Congruence.from_normals(facade_patch(nu=6, nv=5))
     p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
     p.build("alm")
     sys_ = NewtonSystem.of(p._built["tangent/alm"], "mumps")
-    assert not sys_.chol.definite
+    assert sys_.chol.definite is direct
     proof = sys_.proving()
-    assert proof.definite and proof.backend == "qdldl" and sys_.proving() is proof
+    assert proof.definite and sys_.proving() is proof
+    assert (proof is sys_.chol) if direct else proof.backend == "qdldl"
     k = sys_.values(np.zeros(sys_.hess_pos.size), np.zeros(sys_.jac_rows.size), np.zeros(sys_.n_rows), 1.0)
     k[sys_.diag_pos[0]] = -1.0        # one negative pivot
     with pytest.raises(NotPositiveDefinite):

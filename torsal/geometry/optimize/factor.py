@@ -3,16 +3,18 @@
 The augmented Lagrangian (:mod:`.alm`) factors one symmetric positive definite matrix per
 Newton step, always over the same sparsity pattern (the union of every row's pattern, see
 :class:`~torsal.geometry.optimize.alm.NewtonSystem`). A backend that can keep the
-fill-reducing ordering and the symbolic factorization (qdldl, CHOLMOD) computes them once
-per pattern, kept with the NLP across re-solves; MUMPS through casadi orders at every call,
-and is still the fastest on these matrices (below).
+fill-reducing ordering and the symbolic factorization (MUMPS called directly, qdldl, CHOLMOD)
+computes them once per pattern, kept with the NLP across re-solves.
 
 Backends (:data:`BACKENDS`, the first available is the default; chosen by measurement on
 the Newton matrices of the Fig. 12 rows, ``benchmarks/optimize_bench.py --tables factor``):
-``"mumps"`` (MUMPS through casadi, the same library IPOPT uses, so nothing more to install:
-multifrontal, dense BLAS on the fronts; casadi's Python interface analyses and factors at
-every solve, and still, per factor + solve on one BLAS thread, 7c 10 ms against qdldl's 10,
-row 9 29 ms against 50, row 11 0.3 s against 2.8 s; it reads no inertia, see
+``"mumps"`` (MUMPS, the library IPOPT uses, as casadi bundles it, so nothing more to install:
+multifrontal, dense BLAS on the fronts. Called directly (:mod:`.mumps`): analysed once per
+pattern with METIS's ordering, refactored per step, its negative pivots read, so a
+factorization proves the matrix positive definite. Per factor + solve on one BLAS thread: 7c
+3.3 ms, row 9 11.2, row 13 22, row 11 194, against casadi's interface, which analyses at every
+call, 5.8, 17.5, 29 and 252 ms, and qdldl's 7.4, 33, 72 and 1,814 ms. Where the library is not the MUMPS version
+:mod:`.mumps` describes, casadi's interface is used: it reads no inertia, see
 :attr:`SparseCholesky.definite`), ``"qdldl"`` (LDL^T with AMD ordering, ``Solver.update``
 refactors on the same pattern: the symbolic analysis is done once; not supernodal, so its
 time grows with the fill: row 11's factor has 7.6 million entries), ``"cholmod"``
@@ -31,15 +33,18 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from . import mumps
+
 #: the backends in order of preference (the first that imports is the default)
 BACKENDS = ("mumps", "qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 
 #: backends whose :meth:`SparseCholesky.factor` proves the matrix positive definite (their
-#: pivots are read); MUMPS through casadi reports no inertia, see :meth:`SparseCholesky.definite`
+#: pivots are read); MUMPS does where it is called directly (:func:`.mumps.available`), not
+#: through casadi's interface, see :meth:`SparseCholesky.definite`
 PROVES_DEFINITE = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 
 #: largest backward error ``|A x - b| / (|A| |x| + |b|)`` (infinity norms) of a MUMPS solve
-#: that is accepted: casadi does not pass MUMPS's error codes on, a failed factorization shows
+#: through casadi's interface that is accepted: it does not pass MUMPS's error codes on, a failed factorization shows
 #: in the residual (a backward stable one leaves ~1e-16 even where ``A`` is ill-conditioned)
 MUMPS_BACKWARD_ERROR = 1e-8
 
@@ -117,23 +122,34 @@ class SparseCholesky:
     @property
     def definite(self) -> bool:
         """Whether :meth:`factor` raises :class:`NotPositiveDefinite` for every matrix that is
-        not positive definite. MUMPS (through casadi) factors an indefinite matrix without
-        saying so: a caller that needs the proof (a Newton step from an exact Hessian) uses
-        another backend, see :data:`PROVES_DEFINITE`."""
-        return self.backend in PROVES_DEFINITE
+        not positive definite. MUMPS through casadi's interface (where it cannot be called
+        directly) factors an indefinite matrix without saying so: a caller that needs the
+        proof (a Newton step from an exact Hessian) then uses another backend, see
+        :data:`PROVES_DEFINITE`."""
+        return self.backend in PROVES_DEFINITE or self.backend == "mumps" and mumps.available()
 
-    # ------------------------------------------------------------------ MUMPS (casadi's)
+    # ------------------------------------------------------------------ MUMPS
     def _factor_mumps(self, data):
-        if self._impl is None:
-            self._impl = _mumps_solve(self.n, self.indptr, self.indices)
-            self.analyses += 1
         if not np.all(np.isfinite(data)):
             raise NotPositiveDefinite("the matrix has entries that are not finite")
+        if self._impl is None:
+            direct = mumps.available()
+            self._impl = (mumps.Mumps(self.indptr, self.indices) if direct
+                          else _mumps_solve(self.n, self.indptr, self.indices))
+            self.analyses += 1
+        if isinstance(self._impl, mumps.Mumps):
+            try:
+                negative = self._impl.factor(data)
+            except mumps.MumpsError as exc:
+                raise NotPositiveDefinite(str(exc)) from None
+            if negative:
+                raise NotPositiveDefinite(f"{negative} pivots of MUMPS's LDL^T are negative")
         self._data = data
 
     def _solve_mumps(self, rhs):
-        # casadi analyses and factors inside the solve: one call per Newton step (MUMPS's
-        # ordering is a small part of the time)
+        if isinstance(self._impl, mumps.Mumps):
+            return self._impl.solve(rhs)
+        # casadi's interface analyses and factors inside the solve: one call per Newton step
         x = self._impl(self._data, rhs)[0]
         if not np.all(np.isfinite(x)) or _backward_error(self.upper(self._data), x, rhs) > MUMPS_BACKWARD_ERROR:
             raise NotPositiveDefinite("MUMPS's factorization failed (the solve's residual is large)")
@@ -230,7 +246,8 @@ class SparseCholesky:
 
 
 def _mumps_solve(n: int, indptr: np.ndarray, indices: np.ndarray):
-    """``(upper triangle's values, rhs) -> [A^-1 rhs]`` by MUMPS, a casadi Function called
+    """``(upper triangle's values, rhs) -> [A^-1 rhs]`` by MUMPS through casadi's interface
+    (where :mod:`.mumps` cannot call it directly), a casadi Function called
     through its buffers (:class:`~.numeric.NumericFunction`: converting the values to a DM on
     every call cost 2.3 ms of 7c's 11 ms per step)."""
     import casadi as ca
