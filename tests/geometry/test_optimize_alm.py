@@ -359,6 +359,31 @@ def test_mumps_counts_the_negative_eigenvalues_and_analyses_once():
     assert f.factorizations == 3 and f.analyses == 1 and f.definite
 
 
+def test_mumps_instances_in_threads_give_the_answers_of_one_thread():
+    """ctypes releases the GIL: two threads factoring and solving with their own instances get
+    the answers each gets alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    if not mumps.available():
+        pytest.skip("casadi's MUMPS is not the version torsal.geometry.optimize.mumps describes")
+    mats = [sp.triu(sp.random(200, 200, density=0.03, random_state=k) + 8 * sp.identity(200)).tocsc()
+            for k in range(2)]
+
+    def work(u):
+        m = mumps.Mumps(u.indptr, u.indices)
+        out = []
+        for k in range(30):
+            assert m.factor((1 + k / 30) * u.data) == 0
+            out.append(m.solve(np.ones(200)))
+        return np.array(out)
+
+    alone = [work(u) for u in mats]
+    with ThreadPoolExecutor(2) as ex:
+        both = list(ex.map(work, mats))
+    for a, b in zip(alone, both):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_mumps_of_another_version_is_left_to_casadi(monkeypatch):
     """A library whose version is not the one whose C structure torsal describes is not called
     directly: SparseCholesky keeps casadi's interface (and reads no inertia)."""

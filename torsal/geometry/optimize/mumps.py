@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import ctypes as C
 import enum
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -102,6 +103,9 @@ _RESERVED = 1 << 16
 
 _lib: C.CDLL | None = None
 _checked: bool | None = None
+#: one call into MUMPS at a time: ctypes releases the GIL, and the sequential library is not
+#: documented as safe for concurrent instances (casadi's interface held the GIL throughout)
+_lock = threading.Lock()
 
 
 def _library() -> C.CDLL | None:
@@ -201,7 +205,8 @@ class Mumps:
 
     def _call(self, job: int, what: str) -> None:
         self._s.job = job
-        self._lib.dmumps_c(C.addressof(self._s))
+        with _lock:
+            self._lib.dmumps_c(C.addressof(self._s))
         if self._s.infog[0] < 0:
             raise MumpsError(int(self._s.infog[0]), what)
 
@@ -239,7 +244,8 @@ class Mumps:
             self._open = False
             try:
                 self._s.job = -2
-                self._lib.dmumps_c(C.addressof(self._s))
+                with _lock:
+                    self._lib.dmumps_c(C.addressof(self._s))
             except Exception:       # interpreter shutdown
                 pass
 
