@@ -200,8 +200,8 @@ class Mumps:
         s.n, s.nz, s.nnz = self.n, self._irn.size, self._irn.size
         s.irn, s.jcn, s.a = self._irn.ctypes.data, self._jcn.ctypes.data, self._a.ctypes.data
         self._call(1, "analysis")
+        #: the ordering the analysis used (INFOG(7); MUMPS falls back where METIS is missing)
         self.ordering = Ordering(s.infog[6]) if s.infog[6] in set(Ordering) else None
-        self.factor_entries = int(s.infog[19]) if s.infog[19] >= 0 else -s.infog[19] * 1_000_000
 
     def _call(self, job: int, what: str) -> None:
         self._s.job = job
