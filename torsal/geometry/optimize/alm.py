@@ -32,7 +32,7 @@ semidefinite (:mod:`.projected`), ``J_A`` the rows whose penalty is active or wi
 divided by 10 after a full step, times 10 after a short one). ``K``'s pattern is the
 union over all rows, fixed for the NLP and kept across re-solves; MUMPS factors it, analysed
 once per pattern (:class:`~torsal.geometry.optimize.factor.SparseCholesky`, :mod:`.mumps`:
-multifrontal, measured 2-9x faster than qdldl's refactorization on rows 7c to 11), and its
+multifrontal, faster than qdldl's refactorization on every Fig. 12 row, ``--tables factor``), and its
 negative pivots prove an exact Hessian's ``K`` positive definite (:meth:`NewtonSystem.proving`).
 A backtracking Armijo line search on ``L_A`` takes the step.
 

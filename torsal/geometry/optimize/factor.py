@@ -11,10 +11,10 @@ the Newton matrices of the Fig. 12 rows, ``benchmarks/optimize_bench.py --tables
 ``"mumps"`` (MUMPS, the library IPOPT uses, as casadi bundles it, so nothing more to install:
 multifrontal, dense BLAS on the fronts. Called directly (:mod:`.mumps`): analysed once per
 pattern with METIS's ordering, refactored per step, its negative pivots read, so a
-factorization proves the matrix positive definite. Per factor + solve on one BLAS thread: 7c
-3.3 ms, row 9 11.2, row 13 22, row 11 194, against casadi's interface, which analyses at every
-call, 5.8, 17.5, 29 and 252 ms, and qdldl's 7.4, 33, 72 and 1,814 ms. Where the library is not the MUMPS version
-:mod:`.mumps` describes, casadi's interface is used: it reads no inertia, see
+factorization proves the matrix positive definite; faster per factor + solve on every Fig. 12
+row than casadi's interface, which analyses at every call, and than qdldl (the table prints
+both, dated measurements in ``examples/README.md``). Where the library is not the MUMPS
+version :mod:`.mumps` describes, casadi's interface is used: it reads no inertia, see
 :attr:`SparseCholesky.definite`), ``"qdldl"`` (LDL^T with AMD ordering, ``Solver.update``
 refactors on the same pattern: the symbolic analysis is done once; not supernodal, so its
 time grows with the fill: row 11's factor has 7.6 million entries), ``"cholmod"``

@@ -49,9 +49,8 @@ class Ordering(enum.IntEnum):
 
 
 #: the ordering of the Newton matrices: METIS's gave the fewest factor entries and the fastest
-#: factorizations on Fig. 12's rows 7c, 9, 13 and 11 (MUMPS's automatic choice takes AMF below
-#: about 10,000 rows: 7c 307,783 factor entries against METIS's 256,503, row 9 905,563
-#: against 763,287); ``benchmarks/optimize_bench.py --tables factor``
+#: factorizations on Fig. 12's rows 7c, 9, 13 and 11 (MUMPS's automatic choice takes AMF on the
+#: smaller ones, with 15-20 % more factor entries)
 ORDERING = Ordering.METIS
 
 
