@@ -50,7 +50,7 @@ class Ordering(enum.IntEnum):
 
 #: the ordering of the Newton matrices: METIS's gave the fewest factor entries and the fastest
 #: factorizations on Fig. 12's rows 7c, 9, 13 and 11 (MUMPS's automatic choice takes AMF on the
-#: smaller ones, with 15-20 % more factor entries)
+#: smaller ones, with 10-20 % more factor entries)
 ORDERING = Ordering.METIS
 
 
