@@ -44,8 +44,9 @@ BACKENDS = ("mumps", "qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 PROVES_DEFINITE = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 
 #: largest backward error ``|A x - b| / (|A| |x| + |b|)`` (infinity norms) of a MUMPS solve
-#: through casadi's interface that is accepted: it does not pass MUMPS's error codes on, a failed factorization shows
-#: in the residual (a backward stable one leaves ~1e-16 even where ``A`` is ill-conditioned)
+#: through casadi's interface that is accepted: it passes none of MUMPS's error codes on, a
+#: failed factorization shows in the residual (a backward stable one leaves ~1e-16 even where
+#: ``A`` is ill-conditioned)
 MUMPS_BACKWARD_ERROR = 1e-8
 
 
