@@ -337,7 +337,7 @@ class AugmentedLagrangian:
         b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
         self.lo, self.hi = b.lbg, b.ubg
         self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
-                       "predicted": 0, "erratic": 0, "backend": self.sys.chol.backend}
+                       "predicted": 0, "erratic": 0, "backend": self.sys.chol.route}
 
     # ------------------------------------------------------------------ evaluations
     def _recentre(self, e: np.ndarray) -> np.ndarray:

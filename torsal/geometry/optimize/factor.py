@@ -129,6 +129,12 @@ class SparseCholesky:
         :data:`PROVES_DEFINITE`."""
         return self.backend in PROVES_DEFINITE or self.backend == "mumps" and mumps.available()
 
+    @property
+    def route(self) -> str:
+        """The backend as a report names it: ``"mumps/casadi"`` where MUMPS is reached through
+        casadi's interface (no inertia, analysed at every call), else :attr:`backend`."""
+        return "mumps/casadi" if self.backend == "mumps" and not mumps.available() else self.backend
+
     # ------------------------------------------------------------------ MUMPS
     def _factor_mumps(self, data):
         if not np.all(np.isfinite(data)):

@@ -115,7 +115,9 @@ class OptimizationResult:
         ``"outer_iterations"``, ``"factorizations"`` (all sparse Cholesky factorizations),
         ``"exact"`` (steps with the exact Hessian), ``"indefinite"`` (tries of it that were
         not positive definite), ``"shifted"`` (projected matrices refactored with a larger
-        shift), ``"trials"`` (line-search evaluations) and ``"backend"`` (the factorization).
+        shift), ``"trials"`` (line-search evaluations) and ``"backend"`` (the factorization:
+        ``"mumps"`` called directly, ``"mumps/casadi"`` through casadi's interface, see
+        :mod:`~torsal.geometry.optimize.factor`).
     time_limited : bool
         The safety net ``max_seconds`` cut the solve: the answer depends on the machine's
         load (the status says so too).
