@@ -30,11 +30,12 @@ Tables (``--tables``, default all but ``synthetic``):
 5. ``factor``: the sparse Cholesky backends (:mod:`torsal.geometry.optimize.factor`) on the
    augmented Lagrangian's Newton matrix of rows 7c, 9, 13 and 11 at their start: numeric
    factorization + solve per step (the symbolic analysis is reused where the backend can),
-   wall and processor milliseconds.
+   wall and processor milliseconds; MUMPS twice, called directly (:mod:`.mumps`, analysed
+   once) and through casadi's interface (``mumps/casadi``, analysed at every call).
 6. ``synthetic``: the 7a term set at 1k, 20k and 100k vertices (no constraint rows, IPOPT's
    projected-Newton passes): build, solve, re-solve; target 100k in < 60 s.
 
-Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family synthetic]
+Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto alm ipopt alm+ipopt lbfgs]
 
 Timings on a shared machine vary: the script prints the load average; compare methods by
