@@ -30,8 +30,9 @@ Tables (``--tables``, default all but ``synthetic``):
 5. ``factor``: the sparse Cholesky backends (:mod:`torsal.geometry.optimize.factor`) on the
    augmented Lagrangian's Newton matrix of rows 7c, 9, 13 and 11 at their start: numeric
    factorization + solve per step (the symbolic analysis is reused where the backend can),
-   wall and processor milliseconds; MUMPS twice, called directly (:mod:`.mumps`, analysed
-   once) and through casadi's interface (``mumps/casadi``, analysed at every call).
+   wall and processor milliseconds; MUMPS twice, called directly
+   (``torsal.geometry.optimize.mumps``, analysed once) and through casadi's interface
+   (``mumps/casadi``, analysed at every call).
 6. ``synthetic``: the 7a term set at 1k, 20k and 100k vertices (no constraint rows, IPOPT's
    projected-Newton passes): build, solve, re-solve; target 100k in < 60 s.
 
