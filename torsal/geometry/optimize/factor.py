@@ -38,10 +38,10 @@ from . import mumps
 #: the backends in order of preference (the first that imports is the default)
 BACKENDS = ("mumps", "qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 
-#: backends whose :meth:`SparseCholesky.factor` proves the matrix positive definite (their
-#: pivots are read); MUMPS does where it is called directly (:func:`.mumps.available`), not
-#: through casadi's interface, see :meth:`SparseCholesky.definite`
-PROVES_DEFINITE = ("qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
+#: routes (:attr:`SparseCholesky.route`) whose :meth:`SparseCholesky.factor` proves the matrix
+#: positive definite (their pivots are read): MUMPS called directly does, MUMPS through casadi's
+#: interface (``"mumps/casadi"``) does not, see :meth:`SparseCholesky.definite`
+PROVES_DEFINITE = ("mumps", "qdldl", "cholmod", "cholmod-minimal", "csparse", "splu")
 
 #: largest backward error ``|A x - b| / (|A| |x| + |b|)`` (infinity norms) of a MUMPS solve
 #: through casadi's interface that is accepted: it passes none of MUMPS's error codes on, a
@@ -82,6 +82,9 @@ class SparseCholesky:
         self.backend = backend or default_backend()
         if self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        #: the backend as a report names it: ``"mumps/casadi"`` where MUMPS is reached through
+        #: casadi's interface (no inertia, analysed at every call), else :attr:`backend`
+        self.route = "mumps/casadi" if self.backend == "mumps" and not mumps.available() else self.backend
         self.factorizations = 0
         self.analyses = 0
         self._impl = None
@@ -127,34 +130,29 @@ class SparseCholesky:
         directly) factors an indefinite matrix without saying so: a caller that needs the
         proof (a Newton step from an exact Hessian) then uses another backend, see
         :data:`PROVES_DEFINITE`."""
-        return self.backend in PROVES_DEFINITE or self.backend == "mumps" and mumps.available()
-
-    @property
-    def route(self) -> str:
-        """The backend as a report names it: ``"mumps/casadi"`` where MUMPS is reached through
-        casadi's interface (no inertia, analysed at every call), else :attr:`backend`."""
-        return "mumps/casadi" if self.backend == "mumps" and not mumps.available() else self.backend
+        return self.route in PROVES_DEFINITE
 
     # ------------------------------------------------------------------ MUMPS
     def _factor_mumps(self, data):
         if not np.all(np.isfinite(data)):
             raise NotPositiveDefinite("the matrix has entries that are not finite")
+        direct = self.route == "mumps"
         if self._impl is None:
-            direct = mumps.available()
             self._impl = (mumps.Mumps(self.indptr, self.indices) if direct
                           else _mumps_solve(self.n, self.indptr, self.indices))
             self.analyses += 1
-        if isinstance(self._impl, mumps.Mumps):
-            try:
-                negative = self._impl.factor(data)
-            except mumps.MumpsError as exc:
-                raise NotPositiveDefinite(str(exc)) from None
-            if negative:
-                raise NotPositiveDefinite(f"{negative} pivots of MUMPS's LDL^T are negative")
-        self._data = data
+        if not direct:
+            self._data = data        # casadi's interface factors inside the solve
+            return
+        try:
+            negative = self._impl.factor(data)
+        except mumps.MumpsError as exc:
+            raise NotPositiveDefinite(str(exc)) from None
+        if negative:
+            raise NotPositiveDefinite(f"{negative} pivots of MUMPS's LDL^T are negative")
 
     def _solve_mumps(self, rhs):
-        if isinstance(self._impl, mumps.Mumps):
+        if self.route == "mumps":
             return self._impl.solve(rhs)
         # casadi's interface analyses and factors inside the solve: one call per Newton step
         x = self._impl(self._data, rhs)[0]

@@ -242,9 +242,7 @@ class Mumps:
         if getattr(self, "_open", False):
             self._open = False
             try:
-                self._s.job = -2
-                with _lock:
-                    self._lib.dmumps_c(C.addressof(self._s))
+                self._call(-2, "termination")
             except Exception:       # interpreter shutdown
                 pass
 
