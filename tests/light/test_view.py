@@ -35,18 +35,24 @@ def test_the_eye_points_are_the_documented_grid():
     v, f = flat_facade()                           # 12 m wide, 6 m high, outside -y
     eyes = eye_points(v, f, ViewField())
     # 12 columns half a metre in from the ends, storeys at 1.2 and 4.2 m, 1, 2, 3 m inside
-    x, y, z = eyes.points.T
-    assert len(eyes.points) == 12 * 2 * 3
-    np.testing.assert_allclose(np.unique(np.round(x, 9)), np.arange(-5.5, 6.0, 1.0))
-    np.testing.assert_allclose(np.unique(np.round(z, 9)), [1.2, 4.2])
-    np.testing.assert_allclose(np.unique(np.round(y, 9)), [1.0, 2.0, 3.0])
-    np.testing.assert_allclose(eyes.distance, y)
-    # a canopy: the grid is under it, along its mean normal (up)
+    # every point on the grid to 1e-9 m: placed in double precision (the hit face's plane
+    # intersected again), not from Embree's single-precision distance (~28 m x 6e-8 off)
+    grid = np.array(np.meshgrid(np.arange(-5.5, 6.0, 1.0), [1.0, 2.0, 3.0], [1.2, 4.2],
+                                indexing="ij")).reshape(3, -1).T
+    assert len(eyes.points) == len(grid) == 12 * 2 * 3
+    gap = np.linalg.norm(eyes.points[:, None, :] - grid[None], axis=2)
+    assert gap.min(axis=1).max() <= 1e-9                      # each point on a grid node
+    assert sorted(gap.argmin(axis=1)) == list(range(len(grid)))  # and every node taken once
+    np.testing.assert_allclose(eyes.distance, eyes.points[:, 1], rtol=0, atol=1e-9)
+    # a canopy: the grid is under it, along its mean normal (up); trimesh's own ray test is
+    # float64 throughout, so the two agree to rounding
     cv, cf = canopy(nu=9, nv=9)
     ce = eye_points(cv, cf, ViewField(distances=(2.0,), grid=2.5))
     assert ce.frame.kind == "canopy" and len(ce.points) == 4 * 4
-    top = trimesh.Trimesh(cv, cf).ray.intersects_location(ce.points, np.tile([0, 0, 1.0], (16, 1)))[0]
-    np.testing.assert_allclose(np.sort(top[:, 2] - 2.0), np.sort(ce.points[:, 2]), atol=1e-5)
+    up = np.tile(ce.frame.axis, (16, 1))
+    top, ray, _ = trimesh.Trimesh(cv, cf).ray.intersects_location(ce.points, up)
+    assert sorted(ray) == list(range(16))
+    np.testing.assert_allclose(top[np.argsort(ray)] - 2.0 * up, ce.points, rtol=0, atol=1e-9)
 
 
 def test_no_fins_every_sight_line_is_clear():

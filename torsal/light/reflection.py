@@ -297,8 +297,6 @@ def _jittered_grid(res: int, rng) -> tuple[np.ndarray, np.ndarray]:
 class _Scene(NamedTuple):
     fins: object          # _RayScene of the fins
     target: object        # _RayScene of the target
-    verts: np.ndarray     # (V, 3) fin vertices
-    faces: np.ndarray     # (F, 3)
     normals: np.ndarray   # (F, 3) fin face normals
     groups: np.ndarray    # (F,) group of each fin face
     n_groups: int
@@ -308,15 +306,11 @@ class _Scene(NamedTuple):
     ceiling: float | None
 
 
-def _hit_points(sc: _Scene, o, d, prim, t_embree):
-    """Exact (float64) hit points on the triangles' planes; Embree's distance where the ray
-    grazes the plane."""
+def _hit_points(sc: _Scene, o, d, prim, t):
+    """Hit points (``t`` from ``first_hit`` is already the float64 distance to the hit
+    triangle's plane), the triangles' unit normals and ``d . n``."""
     n = sc.normals[prim]
-    p0 = sc.verts[sc.faces[prim, 0]]
-    dn = np.einsum("ij,ij->i", d, n)
-    ok = np.abs(dn) > 1e-9
-    t = np.where(ok, np.einsum("ij,ij->i", p0 - o, n) / np.where(ok, dn, 1.0), t_embree)
-    return o + t[:, None] * d, n, dn
+    return o + t[:, None] * d, n, np.einsum("ij,ij->i", d, n)
 
 
 def _trace_direction(sc: _Scene, s: np.ndarray, origins: np.ndarray, area: float,
@@ -448,7 +442,7 @@ def reflected_hits(fins: trimesh.Trimesh, sun, target_region: trimesh.Trimesh, *
     center = fv.mean(axis=0)
     allv = np.concatenate([fv, np.asarray(target_region.vertices, float)])
     reach = 2.0 * np.linalg.norm(allv - center, axis=1).max() + 1.0
-    sc = _Scene(fs, ts, verts, faces, np.asarray(fins.face_normals, float), groups, n_groups,
+    sc = _Scene(fs, ts, np.asarray(fins.face_normals, float), groups, n_groups,
                 np.asarray(target_region.face_normals, float), lit_side is TargetSide.FRONT,
                 1e-6 * reach, None if ceiling is None else float(ceiling))
     rng = np.random.default_rng(seed)
