@@ -137,21 +137,27 @@ def test_bill_of_materials(fs, tmp_path):
         rows = list(csv.DictReader(f))
     assert list(rows[0]) == ["part_id", "family", "strip", "panels", "area_m2", "perimeter_m",
                              "cut_length_m", "fold_count", "mass_kg", "sheet", "kind", "holes",
-                             "hole_diameter_mm", "fasteners", "fastener"]
+                             "hole_diameter_mm", "fasteners", "fastener", "gross_kg", "pierces",
+                             "holes_drilled", "bend_length_m"]
     assert [r["part_id"] for r in rows] == [p.name for p in fs.parts]
     sheets = lay.sheet_of
     for r in rows:
         p = fs.part(r["part_id"])
         u = fs.unrolled()[p.name]
+        # the holes (no layout process: every hole is cut, as the DXF draws them)
+        holes_area = sum(np.pi * h.diameter ** 2 / 4 for h in p.holes)
+        holes_cut = sum(np.pi * h.diameter for h in p.holes) * 1e-3
         assert int(r["panels"]) == len(p.panels) and int(r["family"]) == p.family
-        assert float(r["area_m2"]) == pytest.approx(u.outline.area * 1e-6, rel=1e-6)
-        assert float(r["mass_kg"]) == pytest.approx(u.outline.area * 1e-6 * 3e-3 * 7850, rel=1e-5)
-        assert float(r["cut_length_m"]) >= float(r["perimeter_m"])
+        assert float(r["area_m2"]) == pytest.approx((u.outline.area - holes_area) * 1e-6, rel=1e-6)
+        assert float(r["mass_kg"]) == pytest.approx((u.outline.area - holes_area) * 1e-6 * 3e-3 * 7850,
+                                                    rel=1e-5)
+        assert float(r["cut_length_m"]) - holes_cut >= float(r["perimeter_m"]) - 2e-6   # rounded
         if p.slots:
             # a slot inside the part adds two flanks to the cut, a half slot at a part end
             # replaces a piece of the end edge by one flank
             extra = sum(2 * s.depth for s in p.slots if 0 < s.position < len(p.panels)) * 1e-3
-            assert float(r["cut_length_m"]) - float(r["perimeter_m"]) == pytest.approx(extra, rel=0.05)
+            assert float(r["cut_length_m"]) - holes_cut - float(r["perimeter_m"]) == \
+                pytest.approx(extra, rel=0.05)
         assert int(r["sheet"]) == sheets[p.name]
         assert int(r["fold_count"]) == u.fold_count
     with pytest.raises(ValueError, match="density"):

@@ -47,6 +47,8 @@ from torsal.core.errors import TorsalError
 
 from .builder.fasteners import part_fastening
 from .cutting import Cutting, relief_centres
+from .quantities import bill_of_quantities
+from .unroll import FLAT_FOLD
 
 __all__ = ["Placement", "Layout", "PartTooLargeError", "nest", "shelf_pack", "merge_layouts", "sheet_svg",
            "bill_of_materials", "read_dxf_parts", "spacing", "placement_of", "check_fits"]
@@ -293,7 +295,7 @@ def _as_items(outlines, cutting: Cutting | None = None) -> list[_Item]:
         poly = o.outline
         folds = []
         for line, ang in zip(o.fold_lines, o.fold_angles):
-            if abs(ang) <= 1e-9:
+            if abs(ang) <= FLAT_FOLD:
                 continue
             seg = LineString(line).intersection(poly)
             folds.append((seg, float(ang)))
@@ -638,40 +640,46 @@ def read_dxf_parts(path, *, layer: str | None = None) -> tuple[list[Polygon], li
 # ---------------------------------------------------------------------------- BOM
 BOM_COLUMNS = ["part_id", "family", "strip", "panels", "area_m2", "perimeter_m", "cut_length_m",
                "fold_count", "mass_kg", "sheet", "kind", "holes", "hole_diameter_mm", "fasteners",
-               "fastener"]
+               "fastener", "gross_kg", "pierces", "holes_drilled", "bend_length_m"]
 
 
 def bill_of_materials(fin_system, path=None, *, density: float = 2700.0, layout: Layout | None = None) -> list[dict]:
     """Parts list as CSV (columns :data:`BOM_COLUMNS`), one row per part.
 
-    ``area_m2`` is the net flat area (slots removed), ``perimeter_m`` the outer boundary of the
-    flat part without its slots, ``cut_length_m`` the full cutting path (outline with slots and
-    holes), ``mass_kg = area * thickness * density`` with ``density`` in kg/m^3 (default
-    aluminium, 2700), ``sheet`` the 1-based sheet number from ``layout`` (empty if none),
-    ``kind`` ``plate`` for a fin plate, else the joint kind of a connector (``butt-bracket``,
-    ``mitre-splice``) or ``fixing``; a connector's ``family`` is -2 and its ``strip`` the node
-    it sits at, a fixing's -3 and the structure edge it fixes. ``holes``, ``hole_diameter_mm``,
-    ``fasteners`` and ``fastener`` count the holes and the bolts and anchors through a
-    connector's or fixing's own holes (:func:`~torsal.fabrication.builder.fasteners.part_fastening`).
+    The quantities are the part's line of the bill of quantities
+    (:func:`~torsal.fabrication.quantities.bill_of_quantities`; the columns of all parts add
+    up to its totals): ``area_m2`` is the net flat area (slots and holes removed),
+    ``mass_kg = area * thickness * density`` (net kg) with ``density`` in kg/m^3 (default
+    aluminium, 2700), ``gross_kg`` the part's share of the sheets of ``layout`` (empty
+    without one), ``cut_length_m`` the contours cut (outline with slots, inner cut-outs and
+    the holes ``layout``'s cutting process cuts; all holes without a layout), ``pierces``
+    the closed contours cut, ``holes_drilled`` the holes no wider than the tool,
+    ``fold_count`` the bends and ``bend_length_m`` their length. ``perimeter_m`` is the outer
+    boundary of the flat part without its slots, ``sheet`` the 1-based sheet number from
+    ``layout`` (empty if none), ``kind`` ``plate`` for a fin plate, else the joint kind of a
+    connector (``butt-bracket``, ``mitre-splice``) or ``fixing``; a connector's ``family`` is
+    -2 and its ``strip`` the node it sits at, a fixing's -3 and the structure edge it fixes.
+    ``holes``, ``hole_diameter_mm``, ``fasteners`` and ``fastener`` count the holes and the
+    bolts and anchors through a connector's or fixing's own holes
+    (:func:`~torsal.fabrication.builder.fasteners.part_fastening`).
     Returns the rows; writes ``path`` (atomically) if given.
     """
-    if density <= 0:
-        raise ValueError(f"density must be > 0 kg/m^3, got {density}")
+    quantities = bill_of_quantities(fin_system, density=density, layout=layout)
     to_m = UNIT_TO_MM[fin_system.unit] / 1000.0
     sheets = layout.sheet_of if layout is not None else {}
     fastening = part_fastening(fin_system)
     rows = []
-    for p in fin_system.parts:
+    for p, q in zip(fin_system.parts, quantities.parts):
         u = fin_system.unrolled()[p.name]
-        gross = shapely.union_all([Polygon(q) for q in u.panels])
-        area = u.outline.area * to_m ** 2
-        cut = u.outline.exterior.length + sum(r.length for r in u.outline.interiors)
+        body = shapely.union_all([Polygon(panel) for panel in u.panels])
         rows.append({
             "part_id": p.name, "family": p.family, "strip": p.id.strip, "panels": len(p.panels),
-            "area_m2": round(area, 8), "perimeter_m": round(gross.exterior.length * to_m, 6),
-            "cut_length_m": round(cut * to_m, 6), "fold_count": u.fold_count,
-            "mass_kg": round(area * fin_system.thickness * to_m * density, 6),
-            "sheet": sheets.get(p.name, ""), **fastening[p.name],
+            "area_m2": round(q.net_m2, 8), "perimeter_m": round(body.exterior.length * to_m, 6),
+            "cut_length_m": round(q.cut_m, 6), "fold_count": q.bends,
+            "mass_kg": round(q.net_kg, 6), "sheet": sheets.get(p.name, ""), **fastening[p.name],
+            "gross_kg": "" if q.gross_kg is None else round(q.gross_kg, 6),
+            "pierces": q.pierces, "holes_drilled": q.holes_drilled,
+            "bend_length_m": round(q.bend_m, 6),
         })
     if path is not None:
         buf = io.StringIO()

@@ -29,7 +29,10 @@ from shapely.ops import polylabel, unary_union
 
 from .model import Slot, SlotSide, _cross, fold_angles, quad_normals
 
-__all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle", "flat_point"]
+__all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle", "flat_point", "FLAT_FOLD"]
+
+#: radians: a fold line whose fold angle is at most this (in absolute value) is flat, not a bend
+FLAT_FOLD = 1e-9
 
 _PAIRS = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 2], [1, 3]])
 _EDGES = _PAIRS[:4]
@@ -93,7 +96,8 @@ class Unrolled:
 
     @property
     def fold_count(self) -> int:
-        return int(np.count_nonzero(np.abs(self.fold_angles) > 1e-9))
+        """Bends of the part: folds sharper than :data:`FLAT_FOLD`."""
+        return int(np.count_nonzero(np.abs(self.fold_angles) > FLAT_FOLD))
 
 
 def _plane_frame(quad: np.ndarray) -> np.ndarray:

@@ -1,0 +1,14 @@
+"""Bill of quantities and price of a fin system (issue 42).
+
+* :mod:`.bill`: per part and per design, net and gross material, cut length and pierces
+  (holes cut or drilled by the process), bends, fasteners by kind and size, assembly steps;
+* :mod:`.price`: the user's :class:`~.price.Rates` and the :class:`~.price.Price` they give
+  (no rates, no price).
+"""
+from .bill import (AssemblySteps, FastenerKind, PartQuantities, Quantities, bill_of_quantities,
+                   part_quantities, sheet_shares, split_fastener)
+from .price import CostLine, Price, PriceLine, Rates, check_fastener_rates, price
+
+__all__ = ["AssemblySteps", "FastenerKind", "PartQuantities", "Quantities", "bill_of_quantities",
+           "part_quantities", "sheet_shares", "split_fastener", "CostLine", "Price", "PriceLine",
+           "Rates", "check_fastener_rates", "price"]
