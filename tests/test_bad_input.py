@@ -590,11 +590,16 @@ directions_case("positions-a-vertex-missing", PLAIN_OBJ, _txt("d.txt", P20[1:]),
 _two = np.vstack([P20, P20[:1] * [1, 1, 1, 1, 1, -1]])
 directions_case("positions-disagree", PLAIN_OBJ, _txt("d.txt", _two), 2,
                 rf"rows 0 and 20 belong to one vertex \(mesh vertex {_perm[0]}\) but differ")
-# 20 plain rows for an STL: taken per merged vertex, in order of first appearance, and said so
-directions_case("stl-rows-per-merged-vertex-say-their-order", SPLIT_STL, _txt("d.txt", D20), 0,
-                check=_analysis_check(20, 24, _dir_hyp(_split_mv, SPLIT_MF, D20), rows="one per merged vertex",
-                                      order=r"row i is mesh vertex i: .*first appears in the file \(facet "
-                                            r"by facet, corner by corner\); an STL file has no vertex order"))
+# 20 plain rows for an STL: the merged order is torsal's, not the file's (STL has none), so
+# they are refused, pointing to the rows with positions (P20 above: the same 20 directions in
+# any order, read with the STL as with the OBJ) and to one row per facet corner
+directions_case("stl-rows-per-merged-vertex-refused", SPLIT_STL, _txt("d.txt", D20), 2,
+                r"d.txt: 20 rows 'dx dy dz', one per vertex, for an STL mesh: an STL file has no "
+                r"vertex order of its own .*Give rows 'x y z dx dy dz' .*one 'dx dy dz' row per "
+                r"facet corner \(72 rows")
+directions_case("stl-binary-rows-per-merged-vertex-refused",
+                _write("split-b.stl", mc.stl_binary(GRID_V, GRID_F)), _txt("d.txt", D20), 2,
+                r"for an STL mesh: an STL file has no vertex order.*'x y z dx dy dz'")
 case("directions-folder", lambda tmp: (tmp / "d").mkdir() or
      ["analyze", str(PLAIN_OBJ(tmp)), "--directions", str(tmp / "d")], 2, r"directions file .*d is a folder")
 case("directions-missing", lambda tmp: ["analyze", str(PLAIN_OBJ(tmp)), "--directions", str(tmp / "no.txt")], 2,
@@ -1121,7 +1126,8 @@ def test_an_earlier_good_result_survives_every_failing_rerun(tmp_path, capsys, e
 
 SUBPROCESS = ["mesh-truncated-obj-line25", "mesh-ply-header-face-100000000", "design-sun-vectors-zero",
               "design-epw-garbage", "directions-nan", "design-size-spacing-in-metres-as-mm",
-              "cli-design-out-is-file", "design-mesh-one-triangle"]
+              "cli-design-out-is-file", "design-mesh-one-triangle",
+              "directions-stl-rows-per-merged-vertex-refused"]
 
 
 @pytest.mark.parametrize("id", SUBPROCESS)

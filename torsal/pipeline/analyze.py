@@ -173,7 +173,9 @@ def directions_for_mesh(rows: DirectionRows, mesh, *, what: str = "directions") 
     needs a row, rows of one vertex must agree): the answer does not depend on the order of
     the file's vertices, so an STL file and an OBJ of the same surface give the same result.
     Rows without are read per vertex of the file or per merged vertex
-    (:meth:`~torsal.geometry.mesh.MeshMerge.to_merged`).
+    (:meth:`~torsal.geometry.mesh.MeshMerge.to_merged`), except one row per merged vertex of
+    an STL file: STL has no vertex order, so that raises :class:`DirectionsError` pointing to
+    the ``x y z dx dy dz`` rows (one row per facet corner is the file's own order and is read).
 
     Parameters
     ----------
@@ -190,6 +192,7 @@ def directions_for_mesh(rows: DirectionRows, mesh, *, what: str = "directions") 
     """
     merge = mesh.metadata["merge"]
     if rows.points is None:
+        _refuse_unordered(rows, merge, what)
         return merge.to_merged(rows.directions, what=what)
     from scipy.spatial import cKDTree
 
@@ -210,6 +213,23 @@ def directions_for_mesh(rows: DirectionRows, mesh, *, what: str = "directions") 
     except MeshError as exc:
         raise DirectionsError(str(exc)) from None
     return d, "position"
+
+
+def _refuse_unordered(rows: DirectionRows, merge, what: str) -> None:
+    """Rows ``dx dy dz``, one per merged vertex, for a file with no vertex order (STL): the
+    merged order is torsal's, not the user's, so such rows would land on vertices silently
+    chosen. One row per facet corner (the file's own order) or rows with positions are
+    matched; this refuses the rest."""
+    k = len(rows.directions)
+    if not (merge.format.startswith("stl") and not merge.identity and k == merge.vertices):
+        return
+    raise DirectionsError(
+        f"{what}: {k} rows 'dx dy dz', one per vertex, for an STL mesh: an STL file has no "
+        f"vertex order of its own (its {merge.vertices} vertices are {merge.file_vertices} facet "
+        "corners merged by position), so the rows cannot be matched to vertices by their order. "
+        "Give rows 'x y z dx dy dz' (each vertex's position and its direction, in any order), or "
+        f"one 'dx dy dz' row per facet corner ({merge.file_vertices} rows: corner i % 3 of "
+        "facet i // 3)")
 
 
 def load_directions(path: str | Path, n_vertices: int) -> np.ndarray:

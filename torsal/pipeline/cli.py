@@ -95,8 +95,9 @@ def _add_analyze(sub, common) -> None:
                    help="use the normal congruence of A (the default)")
     g.add_argument("--directions", metavar="FILE",
                    help="per-vertex line directions: .npy or text with one 'dx dy dz' row per "
-                        "vertex of the file or per vertex after merging, or 'x y z dx dy dz' "
-                        "rows matched to vertices by position (the output says which)")
+                        "vertex of the file or per vertex after merging (not for STL, which has no "
+                        "vertex order), or 'x y z dx dy dz' rows matched to vertices by "
+                        "position (the output says which)")
     a.add_argument("--out", metavar="DIR", default=None,
                    help="write analysis.json and torsal_field.png here")
     a.add_argument("--no-plot", action="store_true", help="skip the PNG")
