@@ -50,11 +50,13 @@ from ..geometry.mesh import MAX_COORDINATE
 from ..geometry.optimize import Solver, TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
+from ..fabrication.quantities import Rates, check_fastener_rates
 from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
 from ..light.view import ViewField
 
 __all__ = [
     "DesignFileError",
+    "CostsSpec",
     "DesignSpec",
     "Region",
     "load_design_file",
@@ -481,6 +483,49 @@ class SubstructureSpec(_Spec):
     depth: float = Field(0.15, gt=0, description="beam depth along its lines, model units")
 
 
+class CostsSpec(_Spec):
+    """The user's rates (issue 42): with them report.json prices the design's bill of
+    quantities (``fabrication.costs``); without this table there is no price. Every rate is
+    in ``currency`` per unit of its quantity (see :mod:`torsal.fabrication.quantities.price`)."""
+
+    currency: str = Field("", description="label of the rates' currency in the report, e.g. EUR")
+    material_per_kg: float | None = Field(None, ge=0, description="per kg of the sheets used "
+                                          "(gross); give this or material_per_sheet")
+    material_per_sheet: float | None = Field(None, ge=0, description="per sheet used; give "
+                                             "this or material_per_kg")
+    cut_per_m: dict[CuttingProcess, float] = Field(
+        min_length=1, description="per metre of contour cut, by process, e.g. { laser = 1.5 }; "
+        "the design's cutting.process needs a rate")
+    per_pierce: float = Field(ge=0, description="per closed contour cut (outline, inner "
+                              "cut-out, hole cut)")
+    per_bend: float = Field(ge=0, description="per bend (fold of a part)")
+    fasteners: dict[str, float] = Field(description="per fastener, by kind (bolt and anchor "
+                                        "both needed) and by size and kind where a size costs "
+                                        "otherwise, e.g. { bolt = 0.3, anchor = 2.5, "
+                                        "\"M8 anchor\" = 2.8 }")
+    per_minute: float = Field(ge=0, description="per minute of assembly (placing, fastening, "
+                              "drilling)")
+    minutes_per_part: float = Field(ge=0, description="minutes to place a part")
+    minutes_per_fastener: float = Field(ge=0, description="minutes to set a bolt or anchor")
+    minutes_per_hole_drilled: float = Field(ge=0, description="minutes to drill a hole the "
+                                            "cutting process does not cut (no wider than the tool)")
+
+    @field_validator("fasteners")
+    @classmethod
+    def _fasteners(cls, v):
+        check_fastener_rates(v)
+        return v
+
+    @model_validator(mode="after")
+    def _rates_hold(self):
+        self.rates()      # its rules: one material rate, every rate a number >= 0
+        return self
+
+    def rates(self) -> Rates:
+        """The :class:`~torsal.fabrication.quantities.Rates` of this table."""
+        return Rates(**self.model_dump(exclude_none=True))
+
+
 class DesignSpec(_Spec):
     """A whole design file."""
 
@@ -500,12 +545,22 @@ class DesignSpec(_Spec):
     view: ViewSpec = Field(default_factory=ViewSpec, description="how the view out is measured "
                            "(report light.view_clear, a study's x axis)")
     substructure: SubstructureSpec | None = None
+    costs: CostsSpec | None = Field(None, description="the user's rates: a price of the design "
+                                    "from its bill of quantities; unset: no price")
 
     @model_validator(mode="after")
     def _site_for_dates(self):
         if self.sun.start is not None and self.site is None:
             raise ValueError("a [site] (latitude, longitude, timezone) is needed to place the sun "
                              "for sun.start/sun.end")
+        return self
+
+    @model_validator(mode="after")
+    def _cut_rate_for_the_process(self):
+        if self.costs is not None and self.cutting.process not in self.costs.cut_per_m:
+            raise ValueError(f"costs.cut_per_m has no rate for the design's cutting.process "
+                             f"{self.cutting.process.value!r}; give e.g. "
+                             f"cut_per_m = {{ {self.cutting.process.value} = 1.5 }}")
         return self
 
     @property

@@ -514,6 +514,39 @@ def _fastener_rows(fa: dict) -> list:
     return rows
 
 
+def _quantities_html(q: dict | None, costs: dict | None) -> str:
+    """The bill of quantities (:mod:`torsal.fabrication.quantities`) and, with the design
+    file's ``[costs]`` rates, the price line by line; without rates it says there is none."""
+    if not q:
+        return ""
+    gross = "-" if q["gross_kg"] is None else (
+        f"{q['gross_kg']:.1f} kg ({q['sheets']} sheets, {q['gross_m2']:.2f} m&sup2;)")
+    fasteners = ", ".join(f"{n} {html.escape(size)} {html.escape(kind)}"
+                          for kind, sizes in q["fasteners"].items() for size, n in sizes.items())
+    a = q["assembly"]
+    rows = [("net material", f"{q['net_kg']:.1f} kg ({q['net_m2']:.2f} m&sup2; of parts)"),
+            ("gross material (the sheets used)", gross),
+            (f"cut length ({html.escape(str(q['process']))})", f"{q['cut_m']:.1f} m"),
+            ("pierces (closed contours cut)", f"{q['pierces']} ({q['holes_cut']} of them holes)"),
+            ("holes drilled", q["holes_drilled"]),
+            ("bends", f"{q['bends']} ({q['bend_m']:.1f} m)"),
+            ("fasteners", fasteners or "none"),
+            ("assembly steps", f"{a['parts_placed']} parts placed, {a['fasteners_set']} fasteners "
+                               f"set, {a['holes_drilled']} holes drilled")]
+    out = "<h3>Bill of quantities</h3>" + _table(rows)
+    if costs is None:
+        return out + "<p>No price: the design file has no <code>[costs]</code> rates.</p>"
+    cur = html.escape(costs.get("currency") or "")
+    lines = [(html.escape(name), f"{ln['quantity']:.4g} {html.escape(ln['unit'])}",
+              f"{ln['rate']:.4g} {cur}/{html.escape(ln['unit'])}", f"{ln['amount']:.2f}")
+             for name, ln in costs["lines"].items()]
+    per_m2 = "" if costs["per_m2"] is None else (
+        f" ({costs['per_m2']:.2f} {cur}/m&sup2; of {costs['surface_m2']:.1f} m&sup2; of surface)")
+    lines.append(("<b>total</b>", "", "", f"<b>{costs['total']:.2f} {cur}</b>{per_m2}"))
+    return out + "<h3>Price at the design file's rates</h3>" + _table(
+        lines, header=("line", "quantity", "rate", "amount"))
+
+
 def _assembly_html(a: dict, max_steps: int = 300) -> str:
     """Section 5: the assembly check (verdict, numbers, picture) and the assembly sequence."""
     verdict = ('<span class="ok">buildable</span>' if a["buildable"] else
@@ -692,6 +725,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                 ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
                 ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
         secs.append("<h2>4. Fabrication</h2>" + _table(rows))
+        secs.append(_quantities_html(fa.get("quantities"), fa.get("costs")))
         if "sheets" in images:
             secs.append(f'<img src="{images["sheets"]}" alt="nested cutting sheets">')
         if fa.get("assembly"):

@@ -19,6 +19,7 @@ from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solid
 from .fins import fabrication_summary, fin_system
 from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
+from .quantities import quantities_report
 from .errors import DesignError
 from .stage import Pipeline, Stage, StageInputs
 
@@ -425,6 +426,7 @@ def run_fabrication(inp: StageInputs) -> dict:
         "utilization": float(layout.utilization),
         "nesting": _nesting_report(layout, nesting.sheets),
         "cutting": _cutting_report(layout),
+        **quantities_report(spec, fs, layout, structure),   # the bill of quantities, the price
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
         "step": written.get("step"), "dxf": written.get("dxf")},
         "files": written, "layout": layout,
@@ -572,7 +574,9 @@ def _has_substructure(spec):
 
 def _fabrication_key(spec):
     return (spec.material.model_dump(mode="json"), spec.outputs.model_dump(), spec.units,
-            spec.cutting.model_dump(mode="json"), spec.nesting.model_dump(mode="json"))
+            spec.cutting.model_dump(mode="json"), spec.nesting.model_dump(mode="json"),
+            # the price of the bill of quantities is in the stage's report section
+            None if spec.costs is None else spec.costs.model_dump(mode="json"))
 
 
 def _assembly_key(spec):

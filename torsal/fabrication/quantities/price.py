@@ -74,10 +74,10 @@ def check_fastener_rates(rates: Mapping[str, float]) -> None:
             size, _ = split_fastener(key)          # names the key if it is not '<size> <kind>'
             if not size:
                 raise ValueError(f"fastener {key!r} has no size; write e.g. 'M6 bolt'")
-        _check_rate(f"fasteners.{key!r}", value)
+        _check_rate(f"the rate of fastener {key!r}", value)
     missing = sorted(kinds - set(rates))
     if missing:
-        raise ValueError(f"fasteners: no rate for {missing}; give one per kind "
+        raise ValueError(f"no fastener rate for the kinds {missing}; give one per kind "
                          f"({', '.join(sorted(kinds))}), and per size where it differs "
                          "(e.g. 'M8 anchor')")
 
