@@ -112,6 +112,16 @@ KEY_NOTES: dict[str, tuple[str, str]] = {
     "outputs.bom": ("", "parts.csv"),
     "outputs.renders": ("", "PNG figures and report.html"),
     "substructure": ("", "a second, aligned congruence behind A (Fig. 11)"),
+    "costs.material_per_kg": ("currency/kg", ""),
+    "costs.material_per_sheet": ("currency/sheet", ""),
+    "costs.cut_per_m": ("currency/m", ""),
+    "costs.per_pierce": ("currency", ""),
+    "costs.per_bend": ("currency", ""),
+    "costs.fasteners": ("currency", ""),
+    "costs.per_minute": ("currency/min", ""),
+    "costs.minutes_per_part": ("min", ""),
+    "costs.minutes_per_fastener": ("min", ""),
+    "costs.minutes_per_hole_drilled": ("min", ""),
 }
 _REGION_NOTES = {
     "x": (_MODEL, "range [min, max]"), "y": (_MODEL, "range [min, max]"),
