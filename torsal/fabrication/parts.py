@@ -84,6 +84,7 @@ import numpy as np
 
 from torsal.core.units import INSUNITS, UNIT_TO_MM
 
+from . import ifc as _ifc
 from . import layout as _layout
 from . import solids as _solids
 from .nesting import nest_parts
@@ -643,6 +644,17 @@ class FinSystem:
     def export_3dm(self, path, *, tolerance: float | None = None):
         """Rhino ``.3dm`` with one named mesh object per part on a layer per family."""
         return _solids.export_3dm(self, path, tolerance=tolerance)
+
+    def export_ifc(self, path, **options):
+        """IFC4 for BIM tools: an ``IfcPlate`` per part named as in parts.csv, strips as
+        ``IfcElementAssembly``, bolts and anchors as ``IfcMechanicalFastener``, material
+        layer sets and torsal's property sets (``unit`` is the project's length unit); see
+        :func:`torsal.fabrication.ifc.export_ifc` for the keyword-only ``options`` (site,
+        material, ...).
+
+        >>> fs.export_ifc("fins.ifc", latitude=48.21, longitude=16.37)   # doctest: +SKIP
+        """
+        return _ifc.export_ifc(self, path, **options)
 
     # ------------------------------------------------------------------ unrolling, layout
     def unrolled(self) -> dict:

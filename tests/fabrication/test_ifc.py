@@ -1,0 +1,299 @@
+"""fins.ifc (issue 43): the fin system as IFC4 building elements, read back with ifcopenshell.
+
+Two small structures: a flat grid (every fin plate flat: extruded profiles with their bolt
+holes) and a sphere patch (folded strips and oblique ends: closed triangulated solids). Every
+check reads the written file; volumes are compared with the solids of fins.step read back.
+"""
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+from fab_structures import flat_structure, sphere_structure
+
+ifcopenshell = pytest.importorskip("ifcopenshell")
+import ifcopenshell.geom  # noqa: E402
+import ifcopenshell.util.element  # noqa: E402
+import ifcopenshell.util.shape  # noqa: E402
+import ifcopenshell.validate  # noqa: E402
+
+from torsal.core.units import UNIT_TO_M  # noqa: E402
+from torsal.fabrication import FinSystem, read_step  # noqa: E402
+from torsal.fabrication import ifc as I  # noqa: E402
+from torsal.fabrication.builder.fasteners import fastener_counts  # noqa: E402
+from torsal.fabrication.plates import _volume  # noqa: E402
+from torsal.fabrication.workers import solid_shapes  # noqa: E402
+
+STRUCTURES = {"flat": flat_structure, "sphere": lambda: sphere_structure(nu=4, nv=3, step=0.12)}
+PART_CLASSES = ("IfcPlate", "IfcMember")
+
+
+@pytest.fixture(scope="module", params=sorted(STRUCTURES))
+def exported(request, tmp_path_factory):
+    """(fin system, its fins.ifc opened, the folder with fins.ifc, fins.step, parts.csv)."""
+    fs = FinSystem(STRUCTURES[request.param](), thickness=3.0, clearance=0.5)
+    solid_shapes(fs, workers=1)                 # built once here, in this process
+    out = tmp_path_factory.mktemp(f"ifc_{request.param}")
+    fs.export_ifc(out / "fins.ifc", latitude=48.21, longitude=-16.37, elevation=170.0,
+                  north_angle=30.0, material="aluminium", density=2700.0)
+    fs.export_step(out / "fins.step")
+    fs.bill_of_materials(out / "parts.csv")
+    return fs, ifcopenshell.open(str(out / "fins.ifc")), out
+
+
+def _parts_csv(out) -> list[dict]:
+    with open(out / "parts.csv", newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _parts(f) -> list:
+    return [e for cls in PART_CLASSES for e in f.by_type(cls)]
+
+
+def _body(el):
+    (rep,) = el.Representation.Representations
+    (item,) = rep.Items
+    return rep, item
+
+
+def test_schema_validation_finds_nothing(exported):
+    fs, f, out = exported
+    assert f.schema == "IFC4"
+    log = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(f, log, express_rules=True)
+    assert log.statements == []
+    # the project's length unit is the fin system's millimetre
+    (length,) = [u for u in f.by_type("IfcProject")[0].UnitsInContext.Units
+                 if u.is_a("IfcNamedUnit") and u.UnitType == "LENGTHUNIT"]
+    assert (length.Prefix, length.Name) == ("MILLI", "METRE")
+    assert not list(out.glob("*.tmp*"))
+
+
+def test_one_element_per_parts_csv_row_with_its_name(exported):
+    fs, f, out = exported
+    rows = _parts_csv(out)
+    elements = _parts(f)
+    assert len(elements) == len(rows) == len(fs.parts)
+    assert sorted(e.Name for e in elements) == sorted(r["part_id"] for r in rows)
+    by_name = {r["part_id"]: r for r in rows}
+    for el in elements:
+        row = by_name[el.Name]
+        ps = ifcopenshell.util.element.get_psets(el)
+        tp = ps["Torsal_Part"]
+        assert el.Tag == tp["PartName"] == ps["Pset_PlateCommon"]["Reference"] == el.Name
+        assert (tp["Family"], tp["Strip"]) == (int(row["family"]), int(row["strip"]))
+        assert tp["Panel"] == fs.part(el.Name).id.index
+        assert tp["JointKind"] == row["kind"] and tp["Panels"] == int(row["panels"])
+        assert tp["Holes"] == int(row["holes"])
+        assert tp["Thickness"] == pytest.approx(fs.thickness)
+        if row["kind"] == "plate":
+            assert el.PredefinedType == "SHEET"
+        else:
+            assert (el.PredefinedType, el.ObjectType) == ("USERDEFINED", row["kind"])
+    # every joint of the fin system is named on its parts
+    some = next(j for j in fs.joints if j.connector)
+    for name in (*some.parts, some.connector):
+        el = next(e for e in elements if e.Name == name)
+        assert f"{some.kind.value} N{some.node:04d}" in ifcopenshell.util.element.get_psets(el)["Torsal_Part"]["Joints"]
+
+
+def test_volumes_are_those_of_the_step_solids(exported):
+    """ifcopenshell.geom's volume of every element against OpenCascade's of the same part
+    in fins.step: within 0.5 %, and that less the bolt holes drawn (flat plates)."""
+    fs, f, out = exported
+    step = {name: _volume(solid) for name, solid in read_step(out / "fins.step")}
+    assert sorted(step) == sorted(p.name for p in fs.parts)
+    settings = ifcopenshell.geom.settings()
+    to_unit = 1.0 / UNIT_TO_M[fs.unit] ** 3          # geom gives m^3
+    bodies = set()
+    for el in _parts(f):
+        shape = ifcopenshell.geom.create_shape(settings, el)
+        volume = ifcopenshell.util.shape.get_volume(shape.geometry) * to_unit
+        _, item = _body(el)
+        bodies.add(item.is_a())
+        holes = 0.0
+        if item.is_a("IfcExtrudedAreaSolid"):
+            holes = sum(math.pi * h.diameter ** 2 / 4 for h in fs.part(el.Name).holes) * fs.thickness
+        assert volume == pytest.approx(step[el.Name], rel=5e-3), el.Name
+        # less the holes, up to ifcopenshell's polygons for the circles (~1 % of a hole)
+        assert abs(volume - (step[el.Name] - holes)) <= 0.02 * holes + 1e-6 * step[el.Name], el.Name
+    assert "IfcTriangulatedFaceSet" in bodies
+
+
+def test_flat_plates_are_extruded_profiles_and_bent_parts_closed_triangles(exported):
+    fs, f, out = exported
+    for el in _parts(f):
+        part = fs.part(el.Name)
+        rep, item = _body(el)
+        flat = bool(np.allclose(part.fold_angles, 0.0, atol=1e-9))
+        body = ifcopenshell.util.element.get_psets(el)["Torsal_Part"]["Body"]
+        if item.is_a("IfcExtrudedAreaSolid"):
+            assert flat and body == I.PlateBody.EXTRUSION.value
+            assert rep.RepresentationType == "SweptSolid"
+            assert item.Depth == pytest.approx(fs.thickness)
+            area = item.SweptArea
+            inner = area.InnerCurves if area.is_a("IfcArbitraryProfileDefWithVoids") else ()
+            circles = [c for c in inner if c.is_a("IfcCircle")]
+            assert len(circles) == len(part.holes)
+            assert sorted(2 * c.Radius for c in circles) == pytest.approx(sorted(h.diameter for h in part.holes))
+        else:
+            assert item.is_a("IfcTriangulatedFaceSet") and item.Closed is True
+            assert rep.RepresentationType == "Tessellation" and body == I.PlateBody.TRIANGULATED.value
+    names = {e.Name: _body(e)[1].is_a() for e in _parts(f)}
+    # the folded connectors are never extruded; on the flat grid every fin plate is
+    assert all(v == "IfcTriangulatedFaceSet" for k, v in names.items() if k.startswith(("C-", "A-")))
+    if all(np.allclose(p.fold_angles, 0.0) for p in fs.plates) and not any(p.trimmed[0] or p.trimmed[1] for p in fs.plates):
+        assert all(names[p.name] == "IfcExtrudedAreaSolid" for p in fs.plates)
+    if fs.structure is not None and any(not np.allclose(p.fold_angles, 0.0) for p in fs.plates):
+        folded = [p.name for p in fs.plates if not np.allclose(p.fold_angles, 0.0)]
+        assert all(names[n] == "IfcTriangulatedFaceSet" for n in folded)
+
+
+def test_materials_with_thickness(exported):
+    fs, f, out = exported
+    for el in _parts(f):
+        mat = ifcopenshell.util.element.get_material(el, should_skip_usage=True)
+        assert mat.is_a("IfcMaterialLayerSet")
+        (layer,) = mat.MaterialLayers
+        assert layer.LayerThickness == pytest.approx(fs.thickness) and layer.Material.Name == "aluminium"
+        usage = ifcopenshell.util.element.get_material(el)
+        assert usage.is_a("IfcMaterialLayerSetUsage") == _body(el)[1].is_a("IfcExtrudedAreaSolid")
+    (alu,) = [m for m in f.by_type("IfcMaterial") if m.Name == "aluminium"]
+    (props,) = alu.HasProperties
+    assert props.Properties[0].NominalValue.wrappedValue == 2700.0
+    for el in f.by_type("IfcMechanicalFastener"):
+        assert ifcopenshell.util.element.get_material(el).Name == "stainless steel"
+
+
+def test_bolts_and_anchors_are_mechanical_fasteners_through_their_plies(exported):
+    fs, f, out = exported
+    rows = _parts_csv(out)
+    fasteners = f.by_type("IfcMechanicalFastener")
+    assert len(fasteners) == sum(int(r["fasteners"]) for r in rows) > 0
+    counts = fastener_counts(fs)
+    kinds = [e.PredefinedType for e in fasteners]
+    assert kinds.count("BOLT") == sum(c.bolts for c in counts.values())
+    assert kinds.count("ANCHORBOLT") == sum(c.anchors for c in counts.values()) > 0
+    plate_holes = {p.name: [h.center for h in p.holes] for p in fs.plates}
+    for el in fasteners:
+        ps = ifcopenshell.util.element.get_psets(el)["Torsal_Fastener"]
+        place = el.ObjectPlacement.RelativePlacement
+        start, axis = np.array(place.Location.Coordinates), np.array(place.Axis.DirectionRatios)
+        part = fs.part(ps["Part"])
+        hole = part.holes[ps["Hole"]]
+        # the shank passes the part's hole, and a bolt's the matching hole of its plate
+        along = (hole.center - start) @ axis
+        assert np.linalg.norm(hole.center - start - along * axis) < 1e-6
+        assert 0 < along < el.NominalLength
+        assert el.NominalDiameter == pytest.approx({"BOLT": 6.0, "ANCHORBOLT": 8.0}[el.PredefinedType])
+        if el.PredefinedType == "BOLT":
+            c = min(plate_holes[ps["Host"]], key=lambda c: np.linalg.norm(c - start - ((c - start) @ axis) * axis))
+            assert np.linalg.norm(c - start - ((c - start) @ axis) * axis) < 1e-6
+            assert 0 < (c - start) @ axis < el.NominalLength
+        else:
+            assert ps["Host"] == "building"
+
+
+def test_strips_are_assemblies_of_their_plates_in_the_storey(exported):
+    fs, f, out = exported
+    (storey,) = f.by_type("IfcBuildingStorey")
+    assert [e.is_a() for e in (ifcopenshell.util.element.get_aggregate(storey),
+                               ifcopenshell.util.element.get_aggregate(f.by_type("IfcBuilding")[0]))] \
+        == ["IfcBuilding", "IfcSite"]
+    assert ifcopenshell.util.element.get_aggregate(f.by_type("IfcSite")[0]).is_a("IfcProject")
+    assemblies = f.by_type("IfcElementAssembly")
+    assert sorted(a.Name for a in assemblies) == sorted({p.name[:-4] for p in fs.plates})
+    seen = []
+    for a in assemblies:
+        parts = ifcopenshell.util.element.get_decomposition(a)
+        assert parts and all(p.Name.startswith(a.Name + "-") for p in parts)
+        assert ifcopenshell.util.element.get_container(a) == storey
+        seen += [p.Name for p in parts]
+    assert sorted(seen) == sorted(p.name for p in fs.plates)
+    for el in [*f.by_type("IfcMechanicalFastener"), *(e for e in _parts(f) if e.Name[0] in "CA")]:
+        assert ifcopenshell.util.element.get_container(el) == storey
+
+
+def test_site_and_north(exported):
+    fs, f, out = exported
+    (site,) = f.by_type("IfcSite")
+    lat, lon = site.RefLatitude, site.RefLongitude
+    assert lat[0] + lat[1] / 60 + (lat[2] + lat[3] / 1e6) / 3600 == pytest.approx(48.21, abs=1e-9)
+    assert lon[0] + lon[1] / 60 + (lon[2] + lon[3] / 1e6) / 3600 == pytest.approx(-16.37, abs=1e-9)
+    assert all(v <= 0 for v in lon)
+    assert site.RefElevation == pytest.approx(170_000.0)          # mm
+    (model,) = [c for c in f.by_type("IfcGeometricRepresentationContext")
+                if not c.is_a("IfcGeometricRepresentationSubContext")]
+    north = np.array(model.TrueNorth.DirectionRatios)
+    # true north 30 degrees counter-clockwise from +y, as the light's sun vectors take it
+    assert north == pytest.approx([-0.5, math.sqrt(3) / 2])
+
+
+def test_global_ids_stay_with_the_project(exported, tmp_path):
+    fs, f, out = exported
+    again = ifcopenshell.open(str(fs.export_ifc(tmp_path / "again.ifc", latitude=48.21,
+                                                longitude=-16.37)))
+    ids = {e.Name: e.GlobalId for e in _parts(f)}
+    assert {e.Name: e.GlobalId for e in _parts(again)} == ids
+    other = ifcopenshell.open(str(I.export_ifc(fs, tmp_path / "other.ifc", project="another")))
+    assert not set(ids.values()) & {e.GlobalId for e in _parts(other)}
+    assert len({e.GlobalId for e in other.by_type("IfcRoot")}) == len(other.by_type("IfcRoot"))
+
+
+def test_a_failed_write_leaves_no_file(exported, tmp_path, monkeypatch):
+    fs, f, out = exported
+
+    def broken(self, path):
+        path.write_text("ISO-10303-21; half")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(I._Writer, "write", broken)
+    with pytest.raises(OSError, match="disk full"):
+        fs.export_ifc(tmp_path / "fins.ifc")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_other_units_and_bad_options(exported, tmp_path):
+    fs, f, out = exported
+    with pytest.raises(ValueError, match="latitude and longitude"):
+        I.export_ifc(fs, tmp_path / "x.ifc", latitude=48.0)
+    with pytest.raises(ValueError, match="density"):
+        I.export_ifc(fs, tmp_path / "x.ifc", density=0.0)
+    assert not (tmp_path / "x.ifc").exists()
+    inch = FinSystem.from_strips([fs.parts[0].panels / 25.4], thickness=0.125, unit="in",
+                                 model_unit="in")
+    g = ifcopenshell.open(str(inch.export_ifc(tmp_path / "inch.ifc", flat_profiles=False)))
+    (length,) = [u for u in g.by_type("IfcProject")[0].UnitsInContext.Units
+                 if u.is_a("IfcNamedUnit") and u.UnitType == "LENGTHUNIT"]
+    assert length.is_a("IfcConversionBasedUnit") and length.Name == "inch"
+    assert length.ConversionFactor.ValueComponent.wrappedValue == pytest.approx(0.0254)
+    (plate,) = g.by_type("IfcPlate")
+    assert _body(plate)[1].is_a("IfcTriangulatedFaceSet")
+    assert ifcopenshell.util.element.get_psets(plate)["Torsal_Part"]["Family"] == -1
+    volume = ifcopenshell.util.shape.get_volume(
+        ifcopenshell.geom.create_shape(ifcopenshell.geom.settings(), plate).geometry) / 0.0254 ** 3
+    assert volume == pytest.approx(_volume(solid_shapes(inch, workers=1)[plate.Name]), rel=1e-6)
+
+
+def test_prism_profile_of_a_box_and_not_of_a_fold():
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox
+
+    box = BRepPrimAPI_MakeBox(40.0, 20.0, 3.0).Shape()
+    prof = I.prism_profile(box, 3.0)
+    assert prof is not None and prof.depth == pytest.approx(3.0)
+    assert abs(prof.z_dir @ [0, 0, 1]) == pytest.approx(1.0)
+    x, y = prof.outer[:, 0], prof.outer[:, 1]
+    assert 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))) == pytest.approx(800.0)
+    assert I.prism_profile(box, 5.0) is None               # a prism, but not 5 thick
+    vertices, tri, closed = I.closed_triangles(box, 0.1)
+    assert closed and len(vertices) == 8 and len(tri) == 12
+    # a bent plate (an L of two legs 3 thick) is no extrusion of its outline
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Fuse
+    from OCP.gp import gp_Pnt
+
+    leg = BRepPrimAPI_MakeBox(gp_Pnt(0, 0, 0), gp_Pnt(3.0, 20.0, 30.0)).Shape()
+    bent = BRepAlgoAPI_Fuse(box, leg).Shape()
+    assert I.prism_profile(bent, 3.0) is None
+    assert I.closed_triangles(bent, 0.1)[2]
