@@ -59,7 +59,7 @@ Package layout (one responsibility per module):
 - :mod:`.history`, :mod:`.result`: per-iteration history, best feasible iterate, the result.
 """
 from .catalogue import DEFAULT_WEIGHTS
-from .forms import TorsalAngleForm
+from .forms import TorsalAngleBetween, TorsalAngleForm
 from .measure import Measurement
 from .nlp import tangent_frames
 from .problem import CongruenceProblem
@@ -67,4 +67,4 @@ from .result import IterationRecord, OptimizationError, OptimizationResult
 from .solve import SOLVERS, Solver
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
-           "IterationRecord", "Measurement", "TorsalAngleForm", "tangent_frames", "Solver", "SOLVERS"]
+           "IterationRecord", "Measurement", "TorsalAngleForm", "TorsalAngleBetween", "tangent_frames", "Solver", "SOLVERS"]

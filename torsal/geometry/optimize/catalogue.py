@@ -53,6 +53,7 @@ class Term:
     bound: float = math.nan              # the user's bound, in the constraint's own units
     block: int = 0                       # the aligned congruence its elements belong to
     lift: bool = False                   # rows k . (u, v, w) = lifted variables (nlp.Built._lift)
+    between: str = "planes"              # a torsal-angle bound's angle (terms.TorsalAngleBetween)
 
     @property
     def size(self) -> int:

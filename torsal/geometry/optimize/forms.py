@@ -35,6 +35,10 @@ from enum import Enum
 import casadi as ca
 
 from . import terms as T
+from .terms import TorsalAngleBetween
+
+#: The angles :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` can bound.
+ANGLE_BETWEEN = tuple(b.value for b in TorsalAngleBetween)
 
 
 class TorsalAngleForm(str, Enum):
@@ -53,7 +57,8 @@ class TorsalAngleForm(str, Enum):
 ANGLE_FORMS = tuple(f.value for f in TorsalAngleForm)
 
 
-def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
+def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e,
+                               between: TorsalAngleBetween = TorsalAngleBetween.PLANES):
     """``(u, v, w)``: the torsal form in an orthonormal frame of the face, linear in ``g``.
 
     With ``M = R^T R`` (Cholesky, ``R`` upper triangular) the form has matrix
@@ -61,10 +66,11 @@ def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
     (Gram-Schmidt of the face edges). ``u = p`` is its isotropic part and ``v^2 + w^2 = rho^2``
     its strength squared (:func:`torsal.geometry.optimize.terms.torsal_form_invariants_sx`): the torsal
     planes cross at ``alpha`` or more iff ``|u| <= cos(alpha) sqrt(v^2 + w^2)``. ``M`` is the face
-    metric seen along the line (:func:`torsal.geometry.optimize.terms.plane_metric_sx`).
+    metric seen along the line (:func:`torsal.geometry.optimize.terms.plane_metric_sx`), or the
+    face's own metric for ``between="directions"`` (:func:`~torsal.geometry.optimize.terms.torsal_metric_sx`).
     """
     g0, g1, g2 = T.torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
-    E, F, G = T.plane_metric_sx(a_u, a_v, e)     # the face seen along the line
+    E, F, G = T.torsal_metric_sx(a_u, a_v, e, between)
     r11 = ca.sqrt(E)
     r12 = F / r11
     r22 = ca.sqrt(E * G - F * F) / r11
@@ -77,8 +83,10 @@ def torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e):
 
 
 @functools.lru_cache(maxsize=None)
-def torsal_form_coordinates_element() -> T.ElementTerm:
-    """One coordinate of the torsal form of a face, ``k . (u, v, w)`` (lifted form of c_ang).
+def torsal_form_coordinates_element(
+        between: TorsalAngleBetween = TorsalAngleBetween.PLANES) -> T.ElementTerm:
+    """One coordinate of the torsal form of a face, ``k . (u, v, w)`` (lifted form of c_ang;
+    ``between``: the metric, :func:`~torsal.geometry.optimize.terms.torsal_metric_sx`).
 
     ``x`` the face's 3 unit line directions (9), ``data`` its corners in units of ``delta``
     (9), ``par = [cos alpha, s, k0, k1, k2]`` with ``k`` a unit vector selecting ``u``, ``v``
@@ -97,9 +105,11 @@ def torsal_form_coordinates_element() -> T.ElementTerm:
     """
     x, data, par = T.face_symbols(3, n_par=5)
     a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
-    u, v, w = torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e_c)
+    between = TorsalAngleBetween(between)
+    u, v, w = torsal_form_coordinates_sx(a_u, a_v, e_u, e_v, e_c, between)
     c = par[2] * u + par[3] * v + par[4] * w
-    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_lift", [x, data, par], [c]), 3)
+    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_lift" + T._BETWEEN_SUFFIX[between],
+                                                         [x, data, par], [c]), 3)
 
 
 #: ``k`` of the split rows' divisor ``sqrt(p^2 + rho^2 + k^2)`` (the torsal form's magnitude,
@@ -124,8 +134,13 @@ SPLIT_SCALE = 0.25
 
 
 @functools.lru_cache(maxsize=None)
-def torsal_angle_split_element() -> T.ElementTerm:
+def torsal_angle_split_element(
+        between: TorsalAngleBetween = TorsalAngleBetween.PLANES) -> T.ElementTerm:
     """One half of c_ang in split form: ``(cos(alpha) sqrt(rho^2 + s^2) - s - sign * p) / m >= 0``.
+
+    ``p`` and ``rho`` in the metric ``between`` picks
+    (:func:`~torsal.geometry.optimize.terms.torsal_metric_sx`): the torsal planes' angle
+    (default) or the torsal directions' angle in the face (the paper's c_ang).
 
     ``x`` the face's 3 unit line directions (9), ``data`` its corners in units of ``delta``
     (9), ``par = [cos alpha, s, sign]`` with ``sign = +1`` or ``-1``; a face is imposed with
@@ -147,7 +162,9 @@ def torsal_angle_split_element() -> T.ElementTerm:
     """
     x, data, par = T.face_symbols(3, n_par=3)
     a_u, a_v, e_u, e_v, e_c = T._frame(T._split(x, 3), T._split(data, 3))
-    p, rho2 = T.torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c)
+    between = TorsalAngleBetween(between)
+    p, rho2 = T.torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c, between)
     s = par[1]
     c = (par[0] * ca.sqrt(rho2 + s * s) - s - par[2] * p) / ca.sqrt(p * p + rho2 + SPLIT_SCALE ** 2)
-    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_split", [x, data, par], [c]), 3)
+    return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_split" + T._BETWEEN_SUFFIX[between],
+                                                         [x, data, par], [c]), 3)

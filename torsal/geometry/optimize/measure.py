@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..congruence import Congruence
+from .terms import TorsalAngleBetween
 
 #: How each constraint kind is measured: (quantity, unit).
 KINDS = {
@@ -52,6 +53,10 @@ class Measurement(NamedTuple):
         How far each element misses the bound, in ``unit``, 0 where it holds.
     tolerance : float
         Violation up to which the constraint counts as held (0.1 deg for angles).
+    between : str or None
+        For a torsal angle: which angle ``values`` are, ``"planes"`` (the torsal planes'
+        crossing angle) or ``"directions"`` (the torsal directions' angle in the face); None
+        for other kinds.
     """
 
     name: str
@@ -62,6 +67,7 @@ class Measurement(NamedTuple):
     values: np.ndarray
     violation: np.ndarray
     tolerance: float
+    between: str | None = None
 
     @property
     def worst(self) -> float:
@@ -82,13 +88,18 @@ class Measurement(NamedTuple):
         return not self._over.any()
 
 
-def torsal_angle_deg(c: Congruence, faces: np.ndarray) -> np.ndarray:
-    """Measured acute angle at which the torsal planes cross (degrees), 0 where there are none.
+def torsal_angle_deg(c: Congruence, faces: np.ndarray, between: str = "planes") -> np.ndarray:
+    """Measured acute torsal angle (degrees), 0 where there are none.
 
-    A non-hyperbolic face (eq. (2) < 0) and a line bundle have no torsal directions; they
+    ``between="planes"``: the angle at which the torsal planes cross
+    (:meth:`~torsal.geometry.congruence.Congruence.torsal_plane_angle`); ``"directions"``:
+    the angle between the torsal directions in the face
+    (:meth:`~torsal.geometry.congruence.Congruence.torsal_angle`, the paper's c_ang). A
+    non-hyperbolic face (eq. (2) < 0) and a line bundle have no torsal directions; they
     count as angle 0 so that they fail any angle bound.
     """
-    ang = c.torsal_plane_angle()[faces]
+    between = TorsalAngleBetween(between)
+    ang = (c.torsal_angle() if between is TorsalAngleBetween.DIRECTIONS else c.torsal_plane_angle())[faces]
     return np.where(np.isfinite(ang), ang, 0.0)
 
 
@@ -109,7 +120,7 @@ def measure(term, c: Congruence, delta: float, g: np.ndarray | None, *, angle_to
     if term.kind == "torsal_angle":
         # the split form imposes each face twice (+p, -p): measure each face once
         el = el[np.sort(np.unique(el, return_index=True)[1])]
-        vals = torsal_angle_deg(c, el)
+        vals = torsal_angle_deg(c, el, term.between)
         viol, tol = np.maximum(term.bound - vals, 0.0), angle_tol_deg
     elif term.kind == "hyperbolicity":
         vals = c.hyperbolicity()[el] / delta**2
@@ -126,7 +137,7 @@ def measure(term, c: Congruence, delta: float, g: np.ndarray | None, *, angle_to
         tol = value_tol
     viol = np.where(np.isfinite(viol), viol, math.inf)
     return Measurement(term.name, term.kind, KINDS[term.kind][1], float(term.bound), el, vals, viol,
-                       float(tol))
+                       float(tol), term.between if term.kind == "torsal_angle" else None)
 
 
 def worst_missed(measured: dict[str, Measurement]) -> tuple | None:

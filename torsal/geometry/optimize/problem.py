@@ -22,7 +22,8 @@ from ..congruence import Congruence
 from ..mesh import edge_face_adjacency, umbrella_laplacian
 from .catalogue import (DEFAULT_WEIGHTS, _KINDS, Term, _as_index, _penalty_term, _points,
                         _stroke_barycentric, _unit_rows, _var_index)
-from .forms import ANGLE_FORMS, TorsalAngleForm, torsal_angle_split_element, torsal_form_coordinates_element
+from .forms import (ANGLE_BETWEEN, ANGLE_FORMS, TorsalAngleBetween, TorsalAngleForm, torsal_angle_split_element,
+                    torsal_form_coordinates_element)
 from .measure import Measurement, measure
 from .nlp import Built
 from .result import OptimizationResult
@@ -602,8 +603,21 @@ class CongruenceProblem:
 
     def min_torsal_angle(self, alpha_deg: float = 40.0, faces=None, safety_deg: float = 0.01, *,
                          min_strength: float = 1e-3,
-                         form: TorsalAngleForm | str = TorsalAngleForm.SPLIT) -> "CongruenceProblem":
+                         form: TorsalAngleForm | str = TorsalAngleForm.SPLIT,
+                         between: TorsalAngleBetween | str = TorsalAngleBetween.PLANES) -> "CongruenceProblem":
         """Torsal planes crossing at ``alpha_deg`` or more on every face (the fins of the two families) (c_ang, Wang et al. 2013, 4.1).
+
+        ``between="planes"`` (default) bounds the angle at which the two torsal planes cross
+        (each spanned by the line and a torsal direction): the angle the fins meet at.
+        ``between="directions"`` bounds the angle between the two torsal directions in the
+        face, as the paper states c_ang (4.1, "Transversality of torsal planes"): the same
+        forms below with ``p`` and ``rho`` in the face's own metric instead of the face seen
+        along the line (:class:`~torsal.geometry.optimize.terms.TorsalAngleBetween`,
+        :func:`~torsal.geometry.optimize.terms.torsal_metric_sx`). The two agree where the
+        lines are orthogonal to the face; where they lean, either can be the smaller. The
+        bound is measured as it was asked: :meth:`Congruence.torsal_plane_angle
+        <torsal.geometry.congruence.Congruence.torsal_plane_angle>` or
+        :meth:`~torsal.geometry.congruence.Congruence.torsal_angle`.
 
         ``form="split"`` (default): two rows per face (:mod:`~torsal.geometry.optimize.forms`)::
 
@@ -655,6 +669,9 @@ class CongruenceProblem:
         >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
         >>> p.min_torsal_angle(40).terms["min_torsal_angle"][0]
         'constraint'
+        >>> r = p.min_torsal_angle(40, between="directions").solve()
+        >>> bool(np.nanmin(r.congruence.torsal_angle()) >= 40 - 0.1)   # the paper's c_ang
+        True
         """
         if not (0.0 < alpha_deg < 90.0):
             raise ValueError(f"alpha_deg must be in (0, 90) degrees, got {alpha_deg}; "
@@ -664,17 +681,20 @@ class CongruenceProblem:
         if form not in ANGLE_FORMS:
             raise ValueError(f"form must be one of {ANGLE_FORMS}, got {form!r}")
         form = TorsalAngleForm(form)
+        if between not in ANGLE_BETWEEN:
+            raise ValueError(f"between must be one of {ANGLE_BETWEEN}, got {between!r}")
+        between = TorsalAngleBetween(between)
         fi = _as_index(faces, len(self.congruence.faces), "faces")
         fv, a = self._face_data(fi)
         c = math.cos(math.radians(min(alpha_deg + safety_deg, 89.999)))
         if form is TorsalAngleForm.CONE:
-            t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0), _var_index(fv, 0), a,
+            t = Term("min_torsal_angle", True, T.torsal_angle_cone_element(1.0, between), _var_index(fv, 0), a,
                      np.tile([c, float(min_strength)], (len(fi), 1)), fi, kind="torsal_angle",
-                     bound=float(alpha_deg))
+                     bound=float(alpha_deg), between=between.value)
         elif form is TorsalAngleForm.LIFT:   # three rows per face, u, v, w = lifted variables (see .forms)
-            t = _lifted_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
+            t = _lifted_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg), between)
         else:
-            t = _split_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg))
+            t = _split_angle_term(fi, fv, a, c, float(min_strength), float(alpha_deg), between)
         return self._add(t)
 
     def max_angle_to(self, d, theta_deg: float, vertices=None) -> "CongruenceProblem":
@@ -1051,21 +1071,26 @@ class CongruenceProblem:
         return SolveCall(self, opts).run()
 
 
-def _split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float, name: str = "min_torsal_angle") -> Term:
+def _split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float,
+                      between: TorsalAngleBetween = TorsalAngleBetween.PLANES,
+                      name: str = "min_torsal_angle") -> Term:
     """c_ang in split form: two rows per face, ``+p`` and ``-p`` (see :mod:`.forms`)."""
     m = len(fi)
     par = np.concatenate([np.tile([c, s, 1.0], (m, 1)), np.tile([c, s, -1.0], (m, 1))])
-    return Term(name, True, torsal_angle_split_element(), _var_index(np.tile(fv, (2, 1)), 0),
-                np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle", bound=alpha_deg)
+    return Term(name, True, torsal_angle_split_element(between), _var_index(np.tile(fv, (2, 1)), 0),
+                np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle", bound=alpha_deg,
+                between=TorsalAngleBetween(between).value)
 
 
-def _lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float) -> Term:
+def _lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float,
+                       between: TorsalAngleBetween = TorsalAngleBetween.PLANES) -> Term:
     """c_ang lifted: rows ``u``, ``v``, ``w`` per face, equal to lifted variables (``nlp.Built._lift``)."""
     m = len(fi)
     par = np.concatenate([np.tile(np.r_[c, s, k], (m, 1)) for k in np.eye(3)])
-    return Term("min_torsal_angle", True, torsal_form_coordinates_element(), _var_index(np.tile(fv, (3, 1)), 0),
-                np.tile(a, (3, 1)), par, np.tile(fi, 3), kind="torsal_angle", bound=alpha_deg,
-                lower=0.0, upper=0.0, lift=True)
+    return Term("min_torsal_angle", True, torsal_form_coordinates_element(between),
+                _var_index(np.tile(fv, (3, 1)), 0), np.tile(a, (3, 1)), par, np.tile(fi, 3),
+                kind="torsal_angle", bound=alpha_deg, lower=0.0, upper=0.0, lift=True,
+                between=TorsalAngleBetween(between).value)
 
 
 def _unlifted(t: Term) -> Term:
@@ -1074,5 +1099,5 @@ def _unlifted(t: Term) -> Term:
         return t
     m = t.size // 3
     return replace(_split_angle_term(t.elements[:m], t.idx[:m, ::3] // 3, t.data[:m], float(t.par[0, 0]),
-                                     float(t.par[0, 1]), t.bound, t.name), block=t.block,
+                                     float(t.par[0, 1]), t.bound, t.between, t.name), block=t.block,
                    idx=np.tile(t.idx[:m], (2, 1)))

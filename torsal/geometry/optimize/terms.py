@@ -36,6 +36,7 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 from typing import Callable
 
 import casadi as ca
@@ -61,7 +62,10 @@ __all__ = [
     "torsal_alignment_element",
     "hyperbolicity_element",
     "torsal_angle_element",
+    "TorsalAngleBetween",
     "plane_metric_sx",
+    "face_metric_sx",
+    "torsal_metric_sx",
     "torsal_angle_sx",
     "torsal_form_invariants_sx",
     "torsal_angle_cone_element",
@@ -458,6 +462,43 @@ def plane_metric_sx(a_u, a_v, e):
             ca.dot(a_v, a_v) - wv * wv / ee)
 
 
+class TorsalAngleBetween(str, Enum):
+    """Which angle a torsal-angle bound (c_ang, Wang et al. 2013, 4.1) bounds.
+
+    ``PLANES`` (``"planes"``): the angle at which the two torsal planes cross (each spanned
+    by the line and a torsal direction): the angle the fins of the two families meet at,
+    torsal's ``min_torsal_angle`` since its first release. ``DIRECTIONS``
+    (``"directions"``): the angle between the two torsal directions in the face itself, as
+    the paper states c_ang ("the angle between torsal directions in the face ... does not
+    fall below alpha"). The two agree where the lines are orthogonal to the face and differ
+    where they lean. A ``str`` enum: design files give the value
+    (``constraints.torsal_angle_between = "directions"``).
+    """
+
+    PLANES = "planes"
+    DIRECTIONS = "directions"
+
+
+#: casadi function name suffix per angle (the NLP cache tells terms apart by function name)
+_BETWEEN_SUFFIX = {TorsalAngleBetween.PLANES: "", TorsalAngleBetween.DIRECTIONS: "_dir"}
+
+
+def face_metric_sx(a_u, a_v):
+    """``(E, G12, G)``: the face's own metric (first fundamental form of ``u a_u + v a_v``),
+    in which the angle between the torsal directions in the face is measured (c_ang as
+    Wang et al. 2013, 4.1 state it)."""
+    return ca.dot(a_u, a_u), ca.dot(a_u, a_v), ca.dot(a_v, a_v)
+
+
+def torsal_metric_sx(a_u, a_v, e, between: TorsalAngleBetween = TorsalAngleBetween.PLANES):
+    """The metric ``(E, G12, G)`` of the face in which a torsal angle is measured:
+    :func:`plane_metric_sx` (the face seen along the line ``e``) for the angle of the torsal
+    planes, :func:`face_metric_sx` for the angle of the torsal directions in the face."""
+    if TorsalAngleBetween(between) is TorsalAngleBetween.DIRECTIONS:
+        return face_metric_sx(a_u, a_v)
+    return plane_metric_sx(a_u, a_v, e)
+
+
 def torsal_angle_sx(a_u, a_v, e_u, e_v, e, cos2, sin2):
     """Smooth form of "the torsal planes cross at an angle >= alpha" (c_ang).
 
@@ -513,8 +554,11 @@ def torsal_angle_element(delta: float) -> ElementTerm:
     return ElementTerm("min_torsal_angle", ca.Function("c_ang", [x, data, par], [c]), 3)
 
 
-def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
-    """``(p, rho^2)`` of the torsal form in coordinates orthonormal for the face metric seen along the line.
+def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e,
+                              between: TorsalAngleBetween = TorsalAngleBetween.PLANES):
+    """``(p, rho^2)`` of the torsal form in coordinates orthonormal for the face metric seen
+    along the line (``between="planes"``) or for the face's own metric (``"directions"``,
+    :func:`torsal_metric_sx`); the algebra below holds for either metric ``M``.
 
     With ``S = [[g0, g1], [g1, g2]]`` (eq. (1)) and the metric ``M`` of :func:`torsal_angle_sx`,
     ``S' = M^-1/2 S M^-1/2`` has eigenvalues ``m1 >= m2``; ``p = (m1 + m2) / 2 = T / (2 det M)``
@@ -524,7 +568,7 @@ def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
     the acute angle ``theta`` with ``cos theta = |p| / rho``. A line bundle has ``p = rho = 0``.
     """
     g0, g1, g2 = torsal_coefficients_sx(a_u, a_v, e_u, e_v, e)
-    E, G12, G = plane_metric_sx(a_u, a_v, e)
+    E, G12, G = torsal_metric_sx(a_u, a_v, e, between)
     det_m = E * G - G12 * G12
     t = g0 * G - 2.0 * g1 * G12 + g2 * E
     p = t / (2.0 * det_m)
@@ -532,8 +576,12 @@ def torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e):
     return p, rho2
 
 
-def torsal_angle_cone_element(delta: float) -> ElementTerm:
+def torsal_angle_cone_element(delta: float,
+                              between: TorsalAngleBetween = TorsalAngleBetween.PLANES) -> ElementTerm:
     """c_ang as a cone with a strength floor: ``cos(alpha) sqrt(rho^2 + s^2) - sqrt(p^2 + s^2) >= 0``.
+
+    ``between`` picks the metric of ``p`` and ``rho`` (:func:`torsal_metric_sx`): the
+    torsal planes' angle (default) or the torsal directions' angle in the face.
 
     The regular form of "torsal planes crossing at least ``alpha``" (Wang et al. 2013, 4.1)
     that :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` imposes;
@@ -566,10 +614,13 @@ def torsal_angle_cone_element(delta: float) -> ElementTerm:
     """
     x, data, par = face_symbols(3, n_par=2)
     a_u, a_v, e_u, e_v, e_c = _frame(_split(x, 3), _split(data, 3))
-    p, rho2 = torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c)
+    between = TorsalAngleBetween(between)
+    p, rho2 = torsal_form_invariants_sx(a_u, a_v, e_u, e_v, e_c, between)
     s2 = par[1] * par[1]
     c = par[0] * ca.sqrt(rho2 + s2) - ca.sqrt(p * p + s2)
-    return ElementTerm("min_torsal_angle", ca.Function("c_ang_cone", [x, data, par], [c]), 3)
+    return ElementTerm("min_torsal_angle", ca.Function("c_ang_cone" + _BETWEEN_SUFFIX[between],
+                                                       [x, data, par], [c]), 3)
+
 
 
 def max_angle_element() -> ElementTerm:
