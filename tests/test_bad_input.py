@@ -632,7 +632,13 @@ FULL = {
     "outputs": {"step": False, "rhino_3dm": False, "dxf": True, "bom": True, "renders": True,
                 "light_samples": 100},
     "substructure": {"offset": 0.3, "weight": 200.0, "depth": 0.15},
+    "costs": {"currency": "EUR", "material_per_kg": 6.5, "cut_per_m": {"laser": 1.2},
+              "per_pierce": 0.05, "per_bend": 0.8, "fasteners": {"bolt": 0.35, "anchor": 2.5},
+              "per_minute": 1.0, "minutes_per_part": 3.0, "minutes_per_fastener": 1.0,
+              "minutes_per_hole_drilled": 0.5},
 }
+#: keys whose tables are maps of the user's names (not keys of the schema)
+MAPS = ("params", "cut_per_m", "fasteners")
 DATES = {"start": "2026-06-01", "end": "2026-06-30"}
 
 
@@ -763,7 +769,7 @@ for path, field in list(leaves(DesignSpec, FULL)):
 
 def _tables(data, path=()):
     for k, v in data.items():
-        if isinstance(v, dict) and k != "params":
+        if isinstance(v, dict) and k not in MAPS:
             yield path + (k,)
             yield from _tables(v, path + (k,))
         elif isinstance(v, list) and v and isinstance(v[0], dict):
