@@ -454,16 +454,40 @@ def _constraints_state(c: dict) -> str:
         c.get("constraints_active"), "none")
 
 
+#: what each torsal angle is, for the report's row labels
+TORSAL_ANGLE_LABELS = {"planes": "angle at which the torsal planes (the fins) cross",
+                       "directions": "angle between the torsal directions in the face"}
+
+
+def _torsal_angle_rows(c: dict) -> list:
+    """The two torsal angles, each labelled with what it is; the one
+    ``constraints.min_torsal_angle`` bounds is marked (reports from before both were
+    measured have the plane angle only, as ``min_torsal_angle_deg``)."""
+    bounded = c.get("torsal_angle_between")
+    rows = []
+    for between, key in (("planes", "min_torsal_plane_angle_deg"),
+                         ("directions", "min_torsal_direction_angle_deg")):
+        if key not in c and not (between == "planes" and "min_torsal_angle_deg" in c):
+            continue
+        v = c.get(key, c.get("min_torsal_angle_deg"))
+        mark = " (bounded by min_torsal_angle)" if bounded == between else ""
+        rows.append((f"min {TORSAL_ANGLE_LABELS[between]} (deg){mark}",
+                     "n/a" if v is None else f"{v:.4g}"))
+    return rows
+
+
 def _measured_constraint_rows(c: dict) -> list:
     """One row per constraint as measured on the optimized congruence (issue 16): bound,
-    measured worst value, and the faces that miss the bound beyond its tolerance."""
+    measured worst value, and the faces that miss the bound beyond its tolerance; a torsal
+    angle says which angle it is."""
     rows = []
     for name, m in (c.get("constraints") or {}).items():
         unit = " deg" if m["unit"] == "deg" else ""
         ok = m["n_missing"] == 0
         worst = "n/a" if m["measured"] is None else f"{m['measured']:.4g}{unit}"
         state = "holds" if ok else f"missed on {m['n_missing']} elements (e.g. {m['elements_missing'][:5]})"
-        rows.append((f"{html.escape(name)} (measured; bound {m['bound']:g}{unit})",
+        what = f"; {TORSAL_ANGLE_LABELS[m['angle']]}" if m.get("angle") in TORSAL_ANGLE_LABELS else ""
+        rows.append((f"{html.escape(name)} (measured{what}; bound {m['bound']:g}{unit})",
                      f'<span class="{"ok" if ok else "bad"}">{html.escape(worst)}: {html.escape(state)}</span>'))
     return rows
 
@@ -520,16 +544,16 @@ def _quantities_html(q: dict | None, costs: dict | None) -> str:
     if not q:
         return ""
     gross = "-" if q["gross_kg"] is None else (
-        f"{q['gross_kg']:.1f} kg ({q['sheets']} sheets, {q['gross_m2']:.2f} m&sup2;)")
+        f"{q['gross_kg']:.4g} kg ({q['sheets']} sheet(s), {q['gross_m2']:.4g} m&sup2;)")
     fasteners = ", ".join(f"{n} {html.escape(size)} {html.escape(kind)}"
                           for kind, sizes in q["fasteners"].items() for size, n in sizes.items())
     a = q["assembly"]
-    rows = [("net material", f"{q['net_kg']:.1f} kg ({q['net_m2']:.2f} m&sup2; of parts)"),
+    rows = [("net material", f"{q['net_kg']:.4g} kg ({q['net_m2']:.4g} m&sup2; of parts)"),
             ("gross material (the sheets used)", gross),
-            (f"cut length ({html.escape(str(q['process']))})", f"{q['cut_m']:.1f} m"),
+            (f"cut length ({html.escape(str(q['process']))})", f"{q['cut_m']:.4g} m"),
             ("pierces (closed contours cut)", f"{q['pierces']} ({q['holes_cut']} of them holes)"),
             ("holes drilled", q["holes_drilled"]),
-            ("bends", f"{q['bends']} ({q['bend_m']:.1f} m)"),
+            ("bends", f"{q['bends']} ({q['bend_m']:.4g} m)"),
             ("fasteners", fasteners or "none"),
             ("assembly steps", f"{a['parts_placed']} parts placed, {a['fasteners_set']} fasteners "
                                f"set, {a['holes_drilled']} holes drilled")]
@@ -541,7 +565,7 @@ def _quantities_html(q: dict | None, costs: dict | None) -> str:
               f"{ln['rate']:.4g} {cur}/{html.escape(ln['unit'])}", f"{ln['amount']:.2f}")
              for name, ln in costs["lines"].items()]
     per_m2 = "" if costs["per_m2"] is None else (
-        f" ({costs['per_m2']:.2f} {cur}/m&sup2; of {costs['surface_m2']:.1f} m&sup2; of surface)")
+        f" ({costs['per_m2']:.2f} {cur}/m&sup2; of {costs['surface_m2']:.4g} m&sup2; of surface)")
     lines.append(("<b>total</b>", "", "", f"<b>{costs['total']:.2f} {cur}</b>{per_m2}"))
     return out + "<h3>Price at the design file's rates</h3>" + _table(
         lines, header=("line", "quantity", "rate", "amount"))
@@ -680,8 +704,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                 ("build / solve time (s)", f"{c['build_s']:.2f} / {c['solve_s']:.2f}"),
                 ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
                 ("inequality constraints", _constraints_state(c)),
-                ("min torsal angle (deg)", c["min_torsal_angle_deg"] if c["min_torsal_angle_deg"]
-                 is not None else "n/a"),
+                *_torsal_angle_rows(c),
                 *_spread_rows(c)]
         rows += _measured_constraint_rows(c)
         rows += [(f"energy {k} (before &rarr; after)",
