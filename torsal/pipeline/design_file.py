@@ -47,7 +47,7 @@ from ..core.inputs import read_input
 from ..core.units import UNIT_TO_M
 from ..geometry.congruence import ZERO_DIRECTION_RTOL
 from ..geometry.mesh import MAX_COORDINATE
-from ..geometry.optimize import Solver, TorsalAngleForm
+from ..geometry.optimize import Solver, TorsalAngleBetween, TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
 from ..fabrication.quantities import Rates, check_fastener_rates
@@ -320,10 +320,17 @@ class ConstraintsSpec(_Spec):
     hyperbolic_margin: float = Field(0.0, ge=0)
     min_torsal_angle: float | None = Field(None, gt=0, lt=90, description="degrees; the torsal "
                                            "planes (the fins of the two families) cross at this "
-                                           "angle or more (c_ang, paper 4.1)")
+                                           "angle or more, or with torsal_angle_between = "
+                                           "\"directions\" the torsal directions in the face are "
+                                           "this far apart (c_ang, paper 4.1)")
     torsal_angle_form: TorsalAngleForm | None = Field(
         None, description="how min_torsal_angle enters the NLP: split (the optimizer's default) "
         "or lift (half the iterations, rougher lines), see CongruenceProblem.min_torsal_angle")
+    torsal_angle_between: TorsalAngleBetween = Field(
+        TorsalAngleBetween.PLANES, description="which angle min_torsal_angle bounds: planes (the "
+        "angle the torsal planes, and so the fins of the two families, cross at) or directions "
+        "(the angle between the torsal directions in the face, c_ang as the paper states it); "
+        "report.json gives both, measured")
     solver: Solver = Field(Solver.AUTO, description="the congruence optimizer: auto (the augmented "
                            "Lagrangian for a design with min_torsal_angle or another bound that binds, IPOPT "
                            "where hyperbolic is the only inequality or there is none, the "

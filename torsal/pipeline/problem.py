@@ -210,7 +210,7 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
         p.hyperbolic(margin=C.hyperbolic_margin)
     if C.min_torsal_angle is not None:
         form = {} if C.torsal_angle_form is None else {"form": C.torsal_angle_form}
-        p.min_torsal_angle(C.min_torsal_angle, **form)
+        p.min_torsal_angle(C.min_torsal_angle, **form, between=C.torsal_angle_between)
     if spec.substructure is not None:
         # Fig. 11: a second congruence behind A, optimized together with the first so that
         # their torsal directions coincide (f_extra)

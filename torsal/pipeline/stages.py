@@ -168,7 +168,6 @@ def run_congruence(inp: StageInputs) -> dict:
         extra = {"substructure_vertices": np.asarray(c2.vertices),
                  "substructure_directions": np.asarray(c2.directions)}
         extra_report = {"substructure_line_spread_deg": _spread(c2)}
-    plane_angle = c.torsal_plane_angle()     # the angle the constraint bounds: the fins' crossing
     return {
         **extra,
         "directions": np.asarray(c.directions),
@@ -196,8 +195,8 @@ def run_congruence(inp: StageInputs) -> dict:
             "working_set": None if r.working_set is None
             else {k: int(len(x)) for k, x in r.working_set.items()},
             "min_hyperbolicity": float(np.nanmin(c.hyperbolicity())),
-            "min_torsal_angle_deg": float(np.nanmin(plane_angle))
-            if np.isfinite(plane_angle).any() else None,
+            # both readings of c_ang, measured, and which one constraints.min_torsal_angle bounds
+            **_torsal_angles(c, spec.constraints),
             "hyperbolic_share": float(c.is_hyperbolic().mean()),
             # measured on the geometry, not the NLP: each constraint's bound, worst value and
             # the faces (vertices) that miss it by more than its tolerance
@@ -219,8 +218,32 @@ def _spread(c: Congruence) -> float | None:
     return x if np.isfinite(x) else None
 
 
+def _min_deg(angles: np.ndarray) -> float | None:
+    """The smallest finite angle (degrees), None where no face has one (JSON)."""
+    return float(np.nanmin(angles)) if np.isfinite(angles).any() else None
+
+
+def _torsal_angles(c: Congruence, constraints) -> dict:
+    """Both torsal angles of the optimized congruence (``report.congruence``), degrees.
+
+    ``min_torsal_plane_angle_deg``: the smallest angle at which the two torsal planes (the
+    fins of the two families) cross; ``min_torsal_direction_angle_deg``: the smallest angle
+    between the torsal directions in the face (c_ang as Wang et al. 2013, 4.1 state it);
+    ``min_torsal_angle_deg``: the plane angle again, under the key earlier reports used;
+    ``torsal_angle_between``: which of the two ``constraints.min_torsal_angle`` bounds (None
+    without the bound)."""
+    plane = _min_deg(c.torsal_plane_angle())
+    bounded = constraints.min_torsal_angle is not None
+    return {"min_torsal_plane_angle_deg": plane,
+            "min_torsal_direction_angle_deg": _min_deg(c.torsal_angle()),
+            "min_torsal_angle_deg": plane,
+            "torsal_angle_between": constraints.torsal_angle_between.value if bounded else None}
+
+
 def _measured_constraints(r) -> dict:
-    """The measured constraint state of a solve, JSON-ready (``report.congruence.constraints``)."""
+    """The measured constraint state of a solve, JSON-ready (``report.congruence.constraints``);
+    a torsal-angle bound says which angle it measured (``angle``: ``"planes"`` or
+    ``"directions"``)."""
     out = {}
     for name, m in r.measured.items():
         worst_value = (float(m.values.min()) if m.kind in ("torsal_angle", "hyperbolicity")
@@ -229,6 +252,8 @@ def _measured_constraints(r) -> dict:
                      "max_violation": m.worst, "tolerance": m.tolerance,
                      "elements_missing": [int(i) for i in m.missed[:50]],
                      "n_missing": int(len(m.missed))}
+        if m.between is not None:
+            out[name]["angle"] = m.between
     return out
 
 
