@@ -1,0 +1,187 @@
+"""The weather year an annual irradiance run is driven by: an EPW file, or a clear-sky year.
+
+Each row of a :class:`Weather` is one hour of a year, stamped at its middle in local standard
+time (the EPW convention as :func:`torsal.light.sun.epw_hours` reads it): the hour's mean
+direct normal (DNI), diffuse horizontal (DHI) and global horizontal (GHI) irradiance in W/m^2,
+which over the hour is Wh/m^2.
+
+Without a weather file the year is pvlib's clear sky: the Ineichen-Perez model
+(``pvlib.location.Location.get_clearsky(model="ineichen")``) with the Linke turbidity of
+pvlib's monthly climatology at the site (``pvlib.clearsky.lookup_linke_turbidity``, SoDa),
+every hour cloudless. It is an upper bound of the sun a site gets, not a typical year, and a
+run says so (:attr:`Weather.description`).
+
+Examples
+--------
+>>> w = clear_sky_year(48.21, 16.37, timezone="Europe/Vienna", elevation=170.0)
+>>> len(w), w.source.value, w.utc_offset_hours
+(8760, 'clear sky', 1.0)
+>>> print(wea_text(w).splitlines()[2])
+longitude -16.370000
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import warnings
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from torsal.light.sun import epw_hours, read_epw
+
+__all__ = ["Weather", "WeatherSource", "epw_year", "clear_sky_year", "wea_text",
+           "CLEAR_SKY_YEAR"]
+
+#: the calendar year of a clear-sky year (not a leap year: 8760 hours, as an EPW file)
+CLEAR_SKY_YEAR = 2023
+
+
+class WeatherSource(str, Enum):
+    """Where a weather year comes from."""
+
+    EPW = "epw"
+    CLEAR_SKY = "clear sky"
+
+
+@dataclass(frozen=True)
+class Weather:
+    """An hourly weather year at a site.
+
+    Attributes
+    ----------
+    latitude, longitude : float
+        Degrees, north and east positive.
+    elevation : float
+        Metres above sea level.
+    utc_offset_hours : float
+        Local standard time minus UTC, hours (no daylight saving).
+    times : pandas.DatetimeIndex
+        (T,) the middle of each hour, timezone-aware (a fixed offset: local standard time).
+    dni, dhi, ghi : (T,) float
+        Direct normal, diffuse horizontal and global horizontal irradiance, W/m^2 (the
+        hour's mean; Wh/m^2 over the hour).
+    temp_air : (T,) float or None
+        Dry-bulb temperature at the middle of the hour, degC; None for a clear-sky year.
+    source : WeatherSource
+    description : str
+        What the year is, in words, for the report.
+    """
+
+    latitude: float
+    longitude: float
+    elevation: float
+    utc_offset_hours: float
+    times: pd.DatetimeIndex
+    dni: np.ndarray
+    dhi: np.ndarray
+    ghi: np.ndarray
+    temp_air: np.ndarray | None
+    source: WeatherSource
+    description: str
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+
+def epw_year(path) -> Weather:
+    """The hours of an EPW file (:func:`torsal.light.sun.read_epw`, then
+    :func:`torsal.light.sun.epw_hours`: irradiance as the hour's mean, temperature at mid-hour).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Weather
+        ``source`` :attr:`WeatherSource.EPW`; raises :class:`torsal.light.sun.EPWError` for a
+        file that is not a usable EPW.
+    """
+    path = Path(path)
+    data, meta = read_epw(path)
+    h = epw_hours(data)
+    return Weather(float(meta["latitude"]), float(meta["longitude"]), float(meta["altitude"]),
+                   float(meta["TZ"]), pd.DatetimeIndex(h.index),
+                   *(h[c].to_numpy(float).clip(min=0.0) for c in ("dni", "dhi", "ghi")),
+                   h["temp_air"].to_numpy(float), WeatherSource.EPW,
+                   f"EPW weather file {path.name}")
+
+
+def standard_utc_offset(timezone: str, year: int = CLEAR_SKY_YEAR) -> float:
+    """The standard-time (winter) UTC offset of an IANA time zone, hours.
+
+    The smaller of the offsets on 1 January and 1 July: daylight saving only ever adds.
+
+    >>> standard_utc_offset("Europe/Vienna"), standard_utc_offset("Australia/Sydney")
+    (1.0, 10.0)
+    """
+    import zoneinfo
+
+    zone = zoneinfo.ZoneInfo(timezone)
+    offsets = [_dt.datetime(year, m, 1, 12, tzinfo=zone).utcoffset() for m in (1, 7)]
+    return min(o.total_seconds() for o in offsets) / 3600.0
+
+
+def clear_sky_year(latitude: float, longitude: float, *, timezone: str | float,
+                   elevation: float = 0.0, year: int = CLEAR_SKY_YEAR) -> Weather:
+    """Every hour of a year under pvlib's Ineichen-Perez clear sky with the site's Linke
+    turbidity (pvlib's monthly climatology).
+
+    Parameters
+    ----------
+    latitude, longitude : float
+        Degrees, north and east positive.
+    timezone : str or float
+        IANA name (its standard-time offset is used, :func:`standard_utc_offset`) or the UTC
+        offset of local standard time in hours.
+    elevation : float, default 0
+        Metres above sea level.
+    year : int, default :data:`CLEAR_SKY_YEAR`
+        Calendar year of the 8760 hours (29 February left out of a leap year).
+
+    Returns
+    -------
+    Weather
+        ``source`` :attr:`WeatherSource.CLEAR_SKY`, ``temp_air`` None.
+    """
+    import pvlib
+
+    offset = standard_utc_offset(timezone, year) if isinstance(timezone, str) else float(timezone)
+    tz = _dt.timezone(_dt.timedelta(hours=offset))
+    starts = pd.date_range(pd.Timestamp(year=year, month=1, day=1, tz=tz),
+                           pd.Timestamp(year=year + 1, month=1, day=1, tz=tz),
+                           freq="1h", inclusive="left")
+    starts = starts[~((starts.month == 2) & (starts.day == 29))]
+    mid = starts + pd.Timedelta(minutes=30)
+    site = pvlib.location.Location(latitude, longitude, tz=offset, altitude=elevation)
+    with warnings.catch_warnings():      # pvlib 0.16 asks pandas for the deprecated dayofyear
+        warnings.simplefilter("ignore", DeprecationWarning)
+        cs = site.get_clearsky(mid, model="ineichen").fillna(0.0).clip(lower=0.0)
+    return Weather(float(latitude), float(longitude), float(elevation), offset, mid,
+                   *(cs[c].to_numpy(float) for c in ("dni", "dhi", "ghi")), None,
+                   WeatherSource.CLEAR_SKY,
+                   "clear-sky year: pvlib's Ineichen-Perez model with the site's Linke turbidity "
+                   "(pvlib's monthly climatology), no clouds")
+
+
+def wea_text(weather: Weather, *, place: str = "torsal") -> str:
+    """The year as a Radiance ``.wea`` file (gendaymtx's input): longitude and time-zone
+    meridian west positive, one line ``month day hour DNI DHI`` per hour at its middle
+    (decimal local standard time), irradiance in W/m^2 (``weather_data_file_units 1``).
+
+    Returns
+    -------
+    str
+    """
+    t = weather.times
+    hour = t.hour + t.minute / 60.0 + t.second / 3600.0
+    rows = np.c_[t.month, t.day, hour, weather.dni, weather.dhi]
+    body = "\n".join(f"{int(m)} {int(d)} {h:.4f} {a:.2f} {b:.2f}" for m, d, h, a, b in rows)
+    header = (f"place {place}\nlatitude {weather.latitude:.6f}\n"
+              f"longitude {-weather.longitude:.6f}\n"
+              f"time_zone {-15.0 * weather.utc_offset_hours:.2f}\n"
+              f"site_elevation {weather.elevation:.1f}\nweather_data_file_units 1\n")
+    return header + body + "\n"
