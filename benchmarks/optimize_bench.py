@@ -37,15 +37,21 @@ Tables (``--tables``, default all but ``synthetic``):
    projected-Newton passes): build, solve, re-solve; target 100k in < 60 s.
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic]
-          [--rows 7a 7b 7c 7d 9 11 13] [--methods auto alm ipopt alm+ipopt lbfgs]
+          [--rows 7a 7b 7c 7d 9 11 13] [--methods auto alm ipopt alm+ipopt lbfgs] [--facade-angles 40 60 80]
 
-Timings on a shared machine vary: the script prints the load average; compare methods by
-processor time and counts. Measured numbers are in the optimizer's report and in
-examples/README.md, not here.
+Timings on a shared machine vary: the script prints the machine (CPU model, cores, the BLAS
+threads in use) and the load average; compare methods by processor time and counts. Under each
+``fig12`` and ``facade`` run a ``phases`` line splits its wall time: ``compile`` (the first
+build of the row's NLPs in this process, less a second one: compiling or loading the C
+kernels), ``build`` (assembling the NLP), the augmented Lagrangian's ``hessian``, ``factor``
+(factorizations with their solves), ``line search`` and the rest of its steps (``other``),
+and IPOPT's time (``certify`` after the augmented Lagrangian, ``ipopt`` alone). Measured
+numbers are in the optimizer's report and in examples/README.md, not here.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -196,7 +202,8 @@ def _change_bound(p):
     """``min_torsal_angle`` + 2 degrees (same faces and form: parameters only)."""
     t = p._terms.get("min_torsal_angle")
     if t is not None:
-        p.min_torsal_angle(t.bound + 2.0, faces=np.unique(t.elements), form="lift" if t.lift else "split")
+        p.min_torsal_angle(t.bound + 2.0, faces=np.unique(t.elements), form="lift" if t.lift else "split",
+                           between=t.between)
 
 
 CHANGES = {"weight": _designer_change, "sun": _change_sun, "stroke": _change_stroke, "bound": _change_bound}
@@ -207,7 +214,7 @@ def _split_form(p):
     augmented Lagrangian (which has no lifted variables)."""
     t = p._terms.get("min_torsal_angle")
     if t is not None and t.lift:
-        p.min_torsal_angle(t.bound, faces=np.unique(t.elements), form="split")
+        p.min_torsal_angle(t.bound, faces=np.unique(t.elements), form="split", between=t.between)
     return p
 
 
@@ -227,9 +234,57 @@ def _timed(fn):
     return out, time.perf_counter() - w, time.process_time() - c
 
 
+def _compile_seconds(make) -> float:
+    """Seconds the first build of a problem's NLPs (augmented Lagrangian's and IPOPT's) takes
+    in this process beyond a second one: compiling the C kernels (or loading them from the
+    disk cache). After it, every timed solve finds them loaded."""
+    def build():
+        p = make()
+        return sum(p.build(s) for s in ("alm", "ipopt"))
+    return max(build() - build(), 0.0)
+
+
+def _phases(r, compile_s: float | None = None) -> str:
+    """A solve's wall time by phase (see the module docstring), from ``r.timings``."""
+    t = r.timings
+    parts = [] if compile_s is None else [("compile", compile_s)]
+    parts.append(("build", t.get("build", 0.0)))
+    if "alm" in t:
+        inner = [(k, t.get(f"alm {k}", 0.0)) for k in ("hessian", "factor", "line search")]
+        parts += inner + [("other", t["alm"] - sum(x for _, x in inner))]
+    if "ipopt pass 1" in t:
+        parts.append(("ipopt pass 1", t["ipopt pass 1"]))
+    if "ipopt" in t:
+        parts.append(("certify" if "alm" in t else "ipopt", t["ipopt"]))
+    if "lbfgs" in t:
+        parts.append(("lbfgs", t["lbfgs"]))
+    return "phases (s): " + ", ".join(f"{k} {x:.2f}" for k, x in parts) + f"; total {t.get('total', 0.0):.2f}"
+
+
+def _machine() -> str:
+    """The CPU model (/proc/cpuinfo), its cores (and those this process may use), and the
+    threads of every BLAS in use (threadpoolctl; casadi's OpenBLAS, which MUMPS uses, as
+    ``solve()`` sets it)."""
+    import threadpoolctl
+    from torsal.geometry.optimize.factor import limit_mumps_threads
+
+    model = "unknown CPU"
+    try:
+        with open("/proc/cpuinfo") as fh:
+            model = next((ln.split(":", 1)[1].strip() for ln in fh if ln.startswith("model name")), model)
+    except OSError:
+        pass
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    casadi_blas = limit_mumps_threads()          # as solve() does; None: the user's choice
+    pools = [f"{p['internal_api']} {os.path.basename(p['filepath'])} {p['num_threads']}"
+             for p in threadpoolctl.threadpool_info()]
+    pools.append(f"casadi's openblas (MUMPS) {casadi_blas if casadi_blas is not None else 'as the environment sets'}")
+    return f"machine: {model}, {os.cpu_count()} cores ({usable} usable); threads: " + "; ".join(pools)
+
+
 def run_fig12_row(name, design, T, methods, lbfgs_iter):
     spec, make, nv, nf = example_problem(design)
-    make()   # compiled kernels cached on disk before any timing
+    compile_s = _compile_seconds(make)    # compiled kernels cached on disk before any timing
     runs = {}
     for method in methods:
         solver, formulate, kw = METHODS[method]
@@ -256,7 +311,8 @@ def run_fig12_row(name, design, T, methods, lbfgs_iter):
                         fact=r.counts.get("factorizations", "-"), ok=r.success, feasible=r.feasible,
                         E=r.objective, best=best, w2=run["w2"], c2=run["c2"], it2=r2.iterations,
                         ok2=r2.feasible, ttq2=None if ttq2 is None else ttq2 + setup2,
-                        ang=r.min_torsal_angle_deg, spread=_spread(r), status=r.status))
+                        ang=r.min_torsal_angle_deg, spread=_spread(r), status=r.status,
+                        phases=_phases(r, compile_s)))
     return out
 
 
@@ -290,10 +346,8 @@ def _spread(r) -> str:
 
 
 def _load() -> str:
-    import os
-
     a = os.getloadavg()
-    return f"load average {a[0]:.2f} {a[1]:.2f} {a[2]:.2f} (2 cores)"
+    return f"load average {a[0]:.2f} {a[1]:.2f} {a[2]:.2f} ({os.cpu_count()} cores)"
 
 
 def print_fig12(rows, methods, lbfgs_iter):
@@ -317,6 +371,7 @@ def print_fig12(rows, methods, lbfgs_iter):
                   f"{('yes' if r['ttq2'] is not None and r['ttq2'] <= T / 5 else 'NO'):>5} | {r['E']:10.4e} "
                   f"{_fmt(r['best'], '10.4e'):>10} {_fmt(r['ang'], '7.2f'):>7} {r['spread']:>6} "
                   f"{'yes' if r['ok'] else ('feasible' if r['feasible'] else 'NO: ' + r['status'][:60])}", flush=True)
+            print(f"{'':>10}{r['phases']}", flush=True)
 
 
 def print_resolve(rows):
@@ -368,7 +423,7 @@ def print_resolve(rows):
                   f"{'yes' if same else 'NO':>4}", flush=True)
 
 
-def print_facade():
+def print_facade(angles=(40, 60, 80)):
     print("The doubly curved 1,089-vertex facade (normal 2, fair 1, perp 10, hyperbolic, normals as start)")
     print(_load())
     print("re-solve: after the sun turned by 5 degrees, warm from the answer")
@@ -379,11 +434,11 @@ def print_facade():
             f"{'success':>7} {'min ang':>7} {'E':>10}")
     print(head)
     print("-" * len(head))
-    for angle in (40, 60, 80):
+    for angle in angles:
         for solver in ("auto", "ipopt"):
             make = (lambda: CongruenceProblem(c, jit=True).normal(weight=2).fair(weight=1)
                     .perpendicular(SUN, weight=10).hyperbolic().min_torsal_angle(angle))
-            make().build(solver="alm" if solver == "auto" else "ipopt")     # kernels compiled before timing
+            compile_s = _compile_seconds(make)     # kernels compiled before timing
             (p, r), w, cp = _timed(lambda: (lambda q: (q, q.solve(solver=solver)))(make()))
             m = r.measured["min_torsal_angle"]
             below = int((m.values < angle - 0.1).sum())
@@ -393,6 +448,7 @@ def print_facade():
                   f"{r.counts.get('factorizations', '-')!s:>5} | {str(r.success):>7} {r.min_torsal_angle_deg:7.2f} "
                   f"{below:>17} | {r.objective:10.4e} | {w2:8.2f} {c2:6.2f} {r2.iterations:>4} "
                   f"{str(r2.success):>7} {r2.min_torsal_angle_deg:7.2f} {r2.objective:10.4e}", flush=True)
+            print(f"{'':>6}{_phases(r, compile_s)}", flush=True)
 
 
 def print_family(size: int, n: int):
@@ -479,12 +535,16 @@ def main():
     ap.add_argument("--methods", nargs="*", default=list(METHODS), choices=list(METHODS))
     ap.add_argument("--rows", nargs="*", default=None, help="Fig. 12 rows (default all)")
     ap.add_argument("--lbfgs-iter", type=int, default=500)
+    ap.add_argument("--facade-angles", nargs="*", type=float, default=[40, 60, 80],
+                    help="min_torsal_angle bounds of the facade table")
     ap.add_argument("--family-size", type=int, default=33)
     ap.add_argument("--family-n", type=int, default=20)
     ap.add_argument("--max-vertices", type=int, default=100_000, help="synthetic rows up to this size")
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
+    print(_machine())
+    print()
     if "fig12" in args.tables:
         print_fig12(args.rows, args.methods, args.lbfgs_iter)
         print()
@@ -492,7 +552,7 @@ def main():
         print_resolve(args.rows)
         print()
     if "facade" in args.tables:
-        print_facade()
+        print_facade(args.facade_angles)
         print()
     if "family" in args.tables:
         print_family(args.family_size, args.family_n)

@@ -98,6 +98,9 @@ def test_alm_result_says_who_solved_and_counts_its_work():
         else n["backend"] in BACKENDS
     assert {"build", "alm", "total"} <= set(r.timings) and not r.time_limited
     assert all(h.cpu_seconds >= 0 for h in r.history)
+    # its time by phase (optimize_bench's phases line): parts of "alm", each spent
+    phases = [r.timings[f"alm {k}"] for k in ("hessian", "factor", "line search")]
+    assert all(x > 0 for x in phases) and sum(phases) <= r.timings["alm"]
 
 
 def test_ipopt_certifies_the_augmented_lagrangians_answer():

@@ -56,6 +56,7 @@ so a solve's answer does not depend on the machine's load.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import Callable, NamedTuple
 
@@ -179,6 +180,7 @@ class AlmRun(NamedTuple):
     converged: bool
     state: AlmState
     counts: dict              # line-search trials, shifted retries, the backend
+    seconds: dict | None = None   # wall seconds by phase: hessian, factor, line search
 
 
 @dataclass
@@ -338,6 +340,9 @@ class AugmentedLagrangian:
         self.lo, self.hi = b.lbg, b.ubg
         self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
                        "predicted": 0, "erratic": 0, "backend": self.sys.chol.route}
+        # wall seconds by phase: the Lagrangian Hessian's blocks (and their projection), the
+        # factorizations with their solves, the line searches (their point evaluations)
+        self.seconds = {"hessian": 0.0, "factor": 0.0, "line search": 0.0}
 
     # ------------------------------------------------------------------ evaluations
     def _recentre(self, e: np.ndarray) -> np.ndarray:
@@ -388,11 +393,16 @@ class AugmentedLagrangian:
         """The Newton direction ``-K^-1 grad L_A``: with the exact Hessian when asked and it is
         positive definite (one factorization), else the projected one (one factorization,
         more only if rounding makes it fail: then with a larger shift)."""
+        t0 = time.perf_counter()
         exact_h, projected = self._hessians(mu, exact=try_exact, z=z)
+        self.seconds["hessian"] += time.perf_counter() - t0
         for h, exact in ((exact_h, True), (projected, False)):
             if h is None:
                 continue
-            h = h if exact else h()
+            if not exact:
+                t0 = time.perf_counter()
+                h = h()
+                self.seconds["hessian"] += time.perf_counter() - t0
             d = self._solve(h, exact, jac, w, gl)
             if d is not None:
                 self.counts["exact"] += int(exact)
@@ -411,14 +421,17 @@ class AugmentedLagrangian:
             k = base.copy()
             k[sys.diag_pos] += self.rel * scale
             self.counts["factorizations"] += 1
+            t0 = time.perf_counter()
             try:
                 chol.factor(k)
                 d = -chol.solve(rhs)
             except NotPositiveDefinite:
+                self.seconds["factor"] += time.perf_counter() - t0
                 self.counts["indefinite" if exact else "shifted"] += 1
                 if not exact:
                     self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
                 continue
+            self.seconds["factor"] += time.perf_counter() - t0
             # a descent direction, or the factorization was not what it claimed
             if np.all(np.isfinite(d)) and (float(rhs @ d) < 0 or not np.any(rhs)):
                 return d
@@ -500,7 +513,7 @@ class AugmentedLagrangian:
         state = AlmState(e=run.e.copy(), lam=run.lam, rho=run.rho, scale=run.s, delta=self.rel,
                          floor=run.floor)
         return AlmRun(run.e, lam_g, run.steps, run.outer, self.counts["factorizations"], run.status,
-                      run.converged, state, dict(self.counts))
+                      run.converged, state, dict(self.counts), dict(self.seconds))
 
     def _start(self, e0: np.ndarray, warm: AlmState | None) -> "_Run":
         """The run's state at ``e0``: the chart, the first point, multipliers and penalties."""
@@ -591,7 +604,9 @@ class AugmentedLagrangian:
             turn = float(np.sqrt((d.reshape(-1, 2) ** 2).sum(1)).max(initial=0.0))
             if turn > MAX_TURN:
                 d, slope = d * (MAX_TURN / turn), slope * (MAX_TURN / turn)
+            t0 = time.perf_counter()
             found = self._line_search(run.pt, d, slope, LA, run.lam, rho, s, run.lo, run.hi, erratic=attempt < 2)
+            self.seconds["line search"] += time.perf_counter() - t0
             if found.jump is None:
                 return found, turn
             # rows that jumped far past their linear model (a pole of the row): their penalty

@@ -388,7 +388,8 @@ class SolveCall:
         x, frames = b.pack(r.e)
         run = Run(x=x, lam_g=r.lam_g, iterations=r.iterations, status=r.status, ok=r.converged, active=True,
                   working=None, frames=frames, build_seconds=0.0, solve_seconds=t_alm, alm=r, solver="alm",
-                  timings={"alm": t_alm})
+                  # the parts of the augmented Lagrangian's time ("alm factor", ...), within "alm"
+                  timings={"alm": t_alm, **{f"alm {k}": v for k, v in (r.seconds or {}).items()}})
         stopped = monitor.timed_out or monitor.stopped_by_user
         # not converged (measured infeasible, or feasible but stopped by its step limit): IPOPT
         # continues from it, warm, so "auto" ends at a KKT point whenever one is in reach
