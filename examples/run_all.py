@@ -78,13 +78,20 @@ def sheets_cell(fa: dict) -> str:
 
 
 def min_torsal_angle(c: dict) -> str:
-    """Measured minimum torsal angle (degrees) of the optimized congruence, with the bound of
-    a ``min_torsal_angle`` constraint and the faces that have no torsal directions."""
+    """Measured minimum torsal angles (degrees) of the optimized congruence, the torsal planes'
+    crossing angle and the torsal directions' angle in the face (``planes / directions``), the
+    bound of a ``min_torsal_angle`` constraint on the one it bounds, and the faces that have
+    no torsal directions."""
     m = (c.get("constraints") or {}).get("min_torsal_angle")
-    ang = m["measured"] if m else c.get("min_torsal_angle_deg")
-    text = "-" if ang is None else f"{ang:.1f}"
-    if m:
-        text += f" (>= {m['bound']:g}{', ' + str(m['n_missing']) + ' faces miss it' if m['n_missing'] else ''})"
+    bounded = m.get("angle", "planes") if m else None
+    cells = []
+    for between, key in (("planes", "min_torsal_plane_angle_deg"), ("directions", "min_torsal_direction_angle_deg")):
+        ang = c.get(key, c.get("min_torsal_angle_deg") if between == "planes" else None)
+        cell = "-" if ang is None else f"{ang:.1f}"
+        if bounded == between:
+            cell += f" (>= {m['bound']:g}{', ' + str(m['n_missing']) + ' faces miss it' if m['n_missing'] else ''})"
+        cells.append(cell)
+    text = " / ".join(cells)
     none = c.get("faces_without_torsal_directions")
     if none:
         text += f"; {none} faces without"
@@ -163,7 +170,7 @@ def main():
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
              "sheets / area bound | utilization (DXF) | "
-             "min torsal angle, measured (deg) | interfering pairs | connectors (share of parts); fixings | "
+             "min torsal angle, measured (deg): planes / directions in the face | interfering pairs | connectors (share of parts); fixings | "
              "fasteners | fin panels left out | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     started, t0, loads, keys = datetime.now(timezone.utc), time.perf_counter(), [os.getloadavg()[0]], []
