@@ -52,6 +52,8 @@ from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
 from ..fabrication.quantities import Rates, check_fastener_rates
 from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
+from ..light.annual import (AMBIENT_BOUNCES, AMBIENT_DIVISIONS, BALANCE_TEMPERATURE_C,
+                            FIN_REFLECTANCE, GROUND_REFLECTANCE, SeasonRule, SkySubdivision)
 from ..light.view import ViewField
 
 __all__ = [
@@ -533,6 +535,38 @@ class CostsSpec(_Spec):
         return Rates(**self.model_dump(exclude_none=True))
 
 
+class AnnualSpec(_Spec):
+    """Annual solar irradiance on the glazing by Radiance (report ``light.annual``): the bare
+    surface, the fins as built and each standard device, over the weather year of ``sun.epw``
+    or, without one, the site's clear-sky year (see torsal.light.annual)."""
+
+    enabled: bool = Field(False, description="compute it (Radiance, from the pyradiance "
+                          "package; seconds to a minute)")
+    points: int = Field(300, ge=1, description="sample points on the surface (area-uniform, "
+                        "seeded), each moved just behind it and facing out")
+    ambient_bounces: int = Field(AMBIENT_BOUNCES, ge=1, le=8, description="Radiance -ab: 1 "
+                                 "counts the sky and the ground seen directly (black fins), "
+                                 "each more one diffuse reflection off the fins")
+    ambient_divisions: int = Field(AMBIENT_DIVISIONS, ge=16, description="Radiance -ad: "
+                                   "hemisphere samples per point")
+    sky: SkySubdivision = Field(SkySubdivision.TREGENZA, description="sky patches of the sky "
+                                "matrix: tregenza (145), reinhart (577) or reinhart4 (2305); the "
+                                "sun is a source of its own every hour whichever is chosen")
+    fin_reflectance: float = Field(FIN_REFLECTANCE, ge=0, lt=1, description="diffuse solar "
+                                   "reflectance of the fins and devices (both sides)")
+    ground_reflectance: float = Field(GROUND_REFLECTANCE, ge=0, le=1, description="the "
+                                      "ground's solar reflectance (albedo)")
+    season: SeasonRule = Field(SeasonRule.AUTO, description="which hours are the cooling "
+                               "season: months (May-September north of the equator, "
+                               "November-March south), temperature (days whose mean outdoor "
+                               "temperature is above balance_temperature_c; needs sun.epw) or "
+                               "auto (temperature with sun.epw, else months)")
+    balance_temperature_c: float = Field(BALANCE_TEMPERATURE_C, description="degC; the "
+                                         "temperature rule's threshold on a day's mean")
+    devices: bool = Field(True, description="also for each standard device of the fins' depth "
+                          "and spacing")
+
+
 class DesignSpec(_Spec):
     """A whole design file."""
 
@@ -552,6 +586,9 @@ class DesignSpec(_Spec):
     view: ViewSpec = Field(default_factory=ViewSpec, description="how the view out is measured "
                            "(report light.view_clear, a study's x axis)")
     substructure: SubstructureSpec | None = None
+    annual: AnnualSpec = Field(default_factory=AnnualSpec, description="annual solar "
+                               "irradiance on the glazing in kWh/m2 by Radiance (report "
+                               "light.annual)")
     costs: CostsSpec | None = Field(None, description="the user's rates: a price of the design "
                                     "from its bill of quantities; unset: no price")
 

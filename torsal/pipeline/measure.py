@@ -16,7 +16,7 @@ import numpy as np
 from .design_file import DesignSpec
 from .stage import StageInputs
 
-__all__ = ["measure_fins", "run_devices", "devices_key", "view_clear_key", "VIEW_KEYS",
+__all__ = ["measure_fins", "run_devices", "design_devices", "devices_key", "view_clear_key", "VIEW_KEYS",
            "light_summary", "devices_summary", "SunGoals", "sun_goals", "goal_suns"]
 
 #: the report key of each view measure (``view.measure`` in the design file)
@@ -195,6 +195,36 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float,
     return report, blocked
 
 
+def design_devices(spec: DesignSpec, vertices, faces, sun: dict, *,
+                   goals: SunGoals | None = None) -> dict:
+    """The standard devices of the design's fin depth and spacing on mesh A
+    (:func:`torsal.light.devices.standard_devices`), the optimized ones oriented for what the
+    goals ask everywhere (a region's own sun over its share of A, :func:`goal_suns`).
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    vertices : (n, 3) float
+    faces : (m, 3) int
+        Mesh A, oriented (normals towards the sun).
+    sun : dict
+        The sun stage's result: ``vectors`` (k, 3), ``weights`` (k,).
+    goals : SunGoals, optional
+        Default :func:`sun_goals` of the design.
+
+    Returns
+    -------
+    dict of str -> torsal.light.devices.Device
+        In :data:`torsal.light.devices.DEVICE_NAMES` order.
+    """
+    from ..light.devices import standard_devices
+
+    goals = sun_goals(spec, vertices, faces) if goals is None else goals
+    vec, w = goal_suns(goals, vertices, faces, sun)
+    return standard_devices(vertices, faces, spec.fins.depth, spec.fins.spacing, sun=vec,
+                            weights=w)
+
+
 def run_devices(inp: StageInputs) -> dict:
     """The standard devices of the design's fin depth and spacing, measured.
 
@@ -202,15 +232,11 @@ def run_devices(inp: StageInputs) -> dict:
     ``stand_out_deg`` (and ``orientation`` for the optimized ones) and, when applicable,
     every figure of :func:`measure_fins`}; in :data:`torsal.light.devices.DEVICE_NAMES` order.
     """
-    from ..light.devices import standard_devices
-
     spec = inp.spec
     o, sun = inp["orient"], inp["sun"]
     v, f = o["vertices"], o["faces"]
     goals = sun_goals(spec, v, f)
-    # oriented for what the goals ask everywhere (a region's own sun over its share of A)
-    vec, w = goal_suns(goals, v, f, sun)
-    devices = standard_devices(v, f, spec.fins.depth, spec.fins.spacing, sun=vec, weights=w)
+    devices = design_devices(spec, v, f, sun, goals=goals)
     view = spec.view.field(spec.metres_per_unit)
     measured = {}
     for name, d in devices.items():

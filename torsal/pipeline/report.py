@@ -674,6 +674,59 @@ def _light_html(li: dict, view: dict | None = None) -> str:
     return f"<table>{head}{''.join(rows)}</table>" + text
 
 
+def _kwh(x) -> str:
+    return '<td class="num">-</td>' if x is None else f'<td class="num">{x:.0f}</td>'
+
+
+def _factor(x) -> str:
+    return '<td class="num">-</td>' if x is None else f'<td class="num">{x:.2f}</td>'
+
+
+_MONTHS = ("Jan", "Feb", "Mar", "Apr", "May", "Jun", "Jul", "Aug", "Sep", "Oct", "Nov", "Dec")
+
+
+def _annual_html(an: dict) -> str:
+    """The annual irradiance on the glazing (``light.annual``): kWh/m&sup2; of the bare
+    glazing, the fins as built and each standard device per season, their shading factors,
+    the months, and the engine's settings."""
+    made = [("torsal fins as built", an["fins"])] + [
+        (f"{name}, same depth and spacing", d) for name, d in an["devices"].items()
+        if d.get("applicable", True)]
+    head = ("<tr><th>glazing</th><th>year (kWh/m&sup2;)</th><th>heating season</th>"
+            "<th>cooling season</th><th>cooling gains avoided</th><th>F<sub>sh</sub> cooling"
+            "</th><th>F<sub>sh</sub> heating</th><th>F<sub>sh</sub> year</th>"
+            "<th>direct sun</th><th>seconds</th></tr>")
+
+    def row(name, m):
+        f = m.get("shading_factor") or {}
+        return (f"<tr><td>{html.escape(name)}</td>{_kwh(m['annual_kwh_m2'])}"
+                f"{_kwh(m['heating_kwh_m2'])}{_kwh(m['cooling_kwh_m2'])}"
+                f"{_kwh(f.get('cooling_gains_avoided_kwh_m2'))}{_factor(f.get('f_sh_cooling'))}"
+                f"{_factor(f.get('f_sh_heating'))}{_factor(f.get('f_sh_year'))}"
+                f"{_kwh(m['by_source_kwh_m2']['sun'])}{_kwh(m.get('seconds'))}</tr>")
+
+    rows = [row("bare", an["bare"])] + [row(n, m) for n, m in made]
+    rows += [f"<tr><td>{html.escape(n)}</td><td colspan=\"9\">not applicable: "
+             f"{html.escape(d['reason'])}</td></tr>"
+             for n, d in an["devices"].items() if not d.get("applicable", True)]
+    months = ("<tr><th>kWh/m&sup2;</th>" + "".join(f"<th>{m}</th>" for m in _MONTHS) + "</tr>"
+              + "".join(f"<tr><td>{html.escape(n)}</td>"
+                        + "".join(_kwh(x) for x in m["monthly_kwh_m2"]) + "</tr>"
+                        for n, m in [("bare", an["bare"])] + made))
+    w, se = an["weather"], an["seasons"]
+    text = (f"<p>Solar irradiation on the glazing over the year (sun, sky, ground and what the "
+            f"fins reflect), the mean of {an['points']} points on the surface. Weather: "
+            f"{html.escape(w['description'])} ({w['hours']} hours). Seasons: "
+            f"{html.escape(se['description'])}. Engine: {html.escape(an['engine'])}, "
+            f"{an['ambient_bounces']} ambient bounces (-ab), {an['ambient_divisions']} "
+            f"divisions (-ad), sky {an['sky']} ({an['sky_patches']} patches) and "
+            f"{html.escape(an['sun'])}; fin reflectance {an['fin_reflectance']:g}, ground "
+            f"{an['ground_reflectance']:g}. F<sub>sh</sub>: "
+            f"{html.escape(an['fins']['shading_factor']['standard'])}.</p>")
+    return (f"<h3>Annual irradiance on the glazing ({an['seconds']:.0f} s)</h3>"
+            f"<table>{head}{''.join(rows)}</table><table>{months}</table>" + text)
+
+
 #: lines within this many degrees of their mean direction are called nearly parallel in the
 #: report (examples 7a and 7b end within 0.2 degrees, 7d within 1.75, 11's fins within 7)
 NEARLY_PARALLEL_DEG = 1.0
@@ -735,6 +788,8 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
         secs.append(f"<h2>3. Light ({li['sun_directions']} sun directions)</h2>" + _light_html(li, report.get("design", {}).get("view")))
         if "blocked_sun" in images:
             secs.append(f'<img src="{images["blocked_sun"]}" alt="blocked sun map">')
+        if li.get("annual"):
+            secs.append(_annual_html(li["annual"]))
     if li.get("reflection"):
         secs.append(_reflection_html(li["reflection"]))
         if "ceiling_light" in images:

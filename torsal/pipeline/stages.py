@@ -14,6 +14,7 @@ import numpy as np
 from .design_file import DesignSpec
 from ..geometry.congruence import Congruence, direction_spread
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
+from .annual import annual_applies, annual_key, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
                        prefetch_step_solids, run_assembly, support_gate)
 from .fins import fabrication_summary, fin_system
@@ -625,6 +626,9 @@ DEFAULT_PIPELINE = Pipeline((
     # after the fabrication: it measures the fins that are built
     Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication", "devices"),
           key=_light_key),
+    # annual irradiance by Radiance, bare / fins as built / devices ([annual] enabled)
+    Stage("annual", run_annual, inputs=("orient", "sun", "support", "fabrication"),
+          key=annual_key, applies=annual_applies, section="light.annual"),
     Stage("assembly", run_assembly, inputs=("support", "fabrication"),
           key=_assembly_key, section="fabrication.assembly"),
     Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",
