@@ -974,7 +974,8 @@ case("cli-normals-and-directions", lambda tmp: ["analyze", str(PLAIN_OBJ(tmp)), 
 
 
 # ============================================================== the run
-RESULT_FILES = {"report.json", "report.html", "parts.csv", "fins.step", "fins.3dm", "congruence.ply",
+RESULT_FILES = {"report.json", "report.html", "parts.csv", "fins.step", "fins.3dm", "fins.ifc",
+                "congruence.ply",
                 "support.obj", "analysis.json", "torsal_field.png", "sheets", ".torsal-staging",
                 ".torsal-results.json"}
 

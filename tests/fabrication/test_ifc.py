@@ -96,7 +96,8 @@ def test_one_element_per_parts_csv_row_with_its_name(exported):
     some = next(j for j in fs.joints if j.connector)
     for name in (*some.parts, some.connector):
         el = next(e for e in elements if e.Name == name)
-        assert f"{some.kind.value} N{some.node:04d}" in ifcopenshell.util.element.get_psets(el)["Torsal_Part"]["Joints"]
+        joints = ifcopenshell.util.element.get_psets(el)["Torsal_Part"]["Joints"]
+        assert f"{some.kind.value} N{some.node:04d}" in joints
 
 
 def test_volumes_are_those_of_the_step_solids(exported):
@@ -137,18 +138,20 @@ def test_flat_plates_are_extruded_profiles_and_bent_parts_closed_triangles(expor
             inner = area.InnerCurves if area.is_a("IfcArbitraryProfileDefWithVoids") else ()
             circles = [c for c in inner if c.is_a("IfcCircle")]
             assert len(circles) == len(part.holes)
-            assert sorted(2 * c.Radius for c in circles) == pytest.approx(sorted(h.diameter for h in part.holes))
+            assert sorted(2 * c.Radius for c in circles) \
+                == pytest.approx(sorted(h.diameter for h in part.holes))
         else:
             assert item.is_a("IfcTriangulatedFaceSet") and item.Closed is True
             assert rep.RepresentationType == "Tessellation" and body == I.PlateBody.TRIANGULATED.value
     names = {e.Name: _body(e)[1].is_a() for e in _parts(f)}
-    # the folded connectors are never extruded; on the flat grid every fin plate is
+    # the bent connectors and fixings are never extruded; every plate on one plane with
+    # square ends is, every folded plate is not
     assert all(v == "IfcTriangulatedFaceSet" for k, v in names.items() if k.startswith(("C-", "A-")))
-    if all(np.allclose(p.fold_angles, 0.0) for p in fs.plates) and not any(p.trimmed[0] or p.trimmed[1] for p in fs.plates):
-        assert all(names[p.name] == "IfcExtrudedAreaSolid" for p in fs.plates)
-    if fs.structure is not None and any(not np.allclose(p.fold_angles, 0.0) for p in fs.plates):
-        folded = [p.name for p in fs.plates if not np.allclose(p.fold_angles, 0.0)]
-        assert all(names[n] == "IfcTriangulatedFaceSet" for n in folded)
+    flat = [p.name for p in fs.plates if I._flat(p)]
+    folded = [p.name for p in fs.plates if not np.allclose(p.fold_angles, 0.0)]
+    assert all(names[n] == "IfcExtrudedAreaSolid" for n in flat)
+    assert all(names[n] == "IfcTriangulatedFaceSet" for n in folded)
+    assert len(flat) >= 3 and (folded or len(flat) == len(fs.plates))
 
 
 def test_materials_with_thickness(exported):
@@ -189,8 +192,11 @@ def test_bolts_and_anchors_are_mechanical_fasteners_through_their_plies(exported
         assert 0 < along < el.NominalLength
         assert el.NominalDiameter == pytest.approx({"BOLT": 6.0, "ANCHORBOLT": 8.0}[el.PredefinedType])
         if el.PredefinedType == "BOLT":
-            c = min(plate_holes[ps["Host"]], key=lambda c: np.linalg.norm(c - start - ((c - start) @ axis) * axis))
-            assert np.linalg.norm(c - start - ((c - start) @ axis) * axis) < 1e-6
+            def off_axis(c):
+                return np.linalg.norm(c - start - ((c - start) @ axis) * axis)
+
+            c = min(plate_holes[ps["Host"]], key=off_axis)
+            assert off_axis(c) < 1e-6
             assert 0 < (c - start) @ axis < el.NominalLength
         else:
             assert ps["Host"] == "building"
@@ -269,6 +275,9 @@ def test_other_units_and_bad_options(exported, tmp_path):
                  if u.is_a("IfcNamedUnit") and u.UnitType == "LENGTHUNIT"]
     assert length.is_a("IfcConversionBasedUnit") and length.Name == "inch"
     assert length.ConversionFactor.ValueComponent.wrappedValue == pytest.approx(0.0254)
+    log = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(g, log, express_rules=True)
+    assert log.statements == [] and not g.by_type("IfcMaterialLayerSetUsage")
     (plate,) = g.by_type("IfcPlate")
     assert _body(plate)[1].is_a("IfcTriangulatedFaceSet")
     assert ifcopenshell.util.element.get_psets(plate)["Torsal_Part"]["Family"] == -1
@@ -297,3 +306,62 @@ def test_prism_profile_of_a_box_and_not_of_a_fold():
     bent = BRepAlgoAPI_Fuse(box, leg).Shape()
     assert I.prism_profile(bent, 3.0) is None
     assert I.closed_triangles(bent, 0.1)[2]
+
+
+DESIGN = """
+name = "ifc pipeline"
+units = "cm"
+[surface]
+generator = "facade_patch"
+params = { nu = 4, nv = 4 }
+[site]
+latitude = 48.21
+longitude = 16.37
+north_angle = 15.0
+[sun]
+vectors = [[0.3, -0.8, 0.5]]
+[fins]
+spacing = 3.0
+depth = 0.5
+[constraints]
+min_torsal_angle = 40
+[outputs]
+step = false
+rhino_3dm = false
+dxf = false
+renders = false
+"""
+
+
+def test_the_fabrication_stage_writes_fins_ifc_and_nothing_half_written(tmp_path, monkeypatch):
+    import tomllib
+    import warnings
+
+    from torsal.pipeline import DEFAULT_PIPELINE, Design, StageCache
+    from torsal.pipeline.design_file import DesignSpec
+
+    spec = DesignSpec.model_validate(tomllib.loads(DESIGN))
+    assert spec.outputs.ifc is True                              # the default
+    pipe, cache = DEFAULT_PIPELINE.until("fabrication"), StageCache(tmp_path / "cache")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = Design(spec).run(tmp_path / "out", pipeline=pipe, cache=cache)
+    assert run.files["ifc"] == "fins.ifc"
+    f = ifcopenshell.open(str(tmp_path / "out" / "fins.ifc"))
+    assert f.by_type("IfcProject")[0].Name == "ifc pipeline"
+    assert f.by_type("IfcSite")[0].RefLatitude[:2] == (48, 12)
+    rows = _parts_csv(tmp_path / "out")
+    assert sorted(e.Name for e in _parts(f)) == sorted(r["part_id"] for r in rows)
+
+    # the export fails half way (after writing some of the file): no fins.ifc, no results
+    def broken(self, path):
+        path.write_text("ISO-10303-21; half")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(I._Writer, "write", broken)
+    thicker = spec.model_copy(update={"material": spec.material.model_copy(update={"thickness_mm": 4.0})})
+    with warnings.catch_warnings(), pytest.raises(OSError, match="disk full"):
+        warnings.simplefilter("ignore")
+        Design(thicker).run(tmp_path / "failed", pipeline=pipe, cache=cache)
+    left = list((tmp_path / "failed").rglob("*")) if (tmp_path / "failed").exists() else []
+    assert not [p for p in left if p.name.startswith(("fins", ".fins"))], left

@@ -166,8 +166,9 @@ def prism_profile(shape, thickness: float) -> _Profile | None:
     _Profile or None
         Coplanar faces are merged first (a flat strip of several panels); the profile is the
         plate's bottom face (outline and any inner loops), extruded by ``thickness`` along
-        the plate's normal (that of its largest face). None where a face is curved or neither on the plate's planes nor
-        square to them (a mitred or butt-trimmed end, a fold).
+        the plate's normal (that of its largest face). None where a face is curved or
+        neither on the plate's planes nor square to them (a mitred or butt-trimmed end, a
+        fold).
     """
     from OCP.BRepTools import BRepTools
     from OCP.ShapeUpgrade import ShapeUpgrade_UnifySameDomain
@@ -230,11 +231,12 @@ def closed_triangles(shape, tolerance: float) -> tuple[np.ndarray, np.ndarray, b
     vertices, inverse = np.unique(v, axis=0, return_inverse=True)
     tri = inverse.reshape(-1)[f]
     tri = tri[(tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 2] != tri[:, 0])]
-    directed = np.c_[tri.ravel(), np.roll(tri, -1, axis=1).ravel()]
-    keys, counts = np.unique(directed, axis=0, return_counts=True)
-    reverse = {(int(a), int(b)) for a, b in keys}
+    a, b = tri.ravel(), np.roll(tri, -1, axis=1).ravel()
+    n = len(vertices)
+    directed = a.astype(np.int64) * n + b
+    keys, counts = np.unique(directed, return_counts=True)
     closed = bool(len(tri) and (counts == 1).all()
-                  and all((int(b), int(a)) in reverse for a, b in keys))
+                  and np.isin(b.astype(np.int64) * n + a, keys).all())
     return vertices, tri, closed
 
 
@@ -324,7 +326,8 @@ def fastener_placements(fs) -> list[FastenerPlacement]:
                 if dist <= 2 * t:
                     host = hosts[k]
                     into = n if (centres[k] - h.center) @ n >= 0 else -n
-                    if shared_tree is not None and shared_tree.query(h.center + 2 * t * into)[0] <= 0.5 * t:
+                    beyond = h.center + 2 * t * into       # a connector on the far face
+                    if shared_tree is not None and shared_tree.query(beyond)[0] <= 0.5 * t:
                         plies = 3
             out.append(FastenerPlacement(f, p.name, i, host, h.center - 0.5 * t * into, into,
                                          plies * t + BOLT_PROTRUSION * d))
@@ -383,6 +386,8 @@ class _Writer:
         self.body = ifcopenshell.api.context.add_context(
             f, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=model)
         self.origin = f.createIfcAxis2Placement3D(f.createIfcCartesianPoint((0.0, 0.0, 0.0)))
+        self.up = f.createIfcDirection((0.0, 0.0, 1.0))
+        self.properties, self.fastener_shapes = {}, {}
         parent, placement = proj, None
         for cls, name in (("IfcSite", site["name"]), ("IfcBuilding", site["building"]),
                           ("IfcBuildingStorey", site["storey"])):
@@ -424,7 +429,8 @@ class _Writer:
         if site.get("latitude") is not None:
             self.site.RefLatitude = _dms(site["latitude"])
             self.site.RefLongitude = _dms(site["longitude"])
-            self.site.RefElevation = float(site.get("elevation") or 0.0) * 1000.0 / UNIT_TO_MM[self.fs.unit]
+            metres = float(site.get("elevation") or 0.0)
+            self.site.RefElevation = metres * 1000.0 / UNIT_TO_MM[self.fs.unit]
 
     def _materials(self, material: str, density: float, fastener_material: str) -> None:
         """The plates' material and layer set (one layer, ``thickness``), the fasteners'."""
@@ -434,7 +440,6 @@ class _Writer:
             "MassDensity", None, f.createIfcMassDensityMeasure(float(density)), None)], self.material)
         layer = f.createIfcMaterialLayer(self.material, t, None, material, None, None, None)
         self.layer_set = f.createIfcMaterialLayerSet([layer], f"{material} {t:g} {self.fs.unit}", None)
-        self.usage = f.createIfcMaterialLayerSetUsage(self.layer_set, "AXIS3", "POSITIVE", 0.0, None)
         self.fastener_material = f.createIfcMaterial(fastener_material, None, None)
 
     def style(self, rgb) -> object:
@@ -463,9 +468,15 @@ class _Writer:
         return self.f.createIfcProductDefinitionShape(None, None, [rep])
 
     def pset(self, element, name: str, values: dict) -> None:
-        """A property set ``name`` of ``values`` (IFC value entities) on ``element``."""
+        """A property set ``name`` of ``values`` (IFC value entities) on ``element``; a
+        property of the same name and value is made once and shared by the sets."""
         f = self.f
-        props = [f.createIfcPropertySingleValue(k, None, v, None) for k, v in values.items()]
+        props = []
+        for k, v in values.items():
+            key = (k, v.is_a(), v.wrappedValue)
+            if key not in self.properties:
+                self.properties[key] = f.createIfcPropertySingleValue(k, None, v, None)
+            props.append(self.properties[key])
         pset = f.createIfcPropertySet(_guid(self.ns, f"{name}:{element.GlobalId}"), None, name,
                                       None, props)
         f.createIfcRelDefinesByProperties(_guid(self.ns, f"{name}-rel:{element.GlobalId}"), None,
@@ -493,7 +504,7 @@ def _extruded(w: _Writer, part: Part, prof: _Profile, relative_to):
         area = f.createIfcArbitraryProfileDefWithVoids("AREA", part.name, outer, inner)
     else:
         area = f.createIfcArbitraryClosedProfileDef("AREA", part.name, outer)
-    solid = f.createIfcExtrudedAreaSolid(area, w.origin, f.createIfcDirection((0.0, 0.0, 1.0)),
+    solid = f.createIfcExtrudedAreaSolid(area, w.origin, w.up,
                                          float(prof.depth))
     return w.placement(relative_to, prof.origin, prof.z_dir, prof.x_dir), solid, "SweptSolid"
 
@@ -515,7 +526,7 @@ def _part_element(w: _Writer, part: Part, shape, info: dict, joints: list, *, re
                   flat_profiles: bool, tolerance: float):
     """The ``IfcPlate`` of one part, with its body, property sets and material."""
     f = w.f
-    prof = prism_profile(shape, w.fs.thickness) if flat_profiles else None
+    prof = prism_profile(shape, w.fs.thickness) if flat_profiles and _flat(part) else None
     if prof is not None:
         placement, item, kind = _extruded(w, part, prof, relative_to)
     else:
@@ -538,6 +549,17 @@ def _part_element(w: _Writer, part: Part, shape, info: dict, joints: list, *, re
                                     "IsExternal": f.createIfcBoolean(True),
                                     "LoadBearing": f.createIfcBoolean(False)})
     return el, body
+
+
+def _flat(part: Part) -> bool:
+    """Whether a part can be a right prism: its panels on one plane, its mitre vectors along
+    their normal (square ends); :func:`prism_profile` then checks its solid."""
+    n = quad_normals(part.panels)
+    if not (np.abs(n @ n[0]) >= 1.0 - 1e-12).all():
+        return False
+    m = part.miters if part.miters is not None else n[:1]
+    across = np.linalg.norm(np.cross(m, n[0]), axis=1)
+    return bool(across.max() <= 1e-9 * np.linalg.norm(m, axis=1).max())
 
 
 def _description(part: Part, info: dict) -> str:
@@ -597,7 +619,9 @@ def _add_parts(w: _Writer, *, flat_profiles: bool, tolerance: float) -> dict[str
         counts[body] = len(elements)
         if elements:
             # a flat plate's layers run along its extrusion; another's along no axis it has
-            use = w.usage if body is PlateBody.EXTRUSION else w.layer_set
+            # (made only when used: a usage must be associated with an element)
+            use = (f.createIfcMaterialLayerSetUsage(w.layer_set, "AXIS3", "POSITIVE", 0.0, None)
+                   if body is PlateBody.EXTRUSION else w.layer_set)
             f.createIfcRelAssociatesMaterial(_guid(w.ns, f"material:{body.value}"), None, None,
                                              None, elements, use)
     w.in_storey = in_storey
@@ -612,16 +636,19 @@ def _add_fasteners(w: _Writer) -> int:
     elements = []
     for fp in fastener_placements(fs):
         d = fp.fastener.bolt_mm / mm
-        profile = f.createIfcCircleProfileDef("AREA", fp.fastener.name, None, 0.5 * d)
-        item = f.createIfcExtrudedAreaSolid(profile, w.origin, f.createIfcDirection((0.0, 0.0, 1.0)),
-                                            float(fp.length))
+        shape = (fp.fastener.label, round(float(fp.length), 9))
+        if shape not in w.fastener_shapes:      # one body per size and length, shared
+            profile = f.createIfcCircleProfileDef("AREA", fp.fastener.name, None, 0.5 * d)
+            item = f.createIfcExtrudedAreaSolid(profile, w.origin, w.up, float(fp.length))
+            w.fastener_shapes[shape] = w.shape(item, "SweptSolid", (0.6, 0.6, 0.62))
         placement = w.placement(w.storey_placement, fp.start, fp.direction,
                                 _perpendicular(fp.direction))
         key = f"{fp.part}.{fp.hole}"
         el = f.createIfcMechanicalFastener(
             _guid(w.ns, f"fastener:{key}"), None, fp.fastener.label,
-            f"{fp.fastener.label} through {fp.part}" + (f" and {fp.host}" if fp.host else " into the building"),
-            None, placement, w.shape(item, "SweptSolid", (0.6, 0.6, 0.62)), key, d, float(fp.length),
+            f"{fp.fastener.label} through {fp.part}"
+            + (f" and {fp.host}" if fp.host else " into the building"),
+            None, placement, w.fastener_shapes[shape], key, d, float(fp.length),
             _FASTENER_TYPES[fp.fastener.kind])
         w.pset(el, "Torsal_Fastener", {
             "Fastener": f.createIfcLabel(fp.fastener.label), "Part": f.createIfcLabel(fp.part),

@@ -422,6 +422,7 @@ class NestingSpec(_Spec):
 class OutputsSpec(_Spec):
     step: bool = True
     rhino_3dm: bool = True
+    ifc: bool = True
     dxf: bool = True
     bom: bool = True
     renders: bool = True

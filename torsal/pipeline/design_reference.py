@@ -108,6 +108,7 @@ KEY_NOTES: dict[str, tuple[str, str]] = {
     "outputs": ("", "which files to write"),
     "outputs.step": ("", "fins.step (solids)"),
     "outputs.rhino_3dm": ("", "fins.3dm"),
+    "outputs.ifc": ("", "fins.ifc: IFC4 for BIM tools (plates, strip assemblies, bolts, property sets)"),
     "outputs.dxf": ("", "sheets/*.dxf cutting sheets"),
     "outputs.bom": ("", "parts.csv"),
     "outputs.renders": ("", "PNG figures and report.html"),

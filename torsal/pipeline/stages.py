@@ -392,6 +392,17 @@ def run_substructure(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ fabrication
+def _ifc_options(spec: DesignSpec) -> dict:
+    """:func:`~torsal.fabrication.ifc.export_ifc` options of the design file: its name, site
+    and material."""
+    options = {"project": spec.name or "torsal fins", "material": spec.material.name,
+               "density": spec.material.density}
+    if spec.site is not None:
+        options.update(latitude=spec.site.latitude, longitude=spec.site.longitude,
+                       elevation=spec.site.elevation, north_angle=spec.site.north_angle)
+    return options
+
+
 def run_fabrication(inp: StageInputs) -> dict:
     """Parts, joints and solids; STEP / 3DM / nested DXF sheets / parts list as the design's
     [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
@@ -401,7 +412,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     spec, out = inp.spec, inp.out
     m = spec.material
     structure = inp["support"]["structure"]
-    solids = spec.outputs.step or spec.outputs.rhino_3dm
+    solids = spec.outputs.step or spec.outputs.rhino_3dm or spec.outputs.ifc
     # the solids (most of the stage's work) are built by worker processes while this one
     # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards. The
     # workers take seconds to start (each imports OpenCascade): they start while this
@@ -429,6 +440,9 @@ def run_fabrication(inp: StageInputs) -> dict:
         if spec.outputs.rhino_3dm:
             fs.export_3dm(out / "fins.3dm")
             written["3dm"] = "fins.3dm"
+        if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
+            fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
+            written["ifc"] = "fins.ifc"
         layout = nesting.result()
         if spec.outputs.dxf:      # written and read back by the nesting process
             written["dxf"] = [str(Path(p).relative_to(out)) for p in nesting.sheets.paths]
