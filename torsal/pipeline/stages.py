@@ -13,6 +13,7 @@ import numpy as np
 
 from .design_file import DesignSpec
 from ..geometry.congruence import Congruence, direction_spread
+from ..geometry.optimize import TorsalAngleBetween
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .annual import annual_applies, annual_key, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
@@ -238,7 +239,9 @@ def _torsal_angles(c: Congruence, constraints) -> dict:
     return {"min_torsal_plane_angle_deg": plane,
             "min_torsal_direction_angle_deg": _min_deg(c.torsal_angle()),
             "min_torsal_angle_deg": plane,
-            "torsal_angle_between": constraints.torsal_angle_between.value if bounded else None}
+            # a spec copied with model_copy(update=...) is not validated: the value may be a str
+            "torsal_angle_between": TorsalAngleBetween(constraints.torsal_angle_between).value
+            if bounded else None}
 
 
 def _measured_constraints(r) -> dict:
