@@ -13,6 +13,8 @@ from torsal.light.annual import (
     RadianceNotFound,
     RadianceSettings,
     SeasonRule,
+    SkySubdivision,
+    SkyYear,
     annual_irradiance,
     clear_sky_year,
     epw_year,
@@ -74,7 +76,7 @@ def test_bare_plane_matches_pvlib_perez_within_3_percent(which, tilt, epw_weathe
     normal = _normal(tilt, 180.0)
     points = np.c_[np.arange(8.0), np.zeros(8), np.ones(8)]
     r = annual_irradiance(points, np.tile(normal, (8, 1)), sky, split,
-                          settings=RadianceSettings(ambient_divisions=1024))
+                          settings=RadianceSettings())
     poa = _pvlib_poa(weather, tilt, 180.0)
     total = poa["poa_global"].to_numpy() / 1000.0
     assert r.annual == pytest.approx(total.sum(), rel=0.03)
@@ -185,3 +187,114 @@ def test_north_angle_turns_the_sky_with_the_suns(clear_weather):
         angle = np.degrees(np.arccos(np.clip((patch * sky.sun_vectors[high]).sum(1), -1, 1)))
         assert np.median(angle) < 6.0 and np.percentile(angle, 99) < 10.0
 
+
+
+def _uniform_sky(subdivision_patches: int) -> SkyYear:
+    """One hour (a June noon) of a sky of unit radiance everywhere above the horizon, a black
+    ground and no sun."""
+    times = pd.DatetimeIndex(["2023-06-21 12:30"]).tz_localize("Etc/GMT-1")
+    weather = Weather(48.21, 16.37, 0.0, 1.0, times, np.zeros(1), np.zeros(1), np.zeros(1),
+                      None, WeatherSource.CLEAR_SKY, "a uniform sky")
+    sky = np.ones((subdivision_patches + 1, 1))
+    sky[0] = 0.0
+    return SkyYear(weather, SkySubdivision.TREGENZA, 0.0, 0.0, sky, np.zeros_like(sky),
+                   np.zeros((0, 3)), np.zeros(0, int), np.zeros(0))
+
+
+def test_infinite_louvers_diffuse_share_matches_their_sky_view_factor():
+    """Under a sky of uniform radiance, a point at height z between black infinite louvers
+    (spacing s, depth d) sees the sky up to the upper louver's edge, elevation atan((s - z) /
+    d): view factor sin(atan((s - z) / d)) / 2 against the bare wall's 1 / 2 (the differential
+    element to an infinite strip). Radiance's share within 2 points."""
+    sky = _uniform_sky(SkySubdivision.TREGENZA.patches)
+    split = seasons(sky.weather, SeasonRule.MONTHS)
+    s, d, n = 1.0, 0.8, 40
+    z = (np.arange(n) + 0.5) / n * s
+    points = np.c_[np.zeros(n), np.zeros(n), z]
+    normals = np.tile([0.0, -1.0, 0.0], (n, 1))
+    settings = RadianceSettings(ambient_bounces=1, ambient_divisions=4096)
+    bare = annual_irradiance(points, normals, sky, split, settings=settings)
+    shaded = annual_irradiance(points, normals, sky, split, fins=_louvers(s, d), settings=settings)
+    assert bare.by_source()["sky"] == pytest.approx(np.pi / 2 / 1000.0, rel=0.01)   # pi L / 2
+    expected = np.sin(np.arctan((s - z) / d)).mean()
+    assert abs(shaded.by_source()["sky"] / bare.by_source()["sky"] - expected) < 0.02
+    assert 0.3 < expected < 0.7
+
+
+def _toy_design(**annual):
+    from torsal.pipeline.design_file import DesignSpec
+
+    return DesignSpec.model_validate({
+        "surface": {"generator": "flat_facade", "params": {"width": 3.0, "height": 2.0,
+                                                           "nu": 7, "nv": 5}},
+        "site": {**VIENNA, "timezone": "Europe/Vienna"},
+        "sun": {"start": "2026-06-01", "end": "2026-06-02", "hours": [12, 16]},
+        "fins": {"spacing": 0.5, "depth": 0.3},
+        "annual": {"enabled": True, "points": 24, "ambient_bounces": 1,
+                   "ambient_divisions": 128, **annual}})
+
+
+def _stage_inputs(spec, tmp_path, left_out=()):
+    """What the annual stage reads: mesh A facing the sun (south, -y), the sun, louvers of the
+    design's depth every 0.5 m as the support structure, the fabrication's left-out fins."""
+    from torsal.geometry.support import SupportStructure
+    from torsal.pipeline.stage import StageInputs
+    from torsal.pipeline.stages import sun_directions, surface_mesh
+
+    v, f = surface_mesh(spec)
+    if np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]).sum(0)[1] > 0:
+        f = f[:, ::-1].copy()
+    vec, w = sun_directions(spec)
+    x, zs = np.linspace(-1.5, 1.5, 7), np.arange(0.0, 2.01, 0.5)
+    a = np.array([[xi, 0.0, zi] for zi in zs for xi in x])
+    edges = np.array([[r * 7 + k, r * 7 + k + 1] for r in range(len(zs)) for k in range(6)])
+    structure = SupportStructure(a, a + [0.0, -0.3, 0.0], [], edges, np.zeros(len(edges), int))
+    results = {"orient": {"vertices": v, "faces": f}, "sun": {"vectors": vec, "weights": w},
+               "support": {"structure": structure},
+               "fabrication": {"left_out_edges": list(left_out)}}
+    return StageInputs(spec=spec, out=tmp_path, stage="annual", results=results, report={}), structure
+
+
+def test_annual_stage_reports_bare_fins_and_devices(tmp_path):
+    from torsal.pipeline.annual import run_annual
+
+    spec = _toy_design()
+    inp, structure = _stage_inputs(spec, tmp_path)
+    out = run_annual(inp)
+    r = out["report"]
+    assert r["weather"]["source"] == "clear sky" and "Ineichen" in r["weather"]["description"]
+    assert (r["ambient_bounces"], r["ambient_divisions"], r["sky"], r["sky_patches"]) == \
+        (1, 128, "tregenza", 145)
+    assert r["seasons"]["rule"] == "months"
+    bare, fins = r["bare"], r["fins"]
+    assert 0 < fins["annual_kwh_m2"] < bare["annual_kwh_m2"]
+    f = fins["shading_factor"]
+    assert 0 < f["f_sh_cooling"] < f["f_sh_heating"] < 1        # louvers: summer sun cut off
+    assert f["cooling_gains_avoided_kwh_m2"] == pytest.approx(
+        bare["cooling_kwh_m2"] - fins["cooling_kwh_m2"])
+    assert sum(fins["monthly_kwh_m2"]) == pytest.approx(fins["annual_kwh_m2"])
+    made = {n: d for n, d in r["devices"].items() if d.get("applicable", True)}
+    assert "horizontal louvers" in made and "shading_factor" in made["horizontal louvers"]
+    assert out["map"]["points"].shape == (24, 3) and out["map"]["fins"].shape == (24,)
+    # every fin left out by the fabrication: nothing shades, the glazing is bare
+    inp, _ = _stage_inputs(_toy_design(devices=False), tmp_path,
+                           left_out=range(len(structure.edges)))
+    r = run_annual(inp)["report"]
+    assert r["fins"]["shading_factor"]["f_sh_year"] == pytest.approx(1.0, rel=1e-6)
+    assert r["devices"] == {}
+
+
+def test_annual_stage_names_what_is_missing(tmp_path):
+    from torsal.pipeline.annual import run_annual
+    from torsal.pipeline.design_file import DesignSpec
+    from torsal.pipeline.errors import DesignError
+
+    no_site = DesignSpec.model_validate({
+        "surface": {"generator": "flat_facade"}, "sun": {"vectors": [[0, -1, 1]]},
+        "fins": {"spacing": 0.5, "depth": 0.3}, "annual": {"enabled": True}})
+    inp, _ = _stage_inputs(no_site, tmp_path)
+    with pytest.raises(DesignError, match="site"):
+        run_annual(inp)
+    inp, _ = _stage_inputs(_toy_design(season="temperature"), tmp_path)
+    with pytest.raises(DesignError, match="annual.season"):
+        run_annual(inp)

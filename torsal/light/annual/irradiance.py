@@ -113,9 +113,12 @@ class RadianceSettings:
             raise ValueError(f"processes must be at least 1, got {self.processes}")
 
     def options(self, bounces: int) -> list:
-        """rcontrib's ambient options for ``bounces``."""
+        """rcontrib's ambient options for ``bounces``: correlated (quasi-random) sampling
+        ``-u-``, so that a run is repeatable (rcontrib seeds its uncorrelated sampling by the
+        clock) and the runs with and without the bounces sample the same first directions."""
         ad = int(self.ambient_divisions)
-        return ["-ab", int(bounces), "-ad", ad, "-lw", f"{0.5 / ad:.3g}", "-n", int(self.processes)]
+        return ["-u-", "-ab", int(bounces), "-ad", ad, "-lw", f"{0.5 / ad:.3g}",
+                "-n", int(self.processes)]
 
 
 @dataclass(frozen=True)
