@@ -564,8 +564,8 @@ class AnnualSpec(_Spec):
                                "auto (temperature with sun.epw, else months)")
     balance_temperature_c: float = Field(BALANCE_TEMPERATURE_C, description="degC; the "
                                          "temperature rule's threshold on a day's mean")
-    devices: bool = Field(True, description="also for each standard device of the fins' depth "
-                          "and spacing")
+    devices: bool = Field(True, description="also behind each standard device the light "
+                          "stage compares the fins with (louvers, vertical fins, egg-crates)")
 
 
 class DesignSpec(_Spec):
