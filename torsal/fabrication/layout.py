@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import csv
 import io
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -201,7 +203,7 @@ class Layout:
         for s in range(self.n_sheets):
             doc = self.sheet_document(s)
             target = path.with_name(f"{path.stem}_sheet{s + 1:02d}.dxf")
-            with atomic_path(target) as tmp:
+            with atomic_path(target) as tmp, _fixed_metadata():
                 doc.saveas(tmp)
             out.append(target)
             if svg:
@@ -209,6 +211,25 @@ class Layout:
                     tmp.write_text(sheet_svg(self.sheet_drawing(s), self.sheet, self.unit),
                                    encoding="utf-8")
         return out
+
+
+_EZDXF_OPTIONS = threading.Lock()
+
+
+@contextmanager
+def _fixed_metadata():
+    """ezdxf stamps a file with the time and random GUIDs; a cutting sheet is a function of its
+    layout, so the same layout writes the same bytes: ezdxf's fixed date (2000-01-01) and GUID
+    while this writes (its option is global: one writer at a time)."""
+    import ezdxf
+
+    with _EZDXF_OPTIONS:
+        old = ezdxf.options.write_fixed_meta_data_for_testing
+        ezdxf.options.write_fixed_meta_data_for_testing = True
+        try:
+            yield
+        finally:
+            ezdxf.options.write_fixed_meta_data_for_testing = old
 
 
 #: DXF layers of a sheet and their ACI colours: CUT the toolpath (red), NOMINAL the parts as

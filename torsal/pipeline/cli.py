@@ -114,6 +114,10 @@ def _add_design(sub, common) -> None:
     d.add_argument("--accept-unbuildable", action="store_true",
                    help="finish with exit status 0 even if the assembly check finds interfering "
                         "parts (default: exit status 3, naming them)")
+    d.add_argument("--final-cut", action="store_true",
+                   help="nest the sheets for yield with the deterministic search (as [nesting] "
+                        "final_cut = true): seconds to a minute, kept in the design's cache, the "
+                        "same sheets on every run")
     d.add_argument("--no-size-limit", action="store_true",
                    help="run even when the size estimate (fins, optimizer variables, rays, parts, "
                         "disk) is above the limits in the README")
@@ -193,6 +197,10 @@ def _design(args, ui: _Terminal) -> int:
     from .stages import STAGES
 
     design = Design.from_toml(args.file)
+    if args.final_cut:
+        spec = design.spec
+        design = Design(spec.model_copy(update={"nesting": spec.nesting.model_copy(
+            update={"final_cut": True})}), source=args.file)
     progress = _DesignProgress(ui, design, STAGES)
     try:
         with new_output_folder(args.out) as out, progress:
@@ -217,6 +225,10 @@ def _design(args, ui: _Terminal) -> int:
             f"{s['delta_pl_optimized']:.2e}; {light_summary(li)}; "
             f"{fa['parts']} parts on {fa['sheets']} sheets")
     ui.line(devices_summary(li))
+    if li.get("annual"):
+        from .annual import annual_summary
+
+        ui.line(annual_summary(li["annual"]))
     for gate in (r["congruence"].get("joinery"), s.get("joinery")):
         if gate and gate.get("message"):
             ui.note(f"joinery: {gate['message']}")

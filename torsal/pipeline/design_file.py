@@ -51,7 +51,8 @@ from ..geometry.optimize import Solver, TorsalAngleBetween, TorsalAngleForm
 from ..geometry.support import PLANARITY_TOL
 from ..fabrication.cutting import Process as CuttingProcess, Relief
 from ..fabrication.quantities import Rates, check_fastener_rates
-from ..fabrication.nesting import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester
+from ..fabrication.nesting import (DEFAULT_SEED, DEFAULT_TIME_LIMIT, DEFAULT_TRIES,
+                                   SECONDS_PER_SHEET, Nester)
 from ..light.annual import (AMBIENT_BOUNCES, AMBIENT_DIVISIONS, BALANCE_TEMPERATURE_C,
                             FIN_REFLECTANCE, GROUND_REFLECTANCE, SeasonRule, SkySubdivision)
 from ..light.view import ViewField
@@ -405,13 +406,18 @@ class CuttingSpec(_Spec):
 class NestingSpec(_Spec):
     """How the parts are nested on the sheets."""
 
-    # unset: the yield nester only where cutting sheets are written (it takes seconds to
-    # minutes); without DXF the fast layout's sheet count is an estimate, and says so
+    # unset: the rows (deterministic, seconds) on every run, the search for the final cut
     nester: Nester | None = None
-    time_limit_s: float | None = Field(None, ge=3, description="wall clock the sparrow nester "
-                                       f"may take; unset: {SECONDS_PER_SHEET:g} s per sheet the "
-                                       f"parts' area needs, at most {DEFAULT_TIME_LIMIT:g} s; the "
-                                       "fast nester's layout is kept where sparrow does not beat it")
+    final_cut: bool = Field(False, description="nest for yield with the deterministic search "
+                            "(counted tries, never the clock; a minute at most for a thousand "
+                            "parts, kept in the design's cache) instead of the rows; the command "
+                            "line's --final-cut does the same")
+    tries: int = Field(DEFAULT_TRIES, ge=0, description="repacks the final cut's search may make")
+    time_limit_s: float | None = Field(None, ge=3, description="a safety net only: wall clock the "
+                                       "search or the sparrow nester may take; a result it cuts "
+                                       "says so (fabrication.nesting.time_limited); sparrow "
+                                       f"unset: {SECONDS_PER_SHEET:g} s per sheet the parts' "
+                                       f"area needs, at most {DEFAULT_TIME_LIMIT:g} s")
     seed: int = Field(DEFAULT_SEED, ge=0, description="the sparrow nester's seed")
     rotation_step_deg: float | None = Field(None, gt=0, le=360, description="degrees; parts "
                                             "turn in steps of this; unset: any rotation")

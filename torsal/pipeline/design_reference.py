@@ -99,10 +99,13 @@ KEY_NOTES: dict[str, tuple[str, str]] = {
     "cutting.kerf_mm": ("mm", ""),
     "cutting.tool_diameter_mm": ("mm", ""),
     "nesting": ("", "how the parts are nested on the sheets"),
-    "nesting.nester": ("", "sparrow: rows of true shapes, then sparrow (free rotation) empties "
-                           "sheets in the time limit; rows: the rows alone (seconds); bottom-left: "
-                           "fast; unset: sparrow when outputs.dxf writes cutting sheets, "
-                           "else bottom-left (the sheet count is then an estimate)"),
+    "nesting.nester": ("", "rows: long parts end to end in rows (deterministic, seconds); "
+                           "search: the rows and the skyline, then sheets emptied in counted "
+                           "tries (deterministic, the final cut); sparrow: rows, then sparrow "
+                           "empties sheets on the clock (its sheets change with the machine's "
+                           "load); bottom-left: fast; unset: rows, or search with final_cut"),
+    "nesting.final_cut": ("", ""),
+    "nesting.tries": ("", ""),
     "nesting.time_limit_s": ("s", ""),
     "nesting.margin_mm": ("mm", ""),
     "outputs": ("", "which files to write"),

@@ -824,8 +824,16 @@ def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
                  ("nesting", f"{nest['nester']}, {nest['seconds']:.0f} s"
                   + (f" of {nest['time_limit_s']:g} s, seed {nest['seed']}"
                      if nest.get("time_limit_s") else "")
+                  + (f", {nest['tries']} tries" if nest.get("tries") else "")
                   + (f", {nest['fallback_parts']} parts by the fast nester"
-                     if nest.get("fallback_parts") else ""))]
+                     if nest.get("fallback_parts") else "")),
+                 ("the same sheets on every run",
+                  "yes: deterministic, the result of its inputs alone"
+                  if nest.get("deterministic", False) else
+                  "NO: the time limit cut the search, so these sheets depend on the machine's "
+                  "load" if nest.get("time_limited") else
+                  "NO: sparrow stops on the clock; nest with the rows or the final cut's search "
+                  "for sheets that repeat")]
     if cut:
         rows.append(("cutting (DXF layer CUT)",
                      f"{cut['process']}, kerf {cut['kerf_mm']:g} mm, tool {cut['tool_diameter_mm']:g} mm, "

@@ -28,6 +28,7 @@ from typing import Callable, Iterator
 
 from .design_file import DesignSpec
 from .cache import MISSING, StageCache, stage_key
+from .memo import Memo
 from ..core.errors import TorsalError, raised_in_torsal
 from .errors import DesignError, Progress, quiet
 
@@ -88,6 +89,9 @@ class StageInputs(Mapping):
     results: dict
     report: Mapping
     _progress: Progress = quiet
+    #: results kept by their content beside the stage cache (:class:`~.memo.Memo`); None
+    #: outside :func:`run_stages`
+    memo: Memo | None = None
 
     def __getitem__(self, name: str) -> dict:
         try:
@@ -223,6 +227,7 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
     propagates with a note naming the stage. Results of earlier stages stay cached."""
     run = run if run is not None else StageRun()
     keys = stage_keys(pipeline, spec)
+    memo = Memo(cache.folder / "memo", enabled=cache.enabled)
     for s in pipeline:
         if not s.applies(spec):
             continue
@@ -235,7 +240,7 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
             t0 = time.perf_counter()
             inputs = StageInputs(spec=spec, out=out, stage=s.name,
                                  results={i: run.values[i] for i in s.inputs if i in run.values},
-                                 report=run.report, _progress=progress)
+                                 report=run.report, _progress=progress, memo=memo)
             try:
                 value = s.run(inputs)
             except DesignError:

@@ -18,6 +18,7 @@ from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .annual import annual_applies, annual_key, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
                        prefetch_step_solids, run_assembly, support_gate)
+from ..fabrication.nesting.background import write_sheets
 from .fins import fabrication_summary, fin_system
 from .measure import devices_key, measure_fins, run_devices, sun_goals
 from .outputs import target_patch, write_geometry, write_structure_obj
@@ -429,11 +430,7 @@ def run_fabrication(inp: StageInputs) -> dict:
             fs.start_solids()
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
-    # the nester (an anytime search in a wall-clock budget) runs in a process of its own
-    # while this one collects the solids and writes STEP and 3DM; joined before the DXF
-    nesting = None
     try:
-        nesting = _nest(inp, fs)
         if spec.outputs.step:
             fs.export_step(out / "fins.step")
             written["step"] = "fins.step"
@@ -446,17 +443,17 @@ def run_fabrication(inp: StageInputs) -> dict:
         if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
             fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
             written["ifc"] = "fins.ifc"
-        layout = nesting.result()
-        if spec.outputs.dxf:      # written and read back by the nesting process
-            written["dxf"] = [str(Path(p).relative_to(out)) for p in nesting.sheets.paths]
+        layout = _nest(inp, fs)
+        sheets = None
+        if spec.outputs.dxf:
+            sheets = write_sheets(layout, out / "sheets" / "fins.dxf")
+            written["dxf"] = [str(Path(p).relative_to(out)) for p in sheets.paths]
         if spec.outputs.bom:
             fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
             written["bom"] = "parts.csv"
     except BaseException:
         fs.cancel_solids()
         drop_prefetched_solids()
-        if nesting is not None:
-            nesting.cancel()
         raise
     left_out = ([{"strip": s_, "edge": int(e), "node": int(v), "reason": why}
                  for s_, e, v, why in getattr(fs, "coplanar_panels", [])]
@@ -467,7 +464,7 @@ def run_fabrication(inp: StageInputs) -> dict:
         "parts": int(len(fs.parts)), "panels": int(fs.n_panels), **fabrication_summary(fs),
         "sheets": int(layout.n_sheets),
         "utilization": float(layout.utilization),
-        "nesting": _nesting_report(layout, nesting.sheets),
+        "nesting": _nesting_report(layout, sheets),
         "cutting": _cutting_report(layout),
         **quantities_report(spec, fs, layout, structure),   # the bill of quantities, the price
         "panels_left_out": len(left_out), "panels_left_out_list": left_out[:50],
@@ -479,24 +476,52 @@ def run_fabrication(inp: StageInputs) -> dict:
         "joints": joints_of(fs)}
 
 
-def _nest(inp: StageInputs, fs):
-    """The design's sheets, started in a process of their own (``.result()``: the layout):
-    its [cutting] process and [nesting] options."""
+def nest_options(spec: DesignSpec, unit: str) -> dict:
+    """:func:`~torsal.fabrication.nesting.nest_parts` options of the design file: its sheet,
+    [cutting] process and [nesting] keys; the nester is the rows, or the search for the final
+    cut (``nesting.final_cut``), unless ``nesting.nester`` names one."""
     from ..fabrication.cutting import Cutting
+    from ..fabrication.nesting import DEFAULT_NESTER, FINAL_CUT_NESTER
+
+    m, c, n = spec.material, spec.cutting, spec.nesting
+    cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
+                                  relief=c.relief, unit=unit)
+    nester = n.nester or (FINAL_CUT_NESTER if n.final_cut else DEFAULT_NESTER)
+    return dict(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
+                nester=nester, time_limit=n.time_limit_s, seed=n.seed, tries=n.tries,
+                rotation_step=n.rotation_step_deg)
+
+
+def _nest(inp: StageInputs, fs):
+    """The design's sheets (:func:`nest_options`), nested in this process. The final cut's
+    search is kept by the parts' content (:class:`~.memo.Memo`): asked for again, or after
+    a change that leaves the flat parts as they were, it is read back, not searched again.
+    A layout the time limit cut is not kept."""
     from ..fabrication.nesting import Nester
 
-    spec, m = inp.spec, inp.spec.material
-    c, n = spec.cutting, spec.nesting
-    cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
-                                  relief=c.relief, unit=fs.unit)
-    nester = n.nester or (Nester.SPARROW if spec.outputs.dxf else Nester.BOTTOM_LEFT)
-    return fs.start_layout(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
-                           dxf=inp.out / "sheets" / "fins.dxf" if spec.outputs.dxf else None,
-                           nester=nester, time_limit=n.time_limit_s, seed=n.seed,
-                           rotation_step=n.rotation_step_deg,
-                           progress=lambda done, left: inp.progress(
-                               "progress", {"phase": "nesting sheets", "done": done,
-                                            "total": done + left}))
+    options = nest_options(inp.spec, fs.unit)
+
+    def progress(done, left):
+        inp.progress("progress", {"phase": "nesting sheets", "done": done, "total": done + left})
+
+    def make():
+        return fs.layout(progress=progress, **options)
+
+    if options["nester"] != Nester.SEARCH or inp.memo is None:
+        return make()
+    from .memo import content_key
+
+    key = content_key(sorted(fs.unrolled().items()), sorted(
+        (k, v.value if hasattr(v, "value") else v) for k, v in options.items() if k != "cutting"),
+        options["cutting"])
+    layout = inp.memo.load("sheets", key)
+    if layout is not None:
+        layout.stats.method += ", kept from an earlier run of the same parts"
+    else:
+        layout = make()
+        if not layout.stats.time_limited:
+            inp.memo.store("sheets", key, layout)
+    return layout
 
 
 def _nesting_report(layout, sheets) -> dict:
@@ -511,7 +536,9 @@ def _nesting_report(layout, sheets) -> dict:
            "seconds": float(st.seconds), "cpu_seconds": float(st.cpu_seconds),
            "time_limit_s": st.time_limit, "seed": st.seed, "solves": int(st.solves),
            "fallback_parts": int(st.fallback_parts), "rotation": st.rotation,
-           "time_limited": bool(st.time_limited)}
+           "time_limited": bool(st.time_limited), "tries": int(st.tries),
+           "starts": dict(st.starts), "deterministic": "sparrow" not in st.method
+           and not st.time_limited}
     if sheets is not None and layout.n_sheets:
         rep["utilization_dxf"] = float(sheets.area_read_back / (layout.n_sheets * sheet_area))
     return rep

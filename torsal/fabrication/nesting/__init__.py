@@ -1,6 +1,10 @@
-"""Nesting for yield: flat parts on as few sheets as a time budget allows.
+"""Nesting: flat parts on as few sheets as possible, the same sheets on every machine.
 
-* :mod:`.rows`: rows of true shapes end to end (:func:`nest_rows`), a second or two.
+* :mod:`.rows`: rows of true shapes end to end (:func:`nest_rows`), a second or two: every
+  run's nester.
+* :mod:`.skyline`: each part dropped into the hollow of the parts below it.
+* :mod:`.search`: :func:`nest_search`, the final cut: the rows and the skyline, then sheets
+  emptied in counted tries (deterministic).
 * :mod:`.sparrow`: one sheet packed by sparrow (``spyrrow``), true shapes, any rotation.
 * :mod:`.yield_`: :func:`nest_for_yield`, the rows, then sparrow empties the emptiest sheets
   in the time budget.
@@ -11,8 +15,11 @@ The fast bottom-left nester is :func:`torsal.fabrication.layout.nest`.
 """
 from .api import nest_parts
 from .rows import nest_rows
-from .stats import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester, NestStats
+from .search import DEFAULT_TRIES, nest_search
+from .stats import (DEFAULT_NESTER, DEFAULT_SEED, DEFAULT_TIME_LIMIT, FINAL_CUT_NESTER,
+                    SECONDS_PER_SHEET, Nester, NestStats)
 from .yield_ import nest_for_yield
 
-__all__ = ["nest_for_yield", "nest_parts", "nest_rows", "Nester", "NestStats", "DEFAULT_TIME_LIMIT",
-           "SECONDS_PER_SHEET", "DEFAULT_SEED"]
+__all__ = ["nest_for_yield", "nest_parts", "nest_rows", "nest_search", "Nester", "NestStats",
+           "DEFAULT_TIME_LIMIT", "SECONDS_PER_SHEET", "DEFAULT_SEED", "DEFAULT_TRIES",
+           "DEFAULT_NESTER", "FINAL_CUT_NESTER"]

@@ -7,6 +7,7 @@ from typing import Callable, Mapping, Sequence
 from ..cutting import Cutting
 from ..layout import Layout, merge_layouts, nest, shelf_pack
 from .rows import nest_rows
+from .search import DEFAULT_TRIES, nest_search
 from .stats import DEFAULT_SEED, Nester, NestStats
 from .yield_ import nest_for_yield
 
@@ -18,11 +19,13 @@ def nest_parts(unrolled: Mapping, *, connectors=frozenset(), sheet: tuple[float,
                cutting: Cutting | None = None, nester: Nester | str = Nester.BOTTOM_LEFT,
                rotations: Sequence[float] = (0, 90, 180, 270),
                time_limit: float | None = None, seed: int = DEFAULT_SEED,
-               rotation_step: float | None = None,
+               rotation_step: float | None = None, tries: int = DEFAULT_TRIES,
                progress: Callable[[int, int], None] | None = None) -> Layout:
     """The sheets of a fin system's unrolled parts ``{name: Unrolled}``: with
     :attr:`Nester.SPARROW` all parts together (rows, then sparrow empties sheets in
-    ``time_limit`` seconds; :func:`~.yield_.nest_for_yield`), with :attr:`Nester.ROWS` the rows
+    ``time_limit`` seconds; :func:`~.yield_.nest_for_yield`), with :attr:`Nester.SEARCH` the
+    final cut's deterministic search (``tries``; :func:`~.search.nest_search`), with
+    :attr:`Nester.ROWS` the rows
     alone (:func:`~.rows.nest_rows`), with :attr:`Nester.BOTTOM_LEFT` the plates by
     :func:`~.layout.nest` (``rotations``) and the ``connectors`` (names) in rows on the sheets
     after them (:func:`~.layout.shelf_pack`). :class:`~.cutting.CuttingError` if the
@@ -35,6 +38,10 @@ def nest_parts(unrolled: Mapping, *, connectors=frozenset(), sheet: tuple[float,
         return nest_for_yield(list(unrolled.values()), sheet=sheet, gap=gap, margin=margin,
                               unit=unit, cutting=cutting, time_limit=time_limit, seed=seed,
                               rotation_step=rotation_step, progress=progress)
+    if nester == Nester.SEARCH:
+        return nest_search(list(unrolled.values()), sheet=sheet, gap=gap, margin=margin, unit=unit,
+                           cutting=cutting, rotation_step=rotation_step, tries=tries,
+                           time_limit=time_limit, progress=progress)
     if nester == Nester.ROWS:
         lay = nest_rows(list(unrolled.values()), sheet=sheet, gap=gap, margin=margin, unit=unit,
                         cutting=cutting, rotation_step=rotation_step)

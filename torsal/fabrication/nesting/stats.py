@@ -13,8 +13,17 @@ DEFAULT_SEED = 0
 
 
 class Nester(str, Enum):
-    """Which nester places the parts."""
+    """Which nester places the parts.
 
+    Every run nests with :attr:`ROWS` (deterministic, a second or two); the final cut, asked
+    for with ``[nesting] final_cut`` or ``torsal design --final-cut``, with :attr:`SEARCH`
+    (deterministic too: counted tries, never the clock). :attr:`SPARROW` stops on the clock,
+    so its sheets change with the machine's load.
+    """
+
+    #: the final cut: the best of several deterministic starts (rows, skyline), then sheets
+    #: emptied by repacking them into others, in counted tries (:func:`~.search.nest_search`)
+    SEARCH = "search"
     #: rows of true shapes, then sparrow empties the emptiest sheets in a time budget
     #: (:func:`~.yield_.nest_for_yield`)
     SPARROW = "sparrow"
@@ -23,6 +32,12 @@ class Nester(str, Enum):
     #: the fast bottom-left fill (:func:`~torsal.fabrication.layout.nest`), connectors in rows
     #: after the plates
     BOTTOM_LEFT = "bottom-left"
+
+
+#: the nester of every run: deterministic and fast
+DEFAULT_NESTER = Nester.ROWS
+#: the nester of the final cut (``[nesting] final_cut``, ``torsal design --final-cut``)
+FINAL_CUT_NESTER = Nester.SEARCH
 
 
 @dataclass
@@ -34,7 +49,8 @@ class NestStats:
     ``fallback_parts`` parts left where the row layout put them; ``time_limited`` whether the
     time budget ended the search (False: it stopped at the area bound's ceiling or found
     nothing more to try); ``start_sheets`` the sheets of the row layout the search started
-    from; ``moves`` parts sparrow moved to another sheet; ``sheets_emptied`` sheets it freed.
+    from; ``moves`` parts sparrow (or the search) moved to another sheet; ``sheets_emptied``
+    sheets it freed.
     """
 
     method: str
@@ -52,3 +68,7 @@ class NestStats:
     start_sheets: int | None = None
     moves: int = 0
     sheets_emptied: int = 0
+    #: tries the search made (a count: the same parts and options give the same layout)
+    tries: int = 0
+    #: the search's starts as ``{name: sheets}`` (:attr:`Nester.SEARCH`)
+    starts: dict = field(default_factory=dict)

@@ -1,0 +1,275 @@
+"""The final cut: deterministic nesting for yield, counted in tries, never in seconds.
+
+1. **Starts.** The rows (:func:`~.rows.row_layout`: long parts end to end, slanted ends head
+   to tail) and the skyline (:mod:`.skyline`: each part dropped into the hollow of the parts
+   below) in two orders each (longest first, largest first); the start with the fewest
+   sheets, then the fullest emptiest sheet, is kept. The rows win on straight strips (7a),
+   the skyline on curved ones (9, 11).
+2. **Sheets emptied.** The emptiest sheet is the *victim*; its parts, largest first, are
+   offered to the sheets with the most room (a host's parts and the offer packed afresh on one
+   sheet by the skyline, then by the rows); where all fit, they move. A victim that is emptied
+   is one sheet fewer; one whose largest part finds no host is set aside. It stops at the area
+   bound's ceiling, when no victim is left, or after ``tries`` repacks.
+
+Every step is a pure function of the parts and the options: the same design gives the same
+sheets on any machine, however busy (``stats.tries`` counts the repacks). ``time_limit`` is
+only a safety net: a search it cuts says so (``stats.time_limited``), and that result is the
+one thing that can depend on the machine.
+
+Units: those of the outlines (``unit``).
+
+Example
+-------
+>>> from shapely.geometry import box
+>>> parts = {f"p{i}": box(0, 0, 300 + 20 * i, 100) for i in range(6)}
+>>> lay = nest_search(parts, sheet=(1000, 500), gap=5, margin=10)
+>>> lay.n_sheets, lay.stats.time_limited
+(1, False)
+"""
+from __future__ import annotations
+
+import time
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from ..cutting import Cutting
+from ..layout import Layout, placement_of
+from .rows import orientations, prepare, row_layout
+from .skyline import DEFAULT_RESOLUTION, SkylinePacker, column_profiles
+from .stats import Nester, NestStats
+
+__all__ = ["nest_search", "DEFAULT_TRIES"]
+
+#: repacks the search may make (about 20-50 ms each on a 2.5 m sheet)
+DEFAULT_TRIES = 600
+#: a host is offered parts up to this share of its usable area
+_HOST_FILL = 0.95
+#: hosts tried for one offer
+_HOSTS = 4
+
+
+class _Frame(NamedTuple):
+    """The usable sheet with rows along its longer side: ``length x height`` inside the
+    edge; ``turn`` whether that frame is the sheet turned a quarter."""
+
+    w: float
+    h: float
+    length: float
+    height: float
+    sep: float
+    edge: float
+    turn: bool
+
+    @classmethod
+    def of(cls, w, h, sep, edge) -> "_Frame":
+        turn = h > w
+        length, height = (h, w) if turn else (w, h)
+        return cls(w, h, length - 2 * edge, height - 2 * edge, sep, edge, turn)
+
+    def on_sheet(self, rot: float, shift, x: float, y: float) -> tuple[float, tuple]:
+        """Rotation and offset on the sheet of an outline turned by ``rot``, moved by
+        ``shift`` to the origin and placed at ``(x, y)`` of the usable frame."""
+        dx, dy = shift[0] + x + self.edge, shift[1] + y + self.edge
+        if self.turn:
+            return (rot + 90.0) % 360.0, (self.w - dy, dx)
+        return rot, (dx, dy)
+
+
+class _Skyline:
+    """The skyline packer over prepared parts: each part's orientations made once."""
+
+    def __init__(self, items, frame: _Frame, rotation_step):
+        self.frame = frame
+        self.res = DEFAULT_RESOLUTION * frame.length
+        names, outlines, rots = [], [], []
+        for it in items:
+            for r in orientations(it.outline, it.base, rotation_step, frame.length, frame.height,
+                                  across=True):
+                names.append(it.name)
+                outlines.append(it.outline)
+                rots.append(r)
+        self.options: dict[str, list] = {}
+        for p in column_profiles(outlines, rots, res=self.res, sep=frame.sep, names=names):
+            if p.width <= frame.length + 1e-9 and p.height <= frame.height + 1e-9:
+                self.options.setdefault(p.name, []).append(p)
+        self.area = {it.name: it.outline.area for it in items}
+        self.length_of = {n: max(o.width for o in opts) for n, opts in self.options.items()}
+
+    def order(self, names, by: str) -> list:
+        key = (lambda n: (-self.length_of[n], -self.area[n], n)) if by == "length" else \
+              (lambda n: (-self.area[n], -self.length_of[n], n))
+        return sorted(names, key=key)
+
+    def pack(self, names, by: str, *, one_sheet: bool = False) -> dict | None:
+        """``{name: (sheet, rot, offset)}`` of ``names`` (None: ``one_sheet`` and they do not
+        all fit one sheet)."""
+        f = self.frame
+        packer = SkylinePacker(f.length, f.height, f.sep, self.res)
+        for k, n in enumerate(self.order(names, by)):
+            if not packer.add(n, self.options[n], new_sheet=not (one_sheet and k)):
+                return None
+        return {n: (si, *f.on_sheet(o.rot, o.shift, x, y))
+                for n, (si, o, x, y) in packer.placed.items()}
+
+
+def _sheets(where: dict) -> list[dict]:
+    """``[{name: (rot, offset)}]`` per sheet of ``{name: (sheet, rot, offset)}``."""
+    sheets: list[dict] = []
+    for n, (si, rot, off) in sorted(where.items(), key=lambda kv: (kv[1][0], kv[0])):
+        while len(sheets) <= si:
+            sheets.append({})
+        sheets[si][n] = (rot, off)
+    return sheets
+
+
+class _Search:
+    """Step 2 of the module docstring, on ``sheets`` in place."""
+
+    def __init__(self, sheets, area, repack: Callable, usable: float, floor: int, tries: int,
+                 deadline: float | None, progress):
+        self.sheets, self.area, self.repack, self.usable = sheets, area, repack, usable
+        self.floor, self.budget, self.deadline, self.progress = floor, tries, deadline, progress
+        self.tries = self.moves = self.emptied = 0
+        self.time_limited = False
+
+    def filled(self, s: dict) -> float:
+        return sum(self.area[n] for n in s)
+
+    def can_try(self) -> bool:
+        if self.tries >= self.budget:
+            return False
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            self.time_limited = True
+            return False
+        return True
+
+    def run(self) -> None:
+        aside: set = set()
+        while len(self.sheets) > self.floor and self.can_try():
+            victims = [s for s in self.sheets if id(s) not in aside]
+            if not victims:
+                break
+            victim = min(victims, key=lambda s: (self.filled(s), sorted(s)))
+            if self.empty(victim):
+                self.sheets.remove(victim)
+                self.emptied += 1
+            else:
+                aside.add(id(victim))
+            if self.progress is not None:
+                self.progress(self.emptied, max(0, len(self.sheets) - self.floor))
+
+    def empty(self, victim: dict) -> bool:
+        """Move the victim's parts to other sheets; True if none is left."""
+        while victim:
+            parts = sorted(victim, key=lambda n: (-self.area[n], n))
+            first = parts[0]
+            hosts = sorted((s for s in self.sheets if s is not victim),
+                           key=lambda s: (self.filled(s), sorted(s)))
+            hosts = [s for s in hosts
+                     if _HOST_FILL * self.usable - self.filled(s) >= self.area[first]][:_HOSTS]
+            if not self._move(victim, parts, first, hosts):
+                return False
+        return True
+
+    def _move(self, victim, parts, first, hosts) -> bool:
+        for host in hosts:
+            room = _HOST_FILL * self.usable - self.filled(host)
+            offer, a = [], 0.0
+            for n in parts:                  # the largest, then what else fits the room
+                if a + self.area[n] <= room:
+                    offer.append(n)
+                    a += self.area[n]
+            for attempt in (offer, [first]) if len(offer) > 1 else (offer,):
+                if not self.can_try():
+                    return False
+                self.tries += 1
+                fit = self.repack(sorted(host) + attempt)
+                if fit is not None:
+                    host.clear()
+                    host.update(fit)
+                    for n in attempt:
+                        del victim[n]
+                    self.moves += len(attempt)
+                    return True
+        return False
+
+
+def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
+                margin: float = 10.0, unit: str = "mm", cutting: Cutting | None = None,
+                rotation_step: float | None = None, tries: int = DEFAULT_TRIES,
+                time_limit: float | None = None,
+                progress: Callable[[int, int], None] | None = None) -> Layout:
+    """Nest flat parts for yield, deterministically (see the module docstring).
+
+    Parameters
+    ----------
+    outlines : sequence of Unrolled, of (name, Polygon), of Polygon, or {name: Polygon}
+        Flat parts in ``unit``.
+    sheet : (width, height)
+        Sheet size, ``unit``.
+    gap, margin : float
+        Sheet left between the cuts of two parts, and between a cut and the sheet edge.
+    cutting : Cutting, optional
+        The cutting process (kerf, reliefs); None: cut on the outline.
+    rotation_step : float, optional
+        Allowed rotations in steps of this many degrees; None: any rotation.
+    tries : int
+        Repacks the search may make (a count, so the result never depends on the clock).
+    time_limit : float, optional
+        A safety net in wall-clock seconds; a search it cuts says so (``time_limited``).
+    progress : callable, optional
+        ``progress(sheets emptied, sheets still above the area bound)`` after each victim.
+
+    Returns
+    -------
+    Layout
+        With :attr:`~.layout.Layout.stats` a :class:`NestStats` (``tries``, ``starts``).
+    """
+    t0, c0 = time.perf_counter(), time.process_time()
+    if tries < 0:
+        raise ValueError(f"tries must be >= 0, got {tries}")
+    w, h, items, sep, edge = prepare(outlines, sheet, gap, margin, cutting, unit)
+    frame = _Frame.of(w, h, sep, edge)
+    by_name = {it.name: it for it in items}
+    area = {n: it.outline.area for n, it in by_name.items()}
+    sky = _Skyline(items, frame, rotation_step)
+    starts = {"rows": row_layout(items, w, h, sep, edge, rotation_step)}
+    for by in ("length", "area"):
+        starts[f"skyline by {by}"] = sky.pack(list(by_name), by)
+    fill = {k: _sheets(v) for k, v in starts.items()}
+    best = min(fill, key=lambda k: (len(fill[k]), -min(sum(area[n] for n in s) for s in fill[k]), k))
+
+    def repack(names):
+        for by in ("length", "area"):
+            where = sky.pack(names, by, one_sheet=True)
+            if where is not None:
+                return {n: (rot, off) for n, (_, rot, off) in where.items()}
+        where = row_layout([by_name[n] for n in names], w, h, sep, edge, rotation_step)
+        if max(si for si, _, _ in where.values()) == 0:
+            return {n: (rot, off) for n, (_, rot, off) in where.items()}
+        return None
+
+    total = sum(area.values())
+    start_sheets = {k: len(v) for k, v in fill.items()}
+    search = _Search(fill[best], area, repack, frame.length * frame.height,
+                     int(np.ceil(total / (w * h) - 1e-9)), tries,
+                     None if time_limit is None else t0 + time_limit, progress)
+    search.run()
+    placements = sorted((placement_of(by_name[n], si, rot, dx, dy)
+                         for si, s in enumerate(search.sheets) for n, (rot, (dx, dy)) in s.items()),
+                        key=lambda p: (p.sheet, p.name))
+    lay = Layout((w, h), placements, len(search.sheets), unit=unit, gap=gap, margin=margin,
+                 cutting=cutting)
+    why = ("stopped by the time limit" if search.time_limited else
+           "at the area bound" if len(search.sheets) <= search.floor else
+           "all tries made" if search.tries >= tries else "nothing more to try")
+    lay.stats = NestStats(f"{Nester.SEARCH.value} from {best} ({search.emptied} sheets emptied, {why})",
+                          time.perf_counter() - t0, time.process_time() - c0, total / (w * h),
+                          time_limit=time_limit, fallback_parts=0,
+                          rotation="free" if rotation_step is None else f"{rotation_step:g} deg steps",
+                          sheet_fill=lay.sheet_utilization, time_limited=search.time_limited,
+                          start_sheets=len(fill[best]), moves=search.moves,
+                          sheets_emptied=search.emptied, tries=search.tries,
+                          starts=start_sheets)
+    return lay
