@@ -171,7 +171,8 @@ class Layout:
         # no setup: the standard text style and line type the entities use are in every new
         # document; the extra styles, line types and dimension styles would only make the
         # file three times longer to create and write
-        doc = ezdxf.new("R2010", setup=False)
+        with _fixed_metadata():          # ezdxf stamps the creation time into the document
+            doc = ezdxf.new("R2010", setup=False)
         doc.header["$INSUNITS"] = INSUNITS[self.unit]
         doc.header["$MEASUREMENT"] = 0 if self.unit in ("in", "ft") else 1
         doc.header["$EXTMIN"] = (0, 0, 0)

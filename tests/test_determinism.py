@@ -1,0 +1,52 @@
+"""The same design file gives the same cutting files, however busy the machine (issue 40).
+
+A small version of example 7a runs up to its fabrication twice, the second time beside a
+process that keeps a core busy, each with a cache of its own (nothing is reused): parts.csv
+and every DXF sheet are byte-identical, by the rows of every run and by the final cut's search.
+"""
+import hashlib
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from test_examples import small
+from torsal.design import Design
+from torsal.pipeline import DEFAULT_PIPELINE, StageCache
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "7a_facade_block.toml"
+
+
+def _design(final_cut: bool) -> Design:
+    spec = small(Design.from_toml(EXAMPLE)).spec
+    return Design(spec.model_copy(update={
+        # what a workshop cuts from; the solids' files are not what this test is about
+        "outputs": spec.outputs.model_copy(update={"step": False, "rhino_3dm": False,
+                                                   "ifc": False, "renders": False}),
+        "nesting": spec.nesting.model_copy(update={"final_cut": final_cut})}))
+
+
+def _cut_files(folder: Path) -> dict:
+    files = [folder / "parts.csv", *sorted((folder / "sheets").glob("*.dxf"))]
+    return {f.relative_to(folder).as_posix(): hashlib.sha256(f.read_bytes()).hexdigest()
+            for f in files}
+
+
+def _run(design: Design, out: Path) -> dict:
+    design.run(out, cache=StageCache(out.parent / f"{out.name}-cache"),
+               pipeline=DEFAULT_PIPELINE.until("fabrication"))
+    return _cut_files(out)
+
+
+@pytest.mark.parametrize("final_cut", [False, True], ids=["rows", "final-cut"])
+def test_cut_files_are_byte_identical_under_load(tmp_path, final_cut):
+    design = _design(final_cut)
+    quiet = _run(design, tmp_path / "quiet")
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        loaded = _run(design, tmp_path / "loaded")
+    finally:
+        busy.kill()
+        busy.wait()
+    assert len(quiet) > 2 and quiet == loaded
