@@ -276,6 +276,8 @@ def test_annual_stage_reports_bare_fins_and_devices(tmp_path):
     made = {n: d for n, d in r["devices"].items() if d.get("applicable", True)}
     assert "horizontal louvers" in made and "shading_factor" in made["horizontal louvers"]
     assert out["map"]["points"].shape == (24, 3) and out["map"]["fins"].shape == (24,)
+    assert {k: (tmp_path / v).stat().st_size > 1000 for k, v in out["files"].items()} == \
+        {"annual_map": True, "annual_months": True}
     # every fin left out by the fabrication: nothing shades, the glazing is bare
     inp, _ = _stage_inputs(_toy_design(devices=False), tmp_path,
                            left_out=range(len(structure.edges)))

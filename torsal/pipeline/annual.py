@@ -23,9 +23,11 @@ from ..light.sun import EPWError
 from .design_file import DesignSpec
 from .errors import DesignError
 from .measure import design_devices, devices_key
+from .report import best_device, plot_annual_map, plot_annual_months
 from .stage import StageInputs
 
-__all__ = ["run_annual", "annual_key", "annual_applies", "design_weather", "glazing_points"]
+__all__ = ["run_annual", "annual_key", "annual_applies", "design_weather", "glazing_points",
+           "annual_summary"]
 
 
 def annual_applies(spec: DesignSpec) -> bool:
@@ -99,7 +101,8 @@ def run_annual(inp: StageInputs) -> dict:
     """Annual irradiance of the bare glazing, the fins as built and the standard devices.
 
     Returns the ``report`` section (``light.annual``: ``engine``, ``weather``, ``seasons``,
-    ``bare``, ``fins``, ``devices``, each shading with its ``shading_factor``, and ``seconds``)
+    ``bare``, ``fins``, ``devices``, each shading with its ``shading_factor``, ``seconds`` and
+    ``figures``), ``files`` (with ``outputs.renders``: ``annual_map``, ``annual_months``, PNG)
     and ``map`` (``points`` (p, 3), ``bare`` and ``fins`` (p,) kWh/m^2 over the year).
     """
     spec, a = inp.spec, inp.spec.annual
@@ -143,5 +146,42 @@ def run_annual(inp: StageInputs) -> dict:
                            {"applicable": False, "reason": d.reason})
                     for name, d in devices.items()},
         "seconds": time.perf_counter() - t0}
-    return {"report": report,
+    files = _figures(inp, report, points, results["fins"].per_point) if spec.outputs.renders else {}
+    report["figures"] = {"annual irradiance map": files.get("annual_map"),
+                         "monthly irradiance": files.get("annual_months")} if files else {}
+    return {"report": report, "files": files,
             "map": {"points": points, "bare": bare.per_point, "fins": results["fins"].per_point}}
+
+
+def annual_summary(annual: dict) -> str:
+    """``light.annual`` in a line: the year's kWh/m^2 bare and behind the fins, and the
+    cooling-season gains the fins and the best device avoid with their shading factors.
+
+    >>> row = lambda y, c, f: {"annual_kwh_m2": y, "cooling_kwh_m2": c, "shading_factor": {
+    ...     "cooling_gains_avoided_kwh_m2": 600 - c, "f_sh_cooling": c / 600}}
+    >>> annual_summary({"weather": {"source": "clear sky"}, "bare": {"annual_kwh_m2": 1500,
+    ...     "cooling_kwh_m2": 600}, "fins": row(540, 180, 0.3), "devices": {
+    ...     "egg-crate": row(700, 240, 0.4), "vertical fins": {"applicable": False}}})
+    'annual irradiance on the glazing (clear sky): bare 1500 kWh/m2, fins 540; cooling season gains avoided: fins 420 kWh/m2 (F_sh 0.30), best device egg-crate 360 (F_sh 0.40)'
+    """
+    f = annual["fins"]
+    text = (f"annual irradiance on the glazing ({annual['weather']['source']}): bare "
+            f"{annual['bare']['annual_kwh_m2']:.0f} kWh/m2, fins {f['annual_kwh_m2']:.0f}; "
+            f"cooling season gains avoided: fins "
+            f"{f['shading_factor']['cooling_gains_avoided_kwh_m2']:.0f} kWh/m2 (F_sh "
+            f"{f['shading_factor']['f_sh_cooling']:.2f})")
+    best = best_device(annual)
+    if best is not None:
+        d = annual["devices"][best]["shading_factor"]
+        text += (f", best device {best} {d['cooling_gains_avoided_kwh_m2']:.0f} (F_sh "
+                 f"{d['f_sh_cooling']:.2f})")
+    return text
+
+
+def _figures(inp: StageInputs, report: dict, points, fins_kwh) -> dict:
+    """The map of the fins' annual irradiance and the monthly bars, as PNGs in the output
+    folder; {kind: file name}."""
+    o = inp["orient"]
+    return {"annual_map": plot_annual_map(points, fins_kwh, (o["vertices"], o["faces"]),
+                                          inp.out / "annual_map.png").name,
+            "annual_months": plot_annual_months(report, inp.out / "annual_months.png").name}

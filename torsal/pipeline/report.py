@@ -11,6 +11,7 @@ from ..geometry.mesh import area_vector
 from .report_3d import design_view_html
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
+           "plot_annual_map", "plot_annual_months", "best_device",
            "design_report_html", "write_design_report", "plot_assembly", "plot_ceiling_light"]
 
 
@@ -195,9 +196,10 @@ def plot_fins(structure, surface, path: str | Path, *, title: str = "") -> Path:
     return Path(path).parent / _save(fig, Path(path))
 
 
-def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str = "") -> Path:
-    """Map of the blocked share of direct sun at the sample points, seen in the surface's
-    principal plane (0 = all sun gets through, 1 = fully shaded)."""
+def _surface_map(points, values, surface, path: Path, *, cmap: str, limits, label: str,
+                 title: str, missing: str = "") -> Path:
+    """Values at sample points over mesh A, seen in its principal plane: points (p, 3), values
+    (p,) (NaN: drawn as a grey cross, labelled ``missing``), limits (vmin, vmax) or None."""
     from matplotlib.collections import PolyCollection
 
     v, f = surface
@@ -208,18 +210,63 @@ def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str
     ax = fig.add_subplot(1, 1, 1)
     ax.add_collection(PolyCollection(uv[f], facecolor=(0.92, 0.92, 0.92), edgecolor=(0.7, 0.7, 0.7, 0.3),
                                      linewidths=0.2))
-    ok = np.isfinite(per_point)
-    sc = ax.scatter(p2[ok, 0], p2[ok, 1], c=per_point[ok], cmap="RdYlGn", vmin=0, vmax=1, s=9)
+    values = np.asarray(values, float)
+    ok = np.isfinite(values)
+    vmin, vmax = limits if limits is not None else (None, None)
+    sc = ax.scatter(p2[ok, 0], p2[ok, 1], c=values[ok], cmap=cmap, vmin=vmin, vmax=vmax, s=9)
     if (~ok).any():
-        ax.scatter(p2[~ok, 0], p2[~ok, 1], c="0.6", s=4, marker="x", label="no direct sun")
+        ax.scatter(p2[~ok, 0], p2[~ok, 1], c="0.6", s=4, marker="x", label=missing)
         ax.legend(loc="upper right", fontsize=8)
     cb = fig.colorbar(sc, ax=ax)
-    cb.set_label("share of direct sun blocked by the fins")
+    cb.set_label(label)
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.set_xlabel("along the surface, principal axis 1 (model units)")
     ax.set_ylabel("principal axis 2 (model units)")
-    ax.set_title(title or "blocked direct sun at the design hours")
+    ax.set_title(title)
+    return Path(path).parent / _save(fig, Path(path))
+
+
+def plot_blocked_sun(points, per_point, surface, path: str | Path, *, title: str = "") -> Path:
+    """Map of the blocked share of direct sun at the sample points, seen in the surface's
+    principal plane (0 = all sun gets through, 1 = fully shaded)."""
+    return _surface_map(points, per_point, surface, path, cmap="RdYlGn", limits=(0, 1),
+                        label="share of direct sun blocked by the fins",
+                        title=title or "blocked direct sun at the design hours",
+                        missing="no direct sun")
+
+
+def plot_annual_map(points, kwh_m2, surface, path: str | Path, *, title: str = "") -> Path:
+    """Map of the year's solar irradiation on the glazing behind the fins, kWh/m^2 at the
+    sample points (points (p, 3), kwh_m2 (p,)), seen in the surface's principal plane."""
+    return _surface_map(points, kwh_m2, surface, path, cmap="inferno", limits=None,
+                        label="solar irradiation on the glazing over the year (kWh/m²)",
+                        title=title or "annual irradiance on the glazing behind the fins")
+
+
+def best_device(annual: dict) -> str | None:
+    """The standard device of ``light.annual`` that avoids the most cooling-season gains
+    (None when none was made)."""
+    made = {n: d for n, d in annual.get("devices", {}).items() if d.get("applicable", True)}
+    return min(made, key=lambda n: made[n]["cooling_kwh_m2"]) if made else None
+
+
+def plot_annual_months(annual: dict, path: str | Path) -> Path:
+    """Monthly bars of ``light.annual``: kWh/m^2 on the bare glazing, behind the fins and
+    behind the best device (:func:`best_device`)."""
+    rows = [("bare", annual["bare"]), ("torsal fins", annual["fins"])]
+    best = best_device(annual)
+    if best is not None:
+        rows.append((best, annual["devices"][best]))
+    fig = _figure((11, 4.5))
+    ax = fig.add_subplot(1, 1, 1)
+    x, width = np.arange(12), 0.8 / len(rows)
+    for k, (name, m) in enumerate(rows):
+        ax.bar(x + (k - (len(rows) - 1) / 2) * width, m["monthly_kwh_m2"], width, label=name)
+    ax.set_xticks(x, _MONTHS)
+    ax.set_ylabel("kWh/m² on the glazing")
+    ax.set_title("solar irradiation on the glazing per month")
+    ax.legend(fontsize=8)
     return Path(path).parent / _save(fig, Path(path))
 
 
@@ -723,8 +770,10 @@ def _annual_html(an: dict) -> str:
             f"{html.escape(an['sun'])}; fin reflectance {an['fin_reflectance']:g}, ground "
             f"{an['ground_reflectance']:g}. F<sub>sh</sub>: "
             f"{html.escape(an['fins']['shading_factor']['standard'])}.</p>")
+    figures = "".join(f'<img src="{name}" alt="{html.escape(what)}">' for what, name in
+                      (an.get("figures") or {}).items())
     return (f"<h3>Annual irradiance on the glazing ({an['seconds']:.0f} s)</h3>"
-            f"<table>{head}{''.join(rows)}</table><table>{months}</table>" + text)
+            f"<table>{head}{''.join(rows)}</table><table>{months}</table>" + text + figures)
 
 
 #: lines within this many degrees of their mean direction are called nearly parallel in the
