@@ -143,7 +143,7 @@ def test_low_sun_counts_as_much_as_its_cosine(tmp_path):
     elevation = np.radians([0.3, 0.8, 5.0, 40.0])
     sun = np.c_[np.zeros(4), -np.cos(elevation), np.sin(elevation)]
     sensors = b"0 0 0 0 -1 0\n0 0 0 0 0 1\n"
-    coef = sun_coefficients(sensors, None, sun, radiance=Radiance.bundled(), folder=tmp_path)
+    coef = sun_coefficients(sensors, "", sun, radiance=Radiance.bundled(), folder=tmp_path)
     np.testing.assert_allclose(coef, np.c_[np.cos(elevation), np.sin(elevation)].T, atol=1e-4)
 
 

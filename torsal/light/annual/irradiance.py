@@ -46,6 +46,7 @@ from torsal.light.annual.sky import Seasons, SkyYear
 
 __all__ = ["Source", "RadianceSettings", "AnnualIrradiance", "ShadingFactor",
            "annual_irradiance", "shading_factor", "sky_coefficients", "sun_coefficients",
+           "hourly_sums", "fins_text",
            "FIN_REFLECTANCE", "AMBIENT_BOUNCES", "AMBIENT_DIVISIONS", "SUN_RADIANCE",
            "SUN_ANGLE_DEG", "SHADING_FACTOR_STANDARD"]
 
@@ -253,8 +254,9 @@ def _sensors(points, normals, offset: float | None) -> tuple[np.ndarray, np.ndar
                          for a, b, c, d, e, f in rows).encode()
 
 
-def _fins_text(fins, reflectance: float) -> str:
-    """The fins as Radiance text: a diffuse ``plastic`` and one polygon per triangle."""
+def fins_text(fins, reflectance: float) -> str:
+    """The fins as Radiance text: a diffuse ``plastic`` of ``reflectance`` and one polygon per
+    triangle ("" for None or no triangles)."""
     if fins is None or len(fins.faces) == 0:
         return ""
     r = f"{reflectance:.6g}"
@@ -266,7 +268,7 @@ _SKY_SOURCES = ("void glow sky_glow 0 0 4 1 1 1 0\nsky_glow source sky 0 0 4 0 0
                 "void glow ground_glow 0 0 4 1 1 1 0\nground_glow source ground 0 0 4 0 0 -1 180\n")
 
 
-def sky_coefficients(sensors: bytes, fins, *, subdivision, bounces: int,
+def sky_coefficients(sensors: bytes, scene: str, *, subdivision, bounces: int,
                      settings: RadianceSettings, radiance: Radiance, folder: Path) -> np.ndarray:
     """Daylight coefficients: irradiance at each point from unit radiance of the ground and of
     each sky patch.
@@ -275,7 +277,8 @@ def sky_coefficients(sensors: bytes, fins, *, subdivision, bounces: int,
     ----------
     sensors : bytes
         rcontrib input, one ``x y z dx dy dz`` line per point (n lines).
-    fins : trimesh.Trimesh or None
+    scene : str
+        Radiance text of the geometry (fins, a room; "" for none), without sources.
     subdivision : SkySubdivision
     bounces : int
         ``-ab``.
@@ -289,8 +292,7 @@ def sky_coefficients(sensors: bytes, fins, *, subdivision, bounces: int,
     (n, P + 1) float
         sr (W/m^2 per W/(m^2 sr)); column 0 the ground, then the P patches.
     """
-    octree = radiance.octree(folder, f"sky{bounces}",
-                             _fins_text(fins, settings.fin_reflectance) + _SKY_SOURCES)
+    octree = radiance.octree(folder, f"sky{bounces}", scene + _SKY_SOURCES)
     args = ["-h", "-I+", "-faf", *settings.options(bounces), "-f", "reinhartb.cal",
             "-p", f"MF={subdivision.mf}", "-bn", "Nrbins", "-b", "rbin", "-m", "sky_glow",
             "-bn", 1, "-b", 0, "-m", "ground_glow", octree.name]
@@ -299,15 +301,18 @@ def sky_coefficients(sensors: bytes, fins, *, subdivision, bounces: int,
     return np.c_[out[:, -1], out[:, :-1]].astype(float)
 
 
-def sun_coefficients(sensors: bytes, fins, sun_vectors, *, radiance: Radiance,
+def sun_coefficients(sensors: bytes, scene: str, sun_vectors, *, radiance: Radiance,
                      folder: Path) -> np.ndarray:
-    """Direct-sun coefficients: ``cos(incidence) * visible`` of each sun at each point.
+    """Direct-sun coefficients: ``cos(incidence) * transmitted`` of each sun at each point
+    (1 where nothing is in the way, 0 behind an opaque surface, the glazing's transmittance
+    through glass).
 
     Parameters
     ----------
     sensors : bytes
         As :func:`sky_coefficients`, n lines.
-    fins : trimesh.Trimesh or None
+    scene : str
+        Radiance text of the geometry, without sources.
     sun_vectors : (J, 3) float
         Unit vectors site -> sun (at most :data:`SUN_CHUNK`).
     radiance : Radiance
@@ -322,13 +327,72 @@ def sun_coefficients(sensors: bytes, fins, sun_vectors, *, radiance: Radiance,
     r = f"{SUN_RADIANCE:g}"
     suns = "".join(f"void light sun_{j} 0 0 3 {r} {r} {r}\nsun_{j} source sun_disc_{j} 0 0 4 "
                    f"{x:.9f} {y:.9f} {z:.9f} {SUN_ANGLE_DEG}\n" for j, (x, y, z) in enumerate(s))
-    octree = radiance.octree(folder, "suns", _fins_text(fins, 0.0) + suns)
+    octree = radiance.octree(folder, "suns", scene + suns)
     (folder / "suns.txt").write_text("".join(f"sun_{j}\n" for j in range(len(s))))
     args = ["-h", "-I+", "-faf", "-V+", "-ab", 0, "-dc", 1, "-dt", 0, "-dj", 0, "-ds", 0,
             "-M", "suns.txt", octree.name]
     raw = radiance.run(Program.RCONTRIB, args, cwd=folder, stdin=sensors)
     out = np.frombuffer(raw, np.float32).reshape(-1, len(s), 3)[:, :, 0]
     return out.astype(float) / (SUN_RADIANCE * SUN_SOLID_ANGLE)
+
+
+def _indicator(group_of_hour, groups: int):
+    """(T, K) sparse 0/1 matrix of each hour's group (hours of group -1 left out)."""
+    from scipy.sparse import csr_matrix
+
+    g = np.asarray(group_of_hour, np.int64)
+    hours = np.flatnonzero(g >= 0)
+    return csr_matrix((np.ones(len(hours)), (hours, g[hours])), shape=(len(g), groups))
+
+
+def hourly_sums(sensors: bytes, scene: str, sky: SkyYear, group_of_hour, groups: int, *,
+                bounces: int, settings: RadianceSettings, radiance: Radiance) -> np.ndarray:
+    """What reaches the sensors from each :class:`Source`, summed over groups of hours.
+
+    Parameters
+    ----------
+    sensors : bytes
+        n lines of rcontrib input.
+    scene : str
+        Radiance text of the geometry, without sources.
+    sky : SkyYear
+        T hours.
+    group_of_hour : (T,) int
+        Each hour's group in [0, K), or -1 to leave it out.
+    groups : int
+        K.
+    bounces : int
+        ``-ab`` of the sky run; above 1 the sun's reflections come by the five-phase correction.
+    settings : RadianceSettings
+    radiance : Radiance
+
+    Returns
+    -------
+    (n, K, 4) float
+        The sky matrix's unit times hours per group (Wh/m^2 for a solar sky), by source.
+    """
+    g = _indicator(group_of_hour, groups)                       # (T, K)
+    sky_g = np.asarray((g.T @ sky.sky.T).T)                     # (P + 1, K)
+    sun_patches_g = np.asarray((g.T @ sky.sun_patches.T).T)
+    sun_g = sky.sun_dni[:, None] * g[sky.sun_hours].toarray()   # (J, K)
+    n = sensors.count(b"\n")
+    out = np.zeros((n, groups, len(Source)))
+    with tempfile.TemporaryDirectory(prefix="torsal-annual-") as tmp:
+        kw = dict(subdivision=sky.subdivision, settings=settings, radiance=radiance,
+                  folder=Path(tmp))
+        dc = sky_coefficients(sensors, scene, bounces=bounces, **kw)
+        out[:, :, 2] = dc[:, :1] @ sky_g[:1]
+        out[:, :, 1] = dc[:, 1:] @ sky_g[1:]
+        if bounces > 1:
+            direct = sky_coefficients(sensors, scene, bounces=1, **kw)
+            out[:, :, 3] = (dc - direct)[:, 1:] @ sun_patches_g[1:]
+        used = np.flatnonzero(sun_g.any(axis=1))                 # suns in some group
+        for k in range(0, len(used), SUN_CHUNK):
+            part = used[k:k + SUN_CHUNK]
+            coef = sun_coefficients(sensors, scene, sky.sun_vectors[part], radiance=radiance,
+                                    folder=Path(tmp))
+            out[:, :, 0] += coef @ sun_g[part]
+    return out
 
 
 def annual_irradiance(points, normals, sky: SkyYear, seasons: Seasons, *, fins=None,
@@ -364,25 +428,9 @@ def annual_irradiance(points, normals, sky: SkyYear, seasons: Seasons, *, fins=N
     if len(seasons.month) != len(sky.weather):
         raise ValueError(f"seasons cover {len(seasons.month)} hours, the sky {len(sky.weather)}")
     p, n, sensors = _sensors(points, normals, offset)
-    groups = seasons.groups()                                  # (T, 24)
-    sky_g, sun_patches_g = sky.sky @ groups, sky.sun_patches @ groups    # (P + 1, 24) Wh/(m^2 sr)
-    sun_g = sky.sun_dni[:, None] * groups[sky.sun_hours]               # (J, 24) Wh/m^2
-    shaded = fins is not None and len(fins.faces) > 0
-    bounces = int(settings.ambient_bounces) if shaded else 1
-    out = np.zeros((len(p), 24, len(Source)))
-    with tempfile.TemporaryDirectory(prefix="torsal-annual-") as tmp:
-        folder = Path(tmp)
-        kw = dict(subdivision=sky.subdivision, settings=settings, radiance=radiance, folder=folder)
-        dc = sky_coefficients(sensors, fins, bounces=bounces, **kw)
-        out[:, :, 2] = dc[:, :1] @ sky_g[:1]
-        out[:, :, 1] = dc[:, 1:] @ sky_g[1:]
-        if bounces > 1:
-            direct = sky_coefficients(sensors, fins, bounces=1, **kw)
-            out[:, :, 3] = (dc - direct)[:, 1:] @ sun_patches_g[1:]
-        for k in range(0, len(sky.sun_vectors), SUN_CHUNK):
-            part = slice(k, k + SUN_CHUNK)
-            coef = sun_coefficients(sensors, fins, sky.sun_vectors[part], radiance=radiance,
-                                    folder=folder)
-            out[:, :, 0] += coef @ sun_g[part]
+    scene = fins_text(fins, settings.fin_reflectance)
+    out = hourly_sums(sensors, scene, sky, seasons.group(), 24,
+                      bounces=int(settings.ambient_bounces) if scene else 1,
+                      settings=settings, radiance=radiance)
     # group 2 (month - 1) + season: month-major, so (n, 24, S) is (n, 12, 2, S); Wh -> kWh
     return AnnualIrradiance(p, n, out.reshape(len(p), 12, 2, len(Source)) / 1000.0)

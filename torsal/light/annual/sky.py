@@ -210,13 +210,10 @@ class Seasons:
     cooling: np.ndarray
     description: str
 
-    def groups(self) -> np.ndarray:
-        """(T, 24) float indicator of each hour's group ``2 (month - 1) + cooling``: summing an
-        hourly series over it gives the (month, season) totals, month-major: a (..., 24)
-        total reshapes to (..., 12, 2), season 0 heating, 1 cooling."""
-        g = np.zeros((len(self.month), 24))
-        g[np.arange(len(self.month)), 2 * (self.month - 1) + self.cooling.astype(int)] = 1.0
-        return g
+    def group(self) -> np.ndarray:
+        """(T,) int: each hour's group ``2 (month - 1) + cooling`` in [0, 24), month-major: a
+        (..., 24) total over the groups reshapes to (..., 12, 2), season 0 heating, 1 cooling."""
+        return 2 * (self.month - 1) + self.cooling.astype(int)
 
 
 def seasons(weather: Weather, rule: SeasonRule = SeasonRule.AUTO, *,
