@@ -13,6 +13,7 @@ from torsal.light.annual import (
     RadianceNotFound,
     RadianceSettings,
     SeasonRule,
+    SkyQuantity,
     SkySubdivision,
     SkyYear,
     annual_irradiance,
@@ -23,6 +24,7 @@ from torsal.light.annual import (
     sky_year,
 )
 from torsal.light.annual import radiance as radiance_module
+from torsal.light.annual.daylight import Room, daylight, occupied
 from torsal.light.annual.irradiance import sun_coefficients
 from torsal.light.annual.radiance import Program
 from torsal.light.annual.weather import Weather, WeatherSource
@@ -300,3 +302,54 @@ def test_annual_stage_names_what_is_missing(tmp_path):
     inp, _ = _stage_inputs(_toy_design(season="temperature"), tmp_path)
     with pytest.raises(DesignError, match="annual.season"):
         run_annual(inp)
+
+
+@pytest.fixture(scope="module")
+def visible_sky(clear_weather):
+    return sky_year(clear_weather, quantity=SkyQuantity.VISIBLE)
+
+
+def _south_room(**kw):
+    """6 m x 6 m x 3 m behind a south window wall (the plane y = 0, the room at y > 0),
+    glazed across its width from 0.9 m to 2.4 m."""
+    return Room((-3.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), 6.0, 6.0, 3.0, 0.9, 2.4, **kw)
+
+
+def test_ase_of_a_box_room_counted_by_hand(visible_sky):
+    """ASE through an open window, counted by hand: an occupied hour counts at a work-plane
+    point when the ray to the sun leaves through the window's rectangle and the sun's direct
+    illuminance on the horizontal work plane, 179 lm/W x its visible DNI x sin(elevation), is
+    at least 1000 lx; a point is exposed past 250 such hours."""
+    room = _south_room(transmittance=None)
+    d = daylight(room, visible_sky, settings=RadianceSettings(ambient_bounces=1,
+                                                              ambient_divisions=64))
+    p, sun = d.points, visible_sky.sun_vectors
+    t = -p[:, 1:2] / np.where(sun[:, 1] < 0, sun[:, 1], -1e-12)[None]       # to the plane y = 0
+    x, z = p[:, :1] + t * sun[:, 0], p[:, 2:] + t * sun[:, 2]
+    through = (sun[:, 1] < 0) & (np.abs(x) <= 3.0) & (z >= 0.9) & (z <= 2.4)
+    lux = 179.0 * visible_sky.sun_dni * sun[:, 2]
+    hours = occupied(visible_sky)[visible_sky.sun_hours]
+    by_hand = (through & (lux >= 1000.0) & hours).sum(axis=1)
+    assert np.abs(d.hours_ase - by_hand).max() <= 2
+    assert d.ase == pytest.approx(np.mean(by_hand > 250))
+    assert 0.2 < d.ase < 0.9 and d.occupied_hours == 3650            # 8:00-18:00, 365 days
+
+
+def test_glazing_transmits_its_transmittance_at_normal_incidence(tmp_path):
+    room = _south_room(transmittance=0.6, reflectance=(0.0, 0.0, 0.0))
+    sensors = b"0 1 1.5 0 -1 0\n"
+    coef = sun_coefficients(sensors, room.scene(), [[0.0, -1.0, 0.0]],
+                            radiance=Radiance.bundled(), folder=tmp_path)
+    assert coef[0, 0] == pytest.approx(0.6, abs=0.005)
+
+
+def test_sda_grows_with_the_window(visible_sky):
+    """A taller window lights more of the room to 300 lx for half the occupied hours."""
+    settings = RadianceSettings(ambient_bounces=3, ambient_divisions=256)
+    deep = dict(transmittance=0.6, reflectance=(0.2, 0.5, 0.7))
+    small = daylight(Room((-3.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), 6.0, 9.0, 3.0,
+                          1.8, 2.2, **deep), visible_sky, settings=settings)
+    large = daylight(Room((-3.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), 6.0, 9.0, 3.0,
+                          0.2, 2.9, **deep), visible_sky, settings=settings)
+    assert small.sda < large.sda
+    assert small.hours_sda.mean() < large.hours_sda.mean()

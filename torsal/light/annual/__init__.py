@@ -4,6 +4,7 @@
 - :mod:`~torsal.light.annual.sky`: its sky matrix (``gendaymtx``), its suns and its seasons;
 - :mod:`~torsal.light.annual.irradiance`: the irradiance on the glazing, bare or behind fins
   (``rcontrib``), in kWh/m^2 by source, month and season, and the shading factor;
+- :mod:`~torsal.light.annual.daylight`: a room's sDA and ASE (IES LM-83) behind the glazing;
 - :mod:`~torsal.light.annual.radiance`: finding and running the Radiance programs.
 
 Examples
@@ -27,12 +28,14 @@ from torsal.light.annual.irradiance import (
     annual_irradiance,
     shading_factor,
 )
+from torsal.light.annual.daylight import Daylight, Room, daylight
 from torsal.light.annual.radiance import Radiance, RadianceError, RadianceNotFound
 from torsal.light.annual.sky import (
     BALANCE_TEMPERATURE_C,
     GROUND_REFLECTANCE,
     SeasonRule,
     Seasons,
+    SkyQuantity,
     SkySubdivision,
     SkyYear,
     seasons,
@@ -43,7 +46,8 @@ from torsal.light.annual.weather import Weather, WeatherSource, clear_sky_year, 
 __all__ = [
     "AnnualIrradiance", "RadianceSettings", "ShadingFactor", "Source", "annual_irradiance",
     "shading_factor", "Radiance", "RadianceError", "RadianceNotFound", "SeasonRule", "Seasons",
-    "SkySubdivision", "SkyYear", "seasons", "sky_year", "Weather", "WeatherSource",
+    "SkySubdivision", "SkyQuantity", "SkyYear", "seasons", "sky_year", "Weather", "WeatherSource",
     "clear_sky_year", "epw_year", "AMBIENT_BOUNCES", "AMBIENT_DIVISIONS", "FIN_REFLECTANCE",
-    "GROUND_REFLECTANCE", "BALANCE_TEMPERATURE_C", "SHADING_FACTOR_STANDARD",
+    "GROUND_REFLECTANCE", "BALANCE_TEMPERATURE_C", "SHADING_FACTOR_STANDARD", "Room",
+    "Daylight", "daylight",
 ]

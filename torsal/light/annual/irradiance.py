@@ -64,7 +64,7 @@ SUN_ANGLE_DEG = 0.533
 #: the solid angle of the sun's disc, sr
 SUN_SOLID_ANGLE = 2.0 * np.pi * (1.0 - np.cos(np.radians(SUN_ANGLE_DEG / 2.0)))
 #: suns per rcontrib run (one modifier each): bounds the memory of one run's output
-SUN_CHUNK = 1024
+SUN_CHUNK = 2048
 #: what :class:`ShadingFactor` is
 SHADING_FACTOR_STANDARD = ("F_sh,ob, the reduction factor for external shading of EN ISO "
                            "13790:2008 11.4.4 (EN ISO 52016-1): the solar irradiation on the "
@@ -336,6 +336,11 @@ def sun_coefficients(sensors: bytes, scene: str, sun_vectors, *, radiance: Radia
     return out.astype(float) / (SUN_RADIANCE * SUN_SOLID_ANGLE)
 
 
+def _normals(sensors: bytes) -> np.ndarray:
+    """(n, 3) the directions of rcontrib's input lines."""
+    return np.loadtxt(sensors.decode().splitlines(), ndmin=2)[:, 3:6]
+
+
 def _indicator(group_of_hour, groups: int):
     """(T, K) sparse 0/1 matrix of each hour's group (hours of group -1 left out)."""
     from scipy.sparse import csr_matrix
@@ -371,10 +376,10 @@ def hourly_sums(sensors: bytes, scene: str, sky: SkyYear, group_of_hour, groups:
     (n, K, 4) float
         The sky matrix's unit times hours per group (Wh/m^2 for a solar sky), by source.
     """
-    g = _indicator(group_of_hour, groups)                       # (T, K)
+    g = _indicator(group_of_hour, groups)                       # (T, K) sparse
     sky_g = np.asarray((g.T @ sky.sky.T).T)                     # (P + 1, K)
     sun_patches_g = np.asarray((g.T @ sky.sun_patches.T).T)
-    sun_g = sky.sun_dni[:, None] * g[sky.sun_hours].toarray()   # (J, K)
+    sun_g = g[sky.sun_hours].multiply(sky.sun_dni[:, None]).tocsr()   # (J, K) sparse
     n = sensors.count(b"\n")
     out = np.zeros((n, groups, len(Source)))
     with tempfile.TemporaryDirectory(prefix="torsal-annual-") as tmp:
@@ -386,12 +391,14 @@ def hourly_sums(sensors: bytes, scene: str, sky: SkyYear, group_of_hour, groups:
         if bounces > 1:
             direct = sky_coefficients(sensors, scene, bounces=1, **kw)
             out[:, :, 3] = (dc - direct)[:, 1:] @ sun_patches_g[1:]
-        used = np.flatnonzero(sun_g.any(axis=1))                 # suns in some group
+        # the suns of some group in front of some point (the others give every point 0)
+        used = np.flatnonzero(sun_g.getnnz(axis=1) & (_normals(sensors) @ sky.sun_vectors.T
+                                                        > 0).any(axis=0))
         for k in range(0, len(used), SUN_CHUNK):
             part = used[k:k + SUN_CHUNK]
             coef = sun_coefficients(sensors, scene, sky.sun_vectors[part], radiance=radiance,
                                     folder=Path(tmp))
-            out[:, :, 0] += coef @ sun_g[part]
+            out[:, :, 0] += np.asarray((sun_g[part].T @ coef.T).T)
     return out
 
 

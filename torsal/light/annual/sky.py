@@ -32,7 +32,7 @@ from torsal.light.annual.radiance import Program, Radiance
 from torsal.light.annual.weather import Weather, wea_text
 from torsal.light.sun import sun_directions
 
-__all__ = ["SkySubdivision", "SkyYear", "sky_year", "SeasonRule", "Seasons", "seasons",
+__all__ = ["SkySubdivision", "SkyQuantity", "SkyYear", "sky_year", "SeasonRule", "Seasons", "seasons",
            "GROUND_REFLECTANCE", "BALANCE_TEMPERATURE_C", "COOLING_MONTHS_NORTH"]
 
 #: the ground's solar reflectance (albedo): gendaymtx's and pvlib's default, grass or concrete
@@ -84,6 +84,27 @@ class SkySubdivision(str, Enum):
         alt = np.radians(np.r_[(row + 0.5) * alpha, 90.0])                 # the zenith patch last
         return np.c_[np.cos(alt) * np.sin(azimuth), np.cos(alt) * np.cos(azimuth), np.sin(alt)]
 
+    def solid_angles(self) -> np.ndarray:
+        """(P,) sr of each patch, in :meth:`directions`' order; they add up to 2 pi.
+
+        >>> w = SkySubdivision.REINHART.solid_angles()
+        >>> w.shape, round(float(w.sum() / np.pi), 12)
+        ((577,), 2.0)
+        """
+        mf = self.mf
+        per_row = np.repeat([30, 30, 24, 24, 18, 12, 6], mf) * mf
+        alpha = np.radians(90.0 / (7 * mf + 0.5))
+        rows = np.arange(len(per_row))
+        band = 2 * np.pi * (np.sin((rows + 1) * alpha) - np.sin(rows * alpha)) / per_row
+        return np.r_[np.repeat(band, per_row), 2 * np.pi * (1 - np.sin(len(per_row) * alpha))]
+
+
+class SkyQuantity(str, Enum):
+    """What a sky matrix holds (``gendaymtx -O``)."""
+
+    SOLAR = "solar"         # solar radiance, W/(m^2 sr): irradiance in W/m^2
+    VISIBLE = "visible"     # Radiance's visible radiance: illuminance = 179 lm/W x irradiance
+
 
 @dataclass(frozen=True)
 class SkyYear:
@@ -108,7 +129,10 @@ class SkyYear:
     sun_hours : (J,) int
         Each sun's hour (index into the weather's T hours).
     sun_dni : (J,) float
-        Each sun's direct normal irradiance, W/m^2.
+        Each sun's direct normal irradiance: W/m^2 for a solar sky (the weather's DNI), in
+        Radiance's visible units for a visible one (the sun of ``gendaymtx -O0``: times 179
+        lm/W, the direct normal illuminance in lux).
+    quantity : SkyQuantity, default solar
     """
 
     weather: Weather
@@ -120,6 +144,7 @@ class SkyYear:
     sun_vectors: np.ndarray
     sun_hours: np.ndarray
     sun_dni: np.ndarray
+    quantity: SkyQuantity = SkyQuantity.SOLAR
 
 
 def _read_matrix(raw: bytes, rows: int, cols: int) -> np.ndarray:
@@ -133,6 +158,7 @@ def _read_matrix(raw: bytes, rows: int, cols: int) -> np.ndarray:
 
 def sky_year(weather: Weather, *, subdivision: SkySubdivision = SkySubdivision.TREGENZA,
              ground_reflectance: float = GROUND_REFLECTANCE, north_angle: float = 0.0,
+             quantity: SkyQuantity = SkyQuantity.SOLAR,
              radiance: Radiance | None = None) -> SkyYear:
     """The sky matrices (``gendaymtx``) and the suns of a weather year.
 
@@ -144,6 +170,9 @@ def sky_year(weather: Weather, *, subdivision: SkySubdivision = SkySubdivision.T
         In [0, 1].
     north_angle : float, default 0
         Degrees (``gendaymtx -r``; the suns by :func:`torsal.light.sun.sun_directions`).
+    quantity : SkyQuantity, default solar
+        Solar radiance (``-O1``) or visible (``-O0``, for daylight: the Perez luminous
+        efficacy of each hour's sky and sun).
     radiance : Radiance, optional
         Default :meth:`Radiance.bundled`.
 
@@ -157,7 +186,9 @@ def sky_year(weather: Weather, *, subdivision: SkySubdivision = SkySubdivision.T
     sub = SkySubdivision(subdivision)
     rows, cols = sub.patches + 1, len(weather)
     g = f"{ground_reflectance:g}"
-    args = ["-O1", "-m", sub.mf, "-c", 1, 1, 1, "-g", g, g, g, "-r", f"{north_angle:g}", "-of"]
+    quantity = SkyQuantity(quantity)
+    out = "-O1" if quantity is SkyQuantity.SOLAR else "-O0"
+    args = [out, "-m", sub.mf, "-c", 1, 1, 1, "-g", g, g, g, "-r", f"{north_angle:g}", "-of"]
     with tempfile.TemporaryDirectory(prefix="torsal-sky-") as tmp:
         (Path(tmp) / "year.wea").write_text(wea_text(weather))
         sky = _read_matrix(radiance.run(Program.GENDAYMTX, ["-s", *args, "year.wea"], cwd=tmp),
@@ -168,9 +199,13 @@ def sky_year(weather: Weather, *, subdivision: SkySubdivision = SkySubdivision.T
     sun_patches[0] = 0.0
     sun = sun_directions(weather.latitude, weather.longitude, weather.times,
                          elevation=weather.elevation, north_angle=north_angle)
-    keep = np.flatnonzero(sun.above_horizon & (weather.dni > 0))
+    # the visible sun: gendaymtx's, spread over its patches (their radiance times solid angle
+    # adds up to the direct normal value, as the solar one adds up to the weather's DNI)
+    dni = (weather.dni if quantity is SkyQuantity.SOLAR else
+           sub.solid_angles() @ sun_patches[1:])
+    keep = np.flatnonzero(sun.above_horizon & (weather.dni > 0) & (dni > 0))
     return SkyYear(weather, sub, float(ground_reflectance), float(north_angle), sky,
-                   sun_patches, sun.vectors[keep], keep, weather.dni[keep])
+                   sun_patches, sun.vectors[keep], keep, dni[keep], quantity)
 
 
 # ------------------------------------------------------------------ seasons
