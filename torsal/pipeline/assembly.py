@@ -6,6 +6,10 @@ interference and finds an assembly order (:func:`torsal.fabrication.check_assemb
 ``assembly.csv`` and, with ``outputs.renders``, ``assembly.png`` (interfering parts in red).
 Its report is ``fabrication.assembly`` in report.json.
 
+What the check proved is kept in the design's cache by the solids' content
+(:class:`~torsal.fabrication.assembly.AssemblyMemo`): a re-run, or a study variant, whose parts
+did not change takes those pairs and paths from it (``memo_hits`` in the report).
+
 A design whose parts interfere is not buildable: :meth:`Design.run` raises
 :class:`UnbuildableDesignError` naming the parts after every output (report included) is
 written, unless ``accept_unbuildable=True`` (``torsal design --accept-unbuildable``).
@@ -139,6 +143,20 @@ def _solids(inp: StageInputs):
     return fin_system(inp.spec, inp["support"]["structure"]).solids()
 
 
+#: where the pairs and paths the check proved are kept (one memo for a design, or for all
+#: the variants of a study that share its cache)
+_MEMO_NAME, _MEMO_KEY = "assembly", "proved"
+
+
+def _assembly_memo(inp: StageInputs):
+    """The :class:`~torsal.fabrication.assembly.AssemblyMemo` kept in the design's cache
+    (a new one when there is none, or the cache is off)."""
+    from ..fabrication.assembly import AssemblyMemo
+
+    kept = inp.memo.load(_MEMO_NAME, _MEMO_KEY) if inp.memo is not None else None
+    return kept if isinstance(kept, AssemblyMemo) else AssemblyMemo()
+
+
 def run_assembly(inp: StageInputs) -> dict:
     """Interference check and assembly order of the fabricated parts. Returns the ``report``
     section (``fabrication.assembly``) and ``files`` (``assembly.csv``, ``assembly.png``)."""
@@ -150,7 +168,10 @@ def run_assembly(inp: StageInputs) -> dict:
     def progress(phase, done, total):
         inp.progress("progress", {"phase": phase, "done": done, "total": total})
 
-    check = check_assembly(solids, joints=joints, progress=progress)
+    memo = _assembly_memo(inp)
+    check = check_assembly(solids, joints=joints, progress=progress, memo=memo)
+    if inp.memo is not None:
+        inp.memo.store(_MEMO_NAME, _MEMO_KEY, memo)
     files = {"assembly": check.write_csv(inp.out / "assembly.csv").name}
     report = check.report()
     if inp.spec.outputs.renders:

@@ -61,7 +61,8 @@ joint records it reads, the placement order and the directions to try), :mod:`.o
 OpenCascade kernels: booleans, distances, faces, triangles), :mod:`.separation` (the exact
 cheap proofs that solids are apart), :mod:`.sweep` (the volume swept into placed parts),
 :mod:`.checker` (:class:`AssemblyChecker`, the object that owns one check's solids and what is
-made from them) and :mod:`.workers` (its forked worker processes).
+made from them), :mod:`.workers` (its forked worker processes) and :mod:`.memo` (what was
+proved, by the solids' content: :class:`AssemblyMemo`).
 
 Units: those of the solids (``unit`` of the fin system, mm by default): volumes in unit^3.
 
@@ -75,6 +76,7 @@ Example
 >>> check.write_csv("out/assembly.csv")                                  # doctest: +SKIP
 """
 from .checker import AssemblyChecker, check_assembly, verify_assembly
+from .memo import AssemblyMemo, solid_digest
 from .occ import (_bbox, _boolean_common, _boundary_triangles, _face_prism, _face_records, _mesh,
                   _volume, common_volume, face_polygons, solid_distance)
 from .records import AssemblyJoint, joint_groups, joints_of
@@ -87,4 +89,4 @@ __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "As
            "check_assembly", "verify_assembly", "joints_of", "face_polygons", "common_volume",
            "solid_distance", "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME",
            "CLEAR_TOLERANCE", "hull_clear_of_triangles", "prism_clear", "prisms_clear",
-           "solid_cover", "solid_clear", "surfaces_clear"]
+           "solid_cover", "solid_clear", "surfaces_clear", "AssemblyMemo", "solid_digest"]

@@ -15,6 +15,7 @@ from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
+from .memo import AssemblyMemo, solid_digest
 from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _first_vertex,
                   _inside, _mesh, _near, _shape, _vertices, common_volume)
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
@@ -48,7 +49,9 @@ class AssemblyChecker:
 
     It meshes the solids once (before any worker is forked) and keeps, per solid and per
     process, what the cheap tests need (face records, covers, boundary triangles); a forked
-    worker inherits the checker and fills its own copies. Nothing outlives the object.
+    worker inherits the checker and fills its own copies. Nothing outlives the object but
+    ``memo`` (:class:`~.memo.AssemblyMemo`): pairs and paths proved before for the same
+    solids are taken from it, and what this check proves is added to it.
 
     >>> from build123d import Box, Pos
     >>> chk = AssemblyChecker(["a", "b"], [Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2)], workers=1)
@@ -58,7 +61,8 @@ class AssemblyChecker:
 
     def __init__(self, names: list[str], solids: list, joints: Iterable = (), *,
                  tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
-                 workers: int | None = None, unit: str = "mm", progress: Progress | None = None):
+                 workers: int | None = None, unit: str = "mm", progress: Progress | None = None,
+                 memo: AssemblyMemo | None = None):
         self.names = [str(n) for n in names]
         dup = sorted({n for n in self.names if self.names.count(n) > 1})
         if dup:
@@ -69,6 +73,9 @@ class AssemblyChecker:
         self.tolerance, self.min_volume, self.unit = float(tolerance), float(min_volume), unit
         self.workers = min(2, os.cpu_count() or 1) if workers is None else workers
         self.progress = progress
+        self.memo = memo
+        self.memo_hits = self.memo_misses = 0
+        self._mesh_done = False
         self._kept: dict = {}             # (what, solid index) -> faces, cover or triangles
 
     # ------------------------------------------------------------------ per-solid records
@@ -81,6 +88,17 @@ class AssemblyChecker:
     def faces(self, k: int) -> list:
         """Face records of solid ``k``, made once per process."""
         return self._keep("faces", k, lambda: _face_records(self.shapes[k]))
+
+    def vertices(self, k: int) -> np.ndarray:
+        """(v, 3) vertices of solid ``k``, made once per process."""
+        return self._keep("vertices", k, lambda: _vertices(self.shapes[k]))
+
+    def _meshed(self) -> None:
+        """Triangulate the solids for the cheap tests, once, before any worker is forked (a
+        check whose pairs and paths all come from its memo needs no triangles)."""
+        if not self._mesh_done:
+            _mesh(self.shapes, self.tolerance)
+            self._mesh_done = True
 
     def cover(self, k: int) -> list:
         """:func:`~.separation.solid_cover` of solid ``k``, made once per process."""
@@ -136,13 +154,39 @@ class AssemblyChecker:
     def _map(self, method: str, jobs: list, what: str) -> list:
         return self._pool.map(method, jobs, progress=self.progress, what=what)
 
+    def _memoized(self, method: str, jobs: list, keys: list, what: str) -> list:
+        """``_map(method, jobs)``, the results of jobs whose key the memo holds taken from it
+        (``keys[n]`` None: not memoized); new results are added to the memo."""
+        if self.memo is None:
+            self._meshed()
+            return self._map(method, jobs, what)
+        get, keep = ((self.memo.pair, self.memo.keep_pair) if method == "pair" else
+                     (self.memo.path, self.memo.keep_path))
+        known = [None if k is None else get(k) for k in keys]
+        todo = [n for n, v in enumerate(known) if v is None]
+        self.memo_hits += len(jobs) - len(todo)
+        self.memo_misses += len(todo)
+        if todo:
+            self._meshed()
+        done = self._map(method, [jobs[n] for n in todo], what) if todo else []
+        for n, result in zip(todo, done):
+            known[n] = result
+            if keys[n] is not None and not (method == "pair" and result[4]):
+                keep(keys[n], result)         # a failed boolean is tried again next time
+        return known
+
+    def _pair_key(self, i: int, j: int):
+        a, b = sorted((self.digests[i], self.digests[j]))
+        return (a, b, self.tolerance, self.min_volume)
+
     # ------------------------------------------------------------------ the check
     def run(self) -> AssemblyCheck:
         """Touching pairs, interference and the assembly order (see the package text)."""
         t0 = time.perf_counter()
-        _mesh(self.shapes, self.tolerance)
         try:
             self.boxes = np.array([_bbox(s) for s in self.shapes]).reshape(-1, 2, 3)
+            self.digests = ([solid_digest(s, self.vertices(k)) for k, s in enumerate(self.shapes)]
+                            if self.memo is not None else None)
             # one pool of workers for the pairs and every try of the paths: a worker keeps the
             # face records, covers and triangles it made (forked after the meshing and boxes)
             with JobPool(self, workers=self.workers) as self._pool:
@@ -160,13 +204,17 @@ class AssemblyChecker:
                              joints=dict(sorted(kinds.items())),
                              connectors=dict(sorted(connectors.items())),
                              min_volume=self.min_volume, unit=self.unit,
-                             seconds=time.perf_counter() - t0)
+                             seconds=time.perf_counter() - t0, memo_hits=self.memo_hits,
+                             memo_misses=self.memo_misses)
 
     def _touching_pairs(self):
         names = self.names
         jobs = _box_pairs(self.boxes, 0.5 * self.tolerance)
+        keys = [self._pair_key(i, j) if self.memo is not None else None for i, j in jobs]
         touching, interfering, failed = set(), [], []
-        for i, j, dist, vol, err in self._map("pair", jobs, "pairs"):
+        results = self._memoized("pair", jobs, keys, "pairs")
+        # a memo keeps (i, j) of the check that proved it: the pair is this check's
+        for (i, j), (_, _, dist, vol, err) in zip(jobs, results):
             if err:
                 failed.append((names[i], names[j], err))
                 touching.add((i, j))
@@ -207,7 +255,7 @@ class AssemblyChecker:
                     axes.append(np.asarray(own, float))
                     slotted.append(jt.kind == "egg-crate")
                     depths.append(jt.depth if jt.connector != names[k] else None)
-            verts = _vertices(self.shapes[k])
+            verts = self.vertices(k)
             cands = []
             for d in _candidate_directions(axes, slotted):
                 # start one depth of the part (its extent along d) back: disengaged from its
@@ -240,7 +288,11 @@ class AssemblyChecker:
         while pending:
             jobs = [(plans[n][0], plans[n][3][attempt][1] * plans[n][3][attempt][0],
                      plans[n][3][attempt][2], self.min_volume) for n in pending]
-            results = self._map("sweep", jobs, f"paths (try {attempt + 1})")
+            keys = [None if self.memo is None else
+                    (self.digests[k], tuple(np.round(np.asarray(v, float), 9) + 0.0),
+                     tuple(self.digests[o] for o in others), mv)
+                    for k, v, others, mv in jobs]
+            results = self._memoized("sweep", jobs, keys, f"paths (try {attempt + 1})")
             still = []
             for n, (_, vols) in zip(pending, results):
                 d, travel, others = plans[n][3][attempt]
@@ -266,7 +318,8 @@ class AssemblyChecker:
 def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
                    tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
                    workers: int | None = None, unit: str = "mm",
-                   progress: Progress | None = None) -> AssemblyCheck:
+                   progress: Progress | None = None,
+                   memo: AssemblyMemo | None = None) -> AssemblyCheck:
     """Check named solids for interference and find an assembly order (see the package text).
 
     Parameters
@@ -285,6 +338,9 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
     workers : int, optional
         Processes for the pair and path checks; default ``min(2, cpu count)``.
     progress : callable(phase, done, total), optional
+    memo : AssemblyMemo, optional
+        Pairs and paths proved before, by the solids' content: taken from it, and what this
+        check proves added (``AssemblyCheck.memo_hits`` counts what it saved).
 
     Returns
     -------
@@ -297,7 +353,7 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
     items = list(solids.items()) if isinstance(solids, Mapping) else list(solids)
     return AssemblyChecker([n for n, _ in items], [s for _, s in items], joints,
                            tolerance=tolerance, min_volume=min_volume, workers=workers,
-                           unit=unit, progress=progress).run()
+                           unit=unit, progress=progress, memo=memo).run()
 
 
 def verify_assembly(fin_system, *, step_file=None, tolerance: float = 1.0,

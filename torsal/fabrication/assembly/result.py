@@ -57,7 +57,9 @@ class AssemblyCheck:
     ``interfering`` lists the pairs whose common volume exceeds ``min_volume``, worst first;
     ``order`` the assembly steps; ``failed_pairs`` the pairs whose boolean failed
     ``(part, part, reason)``; ``joints`` the number of joints by kind and ``connectors`` the
-    number of connector parts by the kind of joint they fasten.
+    number of connector parts by the kind of joint they fasten; ``memo_hits`` the pairs and
+    paths taken from an :class:`~.memo.AssemblyMemo` (proved before for the same solids),
+    ``memo_misses`` those proved here.
     """
 
     parts: list[str]
@@ -70,6 +72,8 @@ class AssemblyCheck:
     min_volume: float = MIN_INTERFERENCE_VOLUME
     unit: str = "mm"
     seconds: float = 0.0
+    memo_hits: int = 0
+    memo_misses: int = 0
 
     @property
     def interfering_pairs(self) -> int:
@@ -134,6 +138,7 @@ class AssemblyCheck:
                           "clear": st.clear} for st in self.order],
             "min_volume_mm3": float(self.min_volume),
             "seconds": float(self.seconds),
+            "memo_hits": int(self.memo_hits), "memo_misses": int(self.memo_misses),
         }
 
     def write_csv(self, path) -> Path:

@@ -5,7 +5,9 @@ pickled: OpenCascade shapes do not pickle) through the pool's initializer, and k
 the pool's life; the process that runs the check keeps nothing once the pool is closed.
 :class:`JobPool` keeps one pool for several maps (the check's pairs, then its paths, try after
 try): what a worker made for one map (a solid's face records, cover and triangles) serves the
-next, where a pool per map forked fresh workers that made it all again.
+next, where a pool per map forked fresh workers that made it all again. The workers are forked
+at the first map with enough jobs to pay for them (a check whose pairs and paths all come
+from its memo forks none).
 
 Example
 -------
@@ -96,10 +98,15 @@ class JobPool:
         self._pool = None
 
     def __enter__(self) -> "JobPool":
-        if self.workers:
+        return self
+
+    def _forked(self):
+        """The worker processes, forked at the first map that needs them (a check whose
+        pairs and paths all come from its memo forks none)."""
+        if self._pool is None:
             ctx = multiprocessing.get_context("fork")
             self._pool = ctx.Pool(self.workers, initializer=_adopt, initargs=(self.owner,))
-        return self
+        return self._pool
 
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
@@ -110,6 +117,6 @@ class JobPool:
     def map(self, method: str, jobs: list, *,
             progress: Callable[[str, int, int], None] | None = None, what: str = "") -> list:
         """``[owner.<method>(job) for job in jobs]`` in order (few jobs: in this process)."""
-        if self._pool is None or len(jobs) < MIN_FORKED_JOBS:
+        if not self.workers or len(jobs) < MIN_FORKED_JOBS:
             return _serial(self.owner, method, jobs, progress, what)
-        return _imap(self._pool, self.workers, method, jobs, progress, what)
+        return _imap(self._forked(), self.workers, method, jobs, progress, what)
