@@ -157,16 +157,35 @@ def add_reflect_terms(p: CongruenceProblem, planes: ReflectPlanes, weight: float
 
 
 def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.ndarray,
-                       w_sun: np.ndarray) -> CongruenceProblem:
+                       w_sun: np.ndarray, *, into: CongruenceProblem | None = None) -> CongruenceProblem:
     """The eq. (9) problem of a design: mesh A (v (n, 3), f (m, 3)), sun directions
-    (k, 3) site -> sun with weights (k,)."""
+    (k, 3) site -> sun with weights (k,).
+
+    ``into``: a problem made by this function for the same mesh A and the same terms (by
+    name; a live session's, :class:`torsal.session.Session`): the design's terms are
+    registered on it again, replacing those of the same name. A term whose elements are
+    unchanged keeps the built NLP and its compiled kernels (a weight, a light direction, a
+    bound is a parameter); the caller checks that the names match (``terms``). Not for a
+    design with ``[substructure]`` (two aligned problems).
+
+    >>> from torsal.pipeline.design_file import DesignSpec
+    >>> from torsal.geometry.surfaces import facade_patch
+    >>> spec = DesignSpec.model_validate({"surface": {"generator": "facade_patch"},
+    ...     "sun": {"vectors": [[0.3, -0.8, 0.5]]}, "fins": {"spacing": 1, "depth": 0.3}})
+    >>> v, f = facade_patch(nu=5, nv=5)
+    >>> p = congruence_problem(spec, v, f, np.array([[0.3, -0.8, 0.5]]), np.ones(1))
+    >>> congruence_problem(spec, v, f, np.array([[0.3, -0.7, 0.5]]), np.ones(1), into=p) is p
+    True
+    """
+    if into is not None and spec.substructure is not None:
+        raise ValueError("a design with [substructure] aligns two problems: make a new one")
     W, given = term_weights(spec.weights)
     C = spec.constraints
-    c0 = Congruence.from_normals((v, f))
+    c0 = Congruence.from_normals((v, f)) if into is None else into.congruence
     # compiled kernels pay back their one-off compile time (about a second each, cached
     # per machine) on paper-sized surfaces; small studies start faster interpreted
     jit = C.jit if C.jit is not None else len(v) >= JIT_MIN_VERTICES
-    p = CongruenceProblem(c0, jit=jit)
+    p = CongruenceProblem(c0, jit=jit) if into is None else into
     if W["normal"] > 0:
         p.normal(weight=W["normal"])
     if W["fair"] > 0:

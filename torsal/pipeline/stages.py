@@ -142,17 +142,22 @@ def run_orient(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ congruence (4.1)
-def run_congruence(inp: StageInputs) -> dict:
+def run_congruence(inp: StageInputs, *, make_problem=None) -> dict:
     """Optimize the congruence (eq. 9; the augmented Lagrangian or IPOPT, ``constraints.solver``).
     Returns ``directions`` (n, 3), ``optimum`` (the warm start of a re-solve), the
     ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
-    ``substructure_directions`` (n, 3)."""
+    ``substructure_directions`` (n, 3).
+
+    ``make_problem(spec, vertices, faces, sun_vectors, sun_weights)``: the problem to solve,
+    default :func:`~torsal.pipeline.problem.congruence_problem`; a live session
+    (:class:`torsal.session.Session`) passes one that re-uses its built problem and warm-starts
+    it from the last optimum."""
     from .problem import congruence_problem
 
     spec = inp.spec
     v, f = inp["orient"]["vertices"], inp["orient"]["faces"]
     sun = inp["sun"]
-    p = congruence_problem(spec, v, f, sun["vectors"], sun["weights"])
+    p = (make_problem or congruence_problem)(spec, v, f, sun["vectors"], sun["weights"])
     C = spec.constraints
     r = p.solve(solver=C.solver.value, certify=C.certify, max_iter=C.max_iter, max_seconds=C.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
