@@ -29,6 +29,7 @@ from torsal.light.annual.irradiance import sun_coefficients
 from torsal.light.annual.radiance import Program
 from torsal.light.annual.weather import Weather, WeatherSource
 from torsal.light.sun import write_synthetic_epw
+from torsal.pipeline.design_file import RoomSpec
 
 VIENNA = dict(latitude=48.21, longitude=16.37)
 
@@ -286,6 +287,25 @@ def test_annual_stage_reports_bare_fins_and_devices(tmp_path):
     r = run_annual(inp)["report"]
     assert r["fins"]["shading_factor"]["f_sh_year"] == pytest.approx(1.0, rel=1e-6)
     assert r["devices"] == {}
+
+
+def test_annual_stage_measures_the_rooms_daylight(tmp_path):
+    """With a [room]: each storey's sDA and ASE, bare and behind the louvers, which keep the
+    direct sun off the work plane (a lower ASE)."""
+    from torsal.pipeline.annual import run_annual
+    from torsal.pipeline.report import _daylight_html
+
+    spec = _toy_design(devices=False).model_copy(update={"room": RoomSpec(
+        depth=3.0, height=2.0, storey_height=2.0, ambient_bounces=1)})
+    inp, _ = _stage_inputs(spec, tmp_path)
+    dl = run_annual(inp)["report"]["daylight"]
+    assert dl["applicable"] and dl["storeys"] == [0.0]
+    assert 0 < dl["fins"]["ase_all"] < dl["bare"]["ase_all"]
+    assert dl["bare"]["points"] == 5 * 5 and len(dl["fins"]["sda"]) == 1
+    assert "storey at 0.0" in _daylight_html(dl, ["torsal fins as built"])
+    low = spec.model_copy(update={"room": RoomSpec(depth=3.0, height=2.8)})   # 3 m storeys
+    inp, _ = _stage_inputs(low, tmp_path)
+    assert "lower than a storey" in run_annual(inp)["report"]["daylight"]["reason"]
 
 
 def test_annual_stage_names_what_is_missing(tmp_path):

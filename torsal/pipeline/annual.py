@@ -5,7 +5,9 @@ mesh A's glazing over a weather year (:mod:`torsal.light.annual`): bare, behind 
 built, and behind each standard device of the same depth and spacing, on the same sample
 points, under the same sky. The weather is ``sun.epw``, or without one the clear-sky year of
 the ``[site]``. The report's ``light.annual`` holds kWh/m^2 per month and season, the
-shading factor of each shading against the bare glazing, and the engine's settings.
+shading factor of each shading against the bare glazing, and the engine's settings. With a
+``[room]`` table, ``light.annual.daylight`` adds the sDA and ASE (IES LM-83) of a room behind
+each storey of the facade (:func:`facade_rooms`), bare and behind each shading.
 """
 from __future__ import annotations
 
@@ -16,8 +18,10 @@ import numpy as np
 import trimesh
 
 from ..geometry.mesh import average_edge_length
-from ..light.annual import (RadianceSettings, SeasonRule, annual_irradiance, clear_sky_year,
-                            epw_year, seasons, shading_factor, sky_year)
+from ..light.annual import (RadianceSettings, Room, SeasonRule, SkyQuantity, annual_irradiance,
+                            clear_sky_year, daylight, epw_year, seasons, shading_factor, sky_year)
+from ..light.annual.daylight import GRID_M, WORK_PLANE_M
+from ..light.devices import surface_frame
 from ..light.annual.radiance import PACKAGE
 from ..light.sun import EPWError
 from .design_file import DesignSpec
@@ -27,7 +31,7 @@ from .report import best_device, plot_annual_map, plot_annual_months
 from .stage import StageInputs
 
 __all__ = ["run_annual", "annual_key", "annual_applies", "design_weather", "glazing_points",
-           "annual_summary"]
+           "annual_summary", "facade_rooms", "room_daylight"]
 
 
 def annual_applies(spec: DesignSpec) -> bool:
@@ -38,7 +42,9 @@ def annual_applies(spec: DesignSpec) -> bool:
 def annual_key(spec: DesignSpec) -> tuple:
     """What the stage depends on besides its inputs' results (the weather file's content and
     the site come with the sun stage's key)."""
-    return (spec.annual.model_dump(mode="json"), devices_key(spec))
+    return (spec.annual.model_dump(mode="json"), devices_key(spec),
+            spec.room.model_dump(mode="json") if spec.room else None,
+            spec.view.storey_height_m, spec.outputs.renders)
 
 
 def design_weather(spec: DesignSpec):
@@ -146,11 +152,88 @@ def run_annual(inp: StageInputs) -> dict:
                            {"applicable": False, "reason": d.reason})
                     for name, d in devices.items()},
         "seconds": time.perf_counter() - t0}
+    if spec.room is not None:
+        report["daylight"] = room_daylight(spec, weather, v, f, shadings, progress=inp.progress)
+        report["seconds"] = time.perf_counter() - t0
     files = _figures(inp, report, points, results["fins"].per_point) if spec.outputs.renders else {}
     report["figures"] = {"annual irradiance map": files.get("annual_map"),
                          "monthly irradiance": files.get("annual_months")} if files else {}
     return {"report": report, "files": files,
             "map": {"points": points, "bare": bare.per_point, "fins": results["fins"].per_point}}
+
+
+def facade_rooms(spec: DesignSpec, vertices, faces) -> tuple[list, str | None]:
+    """The ``[room]`` behind each storey of the facade (model units): a box behind A's innermost
+    point, as wide as A, the first floor at A's foot, as many storeys as fit in A's height.
+
+    Returns
+    -------
+    rooms : list of torsal.light.annual.Room
+    reason : str or None
+        Why there are none (a canopy, a facade lower than a storey).
+    """
+    frame = surface_frame(vertices, faces)
+    if not frame.is_facade:
+        return [], "a canopy: [room] is the rooms behind a facade"
+    r = spec.room
+    storey = r.storey_height or spec.view.storey_height_m / spec.metres_per_unit
+    v = np.asarray(vertices, float)
+    across, z = v @ frame.u, v[:, 2]
+    floors = z.min() + storey * np.arange(int(np.floor((np.ptp(z) + 1e-9 * storey) / storey)))
+    if not len(floors):
+        return [], f"the facade is lower than a storey ({storey:g} model units)"
+    corner = frame.u * across.min() + frame.axis * (v @ frame.axis).min()
+    return [Room(tuple(corner + (0.0, 0.0, floor)), tuple(frame.u), tuple(-frame.axis),
+                 float(np.ptp(across)), r.depth, r.height, r.sill,
+                 r.height if r.head is None else r.head, tuple(r.reflectance), r.transmittance)
+            for floor in floors], None
+
+
+def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
+                  progress=None) -> dict:
+    """sDA and ASE of each storey's room (:func:`facade_rooms`), bare and behind each shading.
+
+    Parameters
+    ----------
+    spec : DesignSpec
+    weather : torsal.light.annual.Weather
+    vertices, faces
+        Mesh A, oriented.
+    shadings : dict of str -> trimesh.Trimesh
+        The fins as built (``"fins"``) and the devices.
+    progress : callable(event, info), optional
+
+    Returns
+    -------
+    dict
+        ``light.annual.daylight``: ``storeys`` (floor heights, model units), ``bare`` and
+        every shading's ``sda`` / ``ase`` per storey and over the storeys, the settings, or
+        ``applicable`` False with the ``reason``.
+    """
+    rooms, reason = facade_rooms(spec, vertices, faces)
+    if not rooms:
+        return {"applicable": False, "reason": reason}
+    a, r, k = spec.annual, spec.room, 1.0 / spec.metres_per_unit
+    sky = sky_year(weather, subdivision=a.sky, ground_reflectance=a.ground_reflectance,
+                   north_angle=spec.site.north_angle if spec.site else 0.0,
+                   quantity=SkyQuantity.VISIBLE)
+    settings = RadianceSettings(r.ambient_bounces, a.ambient_divisions, a.fin_reflectance)
+    out = {"applicable": True, "standard": "IES LM-83-12: sDA 300 lx / 50 % of the occupied "
+           "hours, ASE 1000 lx of direct sun / 250 h; no blinds drawn (the fins are the shading)",
+           "storeys": [float(room.origin[2]) for room in rooms],
+           "occupied_hours": list(r.occupied_hours), "ambient_bounces": r.ambient_bounces,
+           "work_plane_m": WORK_PLANE_M, "grid_m": GRID_M}
+    for j, (name, fins) in enumerate([("bare", None), *shadings.items()]):
+        if progress is not None:
+            progress("progress", {"phase": f"daylight: {name}", "done": j,
+                                  "total": len(shadings) + 1})
+        d = [daylight(room, sky, fins=fins, settings=settings, hours=r.occupied_hours,
+                      spacing=GRID_M * k, work_plane=WORK_PLANE_M * k) for room in rooms]
+        out[name] = {"sda": [x.sda for x in d], "ase": [x.ase for x in d],
+                     "sda_all": float(np.mean([x.sda for x in d])),
+                     "ase_all": float(np.mean([x.ase for x in d])),
+                     "points": int(sum(len(x.points) for x in d))}
+    return out
 
 
 def annual_summary(annual: dict) -> str:

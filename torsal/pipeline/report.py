@@ -773,7 +773,31 @@ def _annual_html(an: dict) -> str:
     figures = "".join(f'<img src="{name}" alt="{html.escape(what)}">' for what, name in
                       (an.get("figures") or {}).items())
     return (f"<h3>Annual irradiance on the glazing ({an['seconds']:.0f} s)</h3>"
-            f"<table>{head}{''.join(rows)}</table><table>{months}</table>" + text + figures)
+            f"<table>{head}{''.join(rows)}</table><table>{months}</table>" + text + figures
+            + _daylight_html(an.get("daylight"), [n for n, _ in made]))
+
+
+def _daylight_html(dl: dict | None, names: list) -> str:
+    """sDA and ASE of the rooms behind the facade (``light.annual.daylight``), per storey."""
+    if not dl:
+        return ""
+    if not dl["applicable"]:
+        return f"<h3>Daylight</h3><p>Not applicable: {html.escape(dl['reason'])}</p>"
+    keys = ["bare", "fins", *(n.removesuffix(", same depth and spacing") for n in names[1:])]
+    head = ("<tr><th>glazing</th><th>sDA<sub>300/50%</sub></th><th>ASE<sub>1000/250</sub></th>"
+            + "".join(f"<th>storey at {z:.1f}: sDA / ASE</th>" for z in dl["storeys"]) + "</tr>")
+
+    def cells(d):
+        return (f"{_pct(d['sda_all'])}{_pct(d['ase_all'])}"
+                + "".join(f'<td class="num">{100 * a:.0f}% / {100 * b:.0f}%</td>'
+                          for a, b in zip(d["sda"], d["ase"])))
+
+    rows = "".join(f"<tr><td>{html.escape(k)}</td>{cells(dl[k])}</tr>" for k in keys if k in dl)
+    lo, hi = dl["occupied_hours"]
+    return (f"<h3>Daylight in the rooms behind the facade</h3><table>{head}{rows}</table>"
+            f"<p>{html.escape(dl['standard'])}; occupied {lo:g}:00 to {hi:g}:00, work plane "
+            f"{dl['work_plane_m']:g} m, points every {dl['grid_m']:g} m at most, "
+            f"{dl['ambient_bounces']} ambient bounces.</p>")
 
 
 #: lines within this many degrees of their mean direction are called nearly parallel in the
