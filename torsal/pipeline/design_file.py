@@ -55,6 +55,8 @@ from ..fabrication.nesting import (DEFAULT_SEED, DEFAULT_TIME_LIMIT, DEFAULT_TRI
                                    SECONDS_PER_SHEET, Nester)
 from ..light.annual import (AMBIENT_BOUNCES, AMBIENT_DIVISIONS, BALANCE_TEMPERATURE_C,
                             FIN_REFLECTANCE, GROUND_REFLECTANCE, SeasonRule, SkySubdivision)
+from ..light.annual.daylight import (GLAZING_TRANSMITTANCE, OCCUPIED_HOURS, ROOM_BOUNCES,
+                                     ROOM_REFLECTANCE)
 from ..light.view import ViewField
 
 __all__ = [
@@ -575,6 +577,47 @@ class AnnualSpec(_Spec):
                           "stage compares the fins with (louvers, vertical fins, egg-crates)")
 
 
+class RoomSpec(_Spec):
+    """The rooms behind a facade, one per storey, for daylight (report
+    ``light.annual.daylight``, with ``[annual] enabled``): sDA 300/50% and ASE 1000/250 as IES
+    LM-83 defines them, for the bare facade, behind the fins and behind each device (see
+    torsal.light.annual.daylight). Each room is a box behind the facade's innermost point, as
+    wide as the facade, glazed from sill to head across its width."""
+
+    depth: float = Field(gt=0, description="model units; from the window wall to the back wall")
+    height: float = Field(gt=0, description="model units; floor to ceiling")
+    storey_height: float | None = Field(None, gt=0, description="model units; floor to floor, "
+                                       "the first floor at the facade's foot; unset: "
+                                       "view.storey_height_m")
+    sill: float = Field(0.0, ge=0, description="model units; the glazing's bottom above the floor")
+    head: float | None = Field(None, gt=0, description="model units; the glazing's top above "
+                               "the floor; unset: the ceiling")
+    reflectance: tuple[float, float, float] = Field(ROOM_REFLECTANCE, description="floor, walls, "
+                                                    "ceiling (visible; LM-83's 0.2, 0.5, 0.7)")
+    transmittance: float = Field(GLAZING_TRANSMITTANCE, gt=0, le=1, description="the glazing's "
+                                 "visible transmittance at normal incidence")
+    occupied_hours: tuple[float, float] = Field(OCCUPIED_HOURS, description="h; the occupied "
+                                                "hours of every day, local standard time "
+                                                "(LM-83's 8 to 18)")
+    ambient_bounces: int = Field(ROOM_BOUNCES, ge=1, le=12, description="Radiance -ab in the "
+                                 "room (LM-83's 6)")
+
+    @model_validator(mode="after")
+    def _room(self):
+        if not all(0 <= r < 1 for r in self.reflectance):
+            raise ValueError(f"room.reflectance = {list(self.reflectance)} must be three "
+                             "values in [0, 1)")
+        lo, hi = self.occupied_hours
+        if not 0 <= lo < hi <= 24:
+            raise ValueError(f"room.occupied_hours = {list(self.occupied_hours)} must be [h0, h1] "
+                             "with 0 <= h0 < h1 <= 24")
+        head = self.height if self.head is None else self.head
+        if not self.sill < head <= self.height:
+            raise ValueError("the glazing must be within the room: room.sill < room.head "
+                             "<= room.height")
+        return self
+
+
 class DesignSpec(_Spec):
     """A whole design file."""
 
@@ -597,6 +640,8 @@ class DesignSpec(_Spec):
     annual: AnnualSpec = Field(default_factory=AnnualSpec, description="annual solar "
                                "irradiance on the glazing in kWh/m2 by Radiance (report "
                                "light.annual)")
+    room: RoomSpec | None = Field(None, description="rooms behind the facade for daylight "
+                                  "(sDA, ASE) in the annual stage; unset: none")
     costs: CostsSpec | None = Field(None, description="the user's rates: a price of the design "
                                     "from its bill of quantities; unset: no price")
 
