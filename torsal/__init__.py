@@ -20,10 +20,12 @@ from .geometry import (
     trace_torsal_curve,
 )
 from .pipeline import Design, DesignError
+from .session import Session, SessionAnswer
 from .hosts import show
 from .study import Study, StudyFileError
 
 
 __all__ = ["Congruence", "CongruenceProblem", "OptimizationResult", "OptimizationError",
            "MeshError", "SupportStructure", "TorsalCurve", "load_mesh", "trace_torsal_curve",
-           "remesh_torsal", "optimize_support", "Design", "DesignError", "Study", "StudyFileError", "show", "__version__"]
+           "remesh_torsal", "optimize_support", "Design", "DesignError", "Study", "StudyFileError", "Session", "SessionAnswer", "show",
+           "__version__"]

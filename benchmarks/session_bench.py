@@ -1,0 +1,115 @@
+"""Live design session latency: example 7a at full size, one change of each kind.
+
+For each change (a weight, the sun period, a stroke, a region, a bound, spacing, depth, a moved
+surface point) on a warm :class:`torsal.Session`: the preview's seconds (target <= 1 s: the
+congruence re-solved from the last optimum, the fins as surfaces, the light figures) and the
+built answer's (solids, sheets, assembly check, every file), both from the edit; against a
+cold ``torsal design`` of the same edited design file in a new process and an empty folder.
+Each change is made from the design as the file gives it (the previous change undone by
+re-applying the file's design first, which the session answers from its warm results).
+
+Run:  .venv/bin/python benchmarks/session_bench.py [--no-built] [--no-cold] [--changes weight sun ...]
+
+Timings on a shared machine vary: the script prints the load average; the stages each preview
+ran say where its time went. Not run by the test suite.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from torsal.session import RegionGoal, Session
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+DESIGN = EXAMPLES / "7a_facade_block.toml"
+
+
+def _moved_point(s: Session):
+    """The vertex nearest the middle of mesh A, 5 cm out along the surface normal."""
+    surface = s.preview.values["surface"]
+    v = surface["vertices"]
+    k = int(np.argmin(np.linalg.norm(v - v.mean(axis=0), axis=1)))
+    return s.move_point(k, v[k] + np.array([0.0, -0.05, 0.0]))
+
+
+#: change name -> (what it is, the edit on a session)
+CHANGES = {
+    "weight": ("weights.perp 10 -> 12", lambda s: s.set_weights(perp=12)),
+    "sun": ("sun.hours [13, 17] -> [12, 17]", lambda s: s.set_sun(hours=[12, 17])),
+    "stroke": ("a stroke across the facade", lambda s: s.set_strokes(
+        [[[-4.0, 0.0, 1.0], [4.0, 0.0, 4.0]]], width=0.6)),
+    "region": ("goals.let_through x in [4, 6]", lambda s: s.set_region(
+        RegionGoal.LET_THROUGH, {"x": [4.0, 6.0]})),
+    "bound": ("constraints.hyperbolic_margin 0 -> 0.01",
+              lambda s: s.edit(constraints={"hyperbolic_margin": 0.01})),
+    "spacing": ("fins.spacing 0.6 -> 0.7", lambda s: s.set_fins(spacing=0.7)),
+    "depth": ("fins.depth 0.4 -> 0.45", lambda s: s.set_fins(depth=0.45)),
+    "point": ("a surface point moved 5 cm", _moved_point),
+}
+
+
+def cold_design(spec, folder: Path) -> float:
+    """Seconds of ``torsal design`` of ``spec`` in a new process and an empty folder."""
+    import tomli_w
+
+    path = folder / "design.toml"
+    data = spec.model_dump(mode="json", exclude_none=True)
+    path.write_text(tomli_w.dumps(data))
+    torsal = Path(sys.executable).with_name("torsal")
+    t0 = time.perf_counter()
+    run = subprocess.run([str(torsal), "design", str(path), "--out", str(folder / "out"),
+                          "--accept-unbuildable"], capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    if run.returncode not in (0,):
+        return float("nan")
+    return seconds
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--no-built", action="store_true", help="previews only")
+    ap.add_argument("--no-cold", action="store_true", help="skip the cold `torsal design` runs")
+    ap.add_argument("--changes", nargs="*", default=list(CHANGES), choices=list(CHANGES))
+    args = ap.parse_args(argv)
+    a = os.getloadavg()
+    print(f"Live session on {DESIGN.name} at full size; load average {a[0]:.2f} {a[1]:.2f} "
+          f"{a[2]:.2f} ({os.cpu_count()} cores)")
+    tmp = Path(tempfile.mkdtemp(prefix="session_bench-"))
+    with Session(DESIGN, tmp / "session", build=not args.no_built) as s:
+        t0 = time.perf_counter()
+        first = s.start()
+        print(f"start (cold preview, kernels compiled or loaded): {time.perf_counter() - t0:.2f} s; "
+              f"{first.structure.edges.shape[0]} fins")
+        if not args.no_built:
+            b = s.wait_built()
+            print(f"first build: {b.seconds:.1f} s ({b.kind.value})")
+        base = s.design
+        head = (f"{'change':>8} {'what':<38} | {'preview s':>9} {'<=1 s':>5} | {'built s':>7} | "
+                f"{'cold s':>6} | stages the preview ran")
+        print(head)
+        print("-" * len(head))
+        for name in args.changes:
+            what, fn = CHANGES[name]
+            s.apply(base)                       # back to the file's design (warm results)
+            if not args.no_built:
+                s.wait_built()
+            answer = fn(s)
+            built = None if args.no_built else s.wait_built()
+            cold = float("nan") if args.no_cold else cold_design(answer.spec, Path(tempfile.mkdtemp(
+                dir=tmp)))
+            ok = "yes" if answer.seconds <= 1.0 else "NO"
+            built_s = "-" if built is None else f"{built.seconds:7.1f}"
+            note = "" if answer.ok else f" ({answer.kind.value}: {answer.message[:60]})"
+            print(f"{name:>8} {what:<38} | {answer.seconds:9.2f} {ok:>5} | {built_s:>7} | "
+                  f"{cold:6.1f} | {', '.join(answer.stages_run)}{note}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
