@@ -95,6 +95,7 @@ from .builder.fasteners import FastenerLayout
 from .builder.fixings import FIXING_SPACING, FixingPlacer
 from .builder.memo import Memo
 from .builder.paths import AssemblyPlanner
+from .builder.seams import JointFallback, SlotSeam, SlotSeams
 from .builder.strips import StripCutter, _plate_panels, _read_strips
 from .joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, choose_joinery
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, FIXING_FAMILY, MITER_LIMIT, Crossing, FamilySplit, Joint,
@@ -285,6 +286,10 @@ class FinSystem:
         #: node -> family whose plate the other family's parts end against there, where an end
         #: could not be trimmed the way the joinery first chose (the joint changed)
         self._base_at: dict[int, int] = {}
+        #: seams refused a crossing slot ({(family, node): JointFallback}) and the local
+        #: assembly checks of the seams by content (.builder.seams)
+        self._seams_refused: dict = {}
+        self._seam_verdicts: dict = {}
         for attempt in range(MAX_REBUILDS + 1):
             self._rebuilds = attempt
             self._reset_state()
@@ -305,6 +310,7 @@ class FinSystem:
                               if v not in forced and v not in new_forced)
             new_forced.update((v, why) for v, why in AssemblyPlanner(self)._break_cycles(forced).items()
                               if v not in new_forced)
+            changed |= self._settle_seams(settled=not (new or new_forced or changed))
             checked = not (new or new_forced or changed)
             excluded = set()
             if checked:
@@ -323,6 +329,7 @@ class FinSystem:
                 left_out.append((prefix, edge, node, why))
             forced.update(new_forced)
         self.coplanar_panels = left_out
+        SlotSeams(self).publish()
         for w in caught:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         # slots that would cut a part in two: once, on the final parts (it unrolls them all)
@@ -339,6 +346,17 @@ class FinSystem:
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
                 stacklevel=3)
+
+    def _settle_seams(self, *, settled: bool) -> bool:
+        """Seams inside crossing slots refused during this build (by the slide plan) or, once
+        every other joint is ``settled``, by the assembly check on the solids around each
+        (:meth:`~.builder.seams.SlotSeams.verify`): they fall back to butt joints with
+        brackets in the next build. True if any was refused (build again)."""
+        if settled and not self._refuse_seams:
+            SlotSeams(self).verify()
+        before = len(self._seams_refused)
+        self._seams_refused.update(self._refuse_seams)
+        return len(self._seams_refused) > before
 
     def _change_joints(self, new: dict, forced: dict) -> dict:
         """Part ends that could not be butt-trimmed against the other family's plate (``new``,
@@ -378,6 +396,13 @@ class FinSystem:
         self._unslidable: dict[int, str] = {}
         #: parts whose path into place is blocked: [(part, [(panel, plate, its panel, distance)])]
         self._blocked_paths: list = []
+        #: splits at crossings tried as seams inside the slot ({(family, node)}), those refused
+        #: during this build ({(family, node): JointFallback}: butted in the next), and the
+        #: final lists (:mod:`.builder.seams`): the seams kept and the fallbacks, named
+        self._seam_crossings: set = set()
+        self._refuse_seams: dict = {}
+        self.seams_in_slot: list[SlotSeam] = []
+        self.joint_fallbacks: list[JointFallback] = []
         #: part name -> [unit normal of a plate it butts against, turned towards the part]
         self._walls: dict[str, list] = {}
         #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
@@ -532,6 +557,9 @@ class FinSystem:
                 for end in (0, 1):
                     if p.ends[end] in ("miter", "fold"):
                         cont[fam, int(p.nodes[-end])] = False
+        seams = SlotSeams(self)
+        self._seam_crossings = seams.candidates(st, part_of_strip, joinery, cont)
+        seams.slot(joinery)
         EndJoiner(self)._join_ends(st, part_of_strip, plate, cont)
         CrossingSlotter(self)._slot_crossings(st, part_of_strip, joinery, cont)
         self.parts = ([p for parts in part_of_strip for p in parts]

@@ -16,6 +16,7 @@ import numpy as np
 from ..joints import MAX_SLOT_SKEW, slot_width
 from ..model import Crossing, Joint, JointKind, Part, Slot, SlotSide, _cross
 from ..unroll import unroll
+from .seams import SeamReason, SlotSeams
 from .strips import _Strips
 
 
@@ -34,12 +35,15 @@ class CrossingSlotter:
         fs = self.fs
         t, c = fs.thickness, fs.clearance
         at_node: dict[int, list[list[tuple[Part, int]]]] = {}
+        # a family split inside the other's slot is slotted at both its parts' ends
+        seams = fs._seam_crossings
+        whole = cont | np.array([[(f, v) in seams for v in range(cont.shape[1])] for f in (0, 1)])
         for strip, parts in zip(st.fins, part_of_strip):
             for p in parts:
                 for pos, node in enumerate(p.nodes):
                     node = int(node)
                     x = joinery.get(node)
-                    if x is not None and x.kind == JointKind.EGG_CRATE and cont[0, node] and cont[1, node]:
+                    if x is not None and x.kind == JointKind.EGG_CRATE and whole[0, node] and whole[1, node]:
                         at_node.setdefault(node, [[], []])[strip.family].append((p, pos))
         fs._plan = self._slide_plan(st, at_node)
         for node in sorted(at_node):
@@ -52,9 +56,17 @@ class CrossingSlotter:
             d1 = d - d0
             # the family-1 plate slides along its own direction, a little off this node axis:
             # both slots are wider by the sideways travel over the fin depth, on either side
-            direction, sense = fs._plan[l1[0][0].name]
+            plans = [fs._plan[p.name] for p, _ in l1]
+            direction, sense = plans[0]
+            if len({s_ for _, s_ in plans}) > 1:
+                # the two parts of a family-1 strip split in this slot would slide in from
+                # opposite edges: one slot cannot take both; split it as before (next build)
+                SlotSeams(fs).refuse(1, node, SeamReason.OPPOSITE_SLIDES,
+                                     " and ".join(p.name for p, _ in l1) + " slide in from "
+                                     "opposite edges of the slot", tuple(p.name for p, _ in l1))
             ax = sense * (st.a[node] - st.b[node]) / d
-            skew = np.arctan2(np.linalg.norm(_cross(direction, ax)), direction @ ax)
+            # (the widest the slide of any of its family-1 parts needs)
+            skew = max(np.arctan2(np.linalg.norm(_cross(dd, ax)), dd @ ax) for dd, _ in plans)
             extra = 2.0 * d * np.tan(skew)
             w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
                             fold_other=x.folds[1]) + extra
@@ -66,14 +78,33 @@ class CrossingSlotter:
             # along a - b), or the other way round where family 1 slides in along b - a
             side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
             for p, pos in l0:
-                p.slots.append(Slot(node, pos, side0, d0, w0, "+".join(names1)))
+                p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], st.b[node]),
+                                    w0, "+".join(names1)))
             for p, pos in l1:
-                p.slots.append(Slot(node, pos, side1, d1, w1, "+".join(names0)))
+                p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], st.b[node]),
+                                    w1, "+".join(names0)))
             w = max(w0, w1)
             fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
             fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                      direction, None, None, float(x.angle)))
+
+    @staticmethod
+    def _end_depth(p: Part, pos: int, side: SlotSide, depth: float, a: np.ndarray,
+                   b: np.ndarray) -> float:
+        """The depth of a slot of ``p`` at node line ``pos`` (node ``a -> b``) so that it ends
+        where the partner's begins: a slot at a part's end is measured from its trimmed end
+        edge, whose corner has moved along the ``a`` or ``b`` edge (a strip split inside the
+        slot, trimmed back from its seam), a few tenths of a millimetre along the node line
+        (on the hypar canopy that left 2-4 mm^3 of the two plates overlapping)."""
+        k = len(p.panels)
+        if 0 < pos < k:
+            return depth
+        corner = (p.panels[0, 3] if pos == 0 else p.panels[-1, 2]) if side == SlotSide.B else (
+            p.panels[0, 0] if pos == 0 else p.panels[-1, 1])
+        start, other = (b, a) if side == SlotSide.B else (a, b)
+        u = (other - start) / np.linalg.norm(other - start)
+        return float(depth - (corner - start) @ u)
 
     def _slide_plan(self, st: "_Strips", at_node) -> dict:
         """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
@@ -99,20 +130,42 @@ class CrossingSlotter:
                 fs._unslidable[nodes[int(np.argmax(skew))]] = 1, (
                     f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
                     f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
-            walls = fs._walls.get(name, [])
-            sense = 1.0
-            if walls:
-                run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
-                sense = min(run_in, key=run_in.get)
-                # the butted end may close its gap (clearance / 2) over a travel of the depth
-                if run_in[sense] > 0.5 * fs.clearance / float(st.depth[nodes].max()):
-                    for v in nodes:
-                        fs._unslidable.setdefault(v, (1,
-                            f"{name} would run into a plate it butts against while sliding "
-                            f"along its node axes "
-                            f"({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"))
+            sense = self._sense(name, d, nodes, st)
             plan[name] = (sense * d, sense)
         return plan
+
+    def _sense(self, name: str, d: np.ndarray, nodes: list[int], st: "_Strips") -> float:
+        """The sense (+1: along ``d``) the family-1 part ``name`` slides onto its crossings
+        ``nodes`` in: the one in which its butted ends run least into the plates they meet
+        (walls). Where the part has a seam inside a slot, +1 wherever both senses keep every
+        gap (its seam's plane holds the node line, so the run-in is a rounding's sign, opposite
+        for the two parts of the seam, which must slide in alike); a seam its slide would
+        close is refused (:class:`~.seams.SlotSeams`), any other crossing listed in
+        ``_unslidable``."""
+        fs = self.fs
+        walls = fs._walls.get(name, [])
+        if not walls:
+            return 1.0
+        run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
+        # the butted end may close its gap (clearance / 2) over a travel of the depth
+        tol = 0.5 * fs.clearance / float(st.depth[nodes].max())
+        seams = [v for v in nodes if (1, v) in fs._seam_crossings]
+        sense = min(run_in, key=run_in.get)
+        if seams and run_in[1.0] <= tol:
+            sense = 1.0
+        if run_in[sense] <= tol:
+            return sense
+        why = f"({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"
+        if seams:
+            # a seam inside a slot may close: split there as before (next build)
+            for v in seams:
+                SlotSeams(fs).refuse(1, v, SeamReason.CLOSES_SEAM, f"{name} would close its "
+                                     f"seam sliding along its node axes {why}", (name,))
+        else:
+            for v in nodes:
+                fs._unslidable.setdefault(v, (1, f"{name} would run into a plate it butts "
+                                              f"against while sliding along its node axes {why}"))
+        return sense
 
     def _resolve_slot_splits(self) -> None:
         """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot

@@ -137,7 +137,12 @@ class EndJoiner:
                     bridged = fam in (0, 1) and not cont[other, node] and len(g) >= 2
                     b = base.get((fam, node))
                     swapped = fs._base_at.get(node) if fam in (0, 1) else None
-                    if swapped is not None:
+                    # a seam inside the other family's slot (.seams.SlotSeams): the crossing
+                    # holds both ends, no bracket, no splice plate
+                    seamed = kind == "miter" and (fam, node) in fs._seam_crossings
+                    if seamed:
+                        butted = False
+                    elif swapped is not None:
                         # the joint changed here (an end that could not be trimmed): the parts
                         # of the other family end against this family's plate, or this one's
                         # against the other's
@@ -155,7 +160,7 @@ class EndJoiner:
                         prev = self._previous(parts, p, st.quads[si])
                         trimmed[0] = self._fold_butt(p, prev, st.quads[si], node, gap, h,
                                                      bracket=not bridged)
-                    elif kind == "miter" and end == 0 and not bridged:
+                    elif kind == "miter" and end == 0 and not bridged and not seamed:
                         prev = self._previous(parts, p, st.quads[si])
                         if prev is not None:
                             self._splice(prev, p, node, g)

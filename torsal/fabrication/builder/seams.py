@@ -1,0 +1,243 @@
+"""Seams inside a crossing slot: joints that need no separate part (issues 27, 42).
+
+A strip split on a mild fold (mitred: for its length or the sheet) at an egg-crate crossing
+whose other plate passes through whole can meet on its mitred seam *inside that plate's slot*:
+both parts are slotted at their ends and the crossing plate holds them, as ribs longer than a
+sheet are jointed at a notch in a waffle structure. No splice plate, no bracket: on 7a at
+full size the butt joints these splits made cost 236 connectors of 509 parts (46 %), two
+brackets each and more where the other family had to be split too against cycles.
+
+Whether a seam can stay in its slot is decided *per joint*, in this order:
+
+1. the slide plan (:class:`~.crossings.CrossingSlotter`): the two family-1 parts of a seam
+   slide in from opposite edges (:attr:`SeamReason.OPPOSITE_SLIDES`), or a family-1 part's
+   slide closes the clearance of its seam (:attr:`SeamReason.CLOSES_SEAM`);
+2. the assembly check (:func:`~torsal.fabrication.assembly.check_assembly`, the independent
+   one) on the solids around the joint only (:func:`local_part`: the panels of every part of
+   the crossing next to its node line, slotted there), with the crossing's joint record: the
+   two parts of the seam and the plate that holds them must neither interfere nor block each
+   other's path in (:attr:`SeamReason.ASSEMBLY`; a local solid that cannot be built:
+   :attr:`SeamReason.SOLID`). This is what refused the seam on examples 9 and 11 at test size
+   (a family-1 plate could not slide onto a seam's two parts: 2,415 mm^3), which made the
+   first version of this joint be reverted everywhere.
+
+A refused seam falls back to the joint it replaced (the strip split and butted against the
+crossing plate with brackets, in the next build), and is named in
+``FinSystem.joint_fallbacks`` (:class:`JointFallback`: node, parts, reason, what the check
+found); the seams kept are ``FinSystem.seams_in_slot`` (:class:`SlotSeam`). The local checks
+are remembered by the bytes of their solids' parts across the rebuilds of one fin system: a
+rebuild re-checks only a joint whose parts changed there. Lengths in the fin system's
+``unit``.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from ..model import Joint, JointKind, Part
+from .memo import _memo_key
+
+__all__ = ["SeamReason", "SlotSeam", "JointFallback", "SlotSeams", "local_part"]
+
+
+class SeamReason(str, Enum):
+    """Why a seam inside a slot fell back to butt joints with brackets."""
+
+    #: the two family-1 parts of the seam would slide in from opposite edges of the slot
+    OPPOSITE_SLIDES = "opposite-slides"
+    #: a family-1 part sliding along its crossings' axes would close its seam's clearance
+    CLOSES_SEAM = "closes-seam"
+    #: the crossing made no slot there (the other family's plate is not slotted at the node)
+    NO_SLOT = "no-slot"
+    #: the assembly check on the solids around the joint found them interfering or blocked
+    ASSEMBLY = "assembly"
+    #: a solid around the joint could not be built, so nothing proves the joint
+    SOLID = "solid"
+
+
+@dataclass(frozen=True)
+class SlotSeam:
+    """A seam held in a crossing slot without a connector: the strip of ``family`` split at
+    ``node`` into ``parts`` (the two, in strip order), held by the other family's plate(s)
+    ``holders``."""
+
+    node: int
+    family: int
+    parts: tuple[str, ...]
+    holders: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class JointFallback:
+    """A seam that could not stay in its slot: the strip of ``family`` is split at ``node`` and
+    butted against the crossing plate with brackets instead; ``parts`` the parts of the
+    crossing when it was refused, ``detail`` what refused it."""
+
+    node: int
+    family: int
+    reason: SeamReason
+    detail: str
+    parts: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        return f"node {self.node} (family {self.family}): {self.reason.value}: {self.detail}"
+
+
+def local_part(part: Part, node: int) -> Part | None:
+    """The panels of ``part`` next to its node line(s) at ``node`` (one on either side), with
+    its slots there, under the same name: the part as the joint sees it (mitred ends and folds
+    as in the whole part; holes and other slots left out). None if the part has no such line."""
+    at = np.flatnonzero(np.asarray(part.nodes) == node)
+    if not len(at):
+        return None
+    k = len(part.panels)
+    lo, hi = max(0, int(at.min()) - 1), min(k, int(at.max()) + 1)
+    slots = [dataclasses.replace(s, position=s.position - lo) for s in part.slots
+             if s.node == node and lo <= s.position <= hi]
+    return dataclasses.replace(part, panels=part.panels[lo:hi].copy(), nodes=part.nodes[lo:hi + 1].copy(),
+                               edges=part.edges[lo:hi].copy(), miters=part.miters[lo:hi + 1].copy(),
+                               slots=slots, holes=(), span=(part.span[0] + lo, part.span[0] + hi))
+
+
+@dataclass(frozen=True)
+class _Verdict:
+    """The local assembly check of one seam: ``ok`` or refused for ``reason`` (``detail``)."""
+
+    ok: bool
+    reason: SeamReason | None = None
+    detail: str = ""
+
+
+def _local_check(parts: list[Part], joint: Joint, thickness: float, unit: str) -> _Verdict:
+    """:func:`~torsal.fabrication.assembly.check_assembly` of the solids of ``parts`` (local
+    parts of one crossing) with the crossing's joint record, in this process."""
+    from ..assembly import check_assembly
+    from ..plates import InvalidSolidError, part_solid
+
+    try:
+        solids = {p.name: part_solid(p, thickness) for p in parts}
+    except InvalidSolidError as e:
+        return _Verdict(False, SeamReason.SOLID, f"{e}")
+    names = set(solids)
+    local = dataclasses.replace(joint, parts=tuple(n for n in joint.parts if n in names))
+    r = check_assembly(solids, joints=[local], workers=1, unit=unit)
+    if r.buildable:
+        return _Verdict(True)
+    return _Verdict(False, SeamReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "))
+
+
+class SlotSeams:
+    """The seams inside crossing slots of a fin system ``fs`` under construction: which splits
+    may try one (:meth:`candidates`), refusals with their reason (:meth:`refuse`), the local
+    assembly check of every seam made (:meth:`verify`) and the final lists (:meth:`publish`).
+
+    ``fs`` keeps across rebuilds ``_seams_refused`` (``{(family, node): JointFallback}``) and
+    ``_seam_verdicts`` (local checks by content); per build ``_seam_crossings`` (the seams
+    tried) and ``_refuse_seams`` (refused during this build, butted in the next)."""
+
+    def __init__(self, fs):
+        self.fs = fs
+
+    def candidates(self, st, part_of_strip, joinery: dict, cont: np.ndarray) -> set:
+        """``{(family, node)}``: where a strip is split on a mild fold (mitred) at a crossing
+        whose other plate passes through whole, not refused before and not a node whose joint
+        changed (``_base_at``): at an egg-crate (split for its length or the sheet), or where
+        the joinery split it for a reason its two flat parts do not have
+        (:meth:`_slottable_split`)."""
+        fs = self.fs
+        out: set = set()
+        if fs.family_split.value != "egg-crate":
+            return out
+        for si, parts in enumerate(part_of_strip):
+            fam = st.fins[si].family
+            if fam not in (0, 1):
+                continue
+            for p in parts:
+                v = int(p.nodes[0])
+                x = joinery.get(v)
+                if (p.ends[0] != "miter" or x is None or not cont[1 - fam, v]
+                        or v in fs._base_at or (fam, v) in fs._seams_refused):
+                    continue
+                if x.kind == JointKind.EGG_CRATE or self._slottable_split(x, fam):
+                    out.add((fam, v))
+        return out
+
+    def _slottable_split(self, x, fam: int) -> bool:
+        """Whether the crossing ``x`` (:class:`~.joints.NodeJoinery`), where the joinery split
+        the strip of ``fam`` and butted it, can hold that split in the other plate's slot: the
+        other plate folds no more than an egg-crate allows, and the crossing angle narrowed by
+        both folds (as :func:`~.joints.slot_width` narrows it) is still one an egg-crate
+        allows. Why the split strip's own fold does not matter: its two parts are flat at the
+        node, the fold is their seam. A split forced because the family-1 plate could not
+        slide onto all its crossings along one direction qualifies too: each of its two parts
+        slides along its own."""
+        fs = self.fs
+        return (x.kind == JointKind.BUTT_BRACKET and x.split == fam
+                and x.folds[1 - fam] <= fs.max_crossing_fold
+                and x.angle - 0.5 * sum(x.folds) >= fs.min_crossing_angle)
+
+    def slot(self, joinery: dict) -> None:
+        """The crossings of this build's seams are slotted like egg-crates (``joinery`` and
+        ``fs.joinery`` say so; a crossing split for a fold keeps its ``split`` and ``why``)."""
+        fs = self.fs
+        for _, v in sorted(self.fs._seam_crossings):
+            joinery[v] = joinery[v]._replace(kind=JointKind.EGG_CRATE)
+        fs.joinery = [joinery[v] for v in sorted(joinery)]
+
+    def refuse(self, family: int, node: int, reason: SeamReason, detail: str,
+               parts: tuple[str, ...] = ()) -> None:
+        """The seam of ``family`` at ``node`` falls back to butt joints in the next build."""
+        self.fs._refuse_seams.setdefault((family, node), JointFallback(node, family, reason, detail,
+                                                                       tuple(parts)))
+
+    def verify(self) -> list[JointFallback]:
+        """The local assembly check of every seam of this build (remembered by content);
+        returns those refused (also in ``_refuse_seams``)."""
+        fs = self.fs
+        crossing = {j.node: j for j in fs.joints if j.kind == JointKind.EGG_CRATE}
+        by_name = {p.name: p for p in fs.parts}
+        for fam, node in sorted(fs._seam_crossings):
+            joint = crossing.get(node)
+            mine = [n for n in (joint.parts if joint else ()) if n.startswith(f"F{fam}-")]
+            if joint is None or len(mine) < 2:
+                self.refuse(fam, node, SeamReason.NO_SLOT, "the crossing plate is not slotted "
+                            "there", tuple(mine))
+                continue
+            verdict = self._verdict([local_part(by_name[n], node) for n in joint.parts], joint)
+            if verdict.reason == SeamReason.SOLID:
+                # a slot that runs out of a narrow, slanted panel cuts the panels next to the
+                # node apart but not the whole part: the whole parts decide
+                verdict = self._verdict([by_name[n] for n in joint.parts], joint)
+            if not verdict.ok:
+                self.refuse(fam, node, verdict.reason, verdict.detail, tuple(joint.parts))
+        return [fs._refuse_seams[k] for k in sorted(fs._refuse_seams)]
+
+    def _verdict(self, parts: list[Part | None], joint: Joint) -> _Verdict:
+        """:func:`_local_check` of ``parts`` with ``joint``, remembered by their content."""
+        fs = self.fs
+        parts = [p for p in parts if p is not None]
+        key = _memo_key(([(p.name, p.panels, p.miters, [dataclasses.astuple(s) for s in p.slots])
+                          for p in parts], joint.insert_direction, joint.depth, fs.thickness))
+        if key not in fs._seam_verdicts:
+            fs._seam_verdicts[key] = _local_check(parts, joint, fs.thickness, fs.unit)
+        return fs._seam_verdicts[key]
+
+    def publish(self) -> None:
+        """``fs.seams_in_slot`` (the seams kept, each a joint without a connector) and
+        ``fs.joint_fallbacks`` (the seams refused, by node)."""
+        fs = self.fs
+        crossing = {j.node: j for j in fs.joints if j.kind == JointKind.EGG_CRATE}
+        kept = []
+        for fam, node in sorted(fs._seam_crossings):
+            joint = crossing.get(node)
+            if joint is None:
+                continue
+            mine = tuple(n for n in joint.parts if n.startswith(f"F{fam}-"))
+            kept.append(SlotSeam(node, fam, mine, tuple(n for n in joint.parts if n not in mine)))
+        fs.seams_in_slot = kept
+        fs.joint_fallbacks = [fs._seams_refused[k] for k in sorted(fs._seams_refused,
+                                                                   key=lambda k: (k[1], k[0]))]
+
