@@ -120,6 +120,24 @@ def test_strip_folding_60_degrees_at_a_crossing_is_split_never_overlapping():
     assert [len(p.panels) for p in row] == [1, 1]           # split at the fold
     for p in row:
         assert np.all(p.fold_angles == 0)
+    # the two parts meet on their mitred seam inside the straight column's slot (issue 42),
+    # proved by the assembly check on the three; with that seam refused, they butt against
+    # the column with a bracket each
+    at4 = [j for j in fs.joints if j.node == 4]
+    assert [(j.kind, j.connector) for j in at4] == [(JointKind.EGG_CRATE, None)]
+    assert at4[0].parts == tuple(sorted(p.name for p in row)) + ("F1-S001-P00",)
+    assert [(s.node, s.family) for s in fs.seams_in_slot] == [(4, 0)]
+    assert not fs.untrimmed_joints and not fs.unconnected_joints
+    sol = fs.solids(workers=1)
+    assert not interfering_pairs(sol)
+
+
+def test_a_strip_folding_at_a_crossing_butts_where_its_seam_cannot_stay(monkeypatch):
+    from torsal.fabrication.builder.seams import SlotSeams
+
+    monkeypatch.setattr(SlotSeams, "candidates", lambda self, *a, **kw: set())
+    fs = _build(folded_rows(60.0))
+    row = [p for p in fs.parts if p.family == 0 and p.id.strip == 1]
     at4 = [j for j in fs.joints if j.node == 4]
     assert len(at4) == 2 and {j.parts[1] for j in at4} == {p.name for p in row}
     assert all(j.parts[0] == "F1-S001-P00" and j.connector for j in at4)

@@ -151,13 +151,17 @@ def test_bill_of_materials(fs, tmp_path):
         assert float(r["area_m2"]) == pytest.approx((u.outline.area - holes_area) * 1e-6, rel=1e-6)
         assert float(r["mass_kg"]) == pytest.approx((u.outline.area - holes_area) * 1e-6 * 3e-3 * 7850,
                                                     rel=1e-5)
-        assert float(r["cut_length_m"]) - holes_cut >= float(r["perimeter_m"]) - 2e-6   # rounded
+        # slots add to the cutting path, except a slot at a part's end (a strip split inside
+        # a crossing's slot): that notch takes a corner of the outline, on a slanted end up to
+        # its width shorter
+        corner = sum(s.width for s in p.slots if s.position in (0, len(p.panels))) * 1e-3
+        assert float(r["cut_length_m"]) - holes_cut >= float(r["perimeter_m"]) - corner - 2e-6
         if p.slots:
             # a slot inside the part adds two flanks to the cut, a half slot at a part end
             # replaces a piece of the end edge by one flank
             extra = sum(2 * s.depth for s in p.slots if 0 < s.position < len(p.panels)) * 1e-3
             assert float(r["cut_length_m"]) - holes_cut - float(r["perimeter_m"]) == \
-                pytest.approx(extra, rel=0.05)
+                pytest.approx(extra, rel=0.05, abs=corner)
         assert int(r["sheet"]) == sheets[p.name]
         assert int(r["fold_count"]) == u.fold_count
     with pytest.raises(ValueError, match="density"):

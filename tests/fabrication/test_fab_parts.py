@@ -133,12 +133,11 @@ def test_parts_are_halved_until_they_fit_the_sheet():
         FinSystem(s, thickness=3.0, fit_sheet=(10.0, 10.0))
 
 
-def test_folded_crossings_are_split_and_butted_not_slotted():
+def test_folded_crossings_are_split_and_held_in_the_slot():
     s = cylinder_structure(nu=8, closed=True)
     with warnings.catch_warnings():
         warnings.simplefilter("error")          # a sound design: nothing to warn about
         fs = FinSystem(s, thickness=3.0, clearance=0.5, fit_sheet=None)
-    assert not fs.crossings
     # the 8 crossings of the middle row: it folds there, the columns are flat
     assert len(fs.joinery) == 8
     # the dihedral angle of consecutive panels of the middle row, from their normals
@@ -148,11 +147,18 @@ def test_folded_crossings_are_split_and_butted_not_slotted():
     fold = np.degrees(np.arccos(n[0] @ n[1]))
     assert fold > 20.0
     for x in fs.joinery:
-        assert x.kind == JointKind.BUTT_BRACKET and x.split == 0
+        # split for the fold (never slotted across it) ...
+        assert x.split == 0 and f"folds {fold:.0f} deg" in x.why
         assert x.folds[0] == pytest.approx(fold, abs=1e-6) and x.folds[1] == pytest.approx(0, abs=1e-6)
-        assert f"folds {fold:.0f} deg" in x.why
-    butts = [j for j in fs.joints if j.kind == JointKind.BUTT_BRACKET and j.node in {x.node for x in fs.joinery}]
-    assert len(butts) == 16 and all(j.connector in {p.name for p in fs.parts} for j in butts)
+    row = sorted(p.name for p in fs.plates if p.family == 0 and p.id.strip == 1)
+    assert len(row) == 8 and all(len(fs.part(n).panels) == 1 for n in row)
+    # ... and the row's parts meet in the flat columns' slots, no bracket at those nodes (issue
+    # 42: they were 16 brackets), each seam proved by the assembly check on its parts
+    nodes = {x.node for x in fs.joinery}
+    assert {s.node for s in fs.seams_in_slot} == nodes and not fs.joint_fallbacks
+    assert not [j for j in fs.joints if j.kind == JointKind.BUTT_BRACKET and j.node in nodes]
+    assert {x.node for x in fs.crossings} == nodes
+    assert all(len(x.parts0) == 2 and len(x.parts1) == 1 for x in fs.crossings)
 
 
 def test_units_scale_the_structure():

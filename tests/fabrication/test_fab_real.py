@@ -7,6 +7,7 @@ the sheet (13, 7c). These tests check real properties of the result, not only th
 """
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from pathlib import Path
 
@@ -15,6 +16,7 @@ import pytest
 
 from torsal.fabrication import FinSystem, PartTooLargeError, read_step
 from torsal.fabrication.parts import MITER_LIMIT
+from torsal.fabrication.plates import part_solid
 from torsal.geometry.support import SupportStructure
 
 pytest.importorskip("build123d")
@@ -150,7 +152,9 @@ def test_slots_on_nearly_flat_folds_are_cut_cleanly(tmp_path):
     assert len(slotted) >= 2             # (most crossings of 7d fold: butted, not slotted)
     for name in slotted:
         p = fs.part(name)
-        plate = p.panel_areas.sum() * fs.thickness
+        # the plate as built without its slots (area x thickness is off by the bevel of a
+        # butted end: 11 % of a half slot at the other end of F0-S010-P02)
+        plate = part_solid(dataclasses.replace(p, slots=[]), fs.thickness).volume
         cut = plate - sol[name].volume
         # each full slot takes about width x depth x thickness
         slot = sum(s.width * s.depth * fs.thickness * (0.5 if s.position in (0, len(p.panels)) else 1)

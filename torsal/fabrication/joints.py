@@ -17,7 +17,8 @@ every node the joint is chosen from the real geometry of the plates there:
   against a plate: at the boundary (T and L junctions, as before), where a strip must fold at a
   crossing or the plates cross too obliquely for a slot (the strip that folds more is split
   there, the other stays continuous), and where a strip is split at a crossing for length or
-  sheet size. The end panel is trimmed back until its end face (along the continuous plate's
+  sheet size, unless the split is held in the slot (next item). The end panel is trimmed back
+  until its end face (along the continuous plate's
   mean plane) clears both faces of that plate by ``clearance/2``; a bent bracket of the same
   sheet (:func:`bracket_panels`) sits in the corner between the two plates, one leg flat on
   each, and is a part of its own (``C-N<node>-<index>``: solid, cutting outline, parts-list
@@ -25,6 +26,12 @@ every node the joint is chosen from the real geometry of the plates there:
   :data:`MAX_BRACKET_ANGLE`, at least :data:`MIN_BRACKET_ANGLE`), so its bend stays modest.
   The same joint joins the two parts of a strip split on a fold sharper than
   ``max_fold_angle``: the later part butts against the square end of the earlier one.
+* **Seam inside the slot** (an :attr:`JointKind.EGG_CRATE` joint of three parts, no
+  connector): a strip split at a crossing (for length or the sheet, or because it folds
+  there while the other plate does not) meets on its mitred seam inside the other plate's
+  slot, both parts slotted at their ends, held by it. Kept per joint only where the assembly
+  check on the solids around it proves it, else butted with brackets as above, the fallback
+  named (:mod:`torsal.fabrication.builder.seams`).
 * **Mitre with a splice plate** (:attr:`JointKind.MITRE_SPLICE`) where a strip is split on a
   mild fold away from any crossing plate (``max_panels``, ``max_part_length``, sheet size): the
   ends are mitred on the fold's bisector plane, each trimmed back from it by ``clearance/2``

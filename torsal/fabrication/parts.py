@@ -25,8 +25,10 @@ against the square end of the earlier one, with a bracket. Strips with more than
 whose unrolled outline does not fit ``fit_sheet`` (cut into the longest runs that fit) are
 split too;
 closed strips are always cut into at least two parts. Those splits meet on the bisector plane
-of the fold (mitred) with a splice plate, or, at a crossing, are butted against the crossing
-plate. Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
+of the fold (mitred) with a splice plate, or, at a crossing, meet on that seam inside the
+crossing plate's slot without a connector where the assembly check on the parts around the
+joint proves it (``seams_in_slot``; else butted against the crossing plate with brackets, named
+in ``joint_fallbacks``, :mod:`.builder.seams`). Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
 :attr:`FinSystem.joints` lists every joint (:class:`~.model.Joint`).
 
 Every part goes in along one direction (:mod:`.joints`, "one insertion direction per part"):
@@ -558,7 +560,7 @@ class FinSystem:
                     if p.ends[end] in ("miter", "fold"):
                         cont[fam, int(p.nodes[-end])] = False
         seams = SlotSeams(self)
-        self._seam_crossings = seams.candidates(st, part_of_strip, joinery, cont)
+        self._seam_crossings = seams.candidates(st, part_of_strip, joinery, cont, set(forced or ()))
         seams.slot(joinery)
         EndJoiner(self)._join_ends(st, part_of_strip, plate, cont)
         CrossingSlotter(self)._slot_crossings(st, part_of_strip, joinery, cont)

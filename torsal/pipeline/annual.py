@@ -217,12 +217,13 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
     sky = sky_year(weather, subdivision=a.sky, ground_reflectance=a.ground_reflectance,
                    north_angle=spec.site.north_angle if spec.site else 0.0,
                    quantity=SkyQuantity.VISIBLE)
-    settings = RadianceSettings(r.ambient_bounces, a.ambient_divisions, a.fin_reflectance)
+    settings = RadianceSettings(r.ambient_bounces, r.ambient_divisions, a.fin_reflectance)
     out = {"applicable": True, "standard": "IES LM-83-12: sDA 300 lx / 50 % of the occupied "
            "hours, ASE 1000 lx of direct sun / 250 h; no blinds drawn (the fins are the shading)",
            "storeys": [float(room.origin[2]) for room in rooms],
            "occupied_hours": list(r.occupied_hours), "ambient_bounces": r.ambient_bounces,
-           "work_plane_m": WORK_PLANE_M, "grid_m": GRID_M}
+           "ambient_divisions": r.ambient_divisions, "work_plane_m": WORK_PLANE_M,
+           "grid_m": GRID_M}
     for j, (name, fins) in enumerate([("bare", None), *shadings.items()]):
         if progress is not None:
             progress("progress", {"phase": f"daylight: {name}", "done": j,

@@ -56,7 +56,7 @@ from ..fabrication.nesting import (DEFAULT_SEED, DEFAULT_TIME_LIMIT, DEFAULT_TRI
 from ..light.annual import (AMBIENT_BOUNCES, AMBIENT_DIVISIONS, BALANCE_TEMPERATURE_C,
                             FIN_REFLECTANCE, GROUND_REFLECTANCE, SeasonRule, SkySubdivision)
 from ..light.annual.daylight import (GLAZING_TRANSMITTANCE, OCCUPIED_HOURS, ROOM_BOUNCES,
-                                     ROOM_REFLECTANCE)
+                                     ROOM_DIVISIONS, ROOM_REFLECTANCE)
 from ..light.view import ViewField
 
 __all__ = [
@@ -601,6 +601,8 @@ class RoomSpec(_Spec):
                                                 "(LM-83's 8 to 18)")
     ambient_bounces: int = Field(ROOM_BOUNCES, ge=1, le=12, description="Radiance -ab in the "
                                  "room (LM-83's 6)")
+    ambient_divisions: int = Field(ROOM_DIVISIONS, ge=16, description="Radiance -ad in the room "
+                                   "(LM-83's 1000)")
 
     @model_validator(mode="after")
     def _room(self):

@@ -8,6 +8,9 @@ fills its lists) and rebuilds until every end is trimmed and every path is clear
 * :mod:`.ends` joins the part ends: butt + bracket, mitre + splice (:class:`EndJoiner`);
 * :mod:`.crossings` slots the egg-crate crossings and plans each family-1 plate's slide
   (:class:`CrossingSlotter`);
+* :mod:`.seams` holds the seams of strips split at a crossing in the other plate's slot,
+  without a connector, where the assembly check on the parts around each proves it, and
+  names the ones that fall back to brackets (:class:`SlotSeams`);
 * :mod:`.clash` finds plates that run into each other without a joint (:class:`ClashFinder`);
 * :mod:`.paths` orders the parts, gives each butted part its direction and checks its path
   into place (:class:`AssemblyPlanner`);
@@ -22,6 +25,8 @@ from .clash import ClashFinder
 from .crossings import CrossingSlotter
 from .ends import EndJoiner
 from .paths import AssemblyPlanner
+from .seams import SlotSeams
 from .strips import StripCutter
 
-__all__ = ["StripCutter", "EndJoiner", "CrossingSlotter", "ClashFinder", "AssemblyPlanner"]
+__all__ = ["StripCutter", "EndJoiner", "CrossingSlotter", "ClashFinder", "AssemblyPlanner",
+           "SlotSeams"]

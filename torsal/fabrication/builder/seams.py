@@ -40,7 +40,7 @@ import numpy as np
 from ..model import Joint, JointKind, Part
 from .memo import _memo_key
 
-__all__ = ["SeamReason", "SlotSeam", "JointFallback", "SlotSeams", "local_part"]
+__all__ = ["SeamReason", "SlotSeam", "JointFallback", "SlotSeams", "local_part", "joinery_report"]
 
 
 class SeamReason(str, Enum):
@@ -141,12 +141,15 @@ class SlotSeams:
     def __init__(self, fs):
         self.fs = fs
 
-    def candidates(self, st, part_of_strip, joinery: dict, cont: np.ndarray) -> set:
+    def candidates(self, st, part_of_strip, joinery: dict, cont: np.ndarray,
+                   forced=frozenset()) -> set:
         """``{(family, node)}``: where a strip is split on a mild fold (mitred) at a crossing
         whose other plate passes through whole, not refused before and not a node whose joint
-        changed (``_base_at``): at an egg-crate (split for its length or the sheet), or where
-        the joinery split it for a reason its two flat parts do not have
-        (:meth:`_slottable_split`)."""
+        changed (``_base_at``) or was ``forced`` to a butt joint (a family-1 plate that cannot
+        slide onto all its crossings: on example 13 its two parts, each sliding along its own
+        axis, could not both go into one slot, 56 of 56 refused by the check): at an
+        egg-crate (split for its length or the sheet), or where the joinery split it for a
+        fold (:meth:`_slottable_split`)."""
         fs = self.fs
         out: set = set()
         if fs.family_split.value != "egg-crate":
@@ -161,7 +164,8 @@ class SlotSeams:
                 if (p.ends[0] != "miter" or x is None or not cont[1 - fam, v]
                         or v in fs._base_at or (fam, v) in fs._seams_refused):
                     continue
-                if x.kind == JointKind.EGG_CRATE or self._slottable_split(x, fam):
+                if x.kind == JointKind.EGG_CRATE or (self._slottable_split(x, fam)
+                                                     and v not in forced):
                     out.add((fam, v))
         return out
 
@@ -171,9 +175,7 @@ class SlotSeams:
         other plate folds no more than an egg-crate allows, and the crossing angle narrowed by
         both folds (as :func:`~.joints.slot_width` narrows it) is still one an egg-crate
         allows. Why the split strip's own fold does not matter: its two parts are flat at the
-        node, the fold is their seam. A split forced because the family-1 plate could not
-        slide onto all its crossings along one direction qualifies too: each of its two parts
-        slides along its own."""
+        node, the fold is their seam."""
         fs = self.fs
         return (x.kind == JointKind.BUTT_BRACKET and x.split == fam
                 and x.folds[1 - fam] <= fs.max_crossing_fold
@@ -241,3 +243,27 @@ class SlotSeams:
         fs.joint_fallbacks = [fs._seams_refused[k] for k in sorted(fs._seams_refused,
                                                                    key=lambda k: (k[1], k[0]))]
 
+
+
+def joinery_report(fs) -> dict:
+    """The ``fabrication.joinery`` entry of a design's report: ``seams_in_slot`` (how many
+    seams the crossing slots hold without a connector) and ``seams`` (each: node, family,
+    parts, holders), ``fallbacks`` (each seam refused: node, family, the parts of the joint,
+    ``reason`` (a :class:`SeamReason` value) and ``why``, what refused it) and
+    ``fallbacks_by_reason``.
+
+    >>> joinery_report(fs)["seams_in_slot"]                  # doctest: +SKIP
+    56
+    """
+    seams, fallbacks = getattr(fs, "seams_in_slot", []), getattr(fs, "joint_fallbacks", [])
+    by_reason: dict[str, int] = {}
+    for f in fallbacks:
+        by_reason[f.reason.value] = by_reason.get(f.reason.value, 0) + 1
+    return {
+        "seams_in_slot": len(seams),
+        "seams": [{"node": s.node, "family": s.family, "parts": list(s.parts),
+                   "holders": list(s.holders)} for s in seams],
+        "fallbacks": [{"node": f.node, "family": f.family, "parts": list(f.parts),
+                       "reason": f.reason.value, "why": f.detail} for f in fallbacks],
+        "fallbacks_by_reason": dict(sorted(by_reason.items())),
+    }

@@ -32,7 +32,7 @@ from torsal.light.annual.sky import SkyQuantity, SkyYear
 
 __all__ = ["Room", "Daylight", "daylight", "LUMINOUS_EFFICACY", "SDA_LUX", "SDA_SHARE",
            "ASE_LUX", "ASE_HOURS", "OCCUPIED_HOURS", "WORK_PLANE_M", "GRID_M",
-           "ROOM_REFLECTANCE", "GLAZING_TRANSMITTANCE", "ROOM_BOUNCES"]
+           "ROOM_REFLECTANCE", "GLAZING_TRANSMITTANCE", "ROOM_BOUNCES", "ROOM_DIVISIONS"]
 
 #: lm/W: Radiance's white-light efficacy (illuminance = 179 x visible irradiance)
 LUMINOUS_EFFICACY = 179.0
@@ -48,8 +48,8 @@ WORK_PLANE_M, GRID_M = 0.76, 0.6
 ROOM_REFLECTANCE = (0.2, 0.5, 0.7)
 #: visible transmittance at normal incidence of the glazing (double glazing, low-e)
 GLAZING_TRANSMITTANCE = 0.6
-#: rcontrib -ab in a room (LM-83's Radiance parameters: -ab 6)
-ROOM_BOUNCES = 6
+#: rcontrib -ab and -ad in a room (LM-83's Radiance parameters: -ab 6 -ad 1000)
+ROOM_BOUNCES, ROOM_DIVISIONS = 6, 1024
 
 
 @dataclass(frozen=True)
@@ -200,7 +200,7 @@ def daylight(room: Room, sky: SkyYear, *, fins=None, settings: RadianceSettings 
     fins : trimesh.Trimesh, optional
         The shading outside the window.
     settings : RadianceSettings, optional
-        Default: :data:`ROOM_BOUNCES` ambient bounces.
+        Default: :data:`ROOM_BOUNCES` ambient bounces, :data:`ROOM_DIVISIONS` divisions.
     hours : (float, float), default :data:`OCCUPIED_HOURS`
         The occupied hours of each day, local standard time.
     spacing, work_plane : float
@@ -214,7 +214,7 @@ def daylight(room: Room, sky: SkyYear, *, fins=None, settings: RadianceSettings 
     """
     if sky.quantity is not SkyQuantity.VISIBLE:
         raise ValueError("daylight needs a visible sky: sky_year(..., quantity=SkyQuantity.VISIBLE)")
-    settings = settings or RadianceSettings(ambient_bounces=ROOM_BOUNCES)
+    settings = settings or RadianceSettings(ROOM_BOUNCES, ROOM_DIVISIONS)
     points = room.work_plane(spacing=spacing, height=work_plane)
     _, _, sensors = _sensors(points, np.tile([0.0, 0.0, 1.0], (len(points), 1)), 0.0)
     mask = occupied(sky, hours)
