@@ -68,13 +68,16 @@ def fabrication_summary(fs) -> dict:
     ``connector_share`` (separate connectors of all parts), the fasteners (``bolts`` through
     connectors and fins, ``anchors`` into the building, and ``fasteners_by_joint``: per joint
     kind the connectors, bolts, anchors, connectors without room for a hole and the fastener
-    sizes, from the holes of :mod:`torsal.fabrication.builder.fasteners`) and the
-    ``panels_left_out_share`` (fin panels not built, of the structure's fins).
+    sizes, from the holes of :mod:`torsal.fabrication.builder.fasteners`), the
+    ``panels_left_out_share`` (fin panels not built, of the structure's fins) and the
+    ``joinery`` (:func:`~torsal.fabrication.builder.seams.joinery_report`: seams in slots,
+    fallbacks named).
 
     >>> fabrication_summary(fs)["connector_share"]                    # doctest: +SKIP
     0.43
     """
     from ..fabrication.builder.fasteners import fastener_counts
+    from ..fabrication.builder.seams import joinery_report
 
     counts = fastener_counts(fs)
     parts = len(fs.parts)
@@ -90,4 +93,7 @@ def fabrication_summary(fs) -> dict:
                                    "fastener": c.fastener}
                                for k, c in counts.items()},
         "panels_left_out_share": left / fins if fins else 0.0,
+        # seams held in crossing slots without a connector, and those that fell back to
+        # brackets, named with why (issue 42)
+        "joinery": joinery_report(fs),
     }
