@@ -797,7 +797,8 @@ def _daylight_html(dl: dict | None, names: list) -> str:
     return (f"<h3>Daylight in the rooms behind the facade</h3><table>{head}{rows}</table>"
             f"<p>{html.escape(dl['standard'])}; occupied {lo:g}:00 to {hi:g}:00, work plane "
             f"{dl['work_plane_m']:g} m, points every {dl['grid_m']:g} m at most, "
-            f"{dl['ambient_bounces']} ambient bounces.</p>")
+            f"{dl['ambient_bounces']} ambient bounces, {dl.get('ambient_divisions', '-')} "
+            "divisions.</p>")
 
 
 #: lines within this many degrees of their mean direction are called nearly parallel in the
