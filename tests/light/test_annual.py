@@ -29,7 +29,7 @@ from torsal.light.annual.irradiance import sun_coefficients
 from torsal.light.annual.radiance import Program
 from torsal.light.annual.weather import Weather, WeatherSource
 from torsal.light.sun import write_synthetic_epw
-from torsal.pipeline.design_file import RoomSpec
+from torsal.pipeline.design_file import RoomSpec, SunSpec
 
 VIENNA = dict(latitude=48.21, longitude=16.37)
 
@@ -306,6 +306,21 @@ def test_annual_stage_measures_the_rooms_daylight(tmp_path):
     low = spec.model_copy(update={"room": RoomSpec(depth=3.0, height=2.8)})   # 3 m storeys
     inp, _ = _stage_inputs(low, tmp_path)
     assert "lower than a storey" in run_annual(inp)["report"]["daylight"]["reason"]
+
+
+def test_annual_stage_reads_the_designs_epw(tmp_path):
+    """With sun.epw the year is the file's and the seasons follow its temperatures."""
+    from torsal.pipeline.annual import run_annual
+
+    epw = tmp_path / "site.epw"
+    write_synthetic_epw(epw, **VIENNA, tz_hours=1.0)
+    spec = _toy_design(devices=False, points=8).model_copy(update={"sun": SunSpec(epw=epw)})
+    inp, _ = _stage_inputs(spec, tmp_path)
+    r = run_annual(inp)["report"]
+    assert r["weather"] == {"source": "epw", "description": "EPW weather file site.epw",
+                            "hours": 8760}
+    assert r["seasons"]["rule"] == "temperature"
+    assert 0 < r["fins"]["annual_kwh_m2"] < r["bare"]["annual_kwh_m2"]
 
 
 def test_annual_stage_names_what_is_missing(tmp_path):
