@@ -356,6 +356,9 @@ class FinSystem:
         brackets in the next build. True if any was refused (build again)."""
         if settled and not self._refuse_seams:
             SlotSeams(self).verify()
+            # (a refused split for the sheet moves to the node line before, as a mitred seam
+            # that cannot be trimmed does)
+            self._avoid_splits |= self._bad_seams
         before = len(self._seams_refused)
         self._seams_refused.update(self._refuse_seams)
         return len(self._seams_refused) > before

@@ -191,9 +191,20 @@ class SlotSeams:
 
     def refuse(self, family: int, node: int, reason: SeamReason, detail: str,
                parts: tuple[str, ...] = ()) -> None:
-        """The seam of ``family`` at ``node`` falls back to butt joints in the next build."""
-        self.fs._refuse_seams.setdefault((family, node), JointFallback(node, family, reason, detail,
-                                                                       tuple(parts)))
+        """The seam of ``family`` at ``node`` falls back to butt joints in the next build; a
+        split made for the sheet moves to the node line before it where it can
+        (``_bad_seams``), which may be a crossing whose seam stays in its slot."""
+        fs = self.fs
+        if (family, node) in fs._refuse_seams:
+            return
+        why = {x.node: x.why for x in fs.joinery}
+        split = [p for p in fs.parts if p.family == family and len(p.nodes)
+                 and int(p.nodes[0]) == node and p.ends[0] == "miter"]
+        si = fs._strip_of.get(split[0].name) if split else None
+        if si is not None and not why.get(node) and (si, split[0].span[0]) not in fs._avoid_splits:
+            fs._bad_seams.add((si, split[0].span[0]))
+            detail += "; the sheet's split moves to the node line before"
+        fs._refuse_seams[(family, node)] = JointFallback(node, family, reason, detail, tuple(parts))
 
     def verify(self) -> list[JointFallback]:
         """The local assembly check of every seam of this build (remembered by content);
