@@ -45,7 +45,7 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} |" + " |" * 15 + f" {paper} |"
+        return f"| {key} | failed: {err} |" + " |" * 16 + f" {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
@@ -54,7 +54,8 @@ def row(key: str, r: dict | None, err: str | None) -> str:
             f"{100 * li['transparency']:.0f}% ({louvers(li, 'transparency')}) | "
             f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {sheets_cell(fa)} | "
             f"{min_torsal_angle(c)} | "
-            f"{interfering_cell(fa.get('assembly'))} | {connector_cell(fa)} | {fastener_cell(fa)} | "
+            f"{interfering_cell(fa.get('assembly'))} | {connector_cell(fa)} | {seams_cell(fa)} | "
+            f"{fastener_cell(fa)} | "
             f"{left_out_cell(fa, s['edges'])} | {paper} |")
 
 
@@ -128,10 +129,25 @@ def connector_cell(fa: dict) -> str:
 
 
 def fastener_cell(fa: dict) -> str:
-    """Bolts (through connectors and fins) and anchors (fixings into the building)."""
+    """Bolts (through connectors and fins) and anchors (fixings into the building), and the
+    bolts per m² of the design surface (the bill of quantities' ``surface_m2``)."""
     if "bolts" not in fa:
         return "-"
-    return f"{fa['bolts']} bolts + {fa['anchors']} anchors"
+    cell = f"{fa['bolts']} bolts + {fa['anchors']} anchors"
+    area = (fa.get("quantities") or {}).get("surface_m2")
+    if area:
+        cell += f"; {fa['bolts'] / area:.1f} bolts/m²"
+    return cell
+
+
+def seams_cell(fa: dict) -> str:
+    """Seams held in crossing slots without a connector, and the seams that fell back to
+    brackets (the assembly check on the parts around them refused, or the slide plan)."""
+    j = fa.get("joinery")
+    if not j:
+        return "-"
+    why = ", ".join(f"{n} {r}" for r, n in j["fallbacks_by_reason"].items())
+    return f"{j['seams_in_slot']}; {len(j['fallbacks'])} fallbacks" + (f" ({why})" if why else "")
 
 
 def _pad(line: str, bars: int) -> str:
@@ -171,8 +187,9 @@ def main():
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
              "sheets / area bound | utilization (DXF) | "
              "min torsal angle, measured (deg): planes / directions in the face | interfering pairs | connectors (share of parts); fixings | "
-             "fasteners | fin panels left out | paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "seams in slots; fallbacks | fasteners; bolts per m² | fin panels left out | "
+             "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     started, t0, loads, keys = datetime.now(timezone.utc), time.perf_counter(), [os.getloadavg()[0]], []
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
