@@ -298,7 +298,9 @@ def test_annual_stage_measures_the_rooms_daylight(tmp_path):
     spec = _toy_design(devices=False).model_copy(update={"room": RoomSpec(
         depth=3.0, height=2.0, storey_height=2.0, ambient_bounces=1)})
     inp, _ = _stage_inputs(spec, tmp_path)
-    dl = run_annual(inp)["report"]["daylight"]
+    out = run_annual(inp)
+    dl = out["report"]["daylight"]
+    assert (tmp_path / out["files"]["daylight_plans"]).stat().st_size > 1000
     assert dl["applicable"] and dl["storeys"] == [0.0]
     assert 0 < dl["fins"]["ase_all"] < dl["bare"]["ase_all"]
     assert dl["bare"]["points"] == 5 * 5 and len(dl["fins"]["sda"]) == 1

@@ -27,7 +27,7 @@ from ..light.sun import EPWError
 from .design_file import DesignSpec
 from .errors import DesignError
 from .measure import design_devices, devices_key
-from .report import best_device, plot_annual_map, plot_annual_months
+from .report import best_device, plot_annual_map, plot_annual_months, plot_daylight_plans
 from .stage import StageInputs
 
 __all__ = ["run_annual", "annual_key", "annual_applies", "design_weather", "glazing_points",
@@ -152,12 +152,14 @@ def run_annual(inp: StageInputs) -> dict:
                            {"applicable": False, "reason": d.reason})
                     for name, d in devices.items()},
         "seconds": time.perf_counter() - t0}
+    plans = {}
     if spec.room is not None:
-        report["daylight"] = room_daylight(spec, weather, v, f, shadings, progress=inp.progress)
+        report["daylight"], plans = room_daylight(spec, weather, v, f, shadings,
+                                                  progress=inp.progress)
         report["seconds"] = time.perf_counter() - t0
-    files = _figures(inp, report, points, results["fins"].per_point) if spec.outputs.renders else {}
-    report["figures"] = {"annual irradiance map": files.get("annual_map"),
-                         "monthly irradiance": files.get("annual_months")} if files else {}
+    files = (_figures(inp, report, points, results["fins"].per_point, plans)
+             if spec.outputs.renders else {})
+    report["figures"] = {_FIGURES[kind]: name for kind, name in files.items()}
     return {"report": report, "files": files,
             "map": {"points": points, "bare": bare.per_point, "fins": results["fins"].per_point}}
 
@@ -190,7 +192,7 @@ def facade_rooms(spec: DesignSpec, vertices, faces) -> tuple[list, str | None]:
 
 
 def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
-                  progress=None) -> dict:
+                  progress=None) -> tuple[dict, dict]:
     """sDA and ASE of each storey's room (:func:`facade_rooms`), bare and behind each shading.
 
     Parameters
@@ -205,14 +207,17 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
 
     Returns
     -------
-    dict
+    report : dict
         ``light.annual.daylight``: ``storeys`` (floor heights, model units), ``bare`` and
         every shading's ``sda`` / ``ase`` per storey and over the storeys, the settings, or
         ``applicable`` False with the ``reason``.
+    plans : dict
+        For the figure: ``rooms`` (list of Room), ``bare`` and ``fins`` (list of
+        :class:`~torsal.light.annual.Daylight`, one per room); empty without rooms.
     """
     rooms, reason = facade_rooms(spec, vertices, faces)
     if not rooms:
-        return {"applicable": False, "reason": reason}
+        return {"applicable": False, "reason": reason}, {}
     a, r, k = spec.annual, spec.room, 1.0 / spec.metres_per_unit
     sky = sky_year(weather, subdivision=a.sky, ground_reflectance=a.ground_reflectance,
                    north_angle=spec.site.north_angle if spec.site else 0.0,
@@ -224,6 +229,7 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
            "occupied_hours": list(r.occupied_hours), "ambient_bounces": r.ambient_bounces,
            "ambient_divisions": r.ambient_divisions, "work_plane_m": WORK_PLANE_M,
            "grid_m": GRID_M}
+    plans = {"rooms": rooms}
     for j, (name, fins) in enumerate([("bare", None), *shadings.items()]):
         if progress is not None:
             progress("progress", {"phase": f"daylight: {name}", "done": j,
@@ -234,7 +240,9 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
                      "sda_all": float(np.mean([x.sda for x in d])),
                      "ase_all": float(np.mean([x.ase for x in d])),
                      "points": int(sum(len(x.points) for x in d))}
-    return out
+        if name in ("bare", "fins"):
+            plans[name] = d
+    return out, plans
 
 
 def annual_summary(annual: dict) -> str:
@@ -262,10 +270,18 @@ def annual_summary(annual: dict) -> str:
     return text
 
 
-def _figures(inp: StageInputs, report: dict, points, fins_kwh) -> dict:
-    """The map of the fins' annual irradiance and the monthly bars, as PNGs in the output
-    folder; {kind: file name}."""
+#: the stage's figures: file kind -> what the report calls it
+_FIGURES = {"annual_map": "annual irradiance map", "annual_months": "monthly irradiance",
+            "daylight_plans": "daylight plans"}
+
+
+def _figures(inp: StageInputs, report: dict, points, fins_kwh, plans: dict) -> dict:
+    """The map of the fins' annual irradiance, the monthly bars and (with rooms) the
+    daylight plans, as PNGs in the output folder; {kind: file name}."""
     o = inp["orient"]
-    return {"annual_map": plot_annual_map(points, fins_kwh, (o["vertices"], o["faces"]),
-                                          inp.out / "annual_map.png").name,
-            "annual_months": plot_annual_months(report, inp.out / "annual_months.png").name}
+    files = {"annual_map": plot_annual_map(points, fins_kwh, (o["vertices"], o["faces"]),
+                                           inp.out / "annual_map.png").name,
+             "annual_months": plot_annual_months(report, inp.out / "annual_months.png").name}
+    if plans:
+        files["daylight_plans"] = plot_daylight_plans(plans, inp.out / "daylight_plans.png").name
+    return files

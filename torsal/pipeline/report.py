@@ -11,7 +11,7 @@ from ..geometry.mesh import area_vector
 from .report_3d import design_view_html
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
-           "plot_annual_map", "plot_annual_months", "best_device",
+           "plot_annual_map", "plot_annual_months", "plot_daylight_plans", "best_device",
            "design_report_html", "write_design_report", "plot_assembly", "plot_ceiling_light"]
 
 
@@ -249,6 +249,36 @@ def best_device(annual: dict) -> str | None:
     (None when none was made)."""
     made = {n: d for n, d in annual.get("devices", {}).items() if d.get("applicable", True)}
     return min(made, key=lambda n: made[n]["cooling_kwh_m2"]) if made else None
+
+
+def plot_daylight_plans(plans: dict, path: str | Path) -> Path:
+    """False-colour plans of the rooms' work planes, one row per storey: the share of the
+    occupied hours with 300 lx or more (sDA's measure) and the hours of direct sun of 1000 lx
+    or more (ASE's), bare and behind the fins. ``plans``: ``rooms`` (list of Room), ``bare``
+    and ``fins`` (lists of Daylight, one per room)."""
+    rooms = plans["rooms"]
+    fig = _figure((12, 2.6 * len(rooms) + 0.8))
+    panels = [("bare", "sda"), ("fins", "sda"), ("bare", "ase"), ("fins", "ase")]
+    for i, room in enumerate(rooms):
+        for j, (which, measure) in enumerate(panels):
+            ax = fig.add_subplot(len(rooms), 4, 4 * i + j + 1)
+            d = plans[which][i]
+            rel = d.points - np.asarray(room.origin, float)
+            u, w = rel @ np.asarray(room.along, float), rel @ np.asarray(room.inward, float)
+            top = max(500, *(int(plans[k][i].hours_ase.max()) for k in ("bare", "fins")))
+            values, limits = ((d.hours_sda / d.occupied_hours, (0, 1)) if measure == "sda" else
+                              (d.hours_ase, (0, top)))       # bare and fins on one scale
+            sc = ax.scatter(u, w, c=values, cmap="viridis" if measure == "sda" else "magma",
+                            vmin=limits[0], vmax=limits[1], marker="s", s=30)
+            ax.axhline(0.0, color="tab:blue", lw=3)          # the window wall
+            ax.set_aspect("equal")
+            ax.set_title(f"storey at {room.origin[2]:.1f}, {which}: " +
+                         ("share of hours >= 300 lx" if measure == "sda" else
+                          "hours of sun >= 1000 lx"), fontsize=8)
+            ax.tick_params(labelsize=7)
+            fig.colorbar(sc, ax=ax, shrink=0.8)
+    fig.suptitle("daylight on the work plane (window wall at the bottom of each plan)")
+    return Path(path).parent / _save(fig, Path(path))
 
 
 def plot_annual_months(annual: dict, path: str | Path) -> Path:
