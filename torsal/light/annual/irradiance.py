@@ -21,8 +21,11 @@ What reaches a sample point on the glazing over a weather year, in kWh/m^2, from
   spread over its patches (:attr:`SkyYear.sun_patches`). The difference of two sampled
   coefficients: a point's value can be slightly negative; the mean over many points is not.
 
-The hourly products are summed straight into months and seasons (a (T, 24) indicator, numpy),
-never kept hour by hour. The building itself is not in the scene: a point sees the half-space
+The hourly products are summed straight into groups of hours (:func:`hourly_sums`: a sparse
+(T, K) indicator, numpy): months and seasons here, each occupied hour for daylight
+(:mod:`torsal.light.annual.daylight`). Sampling is quasi-random (``-u-``): a run repeats
+exactly. Suns behind every point are not traced. The building itself is not in the scene: a
+point sees the half-space
 in front of its glazing, the ground an infinite plane of radiance
 ``ground_reflectance * GHI / pi`` (the ground the fins shade is not darker), as
 ``pvlib.irradiance.get_ground_diffuse`` assumes.
