@@ -14,7 +14,7 @@ from .occ import (_Face, _bbox, _boundary_triangles, _face_prism, _face_records,
                   _near, _shape, common_volume)
 from .separation import prisms_clear, surfaces_clear
 
-__all__ = ["swept_overlap"]
+__all__ = ["swept_overlap", "face_pieces"]
 
 
 def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf,
@@ -27,7 +27,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     ``stop_above`` the sum for one other stops once it exceeds that (a collision is known).
 
     A prism that :func:`prism_clear` or :func:`~.separation.surfaces_clear` proves apart from
-    an other adds 0 without a boolean.
+    an other adds 0 without a boolean; so does the prism of a notched or holed face whose
+    triangles' prisms it proves apart one by one (:func:`face_pieces`).
     ``faces``: the face records of ``moving`` (``_face_records``), if made already;
     ``triangles(i)``: the boundary triangles of ``others[i]`` (``_boundary_triangles``), and
     ``boxes(i)`` its bounding box (``_bbox``), if kept.
@@ -41,6 +42,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
                np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, tuple] = {}            # face index -> (oriented prism, its box) or None
+    pieces: dict[int, list] = {}             # face index -> its triangles as faces
     out = []
     for i, o in enumerate(others):
         oshape = _shape(o)
@@ -52,6 +54,9 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
             otri = _boundary_triangles(oshape) if triangles is None else triangles(i)
             clear = prisms_clear([faces[n] for n in meets], v, otri, ob)
             meets = [n for n, c in zip(meets, clear) if not c]            # else proved apart
+            # a face with a notch or a hole is not convex: its hull covers the plate in its
+            # slot. Its triangles are (and the face is their union): apart if each is
+            meets = [n for n in meets if not _pieces_clear(pieces, n, faces[n], v, otri, ob)]
         for n in meets:
             face = faces[n]
             if n not in prisms:
@@ -73,3 +78,18 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
                 break
         out.append(total)
     return out
+
+
+def face_pieces(face: _Face) -> list[_Face]:
+    """The triangles of a planar face (its exact triangulation) as convex faces of their own:
+    a notched or holed face's prism is the union of theirs."""
+    tri = _boundary_triangles(face.face)
+    return [_Face(None, t, np.roll(t, -1, axis=0) - t, face.normal) for t in tri]
+
+
+def _pieces_clear(pieces: dict, n: int, face: _Face, v, otri, ob) -> bool:
+    """Whether every triangle of face ``n`` swept along ``v`` is proved apart from the other
+    solid (its triangles ``otri``, box ``ob``): then the whole face's prism is."""
+    if n not in pieces:
+        pieces[n] = face_pieces(face)
+    return bool(len(pieces[n])) and bool(prisms_clear(pieces[n], v, otri, ob).all())
