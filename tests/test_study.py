@@ -28,8 +28,6 @@ def _base(folder: Path, **outputs) -> Path:
     d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False, **outputs}
     d["material"]["sheet_mm"] = [4000, 2000]
     d["constraints"]["max_iter"] = 400
-    # the fast nester: a study's tests read its table, not its sheets (sparrow has its own tests)
-    d["nesting"] = {**d.get("nesting", {}), "nester": "bottom-left"}
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "designs").mkdir(exist_ok=True)
     path = folder / "designs" / "7a_small.toml"
@@ -49,14 +47,25 @@ def _mtimes(folder: Path) -> dict:
     return {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
 
 
+#: the tests that read the grid run on one xdist worker (make test: --dist loadgroup), so its
+#: study runs once
+GRID = pytest.mark.xdist_group("study-grid")
+#: the study mechanics' tests measure the light only: what they test is the study, not the parts
+LIGHT = "fabrication = false\n"
+
+
 @pytest.fixture(scope="module")
 def grid(tmp_path_factory):
     folder = tmp_path_factory.mktemp("study")
     seen = []
-    res = Study.from_toml(_study(folder)).run(folder / "out", progress=seen.append)
+    # the parts and sheets of every variant, not their assembly check (see
+    # test_a_variant_writes_the_files_its_study_asks_for)
+    res = Study.from_toml(_study(folder, extra="assembly = false\n")).run(
+        folder / "out", progress=seen.append)
     return folder / "out", res, seen
 
 
+@GRID
 def test_grid_rows_and_axis_values_from_each_variants_report(grid):
     out, res, seen = grid
     t = res.table
@@ -82,7 +91,11 @@ def test_grid_rows_and_axis_values_from_each_variants_report(grid):
         n = len(v) // 2
         assert np.median(np.linalg.norm(v[n:] - v[:n], axis=1)) == pytest.approx(row["fins.depth"], rel=1e-3)
         assert row["light.blocked_share"] == report["light"]["blocked_share"]
-        assert row["report"] == f"variants/{row['id']}/report.html" and (out / row["report"]).exists()
+        # a variant writes the files its study reads: report.json, no solids, sheets or pictures
+        assert row["report"] == f"variants/{row['id']}/report.json" and (out / row["report"]).exists()
+        assert not [f for f in ("fins.step", "fins.3dm", "fins.ifc", "parts.csv", "report.html")
+                    if (folder / f).exists()] and not (folder / "sheets").exists()
+        assert row["stage_s.fabrication"] > 0 and pd.isna(row.get("stage_s.assembly"))
         # the louvers in the variant's own report and the study's louver row: the same rays
         louvers = base[(base["device"] == "horizontal louvers") & (base["fins.depth"] == row["fins.depth"])
                        & (base["fins.spacing"] == row["fins.spacing"])].iloc[0]
@@ -109,6 +122,7 @@ def test_grid_rows_and_axis_values_from_each_variants_report(grid):
     assert seen[-1].done == 8 and seen[-1].failed == 0 and max(p.running for p in seen) == 2
 
 
+@GRID
 def test_table_files_and_page(grid):
     out, res, _ = grid
     parquet, csv = pd.read_parquet(out / "results.parquet"), pd.read_csv(out / "results.csv")
@@ -118,7 +132,7 @@ def test_table_files_and_page(grid):
         assert col in parquet.columns and col in csv.columns, col
     page = (out / "study.html").read_text()
     assert res.verdict and html.escape(res.verdict) in page
-    assert "variants/000/report.html" in page and "plotly" in page.lower()
+    assert "variants/000/report.json" in page and "plotly" in page.lower()
     assert (out / "pareto.png").read_bytes()[:4] == b"\x89PNG"
     # the verdict's number, computed independently: the additive epsilon indicator
     ok = res.table[res.table["status"] == "done"]
@@ -131,6 +145,7 @@ def test_table_files_and_page(grid):
     assert ("lie beyond" in res.verdict) == (lead > 0)
 
 
+@GRID
 def test_a_resumed_study_recomputes_nothing(grid):
     out, first, _ = grid
     before = _mtimes(out / "variants") | _mtimes(out / ".torsal-cache") | _mtimes(out / "baselines")
@@ -143,6 +158,7 @@ def test_a_resumed_study_recomputes_nothing(grid):
                                   first.table.drop(columns="wall_s"))
 
 
+@GRID
 def test_an_interrupted_study_resumes_where_it_stopped(grid, tmp_path):
     out, first, _ = grid
     # a copy of the finished study, with variant 005 cut off before it finished
@@ -164,22 +180,36 @@ def test_an_interrupted_study_resumes_where_it_stopped(grid, tmp_path):
 
 def test_a_failing_variant_is_recorded_and_the_others_go_on(tmp_path):
     # fins 40 m apart on a 12 m facade: no fin to build
-    path = _study(tmp_path, {"fins.spacing": [1.5, 40.0], "fins.depth": [0.3]}, renders=False,
-                  dxf=False, bom=False)
+    path = _study(tmp_path, {"fins.spacing": [1.5, 40.0], "fins.depth": [0.3]}, extra=LIGHT)
     res = Study.from_toml(path).run(tmp_path / "out", serial=True)
     t = res.table[res.table["kind"] == "torsal"].set_index("fins.spacing")
     assert t.loc[1.5, "status"] == "done" and t.loc[40.0, "status"] == "failed"
-    assert t.loc[40.0, "failed_stage"] in ("remesh", "support", "light", "fabrication")
+    assert t.loc[40.0, "failed_stage"] in ("remesh", "support", "light")
     assert t.loc[40.0, "error"]
     assert res.failed == 1 and (res.solves, res.solves_saved) == (1, 1)
     rec = json.loads((tmp_path / "out" / "variants" / t.loc[40.0, "id"] / "variant.json").read_text())
     assert rec["status"] == "failed" and rec["stage"] == t.loc[40.0, "failed_stage"]
 
 
+def test_a_variant_writes_the_files_its_study_asks_for(tmp_path):
+    """[run] files and assembly: the report with its pictures and the cutting sheets, and the
+    assembly check's verdict in the table; the stage seconds of each variant are columns."""
+    path = _study(tmp_path, {"fins.depth": [0.3]}, extra='files = ["report", "dxf"]\n')
+    res = Study.from_toml(path).run(tmp_path / "out", serial=True)
+    row = res.table[res.table["kind"] == "torsal"].iloc[0]
+    folder = tmp_path / "out" / "variants" / row["id"]
+    assert row["status"] == "done" and row["buildable"] in (True, False)
+    assert row["report"] == f"variants/{row['id']}/report.html" and (folder / "report.html").exists()
+    assert list((folder / "sheets").glob("*.dxf")) and not (folder / "fins.step").exists()
+    stages = {c.split(".", 1)[1] for c in res.table.columns if c.startswith("stage_s.")}
+    assert {"fabrication", "assembly", "light"} <= stages
+    assert row["stage_s.assembly"] > 0
+
+
 def test_search_runs_trials_and_continues(tmp_path):
-    path = _study(tmp_path, {"fins.depth": {"low": 0.2, "high": 0.6}}, renders=False, dxf=False,
-                  bom=False, extra='[search]\ntrials = 2\nobjectives = { "light.blocked_share" = '
-                                   '"max", "material_kg" = "min" }\n')
+    path = _study(tmp_path, {"fins.depth": {"low": 0.2, "high": 0.6}},
+                  extra=LIGHT + '[search]\ntrials = 2\nobjectives = { "light.blocked_share" = '
+                  '"max", "material_kg" = "min" }\n')
     res = Study.from_toml(path).run(tmp_path / "out", serial=True)
     t = res.table[res.table["kind"] == "torsal"]
     assert list(t["id"]) == ["t000", "t001"] and (t["status"] == "done").all()
@@ -231,7 +261,7 @@ def test_a_study_runs_on_an_existing_scheduler(tmp_path):
 
     from distributed import Client, LocalCluster
 
-    path = _study(tmp_path, {"fins.depth": [0.3]}, renders=False, dxf=False, bom=False)
+    path = _study(tmp_path, {"fins.depth": [0.3]}, extra=LIGHT)
     with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None,
                       silence_logs=logging.ERROR) as cluster:
         res = Study.from_toml(path).run(tmp_path / "out", scheduler=cluster.scheduler_address)
@@ -250,7 +280,7 @@ def test_a_lost_task_is_a_failed_variant(tmp_path):
                 raise RuntimeError("worker killed (out of memory)")
             return super().result(job)
 
-    path = _study(tmp_path, {"fins.depth": [0.3, 0.5]}, renders=False, dxf=False, bom=False)
+    path = _study(tmp_path, {"fins.depth": [0.3, 0.5]}, extra=LIGHT)
     study = Study.from_toml(path)
     orig = study_tasks.SerialExecutor
     import torsal.study.study as study_module

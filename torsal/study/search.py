@@ -122,7 +122,7 @@ class _Search:
             key = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
             h = ex.submit(_run_trial, v, str(self.out), cache_dir, trial.params,
                           getattr(ex, "queue_name", None), leaders.get(key),
-                          self.study.spec.run.fabrication)
+                          *self.study.variant_run)
             leaders.setdefault(key, h)
             jobs[h] = v
         return jobs
@@ -147,9 +147,10 @@ def run_search(study, ex, out: Path, cache_dir: str, tell, retry_failed: bool):
 
 
 def _run_trial(v: Variant, out_dir: str, cache_dir: str, params: dict, queue,
-               leader: dict | None = None, fabrication: bool = True) -> dict:
+               leader: dict | None = None, fabrication: bool = True, assembly: bool = True,
+               files=()) -> dict:
     """A grid variant's task, with the trial's optuna parameters kept in variant.json."""
-    o = run_variant(v, out_dir, cache_dir, leader, queue, fabrication)
+    o = run_variant(v, out_dir, cache_dir, leader, queue, fabrication, assembly, files)
     o["params"] = params
     write_json(Path(out_dir) / "variants" / v.id / "variant.json", o)
     return o

@@ -32,7 +32,7 @@ from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_file import StudyFileError, StudySpec, Variant, grid_variants, load_study_file
 from .study_report import results_table, write_pareto_png, write_study_html
 from .study_tasks import (SHARED_STAGE, DaskExecutor, SerialExecutor, StudyProgress,
-                          measure_devices, run_variant)
+                          ALL_FILES, measure_devices, run_variant)
 
 __all__ = ["Study", "StudyProgress", "StudyResult", "SHARED_STAGE"]
 
@@ -168,6 +168,13 @@ class Study:
             resumed=counts.resumed, failed=counts.failed, verdict=verdict)
 
     # -------------------------------------------------------------- helpers
+    @property
+    def variant_run(self) -> tuple:
+        """``(fabrication, assembly, files)`` of :func:`~.study_tasks.run_variant`: the stages
+        and files the study's ``[run]`` asks of its variants."""
+        run = self.spec.run
+        return run.fabrication, run.assembly, tuple(f.value for f in run.files)
+
     def _finished(self, out: Path, variant: Variant, retry_failed: bool) -> dict | None:
         """The recorded outcome of a variant finished in an earlier run, if still valid (the
         same design, version and stages)."""
@@ -178,7 +185,11 @@ class Study:
             return None
         if rec.get("digest") != variant.digest or rec.get("version") != __version__:
             return None
-        if rec.get("fabrication", True) != self.spec.run.fabrication:
+        run = self.spec.run
+        if (rec.get("fabrication", True), rec.get("assembly", True)) != (run.fabrication,
+                                                                         run.assembly):
+            return None
+        if sorted(rec.get("files", ALL_FILES)) != sorted(f.value for f in run.files):
             return None
         if rec["status"] == "done" and (folder / "report.json").exists():
             return rec | {"resumed": True}
@@ -237,12 +248,13 @@ class Study:
         for v in todo:
             k = stage_keys(DEFAULT_PIPELINE, v.spec)[SHARED_STAGE]
             leader = leaders.get(k)
-            fab = self.spec.run.fabrication
             if leader is None and not cache.has(SHARED_STAGE, k):
-                h = ex.submit(run_variant, v, str(out), cache_dir, None, _queue(ex), fab)
+                h = ex.submit(run_variant, v, str(out), cache_dir, None, _queue(ex),
+                              *self.variant_run)
                 leaders[k] = h
             else:
-                h = ex.submit(run_variant, v, str(out), cache_dir, leader, _queue(ex), fab)
+                h = ex.submit(run_variant, v, str(out), cache_dir, leader, _queue(ex),
+                              *self.variant_run)
             jobs[h] = v
         self._collect(ex, jobs, outcomes, counts, tell)
         return outcomes, counts

@@ -33,6 +33,7 @@ import tomllib
 import types
 import typing
 from dataclasses import dataclass
+from enum import Enum
 from pathlib import Path
 from typing import Any, Literal
 
@@ -41,7 +42,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from ..pipeline.design_file import DesignFileError, DesignSpec, _format_errors, load_design_file
 
 __all__ = ["StudyFileError", "StudySpec", "AxisRange", "RunSpec", "SearchSpec", "Variant",
-           "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS"]
+           "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS",
+           "VariantFile"]
 
 
 class StudyFileError(DesignFileError):
@@ -62,6 +64,18 @@ class AxisRange(_Spec):
     step: float | int | None = Field(None, gt=0)
 
 
+class VariantFile(str, Enum):
+    """A file a study's variants may write beside their report.json."""
+
+    STEP = "step"
+    RHINO_3DM = "3dm"
+    IFC = "ifc"
+    DXF = "dxf"
+    BOM = "bom"
+    #: report.html with its figures
+    REPORT = "report"
+
+
 class RunSpec(_Spec):
     workers: int = Field(2, ge=1, description="processes of the local Dask cluster")
     scheduler: str | None = Field(None, description="address of a running Dask scheduler, "
@@ -69,6 +83,12 @@ class RunSpec(_Spec):
     fabrication: bool = Field(True, description="false: a light study; the variants skip the "
                               "fabrication and assembly stages and every fin of the support "
                               "structure is measured (no panel is left out)")
+    assembly: bool = Field(True, description="check every variant's assembly (the table's "
+                           "buildable column); false: the variants skip the assembly stage")
+    files: list[VariantFile] = Field(default_factory=list, description="files each variant "
+                                     "writes beside its report.json (step, 3dm, ifc, dxf, bom, "
+                                     "report); the table reads none of them, so by default a "
+                                     "variant writes none and pays for none")
 
 
 #: report figures a search may optimize (flattened report.json keys), and the study's own
@@ -76,6 +96,8 @@ OBJECTIVE_KEYS = (
     "light.blocked_share", "light.transparency", "light.transparency_cone", "light.fin_area_m2",
     "light.view_out", "light.view_clear", "light.goal_share", "light.reflected_to_target", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
     "fabrication.utilization", "support.delta_pl_optimized", "support.edges",
+    "fabrication.costs.total", "fabrication.costs.per_m2", "fabrication.quantities.cut_m",
+    "fabrication.quantities.net_kg", "fabrication.quantities.gross_kg",
     "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "congruence.line_spread_deg",
     "material_kg", "wall_s",
 )

@@ -86,7 +86,11 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
                **{k: v.axes[k] for k in axes},
                "fins.depth": v.spec.fins.depth, "fins.spacing": v.spec.fins.spacing,
                "failed_stage": o.get("stage"), "error": o.get("error"),
-               "wall_s": float(o.get("wall_s", np.nan)), "report": f"variants/{v.id}/report.html",
+               "wall_s": float(o.get("wall_s", np.nan)),
+               # report.html where the variant wrote one ([run] files = ["report"])
+               "report": f"variants/{v.id}/report.html"
+               if (folder / "report.html").exists() else f"variants/{v.id}/report.json",
+               **{f"stage_s.{k}": float(x) for k, x in (o.get("stage_s") or {}).items()},
                "warnings": "; ".join(o.get("warnings") or []) or None}
         if o["status"] == "done":
             report = json.loads((folder / "report.json").read_text())   # the variant's own file

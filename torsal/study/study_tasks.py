@@ -22,7 +22,8 @@ from ..pipeline.stages import DEFAULT_PIPELINE
 from .study_file import Variant
 
 __all__ = ["SHARED_STAGE", "StudyProgress", "flatten", "material_kg", "run_variant", "lost_outcome", "measure_devices",
-           "SerialExecutor", "DaskExecutor", "LIGHT_PIPELINE", "variant_pipeline"]
+           "SerialExecutor", "DaskExecutor", "LIGHT_PIPELINE", "variant_pipeline", "variant_spec",
+           "ALL_FILES"]
 #: the stage whose result variants share: its solve is what the cache saves
 SHARED_STAGE = "congruence"
 _FABRICATION = ("fabrication", "assembly")
@@ -38,9 +39,30 @@ def _without_fabrication(pipeline: Pipeline) -> Pipeline:
 LIGHT_PIPELINE = _without_fabrication(DEFAULT_PIPELINE)
 
 
-def variant_pipeline(fabrication: bool) -> Pipeline:
-    """The stages a study's variants run: all of them, or without fabrication and assembly."""
-    return DEFAULT_PIPELINE if fabrication else LIGHT_PIPELINE
+def variant_pipeline(fabrication: bool, assembly: bool = True) -> Pipeline:
+    """The stages a study's variants run: all of them, without the assembly check, or
+    without fabrication and assembly."""
+    if not fabrication:
+        return LIGHT_PIPELINE
+    if not assembly:
+        return Pipeline(tuple(replace(s, inputs=tuple(i for i in s.inputs if i != "assembly"))
+                              for s in DEFAULT_PIPELINE if s.name != "assembly"))
+    return DEFAULT_PIPELINE
+
+
+#: every file a variant can write (the design's own [outputs])
+ALL_FILES = ("step", "3dm", "ifc", "dxf", "bom", "report")
+
+
+def variant_spec(spec, files=ALL_FILES):
+    """``spec`` writing only ``files`` (names of :class:`~.study_file.VariantFile`) beside its
+    report.json: a study reads the report, so a file no one asked for is not paid for."""
+    files = {getattr(f, "value", f) for f in files}
+    o = spec.outputs
+    return spec.model_copy(update={"outputs": o.model_copy(update={
+        "step": o.step and "step" in files, "rhino_3dm": o.rhino_3dm and "3dm" in files,
+        "ifc": o.ifc and "ifc" in files, "dxf": o.dxf and "dxf" in files,
+        "bom": o.bom and "bom" in files, "renders": o.renders and "report" in files})})
 
 
 @dataclass
@@ -92,15 +114,19 @@ def _tell(queue: str | None, event: tuple) -> None:
 
 
 def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | None = None,
-                queue: str | None = None, fabrication: bool = True) -> dict:
+                queue: str | None = None, fabrication: bool = True, assembly: bool = True,
+                files=ALL_FILES) -> dict:
     """Run one variant's pipeline into ``out_dir/variants/<id>`` with the shared cache.
 
     ``leader``: the outcome of the variant this one shares its congruence with (it ran
     first); if that failed at a stage whose inputs this variant shares, the same failure is
     recorded without running it again. ``fabrication``: False skips the fabrication and
-    assembly stages (:data:`LIGHT_PIPELINE`). Never raises: returns the outcome (``id``,
-    ``status`` "done" | "failed", ``stage``, ``error``, ``wall_s``, ``cached``, ``computed``,
-    ``keys``, ``warnings``, ``fabrication``), also written to ``variant.json``.
+    assembly stages (:data:`LIGHT_PIPELINE`); ``assembly``: False skips the assembly check;
+    ``files``: the files written beside report.json (:func:`variant_spec`). Never raises:
+    returns the outcome (``id``, ``status`` "done" | "failed", ``stage``, ``error``,
+    ``wall_s``, ``stage_s`` (seconds of each stage computed), ``cached``, ``computed``,
+    ``keys``, ``warnings``, ``fabrication``, ``assembly``, ``files``), also written to
+    ``variant.json``.
     """
     _tell(queue, ("start", variant.id))
     t0 = time.perf_counter()
@@ -109,11 +135,14 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
     (out / "variant.json").unlink(missing_ok=True)         # not finished until rewritten
     with atomic_path(out / "design.toml") as tmp:
         tmp.write_text(variant.toml)
-    pipeline = variant_pipeline(fabrication)
-    keys = stage_keys(pipeline, variant.spec)
+    pipeline = variant_pipeline(fabrication, assembly)
+    spec = variant_spec(variant.spec, files)
+    keys = stage_keys(pipeline, spec)
     outcome = {"id": variant.id, "digest": variant.digest, "version": __version__,
                "axes": variant.axes, "status": "done", "stage": None, "error": None,
-               "cached": [], "computed": [], "keys": keys, "fabrication": bool(fabrication)}
+               "cached": [], "computed": [], "stage_s": {}, "keys": keys,
+               "fabrication": bool(fabrication), "assembly": bool(assembly),
+               "files": sorted(getattr(f, "value", f) for f in files)}
     shared_failure = (leader is not None and leader["status"] == "failed" and leader["stage"]
                       and leader["keys"].get(leader["stage"]) == keys.get(leader["stage"]))
     if shared_failure:
@@ -123,6 +152,8 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
         def record(stage, event, info):     # also known when a later stage fails
             if event in ("cached", "done"):
                 outcome["cached" if event == "cached" else "computed"].append(stage)
+            if event == "done":
+                outcome["stage_s"][stage] = float(info.get("seconds", 0.0))
 
         try:
             # a worker has no terminal: its warnings go into the variant's record
@@ -131,7 +162,7 @@ def run_variant(variant: Variant, out_dir: str, cache_dir: str, leader: dict | N
                 try:
                     # a study compares variants: an unbuildable one is a row whose `buildable`
                     # column says so (its report names the parts), not a failed variant
-                    Design(variant.spec, source=out / "design.toml").run(
+                    Design(spec, source=out / "design.toml").run(
                         out, cache=StageCache(cache_dir, prune=False), progress=record,
                         accept_unbuildable=True, pipeline=pipeline)
                 finally:

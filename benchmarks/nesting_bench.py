@@ -1,0 +1,129 @@
+"""Nesting candidates on the examples' real outlines (issue 40): sheets, yield, seconds and
+whether the same parts give the same sheets twice.
+
+For each design (default 7a, 9 and 11 at full size) the stages up to the support structure run
+once (cached in ``--cache``), the fin system is built and its unrolled parts are nested by:
+
+* ``rows``: :func:`~torsal.fabrication.nesting.nest_rows`, every run's nester;
+* ``search``: :func:`~torsal.fabrication.nesting.nest_search`, the final cut (rows and
+  skyline starts, then sheets emptied in counted tries);
+* ``sparrow``: :func:`~torsal.fabrication.nesting.nest_for_yield` in ``--sparrow-s`` seconds
+  (spyrrow 0.9: wall clock only), run twice with the same seed;
+* ``libnest2d`` (python-libnest2d, LGPL) and ``pyckingsolver`` (PackingSolver, AGPL wrapper)
+  when importable (``pip install`` them beside torsal to compare; not dependencies).
+
+Every layout is checked with shapely (inside the margins, the gap between cuts) before it is
+counted. "same twice" compares every placement of two runs (name, sheet, rotation, offset).
+
+Measured 2026-11-28 on the 2-core machine (load 4-7: other work running; wall seconds are
+inflated, sheets and yields are not), laser, 5 mm gap, 10 mm margin, 2.5 x 1.25 m sheets::
+
+    | design | parts | area bound | rows sheets | rows yield | rows s | search sheets | search yield | search s | search same twice |
+    |---|---|---|---|---|---|---|---|---|---|
+    | 7a | 509 | 30.5 | 39 | 78.2 % | 0.9 | 38 | 80.3 % | 10.0 | yes |
+    | 9 | 1365 | 33.9 | 54 | 62.7 % | 2.5 | 49 | 69.1 % | 92.7 | yes |
+    | 11 | 1033 | 31.4 | 49 | 64.2 % | 1.7 | 43 | 73.1 % | 28.0 | yes |
+
+Candidates measured by hand the same day on 7a's outlines:
+
+* sparrow (spyrrow 0.9.0, MIT): 40 sheets (76 %) in 120 s at load 12-20 (examples/README,
+  2026-11-26); the same instance, seed and one worker twice gave two layouts: its only budget
+  is the wall clock.
+* libnest2d (python-libnest2d 0.1.3, LGPL): with the true outlines its NFP placer overlapped
+  58 pairs of parts by up to 0.64 m^2 (its Clipper backend does not handle concave outlines);
+  with convex hulls 40 sheets (76.3 %) in 32 s, valid, deterministic.
+* PackingSolver (pyckingsolver 0.9.5, AGPL-3.0 wrapper of an MIT solver; packingsolver 0.1.x
+  needs Python 3.12): its bundled binary needs glibc 2.38 and does not start on this Debian
+  (2.36); the AGPL would also bind torsal's MIT users.
+
+So: the rows for every run, and the search of our own for the final cut (deterministic, MIT,
+no new dependency). What caps 9's and 11's yield is their curved strips (their outlines fill
+55-75 % of their bounding rectangles): the skyline's starts take them from 54 / 49 sheets
+to 50 / 43; 80 % needs 43 / 40.
+
+Run: ``.venv/bin/python benchmarks/nesting_bench.py [--designs 7a 9 11] [--sparrow-s 60]``.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+from pathlib import Path
+
+from torsal.design import Design
+from torsal.fabrication.cutting import Cutting
+from torsal.fabrication.layout import spacing
+from torsal.fabrication.nesting import nest_for_yield, nest_rows, nest_search
+from torsal.fabrication.nesting.sparrow import sheet_ok
+from torsal.pipeline import DEFAULT_PIPELINE, StageCache
+from torsal.pipeline.fins import fin_system
+from torsal.pipeline.stage import stage_keys
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = {"7a": "7a_facade_block", "9": "9_selective_shading", "11": "11_aligned_substructure",
+            "7c": "7c_facade_see_through", "7d": "7d_flat_facade_regions", "13": "13_reflect_to_ceiling",
+            "7b": "7b_facade_strokes", "10": "10_developable_strips"}
+GAP, MARGIN = 5.0, 10.0
+
+
+def outlines(name: str, cache: Path) -> tuple[list, tuple]:
+    """The unrolled parts of an example at full size and its sheet."""
+    design = Design.from_toml(ROOT / "examples" / f"{EXAMPLES[name]}.toml")
+    stages = StageCache(cache, prune=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        design.run(cache / f"run-{name}", cache=stages, pipeline=DEFAULT_PIPELINE.until("support"))
+        support = stages.load("support", stage_keys(DEFAULT_PIPELINE, design.spec)["support"])
+        fs = fin_system(design.spec, support["structure"])
+    return list(fs.unrolled().values()), tuple(design.spec.material.sheet_mm)
+
+
+def _placements(lay) -> list:
+    return [(p.name, p.sheet, round(p.rotation, 9), tuple(round(x, 6) for x in p.offset))
+            for p in lay.placements]
+
+
+def measure(nester, parts, sheet, cutting) -> dict:
+    """Sheets, yield, seconds, validity and sameness of two runs of ``nester``."""
+    runs = []
+    for _ in range(2):
+        t0 = time.perf_counter()
+        lay = nester(parts, sheet=sheet, gap=GAP, margin=MARGIN, cutting=cutting)
+        runs.append((lay, time.perf_counter() - t0))
+    lay, seconds = runs[0]
+    sep, edge = spacing(GAP, MARGIN, cutting)
+    valid = all(sheet_ok([p.polygon for p in lay.on_sheet(s)], *lay.sheet, edge, sep)
+                for s in range(lay.n_sheets))
+    return {"sheets": lay.n_sheets, "yield": lay.utilization, "s": seconds, "valid": valid,
+            "same": _placements(runs[0][0]) == _placements(runs[1][0]), "bound": lay.area_bound}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--designs", nargs="+", default=["7a", "9", "11"], choices=sorted(EXAMPLES))
+    ap.add_argument("--sparrow-s", type=float, default=0.0,
+                    help="also sparrow, this many seconds a run (0: not run)")
+    ap.add_argument("--cache", type=Path, default=Path("out/nesting_bench"))
+    args = ap.parse_args()
+    cutting = Cutting.for_process("laser")
+    nesters = {"rows": nest_rows, "search": nest_search}
+    if args.sparrow_s:
+        nesters["sparrow"] = lambda *a, **k: nest_for_yield(*a, time_limit=args.sparrow_s, **k)
+    cols = ["design", "parts", "area bound"] + [f"{n} {c}" for n in nesters
+                                                for c in ("sheets", "yield", "s", "valid", "same twice")]
+    print("| " + " | ".join(cols) + " |")
+    print("|" + "---|" * len(cols))
+    for name in args.designs:
+        parts, sheet = outlines(name, args.cache)
+        cells = [name, str(len(parts))]
+        for n, nester in nesters.items():
+            m = measure(nester, parts, sheet, cutting)
+            if len(cells) == 2:
+                cells.append(f"{m['bound']:.1f}")
+            cells += [str(m["sheets"]), f"{100 * m['yield']:.1f} %", f"{m['s']:.1f}",
+                      "yes" if m["valid"] else "NO", "yes" if m["same"] else "no"]
+        print("| " + " | ".join(cells) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
