@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
-from pathlib import Path
+from dataclasses import replace
 from typing import Callable, Sequence
 
 from ..core.outputs import output_folder
@@ -142,11 +142,27 @@ class Session:
         whose inputs did not change are kept)."""
         t0 = time.perf_counter()
         with self._edit_lock:
+            if self._good is None and spec == self._spec:
+                return self.start()
             if self._good is None:
                 self.start()
+            if spec == self._good.spec:
+                return self._unchanged(t0)
             if self._builder is not None:
                 self._builder.cancel()
             return self._answer(spec, t0)
+
+    def _unchanged(self, t0: float) -> SessionAnswer:
+        """The design as it is (a host recomputing without a change): the last preview again;
+        its build goes on, or starts again if it was cancelled."""
+        good = self._good
+        if self._builder is not None and not self._builder.busy:
+            built = self.built
+            if built is None or built.revision != good.revision:
+                self._builder.submit(BuildRequest(good.revision, good.spec, t0))
+        return replace(good, stages_run=(), stage_seconds={},
+                       stages_kept=good.stages_run + good.stages_kept,
+                       seconds=time.perf_counter() - t0)
 
     def edit(self, **changes) -> SessionAnswer:
         """Apply ``changes`` and answer with a preview (see :func:`~torsal.session.edits.apply_edit`

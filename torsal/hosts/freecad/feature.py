@@ -31,10 +31,11 @@ from ...core.errors import TorsalError
 from ...core.units import scale
 from ...pipeline.design_file import load_design_file
 from .job import FinsJob, FinsOutcome
+from .live import LiveClient, outcome_from
 from .sampling import face_grid, linked_face, wire_polylines
 
 __all__ = ["FinsFeature", "FinsError", "ViewProviderFins", "make_fins", "torsal_python",
-           "job_folder", "run_in_torsal", "PROPERTIES", "ICON"]
+           "job_folder", "run_in_torsal", "preview_shape", "PROPERTIES", "ICON"]
 
 #: the workbench's and the object's icon
 ICON = Path(__file__).with_name("torsal.svg")
@@ -74,6 +75,9 @@ PROPERTIES: tuple[_Prop, ...] = (
           "= the design file's sun (dates, EPW or vectors)"),
     _Prop("App::PropertyString", "SunEnd", "Sun", "sun.end (YYYY-MM-DD), included"),
     _Prop("App::PropertyFloatList", "SunHours", "Sun", "sun.hours: [h0, h1] local clock hours"),
+    _Prop("App::PropertyBool", "Live", "Design", "keep a warm torsal session for this object: a "
+          "change shows the fins as surfaces at once (Answer = preview), the solids when they "
+          "are built (Answer = built); false: each recompute runs the whole design anew"),
     _Prop("App::PropertyPath", "OutputFolder", "Result", "where torsal writes (design.toml, "
           "out/ with report.html, STEP, DXF and the stage cache); empty = beside the saved "
           "document, or the user cache"),
@@ -89,6 +93,10 @@ PROPERTIES: tuple[_Prop, ...] = (
     _Prop("App::PropertyStringList", "PartGroups", "Result", "family 0, family 1, connector or "
           "interfering, one per solid", True),
     _Prop("App::PropertyStringList", "StagesRun", "Result", "stages the last recompute ran", True),
+    _Prop("App::PropertyString", "Answer", "Result", "what Shape shows: preview (the fins as "
+          "surfaces, one face per fin) or built (one solid per part)", True),
+    _Prop("App::PropertyFloat", "AnswerSeconds", "Result", "seconds from the change to what "
+          "Shape shows", True),
     _Prop("App::PropertyStringList", "StagesCached", "Result", "stages it took from the cache", True),
 )
 
@@ -180,7 +188,6 @@ class FinsFeature:
 
     def execute(self, obj):
         import FreeCAD
-        import Part
 
         def log(line):
             try:
@@ -194,7 +201,17 @@ class FinsFeature:
             else:
                 FreeCAD.Console.PrintLog(f"torsal: {ev.get('stage')} {ev.get('event')}\n")
 
+        if getattr(obj, "Live", False):
+            self._execute_live(obj)
+            return
         outcome = run_in_torsal(self.job(obj), log=log)
+        self._show_outcome(obj, outcome)
+
+    def _show_outcome(self, obj, outcome: FinsOutcome) -> None:
+        """Shape = the built part solids (read from the STEP file) and the result properties."""
+        import FreeCAD
+        import Part
+
         shape = Part.read(outcome.step)
         if len(shape.Solids) != len(outcome.parts):
             raise FinsError(f"{outcome.step} holds {len(shape.Solids)} solids for "
@@ -208,9 +225,89 @@ class FinsFeature:
         obj.PartGroups = ["interfering" if n in bad else g
                           for n, g in zip(outcome.parts, outcome.families)]
         obj.StagesRun, obj.StagesCached = list(outcome.stages_run), list(outcome.stages_cached)
+        if hasattr(obj, "Answer"):
+            obj.Answer = "built"
         if not outcome.buildable:
             FreeCAD.Console.PrintWarning(f"torsal: {obj.Label} is NOT buildable: "
                                          f"{outcome.problems}\n")
+
+    # -------------------------------------------------------------- the live session
+    def _client(self) -> LiveClient:
+        client = getattr(self, "_live", None)
+        if client is None or not client.alive:
+            client = self._live = LiveClient(torsal_python())
+        return client
+
+    def _execute_live(self, obj) -> None:
+        """Shape = the preview's fins as surfaces (mm), at once; the solids follow
+        (:meth:`poll`, :meth:`wait_built`)."""
+        import FreeCAD
+
+        message = self._client().ask(self.job(obj), timeout=900)
+        if message["kind"] != "preview":
+            what = "bad input" if message.get("bad_input") else message["kind"]
+            raise FinsError(f"torsal could not make the fins ({what}): {message['message']}")
+        shape, groups = preview_shape(message["fins"])
+        obj.Shape = shape
+        obj.PartNames, obj.PartGroups = [], groups
+        obj.SunBlocked = float(message["sun_blocked"] or 0.0)
+        obj.DesignRun = message["design"]
+        obj.StagesRun, obj.StagesCached = message["stages_run"], message["stages_kept"]
+        obj.Answer, obj.AnswerSeconds = "preview", float(message["seconds"])
+        FreeCAD.Console.PrintMessage(f"torsal: {obj.Label} preview in {message['seconds']:.2f} s "
+                                     f"({', '.join(message['stages_run']) or 'all kept'}); the "
+                                     "solids follow\n")
+        if FreeCAD.GuiUp:
+            self._poll_later(obj)
+
+    def _show_built(self, obj, message: dict) -> None:
+        import FreeCAD
+
+        if message["kind"] != "built":
+            FreeCAD.Console.PrintError(f"torsal: {obj.Label}: the build failed: "
+                                       f"{message['message']}\n")
+            return
+        self._show_outcome(obj, outcome_from(message))
+        obj.AnswerSeconds = float(message["seconds"])
+        obj.purgeTouched()           # results, not a change: no recompute for them
+
+    def poll(self, obj) -> bool:
+        """Show the built solids if they have come (True), without waiting."""
+        client = getattr(self, "_live", None)
+        message = client.take_built() if client is not None else None
+        if message is not None:
+            self._show_built(obj, message)
+        return message is not None
+
+    def wait_built(self, obj, timeout: float | None = 600.0) -> bool:
+        """Wait up to ``timeout`` seconds for the built solids and show them (True), e.g. in
+        ``freecadcmd``, which has no event loop to :meth:`poll` from."""
+        client = getattr(self, "_live", None)
+        if client is None:
+            return False
+        message = client.wait_built(timeout=timeout)
+        if message is not None:
+            self._show_built(obj, message)
+        return message is not None
+
+    def _poll_later(self, obj, tries: int = 4000) -> None:
+        from PySide import QtCore
+
+        def again():
+            try:
+                if not self.poll(obj) and tries > 0 and getattr(self, "_live", None) is not None:
+                    self._poll_later(obj, tries - 1)
+            except Exception:       # the object or its document is gone
+                return
+
+        QtCore.QTimer.singleShot(250, again)
+
+    def close_session(self) -> None:
+        """End this object's live session process (a later recompute starts another)."""
+        client = getattr(self, "_live", None)
+        if client is not None:
+            client.close()
+            self._live = None
 
     # -------------------------------------------------------------- the job
     def job(self, obj) -> FinsJob:
@@ -268,18 +365,48 @@ class ViewProviderFins:
         return None
 
 
+def preview_shape(fins: dict):
+    """A preview's fins (:func:`~torsal.hosts.freecad.live.fins_message`, mm) as a compound of
+    faces, one per fin (two triangles where a fin is not planar to OpenCascade's tolerance),
+    and the family group of each face.
+
+    >>> shape, groups = preview_shape(message["fins"])   # doctest: +SKIP
+    >>> len(shape.Faces) == len(groups)                  # doctest: +SKIP
+    True
+    """
+    import FreeCAD
+    import Part
+
+    a = [FreeCAD.Vector(*p) for p in fins["a"]]
+    b = [FreeCAD.Vector(*p) for p in fins["b"]]
+    faces, groups = [], []
+    for (i, j), family in zip(fins["edges"], fins["families"]):
+        quad = [a[i], a[j], b[j], b[i]]
+        try:
+            parts = [Part.Face(Part.makePolygon(quad + quad[:1]))]
+        except Part.OCCError:
+            parts = [Part.Face(Part.makePolygon([quad[0], quad[1], quad[2], quad[0]])),
+                     Part.Face(Part.makePolygon([quad[0], quad[2], quad[3], quad[0]]))]
+        faces += parts
+        groups += [f"family {family}"] * len(parts)
+    return Part.makeCompound(faces), groups
+
+
 def face_colors(obj) -> list[tuple[float, float, float]]:
-    """One colour per face of ``obj.Shape``, by the group of the solid it belongs to ([] when
-    the groups do not match the solids)."""
+    """One colour per face of ``obj.Shape``, by the group of the solid it belongs to, or of
+    the face itself in a preview (faces, no solids); [] when the groups do not match."""
     from ..results import GROUP_COLORS, PartGroup
 
     solids, groups = obj.Shape.Solids, list(obj.PartGroups)
+    if not solids and len(obj.Shape.Faces) == len(groups):
+        return [GROUP_COLORS[PartGroup(g)] for g in groups]
     if len(solids) != len(groups):
         return []
     return [GROUP_COLORS[PartGroup(g)] for s, g in zip(solids, groups) for _ in s.Faces]
 
 
-def make_fins(doc, design_path, *, surface=None, strokes=(), name: str = "Fins"):
+def make_fins(doc, design_path, *, surface=None, strokes=(), name: str = "Fins",
+              live: bool = True):
     """A fins object in ``doc`` for the design file ``design_path``: its properties take the
     file's values (lengths in mm), ``Surface`` and ``Strokes`` the given links. Call
     ``doc.recompute()`` to make the fins.
@@ -295,6 +422,9 @@ def make_fins(doc, design_path, *, surface=None, strokes=(), name: str = "Fins")
     strokes : sequence of objects with wires, optional
     name : str
         The object's name (FreeCAD makes it unique).
+    live : bool
+        Keep a warm session for the object (``Live``): a change shows the preview at once and
+        the solids when built; False: each recompute runs the whole design in a new process.
 
     Returns
     -------
@@ -318,6 +448,7 @@ def make_fins(doc, design_path, *, surface=None, strokes=(), name: str = "Fins")
     if surface is not None:
         obj.Surface = surface if isinstance(surface, tuple) else (surface, [])
     obj.Strokes = list(strokes)
+    obj.Live = bool(live)
     if FreeCAD.GuiUp:
         ViewProviderFins(obj.ViewObject)
     return obj

@@ -35,7 +35,8 @@ from ...pipeline.design import Design
 from ...pipeline.design_file import DesignFileError, load_design_file
 from ..results import read_parts
 
-__all__ = ["FinsJob", "FinsOutcome", "SurfaceGrid", "effective_design", "grid_mesh", "run_job"]
+__all__ = ["FinsJob", "FinsOutcome", "SurfaceGrid", "effective_design", "grid_mesh", "run_job",
+           "write_design", "outcome_of"]
 
 
 @dataclass
@@ -74,7 +75,12 @@ class FinsJob:
 
     @classmethod
     def read(cls, path: str | Path) -> "FinsJob":
-        data = json.loads(Path(path).read_text())
+        return cls.from_dict(json.loads(Path(path).read_text()))
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "FinsJob":
+        """The job of :func:`dataclasses.asdict`'s dict (as written, or sent to a live session)."""
+        data = dict(data)
         if data.get("surface") is not None:
             data["surface"] = SurfaceGrid(**data["surface"])
         return cls(**data)
@@ -187,9 +193,9 @@ def effective_design(job: FinsJob) -> dict:
     return data
 
 
-def run_job(job: FinsJob, *, progress=None) -> FinsOutcome:
-    """Write the job's design file, run it (stage cache in ``folder/out``) and describe the
-    result; ``progress(stage, event, info)`` as :meth:`torsal.Design.run`'s.
+def write_design(job: FinsJob):
+    """The job's design file written as ``folder/design.toml`` (:func:`effective_design`) and
+    read back: returns its path and the :class:`~torsal.pipeline.design_file.DesignSpec`.
 
     Raises :class:`~torsal.core.errors.TorsalError` (bad input, naming the key)."""
     import tomli_w
@@ -201,10 +207,13 @@ def run_job(job: FinsJob, *, progress=None) -> FinsOutcome:
     with atomic_path(design_path) as tmp:
         tmp.write_text(f"# written by torsal's FreeCAD object from {job.design}\n"
                        + tomli_w.dumps(data))
-    spec = load_design_file(design_path)
-    result = Design(spec, source=design_path).run(folder / "out", progress=progress,
-                                                  accept_unbuildable=True)
-    out = folder / "out"
+    return design_path, load_design_file(design_path)
+
+
+def outcome_of(result, design_path: Path) -> FinsOutcome:
+    """What a finished design run (:class:`~torsal.pipeline.design.DesignResult`, its folder
+    the job's ``out``) gives the FreeCAD object."""
+    out = Path(result.folder)
     parts = read_parts(out)
     assembly = result.report.get("fabrication", {}).get("assembly", {})
     report = result.files.get("report_html", result.files.get("report_json", "report.json"))
@@ -220,12 +229,23 @@ def run_job(job: FinsJob, *, progress=None) -> FinsOutcome:
         stages_cached=list(result.cached), problems=unbuildable_message(assembly))
 
 
+def run_job(job: FinsJob, *, progress=None) -> FinsOutcome:
+    """Write the job's design file, run it (stage cache in ``folder/out``) and describe the
+    result; ``progress(stage, event, info)`` as :meth:`torsal.Design.run`'s.
+
+    Raises :class:`~torsal.core.errors.TorsalError` (bad input, naming the key)."""
+    design_path, spec = write_design(job)
+    result = Design(spec, source=design_path).run(Path(job.folder) / "out", progress=progress,
+                                                  accept_unbuildable=True)
+    return outcome_of(result, design_path)
+
+
 def main(argv: list[str] | None = None) -> int:
     """``python -m torsal.hosts.freecad JOB.json``: run the job, write ``result.json``
     beside it; exit status 0, 2 (bad input) or 1 (a bug)."""
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 1:
-        print("usage: python -m torsal.hosts.freecad JOB.json", file=sys.stderr)
+        print("usage: python -m torsal.hosts.freecad JOB.json | --live", file=sys.stderr)
         return 2
     path = Path(argv[0])
 
