@@ -304,6 +304,12 @@ def test_annual_stage_measures_the_rooms_daylight(tmp_path):
     assert dl["applicable"] and dl["storeys"] == [0.0]
     assert 0 < dl["fins"]["ase_all"] < dl["bare"]["ase_all"]
     assert dl["bare"]["points"] == 5 * 5 and len(dl["fins"]["sda"]) == 1
+    # the figures a study's search may optimize are in the report under their names
+    from torsal.study.study_file import ANNUAL_OBJECTIVE_KEYS
+    from torsal.study.study_tasks import flatten
+
+    flat = flatten({"light": {"annual": out["report"]}})
+    assert all(isinstance(flat[k], float) for k in ANNUAL_OBJECTIVE_KEYS)
     assert "storey at 0.0" in _daylight_html(dl, ["torsal fins as built"])
     low = spec.model_copy(update={"room": RoomSpec(depth=3.0, height=2.8)})   # 3 m storeys
     inp, _ = _stage_inputs(low, tmp_path)
@@ -323,6 +329,23 @@ def test_annual_stage_reads_the_designs_epw(tmp_path):
                             "hours": 8760}
     assert r["seasons"]["rule"] == "temperature"
     assert 0 < r["fins"]["annual_kwh_m2"] < r["bare"]["annual_kwh_m2"]
+
+
+def test_a_search_on_annual_figures_needs_the_annual_stage(tmp_path):
+    from torsal.study.study_file import StudyFileError, load_study_file
+
+    design = ('surface = { generator = "flat_facade" }\n'
+              'sun = { vectors = [[0, -1, 1]] }\nfins = { spacing = 0.5, depth = 0.3 }\n')
+    study = ('base = "base.toml"\n[axes]\n"fins.depth" = { low = 0.2, high = 0.4 }\n'
+             '[search]\ntrials = 4\nobjectives = { "light.annual.fins.cooling_kwh_m2" = "min", '
+             '"light.view_out" = "max" }\n')
+    (tmp_path / "base.toml").write_text(design)
+    (tmp_path / "study.toml").write_text(study)
+    with pytest.raises(StudyFileError, match=r"\[annual\] enabled"):
+        load_study_file(tmp_path / "study.toml")
+    (tmp_path / "base.toml").write_text(design + "[annual]\nenabled = true\n")
+    spec = load_study_file(tmp_path / "study.toml")[0]
+    assert "light.annual.fins.cooling_kwh_m2" in spec.search.objectives
 
 
 def test_annual_stage_names_what_is_missing(tmp_path):

@@ -91,6 +91,16 @@ class RunSpec(_Spec):
                                      "variant writes none and pays for none")
 
 
+#: the annual stage's figures a search may optimize (the base design needs [annual] enabled;
+#: the daylight's, a [room] too): kWh/m2 on the glazing behind the fins, their shading factor
+#: and cooling-season gains avoided, the rooms' sDA and ASE
+ANNUAL_OBJECTIVE_KEYS = (
+    "light.annual.fins.annual_kwh_m2", "light.annual.fins.cooling_kwh_m2",
+    "light.annual.fins.heating_kwh_m2", "light.annual.fins.shading_factor.f_sh_cooling",
+    "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2",
+    "light.annual.daylight.fins.sda_all", "light.annual.daylight.fins.ase_all",
+)
+
 #: report figures a search may optimize (flattened report.json keys), and the study's own
 OBJECTIVE_KEYS = (
     "light.blocked_share", "light.transparency", "light.transparency_cone", "light.fin_area_m2",
@@ -100,7 +110,7 @@ OBJECTIVE_KEYS = (
     "fabrication.quantities.net_kg", "fabrication.quantities.gross_kg",
     "congruence.min_torsal_angle_deg", "congruence.min_hyperbolicity", "congruence.line_spread_deg",
     "material_kg", "wall_s",
-)
+) + ANNUAL_OBJECTIVE_KEYS
 
 
 class SearchSpec(_Spec):
@@ -229,6 +239,19 @@ def _read_toml(path: Path, what: str) -> dict:
         raise StudyFileError(f"{path}: not valid TOML ({exc})") from None
 
 
+def _check_annual_objectives(spec, base: dict, path) -> None:
+    """A search on the annual stage's figures needs them in every variant's report: the base
+    design's ``[annual] enabled`` (and a ``[room]`` for the daylight's), not set by an axis."""
+    wanted = [k for k in spec.search.objectives if k in ANNUAL_OBJECTIVE_KEYS]
+    if wanted and not base.get("annual", {}).get("enabled", False):
+        raise StudyFileError(f"{path}: search.objectives {wanted} are the annual stage's: the "
+                             "base design needs [annual] enabled = true")
+    daylight = [k for k in wanted if ".daylight." in k]
+    if daylight and "room" not in base:
+        raise StudyFileError(f"{path}: search.objectives {daylight} are the rooms' daylight: "
+                             "the base design needs a [room] table")
+
+
 def load_study_file(path: str | Path) -> tuple[StudySpec, dict, Path]:
     """Read and validate a study file: its own keys, the base design, every axis name and
     (for a grid) every axis value. Returns the spec, the base design as a TOML dict and the
@@ -275,4 +298,5 @@ def load_study_file(path: str | Path) -> tuple[StudySpec, dict, Path]:
         if unknown:
             raise StudyFileError(f"{path}: search.objectives: unknown report key(s) {unknown}; "
                                  f"known: {', '.join(OBJECTIVE_KEYS)}")
+        _check_annual_objectives(spec, base, path)
     return spec, base, base_path.parent
