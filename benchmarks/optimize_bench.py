@@ -1,6 +1,6 @@
 """Congruence optimization: time to quality per Fig. 12 row and solver, re-solves, the facade case, the family.
 
-Tables (``--tables``, default all but ``synthetic``):
+Tables (``--tables``, default all but ``factor``, ``synthetic`` and ``stop``):
 
 1. ``fig12``: every Fig. 12 row (7a, 7b, 7c, 7d, 9, 11, 13), built from the example design
    files exactly as ``torsal design`` builds them (paper sizes), for each method (``--methods``):
@@ -35,9 +35,15 @@ Tables (``--tables``, default all but ``synthetic``):
    (``mumps/casadi``, analysed at every call).
 6. ``synthetic``: the 7a term set at 1k, 20k and 100k vertices (no constraint rows, IPOPT's
    projected-Newton passes): build, solve, re-solve; target 100k in < 60 s.
+7. ``stop``: the design tolerance (``solve(stop="design")``, the default) against full
+   convergence downstream: examples 7c and 9 (``--rows``) run by ``torsal design``'s pipeline up
+   to the light stage with each rule, report.json's congruence, support, fabrication and light
+   figures side by side. ``fig12``'s method ``converged`` is ``auto`` to convergence: run it
+   beside ``auto`` for time to quality against the converged energy.
 
-Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic]
-          [--rows 7a 7b 7c 7d 9 11 13] [--methods auto alm ipopt alm+ipopt lbfgs] [--facade-angles 40 60 80]
+Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop]
+          [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]
+          [--facade-angles 40 60 80]
 
 Timings on a shared machine vary: the script prints the machine (CPU model, cores, the BLAS
 threads in use) and the load average; compare methods by processor time and counts. Under each
@@ -176,7 +182,7 @@ def _change_sun(p):
     """Every light-direction term's direction turned by 5 degrees (NLP parameters): the lines'
     light directions (f_perp, f_par) and the torsal planes' normals (f_plane, Fig. 7d), with
     their strokes re-derived from the turned normals as the design file derives them."""
-    for name, t in list(p._terms.items()):
+    for name, t in list(p.registry.terms.items()):
         if name.startswith(("perpendicular", "parallel")):
             t.par[:] = _turn(t.par, 5.0)
         elif name.startswith("torsal_plane"):
@@ -186,7 +192,7 @@ def _change_sun(p):
 def _change_stroke(p):
     """The strokes' barycentric directions re-drawn 5 degrees off: every torsal_direction term's
     and every torsal_plane term's (f_plane = f_dir + <e_c, n>^2, its normals kept)."""
-    for name, t in list(p._terms.items()):
+    for name, t in list(p.registry.terms.items()):
         if name.startswith(("torsal_direction", "torsal_plane")):
             faces = t.elements
             a = p.congruence.vertices[p.congruence.faces[faces]]
@@ -200,7 +206,7 @@ def _change_stroke(p):
 
 def _change_bound(p):
     """``min_torsal_angle`` + 2 degrees (same faces and form: parameters only)."""
-    t = p._terms.get("min_torsal_angle")
+    t = p.registry.terms.get("min_torsal_angle")
     if t is not None:
         p.min_torsal_angle(t.bound + 2.0, faces=np.unique(t.elements), form="lift" if t.lift else "split",
                            between=t.between)
@@ -212,7 +218,7 @@ CHANGES = {"weight": _designer_change, "sun": _change_sun, "stroke": _change_str
 def _split_form(p):
     """A lifted ``min_torsal_angle`` re-imposed in split form (same bound and faces), for the
     augmented Lagrangian (which has no lifted variables)."""
-    t = p._terms.get("min_torsal_angle")
+    t = p.registry.terms.get("min_torsal_angle")
     if t is not None and t.lift:
         p.min_torsal_angle(t.bound, faces=np.unique(t.elements), form="split", between=t.between)
     return p
@@ -221,6 +227,9 @@ def _split_form(p):
 #: method -> (solver, formulation, solve options)
 METHODS = {
     "auto": ("auto", lambda p: p, {}),
+    # solve()'s default route run to the solver's own convergence, not to the design tolerance
+    # (stop="design", solve()'s default): the reference a design-tolerance answer is measured against
+    "converged": ("auto", lambda p: p, {"stop": "converged"}),
     "alm": ("alm", _split_form, {}),
     "ipopt": ("ipopt", lambda p: p, {}),
     "alm+ipopt": ("alm", _split_form, {"certify": True}),
@@ -394,11 +403,11 @@ def print_resolve(rows):
         for change, fn in CHANGES.items():
             p = make()
             r, w, c = _timed(lambda: p.solve(max_iter=spec.constraints.max_iter))
-            before = {k: (t.weight, t.bound, t.par.copy()) for k, t in p._terms.items()}
+            before = {k: (t.weight, t.bound, t.par.copy()) for k, t in p.registry.terms.items()}
             fn(p)
             changed = any(k not in before or before[k][:2] != (t.weight, t.bound) or
                           before[k][2].shape != t.par.shape or not np.array_equal(before[k][2], t.par)
-                          for k, t in p._terms.items())
+                          for k, t in p.registry.terms.items())
             if not changed:   # the design has no such term (7d: no strokes of f_dir)
                 print(f"{name:>4} {T / 5:5.2f} {change:>7} |   (the design has no term this change moves)")
                 continue
@@ -494,9 +503,9 @@ def print_factor(rows):
         spec, make, _, _ = example_problem(design)
         p = _split_form(make())
         p.build("alm")
-        b = p._built["tangent/alm"]
+        b = p.nlp.built["tangent/alm"]
         # every congruence's directions (row 11 optimizes two together)
-        par = b.parameters(p._current(), tangent_frames(p._directions()))
+        par = b.parameters(p.registry.current(), tangent_frames(p.registry.directions()))
         x = np.zeros(b.n_var)
         sys_ = NewtonSystem.of(b, "splu")
         h = b.hess_lag.nonzeros([x, par, np.array([float(b.n_vertices)]), np.zeros(b.n_g)])
@@ -531,7 +540,7 @@ def print_factor(rows):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", nargs="*", default=["fig12", "resolve", "facade", "family"],
-                    choices=["fig12", "resolve", "facade", "family", "factor", "synthetic"])
+                    choices=["fig12", "resolve", "facade", "family", "factor", "synthetic", "stop"])
     ap.add_argument("--methods", nargs="*", default=list(METHODS), choices=list(METHODS))
     ap.add_argument("--rows", nargs="*", default=None, help="Fig. 12 rows (default all)")
     ap.add_argument("--lbfgs-iter", type=int, default=500)
@@ -562,6 +571,62 @@ def main():
         print()
     if "synthetic" in args.tables:
         print_synthetic(args.max_vertices)
+    if "stop" in args.tables:
+        print_stop(args.rows or ["7c", "9"])
+
+
+#: what the ``stop`` table compares, (section, key) of report.json
+STOP_FIGURES = [("congruence", "iterations"), ("congruence", "objective"),
+                ("congruence", "min_torsal_plane_angle_deg"), ("congruence", "min_torsal_direction_angle_deg"),
+                ("support", "edges"), ("support", "quads"), ("support", "delta_pl_extracted"),
+                ("support", "delta_pl_optimized"), ("light", "blocked_share"), ("light", "transparency"),
+                ("light", "transparency_cone"), ("fabrication", "parts"), ("fabrication", "panels")]
+
+
+def print_stop(rows):
+    """The design tolerance (``solve(stop="design")``, the default) against full convergence,
+    downstream: each example run by ``torsal design``'s pipeline up to the light stage (the
+    congruence, the remeshed support structure, the fins built, the light through them) with
+    both rules; report.json's figures side by side (design, converged, relative difference)."""
+    import dataclasses
+    import tempfile
+    from functools import partial
+
+    from torsal.geometry.optimize import Stop
+    from torsal.pipeline.design import Design
+    from torsal.pipeline.stages import DEFAULT_PIPELINE, run_congruence
+
+    print("The design tolerance against convergence, downstream (torsal design up to the light stage)")
+    print(_load())
+    for name, design, T in FIG12:
+        if name not in rows:
+            continue
+        reports = {}
+        for stop in Stop:
+            pl = DEFAULT_PIPELINE.until("light")
+            pl = pl.replace(dataclasses.replace(pl["congruence"], run=partial(run_congruence, stop=stop)))
+            with tempfile.TemporaryDirectory() as out:
+                res = Design.from_toml(EXAMPLES / design).run(out, pipeline=pl, use_cache=False, size_limit=False)
+            reports[stop] = res.report
+            c = res.report["congruence"]
+            conv = c.get("convergence") or {}
+            print(f"{name:>4} T {T:5.1f} stop {stop.value:>9}: congruence build + solve "
+                  f"{c['build_s'] + c['solve_s']:6.2f} s ({'<=' if c['build_s'] + c['solve_s'] <= T else '>'} T), "
+                  f"{conv.get('reason')}, decrement {conv.get('newton_decrement')}, "
+                  f"recent decrease {conv.get('recent_decrease')}", flush=True)
+        for section, key in STOP_FIGURES:
+            a, b = (_figure(reports[s], section, key) for s in Stop)
+            rel = "" if not (isinstance(a, float) and isinstance(b, float) and b) else f"{(a - b) / abs(b):+9.2e}"
+            print(f"{'':>6}{section + '.' + key:<46} {_fmt(a, '12.6g'):>12} {_fmt(b, '12.6g'):>12} {rel}", flush=True)
+
+
+def _figure(report: dict, section: str, key: str):
+    """``report[section][key]``; the congruence's objective is its energies' total."""
+    sec = report.get(section, {})
+    if section == "congruence" and key == "objective":
+        return float(sec.get("energies", {}).get("total", float("nan")))
+    v = sec.get(key)
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
 
 
 def print_synthetic(max_vertices: int):

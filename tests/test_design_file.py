@@ -135,7 +135,7 @@ def test_torsal_angle_form_reaches_the_optimizer(tmp_path, form, lifted):
     spec = load_design_file(_write(tmp_path, GOOD + f"[constraints]\nmin_torsal_angle = 40{extra}\n"))
     v, f = facade_patch(nu=9, nv=5)
     p = congruence_problem(spec, v, f, np.array([[0.0, -0.8, 0.6]]), np.ones(1))
-    term = p._terms["min_torsal_angle"]
+    term = p.registry.terms["min_torsal_angle"]
     # lift: 3 rows per face tied to lifted variables; split: 2 inequality rows per face
     assert term.lift is lifted
     assert len(term.elements) == (3 if lifted else 2) * len(f)

@@ -45,15 +45,15 @@ def test_the_problems_nlps_share_their_element_kernels(facade, monkeypatch):
     p = (CongruenceProblem(Congruence.from_normals((v, f))).normal().fair().fair_torsal().perpendicular(SUN)
          .hyperbolic().min_torsal_angle(30))
     p.build()
-    p._built["tangent"].derive()
+    p.nlp.built["tangent"].derive()
     first = len(made)
-    element_terms = {(id(t.element.fn), t.constraint) for t in p._term_list("tangent") if t.matrix is None}
-    assert first == len(element_terms) == len(p._kernels)
-    p._free_built("tangent")
+    element_terms = {(id(t.element.fn), t.constraint) for t in p.registry.term_list("tangent") if t.matrix is None}
+    assert first == len(element_terms) == len(p.nlp.kernels)
+    p.nlp.without_inequalities("tangent")
     p.build("alm")
     assert len(made) == first
     p.remove("perpendicular")           # a new structure: the kernels go with the built NLPs
-    assert not p._built and not p._kernels
+    assert not p.nlp.built and not p.nlp.kernels
 
 
 @pytest.mark.parametrize("form", ["split", "lift"])
@@ -67,10 +67,10 @@ def test_lazy_nlp_values_match_the_eager_and_its_derived_expressions(facade, for
     p = (CongruenceProblem(c).normal().fair().fair_torsal().perpendicular(SUN)
          .torsal_direction([1, 4], [1.0, 0, 0.2]).hyperbolic().min_torsal_angle(30, form=form))
     p.build()
-    b = p._built["tangent"]
+    b = p.nlp.built["tangent"]
     assert not b._derived
     x, fr = b.pack(_noisy(c.directions, 20, np.random.default_rng(5)))
-    par = b.parameters(p._current(), fr)
+    par = b.parameters(p.registry.current(), fr)
     x = b.full(x, par)
     ev, fval, g = b.evaluate(x, par)
     assert not b._derived and g.size == b.n_g > 0
@@ -92,10 +92,10 @@ def test_assembled_gradient_and_hessian_match_finite_differences(facade, normali
     p = (CongruenceProblem(c, normalize=normalize).normal().fair().fair_torsal()
          .perpendicular(SUN).torsal_direction([1, 4], [1.0, 0, 0.2]).hyperbolic().min_torsal_angle(30, form=form))
     p.build()
-    b = p._built[normalize]
+    b = p.nlp.built[normalize]
     e = _noisy(c.directions, 20, rng)
     x0, fr = b.pack(e)
-    par = b.parameters(p._current(), fr)
+    par = b.parameters(p.registry.current(), fr)
     x0 = b.full(x0, par)              # lift: with the lifted variables (3 per face)
     assert x0.size == b.n_dir + (3 * len(c.faces) if form == "lift" else 0)
     x0 = x0 + 0.05 * rng.standard_normal(x0.size)
@@ -135,10 +135,10 @@ def test_compiled_kernels_give_the_same_derivatives(tmp_path, monkeypatch):
     for jit in (False, True):
         p = CongruenceProblem(c, jit=jit).normal().perpendicular(SUN).hyperbolic()
         p.build()
-        b = p._built["tangent"]
+        b = p.nlp.built["tangent"]
         x0, fr = b.pack(e)
         x0 = x0 + 0.05
-        par = b.parameters(p._current(), fr)
+        par = b.parameters(p.registry.current(), fr)
         lam = np.linspace(-1, 1, b.n_g)
         out.append([np.asarray(ca.densify(v)).ravel() for v in
                     (*b.grad_f(x0, par), *b.jac_g(x0, par), b.hess_lag(x0, par, 0.7, lam))])
@@ -234,10 +234,10 @@ def test_inactive_inequalities_are_met_by_the_solve_without_them(facade):
     assert max(res.max_violation.values()) <= 1e-9
     assert "inactive" in res.summary()
     # positive semidefinite by construction: no regularization estimate for pass 1
-    pass1 = p._built["tangent/without-inequalities"]
-    assert pass1.psd and not p._built["tangent"].psd and set(pass1.hessian_shifts.values()) <= {0.0}
+    pass1 = p.nlp.built["tangent/without-inequalities"]
+    assert pass1.psd and not p.nlp.built["tangent"].psd and set(pass1.hessian_shifts.values()) <= {0.0}
     # the main NLP only checked pass 1's rows: its derivatives were never assembled
-    assert not p._built["tangent"]._derived
+    assert not p.nlp.built["tangent"]._derived
     both = problem().hyperbolic().min_torsal_angle(5).solve("ipopt", try_unconstrained=False)
     assert both.success and both.constraints_active is True
     assert _angles_deg(both.congruence.directions, res.congruence.directions).max() < 0.05
@@ -428,11 +428,11 @@ def test_first_hessian_regularization_is_the_analytic_curvature(nu, nv):
     cos = abs(SUN[1])
     expected = 1.25 * 2 * w * cos**2
     rel = 1e-9 if 2 * nu * nv <= 200 else 5e-2
-    shifts = p._built["tangent"].hessian_shifts
+    shifts = p.nlp.built["tangent"].hessian_shifts
     assert list(shifts.values()) == [pytest.approx(expected, rel=rel)]
     # another objective scaling on the same built problem: its own estimate, in its units
     r2 = p.solve(initial=c.directions, ipopt_options={"obj_scaling_factor": 2.0 * nu * nv})
-    assert r2.success and list(p._built) == ["tangent"]
+    assert r2.success and list(p.nlp.built) == ["tangent"]
     assert sorted(shifts.values()) == [pytest.approx(expected, rel=rel), pytest.approx(2 * expected, rel=rel)]
 
 

@@ -128,7 +128,7 @@ def test_auto_continues_a_missed_hyperbolicity_with_the_augmented_lagrangian():
     warm re-solve stays with the augmented Lagrangian."""
     c = Congruence.from_normals(canopy(nu=7, nv=7))
     free = _mirror_canopy(c)
-    free._terms.pop("hyperbolic")
+    free.registry.terms.pop("hyperbolic")
     h = free.solve(solver="ipopt").congruence.hyperbolicity()
     assert (h < -1e-6 * c.delta ** 2).any()          # the energies' optimum is not hyperbolic
     p = _mirror_canopy(c)
@@ -229,9 +229,9 @@ def test_newton_matrix_is_the_projected_hessian_plus_the_penalty_gauss_newton_pa
     c = Congruence.from_normals(facade_patch(nu=6, nv=5))
     p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
     p.build("alm")
-    b = p._built["tangent/alm"]
+    b = p.nlp.built["tangent/alm"]
     sys_ = NewtonSystem.of(b, "splu")
-    par = b.parameters(p._current(), tangent_frames(c.directions))
+    par = b.parameters(p.registry.current(), tangent_frames(c.directions))
     x = 0.01 * np.random.default_rng(1).standard_normal(b.n_var)
     h = b.hess_lag.nonzeros([x, par, np.array([1.0]), np.zeros(b.n_g)])
     jac = np.asarray(b.jac_g(x, par)[1].sparse().toarray())
@@ -256,9 +256,9 @@ def test_the_projected_matrix_and_the_line_search_values_skip_what_they_do_not_n
     c = Congruence.from_normals(facade_patch(nu=6, nv=5))
     p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
     p.build("alm")
-    b = p._built["tangent/alm"]
+    b = p.nlp.built["tangent/alm"]
     h = b.hess_lag
-    par = b.parameters(p._current(), tangent_frames(c.directions))
+    par = b.parameters(p.registry.current(), tangent_frames(c.directions))
     x = 0.01 * np.random.default_rng(2).standard_normal(b.n_var)
     args = [x, par, np.array([float(b.n_vertices)]), np.linspace(-1.0, 1.0, b.n_g)]
     h.constraint_curvature = False
@@ -441,7 +441,7 @@ def test_the_exact_hessians_step_is_proved_positive_definite(direct, monkeypatch
     c = Congruence.from_normals(facade_patch(nu=6, nv=5))
     p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
     p.build("alm")
-    sys_ = NewtonSystem.of(p._built["tangent/alm"], "mumps")
+    sys_ = NewtonSystem.of(p.nlp.built["tangent/alm"], "mumps")
     assert sys_.chol.definite is direct
     proof = sys_.proving()
     assert proof.definite and sys_.proving() is proof
@@ -489,11 +489,11 @@ def test_a_certification_that_goes_lower_returns_ipopts_better_design(monkeypatc
     """IPOPT, warm from an answer the augmented Lagrangian stopped at early, lowers the
     objective while feasible as measured but does not converge within its cap: the lower
     design is returned (row 9: 0.01777 -> 0.01736), and the status says why."""
-    import torsal.geometry.optimize.solve as solve_mod
+    import torsal.geometry.optimize.ipopt as ipopt_mod
 
     c = Congruence.from_normals(canopy(nu=7, nv=7))
     loose = _canopy_60(c).solve(solver="alm", tol=1e-1)          # stopped early on purpose
-    monkeypatch.setattr(solve_mod, "CERTIFY_ITERATIONS", 4)
+    monkeypatch.setattr(ipopt_mod, "CERTIFY_ITERATIONS", 4)
     cert = _canopy_60(c).solve(solver="alm", tol=1e-1, certify=True)
     assert "IPOPT did not certify it" in cert.status and "lowered the objective" in cert.status, cert.status
     assert cert.objective < loose.objective and cert.solver == "alm+ipopt"

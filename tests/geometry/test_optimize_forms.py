@@ -154,7 +154,7 @@ def test_hyperbolic_rows_implied_by_the_angle_bound_are_left_out_and_still_measu
     p = (CongruenceProblem(c).normal().fair().perpendicular(SUN, weight=10)
          .hyperbolic().min_torsal_angle(40, faces=faces))
     p.build()
-    rows = {t.name: t for t in p._built["tangent"].cons}
+    rows = {t.name: t for t in p.nlp.built["tangent"].cons}
     assert set(rows["hyperbolic"].elements) == set(range(len(c.faces))) - set(faces)
     r = p.solve(max_iter=300)
     assert r.success, r.status
@@ -165,7 +165,7 @@ def test_hyperbolic_rows_implied_by_the_angle_bound_are_left_out_and_still_measu
     # a positive margin is not implied: every face gets its row again
     p.hyperbolic(margin=1e-4)
     p.build()
-    assert len(p._built["tangent"].cons[0].elements) == len(c.faces)
+    assert len(p.nlp.built["tangent"].cons[0].elements) == len(c.faces)
 
 
 def test_lifted_coordinates_are_the_invariants():
@@ -201,10 +201,10 @@ def test_energies_of_a_lifted_design_need_no_lifted_variables():
         return CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40, form=form)
 
     lifted = make("lift")
-    with_rows, without = lifted._evaluate(e), lifted._evaluate(e, rows=False)
+    with_rows, without = lifted.nlp.evaluate(e), lifted.nlp.evaluate(e, rows=False)
     assert with_rows[0] == without[0] and with_rows[1] == without[1]
-    assert make("split")._evaluate(e)[0] == pytest.approx(without[0], rel=1e-12)
-    assert lifted._built["tangent"].n_lift > 0
+    assert make("split").nlp.evaluate(e)[0] == pytest.approx(without[0], rel=1e-12)
+    assert lifted.nlp.built["tangent"].n_lift > 0
 
 
 @pytest.mark.parametrize("form", ["lift"])

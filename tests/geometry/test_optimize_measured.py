@@ -136,9 +136,9 @@ def test_gauss_newton_hessian_is_psd_and_exact_for_linear_residuals(patch):
     def hess(hessian, build):
         p = build(CongruenceProblem(patch, normalize="constraint", hessian=hessian))
         p.build()
-        b = p._built["constraint"]
+        b = p.nlp.built["constraint"]
         x, fr = b.pack(e)
-        H = np.asarray(ca.densify(b.hess_lag(x, b.parameters(p._current(), fr), 1.0, np.zeros(b.n_g))))
+        H = np.asarray(ca.densify(b.hess_lag(x, b.parameters(p.registry.current(), fr), 1.0, np.zeros(b.n_g))))
         return np.triu(H) + np.triu(H, 1).T
 
     perp = lambda p: p.perpendicular(SUN)
@@ -158,9 +158,9 @@ def test_a_flat_facade_leaves_the_bundle_apex():
     assert c.is_bundle().all()
     p = (CongruenceProblem(c).fair().fair_torsal(weight=10)
          .torsal_plane(None, normals=[0.55, -0.6, -0.58], weight=20).min_torsal_angle(40))
-    from torsal.geometry.optimize.solve import SolveCall, SolveOptions
+    from torsal.geometry.optimize.solve import off_the_apex
 
-    start = Congruence(c.vertices, c.faces, SolveCall(p, SolveOptions())._off_the_apex(c.directions))
+    start = Congruence(c.vertices, c.faces, off_the_apex(p.registry, c.directions))
     assert not start.is_bundle().any()
     assert np.allclose(start.torsal_angle(), 90.0, atol=1.0)      # a saddle's normals
     assert np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", start.directions, c.directions), -1, 1))).max() < 5
@@ -238,9 +238,9 @@ def test_projected_hessian_is_psd_and_dominates_the_exact_one(patch):
     def built(hessian):
         p = CongruenceProblem(patch, hessian=hessian).normal().fair().fair_torsal().perpendicular(SUN)
         p.build()
-        b = p._built["tangent"]
+        b = p.nlp.built["tangent"]
         x, fr = b.pack(e)
-        return b, x + 0.1, b.parameters(p._current(), fr)
+        return b, x + 0.1, b.parameters(p.registry.current(), fr)
 
     def hess(b, x, par):
         H = np.asarray(ca.densify(b.hess_lag(x, par, 1.0, np.zeros(b.n_g))))

@@ -37,11 +37,11 @@ def test_the_optimum_keeps_the_bound_multipliers_of_a_lifted_form(solved):
     pickling (the pipeline's stage cache keeps the optimum)."""
     c, p, first = solved
     opt = pickle.loads(pickle.dumps(p.optimum))
-    b = p._built["tangent"]
+    b = p.nlp.built["tangent"]
     assert opt.lam_x is not None and opt.lam_x.size == b.n_var
     x, fr = b.pack(first.congruence.directions)
-    xf = b.full(x, b.parameters(p._current(), fr))
-    lbx, ubx = b.variable_bounds(p._current())
+    xf = b.full(x, b.parameters(p.registry.current(), fr))
+    lbx, ubx = b.variable_bounds(p.registry.current())
     bounded = np.isfinite(lbx) | np.isfinite(ubx)
     assert np.abs(opt.lam_x[bounded]).max() > 0
     gap = np.minimum(xf - lbx, ubx - xf)[bounded]
@@ -107,9 +107,9 @@ def test_ipopt_solves_with_compiled_values(tmp_path, monkeypatch):
     for jit in (False, True):
         p = CongruenceProblem(c, jit=jit).normal().perpendicular(SUN).min_torsal_angle(50, form="lift")
         r = p.solve(solver="ipopt")
-        b = p._built["tangent"]
+        b = p.nlp.built["tangent"]
         x, fr = b.pack(r.congruence.directions)
-        ev, f, g = b.evaluate(x, b.parameters(p._current(), fr))
+        ev, f, g = b.evaluate(x, b.parameters(p.registry.current(), fr))
         out.append((r, ev, f, g))
     (r0, *v0), (r1, *v1) = out
     assert r0.success and r1.success and r0.iterations == r1.iterations
@@ -126,11 +126,11 @@ def test_a_resolve_starts_near_or_far_from_stationarity(solved):
     q = _lifted(c).warm_start_from(p.optimum)
     q.set_weight("perpendicular", 10.1)
     near = q.solve()
-    kinds = {k[0] for k in q._built["tangent"].solvers}
+    kinds = {k[0] for k in q.nlp.built["tangent"].solvers}
     assert near.success and "near" in kinds and "far" not in kinds
     turned = np.array([[np.cos(0.26), -np.sin(0.26), 0], [np.sin(0.26), np.cos(0.26), 0], [0, 0, 1]]) @ SUN
     q.perpendicular(turned, weight=10.1)
     far, cold = q.solve(), _lifted(c, turned).set_weight("perpendicular", 10.1).solve()
-    assert "far" in {k[0] for k in q._built["tangent"].solvers}
+    assert "far" in {k[0] for k in q.nlp.built["tangent"].solvers}
     assert far.success and cold.success
     assert far.objective == pytest.approx(cold.objective, rel=0.01)

@@ -553,6 +553,20 @@ def _torsal_angle_rows(c: dict) -> list:
     return rows
 
 
+def _convergence_rows(conv: dict | None) -> list:
+    """How close to converged the congruence is: why the solve ended (under which stopping
+    rule), and the last relative Newton decrement and decrease of the objective where the
+    augmented Lagrangian answered (reports from before the key have no row)."""
+    if not conv:
+        return []
+    rows = [("solve ended by (stopping rule)", f"{html.escape(conv['reason'])} ({html.escape(conv['stop'])})")]
+    for key, label in (("newton_decrement", "last Newton decrement (relative)"),
+                       ("recent_decrease", "objective decrease over the last Newton steps (relative)")):
+        if conv.get(key) is not None:
+            rows.append((label, f"{conv[key]:.2g}"))
+    return rows
+
+
 def _measured_constraint_rows(c: dict) -> list:
     """One row per constraint as measured on the optimized congruence (issue 16): bound,
     measured worst value, and the faces that miss the bound beyond its tolerance; a torsal
@@ -861,6 +875,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                 ("build / solve time (s)", f"{c['build_s']:.2f} / {c['solve_s']:.2f}"),
                 ("min hyperbolicity c_hyp (>= 0 needed)", c["min_hyperbolicity"]),
                 ("inequality constraints", _constraints_state(c)),
+                *_convergence_rows(c.get("convergence")),
                 *_torsal_angle_rows(c),
                 *_spread_rows(c)]
         rows += _measured_constraint_rows(c)

@@ -13,7 +13,7 @@ import numpy as np
 
 from .design_file import DesignSpec
 from ..geometry.congruence import Congruence, direction_spread
-from ..geometry.optimize import TorsalAngleBetween
+from ..geometry.optimize import Stop, TorsalAngleBetween
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .annual import annual_applies, annual_key, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
@@ -142,7 +142,7 @@ def run_orient(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ congruence (4.1)
-def run_congruence(inp: StageInputs, *, make_problem=None) -> dict:
+def run_congruence(inp: StageInputs, *, make_problem=None, stop: Stop | None = None) -> dict:
     """Optimize the congruence (eq. 9; the augmented Lagrangian or IPOPT, ``constraints.solver``).
     Returns ``directions`` (n, 3), ``optimum`` (the warm start of a re-solve), the
     ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
@@ -151,7 +151,9 @@ def run_congruence(inp: StageInputs, *, make_problem=None) -> dict:
     ``make_problem(spec, vertices, faces, sun_vectors, sun_weights)``: the problem to solve,
     default :func:`~torsal.pipeline.problem.congruence_problem`; a live session
     (:class:`torsal.session.Session`) passes one that re-uses its built problem and warm-starts
-    it from the last optimum."""
+    it from the last optimum. ``stop``: where the solve may stop (None: the optimizer's default,
+    the design tolerance; ``benchmarks/optimize_bench.py --tables stop`` runs the stage with
+    ``Stop.CONVERGED`` beside it)."""
     from .problem import congruence_problem
 
     spec = inp.spec
@@ -161,7 +163,7 @@ def run_congruence(inp: StageInputs, *, make_problem=None) -> dict:
     C = spec.constraints
     r = p.solve(solver=C.solver.value, certify=C.certify, max_iter=C.max_iter, max_seconds=C.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
-                constraint_tol=CONSTRAINT_TOL)
+                constraint_tol=CONSTRAINT_TOL, **({} if stop is None else {"stop": stop}))
     c = r.congruence
     # a design is usable when every constraint holds as measured on its geometry (angles
     # within 0.1 degree, see OptimizationResult.max_violation), converged or not
@@ -210,6 +212,10 @@ def run_congruence(inp: StageInputs, *, make_problem=None) -> dict:
             # the faces (vertices) that miss it by more than its tolerance
             "constraints": _measured_constraints(r),
             "converged": bool(r.success),
+            # how close to converged the design is: the stopping rule (the optimizer's
+            # default: the design tolerance), why the solve ended, the last Newton decrement
+            # and the objective's relative decrease over the last Newton steps
+            "convergence": None if r.convergence is None else r.convergence.as_dict(),
             "faces_without_torsal_directions": int((~np.isfinite(c.torsal_angle())).sum()),
             # the widest angle of a line from the lines' mean direction (degrees): near 0 the
             # optimized lines are nearly parallel, the fins close to plain louvers

@@ -45,8 +45,13 @@ half the iterations but to rougher lines. One-sided inequalities can be made ela
 
 Package layout (one responsibility per module):
 
-- :mod:`.problem`: :class:`CongruenceProblem`, the builder API;
-- :mod:`.solve`: one ``solve()`` call: the route, the start, the strategy, the measured answer;
+- :mod:`.problem`: :class:`CongruenceProblem`, the builder API: the term builders of
+  :mod:`.energies` and :mod:`.constraints` over three parts, its terms (:mod:`.registry`), the
+  NLPs built from them (:mod:`.cache`) and the solve state (:mod:`.strategy`);
+- :mod:`.strategy`: the solve room's types: options, the solve state, starts and runs, the one
+  strategy interface (``SolveStrategy``) and its composition (``Then``);
+- :mod:`.solve`: one ``solve()`` call: the route, its composed strategy, the start, the
+  measured answer;
 - :mod:`.alm`: the augmented Lagrangian; :mod:`.factor`: its sparse Cholesky factorization;
 - :mod:`.catalogue`: default weights, one term's data (:class:`~.catalogue.Term`), input checks;
 - :mod:`.forms`: the forms of the torsal-angle constraint;
@@ -56,15 +61,18 @@ Package layout (one responsibility per module):
 - :mod:`.family`: a generated family of constrained designs (reliability checks);
 - :mod:`.lbfgs`: the paper's L-BFGS baseline;
 - :mod:`.measure`: constraints measured on the geometry;
-- :mod:`.history`, :mod:`.result`: per-iteration history, best feasible iterate, the result.
+- :mod:`.history`, :mod:`.result`: per-iteration history, best feasible iterate, the result
+  (with how close to converged it is: ``OptimizationResult.convergence``, the stopping rule
+  ``Stop``).
 """
 from .catalogue import DEFAULT_WEIGHTS
 from .forms import TorsalAngleBetween, TorsalAngleForm
 from .measure import Measurement
 from .nlp import tangent_frames
 from .problem import CongruenceProblem
-from .result import IterationRecord, OptimizationError, OptimizationResult
+from .result import STOPS, Convergence, IterationRecord, OptimizationError, OptimizationResult, Stop, StopReason
 from .solve import SOLVERS, Solver
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
-           "IterationRecord", "Measurement", "TorsalAngleForm", "TorsalAngleBetween", "tangent_frames", "Solver", "SOLVERS"]
+           "IterationRecord", "Measurement", "TorsalAngleForm", "TorsalAngleBetween", "tangent_frames", "Solver",
+           "SOLVERS", "Stop", "STOPS", "StopReason", "Convergence"]

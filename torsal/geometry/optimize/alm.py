@@ -50,8 +50,11 @@ the step is taken again (``_line_search``, :data:`ERRATIC_JUMP`).
 Stopping is on the geometry: a solve has converged when every constraint holds as
 measured on the congruence (torsal angles in degrees, ``c_hyp / delta^2``, see
 :mod:`.measure`), the inner gradient is below the final tolerance and every row's
-complementarity measure is below ``VTOL``. Limits are counts (Newton steps), never time,
-so a solve's answer does not depend on the machine's load.
+complementarity measure is below ``VTOL``. With ``stop="design"`` (the default) it ends
+before, at the first iterate that holds every constraint as measured while the objective no
+longer moves (the design tolerance, :data:`DESIGN_DECREMENT`): the result says which ended it.
+Limits are counts (Newton steps), never time, so a solve's answer does not depend on the
+machine's load. :class:`AlmStrategy` is the solve room's strategy around the method.
 """
 from __future__ import annotations
 
@@ -60,14 +63,18 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, NamedTuple
 
-import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
+from .cache import NlpKind
 from .factor import NotPositiveDefinite, SparseCholesky
 from .history import SolveMonitor
 from .nlp import Built, NumericFunction, _from_tangent, tangent_frames
+from .result import Stop, StopReason
+from .strategy import AlmRun, AlmState, Run, SolveContext, Start
 
+#: Newton steps of the augmented Lagrangian when ``solve(max_iter=...)`` is not given
+ALM_MAX_STEPS = 500
 #: penalty growth factor of a row whose complementarity did not decrease enough
 GAMMA = 10.0
 #: a row's complementarity must fall below this share of its last value to keep its penalty
@@ -120,6 +127,21 @@ OUTER_MAX = 60
 MAX_TURN = 0.5
 _DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
 
+#: The design tolerance (``solve(stop=Stop.DESIGN)``, the default): a solve ends at the first
+#: Newton iterate that holds every constraint as measured, whose last Newton decrement
+#: (relative, as the final one) is at most DESIGN_DECREMENT and whose objective fell by at most
+#: DESIGN_DECREASE (relative, either way) over the last DESIGN_WINDOW Newton steps. Past it the objective
+#: creeps: Fig. 12 row 9 (2,601 vertices) was first measured-feasible at Newton step 96 of 140,
+#: 0.11 % above its converged energy, and spent the last 44 steps (12 of 43 s of processor
+#: time) on that 0.11 %, zig-zagging between full and 1/256 steps at decrements 1e-5 to 1e-4.
+#: What stopping there changes downstream (examples 7c and 9, fins, light, measured angles) is
+#: measured in tests/geometry/test_optimize_stop.py and benchmarks/optimize_bench.py --tables stop
+DESIGN_DECREMENT = 1e-3
+#: see DESIGN_DECREMENT
+DESIGN_DECREASE = 1e-3
+#: see DESIGN_DECREMENT
+DESIGN_WINDOW = 10
+
 #: the exact Hessian is tried after a full projected step that turned no line by more than this
 TURN_EXACT = 0.05
 #: a step shorter than this raises the Levenberg-Marquardt shift
@@ -153,34 +175,6 @@ PREDICT = 3
 #: into the face's plane, where the metric seen along the line degenerates): its penalty
 #: curvature joins ``K`` for the rest of the solve (see ``_line_search``)
 ERRATIC_JUMP = 1.0
-
-
-@dataclass
-class AlmState:
-    """Where a warm re-solve starts: the answer's directions, multipliers, penalties and row
-    scales (the scales stay fixed so that multipliers and penalties keep their meaning)."""
-
-    e: np.ndarray             # (N, 3) unit directions
-    lam: np.ndarray           # (n_g,) multipliers of the scaled rows (PHR sign: mu)
-    rho: np.ndarray           # (n_g,) penalties of the scaled rows
-    scale: np.ndarray         # (n_g,) row scales
-    delta: float = 1e-8       # the Levenberg-Marquardt shift (relative)
-    floor: float = 0.0        # the Newton decrement's floor of the solve it came from (FLOOR)
-
-
-class AlmRun(NamedTuple):
-    """The answer of :func:`alm` and how it ended."""
-
-    e: np.ndarray             # (N, 3) directions
-    lam_g: np.ndarray         # multipliers in IPOPT's convention (grad f + J^T lam_g = 0)
-    iterations: int           # Newton steps
-    outer: int                # outer iterations (multiplier updates)
-    factorizations: int
-    status: str
-    converged: bool
-    state: AlmState
-    counts: dict              # line-search trials, shifted retries, the backend
-    seconds: dict | None = None   # wall seconds by phase: hessian, factor, line search
 
 
 @dataclass
@@ -320,13 +314,15 @@ class AugmentedLagrangian:
     """
 
     def __init__(self, b: Built, p0: np.ndarray, monitor: SolveMonitor, feasible: Callable[[np.ndarray], bool],
-                 *, max_steps: int, tol: float, backend: str | None = None, projection: str | None = None):
+                 *, max_steps: int, tol: float, stop: Stop = Stop.DESIGN, backend: str | None = None,
+                 projection: str | None = None):
         if b.mode != "tangent" or b.n_lift or b.n_slack:
             raise ValueError("the augmented Lagrangian needs the tangent NLP without lifted variables or slacks")
         self.b, self.monitor, self.feasible = b, monitor, feasible
         self.p = np.array(p0, dtype=float)
         # the final inner tolerance: L_A within tol * DECREMENT_PER_TOL (relative) of its minimum
         self.max_steps, self.tol = int(max_steps), float(tol) * DECREMENT_PER_TOL
+        self.stop = Stop(stop)
         self.sF = float(max(b.n_vertices, 1))
         if not hasattr(b, "alm_cache"):
             b.alm_cache = {}
@@ -513,7 +509,9 @@ class AugmentedLagrangian:
         state = AlmState(e=run.e.copy(), lam=run.lam, rho=run.rho, scale=run.s, delta=self.rel,
                          floor=run.floor)
         return AlmRun(run.e, lam_g, run.steps, run.outer, self.counts["factorizations"], run.status,
-                      run.converged, state, dict(self.counts), dict(self.seconds))
+                      run.converged, state, dict(self.counts), dict(self.seconds), reason=run.reason,
+                      decrement=None if not math.isfinite(run.dec_own) else run.dec_own,
+                      recent_decrease=_recent_decrease(run))
 
     def _start(self, e0: np.ndarray, warm: AlmState | None) -> "_Run":
         """The run's state at ``e0``: the chart, the first point, multipliers and penalties."""
@@ -561,10 +559,13 @@ class AugmentedLagrangian:
         if tried and not exact:        # indefinite: back off before the next try
             run.wait, run.backoff = run.backoff, min(2 * run.backoff, 32)
         if nd is None:
-            run.status = "the Newton matrix could not be factored"
+            run.status, run.reason = "the Newton matrix could not be factored", StopReason.FAILED
             return False
         # relative to |L_A|, or to a floor of the start's objective (zero-residual designs)
         run.dec = -0.5 * float(gl @ nd.d) / max(abs(LA), abs(pt.F), run.floor)
+        # the design tolerance's decrement: relative to the objective itself, without the floor
+        # (a design whose energies near zero is not "settled" at 1e-3 of its start's energy)
+        run.dec_own = -0.5 * float(gl @ nd.d) / max(abs(LA), abs(pt.F), 1e-300)
         if run.dec <= run.eps:
             return False
         d = self._predict(pt, nd, gl, t, w, rho, s, run.lo, run.hi)
@@ -573,7 +574,7 @@ class AugmentedLagrangian:
         if found.point is None:
             self.rel = min(self.rel * 100.0, 1e4)
             if self.rel >= 1e4:
-                run.status = "the line search found no decrease"
+                run.status, run.reason = "the line search found no decrease", StopReason.FAILED
             return True
         alpha, run.pt = found.alpha, found.point
         if alpha * turn < 1e-12:      # rounding: no step left to take
@@ -592,7 +593,20 @@ class AugmentedLagrangian:
                   f"eps {run.eps:.1e} alpha {alpha:.3g} rel {self.rel:.1e} ex {int(exact)} "
                   f"act {int(m.active.sum())} rho {np.median(rho):.1e}/{rho.max():.1e} err {int(run.erratic.sum())}")
         self._moved(run)
+        if not run.status and self.stop is Stop.DESIGN and self._designed(run):
+            run.status, run.converged, run.reason = (
+                f"stopped at the design tolerance: measured feasible, Newton decrement {run.dec_own:.1e}, "
+                f"objective down {_recent_decrease(run):.1e} over the last {DESIGN_WINDOW} Newton steps", True,
+                StopReason.DESIGN)
         return True
+
+    def _designed(self, run: "_Run") -> bool:
+        """The design tolerance (:data:`DESIGN_DECREMENT`) holds at the iterate just taken."""
+        if not self.monitor.last_feasible or run.dec_own > DESIGN_DECREMENT:
+            return False
+        recent = _recent_decrease(run)
+        # in either direction: an objective that rises while the rows are pulled feasible is moving too
+        return recent is not None and abs(recent) <= DESIGN_DECREASE
 
     def _step(self, run: "_Run", nd: _Direction, d: np.ndarray, gl: np.ndarray, LA: float,
               band: np.ndarray) -> tuple[_Search, float]:
@@ -628,8 +642,11 @@ class AugmentedLagrangian:
             run.pt = self._point(np.zeros(b.n_var))
         g = run.pt.g
         inf = float(np.max(np.maximum(np.maximum(self.lo - g, g - self.hi), 0.0), initial=0.0))
+        run.objectives.append(run.pt.F)
         if self.monitor.iterate(run.e, run.pt.F / self.sF, inf):
-            run.status = "time limit (safety net) reached" if self.monitor.timed_out else "stopped by callback"
+            timed = self.monitor.timed_out
+            run.status = "time limit (safety net) reached" if timed else "stopped by callback"
+            run.reason = StopReason.TIME_LIMIT if timed else StopReason.CALLBACK
 
     def _update(self, run: "_Run") -> None:
         """The outer update: multipliers, the penalties of rows that did not improve, the
@@ -643,13 +660,35 @@ class AugmentedLagrangian:
         if run.eps <= self.tol and run.dec <= self.tol and vmax <= VTOL and self.feasible(run.e):
             run.status, run.converged = f"converged: measured feasible, Newton decrement {run.dec:.1e}", True
         elif run.steps >= self.max_steps:
-            run.status = f"Maximum_Iterations_Exceeded ({run.steps} Newton steps)"
+            run.status, run.reason = f"Maximum_Iterations_Exceeded ({run.steps} Newton steps)", StopReason.ITERATION_LIMIT
         elif run.outer >= OUTER_MAX:
-            run.status = f"Maximum_Iterations_Exceeded ({run.outer} multiplier updates)"
+            run.status, run.reason = (f"Maximum_Iterations_Exceeded ({run.outer} multiplier updates)",
+                                      StopReason.ITERATION_LIMIT)
         grow = (np.abs(v) > TAU * np.abs(run.v_prev)) & (np.abs(v) > VTOL)
         run.rho = np.where(grow & ~run.converged, np.minimum(run.rho * GAMMA, RHO_MAX), run.rho)
         run.v_prev = v
         run.eps = max(self.tol, 0.1 * run.eps)
+
+
+class AlmStrategy:
+    """The strategy ``solver="alm"``: one augmented-Lagrangian solve from the start, warm from
+    the last answer's multipliers and penalties where the start resumes it."""
+
+    kind = NlpKind.ALM
+
+    def solve(self, ctx: SolveContext, start: Start) -> Run:
+        t0 = time.perf_counter()
+        opts, last, b = ctx.options, ctx.state.last, start.b
+        warm = last.alm if start.resume and last is not None else None
+        a = AugmentedLagrangian(b, start.p, ctx.monitor, ctx.feasible, max_steps=opts.max_iter or ALM_MAX_STEPS,
+                                tol=opts.tol, stop=opts.stop)
+        r = a.solve(start.e0, warm)
+        seconds = time.perf_counter() - t0
+        x, frames = b.pack(r.e)
+        return Run(x=x, lam_g=r.lam_g, iterations=r.iterations, status=r.status, ok=r.converged, active=True,
+                   working=None, frames=frames, build_seconds=0.0, solve_seconds=seconds, b=b, alm=r, solver="alm",
+                   # the parts of the augmented Lagrangian's time ("alm factor", ...), within "alm"
+                   timings={"alm": seconds, **{f"alm {k}": v for k, v in (r.seconds or {}).items()}})
 
 
 @dataclass
@@ -678,6 +717,18 @@ class _Run:
     status: str = ""
     converged: bool = False
     dec: float = math.inf     # the last Newton decrement
+    dec_own: float = math.inf  # the same relative to the objective alone (the design tolerance)
+    reason: StopReason = StopReason.CONVERGED
+    objectives: list = field(default_factory=list)   # F after each Newton step (DESIGN_WINDOW)
+
+
+def _recent_decrease(run: "_Run") -> float | None:
+    """The objective's relative decrease over the last :data:`DESIGN_WINDOW` Newton steps
+    (relative to ``|F|``, without the floor of the Newton decrement), None before that many."""
+    f = run.objectives
+    if len(f) <= DESIGN_WINDOW:
+        return None
+    return (f[-1 - DESIGN_WINDOW] - f[-1]) / max(abs(f[-1]), 1e-300)
 
 
 def _near(t: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -30,11 +30,14 @@ the invariants of the torsal form (isotropic part ``p``, strength ``rho``, see
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 from enum import Enum
 
 import casadi as ca
+import numpy as np
 
 from . import terms as T
+from .catalogue import Term, _var_index
 from .terms import TorsalAngleBetween
 
 #: The angles :meth:`~torsal.geometry.optimize.CongruenceProblem.min_torsal_angle` can bound.
@@ -168,3 +171,37 @@ def torsal_angle_split_element(
     c = (par[0] * ca.sqrt(rho2 + s * s) - s - par[2] * p) / ca.sqrt(p * p + rho2 + SPLIT_SCALE ** 2)
     return T.ElementTerm("min_torsal_angle", ca.Function("c_ang_split" + T._BETWEEN_SUFFIX[between],
                                                          [x, data, par], [c]), 3)
+
+
+def split_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float,
+                     between: TorsalAngleBetween = TorsalAngleBetween.PLANES,
+                     name: str = "min_torsal_angle") -> Term:
+    """c_ang in split form over faces ``fi`` (corner ids ``fv``, corners ``a`` in units of
+    delta): two rows per face, ``+p`` and ``-p`` (:func:`torsal_angle_split_element`)."""
+    m = len(fi)
+    par = np.concatenate([np.tile([c, s, 1.0], (m, 1)), np.tile([c, s, -1.0], (m, 1))])
+    return Term(name, True, torsal_angle_split_element(between), _var_index(np.tile(fv, (2, 1)), 0),
+                np.tile(a, (2, 1)), par, np.concatenate([fi, fi]), kind="torsal_angle", bound=alpha_deg,
+                between=TorsalAngleBetween(between).value)
+
+
+def lifted_angle_term(fi, fv, a, c: float, s: float, alpha_deg: float,
+                      between: TorsalAngleBetween = TorsalAngleBetween.PLANES) -> Term:
+    """c_ang lifted: rows ``u``, ``v``, ``w`` per face, equal to lifted variables (``nlp.Built._lift``)."""
+    m = len(fi)
+    par = np.concatenate([np.tile(np.r_[c, s, k], (m, 1)) for k in np.eye(3)])
+    return Term("min_torsal_angle", True, torsal_form_coordinates_element(between),
+                _var_index(np.tile(fv, (3, 1)), 0), np.tile(a, (3, 1)), par, np.tile(fi, 3),
+                kind="torsal_angle", bound=alpha_deg, lower=0.0, upper=0.0, lift=True,
+                between=TorsalAngleBetween(between).value)
+
+
+def unlifted(t: Term) -> Term:
+    """A lifted torsal-angle term as the split form over the same faces (for L-BFGS); any
+    other term as it is."""
+    if not t.lift:
+        return t
+    m = t.size // 3
+    return replace(split_angle_term(t.elements[:m], t.idx[:m, ::3] // 3, t.data[:m], float(t.par[0, 0]),
+                                    float(t.par[0, 1]), t.bound, t.between, t.name), block=t.block,
+                   idx=np.tile(t.idx[:m], (2, 1)))

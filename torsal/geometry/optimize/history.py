@@ -42,6 +42,7 @@ class SolveMonitor:
         self.best: BestIterate | None = None
         self.timed_out = False
         self.stopped_by_user = False
+        self.last_feasible = False      # the last iterate held every constraint as measured
 
     def start_pass(self, cap: int | None) -> None:
         """A new solver run with at most ``cap`` iterations (None: the solver's own limit)."""
@@ -56,10 +57,12 @@ class SolveMonitor:
         self.iteration += 1
         self.phase_iteration += 1
         if self.capped:
+            self.last_feasible = False
             return True
         worst = self.measure(e) if np.isfinite(e).all() else math.inf
         seconds = time.perf_counter() - self.t0
         feasible = bool(worst <= 1.0 + ROUNDING)   # as Measurement.holds
+        self.last_feasible = feasible
         self.history.append(IterationRecord(self.iteration, seconds, float(objective), float(worst), feasible,
                                             time.process_time() - self.cpu0))
         if feasible and np.isfinite(objective) and (self.best is None or objective < self.best.objective):

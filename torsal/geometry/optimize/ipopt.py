@@ -1,9 +1,12 @@
 """IPOPT for the congruence NLP: solver options, the three-pass strategy, iteration reports.
 
-:class:`IpoptStrategy` runs one solve of a :class:`~torsal.geometry.optimize.nlp.Built` NLP in
+:class:`IpoptPasses` runs one solve of a :class:`~torsal.geometry.optimize.nlp.Built` NLP in
 up to three passes (see ``try_unconstrained`` of
 :meth:`~torsal.geometry.optimize.CongruenceProblem.solve`): without the inequalities; with a
-working set of them (:mod:`~torsal.geometry.optimize.working_set`); with all of them.
+working set of them (:mod:`~torsal.geometry.optimize.working_set`); with all of them. The
+solve room's strategies (:class:`~torsal.geometry.optimize.strategy.SolveStrategy`):
+:class:`IpoptSolve` (the passes) and :class:`IpoptWarm` (all constraints, warm from another
+strategy's answer: the certification or continuation of the augmented Lagrangian's).
 """
 from __future__ import annotations
 
@@ -15,10 +18,19 @@ import numpy as np
 import scipy.sparse as sp
 from threadpoolctl import ThreadpoolController
 
-from .history import SolveMonitor
+from .alm import ALM_MAX_STEPS
+from .cache import NlpKind
 from .nlp import Built, _bound_violation
 from .projected import PROJECTED_ITERATIONS, ProjectedHessian
+from .strategy import Run, SolveContext, SolveState, Start
 from .working_set import _WORKING_SET_MAX_SHARE, PassOutcome, _near_bounds, working_set_pass
+
+#: IPOPT iterations of a certification (from the augmented Lagrangian's answer, warm)
+CERTIFY_ITERATIONS = 100
+#: IPOPT iterations of a solve when ``max_iter`` is not given
+IPOPT_MAX_ITER = 200
+#: at least this many IPOPT iterations continue an augmented Lagrangian that did not converge
+RESCUE_MIN_ITERATIONS = 50
 
 
 class IpoptRun(NamedTuple):
@@ -33,9 +45,9 @@ class IpoptRun(NamedTuple):
 
 
 class _IterationCallback(ca.Callback):
-    """casadi iteration callback: forwards every iterate to ``owner._report_iteration(arg)`` (True stops IPOPT)."""
+    """casadi iteration callback: forwards every iterate to ``owner.report_iteration(arg)`` (True stops IPOPT)."""
 
-    def __init__(self, name: str, nx: int, ng: int, np_: int, owner):
+    def __init__(self, name: str, nx: int, ng: int, np_: int, owner: SolveState):
         ca.Callback.__init__(self)
         self.nx, self.ng, self.np_ = nx, ng, np_
         self.owner = owner
@@ -66,7 +78,7 @@ class _IterationCallback(ca.Callback):
         return ca.Sparsity(0, 0)
 
     def eval(self, arg):    # (casadi calls eval_buffer; kept for a casadi without buffers)
-        return [ca.DM(1 if self.owner._report_iteration(
+        return [ca.DM(1 if self.owner.report_iteration(
             {k: np.asarray(arg[_OUT.index(k)], dtype=float).ravel() for k in ("x", "f", "g")}) else 0)]
 
     def has_eval_buffer(self):
@@ -77,7 +89,7 @@ class _IterationCallback(ca.Callback):
         conversion to numpy cost about 1 ms per iteration at 4,000 variables)."""
         it = {k: np.frombuffer(arg[_OUT.index(k)], dtype=float) if arg[_OUT.index(k)] is not None
               else np.zeros(0) for k in ("x", "f", "g")}
-        np.frombuffer(res[0], dtype=float)[0] = 1.0 if self.owner._report_iteration(it) else 0.0
+        np.frombuffer(res[0], dtype=float)[0] = 1.0 if self.owner.report_iteration(it) else 0.0
         return 0
 
 
@@ -85,17 +97,17 @@ _OUT = ca.nlpsol_out()     # the names of IPOPT's outputs, the callback's inputs
 
 
 
-class IpoptStrategy:
-    """IPOPT solves of one problem's NLPs, reporting every iterate to a :class:`SolveMonitor`.
+class IpoptPasses:
+    """IPOPT solves of one problem's NLPs, reporting every iterate to the call's :class:`SolveMonitor`.
 
-    ``problem`` supplies the NLP without inequalities (``_free_built``), the current term
-    parameters (``_current``) and the last solution (``_last``, for warm starts).
+    ``ctx`` supplies the NLP without inequalities (its NLP cache), the current term parameters
+    (its registry), the last solution (its solve state, for warm starts) and the options.
     """
 
-    def __init__(self, problem, monitor: SolveMonitor, frames: np.ndarray, *, limit: int, tol: float,
-                 verbose: bool, options: dict | None):
-        self.problem, self.monitor, self.frames = problem, monitor, frames
-        self.limit, self.tol, self.verbose, self.options = limit, tol, verbose, options
+    def __init__(self, ctx: SolveContext, frames: np.ndarray, *, limit: int):
+        opts = ctx.options
+        self.ctx, self.monitor, self.frames = ctx, ctx.monitor, frames
+        self.limit, self.tol, self.verbose, self.options = limit, opts.tol, opts.verbose, opts.ipopt_options
         self.active: Built | None = None
         self.build_seconds = 0.0
         self.last: IpoptRun | None = None      # the last run (its bound multipliers for a warm start)
@@ -119,7 +131,7 @@ class IpoptStrategy:
         """The (cached) IPOPT solver of ``b``; the cold and the warm-start variant are built together.
 
         ``warm``: False (cold), True (warm: a certification, a working-set pass) or a key of
-        :data:`RESOLVE_OPTIONS` (the designer's re-solve, see :meth:`_resolve_variant`).
+        :data:`RESOLVE_OPTIONS` (the designer's re-solve, see :meth:`IpoptPasses._resolve_variant`).
         ``x0``, ``p``: the start of the first solve, where IPOPT's first Hessian
         regularization is estimated (see :func:`_hessian_shift`).
         """
@@ -130,9 +142,9 @@ class IpoptStrategy:
         t0 = time.perf_counter()
         if b.n_g and not warm:
             self.solver(b, True, x0, p)
-        # the callback outlives this solve (the solver is cached): it reports to the problem,
-        # which forwards to the strategy of the solve in progress
-        cb = _IterationCallback(f"cb{len(b.solvers)}", b.n_var, b.n_g, b.n_par, self.problem)
+        # the callback outlives this solve (the solver is cached): it reports to the problem's
+        # solve state, which forwards to the passes of the solve in progress
+        cb = _IterationCallback(f"cb{len(b.solvers)}", b.n_var, b.n_g, b.n_par, self.ctx.state)
         ip = {"linear_solver": "mumps", "print_level": 5 if verbose else 0, "sb": "yes",
               "max_iter": int(max_iter), "tol": float(tol), "acceptable_tol": 10 * float(tol),
               "acceptable_iter": 10, "mu_strategy": "adaptive", "mumps_pivot_order": 5,
@@ -171,7 +183,7 @@ class IpoptStrategy:
     def call(self, s, b: Built, args: dict, cap: int | None) -> IpoptRun:
         """One IPOPT run with at most ``cap`` iterations."""
         self.active, self.p = b, args["p"]
-        lbx, ubx = b.variable_bounds(self.problem._current())
+        lbx, ubx = b.variable_bounds(self.ctx.registry.current())
         if b.n_slack:   # slacks just large enough for the start (elastic form, see Built._elastic)
             args = {**args, "x0": b.with_slacks(args["x0"], args["p"]), "lbx": lbx, "ubx": ubx}
         else:           # lifted variables from the directions (a start from another NLP: its directions)
@@ -210,7 +222,7 @@ class IpoptStrategy:
         ``|t| <= 1``: without them IPOPT starts with the bound multipliers at 0, so its first
         step repairs the dual infeasibility that leaves, 1 to 2 iterations on row 7d).
         """
-        limit, problem = self.limit, self.problem
+        limit, ctx = self.limit, self.ctx
 
         def cold():
             # the cold solver of b, built (with its warm-start variant) when a pass needs it:
@@ -220,8 +232,8 @@ class IpoptStrategy:
         sw = self.solver(b, True, x0, p) if warm else None
         ineq = b.inequality_rows
         feas_tol = float((self.options or {}).get("constr_viol_tol", 1e-9))
-        last = problem._last or {}
-        prev_ws = last.get("working") if warm else None
+        last = ctx.state.last
+        prev_ws = last.working if warm and last is not None else None
         iters, status = 0, ""
         if warm and prev_ws is not None and prev_ws.size == b.n_g:
             # the designer's re-solve after a working-set solve: same set, warm multipliers
@@ -230,9 +242,9 @@ class IpoptStrategy:
                 return out
             iters, status = out.iterations, out.status
             warm = False     # fall back to all constraints, cold, from the same start
-        elif try_unconstrained and ineq.any() and not (warm and last.get("active")):
-            bf, extra = problem._free_built(mode)
-            pf = bf.parameters(problem._current(), self.frames)
+        elif try_unconstrained and ineq.any() and not (warm and last is not None and last.active):
+            bf, extra = ctx.nlp.without_inequalities(mode)
+            pf = bf.parameters(ctx.registry.current(), self.frames)
             self.build_seconds += extra
             s1 = self.solver(bf, False, x0, pf)
             r1 = self.call(s1, bf, dict(x0=x0, p=pf, lbg=bf.lbg, ubg=bf.ubg), max(limit // 2, 1))
@@ -317,6 +329,75 @@ class IpoptStrategy:
         """The monitor stopped IPOPT (the user's callback or the time limit), not a cap."""
         return status == "User_Requested_Stop" and (self.monitor.stopped_by_user or self.monitor.timed_out)
 
+    def __enter__(self) -> "IpoptPasses":
+        """The passes in progress: the cached solvers' callbacks report to them."""
+        self.ctx.state.ipopt = self
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.ctx.state.ipopt = None
+
+    def bound_multipliers(self, b: Built, lam_g) -> np.ndarray | None:
+        """The bound multipliers of the IPOPT run that gave the answer (the last run, on ``b``),
+        or None where no multipliers are kept (pass 1's answer: ``lam_g`` None)."""
+        last = self.last
+        if lam_g is None or last is None or last.lam_x is None or last.lam_x.size != b.n_var:
+            return None
+        return last.lam_x
+
+
+class IpoptSolve:
+    """The strategy ``solver="ipopt"``: IPOPT in its passes (:meth:`IpoptPasses.solve`).
+
+    ``handover``: where pass 1 (no inequalities) misses one, stop there with the run marked
+    ``handed_over``, for the augmented Lagrangian to continue (``"auto"``'s ``ipopt+alm``)."""
+
+    kind = NlpKind.IPOPT
+
+    def __init__(self, *, handover: bool = False):
+        self.handover = handover
+
+    def solve(self, ctx: SolveContext, start: Start) -> Run:
+        t0 = time.perf_counter()
+        b, opts = start.b, ctx.options
+        with IpoptPasses(ctx, start.frames, limit=opts.max_iter or IPOPT_MAX_ITER) as passes:
+            out = passes.solve(b, ctx.nlp.mode(NlpKind.IPOPT), start.warm, start.lam_g0, start.x0, start.p,
+                               opts.try_unconstrained, handover=self.handover, lam_x0=start.lam_x0)
+        s = time.perf_counter() - t0 - passes.build_seconds
+        return Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
+                   active=out.constraints_active, working=out.working, frames=passes.frames,
+                   build_seconds=passes.build_seconds, solve_seconds=s, b=b, solver="ipopt", timings={"ipopt": s},
+                   lam_x=passes.bound_multipliers(b, out.lam_g), handed_over=out.handed_over)
+
+
+def rescues(ctx: SolveContext, previous: Run) -> bool:
+    """IPOPT continues an answer that is not converged (``"auto"``), rather than certifying one."""
+    return ctx.options.solver == "auto" and not previous.ok
+
+
+class IpoptWarm:
+    """The strategy that continues another's answer (``Start.previous``, the augmented
+    Lagrangian's): IPOPT with all constraints, warm from its directions and multipliers.
+
+    A certification (at most :data:`CERTIFY_ITERATIONS`), or where ``"auto"``'s augmented
+    Lagrangian did not converge (:func:`rescues`) a continuation with what is left of
+    ``max_iter`` (at least :data:`RESCUE_MIN_ITERATIONS`)."""
+
+    kind = NlpKind.IPOPT
+
+    def solve(self, ctx: SolveContext, start: Start) -> Run:
+        t0 = time.perf_counter()
+        prev, b, first = start.previous, start.b, ctx.monitor.iteration
+        cap = (max((ctx.options.max_iter or ALM_MAX_STEPS) - prev.iterations, RESCUE_MIN_ITERATIONS)
+               if rescues(ctx, prev) else CERTIFY_ITERATIONS)
+        with IpoptPasses(ctx, start.frames, limit=cap) as passes:
+            out = passes.warm_pass(b, start.x0, start.p, prev.lam_g, cap)
+        s = time.perf_counter() - t0 - passes.build_seconds
+        return Run(x=out.x, lam_g=out.lam_g, iterations=out.iterations, status=out.status, ok=out.converged,
+                   active=True, working=None, frames=start.frames, build_seconds=passes.build_seconds,
+                   solve_seconds=s, b=b, solver="ipopt", timings={"ipopt": s},
+                   lam_x=passes.bound_multipliers(b, out.lam_g), first_iteration=first)
+
 def _push(v: float) -> dict:
     """IPOPT's warm-start pushes of the iterate and the bound multipliers off their bounds."""
     return {k: v for k in ("warm_start_bound_push", "warm_start_bound_frac", "warm_start_slack_bound_push",
@@ -328,7 +409,7 @@ def _push(v: float) -> dict:
 #: start at a KKT point takes its Newton steps, then spent one or two more on the last digits
 #: of the lifted rows (row 7d, light weights x1.2: 4 -> 2 iterations), far below what the
 #: answer is measured at (0.1 degree; the warm answer is measured on the geometry like any
-#: other). "far" (the start is not near stationarity, :meth:`IpoptStrategy._resolve_variant`):
+#: other). "far" (the start is not near stationarity, :meth:`IpoptPasses._resolve_variant`):
 #: the iterate and the bound multipliers pushed 1e-4 off their bounds, not 1e-9, so the
 #: active set can change without the fraction-to-boundary rule cutting every step (row 7d,
 #: the sun turned by 5 degrees: 51 -> 20 iterations, a cold solve of the changed problem 51).

@@ -143,7 +143,7 @@ class Local:
         self.lag_e = ca.Function(fn.name() + "_lag", ins + [coef], [coef * ge])
         if jit:
             # nothing differentiates the NLP's f and g symbolically (IPOPT's nlpsol is built
-            # without its nlp_grad, see ipopt.IpoptStrategy.solver): the values compile too
+            # without its nlp_grad, see ipopt.IpoptPasses.solver): the values compile too
             # (Fig. 12 row 7d: an evaluation of f 2.3 -> 0.6 ms, of g 2.4 -> 0.7 ms)
             self.val = _jit(self.val)
             self.grad, self.hess = _jit(self.grad), _jit(self.hess)

@@ -2,12 +2,18 @@
 from __future__ import annotations
 
 import math
+import time
 from typing import NamedTuple
 
 import numpy as np
 
+from .cache import NlpKind
 from .history import SolveMonitor
 from .nlp import Built, _renormalize
+from .strategy import Run, SolveContext, Start
+
+#: L-BFGS iterations when ``solve(max_iter=...)`` is not given
+LBFGS_MAX_ITER = 1000
 
 
 class LbfgsRun(NamedTuple):
@@ -67,3 +73,19 @@ def lbfgs(b: Built, x0: np.ndarray, p: np.ndarray, monitor: SolveMonitor, *, max
             break
         f_prev = f
     return LbfgsRun(x, status, ok, count["it"])
+
+
+class LbfgsStrategy:
+    """The strategy ``solver="lbfgs"``: :func:`lbfgs` on the penalty NLP."""
+
+    kind = NlpKind.LBFGS
+
+    def solve(self, ctx: SolveContext, start: Start) -> Run:
+        t0 = time.perf_counter()
+        opts = ctx.options
+        r = lbfgs(start.b, start.x0, start.p, ctx.monitor, max_iter=opts.max_iter or LBFGS_MAX_ITER, tol=opts.tol,
+                  penalty=opts.penalty)
+        s = time.perf_counter() - t0
+        return Run(x=r.x, lam_g=None, iterations=r.iterations, status=r.status, ok=r.converged, active=None,
+                   working=None, frames=start.frames, build_seconds=0.0, solve_seconds=s, b=start.b,
+                   solver="lbfgs", timings={"lbfgs": s})

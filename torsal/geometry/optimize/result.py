@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import NamedTuple
 
 from torsal.core.errors import TorsalError
@@ -38,6 +39,68 @@ class IterationRecord(NamedTuple):
     violation: float
     feasible: bool
     cpu_seconds: float = math.nan
+
+
+class Stop(str, Enum):
+    """Where :meth:`~torsal.geometry.optimize.CongruenceProblem.solve` may stop (``stop=``; a
+    ``str`` enum: design files give the value, ``constraints.stop = "converged"``).
+
+    ``DESIGN`` (the default): at the first iterate that holds every constraint as measured
+    while the augmented Lagrangian's objective has stopped moving (its Newton decrement and
+    its decrease over the last steps below the design tolerance, see
+    :data:`torsal.geometry.optimize.alm.DESIGN_DECREMENT`): the digits after it change
+    nothing the fins, the light figures or the measured angles show. ``CONVERGED``: to the
+    solver's own convergence (``tol``), for comparisons with the paper's table and for
+    certification.
+    """
+
+    DESIGN = "design"
+    CONVERGED = "converged"
+
+
+#: the ``stop`` options of :meth:`CongruenceProblem.solve` (the first is the default)
+STOPS = tuple(s.value for s in Stop)
+
+
+class StopReason(str, Enum):
+    """Why a solve ended (:attr:`Convergence.reason`)."""
+
+    DESIGN = "design tolerance"          # measured feasible, the objective no longer moves (Stop.DESIGN)
+    CONVERGED = "converged"              # the solver's own convergence test
+    ITERATION_LIMIT = "iteration limit"
+    TIME_LIMIT = "time limit"            # the safety net max_seconds: the answer depends on the load
+    CALLBACK = "stopped by callback"
+    FAILED = "failed"                    # the solver gave up (no decrease, no factorization, ...)
+
+
+class Convergence(NamedTuple):
+    """How close to converged a solve's answer is (``OptimizationResult.convergence``).
+
+    Attributes
+    ----------
+    stop : Stop
+        The rule the solve was asked to stop at.
+    reason : StopReason
+        Why it ended.
+    newton_decrement : float or None
+        The augmented Lagrangian's last Newton decrement relative to its objective (the
+        decrease of ``L_A`` a full Newton step predicts: what is left at the current
+        multipliers); None where it did not run last.
+    recent_decrease : float or None
+        The objective's relative decrease over the last :data:`~torsal.geometry.optimize.alm.DESIGN_WINDOW`
+        Newton steps (an estimate of the energy still to gain, per that many steps); None
+        where fewer steps ran or the augmented Lagrangian did not run last.
+    """
+
+    stop: Stop
+    reason: StopReason
+    newton_decrement: float | None = None
+    recent_decrease: float | None = None
+
+    def as_dict(self) -> dict:
+        """JSON-ready (``report.json``'s ``congruence.convergence``)."""
+        return {"stop": self.stop.value, "reason": self.reason.value, "newton_decrement": self.newton_decrement,
+                "recent_decrease": self.recent_decrease}
 
 
 class OptimizationError(TorsalError, RuntimeError):
@@ -121,6 +184,9 @@ class OptimizationResult:
     time_limited : bool
         The safety net ``max_seconds`` cut the solve: the answer depends on the machine's
         load (the status says so too).
+    convergence : Convergence or None
+        The stopping rule asked for, why the solve ended and how close to converged its
+        answer is (the last Newton decrement, the recent decrease of the objective).
     """
 
     congruence: Congruence
@@ -145,6 +211,7 @@ class OptimizationResult:
     timings: dict = field(default_factory=dict)
     counts: dict = field(default_factory=dict)
     time_limited: bool = False
+    convergence: Convergence | None = None
 
     @property
     def feasible(self) -> bool:

@@ -40,7 +40,7 @@ class PassOutcome(NamedTuple):
     ``constraints_active``: False when pass 1 (no inequalities) met them all, True when
     inequalities were imposed, None without inequalities. ``working``: the working-set mask
     over ``g`` when pass 2 answered, else None. ``handed_over``: pass 1 missed an inequality
-    and the solve asked to stop there (``IpoptStrategy.solve(handover=True)``): ``x`` is pass
+    and the solve asked to stop there (``IpoptPasses.solve(handover=True)``): ``x`` is pass
     1's answer, for the augmented Lagrangian to continue from.
     """
 
