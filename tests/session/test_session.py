@@ -15,7 +15,7 @@ from test_examples import small  # noqa: E402
 from torsal.design import Design  # noqa: E402
 from torsal.pipeline import DEFAULT_PIPELINE, StageCache, StageInputs, StageRun, run_stages  # noqa: E402
 from torsal.pipeline.design_file import DesignFileError  # noqa: E402
-from torsal.session import AnswerKind, Session, SessionEditError  # noqa: E402
+from torsal.session import AnswerKind, Session, SessionEditError, apply_edit  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "7a_facade_block.toml"
 
@@ -154,13 +154,13 @@ def test_a_cancelled_build_leaves_nothing_half_written(tmp_path):
             making.set()
 
     out = tmp_path / "out"
-    with Session(_spec(dxf=True, bom=True), out, progress=progress,
-                 pipeline=_without_assembly()) as s:
+    spec = apply_edit(_spec(dxf=True, bom=True), spacing=2.0)    # fewer parts: a quicker build
+    with Session(spec, out, progress=progress, pipeline=_without_assembly()) as s:
         s.start()
         assert making.wait(60), "the build did not reach the fabrication"
         assert _results(out) == ([], None)              # nothing published while it runs
         making.clear()
-        a = s.set_fins(spacing=1.6)                     # cancels the first build
+        a = s.set_fins(spacing=2.2)                     # cancels the first build
         built = s.wait_built(timeout=60)
         assert s.builds_cancelled == 1
         assert built is not None and built.kind is AnswerKind.BUILT and built.revision == a.revision
@@ -170,17 +170,17 @@ def test_a_cancelled_build_leaves_nothing_half_written(tmp_path):
         listed = json.loads((out / ".torsal-results.json").read_text())["runs"]["design"]["files"]
         assert listed and all((out / p).exists() for p in listed)
         report = json.loads(published[1])
-        assert report["design"]["fins"]["spacing"] == 1.6
+        assert report["design"]["fins"]["spacing"] == 2.2
         assert report["fabrication"]["parts"] == built.report["fabrication"]["parts"] > 0
         assert any(p.startswith("sheets/") for p in published[0]) and "parts.csv" in published[0]
         making.clear()
-        b = s.set_fins(spacing=1.7)
+        b = s.set_fins(spacing=2.4)
         assert b.kind is AnswerKind.PREVIEW and making.wait(60)
         s.cancel_build()
         assert s._builder.wait_idle(60) and s.builds_cancelled == 2
-        assert _results(out) == published               # the build of 1.6, byte for byte
+        assert _results(out) == published               # the build of 2.2, byte for byte
         assert not (out / ".torsal-staging").exists()
-        assert s.wait_built(timeout=1) is None          # no built answer of 1.7
+        assert s.wait_built(timeout=1) is None          # no built answer of 2.4
 
 
 def test_an_infeasible_edit_keeps_the_last_good_design(tmp_path):

@@ -142,11 +142,11 @@ class Session:
         whose inputs did not change are kept)."""
         t0 = time.perf_counter()
         with self._edit_lock:
-            if self._good is None and spec == self._spec:
-                return self.start()
             if self._good is None:
-                self.start()
-            if spec == self._good.spec:
+                first = self.start()
+                if spec == self._spec:
+                    return first
+            if self._good is not None and spec == self._good.spec:
                 return self._unchanged(t0)
             if self._builder is not None:
                 self._builder.cancel()
@@ -342,20 +342,14 @@ class Session:
         end = None if timeout is None else time.monotonic() + timeout
         with self._cond:
             while True:
-                good = self._good
-                if self._built is not None and good is not None and \
-                        self._built.revision == good.revision:
-                    return self._built
+                good, built = self._good, self._built
+                if built is not None and good is not None and built.revision == good.revision:
+                    return built
+                if not self._builder.busy:       # cancelled, or never started: none will come
+                    return None
                 left = None if end is None else end - time.monotonic()
                 if left is not None and left <= 0:
                     return None
-                if not self._builder.busy and (left is None or left > 0.05):
-                    # nothing runs: the good design's build was cancelled or never submitted
-                    self._cond.wait(0.05 if left is None else min(left, 0.05))
-                    if not self._builder.busy and (self._built is None
-                                                   or self._built.revision != good.revision):
-                        return None
-                    continue
                 self._cond.wait(0.1 if left is None else min(left, 0.1))
 
     def cancel_build(self) -> None:
