@@ -13,7 +13,7 @@ import numpy as np
 
 from .design_file import DesignSpec
 from ..geometry.congruence import Congruence, direction_spread
-from ..geometry.optimize import Stop, TorsalAngleBetween
+from ..geometry.optimize import TorsalAngleBetween
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from .annual import annual_applies, annual_key, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
@@ -142,7 +142,7 @@ def run_orient(inp: StageInputs) -> dict:
 
 
 # ------------------------------------------------------------------ congruence (4.1)
-def run_congruence(inp: StageInputs, *, make_problem=None, stop: Stop | None = None) -> dict:
+def run_congruence(inp: StageInputs, *, make_problem=None, solve_options: dict | None = None) -> dict:
     """Optimize the congruence (eq. 9; the augmented Lagrangian or IPOPT, ``constraints.solver``).
     Returns ``directions`` (n, 3), ``optimum`` (the warm start of a re-solve), the
     ``report`` section, and with a ``[substructure]`` ``substructure_vertices`` /
@@ -151,9 +151,10 @@ def run_congruence(inp: StageInputs, *, make_problem=None, stop: Stop | None = N
     ``make_problem(spec, vertices, faces, sun_vectors, sun_weights)``: the problem to solve,
     default :func:`~torsal.pipeline.problem.congruence_problem`; a live session
     (:class:`torsal.session.Session`) passes one that re-uses its built problem and warm-starts
-    it from the last optimum. ``stop``: where the solve may stop (None: the optimizer's default,
-    the design tolerance; ``benchmarks/optimize_bench.py --tables stop`` runs the stage with
-    ``Stop.CONVERGED`` beside it)."""
+    it from the last optimum. ``solve_options``: more :meth:`CongruenceProblem.solve
+    <torsal.geometry.optimize.CongruenceProblem.solve>` options (e.g. ``stop``, ``tol``; none:
+    the optimizer's defaults, the design tolerance): ``benchmarks/optimize_bench.py --tables
+    stop`` runs the stage to convergence beside the default."""
     from .problem import congruence_problem
 
     spec = inp.spec
@@ -163,7 +164,7 @@ def run_congruence(inp: StageInputs, *, make_problem=None, stop: Stop | None = N
     C = spec.constraints
     r = p.solve(solver=C.solver.value, certify=C.certify, max_iter=C.max_iter, max_seconds=C.max_seconds,
                 callback=lambda info: inp.progress("iteration", info),
-                constraint_tol=CONSTRAINT_TOL, **({} if stop is None else {"stop": stop}))
+                constraint_tol=CONSTRAINT_TOL, **(solve_options or {}))
     c = r.congruence
     # a design is usable when every constraint holds as measured on its geometry (angles
     # within 0.1 degree, see OptimizationResult.max_violation), converged or not
