@@ -252,13 +252,13 @@ def stage_row(design: Path, out: Path, congruence: Path | None, label: str) -> d
     spec = Design.from_toml(design).spec
     cache = StageCache(out / "cache", prune=False)
     load0 = load_average()
-    fins._last = None
+    fins.forget_fin_system()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with _timed_steps(timing):
             run = run_stages(Pipeline(tuple(stages)), spec, out / "run", cache,
                              run=StageRun(report={"name": spec.name, "units": spec.units}))
-    fs = fins._last[1]
+    fs = fins.last_fin_system()
     fab = run.report["fabrication"]
     asm = fab["assembly"]
     solids_cpu = getattr(fs, "solids_cpu_seconds", None) or 0.0

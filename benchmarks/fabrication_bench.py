@@ -301,12 +301,12 @@ def design_stage_times(toml: Path, out: Path) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         design.run(out / "warm", cache=cache, pipeline=pipe, accept_unbuildable=True)
-        fins._last = None          # a new process: no fin system (with solids) of the warm run
+        fins.forget_fin_system()          # a new process: no fin system (with solids) of the warm run
         timing.clear()
         with _timed_steps(timing):
             run = design.run(out / "run", cache=cache, pipeline=pipe, accept_unbuildable=True)
     fabrication = run.report.get("fabrication", {})
-    timing["workers_cpu"] = getattr(fins._last[1], "solids_cpu_seconds", None) if fins._last else None
+    timing["workers_cpu"] = getattr(fins.last_fin_system(), "solids_cpu_seconds", None)
     nesting = fabrication.get("nesting") or {}
     return {"design": Path(toml).stem, "parts": fabrication.get("parts"),
             "sheets": fabrication.get("sheets"), "nester": nesting.get("nester", "-").split(" (")[0],
@@ -367,7 +367,7 @@ def design_fin_system(toml: Path, out: Path):
         warnings.simplefilter("ignore")
         Design.from_toml(toml).run(out / "nest_run", cache=StageCache(out / "cache", prune=False),
                                    pipeline=DEFAULT_PIPELINE.until("fabrication"))
-    return fins._last[1]
+    return fins.last_fin_system()
 
 
 DESIGN_COLUMNS = [("design", "design"), ("parts", "parts"), ("sheets", "sheets"),

@@ -1,6 +1,6 @@
 """A generated corpus of bad and unusual inputs, each run through the command line.
 
-Every case writes its own small files (nothing big is stored) and runs ``torsal.pipeline.cli.main``
+Every case writes its own small files (nothing big is stored) and runs ``torsal.cli.main``
 in-process; a few run the installed ``torsal`` as a subprocess to show that no traceback
 reaches stderr. A bad input must exit 2 with a message naming the problem (and the line, for a
 line of a file), no traceback, and no result of its own; an unusual but valid input must exit 0
@@ -38,7 +38,7 @@ from annotated_types import Ge, Gt, Le, Lt
 from pydantic import BaseModel
 
 import mesh_cases as mc
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.pipeline.design_file import DesignSpec, Region
 from torsal.geometry.congruence import Congruence
 from torsal.light.sun import write_synthetic_epw

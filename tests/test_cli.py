@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.geometry.surfaces import facade_patch
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -91,7 +91,8 @@ def test_console_script_is_installed(facade, tmp_path):
 
 def test_readme_python_example_runs():
     text = (ROOT / "README.md").read_text()
-    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    # the example of the section "In Python" (other sections show fragments)
+    code = re.search(r"```python\n(.*?)```", text.split("\n## In Python", 1)[1], re.S).group(1)
     assert len(code.strip().splitlines()) <= 12
     exec(compile(code, "README.md", "exec"), {})
 

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.design import Design, dominant_light_direction, select_faces, select_vertices
 from torsal.pipeline.design_file import DesignFileError, Region, load_design_file
 

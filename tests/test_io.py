@@ -92,7 +92,7 @@ def test_a_good_run_replaces_only_its_own_results(tmp_path):
 
 
 def test_a_failed_run_into_a_new_folder_leaves_no_folder(tmp_path, capsys):
-    from torsal.pipeline.cli import main
+    from torsal.cli import main
 
     (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1.0 2.0 3.0\n")
     assert main(["analyze", str(tmp_path / "bad.obj"), "--out", str(tmp_path / "new" / "out")]) == 2

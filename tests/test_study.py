@@ -13,7 +13,7 @@ import tomli_w
 
 from torsal import Study, StudyFileError
 from torsal.light.devices import DEVICE_NAMES
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.study.study_report import X_KEY, Y_KEY
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -8,7 +8,7 @@ import pytest
 
 from torsal.design import Design
 from torsal.pipeline import DEFAULT_PIPELINE
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.pipeline.design_file import DesignFileError, DesignSpec, load_design_file
 from torsal.pipeline.report import design_report_html
 

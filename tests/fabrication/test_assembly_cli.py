@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from fab_structures import cylinder_structure, flat_structure
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.geometry.congruence import Congruence
 from torsal.geometry.support import crossing_folds
 from torsal.pipeline.assembly import congruence_gate, support_gate

@@ -198,7 +198,7 @@ def test_a_degenerate_one_sun_design_builds_or_names_what_to_do(tmp_path, capsys
     # plate cannot be made, the run ends with exit 2 naming the parts and what to change
     import json
 
-    from torsal.pipeline.cli import main
+    from torsal.cli import main
 
     (tmp_path / "d.toml").write_text(parallel_lines_design())
     rc = main(["design", str(tmp_path / "d.toml"), "--out", str(tmp_path / "out")])

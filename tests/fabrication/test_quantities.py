@@ -15,7 +15,7 @@ from torsal.fabrication.builder.fasteners import fastener_counts
 from torsal.fabrication.cutting import Cutting, Process
 from torsal.fabrication.model import CONNECTOR_FAMILY, FIXING_FAMILY, Hole, Part, PartId, Slot, SlotSide
 from torsal.fabrication.quantities import CostLine, Rates, bill_of_quantities, price
-from torsal.pipeline.cli import main
+from torsal.cli import main
 from torsal.pipeline.design_file import DesignFileError, load_design_file
 from torsal.pipeline.quantities import quantities_report, surface_area
 from torsal.pipeline.report import design_report_html

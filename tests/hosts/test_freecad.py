@@ -205,7 +205,7 @@ def test_install_refuses_a_folder_that_is_not_its_own(tmp_path):
 
 
 def test_the_cli_names_a_mod_folder_it_cannot_use(tmp_path, capsys):
-    from torsal.pipeline.cli import main
+    from torsal.cli import main
 
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")

@@ -5,6 +5,9 @@
   :data:`DEFAULT_PIPELINE`, a :class:`Pipeline` of :class:`Stage` s (plain functions with
   declared inputs, see :mod:`torsal.pipeline.stage`), each result cached by a hash of its
   inputs (:mod:`torsal.pipeline.cache`).
+
+Studies are a room above this one (:mod:`torsal.study`, ``torsal.Study``), and the command
+line sits at the top (:mod:`torsal.cli`): the pipeline imports neither.
 """
 from .analyze import AnalysisResult, DirectionsError, analyze, load_directions, read_directions
 from .assembly import UnbuildableDesignError
@@ -15,12 +18,9 @@ from .problem import JIT_MIN_VERTICES, congruence_problem, term_weights
 from .regions import dominant_light_direction, select_faces, select_vertices
 from .stage import Pipeline, Stage, StageInputs, StageRun, run_stages, stage_keys
 from .stages import DEFAULT_PIPELINE, STAGES
-# studies live in their own room (torsal.study), re-exported here where they have always been
-from ..study import Study, StudyFileError, StudyProgress, StudyResult
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError", "Design", "DesignResult",
            "DesignError", "Progress", "StageCache", "stage_key", "Pipeline", "Stage",
            "StageInputs", "StageRun", "run_stages", "stage_keys", "DEFAULT_PIPELINE", "STAGES",
            "select_vertices", "select_faces", "dominant_light_direction", "congruence_problem",
-           "term_weights", "JIT_MIN_VERTICES", "Study", "StudyProgress", "StudyResult",
-           "StudyFileError", "UnbuildableDesignError"]
+           "term_weights", "JIT_MIN_VERTICES", "UnbuildableDesignError"]

@@ -22,6 +22,7 @@ crossing), each a small report section naming faces or nodes.
 from __future__ import annotations
 
 import os
+from contextvars import ContextVar
 from pathlib import Path
 from typing import NamedTuple
 
@@ -82,7 +83,9 @@ class _Prefetch(NamedTuple):
     read: object              # its :class:`~torsal.fabrication.exports.PendingStepRead`
 
 
-_prefetched: _Prefetch | None = None
+#: the re-read of this thread or task (a ContextVar: designs run side by side by one
+#: process's threads keep theirs apart)
+_PREFETCHED: ContextVar[_Prefetch | None] = ContextVar("torsal_prefetched_step", default=None)
 
 
 def _stamp(path: Path) -> tuple:
@@ -101,18 +104,17 @@ def prefetch_step_solids(path) -> None:
     binary form (vertices bit for bit; a plane's direction is normalized again on reading,
     which moves volumes by round-off, about 1e-15 of them). Only the last file is kept; a
     file changed since is read again."""
-    global _prefetched
     from ..fabrication.exports import start_read_step
 
     drop_prefetched_solids()
     path = Path(path)
-    _prefetched = _Prefetch(path.resolve(), _stamp(path), start_read_step(path))
+    _PREFETCHED.set(_Prefetch(path.resolve(), _stamp(path), start_read_step(path)))
 
 
 def drop_prefetched_solids() -> None:
     """Stop a re-read started by :func:`prefetch_step_solids` (a later step failed)."""
-    global _prefetched
-    pre, _prefetched = _prefetched, None
+    pre = _PREFETCHED.get()
+    _PREFETCHED.set(None)
     if pre is not None:
         pre.read.cancel()
 
@@ -121,13 +123,12 @@ def _step_solids(path: Path):
     """``read_step(path)`` in OpenCascade's binary form, taken from
     :func:`prefetch_step_solids` when it read this file: the check gets the same solids
     whether they were read in the background or here."""
-    global _prefetched
     from ..fabrication import read_step
     from ..fabrication.exports import binary_round_trip
 
-    pre = _prefetched
+    pre = _PREFETCHED.get()
     if pre is not None and pre.path == path.resolve() and pre.stamp == _stamp(path):
-        _prefetched = None
+        _PREFETCHED.set(None)
         return pre.read.result()
     drop_prefetched_solids()        # of another file, or of this one before it changed
     return binary_round_trip(read_step(path))

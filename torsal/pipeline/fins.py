@@ -4,20 +4,36 @@ stages).
 
 Both stages of one run ask for the fin system of the same structure: it is built once and
 handed to the second (with its solids, if the first built them). The memo keeps only the last
-fin system and is keyed by the content of the structure and the options, so a changed design
-or structure is always built afresh; the stage cache (:mod:`.cache`) is not involved.
+fin system of this thread or task (a :class:`~contextvars.ContextVar`, so two designs run by
+the threads of one Dask worker never see each other's) and is keyed by the content of the
+structure and the options, so a changed design or structure is always built afresh; the stage
+cache (:mod:`.cache`) is not involved.
 """
 from __future__ import annotations
 
 import hashlib
 import pickle
+from contextvars import ContextVar
 
 from .design_file import DesignSpec
 
-__all__ = ["fin_system", "fabrication_summary"]
+__all__ = ["fin_system", "fabrication_summary", "last_fin_system", "forget_fin_system"]
 
-#: (key, FinSystem) of the last call: the fabrication and assembly stages of one run share it
-_last: tuple[str, object] | None = None
+#: (key, FinSystem) of the last call in this thread or task: the fabrication and assembly
+#: stages of one run share it
+_LAST: ContextVar[tuple | None] = ContextVar("torsal_last_fin_system", default=None)
+
+
+def last_fin_system():
+    """The fin system the last :func:`fin_system` call of this thread or task returned (None
+    before any): what a benchmark measures after a run."""
+    last = _LAST.get()
+    return None if last is None else last[1]
+
+
+def forget_fin_system() -> None:
+    """Drop the memo: the next :func:`fin_system` call builds afresh (a cold run)."""
+    _LAST.set(None)
 
 
 def _options(spec: DesignSpec) -> dict:
@@ -49,16 +65,16 @@ def fin_system(spec: DesignSpec, structure):
     >>> fin_system(spec, support["structure"]) is fs              # doctest: +SKIP
     True
     """
-    global _last
     from ..fabrication import FinSystem
 
     options = _options(spec)
     thickness = spec.material.thickness_mm
     key = _key(structure, thickness, options)
-    if key is not None and _last is not None and _last[0] == key:
-        return _last[1]
+    last = _LAST.get()
+    if key is not None and last is not None and last[0] == key:
+        return last[1]
     fs = FinSystem(structure, thickness, **options)
-    _last = (key, fs) if key is not None else None
+    _LAST.set((key, fs) if key is not None else None)
     return fs
 
 
