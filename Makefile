@@ -1,13 +1,14 @@
 # torsal: two commands on a fresh machine.
 #   make demo   create .venv, install torsal, analyze the example facade (out/) and build
 #               the Fig. 7a design end to end (out/7a/: STEP, DXF, parts list, report.html)
-#   make test   create .venv, install torsal with test extras, run the test suite
+#   make test   create .venv, install torsal with test extras, run the test suite (the quick
+#               set; make test-slow runs the checks that take minutes, as CI does)
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.torsal-installed
 
-.PHONY: demo test bench clean install chromium freecad freecad-screenshot
+.PHONY: demo test test-slow bench clean install chromium freecad freecad-screenshot
 
 install: $(STAMP)
 
@@ -32,7 +33,11 @@ demo: $(STAMP)
 	$(VENV)/bin/torsal design examples/7a_facade_block.toml --out out/7a
 
 test: $(STAMP) chromium freecad
-	$(PY) -m pytest -n 2 --durations=15
+	$(PY) -m pytest -n 2 --dist loadgroup --durations=25 -m "not slow"
+
+# the checks that take minutes (CI runs them after make test)
+test-slow: $(STAMP) chromium freecad
+	$(PY) -m pytest -n 2 --dist loadgroup --durations=10 -m slow
 
 # the report's 3D view is checked in a real headless browser: Debian's chromium, installed
 # if missing and we can (root + apt-get); else the browser test is skipped and says why

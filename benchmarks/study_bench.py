@@ -15,7 +15,11 @@ timed without and with starting the cluster. Other programs on the machine chang
 timings: the load average (``uptime``) and the CPU seconds each run got are printed next to
 them (cores used = CPU seconds / wall seconds).
 
-Run: ``.venv/bin/python benchmarks/study_bench.py [--size test|full] [--workers 2]``.
+``--size issue40`` is issue 40's study: 7a on a 9 x 9 mesh, fabrication on, fins.spacing
+[1.5, 2.0] x fins.depth [0.3, 0.5] (4 variants; target 60 s with 2 workers), and prints each
+variant's stage seconds.
+
+Run: ``.venv/bin/python benchmarks/study_bench.py [--size test|full|issue40] [--workers 2]``.
 
 Measured 2026-11-23 on the 2-core machine, quiet (load average 1.15 before, the serial run
 alone on it; the other run's load comes from the run itself)::
@@ -47,7 +51,15 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def write_study(folder: Path, size: str) -> Path:
     d = tomllib.loads((ROOT / "examples" / "7a_facade_block.toml").read_text())
-    if size == "test":
+    if size == "issue40":
+        # issue 40's study: 7a on a 9 x 9 mesh, fabrication on, 4 variants (depth x spacing),
+        # what a variant writes by default (its report.json)
+        d["surface"]["params"] = {"nu": 9, "nv": 9}
+        d["outputs"] = {"light_samples": 300}
+        d["material"]["sheet_mm"] = [4000, 2000]
+        d["constraints"]["max_iter"] = 400
+        axes = {"fins.spacing": [1.5, 2.0], "fins.depth": [0.3, 0.5]}
+    elif size == "test":
         d["surface"]["params"] = {"nu": 15, "nv": 11}
         d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False}
         d["material"]["sheet_mm"] = [4000, 2000]
@@ -55,9 +67,10 @@ def write_study(folder: Path, size: str) -> Path:
         spacing = [1.5, 1.75, 2.0, 2.25]
     else:
         spacing = [0.5, 0.6, 0.7, 0.8]
+    if size != "issue40":
+        axes = {"fins.spacing": spacing, "fins.depth": [0.3, 0.5], "weights.perp": [1, 10]}
     (folder / "base.toml").write_text(tomli_w.dumps(d))
-    study = {"name": f"7a bench ({size})", "base": "base.toml",
-             "axes": {"fins.spacing": spacing, "fins.depth": [0.3, 0.5], "weights.perp": [1, 10]},
+    study = {"name": f"7a bench ({size})", "base": "base.toml", "axes": axes,
              "run": {"workers": 2}}
     path = folder / "study.toml"
     path.write_text(tomli_w.dumps(study))
@@ -117,7 +130,7 @@ def dask_run(study: Study, out: Path, workers: int):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--size", choices=("test", "full"), default="test")
+    ap.add_argument("--size", choices=("test", "full", "issue40"), default="test")
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -146,6 +159,20 @@ def main():
               f"{r_dask.solves_saved} (without it every variant solves its own)")
         secs = r_serial.table.loc[r_serial.table["kind"] == "torsal", "congruence.solve_s"]
         print(f"one congruence solve here: {secs.dropna().mean():.2f} s (IPOPT, from the reports)")
+        stage_table(r_dask.table)
+
+
+def stage_table(table) -> None:
+    """Each variant's stage seconds (the results table's stage_s columns) of the Dask run."""
+    t = table[table["kind"] == "torsal"]
+    cols = sorted(c for c in t.columns if c.startswith("stage_s."))
+    names = [c.split(".", 1)[1] for c in cols]
+    print("\n| variant | spacing | depth | wall s | " + " | ".join(names) + " |")
+    print("|" + "---|" * (4 + len(names)))
+    for _, r in t.iterrows():
+        cells = [f"{r[c]:.1f}" if r[c] == r[c] else "cached" for c in cols]
+        print(f"| {r['id']} | {r['fins.spacing']:g} | {r['fins.depth']:g} | {r['wall_s']:.1f} | "
+              + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

@@ -90,7 +90,14 @@ def test_every_figure_has_an_example():
     assert names == {"7a", "7b", "7c", "7d", "9", "10", "11", "13"}
 
 
-@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+#: the quick set runs 7a end to end (make test); every other example is in the slow set
+#: (make test-slow, CI): each is a whole design run with an independent recount, 20-60 s
+QUICK_EXAMPLE = "7a"
+
+
+@pytest.mark.parametrize("path", [
+    p if p.name.startswith(QUICK_EXAMPLE) else pytest.param(p, marks=pytest.mark.slow)
+    for p in EXAMPLES], ids=[p.stem for p in EXAMPLES])
 def test_example_runs_small(path, tmp_path):
     d = small(Design.from_toml(path))
     # the verdict is checked below against an independent recount, for every example

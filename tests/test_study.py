@@ -47,9 +47,9 @@ def _mtimes(folder: Path) -> dict:
     return {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
 
 
-#: the tests that read the grid run on one xdist worker (make test: --dist loadgroup), so its
-#: study runs once
-GRID = pytest.mark.xdist_group("study-grid")
+#: the tests that read the grid (8 variants on a Dask cluster, a minute or more) are in the
+#: slow set (make test-slow, CI), on one xdist worker (--dist loadgroup), so its study runs once
+ONE_WORKER = pytest.mark.xdist_group("study-grid")
 #: the study mechanics' tests measure the light only: what they test is the study, not the parts
 LIGHT = "fabrication = false\n"
 
@@ -65,7 +65,8 @@ def grid(tmp_path_factory):
     return folder / "out", res, seen
 
 
-@GRID
+@ONE_WORKER
+@pytest.mark.slow
 def test_grid_rows_and_axis_values_from_each_variants_report(grid):
     out, res, seen = grid
     t = res.table
@@ -122,7 +123,8 @@ def test_grid_rows_and_axis_values_from_each_variants_report(grid):
     assert seen[-1].done == 8 and seen[-1].failed == 0 and max(p.running for p in seen) == 2
 
 
-@GRID
+@ONE_WORKER
+@pytest.mark.slow
 def test_table_files_and_page(grid):
     out, res, _ = grid
     parquet, csv = pd.read_parquet(out / "results.parquet"), pd.read_csv(out / "results.csv")
@@ -145,7 +147,8 @@ def test_table_files_and_page(grid):
     assert ("lie beyond" in res.verdict) == (lead > 0)
 
 
-@GRID
+@ONE_WORKER
+@pytest.mark.slow
 def test_a_resumed_study_recomputes_nothing(grid):
     out, first, _ = grid
     before = _mtimes(out / "variants") | _mtimes(out / ".torsal-cache") | _mtimes(out / "baselines")
@@ -158,7 +161,8 @@ def test_a_resumed_study_recomputes_nothing(grid):
                                   first.table.drop(columns="wall_s"))
 
 
-@GRID
+@ONE_WORKER
+@pytest.mark.slow
 def test_an_interrupted_study_resumes_where_it_stopped(grid, tmp_path):
     out, first, _ = grid
     # a copy of the finished study, with variant 005 cut off before it finished
