@@ -1,7 +1,7 @@
 """check_assembly on a finished design run: its time and its verdicts, for a before/after
 comparison of the assembly check (issue 15).
 
-    nice -n 19 .venv/bin/python benchmarks/assembly_bench.py OUT --json verdicts.json [--workers 1] [--profile]
+    nice -n 19 .venv/bin/python benchmarks/assembly_bench.py OUT --json verdicts.json [--workers 1] [--profile] [--memo]
     .venv/bin/python benchmarks/assembly_bench.py --compare before.json after.json
 
 ``OUT`` is the output folder of ``torsal design`` (``fins.step`` and the stage cache with the
@@ -149,6 +149,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--profile", type=Path, help="write cProfile stats here (workers=1)")
     ap.add_argument("--compare", nargs=2, type=Path)
+    ap.add_argument("--memo", action="store_true",
+                    help="also the check again from its memo (pairs, seconds, memo hits)")
     ap.add_argument("--fixtures", action="store_true",
                     help="the test-size cases of tests/fabrication instead of OUT (--json: one "
                          "record per case)")
@@ -208,7 +210,30 @@ def main(argv=None) -> int:
           f"blocked {len(check.blocked)}, buildable {check.buildable}")
     if args.json:
         args.json.write_text(json.dumps(verdicts(check), indent=0))
+    if args.memo:
+        memo_table(args.out, solids, joints, args.workers)
     return 0
+
+
+def memo_table(out: Path, solids, joints, workers) -> None:
+    """The check cold, then again from its memo on the solids re-read (a design's re-run or a
+    study variant whose parts did not change): pairs, seconds, memo hits, the same verdicts."""
+    from torsal.fabrication import check_assembly, read_step
+    from torsal.fabrication.assembly import AssemblyMemo
+
+    memo = AssemblyMemo()
+    rows = []
+    for label, shapes in (("cold", solids), ("re-run, from the memo", read_step(out / "fins.step"))):
+        w0 = time.perf_counter()
+        check = check_assembly(shapes, joints=joints, workers=workers, memo=memo)
+        rows.append((label, check, time.perf_counter() - w0))
+    print("\n| check | pairs | paths | seconds | memo hits | memo misses | same verdicts |")
+    print("|---|---|---|---|---|---|---|")
+    first = verdicts(rows[0][1])
+    for label, check, wall in rows:
+        print(f"| {label} | {check.pairs_checked} | {len(check.order)} | {wall:.1f} | "
+              f"{check.memo_hits} | {check.memo_misses} | "
+              f"{'yes' if not compare(first, verdicts(check)) else 'NO'} |")
 
 
 if __name__ == "__main__":
