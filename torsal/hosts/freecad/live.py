@@ -128,6 +128,11 @@ def serve(lines, out) -> int:
     >>> serve(io.StringIO('{"op": "close"}\\n'), io.StringIO())
     0
     """
+    if lines is sys.stdin:
+        # workers forked by the build (the assembly check's) close sys.stdin as they start:
+        # it must not be the file this thread waits on, whose lock they would inherit held
+        lines = os.fdopen(os.dup(0), "r")
+        sys.stdin = open(os.devnull)
     if out is sys.stdout:            # C libraries print to fd 1: only the protocol goes there
         sys.stdout.flush()
         out = os.fdopen(os.dup(1), "w", buffering=1)
