@@ -35,6 +35,17 @@ def test_the_example_notebook_runs(tmp_path):
     for fig in figures:
         names = [t.get("name", "") for t in fig["data"]]
         assert any("family 0" in n for n in names) and any("family 1" in n for n in names)
+    # the live session's slider: two moves, each redrawn from a preview within the second
+    live = [eval(o.data["text/plain"]) for o in outputs
+            if o.output_type == "execute_result" and "'redraws'" in o.data.get("text/plain", "")]
+    assert len(live) == 1
+    redraws = live[0]["redraws"]
+    print("notebook slider redraws (s):", [r["seconds"] for r in redraws])
+    assert len(redraws) == 2 and {r["kind"] for r in redraws} == {"preview"}
+    assert all("remesh" in r["stages"] and "congruence" not in r["stages"] for r in redraws)
+    assert live[0]["slowest redraw (s)"] < 1.0, redraws
+    assert live[0]["built"] == "built" and live[0]["built parts"] < first["parts"]
+    assert (tmp_path / "notebook_live" / "parts.csv").is_file()
     # the viewer cell ran: shown, or a message saying how to start the viewer
     last = "".join(o.get("text", "") for o in nb.cells[-1].outputs)
     assert "shown:" in last or "ocp_viewer" in last

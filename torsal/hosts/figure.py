@@ -11,6 +11,7 @@ import numpy as np
 
 from ..geometry.mesh_files import read_mesh_file
 from ..pipeline.report_3d import design_view_figure
+from ..session import SessionAnswer
 from .results import FinsFolderError
 
 __all__ = ["fins_figure", "read_support_obj", "SupportFins"]
@@ -55,11 +56,21 @@ def read_support_obj(path: str | Path) -> SupportFins:
 def fins_figure(result_or_folder, *, title: str | None = None):
     """The plotly figure of a run: mesh A and the fins by torsal family.
 
-    ``result_or_folder``: what :meth:`torsal.Design.run` returned, or its output folder.
+    ``result_or_folder``: what :meth:`torsal.Design.run` returned, its output folder, or an
+    answer of a live session (:class:`torsal.session.SessionAnswer`: a preview is drawn from
+    its values, no files needed).
 
     >>> fig = fins_figure("out/7a")   # doctest: +SKIP
     >>> fig.show()                    # doctest: +SKIP
+    >>> fins_figure(session.set_fins(spacing=0.7), title="spacing 0.7")   # doctest: +SKIP
     """
+    if isinstance(result_or_folder, SessionAnswer):
+        answer = result_or_folder
+        if answer.structure is None:
+            raise FinsFolderError("the session has no good design yet: nothing to draw")
+        o = answer.values["orient"]
+        name = title if title is not None else f"{answer.spec.name} ({answer.kind.value})"
+        return design_view_figure((o["vertices"], o["faces"]), answer.structure, title=name)
     folder = Path(getattr(result_or_folder, "folder", None) or result_or_folder)
     ply, obj = folder / "congruence.ply", folder / "support.obj"
     for f in (ply, obj):
