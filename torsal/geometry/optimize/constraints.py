@@ -55,7 +55,7 @@ class ConstraintTerms:
         multipliers grow and it may need hundreds of iterations. A ``closeness`` term keeps
         the lines near the start and away from a bundle. With ``margin = 0``, faces under a
         (split form) ``min_torsal_angle`` bound are hyperbolic by that bound; their rows are
-        left out of IPOPT's NLP and still measured (see ``_implied_hyperbolic``).
+        left out of IPOPT's NLP and still measured (see :meth:`.registry.TermRegistry.implied_hyperbolic`).
 
         Examples
         --------
