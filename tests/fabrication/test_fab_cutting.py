@@ -13,7 +13,8 @@ from shapely.geometry import LineString, Point, Polygon
 
 from torsal.fabrication import Slot, SlotSide
 from torsal.fabrication.cutting import Cutting, CuttingError, Relief
-from torsal.fabrication.layout import nest, read_dxf_parts
+from torsal.fabrication.layout import read_dxf_parts
+from torsal.fabrication.nesting import nest
 from torsal.fabrication.unroll import unroll
 
 W, DEPTH, L, H = 3.5, 60.0, 300.0, 150.0      # slot width and depth, plate length and height (mm)

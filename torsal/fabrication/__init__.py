@@ -3,7 +3,8 @@
 Reads a :class:`~torsal.geometry.support.SupportStructure` (model units, metres by default)
 and knows nothing of how it was optimized. Fabrication lengths are in ``unit`` (mm).
 """
-from .layout import Layout, PartTooLargeError, Placement, bill_of_materials, nest, read_dxf_parts
+from .layout import Layout, PartTooLargeError, Placement, bill_of_materials, read_dxf_parts
+from .nesting import nest
 from .joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, slot_width
 from .model import Joint, JointKind
 from .parts import (Crossing, FamilySplit, FinSystem, Part, PartId, Slot, SlotSide, fold_angles,

@@ -5,7 +5,8 @@ import time
 from typing import Callable, Mapping, Sequence
 
 from ..cutting import Cutting
-from ..layout import Layout, merge_layouts, nest, shelf_pack
+from ..layout import Layout
+from .bottom_left import merge_layouts, nest, shelf_pack
 from .rows import nest_rows
 from .search import DEFAULT_TRIES, nest_search
 from .stats import DEFAULT_SEED, Nester, NestStats
@@ -27,8 +28,8 @@ def nest_parts(unrolled: Mapping, *, connectors=frozenset(), sheet: tuple[float,
     final cut's deterministic search (``tries``; :func:`~.search.nest_search`), with
     :attr:`Nester.ROWS` the rows
     alone (:func:`~.rows.nest_rows`), with :attr:`Nester.BOTTOM_LEFT` the plates by
-    :func:`~.layout.nest` (``rotations``) and the ``connectors`` (names) in rows on the sheets
-    after them (:func:`~.layout.shelf_pack`). :class:`~.cutting.CuttingError` if the
+    :func:`~.bottom_left.nest` (``rotations``) and the ``connectors`` (names) in rows on the sheets
+    after them (:func:`~.bottom_left.shelf_pack`). :class:`~.cutting.CuttingError` if the
     cutting process cannot cut the slots."""
     t0, c0 = time.perf_counter(), time.process_time()
     if cutting is not None:

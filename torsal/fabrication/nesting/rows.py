@@ -33,7 +33,8 @@ from shapely import affinity
 from shapely.geometry import Polygon
 
 from ..cutting import Cutting
-from ..layout import Layout, PartTooLargeError, _as_items, _turned_shapes, check_fits, placement_of, spacing
+from ..layout import Layout, PartTooLargeError, placement_of, spacing
+from .items import _as_items, _turned_shapes, check_fits
 
 __all__ = ["nest_rows", "row_layout", "prepare", "SLABS"]
 

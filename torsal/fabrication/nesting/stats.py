@@ -29,7 +29,7 @@ class Nester(str, Enum):
     SPARROW = "sparrow"
     #: rows of true shapes end to end, no search (:func:`~.rows.nest_rows`; a second or two)
     ROWS = "rows"
-    #: the fast bottom-left fill (:func:`~torsal.fabrication.layout.nest`), connectors in rows
+    #: the fast bottom-left fill (:func:`~.bottom_left.nest`), connectors in rows
     #: after the plates
     BOTTOM_LEFT = "bottom-left"
 

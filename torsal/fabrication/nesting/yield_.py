@@ -21,7 +21,7 @@ awkward parts to a fallback (47 sheets in 120 s at load 9, 42 in 300 s). So:
    whose largest part finds no host is set aside (the parts that moved stay moved: every
    sheet is valid at every step). It stops at the area bound's ceiling, when no victim is
    left to try, or when the budget cannot pay for another solve (``stats.time_limited``).
-3. The fast bottom-left layout (:func:`~.layout.nest`) is made too for up to
+3. The fast bottom-left layout (:func:`~.bottom_left.nest`) is made too for up to
    :data:`FAST_COMPARE_PARTS` parts and kept if it needs fewer sheets (``stats.method`` says
    which layout was kept).
 
@@ -61,7 +61,8 @@ from typing import Callable
 import numpy as np
 
 from ..cutting import Cutting
-from ..layout import Layout, merge_layouts, nest, placement_of, shelf_pack
+from ..layout import Layout, placement_of
+from .bottom_left import merge_layouts, nest, shelf_pack
 from .rows import SMALL, prepare, row_layout
 from .sparrow import SheetSolver
 from .stats import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester, NestStats
