@@ -33,8 +33,14 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 DESIGN = EXAMPLES / "7a_facade_block.toml"
 
 
-#: a stroke across 7a's facade (model units, m)
-STROKE = np.array([[-4.0, 0.0, 1.0], [4.0, 0.0, 4.0]])
+def _stroke(s: Session, lift: float = 0.0) -> list:
+    """A stroke across 7a's facade through two of its vertices (lower left to upper right),
+    ``lift`` (m) higher."""
+    v = s.preview.values["surface"]["vertices"]
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    ends = [lo + (hi - lo) * [0.2, 0.5, 0.25], lo + (hi - lo) * [0.8, 0.5, 0.65]]
+    points = [v[np.argmin(np.linalg.norm((v - e)[:, [0, 2]], axis=1))] for e in ends]
+    return [[p + [0.0, 0.0, lift] for p in points]]
 
 
 def _moved_point(s: Session):
@@ -49,8 +55,8 @@ def _moved_point(s: Session):
 CHANGES = {
     "weight": ("weights.perp 10 -> 12", None, lambda s: s.set_weights(perp=12)),
     "sun": ("sun.hours [13, 17] -> [12, 17]", None, lambda s: s.set_sun(hours=[12, 17])),
-    "stroke": ("a stroke moved 0.5 m", lambda s: s.set_strokes(STROKE, width=0.6),
-               lambda s: s.set_strokes(STROKE + [0.0, 0.0, 0.5], width=0.6)),
+    "stroke": ("a stroke moved 0.5 m", lambda s: s.set_strokes(_stroke(s), width=0.6),
+               lambda s: s.set_strokes(_stroke(s, 0.5), width=0.6)),
     "region": ("goals.let_through x [4, 6] -> [3.5, 5.5]",
                lambda s: s.set_region(RegionGoal.LET_THROUGH, {"x": [4.0, 6.0]}),
                lambda s: s.set_region(RegionGoal.LET_THROUGH, {"x": [3.5, 5.5]})),
