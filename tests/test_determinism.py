@@ -50,3 +50,23 @@ def test_cut_files_are_byte_identical_under_load(tmp_path, final_cut):
         busy.kill()
         busy.wait()
     assert len(quiet) > 2 and quiet == loaded
+
+
+def test_the_final_cut_is_kept_with_the_design(tmp_path):
+    """Asked for again after a change that leaves the flat parts as they are (here: no parts
+    list), the final cut's sheets are read back from the design's cache, not searched again."""
+    design = _design(final_cut=True)
+    out = tmp_path / "out"
+    first = _run(design, out)
+    spec = design.spec
+    again = Design(spec.model_copy(update={"outputs": spec.outputs.model_copy(update={"bom": False})}))
+    res = again.run(out, cache=StageCache(out.parent / f"{out.name}-cache"),
+                    pipeline=DEFAULT_PIPELINE.until("fabrication"))
+    assert "fabrication" not in res.cached                  # the stage ran again...
+    nesting = res.report["fabrication"]["nesting"]
+    assert "kept from an earlier run" in nesting["nester"]   # ... its sheets did not
+    assert nesting["deterministic"] and not nesting["time_limited"]
+    sheets = {k: v for k, v in first.items() if k.startswith("sheets/")}
+    again_sheets = {f"sheets/{f.name}": hashlib.sha256(f.read_bytes()).hexdigest()
+                    for f in sorted((out / "sheets").glob("*.dxf"))}
+    assert sheets and again_sheets == sheets
