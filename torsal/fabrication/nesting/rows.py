@@ -262,11 +262,22 @@ def shelf_fill(rects: list, shapes: list[list[Shape]], sep: float) -> tuple[list
     return placed, left
 
 
+#: the orders the plates may be offered to the rows in: longest first (best fit decreasing),
+#: largest first, widest first (the row's height)
+_ORDERS = {
+    "length": lambda by: lambda n: (-max(s.length for s in by[n]), -max(s.polygon.area for s in by[n]), n),
+    "area": lambda by: lambda n: (-max(s.polygon.area for s in by[n]), -max(s.length for s in by[n]), n),
+    "height": lambda by: lambda n: (-min(s.height for s in by[n]), -max(s.length for s in by[n]), n),
+}
+
+
 def row_layout(items, w: float, h: float, sep: float, edge: float,
-               rotation_step: float | None = None) -> dict:
+               rotation_step: float | None = None, *, order: str = "length") -> dict:
     """``{name: (sheet, rotation deg, (dx, dy))}``: each original outline turned about the
     origin, then moved, on sheets ``w x h`` (rows along the longer side; see the module
-    docstring). ``items``: prepared parts (``layout._as_items``) that fit the sheet."""
+    docstring). ``items``: prepared parts (``nesting.items._as_items``) that fit the sheet;
+    ``order``: the plates longest (``"length"``), largest (``"area"``) or widest
+    (``"height"``) first."""
     turn = h > w                              # rows run along the longer side
     length, height = (h, w) if turn else (w, h)
     length, height = length - 2 * edge, height - 2 * edge
@@ -290,8 +301,7 @@ def row_layout(items, w: float, h: float, sep: float, edge: float,
                 f"rotations in steps of {rotation_step:g} deg: allow finer steps "
                 "([nesting] rotation_step_deg) or any rotation")
     packer = RowPacker(length, height, sep)
-    large = sorted((n for n in by if n not in small),
-                   key=lambda n: (-max(s.length for s in by[n]), -max(s.polygon.area for s in by[n]), n))
+    large = sorted((n for n in by if n not in small), key=_ORDERS[order](by))
     for n in large:
         packer.add(by[n])
     # small parts: the free rectangles of the rows' sheets, then new sheets of shelves

@@ -2,7 +2,7 @@
 
 1. **Starts.** The rows (:func:`~.rows.row_layout`: long parts end to end, slanted ends head
    to tail) and the skyline (:mod:`.skyline`: each part dropped into the hollow of the parts
-   below) in two orders each (longest first, largest first); the start with the fewest
+   below), each in two orders (longest first, largest first); the start with the fewest
    sheets, then the fullest emptiest sheet, is kept. The rows win on straight strips (7a),
    the skyline on curved ones (9, 11).
 2. **Sheets emptied.** The emptiest sheet is the *victim*; its parts, largest first, are
@@ -234,7 +234,8 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
     by_name = {it.name: it for it in items}
     area = {n: it.outline.area for n, it in by_name.items()}
     sky = _Skyline(items, frame, rotation_step)
-    starts = {"rows": row_layout(items, w, h, sep, edge, rotation_step)}
+    starts = {f"rows by {by}": row_layout(items, w, h, sep, edge, rotation_step, order=by)
+              for by in ("length", "area")}
     for by in ("length", "area"):
         starts[f"skyline by {by}"] = sky.pack(list(by_name), by)
     fill = {k: _sheets(v) for k, v in starts.items()}
