@@ -144,8 +144,8 @@ _DEBUG = bool(__import__("os").environ.get("TORSAL_ALM_DEBUG"))
 #: decrement and recent decrease it was -0.02 % (7c), 0.1 % (row 9) and 1.1 % (a 9 x 9 canopy of
 #: tests/geometry/test_optimize_stop.py's family), so the report gives the decrement and the
 #: recent decrease, not a gap. Downstream (optimize_bench --tables stop, 7c up to the light
-#: stage), the design tolerance against convergence moved the figures by less than the digits
-#: past convergence do (tol/10 against tol, an energy 3e-5 apart): blocked share +1.6 % / +5.0 %,
+#: stage), the design tolerance against convergence moved the figures about as much as the
+#: digits past convergence do (tol/10 against tol, an energy 3e-5 apart): blocked share +1.6 % / +5.0 %,
 #: transparency -6.4 % / -3.9 %, transparency cone -3.2 % / -6.0 %, support edges +0.4 % / +0.6 %,
 #: extracted delta_pl +0.2 % / +11 %, parts -2.1 % / +2.2 %: the remeshed fins follow digits the
 #: energy does not see, in no direction; none of them is the better design
