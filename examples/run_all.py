@@ -38,14 +38,36 @@ def run(path: Path, out: Path) -> dict:
     r = res.report
     r["wall_s"] = time.perf_counter() - t0
     r["stage_s"] = res.stage_seconds
+    r["final_cut"] = final_cut(Design.from_toml(path).spec)
     return r
+
+
+def final_cut(spec) -> dict:
+    """The final cut of the run's parts (``torsal design --final-cut``'s search), nested here
+    from the fin system the run built: sheets, yield of the sheets and seconds."""
+    from torsal.fabrication.nesting import Nester
+    from torsal.pipeline.fins import last_fin_system
+    from torsal.pipeline.stages import nest_options
+
+    fs = last_fin_system()
+    t0 = time.perf_counter()
+    lay = fs.layout(**{**nest_options(spec, fs.unit), "nester": Nester.SEARCH})
+    return {"sheets": lay.n_sheets, "utilization": lay.utilization,
+            "seconds": time.perf_counter() - t0, "method": lay.stats.method}
+
+
+def final_cut_cell(r: dict) -> str:
+    f = r.get("final_cut")
+    if not f:
+        return "-"
+    return f"{f['sheets']} / {100 * f['utilization']:.0f}% ({f['seconds']:.0f} s)"
 
 
 def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} |" + " |" * 16 + f" {paper} |"
+        return f"| {key} | failed: {err} |" + " |" * 17 + f" {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
@@ -53,6 +75,7 @@ def row(key: str, r: dict | None, err: str | None) -> str:
             f"{100 * li['blocked_share']:.0f}% ({louvers(li, 'blocked_share')}) | "
             f"{100 * li['transparency']:.0f}% ({louvers(li, 'transparency')}) | "
             f"{s['edges']} / {fa.get('parts', '-')} / {fa.get('sheets', '-')} | {sheets_cell(fa)} | "
+            f"{final_cut_cell(r)} | "
             f"{min_torsal_angle(c)} | "
             f"{interfering_cell(fa.get('assembly'))} | {connector_cell(fa)} | {seams_cell(fa)} | "
             f"{fastener_cell(fa)} | "
@@ -185,11 +208,11 @@ def main():
     out = Path(args.out)
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
-             "sheets / area bound | utilization (DXF) | "
+             "sheets / area bound | utilization (DXF) | final cut: sheets / yield (s) | "
              "min torsal angle, measured (deg): planes / directions in the face | interfering pairs | connectors (share of parts); fixings | "
              "seams in slots; fallbacks | fasteners; bolts per m² | fin panels left out | "
              "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     started, t0, loads, keys = datetime.now(timezone.utc), time.perf_counter(), [os.getloadavg()[0]], []
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
