@@ -42,6 +42,49 @@ def _recompute(doc, obj):
     return _record(obj, time.time() - t)
 
 
+def _live_record(obj, **extra):
+    s = obj.Shape
+    return {"answer": obj.Answer, "seconds": obj.AnswerSeconds, "faces": len(s.Faces),
+            "solids": len(s.Solids), "valid": all(x.isValid() for x in s.Solids),
+            "volumes": [x.Volume for x in s.Solids], "groups": list(obj.PartGroups),
+            "parts": list(obj.PartNames), "state": list(obj.State),
+            "stages_run": list(obj.StagesRun), "stages_cached": list(obj.StagesCached),
+            "sun_blocked": obj.SunBlocked, "design_run": obj.DesignRun,
+            "bbox": [s.BoundBox.XMin, s.BoundBox.YMin, s.BoundBox.ZMin, s.BoundBox.XMax,
+                     s.BoundBox.YMax, s.BoundBox.ZMax], **extra}
+
+
+def _live(FreeCAD, make_fins, design, folder):
+    """The fins object on a live session: a change shows the preview (faces) at once, the
+    solids after; the recompute's and the solids' seconds measured here, in FreeCAD."""
+    doc = FreeCAD.newDocument("live")
+    fins = make_fins(doc, design)                  # Live by default
+    fins.OutputFolder = os.path.join(folder, "live-job")
+    out = {}
+
+    def change(name, apply, built=True):
+        apply()
+        t = time.time()
+        doc.recompute()
+        out[name] = _live_record(fins, recompute=time.time() - t)
+        if built:
+            t = time.time()
+            ok = fins.Proxy.wait_built(fins, timeout=600)
+            out[name + "_built"] = _live_record(fins, wait=time.time() - t, ok=ok,
+                                                touched="Touched" in fins.State)
+
+    # the first design's build is cancelled by the next change, as a designer's would be
+    change("first", lambda: None, built=False)
+    change("spacing", lambda: setattr(fins, "Spacing", fins.Spacing.Value * 1.25))
+    change("sun", lambda: setattr(fins, "SunHours", [12.0, 17.0]))
+    # a bad value: invalid with torsal's message, the built solids stay
+    fins.SunHours = [18.0, 9.0]
+    doc.recompute()
+    out["bad"] = _live_record(fins)
+    fins.Proxy.close_session()
+    return out
+
+
 def main():
     import sys
 
@@ -56,7 +99,7 @@ def main():
     out = {}
     design, folder = os.environ["TORSAL_SCENARIO_DESIGN"], os.environ["TORSAL_SCENARIO_DIR"]
     doc = FreeCAD.newDocument("facade")
-    fins = make_fins(doc, design)
+    fins = make_fins(doc, design, live=False)     # each recompute a whole run (the live one below)
     fins.OutputFolder = os.path.join(folder, "fins-job")
     out["properties"] = {"Spacing": fins.Spacing.Value, "Depth": fins.Depth.Value,
                          "Thickness": fins.Thickness.Value,
@@ -97,6 +140,7 @@ def main():
     fins.SunHours = [18.0, 9.0]
     doc.recompute()
     out["bad"] = {"state": list(fins.State), "n": len(fins.Shape.Solids)}
+    out["live"] = _live(FreeCAD, make_fins, design, folder)
     with open(os.environ["TORSAL_SCENARIO_OUT"], "w") as fh:
         json.dump(out, fh)
 

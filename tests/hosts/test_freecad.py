@@ -53,8 +53,9 @@ def scenario(tmp_path_factory):
                TORSAL_SCENARIO_OUT=str(out), TORSAL_EXAMPLES=str(EXAMPLES))
     code = (f"import runpy; runpy.run_path({str(HERE / 'freecad_scenario.py')!r}, "
             "run_name='__main__')")
+    # minutes: five whole runs and a live session's two builds (15 at a load of 10 on 2 cores)
     run = subprocess.run([FREECADCMD, "-c", code], env=env, capture_output=True, text=True,
-                         timeout=900, cwd=tmp)
+                         timeout=1800, cwd=tmp)
     assert run.returncode == 0 and out.exists(), run.stdout[-3000:] + run.stderr[-3000:]
     return {"data": json.loads(out.read_text()), "install": installed.stdout, "home": home,
             "output": run.stdout + run.stderr,
@@ -150,6 +151,44 @@ def test_a_bad_value_marks_the_object_invalid_and_keeps_its_solids(scenario):
     assert "Invalid" in bad["state"]
     assert bad["n"] == scenario["data"]["after_reopen"]["n"]
     assert "sun.hours = [18.0, 9.0]" in scenario["output"]
+
+
+def test_the_live_object_shows_the_preview_at_once_and_the_solids_when_built(scenario):
+    """On a live session (the default), a recompute sets Shape to the preview: one face per
+    fin (mm), no solids; the built solids follow (one per part, the job folder's STEP). A
+    change of spacing re-runs from the remesh, one of the sun hours re-solves the congruence;
+    each preview comes within seconds (printed: the measured latency)."""
+    live = scenario["data"]["live"]
+    for name in ("first", "spacing", "sun"):
+        p = live[name]
+        print(f"FreeCAD live, {name:>7}: preview {p['recompute']:.2f} s in the recompute "
+              f"({p['seconds']:.2f} s in torsal: {', '.join(p['stages_run'])})")
+        assert p["answer"] == "preview" and p["state"] == ["Up-to-date"]
+        assert p["solids"] == 0 and p["faces"] > 10 and p["parts"] == []
+        assert len(p["groups"]) == p["faces"] and set(p["groups"]) <= {"family 0", "family 1"}
+    for name in ("spacing", "sun"):             # the first build: cancelled by the change
+        p, b = live[name], live[name + "_built"]
+        print(f"FreeCAD live, {name:>7}: solids {p['recompute'] + b['wait']:.1f} s after the "
+              f"change ({b['solids']} parts)")
+        assert p["faces"] >= len(b["parts"]) // 4
+        assert b["ok"] and b["answer"] == "built" and not b["touched"]
+        assert b["solids"] == len(b["parts"]) > 20 and b["valid"]
+        # the preview's fins are where the solids are (mm): the same extent, to a plate
+        assert np.allclose(p["bbox"], b["bbox"], atol=50.0), (p["bbox"], b["bbox"])
+    first, spacing, sun = live["first"], live["spacing"], live["sun"]
+    assert {"congruence", "sun"} <= set(spacing["stages_cached"]) and "remesh" in spacing["stages_run"]
+    assert "congruence" in sun["stages_run"] and "surface" in sun["stages_cached"]
+    assert spacing["faces"] < first["faces"]
+    # warm: a change's preview in a few seconds at most (about 0.3 s at this size, idle)
+    for p in (spacing, sun):
+        assert p["seconds"] < 3.0 and p["recompute"] < 10.0, p
+    # the solids FreeCAD shows are the job's STEP, read by another reader
+    job = Path(live["sun_built"]["design_run"]).parent
+    names, volumes = zip(*_step_volumes(job / "out" / "fins.step"))
+    assert list(names) == live["sun_built"]["parts"]
+    np.testing.assert_allclose(live["sun_built"]["volumes"], volumes, rtol=1e-6)
+    # a bad value: invalid, with torsal's message, the built solids kept
+    assert "Invalid" in live["bad"]["state"] and live["bad"]["solids"] == live["sun_built"]["solids"]
 
 
 # ------------------------------------------------------------------ without FreeCAD

@@ -157,11 +157,11 @@ def test_a_cancelled_build_leaves_nothing_half_written(tmp_path):
     spec = apply_edit(_spec(dxf=True, bom=True), spacing=2.0)    # fewer parts: a quicker build
     with Session(spec, out, progress=progress, pipeline=_without_assembly()) as s:
         s.start()
-        assert making.wait(60), "the build did not reach the fabrication"
+        assert making.wait(300), "the build did not reach the fabrication"
         assert _results(out) == ([], None)              # nothing published while it runs
         making.clear()
         a = s.set_fins(spacing=2.2)                     # cancels the first build
-        built = s.wait_built(timeout=60)
+        built = s.wait_built(timeout=300)      # seconds; minutes on a loaded machine
         assert s.builds_cancelled == 1
         assert built is not None and built.kind is AnswerKind.BUILT and built.revision == a.revision
         assert {"fabrication", "report"} <= set(built.stages_run)
@@ -175,9 +175,9 @@ def test_a_cancelled_build_leaves_nothing_half_written(tmp_path):
         assert any(p.startswith("sheets/") for p in published[0]) and "parts.csv" in published[0]
         making.clear()
         b = s.set_fins(spacing=2.4)
-        assert b.kind is AnswerKind.PREVIEW and making.wait(60)
+        assert b.kind is AnswerKind.PREVIEW and making.wait(300)
         s.cancel_build()
-        assert s._builder.wait_idle(60) and s.builds_cancelled == 2
+        assert s._builder.wait_idle(300) and s.builds_cancelled == 2
         assert _results(out) == published               # the build of 2.2, byte for byte
         assert not (out / ".torsal-staging").exists()
         assert s.wait_built(timeout=1) is None          # no built answer of 2.4
