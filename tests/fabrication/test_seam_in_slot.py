@@ -103,9 +103,9 @@ def test_a_seam_the_assembly_check_refuses_falls_back_to_a_bracket(monkeypatch):
     checked = []
     local = seams_module._local_check
 
-    def spy(parts, joint, thickness, unit):
-        checked.append((joint.node, tuple(sorted(p.name for p in parts))))
-        return local(parts, joint, thickness, unit)
+    def spy(parts, joints, thickness, unit):
+        checked.append((joints[0].node, tuple(sorted(p.name for p in parts))))
+        return local(parts, joints, thickness, unit)
 
     monkeypatch.setattr(seams_module, "_local_check", spy)
     fs = _build(flat_structure(5, 3), max_panels=2)

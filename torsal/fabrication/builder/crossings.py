@@ -86,8 +86,17 @@ class CrossingSlotter:
             w = max(w0, w1)
             fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
-            fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
-                                     direction, None, None, float(x.angle)))
+            if len(l1) > 1 and any(not np.array_equal(dd, direction) for dd, _ in plans):
+                # a family-1 strip split in this slot: each part slides in along its own
+                # direction, so each gets a record of its own (one record's direction made the
+                # independent check slide the second part off its other slots: example 11 at
+                # test size, F1-S008-P01, 2,415 mm^3, the seam's first version's failure)
+                for (p, _), (dd, _) in zip(l1, plans):
+                    fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + (p.name,),
+                                           dd, None, None, float(x.angle)))
+            else:
+                fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
+                                       direction, None, None, float(x.angle)))
 
     @staticmethod
     def _end_depth(p: Part, pos: int, side: SlotSide, depth: float, a: np.ndarray,

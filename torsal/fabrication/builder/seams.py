@@ -111,9 +111,9 @@ class _Verdict:
     detail: str = ""
 
 
-def _local_check(parts: list[Part], joint: Joint, thickness: float, unit: str) -> _Verdict:
+def _local_check(parts: list[Part], joints: list[Joint], thickness: float, unit: str) -> _Verdict:
     """:func:`~torsal.fabrication.assembly.check_assembly` of the solids of ``parts`` (local
-    parts of one crossing) with the crossing's joint record, in this process."""
+    parts of one crossing) with the crossing's joint records, in this process."""
     from ..assembly import check_assembly
     from ..plates import InvalidSolidError, part_solid
 
@@ -122,8 +122,8 @@ def _local_check(parts: list[Part], joint: Joint, thickness: float, unit: str) -
     except InvalidSolidError as e:
         return _Verdict(False, SeamReason.SOLID, f"{e}")
     names = set(solids)
-    local = dataclasses.replace(joint, parts=tuple(n for n in joint.parts if n in names))
-    r = check_assembly(solids, joints=[local], workers=1, unit=unit)
+    local = [dataclasses.replace(j, parts=tuple(n for n in j.parts if n in names)) for j in joints]
+    r = check_assembly(solids, joints=local, workers=1, unit=unit)
     if r.buildable:
         return _Verdict(True)
     return _Verdict(False, SeamReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "))
@@ -210,46 +210,57 @@ class SlotSeams:
         """The local assembly check of every seam of this build (remembered by content);
         returns those refused (also in ``_refuse_seams``)."""
         fs = self.fs
-        crossing = {j.node: j for j in fs.joints if j.kind == JointKind.EGG_CRATE}
+        crossing = self._crossing_joints()
         by_name = {p.name: p for p in fs.parts}
         for fam, node in sorted(fs._seam_crossings):
-            joint = crossing.get(node)
-            mine = [n for n in (joint.parts if joint else ()) if n.startswith(f"F{fam}-")]
-            if joint is None or len(mine) < 2:
+            joints = crossing.get(node, [])
+            names = tuple(dict.fromkeys(n for j in joints for n in j.parts))
+            mine = [n for n in names if n.startswith(f"F{fam}-")]
+            if not joints or len(mine) < 2:
                 self.refuse(fam, node, SeamReason.NO_SLOT, "the crossing plate is not slotted "
                             "there", tuple(mine))
                 continue
-            verdict = self._verdict([local_part(by_name[n], node) for n in joint.parts], joint)
+            verdict = self._verdict([local_part(by_name[n], node) for n in names], joints)
             if verdict.reason == SeamReason.SOLID:
                 # a slot that runs out of a narrow, slanted panel cuts the panels next to the
                 # node apart but not the whole part: the whole parts decide
-                verdict = self._verdict([by_name[n] for n in joint.parts], joint)
+                verdict = self._verdict([by_name[n] for n in names], joints)
             if not verdict.ok:
-                self.refuse(fam, node, verdict.reason, verdict.detail, tuple(joint.parts))
+                self.refuse(fam, node, verdict.reason, verdict.detail, names)
         return [fs._refuse_seams[k] for k in sorted(fs._refuse_seams)]
 
-    def _verdict(self, parts: list[Part | None], joint: Joint) -> _Verdict:
-        """:func:`_local_check` of ``parts`` with ``joint``, remembered by their content."""
+    def _crossing_joints(self) -> dict[int, list[Joint]]:
+        """``{node: [egg-crate joint records]}`` (two at a family-1 seam whose parts slide in
+        along directions of their own, :class:`~.crossings.CrossingSlotter`)."""
+        out: dict[int, list[Joint]] = {}
+        for j in self.fs.joints:
+            if j.kind == JointKind.EGG_CRATE:
+                out.setdefault(j.node, []).append(j)
+        return out
+
+    def _verdict(self, parts: list[Part | None], joints: list[Joint]) -> _Verdict:
+        """:func:`_local_check` of ``parts`` with ``joints``, remembered by their content."""
         fs = self.fs
         parts = [p for p in parts if p is not None]
         key = _memo_key(([(p.name, p.panels, p.miters, [dataclasses.astuple(s) for s in p.slots])
-                          for p in parts], joint.insert_direction, joint.depth, fs.thickness))
+                          for p in parts], [(j.parts, j.insert_direction, j.depth) for j in joints],
+                         fs.thickness))
         if key not in fs._seam_verdicts:
-            fs._seam_verdicts[key] = _local_check(parts, joint, fs.thickness, fs.unit)
+            fs._seam_verdicts[key] = _local_check(parts, joints, fs.thickness, fs.unit)
         return fs._seam_verdicts[key]
 
     def publish(self) -> None:
         """``fs.seams_in_slot`` (the seams kept, each a joint without a connector) and
         ``fs.joint_fallbacks`` (the seams refused, by node)."""
         fs = self.fs
-        crossing = {j.node: j for j in fs.joints if j.kind == JointKind.EGG_CRATE}
+        crossing = self._crossing_joints()
         kept = []
         for fam, node in sorted(fs._seam_crossings):
-            joint = crossing.get(node)
-            if joint is None:
+            names = tuple(dict.fromkeys(n for j in crossing.get(node, []) for n in j.parts))
+            if not names:
                 continue
-            mine = tuple(n for n in joint.parts if n.startswith(f"F{fam}-"))
-            kept.append(SlotSeam(node, fam, mine, tuple(n for n in joint.parts if n not in mine)))
+            mine = tuple(n for n in names if n.startswith(f"F{fam}-"))
+            kept.append(SlotSeam(node, fam, mine, tuple(n for n in names if n not in mine)))
         fs.seams_in_slot = kept
         fs.joint_fallbacks = [fs._seams_refused[k] for k in sorted(fs._seams_refused,
                                                                    key=lambda k: (k[1], k[0]))]
