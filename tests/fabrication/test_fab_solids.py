@@ -139,12 +139,15 @@ def test_parts_do_not_interfere_egg_crate_assembles(sphere_fs):
 
 
 def test_folded_closed_strips_valid_and_interference_free():
-    # the rows fold at every crossing: split there and butted with brackets, no slots
+    # the rows fold at every crossing: split there, the two parts meet on a seam in the
+    # crossing plate's slot (issue 42) or are butted with brackets; no slot across a fold
     s = cylinder_structure(nu=6, nv=3, closed=True)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         fs = FinSystem(s, thickness=3.0, clearance=0.5)
-    assert not fs.crossings and fs.connectors
+    seams = {sm.node for sm in fs.seams_in_slot}
+    assert not [c for c in fs.crossings if c.fold > 10.0 and c.node not in seams]
+    assert seams or fs.connectors
     sol = fs.solids()
     assert len(sol) == len(fs.parts) and all(v.is_valid for v in sol.values())
     worst = max(_overlap(sol[m], sol[n]) for m, n in itertools.combinations(sol, 2))

@@ -129,11 +129,11 @@ def test_step_read_in_the_background_gives_the_same_solids(tmp_path):
     stage.prefetch_step_solids(path)
     taken = stage._step_solids(path)
     assert [n for n, _ in taken] == [PLATE.name, BRACKET.name]
-    assert stage._prefetched is None                        # taken once
+    assert stage._PREFETCHED.get() is None                  # taken once
     assert [_signed_volume(s) for _, s in stage._step_solids(path)] == \
         [_signed_volume(s) for _, s in taken]               # read here: the same solids
     stage.prefetch_step_solids(path)
     write_step([(PLATE.name, built[PLATE.name], (0.5, 0.5, 0.5))], path, unit="mm")
     assert [n for n, _ in stage._step_solids(path)] == [PLATE.name]   # the new file
     stage.drop_prefetched_solids()
-    assert stage._prefetched is None
+    assert stage._PREFETCHED.get() is None
