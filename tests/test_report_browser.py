@@ -154,6 +154,11 @@ class Browser:
                 self.proc.wait()
 
 
+#: the module's tests share its design runs: one xdist worker runs them all (make test's
+#: --dist loadgroup), so each runs once
+pytestmark = pytest.mark.xdist_group("report-browser")
+
+
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
     b = Browser(tmp_path_factory.mktemp("chromium-profile"))

@@ -31,6 +31,12 @@ EXAMPLES = HERE.parents[1] / "examples" / "hosts"
 DESIGN = (EXAMPLES / "facade.toml").read_text()
 
 
+#: the tests that read the scenario (minutes: whole design runs and a live session's builds in
+#: freecadcmd) are in the slow set (make test-slow, CI), on one xdist worker so it runs once
+def in_freecad(test):
+    return pytest.mark.slow(pytest.mark.xdist_group("freecad-scenario")(test))
+
+
 @pytest.fixture(scope="module")
 def scenario(tmp_path_factory):
     """Install the workbench with the CLI into a scratch HOME, run freecad_scenario.py in
@@ -62,6 +68,7 @@ def scenario(tmp_path_factory):
             "tmp": tmp, "env": env}
 
 
+@in_freecad
 def test_install_says_where_and_how_to_remove(scenario):
     mod = scenario["home"] / ".local" / "share" / "FreeCAD" / "Mod" / "Torsal"
     assert (mod / "Init.py").is_file() and (mod / "InitGui.py").is_file()
@@ -69,6 +76,7 @@ def test_install_says_where_and_how_to_remove(scenario):
     assert "torsal freecad uninstall" in scenario["install"] and f"rm -r {mod}" in scenario["install"]
 
 
+@in_freecad
 def test_properties_mirror_the_design_file(scenario):
     p = scenario["data"]["properties"]
     assert (p["Spacing"], p["Depth"], p["Thickness"]) == (1500.0, 400.0, 3.0)   # m -> mm
@@ -91,6 +99,7 @@ def _step_volumes(step):
     return out
 
 
+@in_freecad
 def test_recompute_gives_one_valid_solid_per_part(scenario):
     first = scenario["data"]["first"]
     assert first["state"] == ["Up-to-date"] and first["valid"]
@@ -109,6 +118,7 @@ def test_recompute_gives_one_valid_solid_per_part(scenario):
     np.testing.assert_allclose(reopened["volumes"], volumes, rtol=1e-6)
 
 
+@in_freecad
 def test_changing_spacing_reruns_from_the_remeshing_and_changes_the_solids(scenario):
     first, second = scenario["data"]["first"], scenario["data"]["spacing"]
     assert second["state"] == ["Up-to-date"] and second["valid"]
@@ -119,6 +129,7 @@ def test_changing_spacing_reruns_from_the_remeshing_and_changes_the_solids(scena
     assert second["parts"] != first["parts"]
 
 
+@in_freecad
 def test_a_linked_bspline_face_carries_the_fins(scenario):
     s = scenario["data"]["surface"]
     assert s["surface_type"] == "BSplineSurface"
@@ -134,6 +145,7 @@ def test_a_linked_bspline_face_carries_the_fins(scenario):
     assert "surface.obj" in (job / "design.toml").read_text()
 
 
+@in_freecad
 def test_the_document_saves_and_reopens_with_the_fins(scenario):
     s, r, again = (scenario["data"][k] for k in ("surface", "reopened", "after_reopen"))
     assert r["proxy"] == "FinsFeature" and r["is_fins_feature"]
@@ -146,6 +158,7 @@ def test_the_document_saves_and_reopens_with_the_fins(scenario):
     np.testing.assert_allclose(again["volumes"], s["volumes"], rtol=1e-9)
 
 
+@in_freecad
 def test_a_bad_value_marks_the_object_invalid_and_keeps_its_solids(scenario):
     bad = scenario["data"]["bad"]
     assert "Invalid" in bad["state"]
@@ -153,6 +166,7 @@ def test_a_bad_value_marks_the_object_invalid_and_keeps_its_solids(scenario):
     assert "sun.hours = [18.0, 9.0]" in scenario["output"]
 
 
+@in_freecad
 def test_the_live_object_shows_the_preview_at_once_and_the_solids_when_built(scenario):
     """On a live session (the default), a recompute sets Shape to the preview: one face per
     fin (mm), no solids; the built solids follow (one per part, the job folder's STEP). A

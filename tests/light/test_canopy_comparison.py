@@ -67,6 +67,11 @@ def _strict(text: str) -> dict:
     return json.loads(text, parse_constant=refuse)
 
 
+#: the module's tests share its design runs: one xdist worker runs them all (make test's
+#: --dist loadgroup), so each runs once
+pytestmark = pytest.mark.xdist_group("canopy-comparison")
+
+
 @pytest.fixture(scope="module")
 def canopy_run(tmp_path_factory):
     folder = tmp_path_factory.mktemp("canopy")
