@@ -15,14 +15,24 @@ once (cached in ``--cache``), the fin system is built and its unrolled parts are
 Every layout is checked with shapely (inside the margins, the gap between cuts) before it is
 counted. "same twice" compares every placement of two runs (name, sheet, rotation, offset).
 
-Measured 2026-11-28 on the 2-core machine (load 4-7: other work running; wall seconds are
-inflated, sheets and yields are not), laser, 5 mm gap, 10 mm margin, 2.5 x 1.25 m sheets::
+Measured 2026-11-28 19:10-19:50 on the 2-core machine (load 4-12: other work running; wall
+seconds are inflated, sheets and yields are not), the parts of that afternoon's code (seams in
+slots: fewer, longer parts), laser, 5 mm gap, 10 mm margin, 2.5 x 1.25 m sheets; every layout
+valid by shapely and the same twice::
 
-    | design | parts | area bound | rows sheets | rows yield | rows s | search sheets | search yield | search s | search same twice |
-    |---|---|---|---|---|---|---|---|---|---|
-    | 7a | 509 | 30.5 | 39 | 78.2 % | 0.9 | 38 | 80.3 % | 10.0 | yes |
-    | 9 | 1365 | 33.9 | 54 | 62.7 % | 2.5 | 49 | 69.1 % | 92.7 | yes |
-    | 11 | 1033 | 31.4 | 49 | 64.2 % | 1.7 | 43 | 73.1 % | 28.0 | yes |
+    | design | parts | area bound | rows sheets | rows yield | rows s | search sheets | search yield | search s |
+    |---|---|---|---|---|---|---|---|---|
+    | 7a | 314 | 30.1 | 40 | 75.2 % | 2.0 | 39 | 77.2 % | 20.2 |
+    | 7b | 309 | 30.3 | 40 | 75.7 % | 4.6 | 40 | 75.7 % | 43.9 |
+    | 7c | 621 | 28.9 | 38 | 76.2 % | 4.0 | 37 | 78.2 % | 80.4 |
+    | 7d | 399 | 26.7 | 41 | 65.2 % | 4.7 | 38 | 70.3 % | 44.5 |
+    | 9 | 1243 | 34.0 | 52 | 65.3 % | 5.5 | 50 | 67.9 % | 108.5 |
+    | 10 | 256 | 22.8 | 28 | 81.6 % | 1.5 | 27 | 84.6 % | 5.2 |
+    | 11 | 935 | 31.3 | 49 | 63.8 % | 7.7 | 42 | 74.4 % | 187.6 |
+    | 13 | 500 | 23.1 | 34 | 67.8 % | 3.6 | 29 | 79.5 % | 26.9 |
+
+The same day, on the parts before the seams (509 parts on 7a): 7a rows 39 (78.2 %), search 38
+(80.3 %, 10 s); 9 rows 54, search 49 (69.1 %); 11 rows 49, search 43 (73.1 %).
 
 Candidates measured by hand the same day on 7a's outlines:
 
@@ -37,9 +47,10 @@ Candidates measured by hand the same day on 7a's outlines:
   (2.36); the AGPL would also bind torsal's MIT users.
 
 So: the rows for every run, and the search of our own for the final cut (deterministic, MIT,
-no new dependency). What caps 9's and 11's yield is their curved strips (their outlines fill
-55-75 % of their bounding rectangles): the skyline's starts take them from 54 / 49 sheets
-to 50 / 43; 80 % needs 43 / 40.
+no new dependency). It reaches 80 % on 10 and 13 (79.5 %) only: what caps 9's and 11's yield is
+their curved strips (outlines that fill 55-75 % of their bounding rectangle), 7a's, 7b's and
+7c's the strips between half a sheet and a sheet long (7a: 118 of 314 parts), which share a
+row with short parts only.
 
 Run: ``.venv/bin/python benchmarks/nesting_bench.py [--designs 7a 9 11] [--sparrow-s 60]``.
 """
