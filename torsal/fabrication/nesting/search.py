@@ -39,7 +39,7 @@ from .rows import orientations, prepare, row_layout
 from .skyline import DEFAULT_RESOLUTION, SkylinePacker, column_profiles
 from .stats import Nester, NestStats
 
-__all__ = ["nest_search", "DEFAULT_TRIES"]
+__all__ = ["nest_search", "SheetEmptier", "DEFAULT_TRIES"]
 
 #: repacks the search may make (about 20-50 ms each on a 2.5 m sheet)
 DEFAULT_TRIES = 600
@@ -123,30 +123,34 @@ def _sheets(where: dict) -> list[dict]:
     return sheets
 
 
-class _Search:
-    """Step 2 of the module docstring, on ``sheets`` in place."""
+class SheetEmptier:
+    """Empties the emptiest sheets into the others, in place (step 2 of the module docstring;
+    sparrow's search, :func:`~.yield_.nest_for_yield`, is the same loop with another packer).
 
-    def __init__(self, sheets, area, repack: Callable, usable: float, floor: int, tries: int,
-                 deadline: float | None, progress):
-        self.sheets, self.area, self.repack, self.usable = sheets, area, repack, usable
-        self.floor, self.budget, self.deadline, self.progress = floor, tries, deadline, progress
+    ``sheets`` ``[{name: (rot, offset)}]``, ``area`` ``{name: unit^2}``; ``fit(names)`` packs
+    ``names`` on one sheet (``{name: (rot, offset)}``, or None); ``may_try()`` says whether
+    the budget pays for one more ``fit``; ``floor`` the sheets no packing can go below; a host
+    is offered parts up to ``host_fill`` of ``usable`` and ``hosts`` hosts are tried an offer.
+    ``tries`` counts the fits, ``moves`` the parts moved, ``emptied`` the sheets freed,
+    ``repacked`` the parts some fit placed.
+    """
+
+    def __init__(self, sheets, area, *, fit: Callable, may_try: Callable[[], bool],
+                 usable: float, floor: int, host_fill: float = _HOST_FILL, hosts: int = _HOSTS,
+                 progress=None):
+        self.sheets, self.area, self.fit, self.may_try = sheets, area, fit, may_try
+        self.usable, self.floor, self.host_fill, self.hosts = usable, floor, host_fill, hosts
+        self.progress = progress
+        self.start_sheets = len(sheets)
         self.tries = self.moves = self.emptied = 0
-        self.time_limited = False
+        self.repacked: set = set()
 
     def filled(self, s: dict) -> float:
         return sum(self.area[n] for n in s)
 
-    def can_try(self) -> bool:
-        if self.tries >= self.budget:
-            return False
-        if self.deadline is not None and time.perf_counter() > self.deadline:
-            self.time_limited = True
-            return False
-        return True
-
     def run(self) -> None:
-        aside: set = set()
-        while len(self.sheets) > self.floor and self.can_try():
+        aside: set = set()              # ids of victims whose largest part found no host
+        while len(self.sheets) > self.floor and self.may_try():
             victims = [s for s in self.sheets if id(s) not in aside]
             if not victims:
                 break
@@ -166,33 +170,51 @@ class _Search:
             first = parts[0]
             hosts = sorted((s for s in self.sheets if s is not victim),
                            key=lambda s: (self.filled(s), sorted(s)))
-            hosts = [s for s in hosts
-                     if _HOST_FILL * self.usable - self.filled(s) >= self.area[first]][:_HOSTS]
+            hosts = [s for s in hosts if self.host_fill * self.usable - self.filled(s)
+                     >= self.area[first]][:self.hosts]
             if not self._move(victim, parts, first, hosts):
                 return False
         return True
 
     def _move(self, victim, parts, first, hosts) -> bool:
         for host in hosts:
-            room = _HOST_FILL * self.usable - self.filled(host)
+            room = self.host_fill * self.usable - self.filled(host)
             offer, a = [], 0.0
             for n in parts:                  # the largest, then what else fits the room
                 if a + self.area[n] <= room:
                     offer.append(n)
                     a += self.area[n]
             for attempt in (offer, [first]) if len(offer) > 1 else (offer,):
-                if not self.can_try():
+                if not self.may_try():
                     return False
                 self.tries += 1
-                fit = self.repack(sorted(host) + attempt)
+                fit = self.fit(sorted(host) + attempt)
                 if fit is not None:
                     host.clear()
                     host.update(fit)
                     for n in attempt:
                         del victim[n]
+                    self.repacked.update(fit)
                     self.moves += len(attempt)
                     return True
         return False
+
+
+class _Counted:
+    """The search's budget: ``tries`` fits, and ``deadline`` (wall clock) as a safety net."""
+
+    def __init__(self, tries: int, deadline: float | None):
+        self.tries, self.deadline = tries, deadline
+        self.emptier: SheetEmptier | None = None
+        self.time_limited = False
+
+    def __call__(self) -> bool:
+        if self.emptier.tries >= self.tries:
+            return False
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            self.time_limited = True
+            return False
+        return True
 
 
 def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap: float = 5.0,
@@ -253,23 +275,24 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
 
     total = sum(area.values())
     start_sheets = {k: len(v) for k, v in fill.items()}
-    search = _Search(fill[best], area, repack, frame.length * frame.height,
-                     int(np.ceil(total / (w * h) - 1e-9)), tries,
-                     None if time_limit is None else t0 + time_limit, progress)
+    budget = _Counted(tries, None if time_limit is None else t0 + time_limit)
+    search = budget.emptier = SheetEmptier(
+        fill[best], area, fit=repack, may_try=budget, usable=frame.length * frame.height,
+        floor=int(np.ceil(total / (w * h) - 1e-9)), progress=progress)
     search.run()
     placements = sorted((placement_of(by_name[n], si, rot, dx, dy)
                          for si, s in enumerate(search.sheets) for n, (rot, (dx, dy)) in s.items()),
                         key=lambda p: (p.sheet, p.name))
     lay = Layout((w, h), placements, len(search.sheets), unit=unit, gap=gap, margin=margin,
                  cutting=cutting)
-    why = ("stopped by the time limit" if search.time_limited else
+    why = ("stopped by the time limit" if budget.time_limited else
            "at the area bound" if len(search.sheets) <= search.floor else
            "all tries made" if search.tries >= tries else "nothing more to try")
     lay.stats = NestStats(f"{Nester.SEARCH.value} from {best} ({search.emptied} sheets emptied, {why})",
                           time.perf_counter() - t0, time.process_time() - c0, total / (w * h),
                           time_limit=time_limit, fallback_parts=0,
                           rotation="free" if rotation_step is None else f"{rotation_step:g} deg steps",
-                          sheet_fill=lay.sheet_utilization, time_limited=search.time_limited,
+                          sheet_fill=lay.sheet_utilization, time_limited=budget.time_limited,
                           start_sheets=len(fill[best]), moves=search.moves,
                           sheets_emptied=search.emptied, tries=search.tries,
                           starts=start_sheets)

@@ -64,6 +64,7 @@ from ..cutting import Cutting
 from ..layout import Layout, placement_of
 from .bottom_left import merge_layouts, nest, shelf_pack
 from .rows import SMALL, prepare, row_layout
+from .search import SheetEmptier
 from .sparrow import SheetSolver
 from .stats import DEFAULT_SEED, DEFAULT_TIME_LIMIT, SECONDS_PER_SHEET, Nester, NestStats
 
@@ -148,23 +149,25 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
         while len(sheets) <= si:
             sheets.append({})
         sheets[si][n] = (rot, off)
-    search = _Search(sheets, area, SheetSolver({n: it.outline for n, it in by_name.items()},
-                                               w, h, sep, edge, seed, rotation_step),
-                     usable, int(np.ceil(total / (w * h) - 1e-9)), t0 + time_limit, progress)
+    solver = SheetSolver({n: it.outline for n, it in by_name.items()}, w, h, sep, edge, seed,
+                         rotation_step)
+    budget = _Budget(solver, t0 + time_limit)
+    search = SheetEmptier(sheets, area, fit=lambda names: solver.fit(names, _EXPLORE, _COMPRESS),
+                          may_try=budget, usable=usable, floor=int(np.ceil(total / (w * h) - 1e-9)),
+                          host_fill=_HOST_FILL, hosts=_HOSTS, progress=progress)
     search.run()
     placements = sorted((placement_of(by_name[n], si, rot, dx, dy)
                          for si, s in enumerate(search.sheets) for n, (rot, (dx, dy)) in s.items()),
                         key=lambda p: (p.sheet, p.name))
     lay = Layout((w, h), placements, len(search.sheets), unit=unit, gap=gap, margin=margin,
                  cutting=cutting)
-    solver = search.solver
-    why = ("stopped by the time budget" if search.time_limited else
+    why = ("stopped by the time budget" if budget.time_limited else
            "at the area bound" if len(search.sheets) <= search.floor else "nothing more to try")
     stats = NestStats(f"{Nester.SPARROW.value} on rows ({search.emptied} sheets emptied, {why})",
                       0.0, 0.0, total / (w * h), solver.calls, seed, float(time_limit),
                       len(items) - len(search.repacked),
                       "free" if rotation_step is None else f"{rotation_step:g} deg steps",
-                      lay.sheet_utilization, solver.seconds, search.time_limited,
+                      lay.sheet_utilization, solver.seconds, budget.time_limited,
                       search.start_sheets, search.moves, search.emptied)
     if fast is not None and fast.n_sheets < lay.n_sheets:
         stats.method = f"{Nester.BOTTOM_LEFT.value} (fewer sheets than {stats.method})"
@@ -175,79 +178,18 @@ def nest_for_yield(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), g
     return lay
 
 
-class _Search:
-    """Step 2 of the module docstring: empties the emptiest sheets with sparrow, in place."""
+class _Budget:
+    """Sparrow's wall-clock budget: one more solve while the time left pays for it at the
+    ratio of wall to given seconds measured so far (a loaded machine stretches them)."""
 
-    def __init__(self, sheets: list, area: dict, solver: SheetSolver, usable: float,
-                 floor: int, deadline: float, progress):
-        self.sheets, self.area, self.solver, self.usable = sheets, area, solver, usable
-        self.floor, self.deadline, self.progress = floor, deadline, progress
-        self.start_sheets = len(sheets)
-        self.emptied = self.moves = 0
+    def __init__(self, solver: SheetSolver, deadline: float):
+        self.solver, self.deadline = solver, deadline
         self.time_limited = False
-        self.repacked: set = set()        # parts sparrow placed (the others: the rows')
 
-    def filled(self, s: dict) -> float:
-        return sum(self.area[n] for n in s)
-
-    def can_solve(self) -> bool:
-        """Whether the budget pays for one more solve (at the wall/given ratio so far)."""
+    def __call__(self) -> bool:
         sv = self.solver
         ratio = max(1.0, sv.seconds / sv.asked) if sv.calls else 1.0
         if self.deadline - time.perf_counter() < (_EXPLORE + _COMPRESS) * ratio:
             self.time_limited = True
             return False
-        return True
-
-    def run(self) -> None:
-        set_aside: set = set()           # ids of victims whose largest part found no host
-        while len(self.sheets) > self.floor:
-            victims = [s for s in self.sheets if id(s) not in set_aside]
-            if not victims or not self.can_solve():
-                break
-            victim = min(victims, key=lambda s: (self.filled(s), sorted(s)))
-            if self.empty(victim):
-                self.sheets.remove(victim)
-                self.emptied += 1
-            else:
-                set_aside.add(id(victim))
-                if self.time_limited:
-                    break
-            if self.progress is not None:
-                self.progress(self.emptied, max(0, len(self.sheets) - self.floor))
-
-    def empty(self, victim: dict) -> bool:
-        """Move the victim's parts to other sheets; True if none is left."""
-        while victim:
-            parts = sorted(victim, key=lambda n: (-self.area[n], n))
-            first = parts[0]
-            hosts = sorted((s for s in self.sheets if s is not victim),
-                           key=lambda s: (self.filled(s), sorted(s)))
-            hosts = [s for s in hosts
-                     if _HOST_FILL * self.usable - self.filled(s) >= self.area[first]][:_HOSTS]
-            moved = False
-            for host in hosts:
-                room = _HOST_FILL * self.usable - self.filled(host)
-                offer, a = [], 0.0
-                for n in parts:              # the largest, then what else fits the room
-                    if a + self.area[n] <= room:
-                        offer.append(n)
-                        a += self.area[n]
-                for attempt in (offer, [first]) if len(offer) > 1 else (offer,):
-                    if not self.can_solve():
-                        return False
-                    fit = self.solver.fit(list(host) + attempt, _EXPLORE, _COMPRESS)
-                    if fit is not None:
-                        host.clear()
-                        host.update(fit)
-                        for n in attempt:
-                            del victim[n]
-                        self.repacked.update(fit)
-                        self.moves += len(attempt)
-                        moved = True
-                        break
-                if moved:
-                    break
-            if not moved:
-                return False
         return True
