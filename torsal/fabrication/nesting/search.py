@@ -293,7 +293,7 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
                           time_limit=time_limit, fallback_parts=0,
                           rotation="free" if rotation_step is None else f"{rotation_step:g} deg steps",
                           sheet_fill=lay.sheet_utilization, time_limited=budget.time_limited,
-                          start_sheets=len(fill[best]), moves=search.moves,
+                          start_sheets=start_sheets[best], moves=search.moves,
                           sheets_emptied=search.emptied, tries=search.tries,
                           starts=start_sheets)
     return lay
