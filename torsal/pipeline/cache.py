@@ -22,7 +22,7 @@ import numpy as np
 from .._version import __version__
 from ..core.atomic import atomic_path
 
-__all__ = ["CACHE_VERSION", "MISSING", "StageCache", "stage_key"]
+__all__ = ["CACHE_VERSION", "MISSING", "StageCache", "stage_key", "read_pickle", "write_pickle"]
 
 #: bump when a stage's cached value changes shape or, for the same inputs, its value (3:
 #: line_spread_deg; 4: the split torsal-angle rows divided by the form's magnitude, new optima)
@@ -40,6 +40,28 @@ def _hash(*parts) -> str:
             h.update(json.dumps(p, sort_keys=True, default=str).encode())
         h.update(b"|")
     return h.hexdigest()[:16]
+
+
+def read_pickle(path: Path):
+    """The value pickled in ``path``, or :data:`MISSING` (no file, or one that cannot be read:
+    a stale or broken file is deleted, so it is recomputed)."""
+    if not path.exists():
+        return MISSING
+    try:
+        with open(path, "rb") as fh:
+            return pickle.load(fh)
+    except Exception:
+        path.unlink(missing_ok=True)
+        return MISSING
+
+
+def write_pickle(path: Path, value, *, protocol: int | None = None) -> None:
+    """Pickle ``value`` to ``path`` atomically (a reader never sees half a file, also across
+    processes), creating its folder."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            pickle.dump(value, fh, protocol=protocol)
 
 
 def stage_key(name: str, *parts) -> str:
@@ -80,23 +102,12 @@ class StageCache:
     def load(self, name: str, key: str):
         """The stored value, or :data:`MISSING` (none, disabled, or unreadable: a stale or
         broken file is deleted and recomputed)."""
-        path = self.path(name, key)
-        if not self.enabled or not path.exists():
-            return MISSING
-        try:
-            with open(path, "rb") as fh:
-                return pickle.load(fh)
-        except Exception:
-            path.unlink(missing_ok=True)
-            return MISSING
+        return read_pickle(self.path(name, key)) if self.enabled else MISSING
 
     def store(self, name: str, key: str, value) -> None:
         """Write atomically (a reader never sees half a file, also across processes)."""
-        self.folder.mkdir(parents=True, exist_ok=True)
         path = self.path(name, key)
-        with atomic_path(path) as tmp:
-            with open(tmp, "wb") as fh:
-                pickle.dump(value, fh)
+        write_pickle(path, value)
         if self.prune:
             for old in self.folder.glob(f"{name}-*.pkl"):
                 if old != path:

@@ -21,8 +21,7 @@ from pathlib import Path
 from typing import Callable
 
 from .._version import __version__
-from ..core.atomic import atomic_path
-from .cache import CACHE_VERSION
+from .cache import CACHE_VERSION, MISSING, read_pickle, write_pickle
 
 __all__ = ["Memo", "content_key"]
 
@@ -60,21 +59,11 @@ class Memo:
 
     def load(self, name: str, key: str):
         """The stored value, or None."""
-        path = self._path(name, key)
-        if not self.enabled or not path.exists():
-            return None
-        try:
-            with open(path, "rb") as fh:
-                return pickle.load(fh)
-        except Exception:
-            path.unlink(missing_ok=True)
-            return None
+        value = read_pickle(self._path(name, key)) if self.enabled else MISSING
+        return None if value is MISSING else value
 
     def store(self, name: str, key: str, value) -> None:
-        self.folder.mkdir(parents=True, exist_ok=True)
-        with atomic_path(self._path(name, key)) as tmp:
-            with open(tmp, "wb") as fh:
-                pickle.dump(value, fh, protocol=4)
+        write_pickle(self._path(name, key), value, protocol=4)
         old = sorted(self.folder.glob(f"{name}-*.pkl"), key=lambda p: p.stat().st_mtime_ns)
         for p in old[:max(0, len(old) - self.keep)]:
             p.unlink(missing_ok=True)
