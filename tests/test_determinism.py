@@ -70,3 +70,28 @@ def test_the_final_cut_is_kept_with_the_design(tmp_path):
     again_sheets = {f"sheets/{f.name}": hashlib.sha256(f.read_bytes()).hexdigest()
                     for f in sorted((out / "sheets").glob("*.dxf"))}
     assert sheets and again_sheets == sheets
+
+
+_WRITE_SHEETS = """
+import sys
+from shapely.geometry import Polygon, box
+from torsal.fabrication.nesting import Nester, nest_parts
+parts = {f"p{i}": box(0, 0, 300, 100 + 10 * i) for i in range(5)}
+parts["tri"] = Polygon([(0, 0), (400, 0), (0, 150)])
+nest_parts(parts, sheet=(1000, 500), nester=Nester.ROWS).export_dxf(sys.argv[1], svg=False)
+"""
+
+
+def test_sheets_do_not_depend_on_the_process(tmp_path):
+    """Two processes with different string hashing (PYTHONHASHSEED) write the same bytes: ezdxf
+    adds the CLASS entries of the entity types in use from a set, whose order changed with it."""
+    import os
+
+    digests = set()
+    for seed in ("1", "4", "7"):
+        out = tmp_path / seed / "f.dxf"
+        subprocess.run([sys.executable, "-c", _WRITE_SHEETS, str(out)], check=True,
+                       env={**os.environ, "PYTHONHASHSEED": seed})
+        (sheet,) = sorted(out.parent.glob("*.dxf"))
+        digests.add(hashlib.sha256(sheet.read_bytes()).hexdigest())
+    assert len(digests) == 1

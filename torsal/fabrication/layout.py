@@ -199,6 +199,7 @@ class Layout:
         for s in range(self.n_sheets):
             doc = self.sheet_document(s)
             target = path.with_name(f"{path.stem}_sheet{s + 1:02d}.dxf")
+            _classes_in_fixed_order(doc)
             with atomic_path(target) as tmp, _fixed_metadata():
                 doc.saveas(tmp)
             out.append(target)
@@ -207,6 +208,18 @@ class Layout:
                     tmp.write_text(sheet_svg(self.sheet_drawing(s), self.sheet, self.unit),
                                    encoding="utf-8")
         return out
+
+
+def _classes_in_fixed_order(doc) -> None:
+    """Register the CLASS entries of ``doc`` now, sorted: ezdxf adds those of the entity types
+    in use from a set of strings when it saves, in an order that changes with Python's string
+    hashing from one process to the next (PYTHONHASHSEED), so the same sheet came out with
+    LAYOUT and ACDBPLACEHOLDER swapped between two runs. Entries already registered keep their
+    place when ezdxf adds the required ones again."""
+    from collections import OrderedDict
+
+    doc.classes.add_required_classes(doc.dxfversion)
+    doc.classes.classes = OrderedDict(sorted(doc.classes.classes.items()))
 
 
 _EZDXF_OPTIONS = threading.Lock()
