@@ -120,3 +120,25 @@ def test_a_seam_the_assembly_check_refuses_falls_back_to_a_bracket(monkeypatch):
     assert {j.parts[-2] for j in at7} == {"F0-S001-P00", "F0-S001-P01"}
     assert all(j.connector for j in at7) and len(at7) >= 2
     assert {c.name for c in fs.connectors if c.id.strip == 7} == {j.connector for j in at7}
+
+
+def test_the_local_checks_give_the_same_verdicts_in_worker_processes(monkeypatch):
+    # the fabrication stage runs the seams' local checks in the solids' prepared workers:
+    # seams, fallbacks and joints are those of the checks in this process
+    from torsal.fabrication.solids import prepare_workers, release_workers
+
+    here = []
+    local = seams_module._local_check
+    monkeypatch.setattr(seams_module, "_local_check", lambda *a: here.append(1) or local(*a))
+    serial = _build(flat_structure(5, 4), max_panels=2)
+    n_checks = len(here)
+    assert prepare_workers(1000, workers=2) == 2
+    try:
+        pooled = _build(flat_structure(5, 4), max_panels=2)
+    finally:
+        release_workers()
+    assert len(serial.seams_in_slot) >= 2 and n_checks >= 2
+    assert len(here) == n_checks          # none more in this process: the workers checked them
+    assert pooled.seams_in_slot == serial.seams_in_slot
+    assert pooled.joint_fallbacks == serial.joint_fallbacks
+    assert [(j.kind, j.parts) for j in pooled.joints] == [(j.kind, j.parts) for j in serial.joints]

@@ -18,13 +18,15 @@ from collections.abc import Mapping
 from contextvars import ContextVar
 from typing import NamedTuple
 
+import numpy as np
+
 from torsal.core.parallel import usable_workers
 
 from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _labelled, _mesh
 from .rhino import encoded_brep
 
 __all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
-           "release_workers", "start_solids", "build_solids", "solid_shapes"]
+           "release_workers", "start_solids", "build_solids", "solid_shapes", "map_prepared"]
 
 
 def _to_bytes(shape) -> bytes:
@@ -166,6 +168,35 @@ def release_workers() -> None:
         w.shutdown(cancel=True)
 
 
+def _call_chunk(args):
+    """Worker: ``[fn(item) for item in items]`` of ``(fn, items)``."""
+    fn, items = args
+    return [fn(x) for x in items]
+
+
+def map_prepared(fn, items: list) -> list:
+    """``[fn(x) for x in items]``, in the worker processes :func:`prepare_workers` started if
+    there are any (they wait for the solids meanwhile), else in this process. ``fn`` is a
+    module-level function and ``items`` pickle; the results come back in order, the same
+    as in this process (each item is computed on its own). Used for the seams' local
+    assembly checks, which the fin system runs while the prepared workers are idle.
+
+    >>> map_prepared(abs, [-1, 2])
+    [1, 2]
+    """
+    w = _PREPARED.get()
+    if w is None or len(items) < 2:
+        return [fn(x) for x in items]
+    w.started()
+    if w.error is not None:              # the workers could not start: build here
+        return [fn(x) for x in items]
+    n_chunks = min(len(items), 4 * w.workers)
+    # contiguous chunks (results are put back in order), a few per worker so none waits long
+    bounds = np.linspace(0, len(items), n_chunks + 1).astype(int)
+    futures = [w.pool.submit(_call_chunk, (fn, items[a:b])) for a, b in zip(bounds[:-1], bounds[1:])]
+    return [r for f in futures for r in f.result()]
+
+
 def _take_workers(workers: int) -> WorkerPool:
     """The prepared workers if there are ``workers`` of them, else new ones."""
     w = _PREPARED.get()
@@ -270,6 +301,9 @@ def start_solids(fin_system, *, repair: bool = True, workers: int | None = None)
             memo is not None and memo[0] == _parts_key(fin_system)):
         return None
     parts = list(fin_system.parts)
+    prepared = _PREPARED.get()
+    if workers is None and prepared is not None and len(parts) > 1:
+        workers = prepared.workers      # started already (prepare_workers): their start is paid
     workers = _workers_for(len(parts), workers)
     if workers <= 1:
         return None

@@ -129,6 +129,12 @@ def _local_check(parts: list[Part], joints: list[Joint], thickness: float, unit:
     return _Verdict(False, SeamReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "))
 
 
+def _local_check_of(ask: tuple) -> _Verdict:
+    """:func:`_local_check` of ``(parts, joints, thickness, unit)`` (one argument: a task for
+    a worker process)."""
+    return _local_check(*ask)
+
+
 class SlotSeams:
     """The seams inside crossing slots of a fin system ``fs`` under construction: which splits
     may try one (:meth:`candidates`), refusals with their reason (:meth:`refuse`), the local
@@ -207,11 +213,13 @@ class SlotSeams:
         fs._refuse_seams[(family, node)] = JointFallback(node, family, reason, detail, tuple(parts))
 
     def verify(self) -> list[JointFallback]:
-        """The local assembly check of every seam of this build (remembered by content);
-        returns those refused (also in ``_refuse_seams``)."""
+        """The local assembly check of every seam of this build (remembered by content, run in
+        the solids' prepared worker processes where there are any); returns those refused (also
+        in ``_refuse_seams``)."""
         fs = self.fs
         crossing = self._crossing_joints()
         by_name = {p.name: p for p in fs.parts}
+        asks: dict = {}                   # (family, node) -> (names, joints)
         for fam, node in sorted(fs._seam_crossings):
             joints = crossing.get(node, [])
             names = tuple(dict.fromkeys(n for j in joints for n in j.parts))
@@ -220,13 +228,16 @@ class SlotSeams:
                 self.refuse(fam, node, SeamReason.NO_SLOT, "the crossing plate is not slotted "
                             "there", tuple(mine))
                 continue
-            verdict = self._verdict([local_part(by_name[n], node) for n in names], joints)
-            if verdict.reason == SeamReason.SOLID:
-                # a slot that runs out of a narrow, slanted panel cuts the panels next to the
-                # node apart but not the whole part: the whole parts decide
-                verdict = self._verdict([by_name[n] for n in names], joints)
+            asks[(fam, node)] = (names, joints)
+        verdicts = self._verdicts({(fam, node): ([local_part(by_name[n], node) for n in names], joints)
+                                   for (fam, node), (names, joints) in asks.items()})
+        # a slot that runs out of a narrow, slanted panel cuts the panels next to the node
+        # apart but not the whole part: the whole parts decide
+        verdicts.update(self._verdicts({k: ([by_name[n] for n in asks[k][0]], asks[k][1])
+                                        for k, v in verdicts.items() if v.reason == SeamReason.SOLID}))
+        for (fam, node), verdict in sorted(verdicts.items()):
             if not verdict.ok:
-                self.refuse(fam, node, verdict.reason, verdict.detail, names)
+                self.refuse(fam, node, verdict.reason, verdict.detail, asks[(fam, node)][0])
         return [fs._refuse_seams[k] for k in sorted(fs._refuse_seams)]
 
     def _crossing_joints(self) -> dict[int, list[Joint]]:
@@ -238,16 +249,25 @@ class SlotSeams:
                 out.setdefault(j.node, []).append(j)
         return out
 
-    def _verdict(self, parts: list[Part | None], joints: list[Joint]) -> _Verdict:
-        """:func:`_local_check` of ``parts`` with ``joints``, remembered by their content."""
+    def _verdicts(self, asks: dict) -> dict:
+        """``{seam: _Verdict}``: :func:`_local_check` of each ``{seam: (parts, joints)}``,
+        remembered by their content; those not remembered are checked together, in the
+        prepared worker processes where there are any (:func:`~..workers.map_prepared`)."""
+        from ..workers import map_prepared
+
         fs = self.fs
-        parts = [p for p in parts if p is not None]
-        key = _memo_key(([(p.name, p.panels, p.miters, [dataclasses.astuple(s) for s in p.slots])
-                          for p in parts], [(j.parts, j.insert_direction, j.depth) for j in joints],
-                         fs.thickness))
-        if key not in fs._seam_verdicts:
-            fs._seam_verdicts[key] = _local_check(parts, joints, fs.thickness, fs.unit)
-        return fs._seam_verdicts[key]
+        keys, todo = {}, {}
+        for seam, (parts, joints) in asks.items():
+            parts = [p for p in parts if p is not None]
+            key = _memo_key(([(p.name, p.panels, p.miters, [dataclasses.astuple(s) for s in p.slots])
+                              for p in parts], [(j.parts, j.insert_direction, j.depth) for j in joints],
+                             fs.thickness))
+            keys[seam] = key
+            if key not in fs._seam_verdicts:
+                todo.setdefault(key, (parts, joints, fs.thickness, fs.unit))
+        for key, verdict in zip(todo, map_prepared(_local_check_of, list(todo.values()))):
+            fs._seam_verdicts[key] = verdict
+        return {seam: fs._seam_verdicts[key] for seam, key in keys.items()}
 
     def publish(self) -> None:
         """``fs.seams_in_slot`` (the seams kept, each a joint without a connector) and
