@@ -52,6 +52,10 @@ def test_good_file_loads_with_defaults(tmp_path):
     (('timezone = "Europe/Vienna"', 'timezone = "Mars/Base"'), "site.timezone", "unknown time zone"),
     (('hours = [13, 16]', 'hours = [16, 13]'), "sun", "h0 <= h1"),
     (("depth = 0.4", ""), "fins.depth", "missing"),
+    (("spacing = 1.5", "spacing = [1.5, 3, 4.5]"), "fins.spacing", "a list of 3"),
+    (("spacing = 1.5", "spacing = [1.5]"), "fins.spacing", "a list of 1"),
+    (("depth = 0.4", "depth = [0.4, 0]"), "fins.depth", "greater than 0, not 0"),
+    (("depth = 0.4", 'depth = [0.4, "deep"]'), "fins.depth", "valid number"),
 ])
 def test_bad_values_name_the_key(tmp_path, edit, key, words):
     p = _write(tmp_path, GOOD.replace(*edit))
@@ -75,9 +79,22 @@ def test_missing_mesh_and_bad_toml(tmp_path):
         load_design_file(_write(tmp_path, both, "both.toml"))
 
 
+def test_a_spacing_and_depth_per_family(tmp_path):
+    """fins.spacing = [s0, s1] and fins.depth = [d0, d1] per torsal family; a number still
+    means both."""
+    spec = load_design_file(_write(tmp_path, GOOD.replace("spacing = 1.5", "spacing = [1.5, 3]")
+                                   .replace("depth = 0.4", "depth = [0.4, 0.2]")))
+    assert spec.fins.spacings == (1.5, 3.0) and spec.fins.depths == (0.4, 0.2)
+    assert spec.fins.spacing == (1.5, 3.0)                  # as written, for the report
+    same = load_design_file(_write(tmp_path, GOOD, "same.toml")).fins
+    assert same.spacings == (1.5, 1.5) and same.depths == (0.4, 0.4)
+
+
 @pytest.mark.parametrize("edit, words", [
     (("[fins]", "[fins]\nspaceing = 2"), "fins.spaceing"),
     (('generator = "facade_patch"\nparams = { nu = 9, nv = 5 }', 'mesh = "gone.obj"'), "surface.mesh"),
+    (("spacing = 1.5", "spacing = [1.5, 3, 4.5]"), "fins.spacing is a list of 3"),
+    (("depth = 0.4", "depth = [-0.4, 0.4]"), "fins.depth: Input should be greater than 0"),
 ])
 def test_cli_exit_2_and_nothing_written(tmp_path, capsys, edit, words):
     p = _write(tmp_path, GOOD.replace(*edit))

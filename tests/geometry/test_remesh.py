@@ -96,6 +96,36 @@ def test_spacing_sets_fin_distance(saddle_case):
     assert abs(np.median(length) - 1 / 20) < 0.1 / 20
 
 
+@pytest.mark.parametrize("spacings", [(1 / 20, 1 / 10), (1 / 10, 1 / 20)])
+def test_each_family_its_own_spacing(saddle_case, spacings):
+    """fins.spacing = [s0, s1]: the family-0 fins s0 apart, the family-1 fins s1 apart. Along a
+    fin of one family the lattice points are where the other family's fins cross it, so an
+    inner edge of family 0 is s1 long and one of family 1 s0 (paper 4.2); the sparse family
+    has the fewer strips, in the ratio of the spacings."""
+    c, even = saddle_case
+    s = remesh_torsal(c, spacings)
+    a, e = s.vertices_a, s.edges
+    inner = ~s.metadata["boundary"][e].any(1)
+    length = np.linalg.norm(a[e[:, 1]] - a[e[:, 0]], axis=1)
+    for fam, crossing in ((0, spacings[1]), (1, spacings[0])):
+        mine = inner & (s.edge_family == fam)
+        assert abs(np.median(length[mine]) - crossing) < 0.1 * crossing
+    strips = [len(s.strips(f)) for f in (0, 1)]
+    same = [len(even.strips(f)) for f in (0, 1)]       # both families at 1/20
+    sparse = int(np.argmax(spacings))
+    assert strips[1 - sparse] == same[1 - sparse]
+    assert abs(strips[sparse] / same[sparse] - 0.5) < 0.1
+    assert distance_to_A(c, a).max() <= 1e-9
+    assert s.delta_pl < 0.01
+
+
+def test_a_spacing_per_family_must_be_two_positive_lengths(saddle_case):
+    c, _ = saddle_case
+    for bad in ((0.05, -0.1), (0.05, 0.1, 0.2), (0.05, float("nan"))):
+        with pytest.raises(ValueError, match="two \\(family 0, family 1\\)"):
+            remesh_torsal(c, bad)
+
+
 def test_patch_with_a_hole_remeshes():
     V, F = canopy(nu=29, nv=29)
     centre = np.array([1.0, 0.5])

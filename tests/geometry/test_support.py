@@ -151,3 +151,35 @@ def test_default_says_why_when_planarity_is_not_reached(saddle_structure):
     assert not r.success
     assert r.structure.delta_pl > 1e-12
     assert "not planar enough" in r.status and "1e-12" in r.status
+
+
+def test_each_family_its_own_depth(tmp_path):
+    """family_depth_ratio: family 1's fins reach half-way along the node lines. Their quads,
+    strips and fin mesh end there (fin areas: length x depth on a flat grid of vertical node
+    lines), the fins stay exactly planar (two coplanar node lines at any depth), and the ratio
+    survives eq. (8), the developable refinement and a save / load."""
+    x, y = np.meshgrid(np.arange(3) * 0.3, np.arange(3) * 0.2)
+    a = np.stack([x, y, 0 * x], axis=-1).reshape(-1, 3)
+    idx = np.arange(9).reshape(3, 3)
+    e0 = np.c_[idx[:, :-1].ravel(), idx[:, 1:].ravel()]
+    e1 = np.c_[idx[:-1, :].ravel(), idx[1:, :].ravel()]
+    faces = [[idx[r, c], idx[r, c + 1], idx[r + 1, c + 1], idx[r + 1, c]]
+             for r in range(2) for c in range(2)]
+    s = SupportStructure(a, a + [0, 0, 0.4], faces, np.r_[e0, e1], np.r_[[0] * 6, [1] * 6],
+                         family_depth_ratio=(1.0, 0.5))
+    q = s.fin_quads()
+    depth = np.linalg.norm(q[:, 3] - q[:, 0], axis=1)
+    assert np.allclose(depth, np.where(s.edge_family == 0, 0.4, 0.2))
+    assert s.delta_pl == 0.0
+    for st in s.fins():
+        assert np.allclose(st.quads[:, 2, 2], 0.4 if st.family == 0 else 0.2)
+    # area: 6 family-0 fins 0.3 x 0.4, 6 family-1 fins 0.2 x 0.2
+    assert np.isclose(s.fin_mesh().area, 6 * 0.3 * 0.4 + 6 * 0.2 * 0.2)
+    assert optimize_support(s, planarity_tol=None).structure.family_depth_ratio == (1.0, 0.5)
+    assert refine_developable(s, 1).family_depth_ratio == (1.0, 0.5)
+    s.save(tmp_path / "s.npz")
+    assert SupportStructure.load(tmp_path / "s.npz").family_depth_ratio == (1.0, 0.5)
+    for bad in ((0.0, 1.0), (1.0, 1.5)):
+        with pytest.raises(ValueError, match="family_depth_ratio"):
+            SupportStructure(a, a + [0, 0, 0.4], faces, np.r_[e0, e1], np.r_[[0] * 6, [1] * 6],
+                             family_depth_ratio=bad)

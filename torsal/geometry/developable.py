@@ -117,8 +117,11 @@ def refine_developable(structure: SupportStructure, levels: int = 1, *, referenc
         fam.append(np.full(len(e), fm))
         sid.append(np.full(len(e), k))
         off += m
+    # each family keeps its depth: the duplicated nodes of two crossing strips stay one
+    # node line (merged again where the fins are built)
     s = SupportStructure(np.concatenate(A), np.concatenate(B), [], np.concatenate(Ed),
-                         np.concatenate(fam), metadata={"strip": np.concatenate(sid), "levels": levels})
+                         np.concatenate(fam), metadata={"strip": np.concatenate(sid), "levels": levels},
+                         family_depth_ratio=structure.family_depth_ratio)
     if s.delta_pl > hard_tol:
         r = optimize_support(s, reference, hard_tol=hard_tol, method="projection", rounds=2)
         s = r.structure

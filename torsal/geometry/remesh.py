@@ -39,6 +39,7 @@ import scipy.sparse.linalg as spla
 
 from .frame_field import GROUP, TorsalFrameField, face_bases, torsal_frame_field
 from .mesh import unique_edges
+from .support import per_family
 from torsal.core.errors import TorsalError
 
 __all__ = ["TorsalParametrization", "ParametrizationError", "parametrize", "extract_quads",
@@ -56,11 +57,12 @@ class TorsalParametrization:
     Attributes
     ----------
     field : TorsalFrameField
-    spacing : float
-        Fin spacing in model units.
+    spacing : float or (2,) tuple of float
+        Fin spacing in model units, as given: one for both families or ``(s0, s1)``
+        (:attr:`spacings`).
     uv : (F, 3, 2) float
-        ``(u, v)`` per face corner, in units of ``spacing`` (iso-lines ``u = k`` carry family-1
-        fins, ``v = l`` family-0 fins).
+        ``(u, v)`` per face corner in lattice units: iso-lines ``u = k`` carry family-1 fins,
+        ``s1`` apart, ``v = l`` family-0 fins, ``s0`` apart.
     cut : (E,) bool
         Mesh edges (indexed like ``field.edges``) along which the mesh is cut open.
     transition : (E, 2) int
@@ -75,13 +77,24 @@ class TorsalParametrization:
     """
 
     field: TorsalFrameField
-    spacing: float
+    spacing: float | tuple[float, float]
     uv: np.ndarray
     cut: np.ndarray
     transition: np.ndarray
     residual: float
     flipped: np.ndarray
     metadata: dict = field(default_factory=dict)
+
+    @property
+    def spacings(self) -> tuple[float, float]:
+        """``(s0, s1)``: the spacing of the family-0 fins (iso-lines of ``v``) and of the
+        family-1 fins (iso-lines of ``u``), model units."""
+        return per_family(self.spacing, "spacing")
+
+
+def _spacing_text(spacing) -> str:
+    s0, s1 = per_family(spacing, "spacing")
+    return f"{s0:g}" if s0 == s1 else f"[{s0:g}, {s1:g}]"
 
 
 def _gradient_basis(V, F):
@@ -147,16 +160,17 @@ class _Alignment(NamedTuple):
     """The least-squares rows of the field alignment: ``G x ~ b`` per coordinate."""
 
     G: sp.csr_matrix       # (2 F, W): derivative of a wedge-valued function along t0, t1
-    rhs_u: np.ndarray      # (2 F,): targets (1, 0) / spacing, area weighted
-    rhs_v: np.ndarray      # (2 F,): targets (0, 1) / spacing
+    rhs_u: np.ndarray      # (2 F,): targets (1 / s1, 0), area weighted
+    rhs_v: np.ndarray      # (2 F,): targets (0, 1 / s0)
     GtG: sp.csc_matrix     # (W, W)
     reg: float             # Tikhonov weight that pins the constant (1e-10 of the mean diagonal)
 
 
-def _alignment(field: TorsalFrameField, wid: np.ndarray, n_wedges: int, spacing: float,
-               g: np.ndarray, area: np.ndarray) -> _Alignment:
-    """Per face the derivatives of u (and v) along t0 and t1 against (1, 0) / spacing (and
-    (0, 1) / spacing). Same minimizer as |grad - dual frame|^2 where the field is integrable,
+def _alignment(field: TorsalFrameField, wid: np.ndarray, n_wedges: int,
+               spacings: tuple[float, float], g: np.ndarray, area: np.ndarray) -> _Alignment:
+    """Per face the derivatives of u (and v) along t0 and t1 against (1 / s1, 0) (and
+    (0, 1 / s0)): u counts the family-1 fins across t0, v the family-0 fins across t1. Same
+    minimizer as |grad - dual frame|^2 where the field is integrable,
     but bounded where t0, t1 nearly coincide: there the dual frame grows like 1 / sin(angle)
     and a few such faces would dominate and fold the map."""
     nF = len(field.faces)
@@ -165,8 +179,9 @@ def _alignment(field: TorsalFrameField, wid: np.ndarray, n_wedges: int, spacing:
     C = np.repeat(wid[:, None, :], 2, axis=1)
     vals = np.einsum("fkd,fcd->fkc", field.directions, g) * sq[:, None, None]
     G = sp.csr_matrix((vals.ravel(), (R.ravel(), C.ravel())), shape=(2 * nF, n_wedges))
-    bu = (np.array([1.0, 0.0]) / spacing * sq[:, None]).ravel()
-    bv = (np.array([0.0, 1.0]) / spacing * sq[:, None]).ravel()
+    s0, s1 = spacings
+    bu = (np.array([1.0 / s1, 0.0]) * sq[:, None]).ravel()
+    bv = (np.array([0.0, 1.0 / s0]) * sq[:, None]).ravel()
     GtG = (G.T @ G).tocsc()
     return _Alignment(G, bu, bv, GtG, 1e-10 * GtG.diagonal().mean())
 
@@ -240,28 +255,31 @@ def _lattice_offset(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return best
 
 
-def _alignment_quality(field: TorsalFrameField, g, area, uv, spacing: float):
+def _alignment_quality(field: TorsalFrameField, g, area, uv, spacings: tuple[float, float]):
     """Area-weighted RMS of the derivatives along the field directions against their targets
-    (the identity), and the faces where the map's orientation disagrees with the dual frame's
-    (folds). Returns ``(residual, flipped)``."""
+    (the identity once u is scaled by s1 and v by s0), and the faces where the map's
+    orientation disagrees with the dual frame's (folds). Returns ``(residual, flipped)``."""
     grad = np.einsum("fkd,fkc->fcd", g, uv)  # (F, 2(coord), 3)
-    dt = np.einsum("fcd,fkd->fck", grad, field.directions) * spacing  # ideally identity
+    scale = np.array([spacings[1], spacings[0]])[None, :, None]
+    dt = np.einsum("fcd,fkd->fck", grad, field.directions) * scale  # ideally identity
     residual = float(np.sqrt(np.average(((dt - np.eye(2)[None]) ** 2).sum((1, 2)), weights=area)))
     _, _, nrm = face_bases(field.vertices, field.faces)
-    w = field.dual_frame() / spacing
+    w = field.dual_frame()
     det = np.einsum("ij,ij->i", np.cross(grad[:, 0], grad[:, 1]), nrm)
     ref = np.einsum("ij,ij->i", np.cross(w[:, 0], w[:, 1]), nrm)
     return residual, np.flatnonzero(np.sign(det) != np.sign(ref))
 
 
-def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = True,
+def parametrize(field: TorsalFrameField, spacing, *, round_jumps: bool = True,
                 offset: bool = True) -> TorsalParametrization:
-    """Global field-aligned parametrization with fin spacing ``spacing`` (model units).
+    """Global field-aligned parametrization with fin spacing ``spacing`` (model units), one
+    for both torsal families or ``(s0, s1)`` (paper 4.2: the spacing of the two families of
+    torsal lines; a sparse second family is ``s1 > s0``).
 
-    Minimizes ``sum_f area_f sum_k ((<grad u, t_k> - delta_k0 / s)^2 + (<grad v, t_k> -
-    delta_k1 / s)^2)`` (``t_0, t_1`` the combed torsal directions, ``s`` the spacing: ``u``
-    grows by one per spacing along ``t_0`` and is constant along ``t_1``, so ``grad u`` is the
-    dual frame vector ``w1 / s``; measured along ``t_k`` the error stays bounded where the two
+    Minimizes ``sum_f area_f sum_k ((<grad u, t_k> - delta_k0 / s1)^2 + (<grad v, t_k> -
+    delta_k1 / s0)^2)`` (``t_0, t_1`` the combed torsal directions: ``u`` grows by one per
+    family-1 spacing along ``t_0`` and is constant along ``t_1``, so ``grad u`` is the
+    dual frame vector ``w1 / s1``; measured along ``t_k`` the error stays bounded where the two
     directions nearly coincide, at parabolic faces, instead of growing like
     ``1 / sin(angle)``) over per-corner values on the mesh cut open
     along :func:`cut_graph`, subject to ``uv[f0] = M uv[f1] + t`` across every cut edge, ``M`` the
@@ -272,8 +290,9 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     Parameters
     ----------
     field : TorsalFrameField
-    spacing : float
-        Distance of neighbouring fins of one family, model units.
+    spacing : float or (2,) sequence of float
+        Distance of neighbouring fins of one family, model units: one for both, or
+        ``(s0, s1)`` for family 0 (iso-lines of ``v``) and family 1 (iso-lines of ``u``).
     round_jumps : bool, default True
         Round the translations across cuts to integers (needed for a consistent quad mesh).
     offset : bool, default True
@@ -287,7 +306,8 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     Raises
     ------
     ParametrizationError
-        Naming the faces where the result folds over, or a singularity on the boundary.
+        Naming the faces where the result folds over, or a singularity on the boundary, or
+        a cut across which the two families exchange while their spacings differ.
 
     Examples
     --------
@@ -300,9 +320,8 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     ((800, 3, 2), True)
     """
     t0 = time.perf_counter()
-    spacing = float(spacing)
-    if not spacing > 0:
-        raise ValueError(f"spacing must be a positive length in model units, got {spacing}")
+    spacings = per_family(spacing, "spacing")
+    spacing = spacings[0] if spacings[0] == spacings[1] else spacings
     V, F = field.vertices, field.faces
     nF = len(F)
     _, face_edges = unique_edges(F)
@@ -312,7 +331,8 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     wid = _wedges(F, face_edges, field.edges, field.edge_faces, cut)
     W = int(wid.max()) + 1
     g, area = _gradient_basis(V, F)
-    al = _alignment(field, wid, W, spacing, g, area)
+    _families_kept(field, ce, spacings)
+    al = _alignment(field, wid, W, spacings, g, area)
     nC = len(ce)
     if nC == 0:
         solve = spla.factorized((al.GtG + al.reg * sp.identity(W)).tocsc())
@@ -329,7 +349,7 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
     transition = np.zeros((len(field.edges), 2), int)
     if nC:
         transition[ce] = np.round(t_jump).astype(int)
-    residual, flipped = _alignment_quality(field, g, area, uv, spacing)
+    residual, flipped = _alignment_quality(field, g, area, uv, spacings)
     meta = {"seconds": time.perf_counter() - t0, "wedges": W, "cut_edges": int(nC),
             "rotational_cut_edges": int(nonid.size), "offset": did_offset,
             "singularities": field.singularities.tolist()}
@@ -339,11 +359,29 @@ def parametrize(field: TorsalFrameField, spacing: float, *, round_jumps: bool = 
         near = _describe_faces(field, flipped)
         raise ParametrizationError(
             f"parametrization failed: the map (u, v) folds over in {flipped.size} of {nF} faces "
-            f"({near}); the torsal field is too irregular there for spacing {spacing:g} "
+            f"({near}); the torsal field is too irregular there for spacing "
+            f"{_spacing_text(spacing)} "
             "(optimize the congruence for smoothness, increase the spacing, or fill near-bundle "
             "faces with a larger bundle_tol)"
         )
     return p
+
+
+def _families_kept(field: TorsalFrameField, cut_edges: np.ndarray,
+                   spacings: tuple[float, float]) -> None:
+    """With two spacings no cut may exchange the families (a matching that swaps ``u`` and
+    ``v``, around a singularity of index 1/4): a family-0 fin would continue as a family-1
+    fin, at the other spacing."""
+    if spacings[0] == spacings[1] or not len(cut_edges):
+        return
+    swaps = GROUP[field.matching[cut_edges]][:, 0, 0] == 0
+    if swaps.any():
+        faces = np.unique(field.edge_faces[cut_edges[swaps]].ravel())
+        raise ParametrizationError(
+            f"the two torsal families exchange around a singularity ({_describe_faces(field, faces[faces >= 0])}): "
+            f"a fin of one family continues as a fin of the other there, so the families "
+            f"cannot have different spacings {_spacing_text(spacings)}; give one fins.spacing "
+            "or a surface whose torsal field has no such singularity")
 
 
 def _describe_faces(field, faces):
@@ -735,7 +773,7 @@ def extract_quads(param: TorsalParametrization, vertices_b=None, *, congruence=N
         Vertices of B (``a_i + e_i``); taken from ``congruence.vertices_b`` if omitted.
     congruence : Congruence, optional
     min_edge : float, default 1e-3
-        Fins shorter than ``min_edge * spacing`` are collapsed (their end points merged; the
+        Fins shorter than ``min_edge`` times the smaller spacing are collapsed (their end points merged; the
         merged vertex is one of the two, so it stays exactly on A).
 
     Returns
@@ -771,14 +809,16 @@ def extract_quads(param: TorsalParametrization, vertices_b=None, *, congruence=N
     seg = {key: np.concatenate([s[key] for s in segs]) for key in segs[0]}
     if len(seg["face"]) == 0:
         raise ParametrizationError(
-            f"no iso-line crosses the mesh: spacing {param.spacing:g} is larger than the patch")
+            f"no iso-line crosses the mesh: spacing {_spacing_text(param.spacing)} is larger "
+            "than the patch")
     X = _crossings(seg)
     N = _lattice_nodes(seg)
     fins = _chain_fins(_pieces(seg, X, N, V, F), len(X.keys), len(X.keys) + len(N.face))
     vt, fin_edges = _fin_vertices(fins, X, N, ef)
     faces = _trace_faces(fin_edges, fins, _boundary_sides(vt, X, V, F, face_edges, ef),
                          vt.face, V, F)
-    c = _collapse_short_fins(vt, fin_edges, fins.family, faces, min_edge * param.spacing, V, F)
+    c = _collapse_short_fins(vt, fin_edges, fins.family, faces, min_edge * min(param.spacings),
+                             V, F)
     vt = c.vertices
     Fv = F[vt.face]
     meta = {"face": vt.face, "barycentric": vt.bary,
@@ -819,12 +859,12 @@ def _boundary_loops(F, face_edges, ef):
     return loops
 
 
-def remesh_torsal(congruence, spacing: float, *, field_kwargs: dict | None = None,
+def remesh_torsal(congruence, spacing, *, field_kwargs: dict | None = None,
                   param_kwargs: dict | None = None) -> "SupportStructure":
     """Torsal remeshing of a congruence into a support structure (Wang et al. 2013, 4.2, Fig. 8).
 
     Runs :func:`torsal_frame_field`, :func:`parametrize` and :func:`extract_quads`. The frame
-    field is smoothed below half the fin spacing (``smoothing = spacing / 2``, see
+    field is smoothed below half the (smaller) fin spacing (``smoothing = spacing / 2``, see
     :func:`torsal_frame_field`): a quad mesh with that spacing cannot follow the torsal
     directions on finer scales, and face-to-face noise in them (which a strongly weighted
     design term such as f_plane, eq. (9), leaves in the optimized congruence) would otherwise
@@ -833,8 +873,9 @@ def remesh_torsal(congruence, spacing: float, *, field_kwargs: dict | None = Non
     Parameters
     ----------
     congruence : Congruence
-    spacing : float
-        Fin spacing in model units.
+    spacing : float or (2,) sequence of float
+        Fin spacing in model units: one for both families or ``(s0, s1)`` (see
+        :func:`parametrize`).
     field_kwargs : dict, optional
         Passed to :func:`torsal_frame_field`; ``{"smoothing": None}`` follows the raw torsal
         directions exactly.
@@ -855,9 +896,12 @@ def remesh_torsal(congruence, spacing: float, *, field_kwargs: dict | None = Non
     >>> s = remesh_torsal(c, 0.05)
     >>> len(s.edges) > 700, s.delta_pl < 0.01
     (True, True)
+    >>> sparse = remesh_torsal(c, (0.05, 0.1))     # a sparse family 1: half its strips
+    >>> [len(s.strips(f)) for f in (0, 1)], [len(sparse.strips(f)) for f in (0, 1)]
+    ([20, 20], [20, 10])
     """
     t0 = time.perf_counter()
-    fkw = {"smoothing": 0.5 * float(spacing) if float(spacing) > 0 else None, **(field_kwargs or {})}
+    fkw = {"smoothing": 0.5 * min(per_family(spacing, "spacing")), **(field_kwargs or {})}
     fld = torsal_frame_field(congruence, **fkw)
     t1 = time.perf_counter()
     p = parametrize(fld, spacing, **(param_kwargs or {}))

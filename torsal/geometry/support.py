@@ -16,9 +16,25 @@ import numpy as np
 
 from torsal.core.atomic import atomic_path
 
-__all__ = ["SupportStructure", "FinStrip", "fin_planarity", "optimize_support", "PLANARITY_TOL",
+__all__ = ["SupportStructure", "FinStrip", "fin_planarity", "per_family", "optimize_support", "PLANARITY_TOL",
            "crossing_folds",
            "SupportOptimizationResult", "SupportWeights", "graph_laplacian", "closest_points"]
+
+
+def per_family(value, name: str = "length") -> tuple[float, float]:
+    """``(x0, x1)`` of a length given for both torsal families (a number) or per family (two),
+    e.g. a fin spacing or depth (``fins.spacing = [s0, s1]``); a ValueError naming ``name``
+    unless they are positive and finite.
+
+    >>> per_family(0.5), per_family([0.5, 1.0])
+    ((0.5, 0.5), (0.5, 1.0))
+    """
+    x = np.asarray(value, float).ravel()
+    x = np.repeat(x, 2) if x.size == 1 else x
+    if not (x.size == 2 and np.isfinite(x).all() and (x > 0).all()):
+        raise ValueError(f"{name} must be a positive length in model units, or two (family 0, "
+                         f"family 1); got {value}")
+    return float(x[0]), float(x[1])
 
 
 def fin_planarity(quads: np.ndarray) -> np.ndarray:
@@ -136,6 +152,13 @@ class SupportStructure:
         Undirected edges of A~; every edge is one fin.
     edge_family : (E,) int
         Torsal family (0 or 1) of each edge.
+    family_depth_ratio : (2,) float, default (1, 1)
+        How far along its node lines each family's fins reach, as a share of ``b~_i -
+        a~_i``: a family-``f`` fin is ``a~_i a~_j c~_j c~_i`` with ``c~ = a~ + r_f (b~ -
+        a~)`` (:meth:`family_vertices_b`). Fins of one family may be shallower than the
+        other's (``fins.depth = [d0, d1]``); a fin planar at one depth is planar at any,
+        since its two node lines are coplanar (Def. 3), so eq. (8) is solved once, on the
+        deeper fins, and each family is then cut to its own depth. Each ratio is in (0, 1].
 
     Examples
     --------
@@ -153,6 +176,7 @@ class SupportStructure:
     edges: np.ndarray
     edge_family: np.ndarray
     metadata: dict = field(default_factory=dict)
+    family_depth_ratio: tuple[float, float] = (1.0, 1.0)
 
     def __post_init__(self):
         self.vertices_a = np.asarray(self.vertices_a, dtype=float)
@@ -172,6 +196,11 @@ class SupportStructure:
             raise ValueError("edges refer to vertices that do not exist")
         if not np.isin(self.edge_family, (0, 1)).all():
             raise ValueError("edge_family must be 0 or 1 for every edge")
+        r = np.broadcast_to(np.asarray(self.family_depth_ratio, float), (2,))
+        if not (np.isfinite(r).all() and (r > 0).all() and (r <= 1).all()):
+            raise ValueError(f"family_depth_ratio must be two shares in (0, 1]; got "
+                             f"{self.family_depth_ratio}")
+        self.family_depth_ratio = (float(r[0]), float(r[1]))
         for arr, name in ((self.vertices_a, "vertices_a"), (self.vertices_b, "vertices_b")):
             bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
             if bad.size:
@@ -183,11 +212,34 @@ class SupportStructure:
         """Node line vectors ``e~_i = b~_i - a~_i``, (n, 3)."""
         return self.vertices_b - self.vertices_a
 
-    def fin_quads(self) -> np.ndarray:
-        """One quad ``a_i a_j b_j b_i`` per edge, (E, 4, 3), in edge order."""
+    def family_vertices_b(self, family: int) -> np.ndarray:
+        """Where the fins of ``family`` end on the node lines, (n, 3): ``a~ + r_f (b~ - a~)``
+        (``vertices_b`` itself where the family reaches all the way).
+
+        >>> a = np.zeros((2, 3))
+        >>> s = SupportStructure(a, a + [0, 0, 0.4], [], np.array([[0, 1]]), np.array([1]),
+        ...                      family_depth_ratio=(1.0, 0.5))
+        >>> s.family_vertices_b(1)[:, 2].tolist()
+        [0.2, 0.2]
+        """
+        r = self.family_depth_ratio[int(family)]
+        if r == 1.0:
+            return self.vertices_b
+        return self.vertices_a + r * (self.vertices_b - self.vertices_a)
+
+    def _edge_b(self) -> np.ndarray:
+        """(E, 2, 3): the ``b`` end of each fin at both its nodes, at its family's depth."""
         i, j = self.edges[:, 0], self.edges[:, 1]
-        a, b = self.vertices_a, self.vertices_b
-        return np.stack([a[i], a[j], b[j], b[i]], axis=1)
+        r = np.asarray(self.family_depth_ratio)[self.edge_family][:, None]
+        a, e = self.vertices_a, self.directions
+        return np.stack([a[i] + r * e[i], a[j] + r * e[j]], axis=1)
+
+    def fin_quads(self) -> np.ndarray:
+        """One quad ``a_i a_j b_j b_i`` per edge, (E, 4, 3), in edge order (``b`` at the
+        edge's family depth, :meth:`family_vertices_b`)."""
+        i, j = self.edges[:, 0], self.edges[:, 1]
+        a, b = self.vertices_a, self._edge_b()
+        return np.stack([a[i], a[j], b[:, 1], b[:, 0]], axis=1)
 
     def planarity(self) -> np.ndarray:
         """Per fin: distance of the diagonals divided by their average length, (E,) (Fig. 12)."""
@@ -258,9 +310,10 @@ class SupportStructure:
     def fins(self, family: int | None = None) -> list[FinStrip]:
         """The fins grouped into strips by family (see :meth:`strips`), each with its quads
         oriented along the strip (``a_i a_j b_j b_i`` with ``i -> j`` the strip direction)."""
-        a, b = self.vertices_a, self.vertices_b
+        a = self.vertices_a
         res = []
         for fam, verts, es in self.strips(family):
+            b = self.family_vertices_b(fam)
             i, j = verts[:-1], verts[1:]
             quads = np.stack([a[i], a[j], b[j], b[i]], axis=1)
             res.append(FinStrip(family=fam, vertices=verts, edges=es, quads=quads))
@@ -273,10 +326,14 @@ class SupportStructure:
 
         i, j = self.edges[:, 0], self.edges[:, 1]
         n = len(self.vertices_a)
-        verts = np.concatenate([self.vertices_a, self.vertices_b])
+        # the b ends of family 1 after family 0's where the families reach differently deep
+        two = self.family_depth_ratio[0] != self.family_depth_ratio[1]
+        verts = np.concatenate([self.vertices_a, self.family_vertices_b(0)]
+                               + ([self.family_vertices_b(1)] if two else []))
+        k = n * (1 + self.edge_family) if two else n
         tri = np.empty((2 * len(self.edges), 3), dtype=np.int64)
-        tri[0::2] = np.c_[i, j, j + n]
-        tri[1::2] = np.c_[i, j + n, i + n]
+        tri[0::2] = np.c_[i, j, j + k]
+        tri[1::2] = np.c_[i, j + k, i + k]
         return trimesh.Trimesh(verts, tri, process=False)
 
     # ------------------------------------------------------------------ persistence
@@ -291,7 +348,8 @@ class SupportStructure:
             np.savez(f, vertices_a=self.vertices_a, vertices_b=self.vertices_b,
                      face_indices=np.concatenate([np.asarray(p, np.int64) for p in self.faces])
                      if self.faces else np.zeros(0, np.int64),
-                     face_offsets=offsets, edges=self.edges, edge_family=self.edge_family)
+                     face_offsets=offsets, edges=self.edges, edge_family=self.edge_family,
+                     family_depth_ratio=np.asarray(self.family_depth_ratio))
 
     @classmethod
     def load(cls, path) -> "SupportStructure":
@@ -299,7 +357,10 @@ class SupportStructure:
         with np.load(path) as z:
             off, idx = z["face_offsets"], z["face_indices"]
             faces = [idx[off[k]:off[k + 1]].tolist() for k in range(len(off) - 1)]
-            return cls(z["vertices_a"], z["vertices_b"], faces, z["edges"], z["edge_family"])
+            ratio = (tuple(z["family_depth_ratio"].tolist()) if "family_depth_ratio" in z.files
+                     else (1.0, 1.0))            # a file written before the families had depths
+            return cls(z["vertices_a"], z["vertices_b"], faces, z["edges"], z["edge_family"],
+                       family_depth_ratio=ratio)
 
 
 # ============================================================================ eq. (8)
@@ -586,7 +647,8 @@ def _solve_rounds(solver, s0: "SupportStructure", sc: _SupportScales, a_cur, e_c
                     [a_cur[i], a_cur[j], a_cur[j] + e_cur[j], a_cur[i] + e_cur[i]], axis=1))).max() <= hard_tol:
                 break
         cur = SupportStructure(a_cur, a_cur + e_cur, s0.faces, s0.edges, s0.edge_family,
-                               metadata=dict(s0.metadata))
+                               metadata=dict(s0.metadata),
+                               family_depth_ratio=s0.family_depth_ratio)
         history.append({"round": rnd, "objective": float(sol["f"]), "delta_pl": cur.delta_pl,
                         "status": status, "iterations": int(st.get("iter_count", 0))})
     return _Rounds(a_cur, e_cur, ok, status, iters, history)
@@ -701,7 +763,7 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
     r = _solve_rounds(solver, s0, sc, a_cur, e_cur, rounds=rounds, hard_tol=hard_tol,
                       fixed_e=fixed_e, history=history)
     out = SupportStructure(r.a, r.a + r.e, s0.faces, s0.edges, s0.edge_family,
-                           metadata=dict(s0.metadata))
+                           metadata=dict(s0.metadata), family_depth_ratio=s0.family_depth_ratio)
     dist_ref = float("nan")
     if sc.reference is not None:
         _, dref, _ = closest_points(sc.reference[0], sc.reference[1], r.a)
@@ -841,9 +903,11 @@ def _project_support(structure, reference, *, hard_tol, rounds, max_iter, fixed_
             dx = -(JW.T @ lam)
             a = a + dx[:3 * n].reshape(n, 3)
             e = e + dx[3 * n:].reshape(n, 3)
-        cur = SupportStructure(a, a + e, s0.faces, s0.edges, s0.edge_family, metadata=dict(s0.metadata))
+        cur = SupportStructure(a, a + e, s0.faces, s0.edges, s0.edge_family, metadata=dict(s0.metadata),
+                               family_depth_ratio=s0.family_depth_ratio)
         history.append({"round": rnd, "delta_pl": cur.delta_pl, "iterations": iters})
-    out = SupportStructure(a, a + e, s0.faces, s0.edges, s0.edge_family, metadata=dict(s0.metadata))
+    out = SupportStructure(a, a + e, s0.faces, s0.edges, s0.edge_family, metadata=dict(s0.metadata),
+                           family_depth_ratio=s0.family_depth_ratio)
     after = out.delta_pl
     if ref is not None:
         _, dref, _ = closest_points(ref[0], ref[1], a)

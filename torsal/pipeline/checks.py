@@ -71,7 +71,8 @@ class SizeEstimate:
     surface_area : float
         Area of mesh A, model units squared.
     fins : int
-        Fin panels: about 2.5 per ``fins.spacing`` squared of surface.
+        Fin panels: about 2.5 per lattice cell (the two families' ``fins.spacing``
+        multiplied) of surface.
     variables : int
         Optimizer unknowns: 3 per vertex (6 with a substructure).
     sun_positions : int
@@ -130,7 +131,8 @@ def estimate_size(spec: DesignSpec, vertices: np.ndarray, faces: np.ndarray) -> 
     faces : (m, 3) int
     """
     area = float(face_areas(vertices, faces).sum())
-    fins = int(np.ceil(_FINS_PER_CELL * area / spec.fins.spacing ** 2))
+    s0, s1 = spec.fins.spacings          # a lattice cell is s0 by s1
+    fins = int(np.ceil(_FINS_PER_CELL * area / (s0 * s1)))
     if spec.substructure is not None:
         fins *= 2
     congruences = 2 if spec.substructure is not None else 1

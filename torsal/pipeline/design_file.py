@@ -48,7 +48,7 @@ from ..core.units import UNIT_TO_M
 from ..geometry.congruence import ZERO_DIRECTION_RTOL
 from ..geometry.mesh import MAX_COORDINATE
 from ..geometry.optimize import Solver, TorsalAngleBetween, TorsalAngleForm
-from ..geometry.support import PLANARITY_TOL
+from ..geometry.support import PLANARITY_TOL, per_family
 from ..fabrication.cutting import Process as CuttingProcess, Relief
 from ..fabrication.quantities import Rates, check_fastener_rates
 from ..fabrication.nesting import (DEFAULT_SEED, DEFAULT_TIME_LIMIT, DEFAULT_TRIES,
@@ -357,9 +357,44 @@ class ConstraintsSpec(_Spec):
                                       "result depends on the machine's load (congruence.time_limited)")
 
 
+#: what fins.spacing and fins.depth take: one length for both torsal families, or
+#: [family 0, family 1]
+FamilyLength = float | tuple[float, float]
+
+
+def _family_lengths(v, key: str):
+    """``v`` as given when it is one positive length or a list of two (family 0, family 1);
+    a ValueError naming ``key`` and the two forms otherwise."""
+    forms = (f"give one positive length (both families) or a list of two [family 0, family 1], "
+             f"e.g. {key} = [0.6, 1.2]")
+    if isinstance(v, (list, tuple)):
+        if len(v) != 2:
+            raise ValueError(f"{key} is a list of {len(v)}; {forms}")
+        values = list(v)
+    else:
+        values = [v]
+    for x in values:
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise ValueError(f"Input should be a valid number, not {x!r}; {forms}")
+        if not math.isfinite(x) or x <= 0:
+            raise ValueError(f"Input should be greater than 0, not {x!r}; {forms}")
+    return tuple(float(x) for x in values) if isinstance(v, (list, tuple)) else float(v)
+
+
 class FinsSpec(_Spec):
-    spacing: float = Field(gt=0, description="fin spacing, model units")
-    depth: float = Field(gt=0, description="fin depth along the lines, model units")
+    """The support structure: each torsal family's fin spacing and depth (paper 4.2: the
+    spacing of the torsal-line families; eq. 8: the fin depth along the lines), and how
+    the fins are planarized. A single number means both families; ``[s0, s1]`` lets the
+    second family become a sparser (or shallower) structure."""
+
+    spacing: FamilyLength = Field(description="model units; distance of neighbouring fins of "
+                                  "one family: one length for both, or [family 0, family 1] "
+                                  "(e.g. [0.6, 1.2]: a sparse second family); the standard "
+                                  "devices take family 0's, an egg-crate's crossing family "
+                                  "family 1's")
+    depth: FamilyLength = Field(description="model units; fin depth along the lines: one "
+                                "length for both families, or [family 0, family 1]; the parts "
+                                "of each family are as deep as its fins")
     optimize: bool = True
     planarity_tol: float = Field(PLANARITY_TOL, gt=0)
     max_fold_at_crossing: float | None = Field(
@@ -368,6 +403,34 @@ class FinsSpec(_Spec):
         "there with a connector instead of slotted; default: the joinery's limit "
         "(MAX_CROSSING_FOLD, 10 degrees)")
     developable_levels: int = Field(0, ge=0, le=3)
+
+    @field_validator("spacing", mode="before")
+    @classmethod
+    def _spacing(cls, v):
+        return _family_lengths(v, "fins.spacing")
+
+    @field_validator("depth", mode="before")
+    @classmethod
+    def _depth(cls, v):
+        return _family_lengths(v, "fins.depth")
+
+    @property
+    def spacings(self) -> tuple[float, float]:
+        """``(s0, s1)``: the fin spacing of family 0 and of family 1, model units.
+
+        >>> FinsSpec(spacing=[0.6, 1.2], depth=0.3).spacings
+        (0.6, 1.2)
+        """
+        return per_family(self.spacing, "fins.spacing")
+
+    @property
+    def depths(self) -> tuple[float, float]:
+        """``(d0, d1)``: the fin depth of family 0 and of family 1, model units.
+
+        >>> FinsSpec(spacing=0.6, depth=0.3).depths
+        (0.3, 0.3)
+        """
+        return per_family(self.depth, "fins.depth")
 
 
 class FamilySplitName(str, Enum):
@@ -696,7 +759,7 @@ def validate_design(data: dict, *, source: str = "design") -> DesignSpec:
     Traceback (most recent call last):
     ...
     torsal.pipeline.design_file.DesignFileError: edit: 1 problem(s) in the design file
-      fins.spacing: Input should be greater than 0 (got -1)
+      fins.spacing: Input should be greater than 0, not -1; give one positive length (both families) or a list of two [family 0, family 1], e.g. fins.spacing = [0.6, 1.2] (got -1)
     """
     try:
         return DesignSpec.model_validate(data)

@@ -11,7 +11,7 @@ README, so the README cannot go stale. After changing the schema::
 Examples
 --------
 >>> table = reference_markdown()
->>> "| `fins.spacing` | number | model units | required |" in table
+>>> "| `fins.spacing` | number or [number, number] | model units | required |" in table
 True
 """
 from __future__ import annotations

@@ -15,6 +15,7 @@ from .design_file import DesignSpec
 from ..geometry.congruence import Congruence, direction_spread
 from ..geometry.optimize import TorsalAngleBetween
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
+from ..geometry.support import per_family
 from .annual import annual_applies, annual_key, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
                        prefetch_step_solids, run_assembly, support_gate)
@@ -281,21 +282,27 @@ def optimized_congruence(inp: StageInputs) -> Congruence:
 
 
 # ------------------------------------------------------------------ support structure (4.2, eq. 8)
-def _remesh(congruence: Congruence, spacing: float, depth: float):
-    """Torsal remeshing (4.2) with fins cut to ``depth`` along their lines."""
+def _remesh(congruence: Congruence, spacing, depth):
+    """Torsal remeshing (4.2) at ``spacing`` (one for both families or ``(s0, s1)``) with
+    fins cut to ``depth`` along their lines (one, or ``(d0, d1)``): the node lines as deep as
+    the deeper family, each family's fins reaching its own depth
+    (``SupportStructure.family_depth_ratio``)."""
     from ..geometry.remesh import remesh_torsal
 
     s = remesh_torsal(congruence, spacing)
+    d = np.array(per_family(depth, "depth"))
     e = s.vertices_b - s.vertices_a
-    s.vertices_b = s.vertices_a + depth * e / np.linalg.norm(e, axis=1, keepdims=True)
+    s.vertices_b = s.vertices_a + d.max() * e / np.linalg.norm(e, axis=1, keepdims=True)
+    s.family_depth_ratio = tuple(float(x) for x in d / d.max())
     return s
 
 
 def run_remesh(inp: StageInputs) -> dict:
-    """Torsal remeshing at the fin spacing and depth. Returns ``structure``
-    (SupportStructure) and ``delta_pl`` of the extracted structure."""
+    """Torsal remeshing at each family's fin spacing and depth (``fins.spacing``,
+    ``fins.depth``). Returns ``structure`` (SupportStructure) and ``delta_pl`` of the
+    extracted structure."""
     fins = inp.spec.fins
-    s = _remesh(optimized_congruence(inp), fins.spacing, fins.depth)
+    s = _remesh(optimized_congruence(inp), fins.spacings, fins.depths)
     return {"structure": s, "delta_pl": s.delta_pl}
 
 
@@ -343,7 +350,8 @@ def built_structure(structure, left_out):
     keep[np.asarray(sorted(left_out), np.int64)] = False
     return type(structure)(structure.vertices_a, structure.vertices_b, structure.faces,
                            structure.edges[keep], structure.edge_family[keep],
-                           metadata=dict(structure.metadata))
+                           metadata=dict(structure.metadata),
+                           family_depth_ratio=structure.family_depth_ratio)
 
 
 def run_light(inp: StageInputs) -> dict:
@@ -397,7 +405,7 @@ def run_substructure(inp: StageInputs) -> dict:
     spec, cong = inp.spec, inp["congruence"]
     f = inp["orient"]["faces"]
     v2 = cong["substructure_vertices"]
-    s2 = _remesh(Congruence(v2, f, cong["substructure_directions"]), spec.fins.spacing,
+    s2 = _remesh(Congruence(v2, f, cong["substructure_directions"]), spec.fins.spacings,
                  spec.substructure.depth)
     extracted = s2.delta_pl
     r2 = optimize_support(s2, reference=(v2, f))
