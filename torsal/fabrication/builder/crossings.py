@@ -52,8 +52,6 @@ class CrossingSlotter:
                 continue
             x = joinery[node]
             d = float(st.depth[node])
-            d0 = fs.slot_ratio * d
-            d1 = d - d0
             # the family-1 plate slides along its own direction, a little off this node axis:
             # both slots are wider by the sideways travel over the fin depth, on either side
             plans = [fs._plan[p.name] for p, _ in l1]
@@ -77,11 +75,13 @@ class CrossingSlotter:
             # family 0 slotted from its b edge and family 1 from its a edge (family 1 moves
             # along a - b), or the other way round where family 1 slides in along b - a
             side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
+            d0, d1 = self._slot_depths(st.family_depth[:, node], fs.slot_ratio, sense)
+            b0, b1 = st.family_b(0, node), st.family_b(1, node)
             for p, pos in l0:
-                p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], st.b[node]),
+                p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], b0),
                                     w0, "+".join(names1)))
             for p, pos in l1:
-                p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], st.b[node]),
+                p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], b1),
                                     w1, "+".join(names0)))
             w = max(w0, w1)
             fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
@@ -97,6 +97,28 @@ class CrossingSlotter:
             else:
                 fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                        direction, None, None, float(x.angle)))
+
+    @staticmethod
+    def _slot_depths(depths, ratio: float, sense: int) -> tuple[float, float]:
+        """``(d0, d1)``: how deep the family-0 and family-1 plates are slotted at a crossing
+        whose fins are ``depths`` (family 0, family 1) deep along the node line. The two
+        slots meet inside the stretch both plates cover, ``[0, min(depths)]`` from ``a``:
+        family 0's slot takes ``ratio`` of it, from its ``b`` edge where ``sense`` > 0
+        (family 1 then from its ``a`` edge), else from its ``a`` edge. Equal depths ``d``:
+        ``(ratio d, (1 - ratio) d)``.
+
+        >>> CrossingSlotter._slot_depths([0.4, 0.2], 0.5, 1)
+        (0.30000000000000004, 0.1)
+        >>> CrossingSlotter._slot_depths([0.4, 0.2], 0.5, -1)
+        (0.1, 0.1)
+        """
+        D0, D1 = float(depths[0]), float(depths[1])
+        both = min(D0, D1)
+        if sense > 0:      # family 0 down from its b edge, family 1 up from a, meeting at m
+            m = (1.0 - ratio) * both
+            return D0 - m, m
+        m = ratio * both   # family 0 up from a, family 1 down from its b edge
+        return m, D1 - m
 
     @staticmethod
     def _end_depth(p: Part, pos: int, side: SlotSide, depth: float, a: np.ndarray,

@@ -23,8 +23,10 @@ from ..unroll import unroll
 
 class _Strips(NamedTuple):
     """The structure's strips in ``unit``: ``quads`` (k, 4, 3) and ``drops`` (k,) per strip,
-    node line ends ``a``, ``b`` (n, 3) and fin ``depth`` (n,), and per family and node whether
-    a strip passes through it (two kept panels) or ends there (one)."""
+    node line ends ``a``, ``b`` (n, 3) and fin ``depth`` (n,) (the deeper family's), and per
+    family and node whether a strip passes through it (two kept panels) or ends there (one);
+    ``family_depth`` (2, n): how deep each family's fins are at each node (``fins.depth =
+    [d0, d1]``; both ``depth`` where the families are alike)."""
 
     fins: list
     quads: list
@@ -34,6 +36,12 @@ class _Strips(NamedTuple):
     depth: np.ndarray
     passes: np.ndarray
     ends: np.ndarray
+    family_depth: np.ndarray
+
+    def family_b(self, family: int, node: int) -> np.ndarray:
+        """(3,): where the fins of ``family`` end on the node line of ``node``."""
+        d = self.depth[node]
+        return self.a[node] + (self.b[node] - self.a[node]) * (self.family_depth[family, node] / d)
 
 
 def _merge_coincident_nodes(structure):
@@ -84,7 +92,8 @@ def _read_strips(structure, scale: float, drop_mask, extra: dict | None = None) 
                 passes[fs.family, v[j]] = True
             elif cnt == 1:
                 ends[fs.family, v[j]] = True
-    return _Strips(strips, quads, drops, a, b, depth, passes, ends)
+    ratio = np.asarray(getattr(structure, "family_depth_ratio", (1.0, 1.0)), float)
+    return _Strips(strips, quads, drops, a, b, depth, passes, ends, ratio[:, None] * depth)
 
 
 def _plate_panels(st: _Strips) -> dict:
