@@ -120,3 +120,23 @@ def test_the_legacy_names_still_work():
     assert set(sets) == {"horizontal louvers", "vertical fins", "egg-crate"}
     assert len(horizontal_louvers(v, f, 0.4, 0.5).faces) == len(sets["horizontal louvers"].faces)
     assert surface_frame(*canopy(nu=5, nv=5)).kind == "canopy"
+
+
+def test_a_depth_and_spacing_per_family_make_the_egg_crates_crossing_family_sparser():
+    """fins.depth = [d0, d1], fins.spacing = [s0, s1]: the single-family devices take family
+    0's, an egg-crate's crossing family family 1's; on a flat 12 x 6 facade its vertical fins
+    are 6 m x d1 plates about 12 / s1 of them (the section count, independently of torsal)."""
+    v, f = flat_facade(width=12.0, height=6.0, nu=13, nv=7)
+    sun = [[0.3, -0.8, 0.5]]
+    mixed = standard_devices(v, f, (0.3, 0.15), (0.6, 1.2), sun=sun)
+    first = standard_devices(v, f, 0.3, 0.6, sun=sun)
+    second = standard_devices(v, f, 0.15, 1.2, sun=sun)
+    for name in ("horizontal louvers", "vertical fins", "optimized parallel fins"):
+        assert mixed[name].fins.area == pytest.approx(first[name].fins.area, rel=1e-12)
+    crossing = second["vertical fins"].fins.area
+    assert mixed["egg-crate"].fins.area == pytest.approx(
+        first["horizontal louvers"].fins.area + crossing, rel=1e-12)
+    planes = np.unique(np.round(second["vertical fins"].fins.vertices @ [1.0, 0, 0], 6)).size
+    assert crossing == pytest.approx(planes * 6.0 * 0.15, rel=0.02)
+    assert abs(planes - 12.0 / 1.2) <= 1
+    assert mixed["optimized egg-crate"].fins.area < first["optimized egg-crate"].fins.area

@@ -198,7 +198,9 @@ def measure_fins(fins, surface, sun: dict, samples: int, metres_per_unit: float,
 def design_devices(spec: DesignSpec, vertices, faces, sun: dict, *,
                    goals: SunGoals | None = None) -> dict:
     """The standard devices of the design's fin depth and spacing on mesh A
-    (:func:`torsal.light.devices.standard_devices`), the optimized ones oriented for what the
+    (:func:`torsal.light.devices.standard_devices`; with a depth or spacing per family, a
+    device's first family takes family 0's and an egg-crate's crossing family family 1's),
+    the optimized ones oriented for what the
     goals ask everywhere (a region's own sun over its share of A, :func:`goal_suns`).
 
     Parameters
@@ -221,7 +223,7 @@ def design_devices(spec: DesignSpec, vertices, faces, sun: dict, *,
 
     goals = sun_goals(spec, vertices, faces) if goals is None else goals
     vec, w = goal_suns(goals, vertices, faces, sun)
-    return standard_devices(vertices, faces, spec.fins.depth, spec.fins.spacing, sun=vec,
+    return standard_devices(vertices, faces, spec.fins.depths, spec.fins.spacings, sun=vec,
                             weights=w)
 
 

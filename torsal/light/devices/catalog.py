@@ -12,7 +12,12 @@ optimized parallel fins    one family, orientation optimized for the design's su
 optimized egg-crate        the optimized family and the family square to it and to A
 =========================  ==========================================================
 
-All have the design's fin depth and spacing. A device is **not applicable** when it cannot
+All have the design's fin depth and spacing. Where the design gives each torsal family its
+own (``fins.depth = [d0, d1]``, ``fins.spacing = [s0, s1]``), a device's first family (the
+louvers, the vertical fins, the optimized parallel fins) has family 0's and the crossing
+family of an egg-crate (its vertical fins, the optimized egg-crate's square family) family
+1's: an egg-crate then spends its material as the two torsal families do, and a single
+family stands for torsal's first. A device is **not applicable** when it cannot
 be made on the surface: a facade device on a canopy (:mod:`~torsal.light.devices.frame`), a
 family no plane of which cuts A (A narrower than the spacing), or fins that would leave A at
 less than :data:`MIN_STAND_OUT_DEG` (they would lie in the surface). Such a device has no
@@ -34,6 +39,7 @@ from enum import Enum
 import numpy as np
 import trimesh
 
+from ...geometry.support import per_family
 from .facade import grid_normal_fins, horizontal_louvers, vertical_fin_normal, vertical_fins
 from .frame import WALL_LIMIT_DEG, SurfaceFrame, surface_frame
 from .oriented import FinOrientation, optimize_fin_orientation
@@ -143,7 +149,7 @@ def _single(kind, v, f, p, depth, spacing, what, orientation=None) -> Device:
                   orientation)
 
 
-def standard_devices(surface_vertices, surface_faces, depth: float, spacing: float, *,
+def standard_devices(surface_vertices, surface_faces, depth, spacing, *,
                      sun=None, weights=None, up=(0.0, 0.0, 1.0), samples: int = 300,
                      seed: int | None = 0) -> dict[str, Device]:
     """Every standard device of ``depth`` and ``spacing`` on A, by name (:data:`DEVICE_NAMES`
@@ -154,8 +160,10 @@ def standard_devices(surface_vertices, surface_faces, depth: float, spacing: flo
     surface_vertices : (n, 3) float
     surface_faces : (F, 3) int
         Design surface A, normals outside (towards the sun).
-    depth, spacing : float
-        Model units.
+    depth, spacing : float or (2,) sequence of float
+        Model units; one for both families or ``(family 0, family 1)``: the single-family
+        devices and an egg-crate's first family take family 0's, an egg-crate's crossing
+        family family 1's.
     sun : (k, 3) float, optional
         Sun vectors (site -> sun) the optimized devices are oriented for; without them those
         two are not applicable.
@@ -172,37 +180,41 @@ def standard_devices(surface_vertices, surface_faces, depth: float, spacing: flo
     v = np.asarray(surface_vertices, float)
     f = np.asarray(surface_faces, np.int64)
     up = unit_vector(up, "up")
+    (d0, d1), (s0, s1) = per_family(depth, "depth"), per_family(spacing, "spacing")
     frame = surface_frame(v, f, up=up)
     K = DeviceKind
     out: dict[str, Device] = {}
     if frame.is_facade:
-        louvers = _single(K.HORIZONTAL_LOUVERS, v, f, up, depth, spacing, "horizontal louvers")
+        louvers = _single(K.HORIZONTAL_LOUVERS, v, f, up, d0, s0, "horizontal louvers")
         try:
             along = vertical_fin_normal(v, f, up=up)
-            fins = _single(K.VERTICAL_FINS, v, f, along, depth, spacing, "vertical fins")
+            fins = _single(K.VERTICAL_FINS, v, f, along, d0, s0, "vertical fins")
+            # the egg-crate's vertical fins: the crossing family's depth and spacing
+            crossing = fins if (d1, s1) == (d0, s0) else _single(
+                K.VERTICAL_FINS, v, f, along, d1, s1, "vertical fins")
         except ValueError as exc:
-            fins = Device(K.VERTICAL_FINS, None, str(exc))
+            fins = crossing = Device(K.VERTICAL_FINS, None, str(exc))
     else:
         louvers = Device(K.HORIZONTAL_LOUVERS, None, _not_a_facade(frame, "horizontal louvers"))
         fins = Device(K.VERTICAL_FINS, None, _not_a_facade(frame, "vertical fins"))
     out[louvers.name], out[fins.name] = louvers, fins
-    out[K.EGG_CRATE.value] = (_pair(K.EGG_CRATE, louvers, fins) if frame.is_facade else
+    out[K.EGG_CRATE.value] = (_pair(K.EGG_CRATE, louvers, crossing) if frame.is_facade else
                               Device(K.EGG_CRATE, None, _not_a_facade(frame, "egg-crates")))
     if sun is None or len(np.asarray(sun).reshape(-1, 3)) == 0:
         why = "no sun directions to orient the fins for"
         out[K.OPTIMIZED_FINS.value] = Device(K.OPTIMIZED_FINS, None, why)
         out[K.OPTIMIZED_EGG_CRATE.value] = Device(K.OPTIMIZED_EGG_CRATE, None, why)
         return out
-    best = optimize_fin_orientation(v, f, sun, depth, spacing, weights=weights, samples=samples,
+    best = optimize_fin_orientation(v, f, sun, d0, s0, weights=weights, samples=samples,
                                     seed=seed, up=up)
     p = best.plane_normal
-    one = _single(K.OPTIMIZED_FINS, v, f, p, depth, spacing, "optimized fins", best)
+    one = _single(K.OPTIMIZED_FINS, v, f, p, d0, s0, "optimized fins", best)
     # the crossing family: square to the optimized planes and standing on A's mean plane
     q = np.cross(p, frame.normal)
     if np.linalg.norm(q) < 1e-9:                  # cannot happen within the search's tilt
         q = frame.u
     q = q / np.linalg.norm(q)
-    other = _single(K.OPTIMIZED_EGG_CRATE, v, f, q, depth, spacing, "crossing fins")
+    other = _single(K.OPTIMIZED_EGG_CRATE, v, f, q, d1, s1, "crossing fins")
     out[one.name] = one
     out[K.OPTIMIZED_EGG_CRATE.value] = _pair(K.OPTIMIZED_EGG_CRATE, one, other)
     return out
