@@ -325,3 +325,84 @@ def test_verdict_beyond_and_behind_by_hand():
     # failed variants and missing devices: said, not guessed
     t = _table([(0.7, 0.9)], [])
     assert verdict(t, [])[0] == "No comparison: no standard device was measured."
+
+
+SDA = "light.annual.daylight.fins.sda_all"
+ASE = "light.annual.daylight.fins.ase_all"
+AVOIDED = "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2"
+KEPT = "light.annual.fins.shading_factor.heating_gains_kept_kwh_m2"
+
+
+@pytest.mark.parametrize("table, words", [
+    ('[pareto]\nx = "light.shade"\n', ["pareto", "light.shade"]),
+    (f'[pareto]\nx = "{SDA}"\ny = "{AVOIDED}"\n', ["pareto", "[annual] enabled"]),
+    (f'[pareto]\ny = "{KEPT}"\n', ["pareto", "[annual] enabled"]),
+])
+def test_pareto_axes_are_report_figures_the_variants_have(tmp_path, table, words):
+    """[pareto] x / y: figures the study may judge by; the annual stage's need the base
+    design's [annual] enabled (and the daylight's a [room]), checked before anything runs."""
+    path = _study(tmp_path, axes={"fins.depth": [0.3]}, extra=table)
+    with pytest.raises(StudyFileError) as exc:
+        Study.from_toml(path)
+    assert all(w in str(exc.value) for w in words), str(exc.value)
+
+
+def test_annual_figures_as_pareto_axes_load_with_the_annual_stage(tmp_path):
+    _study(tmp_path, axes={"fins.spacing": [1.5, [1.5, 3.0]]})
+    base = tmp_path / "designs" / "7a_small.toml"
+    with_room = base.read_text() + "[annual]\nenabled = true\n"
+    base.write_text(with_room)
+    path = tmp_path / "study.toml"
+    path.write_text(path.read_text() + f'[pareto]\nx = "{SDA}"\ny = "{AVOIDED}"\n')
+    with pytest.raises(StudyFileError, match=r"\[room\]"):        # sDA needs the rooms
+        Study.from_toml(path)
+    base.write_text(with_room + "[room]\ndepth = 6.0\nheight = 3.0\n")
+    study = Study.from_toml(path)
+    p = study.spec.pareto
+    assert (p.x, p.y, p.better("x"), p.better("y")) == (SDA, AVOIDED, "max", "max")
+    assert [v.spec.fins.spacings for v in study.variants] == [(1.5, 1.5), (1.5, 3.0)]
+    from torsal.study.study_file import ParetoSpec
+    assert ParetoSpec(y=ASE).better("y") == "min" and ParetoSpec().is_default
+
+
+def test_device_rows_carry_their_own_annual_figures():
+    """A device row takes the annual stage's figures of that device (light.annual.devices.X,
+    light.annual.daylight.X) under the fins' keys, so it stands on the same Pareto axes."""
+    from torsal.study.study_report import _device_annual
+
+    report = {"light": {"annual": {
+        "fins": {"shading_factor": {"cooling_gains_avoided_kwh_m2": 300.0}},
+        "devices": {"egg-crate": {"cooling_kwh_m2": 90.0, "seconds": 4.0,
+                                  "shading_factor": {"cooling_gains_avoided_kwh_m2": 250.0}},
+                    "vertical fins": {"applicable": False, "reason": "x"}},
+        "daylight": {"fins": {"sda_all": 0.4}, "egg-crate": {"sda_all": 0.55, "ase_all": 0.1}}}}}
+    row = _device_annual(report, "egg-crate")
+    assert row[AVOIDED] == 250.0 and row[SDA] == 0.55 and row[ASE] == 0.1
+    assert row["light.annual.fins.cooling_kwh_m2"] == 90.0
+    assert not any(k.endswith("seconds") for k in row)
+    assert _device_annual(report, "vertical fins") == {}
+    assert _device_annual({"light": {}}, "egg-crate") == {}
+
+
+def test_verdict_on_annual_figures_by_hand():
+    """Cooling-season gains avoided (max) against ASE (min): the front and the lead are
+    taken with each figure's own sense, scaled by its span over the table."""
+    from torsal.study.study_file import ParetoSpec
+    from torsal.study.study_report import _front, verdict
+
+    p = ParetoSpec(x=ASE, y=AVOIDED)
+    rows = [("000", "torsal", 0.10, 300.0), ("001", "torsal", 0.30, 200.0),
+            ("b0", "baseline", 0.20, 250.0), ("b1", "baseline", 0.05, 100.0)]
+    t = pd.DataFrame([{"id": i, "kind": k, "device": "torsal" if k == "torsal" else "egg-crate",
+                       "status": "done", "fins.depth": 0.3, "fins.spacing": [0.6, 1.2],
+                       ASE: x, AVOIDED: y} for i, k, x, y in rows])
+    # spans: ASE 0.25, avoided 200. 000 against b0: max((0.2 - 0.1) / 0.25, (300 - 250) / 200)
+    # = 0.4, against b1: max(-0.2, 1.0) = 1.0 -> lead 0.4 over b0; 001 lies behind b0 by
+    # max(-0.4, -0.25) = -0.25
+    text, n = verdict(t, [], pareto=p)
+    assert n["beyond"] == 1 and n["best"] == "000" and n["nearest"] == "b0"
+    assert n["lead"] == pytest.approx(0.4)
+    assert "by 40.0% of the figures' spans" in text and "ASE 1000 lx / 250 h" in text
+    assert "less ASE" in text and "more cooling-season gains avoided" in text
+    assert "spacing [0.6, 1.2]" in text
+    assert _front(t[t["kind"] == "baseline"], p)["id"].tolist() == ["b1", "b0"]

@@ -20,6 +20,13 @@ or maximizing the named report figures::
     trials = 24
     objectives = { "light.blocked_share" = "max", "light.transparency" = "max" }
 
+A ``[pareto]`` table names the two figures the study's Pareto plot and verdict judge by
+(default: the sun as the goals ask against the view clear), e.g. the annual stage's::
+
+    [pareto]
+    x = "light.annual.daylight.fins.sda_all"                              # sDA, more is better
+    y = "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2"   # kWh/m2 avoided
+
 Axes are the design file's own dotted keys (``fins.depth``, ``weights.perp``,
 ``surface.params.nu``). An unknown key, a value of the wrong type or an axis that is not a
 key of the design file is a :class:`StudyFileError` naming the key, raised before anything runs.
@@ -43,7 +50,7 @@ from ..pipeline.design_file import DesignFileError, DesignSpec, _format_errors, 
 
 __all__ = ["StudyFileError", "StudySpec", "AxisRange", "RunSpec", "SearchSpec", "Variant",
            "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS",
-           "VariantFile"]
+           "VariantFile", "ParetoSpec", "ANNUAL_OBJECTIVE_KEYS", "LOWER_IS_BETTER"]
 
 
 class StudyFileError(DesignFileError):
@@ -97,9 +104,23 @@ class RunSpec(_Spec):
 ANNUAL_OBJECTIVE_KEYS = (
     "light.annual.fins.annual_kwh_m2", "light.annual.fins.cooling_kwh_m2",
     "light.annual.fins.heating_kwh_m2", "light.annual.fins.shading_factor.f_sh_cooling",
+    "light.annual.fins.shading_factor.f_sh_heating", "light.annual.fins.shading_factor.f_sh_year",
     "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2",
+    "light.annual.fins.shading_factor.heating_gains_kept_kwh_m2",
     "light.annual.daylight.fins.sda_all", "light.annual.daylight.fins.ase_all",
 )
+
+#: figures of which less is better (a Pareto axis's default ``better``): material, cost,
+#: time, irradiance let through in the cooling season, the cooling season's shading factor
+#: and ASE's share of the floor with too much direct sun
+LOWER_IS_BETTER = frozenset({
+    "material_kg", "wall_s", "fabrication.parts", "fabrication.panels", "fabrication.sheets",
+    "fabrication.costs.total", "fabrication.costs.per_m2", "fabrication.quantities.cut_m",
+    "fabrication.quantities.net_kg", "fabrication.quantities.gross_kg",
+    "support.delta_pl_optimized", "support.edges", "light.fin_area_m2",
+    "light.annual.fins.cooling_kwh_m2", "light.annual.fins.shading_factor.f_sh_cooling",
+    "light.annual.daylight.fins.ase_all",
+})
 
 #: report figures a search may optimize (flattened report.json keys), and the study's own
 OBJECTIVE_KEYS = (
@@ -120,12 +141,41 @@ class SearchSpec(_Spec):
     sampler: Literal["nsga2", "tpe"] = "nsga2"
 
 
+#: the Pareto plot's default axes: the view clear (the design's view.measure) across, the
+#: sun as the goals ask (blocked; let through over goals.let_through) up
+X_KEY = "light.view_clear"
+Y_KEY = "light.goal_share"
+
+
+class ParetoSpec(_Spec):
+    """The two report figures the study's Pareto plot, fronts and verdict judge by
+    (:data:`OBJECTIVE_KEYS`), and which way each is better (default: max, min for the
+    figures of :data:`LOWER_IS_BETTER`). The standard devices' rows carry the annual stage's
+    figures too (their own, from a variant of the same depths and spacings)."""
+
+    x: str = Field(X_KEY, description="across")
+    y: str = Field(Y_KEY, description="up")
+    x_better: Literal["max", "min"] | None = None
+    y_better: Literal["max", "min"] | None = None
+
+    def better(self, axis: str) -> str:
+        """``"max"`` or ``"min"`` for ``axis`` "x" or "y"."""
+        given = getattr(self, f"{axis}_better")
+        return given or ("min" if getattr(self, axis) in LOWER_IS_BETTER else "max")
+
+    @property
+    def is_default(self) -> bool:
+        """The sun as asked against the view clear, both maximized."""
+        return (self.x, self.y, self.better("x"), self.better("y")) == (X_KEY, Y_KEY, "max", "max")
+
+
 class StudySpec(_Spec):
     name: str = "torsal study"
     base: Path
     axes: dict[str, list[Any] | AxisRange] = Field(min_length=1)
     run: RunSpec = Field(default_factory=RunSpec)
     search: SearchSpec | None = None
+    pareto: ParetoSpec = Field(default_factory=ParetoSpec)
 
 
 @dataclass(frozen=True)
@@ -239,16 +289,22 @@ def _read_toml(path: Path, what: str) -> dict:
         raise StudyFileError(f"{path}: not valid TOML ({exc})") from None
 
 
-def _check_annual_objectives(spec, base: dict, path) -> None:
-    """A search on the annual stage's figures needs them in every variant's report: the base
-    design's ``[annual] enabled`` (and a ``[room]`` for the daylight's), not set by an axis."""
-    wanted = [k for k in spec.search.objectives if k in ANNUAL_OBJECTIVE_KEYS]
+def _check_figures(keys, where: str, base: dict, path) -> None:
+    """Report figures a study judges by (``where``: the study-file key naming them) must be
+    known (:data:`OBJECTIVE_KEYS`), and the annual stage's in every variant's report: the
+    base design's ``[annual] enabled`` (and a ``[room]`` for the daylight's), not set by an
+    axis."""
+    unknown = [k for k in keys if k not in OBJECTIVE_KEYS]
+    if unknown:
+        raise StudyFileError(f"{path}: {where}: unknown report key(s) {unknown}; "
+                             f"known: {', '.join(OBJECTIVE_KEYS)}")
+    wanted = [k for k in keys if k in ANNUAL_OBJECTIVE_KEYS]
     if wanted and not base.get("annual", {}).get("enabled", False):
-        raise StudyFileError(f"{path}: search.objectives {wanted} are the annual stage's: the "
+        raise StudyFileError(f"{path}: {where} {wanted} are the annual stage's: the "
                              "base design needs [annual] enabled = true")
     daylight = [k for k in wanted if ".daylight." in k]
     if daylight and "room" not in base:
-        raise StudyFileError(f"{path}: search.objectives {daylight} are the rooms' daylight: "
+        raise StudyFileError(f"{path}: {where} {daylight} are the rooms' daylight: "
                              "the base design needs a [room] table")
 
 
@@ -294,9 +350,6 @@ def load_study_file(path: str | Path) -> tuple[StudySpec, dict, Path]:
             for value in values:
                 design_with(base, base_path.parent, {key: value}, label=f' "{key}"')
     if spec.search is not None:
-        unknown = [k for k in spec.search.objectives if k not in OBJECTIVE_KEYS]
-        if unknown:
-            raise StudyFileError(f"{path}: search.objectives: unknown report key(s) {unknown}; "
-                                 f"known: {', '.join(OBJECTIVE_KEYS)}")
-        _check_annual_objectives(spec, base, path)
+        _check_figures(list(spec.search.objectives), "search.objectives", base, path)
+    _check_figures([spec.pareto.x, spec.pareto.y], "pareto", base, path)
     return spec, base, base_path.parent

@@ -1,6 +1,7 @@
-"""A study's table and its page: the Pareto front of sun blocked against view clear, torsal
-variants against the standard devices of the same depths and spacings, and one measured
-sentence saying which is ahead and by how much.
+"""A study's table and its page: the Pareto front of sun blocked against view clear (or of the
+two figures the study file's ``[pareto]`` names, e.g. the cooling-season gains avoided against
+sDA), torsal variants against the standard devices of the same depths and spacings, and one
+measured sentence saying which is ahead and by how much.
 
 The view axis is the design's ``view.measure`` (``light.view_clear``): by default the view
 out from occupant eye points (:mod:`torsal.light.view`), else the view along the normal. A
@@ -15,15 +16,15 @@ from pathlib import Path
 import numpy as np
 
 from ..core.atomic import atomic_path
+from .study_file import X_KEY, Y_KEY, ParetoSpec
 from .study_tasks import flatten, material_kg
 
 __all__ = ["results_table", "pareto_front", "lead_over", "verdict", "write_study_html",
-           "write_pareto_png", "view_label", "X_KEY", "Y_KEY", "NOT_APPLICABLE"]
+           "write_pareto_png", "view_label", "X_KEY", "Y_KEY", "NOT_APPLICABLE", "figure_label"]
 
-X_KEY = "light.view_clear"        # view clear: the design's view measure (view.measure)
-# the sun as the design asks: blocked (weighted share of direct sun rays), and let through
-# over goals.let_through; without that goal it is light.blocked_share exactly
-Y_KEY = "light.goal_share"
+# X_KEY: view clear, the design's view measure (view.measure); Y_KEY: the sun as the design
+# asks: blocked (weighted share of direct sun rays), and let through over goals.let_through;
+# without that goal it is light.blocked_share exactly (both defined with the study file)
 NOT_APPLICABLE = "not applicable"  # the status of a device that cannot be made on the surface
 _FIRST = ["id", "kind", "device", "status", "note"]
 _SYMBOLS = {"horizontal louvers": ("triangle-up", "^"), "vertical fins": ("triangle-right", ">"),
@@ -55,6 +56,87 @@ def view_label(study) -> str:
     return "view clear (each design's view.measure)"
 
 
+#: the Pareto axes' names of the annual stage's figures (with their unit)
+_FIGURE_LABELS = {
+    "light.annual.fins.annual_kwh_m2": "irradiance on the glazing over the year (kWh/m2)",
+    "light.annual.fins.cooling_kwh_m2": "irradiance on the glazing, cooling season (kWh/m2)",
+    "light.annual.fins.heating_kwh_m2": "irradiance on the glazing, heating season (kWh/m2)",
+    "light.annual.fins.shading_factor.f_sh_cooling": "shading factor F_sh, cooling season",
+    "light.annual.fins.shading_factor.f_sh_heating": "shading factor F_sh, heating season",
+    "light.annual.fins.shading_factor.f_sh_year": "shading factor F_sh over the year",
+    "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2":
+        "cooling-season gains avoided (kWh/m2 of glazing)",
+    "light.annual.fins.shading_factor.heating_gains_kept_kwh_m2":
+        "heating-season gains kept (kWh/m2 of glazing)",
+    "light.annual.daylight.fins.sda_all": "sDA 300 lx / 50% (share of the rooms' floor)",
+    "light.annual.daylight.fins.ase_all": "ASE 1000 lx / 250 h (share of the rooms' floor)",
+    "material_kg": "sheet material (kg)",
+}
+#: figures that are shares (shown in %)
+_SHARES = {"light.view_clear", "light.goal_share", "light.blocked_share", "light.transparency",
+           "light.transparency_cone", "light.view_out",
+           "light.reflected_to_target", "light.annual.daylight.fins.sda_all",
+           "light.annual.daylight.fins.ase_all", "fabrication.utilization"}
+
+
+def figure_label(key: str, study=None) -> str:
+    """What a Pareto axis shows, with its unit: the view and sun names of the study's designs
+    for the default axes, the annual stage's figures by name, else the report key.
+
+    >>> figure_label("light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2")
+    'cooling-season gains avoided (kWh/m2 of glazing)'
+    """
+    if key == X_KEY and study is not None:
+        return view_label(study)
+    if key == Y_KEY and study is not None:
+        return sun_label(study)
+    return _FIGURE_LABELS.get(key, key)
+
+
+def _pareto(study) -> ParetoSpec:
+    spec = getattr(study, "spec", None)
+    return getattr(spec, "pareto", None) or ParetoSpec()
+
+
+def _signs(pareto: ParetoSpec) -> tuple[float, float]:
+    """+1 for an axis where more is better, -1 where less is: the fronts maximize sign x."""
+    return tuple(1.0 if pareto.better(a) == "max" else -1.0 for a in ("x", "y"))
+
+
+def _value_text(key: str, x) -> str:
+    return f"{100 * x:.1f}%" if key in _SHARES else f"{x:.3g}"
+
+
+def _length_text(x) -> str:
+    """A depth or spacing of a table row: one length, or [family 0, family 1]."""
+    if isinstance(x, str):
+        x = json.loads(x)
+    if isinstance(x, (list, tuple)):
+        return "[" + ", ".join(f"{v:.3g}" for v in x) + "]"
+    return f"{x:.3g}"
+
+
+def _family_value(x):
+    """A depth or spacing as a table cell: a number, or [s0, s1] as JSON text."""
+    return json.dumps(list(x)) if isinstance(x, (list, tuple)) else x
+
+
+def _device_annual(report: dict, name: str) -> dict:
+    """The annual stage's figures of device ``name`` in a variant's report, under the keys
+    the fins' have (``light.annual.fins.*``, ``light.annual.daylight.fins.*``), so a device
+    row stands on the same Pareto axes as the variants."""
+    annual = report.get("light", {}).get("annual") or {}
+    out = {}
+    device = (annual.get("devices") or {}).get(name)
+    if isinstance(device, dict) and device.get("applicable", True):
+        out.update(flatten({k: x for k, x in device.items() if k != "seconds"},
+                           "light.annual.fins."))
+    daylight = (annual.get("daylight") or {}).get(name)
+    if isinstance(daylight, dict):
+        out.update(flatten(daylight, "light.annual.daylight.fins."))
+    return out
+
+
 def _buildable(report: dict):
     a = report.get("fabrication", {}).get("assembly")
     return a.get("buildable") if isinstance(a, dict) else None
@@ -84,7 +166,8 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
         folder = out / "variants" / v.id
         row = {"id": v.id, "kind": "torsal", "device": "torsal", "status": o["status"],
                **{k: v.axes[k] for k in axes},
-               "fins.depth": v.spec.fins.depth, "fins.spacing": v.spec.fins.spacing,
+               "fins.depth": _family_value(v.spec.fins.depth),
+               "fins.spacing": _family_value(v.spec.fins.spacing),
                "failed_stage": o.get("stage"), "error": o.get("error"),
                "wall_s": float(o.get("wall_s", np.nan)),
                # report.html where the variant wrote one ([run] files = ["report"])
@@ -103,12 +186,17 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
         # the axis values the devices depend on: those shared by every variant they stand for
         same = [v for v in study.variants if v.id in outcomes
                 and _device_key(v.spec) == key]
+        # the devices' annual figures: the annual stage of a variant they stand for
+        done = [v for v in same if outcomes[v.id]["status"] == "done"]
+        annual = (json.loads((out / "variants" / done[0].id / "report.json").read_text())
+                  if done and spec.annual.enabled else {})
         for name, m in rec["devices"].items():
             made = m.get("applicable", True)
             row = {"id": f"baseline-{key[:8]}-{name.replace(' ', '-')}", "kind": "baseline",
                    "device": name, "status": "done" if made else NOT_APPLICABLE,
                    "note": None if made else m["reason"],
-                   "fins.depth": spec.fins.depth, "fins.spacing": spec.fins.spacing,
+                   "fins.depth": _family_value(spec.fins.depth),
+                   "fins.spacing": _family_value(spec.fins.spacing),
                    "wall_s": float(rec["wall_s"]), "buildable": None,
                    "material_kg": material_kg(m["fin_area_m2"], spec) if made else None}
             for k in axes:
@@ -116,11 +204,16 @@ def results_table(study, out: Path, outcomes: dict, devices: dict):
                 row[k] = same[0].axes[k] if len(values) == 1 else None
             row.update(flatten({"light": {k: x for k, x in m.items()
                                           if k not in ("applicable", "reason")}}))
+            if made:
+                row.update(_device_annual(annual, name))
             rows.append(row)
     table = pd.DataFrame(rows)
+    pareto = _pareto(study)
     first = _FIRST + [c for c in axes if c not in _FIRST] + [
-        c for c in ("fins.depth", "fins.spacing", Y_KEY, X_KEY, "material_kg", "buildable",
-                    "wall_s", "failed_stage", "error", "report") if c not in axes]
+        c for c in ("fins.depth", "fins.spacing", Y_KEY, X_KEY, pareto.y, pareto.x,
+                    "material_kg", "buildable", "wall_s", "failed_stage", "error", "report")
+        if c not in axes]
+    first = list(dict.fromkeys(first))
     table = table[[c for c in first if c in table] + sorted(c for c in table if c not in first)]
     for c in table.columns:      # parquet wants one type per column
         kinds = {type(x) for x in table[c] if x is not None and not (isinstance(x, float) and np.isnan(x))}
@@ -176,9 +269,13 @@ def _and(names) -> str:
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
-def verdict(table, axes, *, sun_words: str = "of the sun blocked") -> tuple[str, dict]:
+def verdict(table, axes, *, sun_words: str = "of the sun blocked",
+            pareto: ParetoSpec | None = None) -> tuple[str, dict]:
     """The sentence at the top of study.html, computed from the table, and its numbers
-    (``sun_words`` names the sun axis: "of the sun blocked", or "of the sun as asked")."""
+    (``sun_words`` names the sun axis: "of the sun blocked", or "of the sun as asked");
+    with ``pareto`` naming other axes, :func:`verdict_on` them."""
+    if pareto is not None and not pareto.is_default:
+        return verdict_on(table, axes, pareto)
     ok = table[(table["status"] == "done")].dropna(subset=[X_KEY, Y_KEY])
     t = ok[ok["kind"] == "torsal"]
     b = ok[ok["kind"] == "baseline"]
@@ -198,7 +295,8 @@ def verdict(table, axes, *, sun_words: str = "of the sun blocked") -> tuple[str,
 
     def device(k):
         d = b.iloc[leads[k][1]]
-        return (f"{d['device']} at depth {d['fins.depth']:.3g}, spacing {d['fins.spacing']:.3g}: "
+        return (f"{d['device']} at depth {_length_text(d['fins.depth'])}, spacing "
+                f"{_length_text(d['fins.spacing'])}: "
                 f"{100 * d[Y_KEY]:.1f}% {sun_words.split()[-1]}, {100 * d[X_KEY]:.1f}% clear, "
                 f"{d['material_kg']:.0f} kg")
 
@@ -228,6 +326,61 @@ def verdict(table, axes, *, sun_words: str = "of the sun blocked") -> tuple[str,
                   "nearest": str(b.iloc[leads[best][1]]["id"])}
 
 
+def verdict_on(table, axes, pareto: ParetoSpec, *, labels: dict | None = None
+               ) -> tuple[str, dict]:
+    """The verdict on the two figures ``pareto`` names (each better the way it says): how
+    many torsal variants lie beyond the devices' front, and the furthest against its nearest
+    device, in each figure's own units. The lead is the additive epsilon indicator
+    (:func:`lead_over`) on each figure scaled by its span over the table's points, so two
+    figures of different units weigh alike; it is given as a share of those spans.
+
+    >>> import pandas as pd
+    >>> p = ParetoSpec(x="light.annual.daylight.fins.sda_all",
+    ...                y="light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2")
+    >>> t = pd.DataFrame([{"id": "000", "kind": "torsal", "device": "torsal", "status": "done",
+    ...     p.x: 0.6, p.y: 150.0, "fins.depth": 0.4, "fins.spacing": 0.6},
+    ...     {"id": "b-egg", "kind": "baseline", "device": "egg-crate", "status": "done",
+    ...     p.x: 0.5, p.y: 160.0, "fins.depth": 0.4, "fins.spacing": 0.6}])
+    >>> verdict_on(t, [], p)[1]["beyond"]
+    1
+    """
+    x, y = pareto.x, pareto.y
+    labels = labels or {}
+    ok = table[(table["status"] == "done")].dropna(subset=[x, y])
+    t, b = ok[ok["kind"] == "torsal"], ok[ok["kind"] == "baseline"]
+    if t.empty or b.empty:
+        return ("No comparison: " + ("no torsal variant has " if t.empty else
+                                     "no standard device has ") + f"{x} and {y}.", {})
+    sx, sy = _signs(pareto)
+    span = [max(float(np.ptp(ok[k].astype(float))), 1e-12) for k in (x, y)]
+    leads = [lead_over(sx * r[x] / span[0], sy * r[y] / span[1],
+                       sx * b[x].to_numpy(float) / span[0], sy * b[y].to_numpy(float) / span[1])
+             for _, r in t.iterrows()]
+    eps = np.array([e for e, _ in leads])
+    best = int(np.argmax(eps))
+    n_beyond = int((eps > 0).sum())
+    lx, ly = labels.get(x, figure_label(x)), labels.get(y, figure_label(y))
+
+    def at(r) -> str:
+        return f"{ly} {_value_text(y, r[y])}, {lx} {_value_text(x, r[x])}"
+
+    r, d = t.iloc[best], b.iloc[leads[best][1]]
+    pair = (f"{r['id']} ({_axes_text(r, axes) + ': ' if axes else ''}{at(r)}) against the "
+            f"nearest device, {d['device']} at depth {_length_text(d['fins.depth'])}, spacing "
+            f"{_length_text(d['fins.spacing'])} ({at(d)})")
+    sense = (f"{'more' if sx > 0 else 'less'} {lx} and {'more' if sy > 0 else 'less'} {ly} "
+             "are better")
+    if n_beyond:
+        text = (f"{n_beyond} of {len(t)} torsal variants lie beyond the standard devices' front "
+                f"({sense}): the furthest, {pair}, by {100 * eps[best]:.1f}% of the figures' "
+                "spans.")
+    else:
+        text = (f"No torsal variant lies beyond the standard devices' front ({sense}); the "
+                f"closest, {pair}, is {100 * -eps[best]:.1f}% of the figures' spans behind.")
+    return text, {"beyond": n_beyond, "torsal": int(len(t)), "lead": float(eps[best]),
+                  "best": str(r["id"]), "nearest": str(d["id"])}
+
+
 _PAGE = """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title>
 <style>body{{font-family:system-ui,sans-serif;margin:2em;max-width:1100px}}
@@ -237,8 +390,8 @@ table{{border-collapse:collapse;font-size:.85em}}td,th{{border:1px solid #ccc;pa
 <h1>{title}</h1>
 <p class="verdict">{verdict}</p>
 <p>Each point is one design, measured with the same seeded sample points on the surface, the
-same sun hours and the same view rays. Up: more of the design-hour sun blocked; right: more of
-the view clear. Colour: sheet material (kg). Click a torsal point to open its report.</p>
+same sun hours and the same view rays. Up: {up}; right: {right}. Colour: sheet material (kg).
+Click a torsal point to open its report.</p>
 {plot}
 <h2>Variants</h2>
 {table}
@@ -246,48 +399,63 @@ the view clear. Colour: sheet material (kg). Click a torsal point to open its re
 """
 
 
-def _figure(table, axes, xlabel: str, ylabel: str):
+def _front(d, pareto: ParetoSpec):
+    """The rows of ``d`` on its Pareto front (each axis better the way ``pareto`` says)."""
+    sx, sy = _signs(pareto)
+    k = pareto_front(sx * d[pareto.x].astype(float), sy * d[pareto.y].astype(float))
+    return d.iloc[sorted(k, key=lambda i: float(d[pareto.x].iloc[i]))]
+
+
+def _figure(table, axes, xlabel: str, ylabel: str, pareto: ParetoSpec | None = None):
     import plotly.graph_objects as go
 
+    pareto = pareto or ParetoSpec()
+    X, Y = pareto.x, pareto.y
     fig = go.Figure()
-    ok = table[table["status"] == "done"].dropna(subset=[X_KEY, Y_KEY])
+    ok = table[table["status"] == "done"].dropna(subset=[X, Y])
     t = ok[ok["kind"] == "torsal"]
     cmin, cmax = float(ok["material_kg"].min()), float(ok["material_kg"].max())
     from ..pipeline.devices import DEVICES
 
+    fx, fy = (".1%" if k in _SHARES else ".3g" for k in (X, Y))
+    hover = "%{text}<br>" + f"{Y} %{{y:{fy}}}, {X} %{{x:{fx}}}" + "<extra></extra>"
+    if pareto.is_default:
+        hover = "%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"
     for name in DEVICES:
         d = ok[ok["device"] == name]
         if d.empty:
             continue
-        front = d.iloc[pareto_front(d[X_KEY], d[Y_KEY])]
+        front = _front(d, pareto)
         fig.add_trace(go.Scatter(
-            x=front[X_KEY], y=front[Y_KEY], mode="lines", line={"dash": "dot", "width": 1.5},
+            x=front[X], y=front[Y], mode="lines", line={"dash": "dot", "width": 1.5},
             name=f"{name}: front", legendgroup=name, hoverinfo="skip"))
         fig.add_trace(go.Scatter(
-            x=d[X_KEY], y=d[Y_KEY], mode="markers", name=name, legendgroup=name,
+            x=d[X], y=d[Y], mode="markers", name=name, legendgroup=name,
             marker={"symbol": _SYMBOLS.get(name, ("circle",))[0], "size": 10, "color": d["material_kg"],
                     "cmin": cmin, "cmax": cmax, "colorscale": "Viridis",
                     "line": {"width": 1, "color": "#444"}},
-            text=[f"{name}<br>depth {r['fins.depth']:.3g}, spacing {r['fins.spacing']:.3g}<br>"
-                  f"{r['material_kg']:.0f} kg" for _, r in d.iterrows()],
-            hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
+            text=[f"{name}<br>depth {_length_text(r['fins.depth'])}, spacing "
+                  f"{_length_text(r['fins.spacing'])}<br>{r['material_kg']:.0f} kg"
+                  for _, r in d.iterrows()],
+            hovertemplate=hover))
     if not t.empty:
-        front = t.iloc[pareto_front(t[X_KEY], t[Y_KEY])]
-        fig.add_trace(go.Scatter(x=front[X_KEY], y=front[Y_KEY], mode="lines",
+        front = _front(t, pareto)
+        fig.add_trace(go.Scatter(x=front[X], y=front[Y], mode="lines",
                                  line={"width": 2.5, "color": "#c0392b"}, name="torsal: front",
                                  hoverinfo="skip"))
         fig.add_trace(go.Scatter(
-            x=t[X_KEY], y=t[Y_KEY], mode="markers", name="torsal variants",
+            x=t[X], y=t[Y], mode="markers", name="torsal variants",
             customdata=t["report"],
             marker={"symbol": "circle", "size": 14, "color": t["material_kg"], "cmin": cmin,
                     "cmax": cmax, "colorscale": "Viridis", "line": {"width": 2, "color": "#c0392b"},
                     "colorbar": {"title": "material (kg)"}},
             text=[f"torsal {r['id']}<br>{_axes_text(r, axes)}<br>{r['material_kg']:.0f} kg, "
                   f"{r.get('fabrication.parts', float('nan')):.0f} parts" for _, r in t.iterrows()],
-            hovertemplate="%{text}<br>blocked %{y:.1%}, clear %{x:.1%}<extra></extra>"))
+            hovertemplate=hover))
     fig.update_layout(xaxis_title=xlabel,
                       yaxis_title=ylabel,
-                      xaxis_tickformat=".0%", yaxis_tickformat=".0%", height=620,
+                      xaxis_tickformat=".0%" if X in _SHARES else None,
+                      yaxis_tickformat=".0%" if Y in _SHARES else None, height=620,
                       legend={"orientation": "h", "y": -0.15}, margin={"t": 20})
     return fig
 
@@ -299,12 +467,13 @@ plot.on('plotly_click', function (ev) {
 });"""
 
 
-def _html_table(table, axes) -> str:
+def _html_table(table, axes, pareto: ParetoSpec | None = None) -> str:
+    pareto = pareto or ParetoSpec()
     cols = ["id", "kind", "device", "status", "note", *axes]
     cols += [c for c in ("fins.depth", "fins.spacing") if c not in cols]
-    cols += [Y_KEY, X_KEY, "material_kg", "fabrication.parts", "buildable", "wall_s",
-             "failed_stage", "error"]
-    cols = [c for c in cols if c in table]
+    cols += [Y_KEY, X_KEY, pareto.y, pareto.x, "material_kg", "fabrication.parts", "buildable",
+             "wall_s", "failed_stage", "error"]
+    cols = [c for c in dict.fromkeys(cols) if c in table]
     head = "".join(f"<th>{html.escape(c)}</th>" for c in cols)
     body = []
     for _, r in table.iterrows():
@@ -315,7 +484,7 @@ def _html_table(table, axes) -> str:
                 cells.append(f'<td><a href="{html.escape(r["report"])}">{html.escape(str(x))}</a></td>')
                 continue
             if isinstance(x, float):
-                x = "" if np.isnan(x) else (f"{100 * x:.1f}%" if c in (X_KEY, Y_KEY) else f"{x:.4g}")
+                x = "" if np.isnan(x) else (f"{100 * x:.1f}%" if c in _SHARES else f"{x:.4g}")
             cells.append(f"<td>{html.escape('' if x is None else str(x))}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><tr>{head}</tr>{''.join(body)}</table>"
@@ -324,27 +493,38 @@ def _html_table(table, axes) -> str:
 def write_study_html(path: Path, study, table) -> str:
     """Write study.html (plotly inlined: works offline); returns the verdict sentence."""
     axes = list(study.spec.axes)
-    text, _ = verdict(table, axes, sun_words=_sun_words(study))
-    fig = _figure(table, axes, view_label(study), sun_label(study))
+    pareto = _pareto(study)
+    text, _ = verdict(table, axes, sun_words=_sun_words(study), pareto=pareto)
+    xlabel, ylabel = figure_label(pareto.x, study), figure_label(pareto.y, study)
+    fig = _figure(table, axes, xlabel, ylabel, pareto)
     plot = fig.to_html(full_html=False, include_plotlyjs=True, div_id="pareto",
                        post_script=_CLICK.replace("{plot_id}", "pareto"))
+    words = {"max": "more", "min": "less"}
+    up, right = (("more of the design-hour sun blocked", "more of the view clear")
+                 if pareto.is_default else
+                 (f"{ylabel} ({words[pareto.better('y')]} is better)",
+                  f"{xlabel} ({words[pareto.better('x')]} is better)"))
     page = _PAGE.format(title=html.escape(study.spec.name), verdict=html.escape(text),
-                        plot=plot, table=_html_table(table, axes))
+                        plot=plot, table=_html_table(table, axes, pareto),
+                        up=html.escape(up), right=html.escape(right))
     with atomic_path(path) as tmp:
         tmp.write_text(page)
     return text
 
 
 def write_pareto_png(path: Path, study, table) -> Path:
-    """The Pareto plot as a PNG (matplotlib, for documents): sun blocked against view clear,
-    torsal variants (red circles, their front a solid line), each standard device (its own
-    marker, its front dotted); marker colour: sheet material (kg)."""
+    """The Pareto plot as a PNG (matplotlib, for documents): sun blocked against view clear
+    (or the study's ``[pareto]`` figures), torsal variants (red circles, their front a solid
+    line), each standard device (its own marker, its front dotted); marker colour: sheet
+    material (kg)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     from ..pipeline.devices import DEVICES
 
-    ok = table[table["status"] == "done"].dropna(subset=[X_KEY, Y_KEY])
+    pareto = _pareto(study)
+    X, Y = pareto.x, pareto.y
+    ok = table[table["status"] == "done"].dropna(subset=[X, Y])
     fig = Figure(figsize=(8, 6), dpi=110)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
@@ -355,17 +535,17 @@ def write_pareto_png(path: Path, study, table) -> Path:
         d = ok[ok["device"] == name]
         if d.empty:
             continue
-        front = d.iloc[pareto_front(d[X_KEY], d[Y_KEY])]
+        front = _front(d, pareto)
         colour = f"C{k}"
-        ax.plot(front[X_KEY], front[Y_KEY], ":", color=colour, lw=1.2)
-        sc = ax.scatter(d[X_KEY], d[Y_KEY], c=d["material_kg"].astype(float), cmap="viridis",
+        ax.plot(front[X], front[Y], ":", color=colour, lw=1.2)
+        sc = ax.scatter(d[X], d[Y], c=d["material_kg"].astype(float), cmap="viridis",
                         marker=_SYMBOLS.get(name, (None, "o"))[1], s=55, edgecolors=colour,
                         linewidths=1.5, label=name, **norm)
     t = ok[ok["kind"] == "torsal"]
     if not t.empty:
-        front = t.iloc[pareto_front(t[X_KEY], t[Y_KEY])]
-        ax.plot(front[X_KEY], front[Y_KEY], "-", color="#c0392b", lw=2.2)
-        sc = ax.scatter(t[X_KEY], t[Y_KEY], c=t["material_kg"].astype(float), cmap="viridis",
+        front = _front(t, pareto)
+        ax.plot(front[X], front[Y], "-", color="#c0392b", lw=2.2)
+        sc = ax.scatter(t[X], t[Y], c=t["material_kg"].astype(float), cmap="viridis",
                         marker="o", s=110, edgecolors="#c0392b", linewidths=2.2,
                         label="torsal variants", **norm)
     if sc is not None:
@@ -375,10 +555,12 @@ def write_pareto_png(path: Path, study, table) -> Path:
     if missing:
         ax.text(0.99, 0.01, "not applicable here: " + ", ".join(missing), transform=ax.transAxes,
                 ha="right", va="bottom", fontsize=7, color="0.3")
-    ax.xaxis.set_major_formatter(lambda x, _: f"{100 * x:.0f}%")
-    ax.yaxis.set_major_formatter(lambda y, _: f"{100 * y:.0f}%")
-    ax.set_xlabel(view_label(study), fontsize=9)
-    ax.set_ylabel(sun_label(study), fontsize=9)
+    if X in _SHARES:
+        ax.xaxis.set_major_formatter(lambda x, _: f"{100 * x:.0f}%")
+    if Y in _SHARES:
+        ax.yaxis.set_major_formatter(lambda y, _: f"{100 * y:.0f}%")
+    ax.set_xlabel(figure_label(X, study), fontsize=9)
+    ax.set_ylabel(figure_label(Y, study), fontsize=9)
     ax.set_title(study.spec.name, fontsize=10)
     ax.grid(alpha=0.3)
     fig.tight_layout()
