@@ -517,7 +517,7 @@ class FinSystem:
             for p in parts:
                 if p.ends[0] == "fold":
                     trimmed = list(p.trimmed)
-                    trimmed[0] = ends._fold_butt(p, ends._previous(parts, p, q), q, -1, gap, h)
+                    trimmed[0] = ends.butts._fold_butt(p, ends._previous(parts, p, q), q, -1, gap, h)
                     p.trimmed = tuple(trimmed)
         ends._warn_untrimmed(stacklevel=3)
         self.__dict__.pop("_memo", None)
