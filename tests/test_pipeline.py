@@ -176,3 +176,29 @@ def test_the_report_says_when_the_optimized_lines_are_nearly_parallel():
     assert rows[0][1].startswith("0.16 (nearly parallel") and rows[1][1] == "7.00"
     assert "nearly parallel" not in _spread_rows({"line_spread_deg": NEARLY_PARALLEL_DEG})[0][1]
     assert _spread_rows({}) == []        # a report cached before the key existed
+
+
+def test_the_support_report_counts_each_familys_strips_fins_and_area():
+    """report.json support.families: spacing and depth as asked, and each family's strips,
+    fins and one-side fin area as built (a 3 x 3 grid of vertical 0.4 m node lines, rows 0.3 m
+    and columns 0.2 m long, family 1 half as deep)."""
+    import numpy as np
+
+    from torsal.geometry.support import SupportStructure
+    from torsal.pipeline.design_file import validate_design
+    from torsal.pipeline.stages import family_figures
+
+    spec = validate_design({"surface": {"generator": "flat_facade"},
+                            "sun": {"vectors": [[0, -1, 1]]},
+                            "fins": {"spacing": [0.2, 0.3], "depth": [0.4, 0.2]}})
+    x, y = np.meshgrid(np.arange(3) * 0.3, np.arange(3) * 0.2)
+    a = np.stack([x, y, 0 * x], axis=-1).reshape(-1, 3)
+    idx = np.arange(9).reshape(3, 3)
+    edges = np.r_[np.c_[idx[:, :-1].ravel(), idx[:, 1:].ravel()],
+                  np.c_[idx[:-1, :].ravel(), idx[1:, :].ravel()]]
+    s = SupportStructure(a, a + [0, 0, 0.4], [], edges, np.r_[[0] * 6, [1] * 6],
+                         family_depth_ratio=(1.0, 0.5))
+    f = family_figures(s, spec)
+    assert f["spacing"] == [0.2, 0.3] and f["depth"] == [0.4, 0.2]
+    assert f["strips"] == [3, 3] and f["fins"] == [6, 6]
+    assert np.allclose(f["fin_area_m2"], [6 * 0.3 * 0.4, 6 * 0.2 * 0.2])

@@ -583,6 +583,18 @@ def _measured_constraint_rows(c: dict) -> list:
     return rows
 
 
+def _family_rows(families: dict | None) -> list:
+    """The two torsal families side by side: spacing, depth, strips, fins, fin area."""
+    if not families:
+        return []
+    f = families
+    return [("family 0 / family 1: spacing, depth (model units)",
+             f"{f['spacing'][0]:g}, {f['depth'][0]:g} / {f['spacing'][1]:g}, {f['depth'][1]:g}"),
+            ("family 0 / family 1: strips, fins, fin area (m&sup2;)",
+             f"{f['strips'][0]}, {f['fins'][0]}, {f['fin_area_m2'][0]:.1f} / "
+             f"{f['strips'][1]}, {f['fins'][1]}, {f['fin_area_m2'][1]:.1f}")]
+
+
 def _gate_rows(gate: dict | None, what: str, count_key: str) -> list:
     """Table rows of a joinery quality gate (see :mod:`torsal.pipeline.assembly`)."""
     if not gate:
@@ -894,6 +906,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                 ("delta_pl after optimization",
                  f'<span class="{"ok" if ok else "bad"}">{s["delta_pl_optimized"]:.2e}</span>'),
                 ("support optimization (s)", s["solve_s"]), ("status", html.escape(s["status"]))]
+        rows += _family_rows(s.get("families"))
         rows += _gate_rows(s.get("joinery"), "crossings where a strip folds more than "
                            "{max_fold_at_crossing_deg:g}&deg;", "nodes_above")
         secs.append("<h2>2. Torsion-free support structure (paper 4.2, eq. 8)</h2>" + _table(rows))

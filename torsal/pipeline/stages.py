@@ -330,6 +330,7 @@ def run_support(inp: StageInputs) -> dict:
     return {"structure": s, "report": {
         "quads": int(sum(len(p) == 4 for p in s.faces)), "faces": int(len(s.faces)),
         "edges": int(len(s.edges)), "nodes": int(len(s.vertices_a)),
+        "families": family_figures(s, spec),
         "delta_pl_extracted": float(inp["remesh"]["delta_pl"]),
         "delta_pl_optimized": float(s.delta_pl), "solve_s": float(solve_s),
         "status": status, "success": ok,
@@ -337,6 +338,23 @@ def run_support(inp: StageInputs) -> dict:
         "joinery": support_gate(s, spec.fins.max_fold_at_crossing
                                 if spec.fins.max_fold_at_crossing is not None
                                 else MAX_CROSSING_FOLD)}}
+
+
+def family_figures(structure, spec: DesignSpec) -> dict:
+    """Each torsal family's spacing and depth as asked (model units) and its strips, fins and
+    fin area as built into the structure (m^2, one side): what a lighter second family saves.
+
+    Returns ``{"spacing": [s0, s1], "depth": [d0, d1], "strips": [n0, n1], "fins": [e0, e1],
+    "fin_area_m2": [A0, A1]}``.
+    """
+    quads = structure.fin_quads()
+    area = 0.5 * (np.linalg.norm(np.cross(quads[:, 2] - quads[:, 0], quads[:, 3] - quads[:, 1]),
+                                 axis=1)) * spec.metres_per_unit ** 2
+    fam = structure.edge_family
+    return {"spacing": list(spec.fins.spacings), "depth": list(spec.fins.depths),
+            "strips": [len(structure.strips(f)) for f in (0, 1)],
+            "fins": [int((fam == f).sum()) for f in (0, 1)],
+            "fin_area_m2": [float(area[fam == f].sum()) for f in (0, 1)]}
 
 
 # ------------------------------------------------------------------ light

@@ -71,6 +71,7 @@ _FIGURE_LABELS = {
     "light.annual.daylight.fins.sda_all": "sDA 300 lx / 50% (share of the rooms' floor)",
     "light.annual.daylight.fins.ase_all": "ASE 1000 lx / 250 h (share of the rooms' floor)",
     "material_kg": "sheet material (kg)",
+    X_KEY: "view clear", Y_KEY: "sun as asked",
 }
 #: figures that are shares (shown in %)
 _SHARES = {"light.view_clear", "light.goal_share", "light.blocked_share", "light.transparency",
