@@ -3,8 +3,9 @@
 A :class:`FinSystem` reads a :class:`~torsal.geometry.support.SupportStructure` and groups its
 fins (one planar quad ``a_i a_j b_j b_i`` per edge) into *parts*, then joins them. It is the
 facade of :mod:`torsal.fabrication`: the model (:mod:`.model`), the joinery (:mod:`.joints`),
-development (:mod:`.unroll`), the builder's phases (:mod:`.builder`: strips, ends, crossings,
-clashes, assembly paths), solids (:mod:`.solids`) and sheets (:mod:`.layout`) sit below it.
+development (:mod:`.unroll`), the builder (:mod:`.builder`: the rebuild loop, strips, ends,
+crossings, clashes, assembly paths), solids (:mod:`.solids`) and sheets (:mod:`.layout`) sit
+below it.
 
 * By default (``family_split="egg-crate"``) every strip of either torsal family is one part, a
   folded plate of planar panels hinged on the node lines ``L_i = a_i b_i``. At every node where
@@ -78,8 +79,6 @@ Example
 """
 from __future__ import annotations
 
-import dataclasses
-import warnings
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -91,15 +90,13 @@ from . import layout as _layout
 from . import solids as _solids
 from .nesting import nest_parts
 from .builder.clash import ClashFinder
-from .builder.crossings import CrossingSlotter
-from .builder.ends import EndJoiner
-from .builder.fasteners import FastenerLayout
-from .builder.fixings import FIXING_SPACING, FixingPlacer
+from .builder.fixings import FIXING_SPACING
+from .builder.free import FreeStrips
 from .builder.memo import Memo
 from .builder.paths import AssemblyPlanner
-from .builder.seams import JointFallback, SlotSeam, SlotSeams
-from .builder.strips import StripCutter, _plate_panels, _read_strips
-from .joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, choose_joinery
+from .builder.rebuild import MAX_REBUILDS, Rebuilder, init_joints
+from .builder.strips import StripCutter
+from .joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE
 from .model import (CONNECTOR_FAMILY, FAMILY_COLORS, FIXING_FAMILY, MITER_LIMIT, Crossing, FamilySplit, Joint,
                     JointKind, Part, PartId, Slot, SlotSide, fold_angles, panel_widths,
                     quad_normals)
@@ -108,6 +105,16 @@ from .unroll import unroll
 # importable from here as before the builder moved to .builder (tests, earlier code)
 from .builder.ends import CONNECTOR_GAP  # noqa: F401
 from .builder.paths import SLAB_TOUCH, _cycles  # noqa: F401
+# (and the builder's phases and the rebuild loop, since FinSystem's rebuild loop moved to
+# .builder.rebuild and its free strips to .builder.free)
+from .builder.crossings import CrossingSlotter  # noqa: F401
+from .builder.ends import EndJoiner  # noqa: F401
+from .builder.fasteners import FastenerLayout  # noqa: F401
+from .builder.fixings import FixingPlacer  # noqa: F401
+from .builder.rebuild import reset_state  # noqa: F401
+from .builder.seams import JointFallback, SlotSeam, SlotSeams  # noqa: F401
+from .builder.strips import _plate_panels, _read_strips  # noqa: F401
+from .joints import choose_joinery  # noqa: F401
 from .builder.proximity import _near_panel_pairs, _quads_cross, _quads_on  # noqa: F401
 from .builder.proximity import _slab_depths, _swept_distances  # noqa: F401
 from .model import _bowtie, _oriented_size, _safe_normals  # noqa: F401
@@ -117,9 +124,6 @@ __all__ = [
     "JointKind", "UNIT_TO_MM", "INSUNITS", "FAMILY_COLORS", "fold_angles", "quad_normals",
     "MITER_LIMIT", "panel_widths",
 ]
-
-#: how often :class:`FinSystem` rebuilds at most, changing joints and leaving out panels
-MAX_REBUILDS = 16
 
 
 class FinSystem:
@@ -241,190 +245,15 @@ class FinSystem:
         self._unrolled: dict | None = None
         if len(structure.edges) == 0:
             raise ValueError("the support structure has no edges: nothing to fabricate")
-        self._build_until_trimmed()
+        Rebuilder(self).build_until_trimmed()
         self.__dict__.pop("_memo", None)        # only the rebuilds of this construction use it
-
-    def _reset_state(self) -> None:
-        """Empty the lists one build fills."""
-        #: degenerate panels dropped: (part-id prefix of the strip, structure edge, width)
-        self.dropped_panels: list[tuple[str, int, float]] = []
-        #: parts whose solid could not be slotted by OpenCascade: (name, slot nodes, reason)
-        self.unslotted_solids: list[tuple[str, list, str]] = []
-        #: slots made shallower or left out: (part name, node, old depth, new depth, partner note)
-        self.slot_conflicts: list[tuple[str, int, float, float, str]] = []
-        #: parts of one panel that do not fit ``fit_sheet`` (warned; :meth:`layout` will refuse)
-        self.oversize_panels: list[str] = []
-        self._oversize: list[int] = []
-        self.crossings: list[Crossing] = []
-        #: part ends that could not be butt-trimmed: (part name, node, reason)
-        self.untrimmed_joints: list[tuple[str, int, str]] = []
-        self._init_joints()
-        self.parts = []
 
     def _cached(self, fn, *args, **kw):
         """``fn(*args, **kw)`` of a pure joint kernel (butt trims, corners, connectors, sheet
         fits), remembered for the rebuilds of one :class:`FinSystem`
-        (:class:`~.builder.memo.Memo`: :meth:`_build_until_trimmed` rebuilds the whole
+        (:class:`~.builder.memo.Memo`: :class:`~.builder.rebuild.Rebuilder` rebuilds the whole
         structure, and most ends and fits come out the same)."""
         return self.__dict__.setdefault("_memo", Memo())(fn, *args, **kw)
-
-    def _build_until_trimmed(self) -> None:
-        """Build; where a part end meets the plate it butts against too obliquely to be
-        trimmed (it lies along that plate, within about 12 degrees, and would overlap it), leave
-        that end panel out (it duplicates the other plate's fin there) and build again, so that
-        every part end is trimmed. The panels left out are named in ``coplanar_panels``
-        (warned); at most :data:`MAX_REBUILDS` rebuilds. A rebuild changes only the ends next
-        to the panels left out and the crossings forced to butt: the trims, bracket corners,
-        connectors and sheet fits of all other ends are taken from the builds before
-        (:meth:`_cached`), so each costs less than the first."""
-        extra: dict[int, set] = {}
-        forced: dict[int, str] = {}
-        left_out: list[tuple[str, int, int, str]] = []
-        #: (strip index, panel of the strip) that take no fixing: one there was in a part's way
-        self._fixing_exclude: set = set()
-        #: (strip index, node line of the strip) where a split for the sheet must not be: a
-        #: mitred seam there could not be trimmed
-        self._avoid_splits: set = set()
-        #: node -> family whose plate the other family's parts end against there, where an end
-        #: could not be trimmed the way the joinery first chose (the joint changed)
-        self._base_at: dict[int, int] = {}
-        #: seams refused a crossing slot ({(family, node): JointFallback}) and the local
-        #: assembly checks of the seams by content (.builder.seams)
-        self._seams_refused: dict = {}
-        self._seam_verdicts: dict = {}
-        for attempt in range(MAX_REBUILDS + 1):
-            self._rebuilds = attempt
-            self._reset_state()
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always")
-                self._build_from_structure(extra, forced)
-            new = {(si, i): rec for si, i, *rec in self._untrimmable + ClashFinder(self)._stray_parts()
-                   if i not in extra.get(si, ())}
-            swapped = len(self._base_at)
-            new_forced = self._change_joints(new, forced)
-            # joints changed at T and L junctions, splits moved off seams that could not be
-            # trimmed: build again
-            moved = self._bad_seams - self._avoid_splits
-            self._avoid_splits |= moved
-            changed = bool(moved) or len(self._base_at) > swapped
-            new.update({(si, i): rec for si, i, *rec in self._clashing_panels(leaving=set(new))})
-            new_forced.update((v, why) for v, why in self._unslidable.items()
-                              if v not in forced and v not in new_forced)
-            new_forced.update((v, why) for v, why in AssemblyPlanner(self)._break_cycles(forced).items()
-                              if v not in new_forced)
-            changed |= self._settle_seams(settled=not (new or new_forced or changed))
-            checked = not (new or new_forced or changed)
-            excluded = set()
-            if checked:
-                # the joints are settled: now the paths into place (they change with every
-                # panel left out and every joint changed, so they are looked at last)
-                self._check_paths()
-                new = {(si, i): rec for si, i, *rec in AssemblyPlanner(self)._blocked_panels()}
-                excluded = {(si, i) for _, si, i in self._evicted} - self._fixing_exclude
-            self._fixing_exclude |= excluded
-            if not (new or new_forced or changed) or attempt == MAX_REBUILDS:
-                if not checked:
-                    self._check_paths()     # out of rebuilds: at least the clear directions
-                break
-            for (si, i), (prefix, edge, node, why) in sorted(new.items()):
-                extra.setdefault(si, set()).add(i)
-                left_out.append((prefix, edge, node, why))
-            forced.update(new_forced)
-        self.coplanar_panels = left_out
-        SlotSeams(self).publish()
-        for w in caught:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-        # slots that would cut a part in two: once, on the final parts (it unrolls them all)
-        CrossingSlotter(self)._resolve_slot_splits()
-        # the fasteners' holes, in the connectors, fixings and the plates they lie on
-        FastenerLayout(self)._drill()
-        if left_out:
-            warnings.warn(
-                f"{len(left_out)} fin panels were left out because they meet the plate they end "
-                f"against too obliquely to be trimmed (they lie along it and would overlap it), "
-                f"cross another plate where no joint joins them, or block a part's path into "
-                f"place: "
-                + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
-                + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
-                "Raise constraints.min_torsal_angle to keep the two families' fins apart",
-                stacklevel=3)
-
-    def _settle_seams(self, *, settled: bool) -> bool:
-        """Seams inside crossing slots refused during this build (by the slide plan) or, once
-        every other joint is ``settled``, by the assembly check on the solids around each
-        (:meth:`~.builder.seams.SlotSeams.verify`): they fall back to butt joints with
-        brackets in the next build. True if any was refused (build again)."""
-        if settled and not self._refuse_seams:
-            SlotSeams(self).verify()
-            # (a refused split for the sheet moves to the node line before, as a mitred seam
-            # that cannot be trimmed does)
-            self._avoid_splits |= self._bad_seams
-        before = len(self._seams_refused)
-        self._seams_refused.update(self._refuse_seams)
-        return len(self._seams_refused) > before
-
-    def _change_joints(self, new: dict, forced: dict) -> dict:
-        """Part ends that could not be butt-trimmed against the other family's plate (``new``,
-        the panels about to be left out): where the joint at that node was not changed yet,
-        change it instead (the other family's parts end against this plate: at a crossing the
-        other family is split, :data:`forced`; at a T or L junction ``_base_at``) and keep the
-        panel. Returns the crossings to split the other way; removes the kept panels from
-        ``new``."""
-        out: dict[int, tuple] = {}
-        for key, (node, fam) in sorted(self._swappable.items()):
-            if key not in new or node in self._base_at or node in forced or node in out:
-                continue
-            if node in {x.node for x in self.joinery}:
-                out[node] = (1 - fam, f"the ends of family {fam} cannot be trimmed against "
-                             f"family {1 - fam} there: split family {1 - fam}")
-            self._base_at[node] = fam
-            del new[key]
-        return out
-
-    def _init_joints(self) -> None:
-        #: every joint of the assembly (egg-crate, butt + bracket, mitre + splice)
-        self.joints: list[Joint] = []
-        #: joints without a connector (no room for one): (part name, node, reason)
-        self.unconnected_joints: list[tuple[str, int, str]] = []
-        #: the joint chosen at every crossing of two strips (see :func:`~.joints.choose_joinery`)
-        self.joinery: list = []
-        self._connectors: list[Part] = []
-        self._n_conn: dict[int, int] = {}
-        #: part ends that could not be trimmed: (strip index, panel of the strip, strip name,
-        #: structure edge, node, reason)
-        self._untrimmable: list[tuple] = []
-        #: of those, the butt joints that may change: (strip index, panel) -> (node, family)
-        self._swappable: dict[tuple, tuple] = {}
-        #: mitred seams that could not be trimmed: (strip index, node line of the strip)
-        self._bad_seams: set = set()
-        #: crossings an egg-crate cannot join (node -> reason): butted in the next build
-        self._unslidable: dict[int, str] = {}
-        #: parts whose path into place is blocked: [(part, [(panel, plate, its panel, distance)])]
-        self._blocked_paths: list = []
-        #: splits at crossings tried as seams inside the slot ({(family, node)}), those refused
-        #: during this build ({(family, node): JointFallback}: butted in the next), and the
-        #: final lists (:mod:`.builder.seams`): the seams kept and the fallbacks, named
-        self._seam_crossings: set = set()
-        self._refuse_seams: dict = {}
-        self.seams_in_slot: list[SlotSeam] = []
-        self.joint_fallbacks: list[JointFallback] = []
-        #: part name -> [unit normal of a plate it butts against, turned towards the part]
-        self._walls: dict[str, list] = {}
-        #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
-        self._ends_at: dict[tuple[int, int], list] = {}
-        #: part name -> [(part across a mitred seam, seam normal turned to it, its panel there)]
-        self._seams: dict[str, list] = {}
-        #: connector name -> (a, b, options): the places it may go (see EndJoiner._record)
-        self._sites: dict[str, tuple] = {}
-        #: the fixings (parts) and fixing name -> (plate name, panel index) it lies on
-        self._fixings: list[Part] = []
-        self._fixing_sites: dict[str, tuple[str, int]] = {}
-        #: fixings taken out of a part's way: (name, strip index, panel of the strip)
-        self._evicted: list[tuple] = []
-        #: connectors moved to another place of their site so that their path is clear, and
-        #: connectors left out where the part they fasten has another at that node
-        self._moved_connectors: list[str] = []
-        self._dropped_connectors: list[str] = []
 
     @staticmethod
     def _check_common(thickness, clearance, model_unit, unit, max_panels):
@@ -481,45 +310,17 @@ class FinSystem:
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
         self.crossings, self.parts, self.untrimmed_joints = [], [], []
         self.dropped_panels, self.slot_conflicts, self.oversize_panels = [], [], []
-        quads_of: dict[int, np.ndarray] = {}
-        cut, ends = StripCutter(self), EndJoiner(self)
         self._oversize = []
         self.unslotted_solids = []
         self._solids = self._unrolled = None
         self.min_crossing_angle, self.max_crossing_fold = MIN_CROSSING_ANGLE, MAX_CROSSING_FOLD
-        self._init_joints()
+        init_joints(self)
         self.coplanar_panels = []
-        for s, st in enumerate(strips):
-            q = np.asarray(getattr(st, "quads", st), dtype=float) * self.scale
-            fam = int(family)
-            if q.ndim != 3 or q.shape[1:] != (4, 3) or len(q) == 0:
-                raise ValueError(f"strip {s}: expected (k, 4, 3) quads, got {q.shape}")
-            nodes = np.full(len(q) + 1, -1)
-            edges = np.full(len(q), -1)
-            drop = cut._drop_mask(q)
-            quads_of[s] = q
-            prefix = str(PartId(fam, s, 0))[:-4]
-            self.dropped_panels += [(prefix, int(i), float(w))
-                                    for i, w in zip(np.flatnonzero(drop), panel_widths(q)[drop])]
-            for index, (lo, hi) in enumerate(cut._split_ranges(q, closed=False, drop=drop)):
-                self.parts.append(cut._make_part(PartId(fam, s, index), q, lo, hi, nodes, edges,
-                                                 closed=False, drop=drop))
-        if not self.parts:
-            raise ValueError("no strips given: nothing to fabricate")
-        cut._warn_dropped()
-        # splits at sharp folds: butt joints (the later part trimmed back), never mitred
-        gap, h = 0.5 * self.thickness, 0.5 * self.thickness
-        by_strip: dict[int, list[Part]] = {}
-        for p in self.parts:
-            by_strip.setdefault(p.id.strip, []).append(p)
-        for sidx, parts in by_strip.items():
-            q = quads_of[sidx]
-            for p in parts:
-                if p.ends[0] == "fold":
-                    trimmed = list(p.trimmed)
-                    trimmed[0] = ends.butts._fold_butt(p, ends._previous(parts, p, q), q, -1, gap, h)
-                    p.trimmed = tuple(trimmed)
-        ends._warn_untrimmed(stacklevel=3)
+        free = FreeStrips(self)
+        quads_of = free.cut_strips(strips, family)
+        free.cut._warn_dropped()
+        free.butt_folds(quads_of)
+        free.ends._warn_untrimmed(stacklevel=3)
         self.__dict__.pop("_memo", None)
         return self
 
@@ -527,62 +328,6 @@ class FinSystem:
     def split_angle(self) -> float:
         """Degrees: folds sharper than this split a strip (``min(max_fold_angle, MITER_LIMIT)``)."""
         return min(self.max_fold_angle, MITER_LIMIT)
-
-    def _build_from_structure(self, extra: dict | None = None, forced: dict | None = None) -> None:
-        """Parts from the structure in five phases: read the strips, choose the joint at every
-        crossing (:func:`~.joints.choose_joinery`), cut the strips into parts, join the part
-        ends (butt + bracket, mitre + splice) and slot the egg-crate crossings."""
-        st = _read_strips(self.structure, self.scale, self._drop_mask, extra)
-        self._extra = extra or {}
-        plate = _plate_panels(st)
-        joinery = {}
-        if self.family_split == FamilySplit.EGG_CRATE:
-            for v in np.flatnonzero(st.passes[0] & st.passes[1]).tolist():
-                joinery[v] = choose_joinery(v, plate[(0, v)], plate[(1, v)],
-                                            min_angle=self.min_crossing_angle,
-                                            max_fold=self.max_crossing_fold)
-                if v in (forced or {}):
-                    # an egg-crate the family-1 plate cannot slide onto together with its
-                    # others: split it here (butt joint + bracket); a butt joint in a cycle
-                    # of parts butting on each other: split the other strip instead
-                    split, why = forced[v]
-                    joinery[v] = joinery[v]._replace(kind=JointKind.BUTT_BRACKET, split=split,
-                                                     why=why)
-        self.joinery = [joinery[v] for v in sorted(joinery)]
-        part_of_strip = StripCutter(self)._strip_parts(st, joinery)
-        self.parts = [p for parts in part_of_strip for p in parts]
-        self._strip_of = {p.name: si for si, parts in enumerate(part_of_strip) for p in parts}
-        self._where = {(si, p.span[0] + i): (p, i) for si, parts in enumerate(part_of_strip)
-                       for p in parts for i in range(len(p.panels))}
-        # a family is continuous at a node where one of its parts passes through it
-        cont = st.passes.copy()
-        for si, parts in enumerate(part_of_strip):
-            fam = st.fins[si].family
-            for p in parts:
-                for end in (0, 1):
-                    if p.ends[end] in ("miter", "fold"):
-                        cont[fam, int(p.nodes[-end])] = False
-        seams = SlotSeams(self)
-        self._seam_crossings = seams.candidates(st, part_of_strip, joinery, cont, set(forced or ()))
-        seams.slot(joinery)
-        EndJoiner(self)._join_ends(st, part_of_strip, plate, cont)
-        CrossingSlotter(self)._slot_crossings(st, part_of_strip, joinery, cont)
-        self.parts = ([p for parts in part_of_strip for p in parts]
-                      + sorted(self._connectors, key=lambda p: p.id))
-        self.joints = [dataclasses.replace(j, depth=float(st.depth[j.node])) if j.node >= 0 else j
-                       for j in self.joints]
-        planner = AssemblyPlanner(self)
-        planner._set_butt_directions()
-        # the plates that carry the others are fixed to the building; they come down onto
-        # their fixings along their mean node axis
-        roots = planner._roots()
-        FixingPlacer(self)._place(roots, {p.name: planner._root_direction(p) for p in roots},
-                                  exclude=getattr(self, "_fixing_exclude", set()))
-        self.parts += sorted(self._fixings, key=lambda p: p.id)
-        planner._set_root_directions()
-        names = [p.name for p in self.parts]
-        assert len(set(names)) == len(names)
-        self._fin_depth = st.depth
 
     # ------------------------------------------------------------------ the phases' hooks
     def _drop_mask(self, quads: np.ndarray) -> np.ndarray:

@@ -1,11 +1,14 @@
 """The builder behind :class:`~torsal.fabrication.parts.FinSystem`, one job per module (issue 15).
 
-:class:`~torsal.fabrication.parts.FinSystem` is the facade: it validates its options, runs
-the phases below on itself (each phase class takes the fin system under construction and
-fills its lists) and rebuilds until every end is trimmed and every path is clear.
+:class:`~torsal.fabrication.parts.FinSystem` is the facade: it validates its options and
+has :class:`Rebuilder` (:mod:`.rebuild`) run the phases below on it (each phase class takes the
+fin system under construction and fills its lists) and build again until every end is trimmed
+and every path is clear; :class:`FreeStrips` (:mod:`.free`) makes the parts of free strips.
 
 * :mod:`.strips` reads the structure's strips and cuts them into parts (:class:`StripCutter`);
-* :mod:`.ends` joins the part ends: butt + bracket, mitre + splice (:class:`EndJoiner`);
+* :mod:`.ends` decides how every part end is joined (:class:`EndJoiner`): :mod:`.butts` trims
+  butted ends (:class:`ButtTrimmer`), :mod:`.connectors` places the brackets and splice plates
+  and records the joints (:class:`ConnectorPlacer`);
 * :mod:`.crossings` slots the egg-crate crossings and plans each family-1 plate's slide
   (:class:`CrossingSlotter`);
 * :mod:`.seams` holds the seams of strips split at a crossing in the other plate's slot,
@@ -21,12 +24,16 @@ The modules import :mod:`torsal.fabrication.model`, :mod:`~torsal.fabrication.jo
 :mod:`~torsal.fabrication.unroll` and one another in that order, never
 :mod:`torsal.fabrication.parts`.
 """
+from .butts import ButtTrimmer
 from .clash import ClashFinder
+from .connectors import ConnectorPlacer
 from .crossings import CrossingSlotter
 from .ends import EndJoiner
+from .free import FreeStrips
 from .paths import AssemblyPlanner
+from .rebuild import Rebuilder
 from .seams import SlotSeams
 from .strips import StripCutter
 
-__all__ = ["StripCutter", "EndJoiner", "CrossingSlotter", "ClashFinder", "AssemblyPlanner",
-           "SlotSeams"]
+__all__ = ["StripCutter", "EndJoiner", "ButtTrimmer", "ConnectorPlacer", "CrossingSlotter",
+           "ClashFinder", "AssemblyPlanner", "SlotSeams", "Rebuilder", "FreeStrips"]
