@@ -252,3 +252,22 @@ def test_near_parabolic_face_does_not_fold_its_neighbours():
     p = parametrize(dataclasses.replace(ff, directions=d), 0.1)
     assert set(p.flipped.tolist()) <= {bad}
     assert p.residual < 0.1
+
+
+def test_two_spacings_refuse_a_cut_that_exchanges_the_families():
+    """Across a cut whose matching swaps u and v (a quarter-turn singularity) a family-0 fin
+    continues as a family-1 fin: two different spacings cannot both hold there."""
+    from types import SimpleNamespace
+
+    from torsal.geometry.frame_field import GROUP
+    from torsal.geometry.remesh import _families_kept
+
+    swap = int(np.flatnonzero(GROUP[:, 0, 0] == 0)[0])
+    flip = int(np.flatnonzero((GROUP[:, 0, 0] == -1) & (GROUP[:, 1, 1] == -1))[0])
+    V, F = graph_surface(saddle, nu=5, nv=5)
+    field = SimpleNamespace(vertices=V, faces=F, singularities=np.array([12]),
+                            edge_faces=np.array([[0, 1], [2, 3]]), matching=np.array([flip, swap]))
+    _families_kept(field, np.array([0, 1]), (0.5, 0.5))      # one spacing: any matching
+    _families_kept(field, np.array([0]), (0.5, 1.0))         # a half turn keeps the families
+    with pytest.raises(ParametrizationError, match=r"exchange.*\[0.5, 1\].*one fins.spacing"):
+        _families_kept(field, np.array([0, 1]), (0.5, 1.0))
