@@ -15,7 +15,7 @@ from test_examples import small  # noqa: E402
 from torsal.design import Design  # noqa: E402
 from torsal.pipeline import DEFAULT_PIPELINE, StageCache, StageInputs, StageRun, run_stages  # noqa: E402
 from torsal.pipeline.design_file import DesignFileError  # noqa: E402
-from torsal.session import AnswerKind, Session, SessionEditError, apply_edit  # noqa: E402
+from torsal.session import AnswerKind, RegionGoal, Session, SessionEditError, apply_edit  # noqa: E402
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "7a_facade_block.toml"
 
@@ -48,16 +48,20 @@ def _support_of(spec, values, folder):
                                    results={**inputs, "remesh": remesh}, report={}))
 
 
-def _solve_from(spec, cold, directions):
-    """The edited design's congruence problem, made cold, solved from ``directions``."""
+def _solve_from(spec, cold, optimum):
+    """The edited design's congruence problem, made cold, re-solved from ``optimum`` (its
+    directions and multipliers): at a first-order point of that problem it stays there. (Not
+    from the directions alone: with its multipliers at zero, the augmented Lagrangian's first
+    steps leave a torsal-angle bound's active rows, and on 7a's near-zero energies they drift
+    along the family of optima, 63 degrees at test size.)"""
     from torsal.pipeline.problem import congruence_problem
     from torsal.pipeline.stages import CONSTRAINT_TOL
 
     o, sun = cold["orient"], cold["sun"]
     p = congruence_problem(spec, o["vertices"], o["faces"], sun["vectors"], sun["weights"])
     C = spec.constraints
-    return p.solve(solver=C.solver.value, max_iter=C.max_iter, initial=directions,
-                   constraint_tol=CONSTRAINT_TOL)
+    return p.warm_start_from(optimum).solve(solver=C.solver.value, max_iter=C.max_iter,
+                                            constraint_tol=CONSTRAINT_TOL)
 
 
 def _energy(report):
@@ -65,37 +69,75 @@ def _energy(report):
     return e["total"] if "total" in e else sum(e.values())
 
 
-@pytest.mark.parametrize("edits", [{"weights": {"perp": 14, "dir": 0.2}},
-                                   {"sun": {"hours": [12, 17]}, "spacing": 1.6}],
-                         ids=["weights", "sun+spacing"])
-def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, edits):
-    """After a first answer and an edit, the preview (re-solved warm from the last optimum, on
-    the kept problem) has a congruence that is an optimum of the cold run's problem of the
-    edited design to the solver's tolerance (the cold problem solved from it stays within
-    0.05 degrees; the same energy as the cold solve's), and the support structure the design
-    run's stages make of it, as planar as the cold run's.
+def _stroke(s, lift=0.0):
+    """A stroke across the facade through two of mesh A's vertices, ``lift`` higher (m)."""
+    v = s.preview.values["surface"]["vertices"]
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    ends = [lo + (hi - lo) * [0.2, 0.5, 0.25], lo + (hi - lo) * [0.8, 0.5, 0.65]]
+    points = [v[np.argmin(np.linalg.norm((v - e)[:, [0, 2]], axis=1))] for e in ends]
+    return [[p + [0.0, 0.0, lift] for p in points]]
+
+
+def _x_range(s, a, b):
+    """The share ``[a, b]`` of mesh A's x extent (model units)."""
+    x = s.preview.values["surface"]["vertices"][:, 0]
+    return [float(x.min() + a * np.ptp(x)), float(x.min() + b * np.ptp(x))]
+
+
+def _moved_point(s):
+    """The vertex nearest the middle of mesh A, 5 cm out of the facade (-y)."""
+    v = s.preview.values["surface"]["vertices"]
+    k = int(np.argmin(np.linalg.norm(v - v.mean(axis=0), axis=1)))
+    return s.move_point(k, v[k] + [0.0, -0.05, 0.0])
+
+
+#: one change of each kind the issue names (a weight, a sun period, a stroke, a region, a
+#: bound, spacing, a moved surface point): (the edit before it, or None; the change)
+CHANGES = {
+    "weights": (None, lambda s: s.edit(weights={"perp": 14, "dir": 0.2})),
+    "sun+spacing": (None, lambda s: s.edit(sun={"hours": [12, 17]}, spacing=1.6)),
+    "stroke": (lambda s: s.set_strokes(_stroke(s), width=0.6),
+               lambda s: s.set_strokes(_stroke(s, 0.5), width=0.6)),
+    "region": (lambda s: s.set_region(RegionGoal.LET_THROUGH, {"x": _x_range(s, 0.35, 0.5)}),
+               lambda s: s.set_region(RegionGoal.LET_THROUGH, {"x": _x_range(s, 0.3, 0.45)})),
+    "bound": (lambda s: s.set_bound(min_torsal_angle=20), lambda s: s.set_bound(min_torsal_angle=22)),
+    "point": (None, _moved_point),
+}
+
+
+@pytest.mark.parametrize("change", list(CHANGES))
+def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, change):
+    """After a first answer and an edit of each kind, the preview (re-solved warm from the
+    last optimum, on the kept problem where its structure allows) has a congruence that is
+    an optimum of the cold run's problem of the edited design to the solver's tolerance (the
+    cold problem re-solved from it stays within 0.05 degrees; its energy at most the cold
+    solve's, to 1 %), and the support structure the design run's stages make of it, as planar as
+    the cold run's.
 
     Not the cold run's lines themselves: 7a's energies reach ~1e-10 on a family of line
     fields (the paper's Fig. 12 row), so a solve stops on the member nearest its start; after
     a change of the sun the warm answer stays within a few degrees of the last design, where
     a cold solve from the normals lands elsewhere in the family."""
+    setup, edit = CHANGES[change]
     with Session(_spec(), tmp_path / "live", build=False) as s:
         first = s.start()
         assert first.kind is AnswerKind.PREVIEW and first.revision == 0
-        a = s.edit(**edits)
-    assert a.kind is AnswerKind.PREVIEW and a.ok and a.revision == 1
+        if setup is not None:
+            assert setup(s).kind is AnswerKind.PREVIEW
+        a = edit(s)
+    assert a.kind is AnswerKind.PREVIEW and a.ok and a.revision == first.revision + 1 + (setup is not None)
     assert "congruence" in a.stages_run and "fabrication" not in a.stages_run
     assert set(a.stages_run) | set(a.stages_kept) >= {"surface", "sun", "congruence", "support", "light"}
     cold = _cold(a.spec, tmp_path / "cold")
     # the congruence: an optimum of the edited design to the solver's tolerance: the cold
-    # problem solved from it stays there, and its energy is the cold solve's
+    # problem re-solved from it stays there, and its energy is no more than the cold solve's
+    # (a moved region: a lower optimum, 0.0558 against 0.0571, found from the last design)
     warm_dirs = a.values["congruence"]["directions"]
-    again = _solve_from(a.spec, cold, warm_dirs)
+    again = _solve_from(a.spec, cold, a.values["congruence"]["optimum"])
     assert again.success and _angle_deg(again.congruence.directions, warm_dirs).max() < 0.05
-    assert _energy(a.report["congruence"]) == pytest.approx(_energy(cold["congruence"]["report"]),
-                                                           rel=0.01, abs=1e-8)
-    assert a.report["congruence"]["max_violation"]["hyperbolic"] <= \
-        a.report["congruence"]["constraints"]["hyperbolic"]["tolerance"]
+    assert _energy(a.report["congruence"]) <= _energy(cold["congruence"]["report"]) * 1.01 + 1e-8
+    for name, c in a.report["congruence"]["constraints"].items():   # hyperbolic, the bound
+        assert c["max_violation"] <= c["tolerance"], name
     # the support structure: what the design run's stages make of this congruence ...
     own = _support_of(a.spec, a.values, tmp_path)["structure"]
     np.testing.assert_array_equal(a.structure.edges, own.edges)
