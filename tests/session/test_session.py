@@ -149,6 +149,20 @@ def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, change):
     assert 0 < a.light["blocked_share"] <= 1
 
 
+def test_a_bound_added_to_an_ipopt_design_is_solved_as_a_cold_run(tmp_path):
+    """7a without a bound is IPOPT's (no augmented-Lagrangian multipliers); a bound added
+    makes it the augmented Lagrangian's, which starts cold as ``torsal design`` does: the
+    same lines, to the last bit, as the cold run's (warm from IPOPT's answer it measured its
+    Newton decrements against a near-zero energy: 300 Newton steps at full size)."""
+    with Session(_spec(), tmp_path / "live", build=False) as s:
+        assert s.start().report["congruence"]["solver"] == "ipopt"
+        a = s.set_bound(min_torsal_angle=20)
+    assert a.kind is AnswerKind.PREVIEW and a.report["congruence"]["solver"].startswith("alm")
+    cold = _cold(a.spec, tmp_path / "cold")
+    np.testing.assert_array_equal(a.values["congruence"]["directions"], cold["congruence"]["directions"])
+    assert a.report["congruence"]["iterations"] == cold["congruence"]["report"]["iterations"]
+
+
 def test_a_weight_edit_re_solves_the_kept_problem(tmp_path):
     """A weight is a parameter of the built problem: the session re-solves the problem it
     keeps (no new one) and only the stages after the congruence run."""
