@@ -7,7 +7,9 @@ built answer's (solids, sheets, assembly check, every file), both from the edit;
 cold ``torsal design`` of the same edited design file in a new process and an empty folder.
 Each change is made from the design as the file gives it (the previous change undone by
 re-applying the file's design first, which the session answers from its warm results); a
-stroke, a region and a bound are moved, so the design gets one first (not timed).
+stroke, a region and a bound are moved, so the design gets one first (not timed). No build
+runs while a preview is timed (the one of the design before is cancelled): a build in the
+background shares the processor and the interpreter with the preview.
 
 Run:  .venv/bin/python benchmarks/session_bench.py [--no-built] [--no-cold] [--changes weight sun ...]
 
@@ -85,6 +87,27 @@ def cold_design(spec, folder: Path) -> float:
     return seconds
 
 
+def machine() -> str:
+    """The machine line: processor, cores, Python and the numeric libraries."""
+    import platform
+
+    import casadi
+
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as fh:
+            model = next(line.split(":", 1)[1].strip() for line in fh if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return (f"{model}, {os.cpu_count()} cores; Python {platform.python_version()}, numpy "
+            f"{np.__version__}, casadi {casadi.__version__}")
+
+
+def load() -> str:
+    """The 1-minute load average."""
+    return f"{os.getloadavg()[0]:.1f}"
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--no-built", action="store_true", help="previews only")
@@ -92,8 +115,8 @@ def main(argv=None) -> None:
     ap.add_argument("--changes", nargs="*", default=list(CHANGES), choices=list(CHANGES))
     args = ap.parse_args(argv)
     a = os.getloadavg()
-    print(f"Live session on {DESIGN.name} at full size; load average {a[0]:.2f} {a[1]:.2f} "
-          f"{a[2]:.2f} ({os.cpu_count()} cores)")
+    print(f"Live session on {DESIGN.name} at full size; {machine()}; load average {a[0]:.2f} "
+          f"{a[1]:.2f} {a[2]:.2f}")
     tmp = Path(tempfile.mkdtemp(prefix="session_bench-"))
     with Session(DESIGN, tmp / "session", build=not args.no_built) as s:
         t0 = time.perf_counter()
@@ -104,7 +127,7 @@ def main(argv=None) -> None:
             b = s.wait_built()
             print(f"first build: {b.seconds:.1f} s ({b.kind.value})")
         base = s.design
-        head = (f"{'change':>8} {'what':<40} | {'preview s':>9} {'cpu s':>5} {'<=1 s':>5} | "
+        head = (f"{'change':>8} {'what':<40} | {'load':>4} | {'preview s':>9} {'cpu s':>5} {'<=1 s':>5} | "
                 f"{'built s':>7} | {'cold s':>6} | stages the preview ran (s)")
         print(head)
         print("-" * len(head))
@@ -113,8 +136,8 @@ def main(argv=None) -> None:
             s.apply(base)                       # back to the file's design (warm results)
             if setup is not None:
                 setup(s)
-            if not args.no_built:
-                s.wait_built()
+            s.cancel_build(wait=None)           # nothing in the background while timed
+            row_load = load()
             c0 = time.process_time()
             answer = fn(s)
             cpu = time.process_time() - c0
@@ -125,8 +148,11 @@ def main(argv=None) -> None:
             built_s = "-" if built is None else f"{built.seconds:7.1f}"
             note = "" if answer.ok else f" ({answer.kind.value}: {answer.message[:60]})"
             stages = ", ".join(f"{k} {v:.2f}" for k, v in answer.stage_seconds.items() if v >= 0.005)
-            print(f"{name:>8} {what:<40} | {answer.seconds:9.2f} {cpu:5.2f} {ok:>5} | {built_s:>7} | "
-                  f"{cold:6.1f} | {stages}{note}", flush=True)
+            solve = answer.report.get("congruence", {}) if "congruence" in answer.stages_run else {}
+            if solve:
+                stages += f" ({solve['solver']}, {solve['iterations']} steps)"
+            print(f"{name:>8} {what:<40} | {row_load:>4} | {answer.seconds:9.2f} {cpu:5.2f} {ok:>5} | "
+                  f"{built_s:>7} | {cold:6.1f} | {stages}{note}", flush=True)
 
 
 if __name__ == "__main__":

@@ -352,10 +352,18 @@ class Session:
                     return None
                 self._cond.wait(0.1 if left is None else min(left, 0.1))
 
-    def cancel_build(self) -> None:
-        """Cancel the background build (the output folder stays as it was)."""
-        if self._builder is not None:
-            self._builder.cancel()
+    def cancel_build(self, *, wait: float | None = 0.0) -> bool:
+        """Cancel the background build (the output folder stays as it was), waiting up to
+        ``wait`` seconds (None: as long as it takes) for it to stop at its next stage boundary
+        or progress event. True when no build runs.
+
+        >>> s.cancel_build(wait=60)   # doctest: +SKIP
+        True
+        """
+        if self._builder is None:
+            return True
+        self._builder.cancel()
+        return self._builder.wait_idle(wait) if wait is None or wait > 0 else not self._builder.busy
 
     def close(self, timeout: float | None = 60.0) -> None:
         """Cancel the background build and end its thread."""
