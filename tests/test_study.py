@@ -402,7 +402,7 @@ def test_verdict_on_annual_figures_by_hand():
     text, n = verdict(t, [], pareto=p)
     assert n["beyond"] == 1 and n["best"] == "000" and n["nearest"] == "b0"
     assert n["lead"] == pytest.approx(0.4)
-    assert "by 40.0% of the figures' spans" in text and "ASE 1000 lx / 250 h" in text
-    assert "less ASE" in text and "more cooling-season gains avoided" in text
+    assert "by 40.0% of the figures' spans" in text and "ASE 10.0%" in text
+    assert "less ASE" in text and "more cooling-season gains avoided (kWh/m2)" in text
     assert "spacing [0.6, 1.2]" in text
     assert _front(t[t["kind"] == "baseline"], p)["id"].tolist() == ["b1", "b0"]

@@ -73,6 +73,15 @@ _FIGURE_LABELS = {
     "material_kg": "sheet material (kg)",
     X_KEY: "view clear", Y_KEY: "sun as asked",
 }
+#: the figures' short names in a verdict's sentence
+_SHORT_LABELS = {
+    "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2":
+        "cooling-season gains avoided (kWh/m2)",
+    "light.annual.fins.shading_factor.heating_gains_kept_kwh_m2":
+        "heating-season gains kept (kWh/m2)",
+    "light.annual.daylight.fins.sda_all": "sDA", "light.annual.daylight.fins.ase_all": "ASE",
+    X_KEY: "view clear", Y_KEY: "sun as asked",
+}
 #: figures that are shares (shown in %)
 _SHARES = {"light.view_clear", "light.goal_share", "light.blocked_share", "light.transparency",
            "light.transparency_cone", "light.view_out",
@@ -360,7 +369,7 @@ def verdict_on(table, axes, pareto: ParetoSpec, *, labels: dict | None = None
     eps = np.array([e for e, _ in leads])
     best = int(np.argmax(eps))
     n_beyond = int((eps > 0).sum())
-    lx, ly = labels.get(x, figure_label(x)), labels.get(y, figure_label(y))
+    lx, ly = (labels.get(k, _SHORT_LABELS.get(k, figure_label(k))) for k in (x, y))
 
     def at(r) -> str:
         return f"{ly} {_value_text(y, r[y])}, {lx} {_value_text(x, r[x])}"
