@@ -1,0 +1,220 @@
+"""The examples judged in the annual units (issue 41): for every example at a reduced size, a
+study of its fins with both families at one spacing and with a lighter second family (twice
+the spacing), against the standard devices, on the cooling-season gains avoided (kWh/m2 of
+glazing) against sDA (a facade's rooms) or the view out (a canopy); and the annual table of
+the uniform variant (kWh/m2 bare / fins / best device per season, F_sh, sDA / ASE).
+
+    python examples/run_annual_studies.py [--out out/annual-studies] [--only 7a 9 ...]
+    python examples/run_annual_studies.py --table-only     # print the tables from the results
+
+The reduced size: mesh A at most 17 x 17 vertices, the fin spacing at least a twelfth of A's
+extent (the second family twice that), 300 light samples, 100 glazing points at Radiance -ab 2
+-ad 512, rooms 6 m deep and 3 m high per storey at -ab 4 -ad 256 (LM-83 asks 6 and 1000), no
+fabrication. Each study's table is saved to ``examples/studies/results/<key>_annual.csv``, its
+Pareto plot to ``examples/studies/<key>_annual_pareto.png`` and its timing (wall seconds, load
+average, date, commit) beside the table; the tables are computed from those files.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import time
+import tomllib
+from pathlib import Path
+
+import pandas as pd
+import tomli_w
+
+from torsal import Study
+from torsal.geometry.surfaces import GENERATORS
+from torsal.light.devices import surface_frame
+from torsal.study.study_file import X_KEY, ParetoSpec
+from torsal.study.study_report import verdict_on
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "studies" / "results"
+KEYS = ("7a", "7b", "7c", "7d", "9", "10", "11", "13")
+FILES = {k: next(HERE.glob(f"{k}_*.toml")) for k in KEYS}
+
+AVOIDED = "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2"
+SDA = "light.annual.daylight.fins.sda_all"
+#: the reduced size (see the module docstring)
+MAX_GRID, EXTENT_PER_SPACING = 17, 12
+ANNUAL = {"enabled": True, "points": 100, "ambient_divisions": 512}
+ROOM = {"depth": 6.0, "height": 3.0, "ambient_bounces": 4, "ambient_divisions": 256}
+
+
+def reduced_base(key: str) -> tuple[dict, bool]:
+    """The example's design at the reduced size with [annual] (and [room] on a facade), and
+    whether it is a facade."""
+    d = tomllib.loads(FILES[key].read_text())
+    params = dict(d["surface"].get("params", {}))
+    params.update({n: min(int(params.get(n, 33)), MAX_GRID) for n in ("nu", "nv")})
+    d["surface"]["params"] = params
+    v, f = GENERATORS[d["surface"]["generator"]](**params)
+    extent = float((v.max(axis=0) - v.min(axis=0)).max())
+    d["fins"]["spacing"] = round(max(float(d["fins"]["spacing"]), extent / EXTENT_PER_SPACING), 3)
+    d["fins"]["developable_levels"] = min(d["fins"].get("developable_levels", 0), 1)
+    d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False, "ifc": False,
+                    "renders": False}
+    d.setdefault("constraints", {})["max_iter"] = 400
+    d["annual"] = dict(ANNUAL)
+    facade = surface_frame(v, f).is_facade
+    if facade:
+        d["room"] = dict(ROOM)
+    return d, facade
+
+
+def write_study(key: str, folder: Path) -> Path:
+    """The base design and the study file of ``key`` in ``folder``."""
+    base, facade = reduced_base(key)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "base.toml").write_text(tomli_w.dumps(base))
+    s = base["fins"]["spacing"]
+    study = {"name": f"{key}: one spacing and a lighter second family, annual",
+             "base": "base.toml", "axes": {"fins.spacing": [s, [s, 2 * s]]},
+             "run": {"workers": 2, "fabrication": False},
+             "pareto": {"x": SDA if facade else X_KEY, "y": AVOIDED}}
+    path = folder / "study.toml"
+    path.write_text(tomli_w.dumps(study))
+    return path
+
+
+def _commit() -> str:
+    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE, text=True,
+                          capture_output=True).stdout.strip()
+
+
+def run(key: str, out: Path, workers: int) -> dict:
+    """Run one study; save its table, plot and timing under examples/studies."""
+    study = Study.from_toml(write_study(key, out / key))
+    load0, t0 = os.getloadavg()[0], time.perf_counter()
+    res = study.run(out / key / "out", workers=workers)
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    keep = [c for c in res.table.columns if c in ("id", "kind", "device", "status", "note",
+            "fins.spacing", "fins.depth", "material_kg", "wall_s", "error", X_KEY,
+            "stage_s.annual") or c.startswith(("light.annual.bare.", "light.annual.fins.",
+                                               "light.annual.daylight.bare.",
+                                               "light.annual.daylight.fins."))]
+    res.table[keep].to_csv(RESULTS / f"{key}_annual.csv", index=False, float_format="%.6g")
+    shutil.copyfile(res.files["png"], HERE / "studies" / f"{key}_annual_pareto.png")
+    timing = {"wall_s": time.perf_counter() - t0, "load_start": load0,
+              "load_end": os.getloadavg()[0], "date": time.strftime("%Y-%m-%d %H:%M UTC",
+                                                                   time.gmtime()),
+              "commit": _commit(), "verdict": res.verdict, "failed": res.failed}
+    (RESULTS / f"{key}_annual.json").write_text(json.dumps(timing, indent=1))
+    return timing
+
+
+# ------------------------------------------------------------------ the README tables
+def _studies(keys):
+    """``(key, torsal rows, device rows with annual figures)`` of each saved study."""
+    for key in keys:
+        if not (RESULTS / f"{key}_annual.csv").exists():
+            continue
+        t = pd.read_csv(RESULTS / f"{key}_annual.csv")
+        ok = t[t["status"] == "done"]
+        devices = (ok[(ok["kind"] == "baseline") & ok[AVOIDED].notna()] if AVOIDED in ok
+                   else ok[:0])
+        yield key, ok[ok["kind"] == "torsal"], devices
+
+
+def _kwh(r, source: str) -> str:
+    p = f"light.annual.{source}."
+    return f"{r[p + 'cooling_kwh_m2']:.0f} / {r[p + 'heating_kwh_m2']:.0f}"
+
+
+def _share(x) -> str:
+    return "-" if pd.isna(x) else f"{100 * x:.0f}%"
+
+
+def annual_table(keys=KEYS) -> str:
+    """Per example, its uniform variant: kWh/m2 on the glazing in the cooling / heating
+    season, bare, behind the fins and behind the device that avoids the most cooling-season
+    gains; F_sh (cooling); sDA / ASE bare, fins, that device; the annual stage's seconds."""
+    lines = ["| example | bare kWh/m2 cooling / heating | fins | best device (cooling gains "
+             "avoided) | F_sh cooling fins / device | sDA bare / fins / device | ASE bare / "
+             "fins / device | annual stage s |", "|" + "---|" * 8]
+    for key, torsal, devices in _studies(keys):
+        uniform = torsal[~torsal["fins.spacing"].astype(str).str.startswith("[")]
+        if uniform.empty:
+            continue
+        r = uniform.iloc[0]
+        d = devices.loc[devices[AVOIDED].idxmax()] if not devices.empty else None
+        fsh = "light.annual.fins.shading_factor.f_sh_cooling"
+        dl = ("light.annual.daylight.bare.", "light.annual.daylight.fins.")
+        cells = [key, _kwh(r, "bare"), _kwh(r, "fins"),
+                 "-" if d is None else f"{d['device']}: {_kwh(d, 'fins')}",
+                 f"{r[fsh]:.2f} / " + ("-" if d is None else f"{d[fsh]:.2f}")]
+        for what in ("sda_all", "ase_all"):
+            cells.append(" / ".join(_share(x.get(p + what)) for x, p in
+                                    ((r, dl[0]), (r, dl[1]), (d if d is not None else {}, dl[1]))))
+        cells.append(f"{r['stage_s.annual']:.0f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _lead(key: str, x: str) -> str:
+    """The verdict on the cooling-season gains avoided against ``x`` (both more is better),
+    from the saved table, in short: variants beyond the devices' front, the best's lead (a
+    share of the two figures' spans, :func:`~torsal.study.study_report.verdict_on`) and the
+    device nearest to it."""
+    t = pd.read_csv(RESULTS / f"{key}_annual.csv")
+    text, n = verdict_on(t, [], ParetoSpec(x=x, y=AVOIDED))
+    if not n:
+        return text
+    return (f"{n['beyond']} of {n['torsal']} beyond, best {n['best']} "
+            f"{100 * n['lead']:+.1f}% of the spans from {n['nearest'].split('-', 2)[-1]}")
+
+
+def studies_table(keys=KEYS) -> str:
+    """Per example: each torsal variant's cooling-season gains avoided and sDA (or view out),
+    the devices' best of each, the study's verdict and the verdict against the view out,
+    with the study's time and load."""
+    lines = ["| example | torsal s (both) | torsal [s, 2s] | best device on gains avoided | "
+             "best device on sDA / view | gains avoided against sDA | gains avoided against "
+             "view | study time |", "|" + "---|" * 8]
+    for key, torsal, devices in _studies(keys):
+        tm = json.loads((RESULTS / f"{key}_annual.json").read_text())
+        x = SDA if SDA in torsal and torsal[SDA].notna().any() else X_KEY
+        word = "sDA" if x == SDA else "view"
+
+        def cell(r):
+            return (f"{r[AVOIDED]:.0f} kWh/m2, {word} {_share(r[x])}"
+                    + (f", view {_share(r[X_KEY])}" if x != X_KEY else "")
+                    + f" (s {r['fins.spacing']}, {r['material_kg']:.0f} kg)")
+        cells = [key] + [cell(r) for _, r in torsal.iterrows()][:2]
+        for col in (AVOIDED, x):
+            cells.append("-" if devices.empty else
+                         f"{devices.loc[devices[col].idxmax(), 'device']}: "
+                         + cell(devices.loc[devices[col].idxmax()]))
+        cells += [_lead(key, x) if x != X_KEY else "-", _lead(key, X_KEY),
+                  f"{tm['wall_s'] / 60:.1f} min (load {tm['load_start']:.0f}-"
+                  f"{tm['load_end']:.0f}, {tm['date']}, {tm['commit']})"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, default=Path("out/annual-studies"))
+    p.add_argument("--only", nargs="*", default=list(KEYS))
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--table-only", action="store_true")
+    args = p.parse_args(argv)
+    if not args.table_only:
+        for key in args.only:
+            tm = run(key, args.out, args.workers)
+            print(f"{key}: {tm['wall_s']:.0f} s (load {tm['load_start']:.1f}-"
+                  f"{tm['load_end']:.1f}); {tm['verdict']}", flush=True)
+    print(annual_table())
+    print()
+    print(studies_table())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
