@@ -96,13 +96,16 @@ def crossing_folds(structure: "SupportStructure") -> tuple[np.ndarray, np.ndarra
         with np.errstate(invalid="ignore", divide="ignore"):
             n = n / np.linalg.norm(n, axis=1, keepdims=True)
         k = len(q)
-        pairs = [(j - 1, j, int(st.vertices[j])) for j in range(1, k)]
+        i1 = np.arange(1, k)
         if st.closed and k >= 2:
-            pairs.append((k - 1, 0, int(st.vertices[0])))
-        for i0, i1, node in pairs:
-            # atan2 of sine and cosine: accurate for small folds too (arccos is not)
-            ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(n[i0], n[i1])), n[i0] @ n[i1]))
-            fold[(st.family, node)] = float(ang) if np.isfinite(ang) else 180.0
+            i1 = np.r_[i1, 0]
+        i0 = np.where(i1 > 0, i1 - 1, k - 1)
+        # atan2 of sine and cosine: accurate for small folds too (arccos is not); all of the
+        # strip's nodes at once (one np.cross per node cost a tenth of a second on 7a)
+        ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(n[i0], n[i1]), axis=1),
+                                    np.einsum("ij,ij->i", n[i0], n[i1])))
+        for node, a in zip(st.vertices[i1].tolist(), ang.tolist()):
+            fold[(st.family, int(node))] = a if np.isfinite(a) else 180.0
     nodes = sorted({v for f, v in fold if f == 0} & {v for f, v in fold if f == 1})
     return (np.asarray(nodes, dtype=np.int64),
             np.array([[fold[(0, v)], fold[(1, v)]] for v in nodes]).reshape(-1, 2))
