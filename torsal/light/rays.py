@@ -18,7 +18,9 @@ array([ True, False])
 """
 from __future__ import annotations
 
+import os
 import weakref
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import trimesh
@@ -35,6 +37,12 @@ except ImportError:  # pragma: no cover - exercised only without embreex
 
 _MISS = np.inf
 _DEFAULT_CHUNK = 1 << 21  # rays per embree call: bounds memory to ~100 MB of temporaries
+#: rays per thread at least: a query of fewer is cast in the calling thread. Embree releases
+#: the interpreter while it traces, so a large query is split over the cores (each ray's
+#: answer is its own: the result does not depend on the split)
+_RAYS_PER_THREAD = 1 << 17
+#: threads a query is split over at most
+_RAY_THREADS = min(os.cpu_count() or 1, 4)
 #: |cos| of the angle between a ray and a face's plane normal below which the ray is taken to
 #: graze the plane: the double-precision distance is then ill-conditioned and Embree's is kept
 _GRAZING = 1e-9
@@ -119,6 +127,9 @@ class _RayScene:
             self.scene = _rtcore_scene.EmbreeScene()
             _EmbreeTriangles(scene=self.scene, vertices=(v - self.center).astype(np.float32),
                              indices=f.astype(np.int32))
+            # the scene commits at its first query: here, before threads query it together
+            self.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32),
+                           query="OCCLUDED")
         else:  # pragma: no cover
             self._fallback = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
 
@@ -283,12 +294,24 @@ def rays_blocked(obstacles: trimesh.Trimesh, points, directions, *,
     if sc.n_faces == 0 or n == 0:
         return out
     eps = _epsilon(sc, p) if epsilon is None else float(epsilon)
-    step = max(1, int(chunk_size) // max(k, 1))
-    for s in range(0, n, step):
-        pc = p[s:s + step]
+
+    def cast(lo: int, hi: int) -> None:
+        pc = p[lo:hi]
         o = (pc[:, None, :] + eps * d[None, :, :]).reshape(-1, 3)
         dd = np.broadcast_to(d[None], (len(pc), k, 3)).reshape(-1, 3)
-        out[s:s + step] = sc.occluded(o, dd).reshape(len(pc), k)
+        out[lo:hi] = sc.occluded(o, dd).reshape(len(pc), k)
+
+    step = max(1, int(chunk_size) // max(k, 1))
+    threads = int(min(_RAY_THREADS, n * k // _RAYS_PER_THREAD, n))
+    if threads < 2:
+        for s in range(0, n, step):
+            cast(s, min(s + step, n))
+        return out
+    # the points in as many parts as threads, each part in chunks (memory)
+    step = min(step, -(-n // threads))
+    with ThreadPoolExecutor(threads) as pool:
+        for f in [pool.submit(cast, s, min(s + step, n)) for s in range(0, n, step)]:
+            f.result()
     return out
 
 
