@@ -223,6 +223,29 @@ def test_psd_projection_clamps_negative_eigenvalues_only():
     assert np.linalg.norm(a - out[0]) <= np.linalg.norm(a - b @ b.T)
 
 
+def test_psd_projection_split_over_threads_gives_the_same_numbers(monkeypatch):
+    """A batch large enough to be split over threads: every element projected as on its own
+    (the analytic clamp Q diag(max(l, 0)) Q^T), bit for bit the same as in one thread."""
+    from torsal.geometry.optimize import projected
+
+    rng = np.random.default_rng(3)
+    m, n = 4 * projected.PROJECTION_CHUNK + 7, 6
+    q = np.linalg.qr(rng.standard_normal((m, n, n)))[0]
+    lam = rng.uniform(-2.0, 2.0, (m, n))
+    a = (q * lam[:, None, :]) @ q.transpose(0, 2, 1)
+    a = 0.5 * (a + a.transpose(0, 2, 1))
+    monkeypatch.setattr(projected, "PROJECTION_THREADS", 3)
+    monkeypatch.setattr(projected, "_POOL", None)
+    assert len(projected._chunks(m)) == 3
+    threads = projected.psd_projection(a)
+    monkeypatch.setattr(projected, "PROJECTION_THREADS", 1)
+    assert len(projected._chunks(m)) == 1
+    one = projected.psd_projection(a)
+    assert np.array_equal(threads, one)
+    clamp = (q * np.maximum(lam, 0.0)[:, None, :]) @ q.transpose(0, 2, 1)
+    np.testing.assert_allclose(threads, clamp, atol=1e-11)
+
+
 def test_projected_hessian_is_psd_and_dominates_the_exact_one(patch):
     """hessian="projected": each energy element's Hessian and each vertex's chart curvature
     with negative eigenvalues clamped. The sum is positive semidefinite, and exact minus
