@@ -254,3 +254,19 @@ def test_inside_answers_outside_the_box_without_classifying():
     occ = [[_inside(chk.shapes[k], chk.shapes[o]) for o in range(len(solids))] for k in range(len(solids))]
     assert got == occ
     assert got[1][0] and not any(got[k][0] for k in (2, 3, 4))
+
+
+def test_a_boolean_of_upright_solids_skips_the_inside_out_check_with_the_same_volume():
+    # two crossing boxes (1 x 1 x 0.5 in common, by hand) and a tilted one: the
+    # common volume is the same whether OpenCascade checks the arguments for inside-out
+    # solids or is told they face outwards; an inside-out solid is recognised as such
+    from torsal.fabrication.assembly.occ import is_upright
+
+    a = _box(4, 1, 1)
+    b = _box(1, 3, 0.5, at=(1, -1, 0))
+    c = _box(2, 2, 2, at=(0.5, 0.2, 0.1), rotate_z=17)
+    assert common_volume(a, b, upright=True) == pytest.approx(0.5, rel=1e-9)
+    for s, t in ((a, b), (a, c), (b, c)):
+        assert common_volume(s, t, upright=True) == pytest.approx(common_volume(s, t), rel=1e-9)
+    assert is_upright(a) and is_upright(c)
+    assert not is_upright(a.wrapped.Reversed())

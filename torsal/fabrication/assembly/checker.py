@@ -17,7 +17,7 @@ import numpy as np
 
 from .memo import AssemblyMemo, solid_digest
 from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _first_vertex,
-                  _inside, _mesh, _near, _shape, _vertices, common_volume)
+                  _inside, _mesh, _near, _shape, _vertices, common_volume, is_upright)
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
 from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
@@ -127,7 +127,7 @@ class AssemblyChecker:
                     solid_clear(self.cover(j), ta, ba, triangle_boxes=tba) or \
                     surfaces_clear(ta, tb, ba, bb, triangle_boxes=tbb):
                 return i, j, 0.0, 0.0, ""
-            return i, j, 0.0, common_volume(a, b), ""
+            return i, j, 0.0, common_volume(a, b, upright=self.upright[i] and self.upright[j]), ""
         except Exception as e:   # OpenCascade failures: reported per pair, never assumed clear
             return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
 
@@ -148,6 +148,7 @@ class AssemblyChecker:
         k, vector, others, stop_above = job
         return k, swept_overlap(self.shapes[k], vector, [self.shapes[o] for o in others],
                                 stop_above=stop_above, faces=self.faces(k),
+                                upright=[self.upright[o] for o in others],
                                 triangles=lambda n: self.triangles(others[n])[0],
                                 boxes=lambda n: self.boxes[others[n]])
 
@@ -185,6 +186,8 @@ class AssemblyChecker:
         t0 = time.perf_counter()
         try:
             self.boxes = np.array([_bbox(s) for s in self.shapes]).reshape(-1, 2, 3)
+            # checked once here, not by OpenCascade in each of the solid's booleans
+            self.upright = [is_upright(s) for s in self.shapes]
             self.digests = ([solid_digest(s, self.vertices(k)) for k, s in enumerate(self.shapes)]
                             if self.memo is not None else None)
             # one pool of workers for the pairs and every try of the paths: a worker keeps the

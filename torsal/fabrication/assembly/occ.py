@@ -97,7 +97,7 @@ def face_polygons(solid) -> list[np.ndarray]:
     return out
 
 
-def common_volume(s1, s2) -> float:
+def common_volume(s1, s2, *, upright: bool = False) -> float:
     """Volume of the intersection of two solids (exact OpenCascade boolean), unit^3.
 
     The boolean runs non-destructively: by default OpenCascade may widen the tolerances of
@@ -112,36 +112,48 @@ def common_volume(s1, s2) -> float:
     the first order cannot make an interference (a wrong 0 there is not looked at again: that
     would triple the cost of every boolean).
 
+    ``upright``: both solids are known to face outwards (:func:`is_upright`), so OpenCascade
+    need not check each argument for an inside-out solid, which it does by classifying a
+    point against it: about a third of the boolean of two of 7a's slotted plates.
+
     Raises RuntimeError when the boolean fails even with a fuzzy tolerance.
 
     >>> from build123d import Box, Pos
-    >>> round(common_volume(Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2)), 6)
+    >>> round(common_volume(Box(2, 2, 2), Pos(1, 0, 0) * Box(2, 2, 2), upright=True), 6)
     4.0
     """
     a, b = _shape(s1), _shape(s2)
-    first = _common(a, b)
+    first = _common(a, b, upright=upright)
     if not first > MIN_INTERFERENCE_VOLUME:
         return first
-    return float(np.median([first, _common(b, a), _common(a, b, fuzzy=_FUZZY)]))
+    return float(np.median([first, _common(b, a, upright=upright),
+                            _common(a, b, fuzzy=_FUZZY, upright=upright)]))
+
+
+def is_upright(shape) -> bool:
+    """Whether a closed solid faces outwards: its signed volume (:func:`_signed_volume`) is
+    positive (an inside-out solid's is negative, and a boolean would take its complement)."""
+    return _signed_volume(_shape(shape)) > 0.0
 
 
 #: unit: fuzzy tolerance of the boolean that confirms an overlap or retries a failed one
 _FUZZY = 1e-6
 
 
-def _common(a, b, *, fuzzy: float = 0.0) -> float:
+def _common(a, b, *, fuzzy: float = 0.0, upright: bool = False) -> float:
     """Volume of ``a & b`` (TopoDS shapes, left unchanged); a failed exact boolean is tried
     again with the fuzzy tolerance :data:`_FUZZY` (RuntimeError if that fails too)."""
     for f in ((0.0, _FUZZY) if fuzzy == 0.0 else (fuzzy,)):
-        op = _boolean_common(a, b, f)
+        op = _boolean_common(a, b, f, upright=upright)
         if op.IsDone():
             return _volume(op.Shape())
     raise RuntimeError("BRepAlgoAPI_Common failed")
 
 
-def _boolean_common(a, b, fuzzy: float):
+def _boolean_common(a, b, fuzzy: float, *, upright: bool = False):
     """The built ``BRepAlgoAPI_Common`` of ``a`` and ``b``: non-destructive (the arguments
-    keep their tolerances), with ``fuzzy`` (unit; 0: exact)."""
+    keep their tolerances), with ``fuzzy`` (unit; 0: exact); ``upright``: both face outwards,
+    OpenCascade does not check them for inside-out solids."""
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
     try:
         from OCP.TopTools import TopTools_ListOfShape
@@ -155,6 +167,7 @@ def _boolean_common(a, b, fuzzy: float):
     op.SetArguments(la)
     op.SetTools(lb)
     op.SetNonDestructive(True)
+    op.SetCheckInverted(not upright)
     if fuzzy > 0.0:
         op.SetFuzzyValue(fuzzy)
     op.Build()
