@@ -214,3 +214,26 @@ def test_forked_assembly_worker_meshes_after_a_threaded_mesh_in_the_parent():
         child.kill()
     assert not hung
     assert q.get(timeout=5) > 20
+
+
+def test_a_slot_wider_than_the_narrow_end_panel_next_to_it_is_cut():
+    """Example 9's F0-S001-P00 at node 335: a 23 mm slot on the node line before a 5.6 mm end
+    panel takes all of that panel down to its depth. The check that the web beyond the slot
+    is kept probed a quarter of the slot's width into the narrow panel, outside the plate, so
+    the part was modelled without its slots and met its partners. Now it probes in the wider
+    panel: the slotted solid is kept, and the volume taken out is the slot's band over both
+    panels (measured by hand: flat panels, slot square to the sheet)."""
+    from torsal.fabrication.model import Slot, SlotSide
+    from torsal.fabrication.plates import _part_shape
+
+    t, depth, width, h = 3.0, 100.0, 23.0, 200.0
+    xs = [0.0, 150.0, 155.6]              # a 150 mm panel, then a 5.6 mm one
+    panels = np.array([[[x0, 0, 0], [x1, 0, 0], [x1, h, 0], [x0, h, 0]]
+                       for x0, x1 in zip(xs[:-1], xs[1:])])
+    part = Part(PartId(0, 1, 0), panels, np.array([5, 335, 28]), np.array([0, 1]),
+                slots=[Slot(node=335, position=1, side=SlotSide.A, depth=depth, width=width)],
+                miters=np.tile([0.0, 0.0, 1.0], (3, 1)))
+    shape = _part_shape(part, t)
+    # the slot band: 11.5 mm of the wide panel and all 5.6 mm of the narrow one, 100 mm deep
+    removed = (0.5 * width + (xs[2] - xs[1])) * depth * t
+    assert solids._volume(shape) == pytest.approx((xs[2] * h) * t - removed, rel=1e-9)

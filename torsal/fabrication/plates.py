@@ -26,7 +26,7 @@ import numpy as np
 
 from torsal.core.errors import TorsalError
 
-from .model import Part, SlotSide, _cross, slab_faces
+from .model import Part, SlotSide, _cross, panel_widths, slab_faces
 from .unroll import unroll
 
 __all__ = ["InvalidSolidError", "SlotCutError", "part_solid", "slot_boxes", "SINGLE_BOX_FOLD",
@@ -630,6 +630,7 @@ def _check_slots(solid, part: Part) -> None:
 
     q = part.panels
     k = len(q)
+    widths = panel_widths(q)
     cls = BRepClass3d_SolidClassifier(solid)      # one classifier for every probe of the solid
     for s in part.slots:
         pos = s.position
@@ -638,14 +639,22 @@ def _check_slots(solid, part: Part) -> None:
         u = other - start
         length = np.linalg.norm(u)
         u = u / length
-        j = pos if pos < k else pos - 1
+        # probed in the wider panel next to the node line, no farther into it than a quarter
+        # of its width: a slot wider than a narrow end panel takes all of that panel down to
+        # its depth, and a probe a quarter of the slot into it fell outside the plate (example
+        # 9, F0-S001-P00 at node 335: a 23 mm slot by a 5.6 mm panel, "cut through the web")
+        j = max((i for i in (pos - 1, pos) if 0 <= i < k), key=lambda i: widths[i])
         into = q[j].mean(axis=0) - start
         into -= (into @ u) * u
         into /= np.linalg.norm(into)
-        off = 0.25 * s.width * into
+        off = min(0.25 * s.width, 0.25 * float(widths[j])) * into
         probes = [(start + 0.5 * s.depth * u + off, TopAbs_OUT, "is not cut")]
-        if s.depth < 0.99 * length:       # a web is left (not a full-depth end slot)
-            probes.append((start + (s.depth + 0.5 * (length - s.depth)) * u + off, TopAbs_IN,
+        # the web ends where a slot from the other edge on the same node line begins (a plate
+        # holding a seam whose parts slide in from opposite edges, :mod:`.builder.crossings`)
+        end = length - max([o.depth for o in part.slots if o.position == pos
+                            and SlotSide(o.side) != SlotSide(s.side)], default=0.0)
+        if s.depth < 0.99 * end:          # a web is left (not a full-depth end slot)
+            probes.append((start + (s.depth + 0.5 * (end - s.depth)) * u + off, TopAbs_IN,
                            "cut through the web"))
         for x, want, what in probes:
             cls.Perform(gp_Pnt(*map(float, x)), 1e-6)
