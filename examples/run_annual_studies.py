@@ -32,7 +32,7 @@ from torsal import Study
 from torsal.geometry.surfaces import GENERATORS
 from torsal.light.devices import surface_frame
 from torsal.study.study_file import X_KEY, ParetoSpec
-from torsal.study.study_report import verdict_on
+from torsal.study.study_report import verdict_on, write_pareto_png
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "studies" / "results"
@@ -198,6 +198,19 @@ def studies_table(keys=KEYS) -> str:
     return "\n".join(lines)
 
 
+def view_plot(key: str) -> Path:
+    """The saved study's Pareto plot of the cooling-season gains avoided against the view
+    clear (``examples/studies/<key>_annual_view_pareto.png``): on a facade whose rooms' sDA
+    saturates, the axis that separates the designs."""
+    from types import SimpleNamespace
+
+    t = pd.read_csv(RESULTS / f"{key}_annual.csv")
+    study = SimpleNamespace(variants=[], spec=SimpleNamespace(
+        name=f"{key}: cooling-season gains avoided against the view",
+        pareto=ParetoSpec(x=X_KEY, y=AVOIDED)))
+    return write_pareto_png(HERE / "studies" / f"{key}_annual_view_pareto.png", study, t)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("out/annual-studies"))
@@ -210,6 +223,9 @@ def main(argv=None) -> int:
             tm = run(key, args.out, args.workers)
             print(f"{key}: {tm['wall_s']:.0f} s (load {tm['load_start']:.1f}-"
                   f"{tm['load_end']:.1f}); {tm['verdict']}", flush=True)
+    for key in args.only:
+        if (RESULTS / f"{key}_annual.csv").exists():
+            view_plot(key)
     print(annual_table())
     print()
     print(studies_table())
