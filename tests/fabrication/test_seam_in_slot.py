@@ -142,3 +142,87 @@ def test_the_local_checks_give_the_same_verdicts_in_worker_processes(monkeypatch
     assert pooled.seams_in_slot == serial.seams_in_slot
     assert pooled.joint_fallbacks == serial.joint_fallbacks
     assert [(j.kind, j.parts) for j in pooled.joints] == [(j.kind, j.parts) for j in serial.joints]
+
+
+def _opposite(monkeypatch, name: str) -> None:
+    """The slide plan turned round for the family-1 part ``name``: it slides onto its crossings
+    along ``b - a`` while the other parts slide along ``a - b`` (as a part whose butted end
+    would close its gap the other way does)."""
+    from torsal.fabrication.builder import crossings
+
+    sense = crossings.CrossingSlotter._sense
+    monkeypatch.setattr(crossings.CrossingSlotter, "_sense",
+                        lambda self, n, *a: -1.0 if n == name else sense(self, n, *a))
+
+
+def test_a_seam_whose_parts_slide_in_from_opposite_edges_is_held_by_two_tongues(monkeypatch):
+    # 3 x 5 grid, max_panels=2: each column of four panels is split at its middle node; column
+    # 1's split (node 7) is an egg-crate crossing with row 2. Its second part slides in along
+    # b - a, the first along a - b: row 2 is slotted a third of the 100 mm depth from each
+    # edge, each part keeps a tongue of a third at its end, entering from its own side
+    _opposite(monkeypatch, "F1-S001-P01")
+    fs = _build(flat_structure(3, 5), max_panels=2)
+    [seam] = [s for s in fs.seams_in_slot if s.node == 7]
+    assert seam.parts == ("F1-S001-P00", "F1-S001-P01") and seam.holders == ("F0-S002-P00",)
+    assert not [c for c in fs.connectors if c.id.strip == 7] and not fs.joint_fallbacks
+    row = sorted((s.side.value, round(s.depth, 6)) for s in fs.part("F0-S002-P00").slots if s.node == 7)
+    assert row == [("a", round(100 / 3, 6)), ("b", round(100 / 3, 6))]
+    [first] = [s for s in fs.part("F1-S001-P00").slots if s.node == 7]
+    [second] = [s for s in fs.part("F1-S001-P01").slots if s.node == 7]
+    assert (first.side.value, second.side.value) == ("a", "b")
+    assert first.depth == pytest.approx(200 / 3) and second.depth == pytest.approx(200 / 3)
+    # one joint record per part, each with its own sense along the node axis (z)
+    dirs = {j.parts[-1]: j.insert_direction for j in fs.joints if j.node == 7}
+    assert dirs["F1-S001-P00"] @ dirs["F1-S001-P01"] == pytest.approx(-1.0)
+    r = verify_assembly(fs, workers=1)
+    assert r.buildable and r.interfering_pairs == 0 and not r.blocked, r.problems()
+
+
+def test_opposite_slides_on_a_fin_too_shallow_for_tongues_fall_back_to_brackets(monkeypatch):
+    # the same grid 15 mm deep: a third (5 mm) is less than two plate thicknesses, so the
+    # seam is refused for the opposite slides and butted with brackets, named
+    _opposite(monkeypatch, "F1-S001-P01")
+    fs = _build(flat_structure(3, 5, depth=0.015), max_panels=2)
+    [fb] = [f for f in fs.joint_fallbacks if f.node == 7]
+    assert fb.family == 1 and fb.reason == SeamReason.OPPOSITE_SLIDES and "tongue" in fb.detail
+    assert not [s for s in fs.seams_in_slot if s.node == 7]
+    at7 = [j for j in fs.joints if j.node == 7 and j.kind == JointKind.BUTT_BRACKET]
+    assert {j.parts[-2] for j in at7} == {"F1-S001-P00", "F1-S001-P01"} and all(j.connector for j in at7)
+
+
+def folded_crossing(theta: float, phi: float):
+    """:func:`folded_row` (the middle row turning by ``theta`` degrees at node 7) whose column
+    2 turns by ``phi`` degrees there too: node 12 moved round node 7's line."""
+    s = folded_row(theta)
+    a, b = s.vertices_a.copy(), s.vertices_b.copy()
+    ph = np.radians(phi)
+    turn = 0.3 * np.array([np.sin(ph), np.cos(ph), 0.0]) - (a[12] - a[7])
+    a[12] += turn
+    b[12] += turn
+    return grid_structure(a.reshape(3, 5, 3), b.reshape(3, 5, 3), 5, 3)
+
+
+@pytest.mark.parametrize("holder_limit, held", [(None, True), (10.0, False)])
+def test_a_split_for_a_fold_is_held_by_a_plate_folding_up_to_the_holder_limit(monkeypatch,
+                                                                               holder_limit, held):
+    # the row turns by 40 degrees at node 7 (split there), column 2 by 20: more than an
+    # egg-crate of two folding plates allows (10), within MAX_HOLDER_FOLD (30). The column is
+    # bent through its slot and holds the row's two flat parts; with the holder's limit at 10
+    # degrees the split is butted against the column with brackets as before
+    from torsal.fabrication.builder import seams
+    from torsal.fabrication.joints import MAX_HOLDER_FOLD
+
+    assert MAX_HOLDER_FOLD == 30.0
+    if holder_limit is not None:
+        monkeypatch.setattr(seams, "MAX_HOLDER_FOLD", holder_limit)
+    fs = _build(folded_crossing(40.0, 20.0))
+    [x] = [x for x in fs.joinery if x.node == 7]
+    assert x.split == 0 and x.folds == pytest.approx((40.0, 20.0), abs=1e-6)
+    at7 = [c for c in fs.connectors if c.id.strip == 7]
+    if held:
+        assert [(s.node, s.family) for s in fs.seams_in_slot] == [(7, 0)] and not at7
+        assert [s.node for s in fs.part("F1-S002-P00").slots] == [7]
+        r = verify_assembly(fs, workers=1)
+        assert r.buildable, r.problems()
+    else:
+        assert not fs.seams_in_slot and len(at7) >= 2

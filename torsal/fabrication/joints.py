@@ -29,9 +29,12 @@ every node the joint is chosen from the real geometry of the plates there:
 * **Seam inside the slot** (an :attr:`JointKind.EGG_CRATE` joint of three parts, no
   connector): a strip split at a crossing (for length or the sheet, or because it folds
   there while the other plate does not) meets on its mitred seam inside the other plate's
-  slot, both parts slotted at their ends, held by it. Kept per joint only where the assembly
-  check on the solids around it proves it, else butted with brackets as above, the fallback
-  named (:mod:`torsal.fabrication.builder.seams`).
+  slot, both parts slotted at their ends, held by it. The holder may be bent through its slot
+  up to :data:`MAX_HOLDER_FOLD` where the split strip folds there too; where the two parts of
+  a family-1 seam slide in from opposite edges, the family-0 plate is slotted from both edges
+  and each part enters with a tongue from its own side (:data:`TONGUE_SHARE`). Kept per joint
+  only where the assembly check on the solids around it proves it, else butted with brackets
+  as above, the fallback named (:mod:`torsal.fabrication.builder.seams`).
 * **Mitre with a splice plate** (:attr:`JointKind.MITRE_SPLICE`) where a strip is split on a
   mild fold away from any crossing plate (``max_panels``, ``max_part_length``, sheet size): the
   ends are mitred on the fold's bisector plane, each trimmed back from it by ``clearance/2``
@@ -99,7 +102,7 @@ from shapely.geometry import Polygon
 
 from .model import JointKind, _cross, _fold_deg, _miter, quad_normals
 
-__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
+__all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MAX_HOLDER_FOLD", "TONGUE_SHARE", "MIN_BRACKET_ANGLE", "MAX_BRACKET_ANGLE",
            "slot_width", "crossing_angle", "NodeJoinery", "choose_joinery", "bracket_panels",
            "place_connector", "connector_variants", "connector_offset", "corner_point",
            "fixing_panels", "corners",
@@ -114,6 +117,18 @@ MAX_CROSSING_FOLD = 10.0
 #: node axes; its slots (and its partners') are widened by ``2 depth tan(skew)`` for a crossing
 #: whose axis is ``skew`` off it. Beyond this skew the crossing is butted instead.
 MAX_SLOT_SKEW = 2.0
+#: degrees: a plate that holds the seam of a strip split at a crossing inside its slot (the
+#: split strip folding there more than :data:`MAX_CROSSING_FOLD`) may fold this much at the
+#: node, bent through its slot: the seam's two parts are flat there, so one plate is bent
+#: through a slot, not two as at an egg-crate of two folding plates. Kept per joint only
+#: where the assembly check on the solids around it proves it (:mod:`.builder.seams`)
+MAX_HOLDER_FOLD = 30.0
+#: where the two parts of a family-1 strip split inside a crossing slot slide in from opposite
+#: edges (each along its own plate's slide direction), the family-0 plate holding them is
+#: slotted from *both* edges: each part keeps a tongue of this share of the fin depth at its
+#: end that enters the slot from its own side, and the same share is left as the web between
+#: the two slots (a halving joint from each side; no connector)
+TONGUE_SHARE = 1.0 / 3.0
 #: degrees: brackets are bent to corners between these angles (the bend is 180 - angle)
 MIN_BRACKET_ANGLE = 25.0
 MAX_BRACKET_ANGLE = 172.0

@@ -4,7 +4,10 @@
 :class:`CrossingSlotter` slots the crossings the joinery leaves to an egg-crate (family 0 from
 its ``b`` edge, family 1 from its ``a`` edge, or the other way round), plans the one direction
 every family-1 plate slides onto all its crossings along (:meth:`CrossingSlotter._slide_plan`),
-and makes slots that would cut a part in two shallower. Lengths in the fin system's ``unit``.
+and makes slots that would cut a part in two shallower. Where the two parts of a family-1 strip
+split inside a slot slide in from opposite edges, the family-0 plate is slotted from both edges
+and each part keeps a tongue at its end that enters from its own side
+(:data:`~.joints.TONGUE_SHARE`; a halving joint from each side, no connector). Lengths in the fin system's ``unit``.
 """
 from __future__ import annotations
 
@@ -13,7 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..joints import MAX_SLOT_SKEW, slot_width
+from ..joints import MAX_SLOT_SKEW, TONGUE_SHARE, slot_width
 from ..model import Crossing, Joint, JointKind, Part, Slot, SlotSide, _cross
 from ..unroll import unroll
 from .seams import SeamReason, SlotSeams
@@ -55,16 +58,18 @@ class CrossingSlotter:
             # the family-1 plate slides along its own direction, a little off this node axis:
             # both slots are wider by the sideways travel over the fin depth, on either side
             plans = [fs._plan[p.name] for p, _ in l1]
-            direction, sense = plans[0]
-            if len({s_ for _, s_ in plans}) > 1:
-                # the two parts of a family-1 strip split in this slot would slide in from
-                # opposite edges: one slot cannot take both; split it as before (next build)
+            direction = plans[0][0]
+            senses = sorted({s_ for _, s_ in plans}, reverse=True)
+            if len(senses) > 1 and not self._tongues_fit(min(st.family_depth[:, node])):
+                # the two parts of a family-1 strip split in this slot slide in from opposite
+                # edges and the fins are too shallow for a tongue each: split it as before
                 SlotSeams(fs).refuse(1, node, SeamReason.OPPOSITE_SLIDES,
                                      " and ".join(p.name for p, _ in l1) + " slide in from "
-                                     "opposite edges of the slot", tuple(p.name for p, _ in l1))
-            ax = sense * (st.a[node] - st.b[node]) / d
-            # (the widest the slide of any of its family-1 parts needs)
-            skew = max(np.arctan2(np.linalg.norm(_cross(dd, ax)), dd @ ax) for dd, _ in plans)
+                                     "opposite edges of the slot and the fins are too shallow "
+                                     "for a tongue each", tuple(p.name for p, _ in l1))
+            axis = (st.a[node] - st.b[node]) / d
+            # (the widest the slide of any of its family-1 parts needs, each in its own sense)
+            skew = max(np.arctan2(np.linalg.norm(_cross(dd, axis)), abs(dd @ axis)) for dd, _ in plans)
             extra = 2.0 * d * np.tan(skew)
             w0 = slot_width(x.angle, thickness=t, clearance=c, fold_self=x.folds[0],
                             fold_other=x.folds[1]) + extra
@@ -73,16 +78,22 @@ class CrossingSlotter:
             names0 = tuple(sorted({p.name for p, _ in l0}))
             names1 = tuple(sorted({p.name for p, _ in l1}))
             # family 0 slotted from its b edge and family 1 from its a edge (family 1 moves
-            # along a - b), or the other way round where family 1 slides in along b - a
-            side0, side1 = (SlotSide.B, SlotSide.A) if sense > 0 else (SlotSide.A, SlotSide.B)
-            d0, d1 = self._slot_depths(st.family_depth[:, node], fs.slot_ratio, sense)
+            # along a - b), or the other way round where family 1 slides in along b - a; both
+            # where the two parts of a family-1 seam slide in from opposite edges: each keeps
+            # a tongue at its end that enters the family-0 plate's slot from its own side
+            share = fs.slot_ratio if len(senses) == 1 else TONGUE_SHARE
             b0, b1 = st.family_b(0, node), st.family_b(1, node)
-            for p, pos in l0:
-                p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], b0),
-                                    w0, "+".join(names1)))
-            for p, pos in l1:
-                p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], b1),
-                                    w1, "+".join(names0)))
+            for s_ in senses:
+                side0, side1 = (SlotSide.B, SlotSide.A) if s_ > 0 else (SlotSide.A, SlotSide.B)
+                d0, d1 = self._slot_depths(st.family_depth[:, node], share, s_)
+                for p, pos in l0:
+                    p.slots.append(Slot(node, pos, side0, self._end_depth(p, pos, side0, d0, st.a[node], b0),
+                                        w0, "+".join(names1)))
+                for (p, pos), (_, ps) in zip(l1, plans):
+                    if ps == s_:
+                        p.slots.append(Slot(node, pos, side1, self._end_depth(p, pos, side1, d1, st.a[node], b1),
+                                            w1, "+".join(names0)))
+            d0, d1 = self._slot_depths(st.family_depth[:, node], share, senses[0])
             w = max(w0, w1)
             fs.crossings.append(Crossing(node, names0, names1, d, d0, d1, w, w - c - t,
                                            float(x.angle), float(max(x.folds))))
@@ -97,6 +108,14 @@ class CrossingSlotter:
             else:
                 fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                        direction, None, None, float(x.angle)))
+
+    def _tongues_fit(self, depth: float) -> bool:
+        """Whether fins ``depth`` deep along their node line (``unit``, the stretch both
+        families cover) leave room for the tongues of a family-1 seam whose parts slide in
+        from opposite edges: the family-0 plate is slotted from each edge so that each tongue
+        and the web between the two slots take :data:`~.joints.TONGUE_SHARE` of the depth,
+        each at least two plate thicknesses."""
+        return TONGUE_SHARE * depth >= 2.0 * self.fs.thickness
 
     @staticmethod
     def _slot_depths(depths, ratio: float, sense: int) -> tuple[float, float]:

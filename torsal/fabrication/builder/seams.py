@@ -10,8 +10,10 @@ brackets each and more where the other family had to be split too against cycles
 Whether a seam can stay in its slot is decided *per joint*, in this order:
 
 1. the slide plan (:class:`~.crossings.CrossingSlotter`): the two family-1 parts of a seam
-   slide in from opposite edges (:attr:`SeamReason.OPPOSITE_SLIDES`), or a family-1 part's
-   slide closes the clearance of its seam (:attr:`SeamReason.CLOSES_SEAM`);
+   slide in from opposite edges and the fins are too shallow for a tongue each (where they are
+   deep enough, the family-0 plate is slotted from both edges and each part enters with a
+   tongue from its own side, :data:`~.joints.TONGUE_SHARE`; :attr:`SeamReason.OPPOSITE_SLIDES`),
+   or a family-1 part's slide closes the clearance of its seam (:attr:`SeamReason.CLOSES_SEAM`);
 2. the assembly check (:func:`~torsal.fabrication.assembly.check_assembly`, the independent
    one) on the solids around the joint only (:func:`local_part`: the panels of every part of
    the crossing next to its node line, slotted there), with the crossing's joint record: the
@@ -37,6 +39,7 @@ from enum import Enum
 
 import numpy as np
 
+from ..joints import MAX_HOLDER_FOLD
 from ..model import Joint, JointKind, Part
 from .memo import _memo_key
 
@@ -46,7 +49,8 @@ __all__ = ["SeamReason", "SlotSeam", "JointFallback", "SlotSeams", "local_part",
 class SeamReason(str, Enum):
     """Why a seam inside a slot fell back to butt joints with brackets."""
 
-    #: the two family-1 parts of the seam would slide in from opposite edges of the slot
+    #: the two family-1 parts of the seam would slide in from opposite edges of the slot, and
+    #: the fins are too shallow for a tongue each (:data:`~.joints.TONGUE_SHARE`)
     OPPOSITE_SLIDES = "opposite-slides"
     #: a family-1 part sliding along its crossings' axes would close its seam's clearance
     CLOSES_SEAM = "closes-seam"
@@ -178,13 +182,17 @@ class SlotSeams:
     def _slottable_split(self, x, fam: int) -> bool:
         """Whether the crossing ``x`` (:class:`~.joints.NodeJoinery`), where the joinery split
         the strip of ``fam`` and butted it, can hold that split in the other plate's slot: the
-        other plate folds no more than an egg-crate allows, and the crossing angle narrowed by
-        both folds (as :func:`~.joints.slot_width` narrows it) is still one an egg-crate
+        other plate folds no more than an egg-crate allows or, where the split strip folds
+        more than that, up to :data:`~.joints.MAX_HOLDER_FOLD`, and the crossing angle narrowed
+        by both folds (as :func:`~.joints.slot_width` narrows it) is still one an egg-crate
         allows. Why the split strip's own fold does not matter: its two parts are flat at the
-        node, the fold is their seam."""
+        node, the fold is their seam; only the holder is bent through its slot (on example 9
+        at full size about 45 splits were butted with two brackets each only because their
+        holder folds more than 10 degrees)."""
         fs = self.fs
-        return (x.kind == JointKind.BUTT_BRACKET and x.split == fam
-                and x.folds[1 - fam] <= fs.max_crossing_fold
+        limit = fs.max_crossing_fold if x.folds[fam] <= fs.max_crossing_fold else max(
+            fs.max_crossing_fold, MAX_HOLDER_FOLD)
+        return (x.kind == JointKind.BUTT_BRACKET and x.split == fam and x.folds[1 - fam] <= limit
                 and x.angle - 0.5 * sum(x.folds) >= fs.min_crossing_angle)
 
     def slot(self, joinery: dict) -> None:
