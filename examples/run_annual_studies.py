@@ -10,7 +10,8 @@ the uniform variant (kWh/m2 bare / fins / best device per season, F_sh, sDA / AS
 The reduced size: mesh A at most 17 x 17 vertices, the fin spacing at least a twelfth of A's
 extent (the second family twice that), 300 light samples, 100 glazing points at Radiance -ab 2
 -ad 512, rooms 6 m deep and 3 m high per storey at -ab 4 -ad 256 (LM-83 asks 6 and 1000), no
-fabrication. Each study's table is saved to ``examples/studies/results/<key>_annual.csv``, its
+fabrication; a design without a [site] (7d: explicit sun vectors) gets 7a's (Vienna) for its
+weather year. Each study's table is saved to ``examples/studies/results/<key>_annual.csv``, its
 Pareto plot to ``examples/studies/<key>_annual_pareto.png`` and its timing (wall seconds, load
 average, date, commit) beside the table; the tables are computed from those files.
 """
@@ -44,6 +45,7 @@ SDA = "light.annual.daylight.fins.sda_all"
 #: the reduced size (see the module docstring)
 MAX_GRID, EXTENT_PER_SPACING = 17, 12
 ANNUAL = {"enabled": True, "points": 100, "ambient_divisions": 512}
+SITE = tomllib.loads(FILES["7a"].read_text())["site"]
 ROOM = {"depth": 6.0, "height": 3.0, "ambient_bounces": 4, "ambient_divisions": 256}
 
 
@@ -62,6 +64,8 @@ def reduced_base(key: str) -> tuple[dict, bool]:
                     "renders": False}
     d.setdefault("constraints", {})["max_iter"] = 400
     d["annual"] = dict(ANNUAL)
+    # a design of explicit sun vectors (7d) has no site: the year is 7a's (Vienna)
+    d.setdefault("site", SITE)
     facade = surface_frame(v, f).is_facade
     if facade:
         d["room"] = dict(ROOM)

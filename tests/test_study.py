@@ -406,3 +406,6 @@ def test_verdict_on_annual_figures_by_hand():
     assert "less ASE" in text and "more cooling-season gains avoided (kWh/m2)" in text
     assert "spacing [0.6, 1.2]" in text
     assert _front(t[t["kind"] == "baseline"], p)["id"].tolist() == ["b1", "b0"]
+    # every variant failed before the annual stage: said, not a KeyError
+    failed = t.drop(columns=[ASE, AVOIDED]).assign(status="failed")
+    assert verdict(failed, [], pareto=p)[0].startswith("No comparison: no design has")

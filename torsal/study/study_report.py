@@ -356,6 +356,8 @@ def verdict_on(table, axes, pareto: ParetoSpec, *, labels: dict | None = None
     """
     x, y = pareto.x, pareto.y
     labels = labels or {}
+    if not {x, y} <= set(table.columns):       # every variant failed before measuring them
+        return f"No comparison: no design has {x} and {y}.", {}
     ok = table[(table["status"] == "done")].dropna(subset=[x, y])
     t, b = ok[ok["kind"] == "torsal"], ok[ok["kind"] == "baseline"]
     if t.empty or b.empty:
