@@ -41,8 +41,14 @@ Tables (``--tables``, default all but ``factor``, ``synthetic`` and ``stop``):
    the digits past convergence still make), report.json's congruence, support, fabrication and
    light figures side by side. ``fig12``'s method ``converged`` is ``auto`` to convergence: run it
    beside ``auto`` for time to quality against the converged energy.
+8. ``design``: ``torsal design``'s own congruence stage (the pipeline up to it, no cache) on
+   examples 7c and 9 (``--rows``) and the doubly curved facade of example 7a at
+   ``min_torsal_angle`` 80 (``facade80``): report.json's congruence build + solve against the
+   paper's T (7.4 s for the facade), the stage's processor seconds, Newton steps and
+   factorizations, its phases and why the solve ended (``congruence.convergence``). Targets:
+   build + solve <= T on a 2-core machine.
 
-Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop]
+Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]
           [--facade-angles 40 60 80]
 
@@ -541,7 +547,7 @@ def print_factor(rows):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tables", nargs="*", default=["fig12", "resolve", "facade", "family"],
-                    choices=["fig12", "resolve", "facade", "family", "factor", "synthetic", "stop"])
+                    choices=["fig12", "resolve", "facade", "family", "factor", "synthetic", "stop", "design"])
     ap.add_argument("--methods", nargs="*", default=list(METHODS), choices=list(METHODS))
     ap.add_argument("--rows", nargs="*", default=None, help="Fig. 12 rows (default all)")
     ap.add_argument("--lbfgs-iter", type=int, default=500)
@@ -574,6 +580,8 @@ def main():
         print_synthetic(args.max_vertices)
     if "stop" in args.tables:
         print_stop(args.rows or ["7c", "9"])
+    if "design" in args.tables:
+        print_design(args.rows or ["7c", "9", "facade80"])
 
 
 #: what the ``stop`` table compares, (section, key) of report.json
@@ -629,6 +637,61 @@ def print_stop(rows):
                            else f"{'':>9}" for r, v in vals.items() if r != "converged")
             print(f"{'':>6}{section + '.' + key:<46} " + " ".join(f"{_fmt(v, '12.6g'):>12}" for v in vals.values())
                   + f"  {rel}", flush=True)
+
+
+#: the ``design`` table's doubly curved facade: example 7a's at this ``min_torsal_angle``, and
+#: its target (the issue's, for the facade at 80 degrees)
+FACADE_DESIGN = ("facade80", "7a_facade_block.toml", 80.0, 7.4)
+
+
+def _design_runs(rows):
+    """``(row, Design, T)`` of the ``design`` table: Fig. 12 rows by their design files, and
+    ``facade80`` (:data:`FACADE_DESIGN`)."""
+    from torsal.pipeline.design import Design
+
+    for name, design, T in FIG12:
+        if name in rows:
+            yield name, Design.from_toml(EXAMPLES / design), T
+    name, design, angle, T = FACADE_DESIGN
+    if name in rows:
+        d = Design.from_toml(EXAMPLES / design)
+        spec = d.spec
+        yield name, Design(spec.model_copy(update={"constraints": spec.constraints.model_copy(
+            update={"min_torsal_angle": angle})})), T
+
+
+def print_design(rows):
+    """``torsal design``'s congruence stage as its report.json gives it (see the module
+    docstring, table ``design``)."""
+    import dataclasses
+    import tempfile
+
+    from torsal.pipeline.stages import DEFAULT_PIPELINE, run_congruence
+
+    print("torsal design's congruence stage (report.json congruence; the pipeline up to it, no cache)")
+    print(_load())
+    head = (f"{'row':>8} {'T':>5} | {'build':>6} {'solve':>7} {'b+s':>7} {'<=T':>4} | {'cpu':>6} {'steps':>5} "
+            f"{'fact':>5} | {'E':>10} {'min ang':>7} | ended by, decrement, recent decrease")
+    print(head)
+    print("-" * len(head))
+    for name, design, T in _design_runs(rows):
+        cpu = {}
+
+        def timed(inp):
+            out, _, cpu["s"] = _timed(lambda: run_congruence(inp))
+            return out
+        pl = DEFAULT_PIPELINE.until("congruence")
+        pl = pl.replace(dataclasses.replace(pl["congruence"], run=timed))
+        with tempfile.TemporaryDirectory() as out:
+            c = design.run(out, pipeline=pl, use_cache=False, size_limit=False).report["congruence"]
+        bs, n, conv = c["build_s"] + c["solve_s"], c.get("counts", {}), c.get("convergence") or {}
+        print(f"{name:>8} {T:5.1f} | {c['build_s']:6.2f} {c['solve_s']:7.2f} {bs:7.2f} {'yes' if bs <= T else 'NO':>4} | "
+              f"{cpu['s']:6.2f} {n.get('newton_steps', c['iterations'])!s:>5} {n.get('factorizations', '-')!s:>5} | "
+              f"{c['energies']['total']:10.4e} {c['min_torsal_plane_angle_deg']:7.2f} | {conv.get('reason')}, "
+              f"{_fmt(conv.get('newton_decrement'), '.1e')}, {_fmt(conv.get('recent_decrease'), '.1e')}", flush=True)
+        t = c.get("timings_s", {})
+        print(f"{'':>10}phases (s): " + ", ".join(f"{k} {v:.2f}" for k, v in t.items()) + f"; {_load()}",
+              flush=True)
 
 
 def _figure(report: dict, section: str, key: str):
