@@ -174,6 +174,14 @@ def _lead(key: str, x: str) -> str:
             f"{100 * n['lead']:+.1f}% of the spans from {n['nearest'].split('-', 2)[-1]}")
 
 
+def failed(key: str, lighter: bool) -> str:
+    """Why the study's variant (the lighter one or not) failed, from the saved table."""
+    t = pd.read_csv(RESULTS / f"{key}_annual.csv")
+    t = t[(t["kind"] == "torsal") & (t["status"] == "failed")]
+    t = t[t["fins.spacing"].astype(str).str.startswith("[") == lighter]
+    return str(t["error"].iloc[0]).split(" (e.g.")[0] if len(t) else "-"
+
+
 def studies_table(keys=KEYS) -> str:
     """Per example: each torsal variant's cooling-season gains avoided and sDA (or view out),
     the devices' best of each, the study's verdict and the verdict against the view out,
@@ -190,7 +198,9 @@ def studies_table(keys=KEYS) -> str:
             return (f"{r[AVOIDED]:.0f} kWh/m2, {word} {_share(r[x])}"
                     + (f", view {_share(r[X_KEY])}" if x != X_KEY else "")
                     + f" (s {r['fins.spacing']}, {r['material_kg']:.0f} kg)")
-        cells = [key] + [cell(r) for _, r in torsal.iterrows()][:2]
+        sparse = torsal["fins.spacing"].astype(str).str.startswith("[")
+        cells = [key] + [cell(rows.iloc[0]) if len(rows) else "failed: " + failed(key, lighter)
+                         for lighter, rows in ((False, torsal[~sparse]), (True, torsal[sparse]))]
         for col in (AVOIDED, x):
             cells.append("-" if devices.empty else
                          f"{devices.loc[devices[col].idxmax(), 'device']}: "
