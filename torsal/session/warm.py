@@ -81,23 +81,26 @@ def _structure(p: CongruenceProblem) -> dict:
 
 
 def _energy_vertices(p: CongruenceProblem) -> dict[str, np.ndarray]:
-    """The vertices (sorted ids) each element energy of ``p`` acts on."""
+    """The vertices (sorted ids) each energy of one line per element (``f_perp``, ``f_par``,
+    lines through points) of ``p`` acts on."""
     return {name: np.unique(t.idx // 3) for name, t in p.registry.terms.items()
-            if not t.constraint and t.element is not None}
+            if not t.constraint and t.element is not None and t.idx.shape[1] == 3}
 
 
 def restarted(optimum, before: dict[str, np.ndarray], problem: CongruenceProblem):
     """``optimum`` with the lines of the vertices whose goals changed put back where a cold
     solve starts them (the problem's start directions, the surface normals).
 
-    A vertex that an edit moves into or out of an energy's elements (a region moved, a
-    stroke moved) keeps a line made for its old goal, and that line can be a stationary
-    point of its new one: a line the blocking goal made perpendicular to the sun is one of
-    ``|e x d|^2``'s maxima when a let-through region takes it over (``f_par``), so a warm
-    re-solve would leave it there (7a at test size: energy 0.100 against a cold run's 0.057).
-    ``before``: :func:`_energy_vertices` of the problem ``optimum`` solved; energies present
-    in both with other vertices are compared (an energy added or removed as a whole changes
-    no vertex's goal more than another's).
+    A vertex that an edit moves into or out of an energy of its own line (a region moved)
+    keeps a line made for its old goal, and that line can be a stationary point of its new
+    one: a line the blocking goal made perpendicular to the sun is one of ``|e x d|^2``'s
+    maxima when a let-through region takes it over (``f_par``), so a warm re-solve would
+    leave it there (7a at test size: energy 0.100 against a cold run's 0.057). A stroke's
+    faces (``f_dir``, an energy of a face's three lines) keep their lines: from them a moved
+    stroke reaches a cold run's energy (tests/session), and restarted, 7a's at full size took 7
+    IPOPT iterations instead of 0. ``before``: :func:`_energy_vertices` of the problem ``optimum`` solved;
+    energies present in both with other vertices are compared (an energy added or removed as
+    a whole changes no vertex's goal more than another's).
 
     >>> from torsal.geometry import Congruence
     >>> from torsal.geometry.surfaces import facade_patch
