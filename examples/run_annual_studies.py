@@ -5,7 +5,9 @@ glazing) against sDA (a facade's rooms) or the view out (a canopy); and the annu
 the uniform variant (kWh/m2 bare / fins / best device per season, F_sh, sDA / ASE).
 
     python examples/run_annual_studies.py [--out out/annual-studies] [--only 7a 9 ...]
-    python examples/run_annual_studies.py --table-only     # print the tables from the results
+    python examples/run_annual_studies.py --table-only     # the tables from the saved results
+
+Both rewrite the tables of examples/README.md between the ``annual-studies`` markers.
 
 The reduced size: mesh A at most 17 x 17 vertices, the fin spacing at least a twelfth of A's
 extent (the second family twice that), 300 light samples, 100 glazing points at Radiance -ab 2
@@ -38,6 +40,7 @@ from torsal.study.study_report import verdict_on, write_pareto_png
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "studies" / "results"
 KEYS = ("7a", "7b", "7c", "7d", "9", "10", "11", "13")
+BEGIN, END = "<!-- annual-studies:begin -->", "<!-- annual-studies:end -->"
 FILES = {k: next(HERE.glob(f"{k}_*.toml")) for k in KEYS}
 
 AVOIDED = "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2"
@@ -240,9 +243,13 @@ def main(argv=None) -> int:
     for key in args.only:
         if (RESULTS / f"{key}_annual.csv").exists():
             view_plot(key)
-    print(annual_table())
-    print()
-    print(studies_table())
+    tables = annual_table() + "\n\n" + studies_table()
+    readme = HERE / "README.md"
+    text = readme.read_text()
+    if BEGIN in text:
+        start, end = text.index(BEGIN) + len(BEGIN), text.index(END)
+        readme.write_text(text[:start] + "\n" + tables + "\n" + text[end:])
+    print(tables)
     return 0
 
 
