@@ -121,8 +121,11 @@ MAX_SLOT_SKEW = 2.0
 #: split strip folding there more than :data:`MAX_CROSSING_FOLD`) may fold this much at the
 #: node, bent through its slot: the seam's two parts are flat there, so one plate is bent
 #: through a slot, not two as at an egg-crate of two folding plates. Kept per joint only
-#: where the assembly check on the solids around it proves it (:mod:`.builder.seams`)
-MAX_HOLDER_FOLD = 30.0
+#: where the assembly check on the solids around it proves it (:mod:`.builder.seams`). No more
+#: than :data:`~.plates.SINGLE_BOX_FOLD`: a slot on a sharper fold is cut with a box in each
+#: panel's plane, and at 30 degrees that left example 7c's F0-S036-P01 (22 deg at node 242) a
+#: solid whose triangles do not close (no IFC face set, no 3DM Brep)
+MAX_HOLDER_FOLD = 20.0
 #: where the two parts of a family-1 strip split inside a crossing slot slide in from opposite
 #: edges (each along its own plate's slide direction), the family-0 plate holding them is
 #: slotted from *both* edges: each part keeps a tongue of this share of the fin depth at its
