@@ -202,3 +202,31 @@ def test_the_support_report_counts_each_familys_strips_fins_and_area():
     assert f["spacing"] == [0.2, 0.3] and f["depth"] == [0.4, 0.2]
     assert f["strips"] == [3, 3] and f["fins"] == [6, 6]
     assert np.allclose(f["fin_area_m2"], [6 * 0.3 * 0.4, 6 * 0.2 * 0.2])
+
+
+def test_support_obj_and_3d_view_draw_each_family_at_its_depth(tmp_path):
+    """support.obj's fins_family_1 quads and the 3D view's family-1 triangles end at family 1's
+    depth (half of the node line here), family 0's at B."""
+    import numpy as np
+
+    from torsal.geometry.support import SupportStructure
+    from torsal.pipeline.outputs import write_structure_obj
+    from torsal.pipeline.report_3d import _fin_triangles
+
+    a = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    s = SupportStructure(a, a + [0, 0, 0.4], [[0, 1, 2, 3]],
+                         np.array([[0, 1], [1, 2], [3, 2], [0, 3]]), np.array([0, 1, 0, 1]),
+                         family_depth_ratio=(1.0, 0.5))
+    write_structure_obj(tmp_path / "s.obj", s)
+    lines = (tmp_path / "s.obj").read_text().splitlines()
+    v = np.array([[float(x) for x in ln.split()[1:]] for ln in lines if ln.startswith("v ")])
+    group, top = None, {0: set(), 1: set()}
+    for ln in lines:
+        if ln.startswith("g "):
+            group = ln.split()[1]
+        elif ln.startswith("f ") and group.startswith("fins_family_"):
+            top[int(group[-1])] |= {round(v[int(i) - 1, 2], 9) for i in ln.split()[1:]}
+    assert top == {0: {0.0, 0.4}, 1: {0.0, 0.2}}
+    nodes, tris, _ = _fin_triangles(s, 10)
+    assert set(np.round(nodes[tris[0].ravel(), 2], 9)) == {0.0, 0.4}
+    assert set(np.round(nodes[tris[1].ravel(), 2], 9)) == {0.0, 0.2}

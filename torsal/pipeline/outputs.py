@@ -40,18 +40,28 @@ def write_geometry(out: Path, congruence: Congruence, structure) -> dict:
 
 def write_structure_obj(path: Path, s) -> None:
     """A support structure as OBJ: groups A (nodes on the surface), B, and the fins of
-    each family (one quad per edge)."""
+    each family (one quad per edge), each family's fins as deep as its own
+    (``family_depth_ratio``: a family that stops short of B ends on vertices of its own,
+    written after B's)."""
     n = len(s.vertices_a)
     obj = ["# torsal support structure: A~ (nodes on the surface), B~, one fin quad per edge"]
-    obj += [f"v {x:.12g} {y:.12g} {z:.12g}" for x, y, z in s.vertices_a]
-    obj += [f"v {x:.12g} {y:.12g} {z:.12g}" for x, y, z in s.vertices_b]
+    ends = [s.vertices_a, s.vertices_b]
+    offset = {}
+    for fam in (0, 1):              # where each family's fins end: B, or a block of its own
+        if s.family_depth_ratio[fam] == 1.0:
+            offset[fam] = n
+        else:
+            offset[fam] = n * len(ends)
+            ends.append(s.family_vertices_b(fam))
+    obj += [f"v {x:.12g} {y:.12g} {z:.12g}" for block in ends for x, y, z in block]
     obj.append("g A")
     obj += ["f " + " ".join(str(i + 1) for i in poly) for poly in s.faces]
     obj.append("g B")
     obj += ["f " + " ".join(str(i + 1 + n) for i in poly) for poly in s.faces]
     for fam in (0, 1):
         obj.append(f"g fins_family_{fam}")
+        k = offset[fam]
         for i, j in s.edges[s.edge_family == fam]:
-            obj.append(f"f {i + 1} {j + 1} {j + 1 + n} {i + 1 + n}")
+            obj.append(f"f {i + 1} {j + 1} {j + 1 + k} {i + 1 + k}")
     with atomic_path(path) as tmp:
         tmp.write_text("\n".join(obj) + "\n")

@@ -112,19 +112,24 @@ def _plural(n: int, word: str) -> str:
 
 
 def _fin_triangles(structure, max_fins: int):
-    """Nodes (2n, 3) and per family the triangles (2 per fin) of the fins to draw."""
+    """Nodes (a, then the b ends: (2n, 3), or (3n, 3) where the families end at their own
+    depths) and per family the triangles (2 per fin) of the fins to draw."""
     edges, fam = structure.edges, structure.edge_family
     shown = np.arange(len(edges))
     if len(edges) > max_fins:  # evenly subsample: keeps the spread of the structure visible
         shown = np.unique(np.linspace(0, len(edges) - 1, max_fins).astype(int))
     n = len(structure.vertices_a)
-    nodes = np.concatenate([structure.vertices_a, structure.vertices_b])
+    # each family's fins end at its own depth (family_depth_ratio): nodes a, then b of each
+    two = structure.family_depth_ratio[0] != structure.family_depth_ratio[1]
+    nodes = np.concatenate([structure.vertices_a, structure.family_vertices_b(0)]
+                           + ([structure.family_vertices_b(1)] if two else []))
     out = {}
     for family in (0, 1):
         i, j = edges[shown[fam[shown] == family]].T
+        k = n * (1 + family) if two else n
         tri = np.empty((2 * len(i), 3), np.int64)
-        tri[0::2] = np.c_[i, j, j + n]
-        tri[1::2] = np.c_[i, j + n, i + n]
+        tri[0::2] = np.c_[i, j, j + k]
+        tri[1::2] = np.c_[i, j + k, i + k]
         out[family] = tri
     return nodes, out, len(shown)
 
