@@ -254,20 +254,42 @@ def test_near_parabolic_face_does_not_fold_its_neighbours():
     assert p.residual < 0.1
 
 
-def test_two_spacings_refuse_a_cut_that_exchanges_the_families():
+def test_a_cut_that_exchanges_the_families_thins_one_lattice():
     """Across a cut whose matching swaps u and v (a quarter-turn singularity) a family-0 fin
-    continues as a family-1 fin: two different spacings cannot both hold there."""
+    continues as a family-1 fin, so the families cannot each have a lattice of their own
+    spacing: both take the smaller spacing and the sparse family keeps every m-th line, when
+    the larger spacing is m times the smaller; other ratios are refused, naming the fix."""
     from types import SimpleNamespace
 
     from torsal.geometry.frame_field import GROUP
-    from torsal.geometry.remesh import _families_kept
+    from torsal.geometry.remesh import _thinning
 
     swap = int(np.flatnonzero(GROUP[:, 0, 0] == 0)[0])
     flip = int(np.flatnonzero((GROUP[:, 0, 0] == -1) & (GROUP[:, 1, 1] == -1))[0])
     V, F = graph_surface(saddle, nu=5, nv=5)
     field = SimpleNamespace(vertices=V, faces=F, singularities=np.array([12]),
                             edge_faces=np.array([[0, 1], [2, 3]]), matching=np.array([flip, swap]))
-    _families_kept(field, np.array([0, 1]), (0.5, 0.5))      # one spacing: any matching
-    _families_kept(field, np.array([0]), (0.5, 1.0))         # a half turn keeps the families
-    with pytest.raises(ParametrizationError, match=r"exchange.*\[0.5, 1\].*one fins.spacing"):
-        _families_kept(field, np.array([0, 1]), (0.5, 1.0))
+    assert _thinning(field, np.array([0, 1]), (0.5, 0.5)) is None     # one spacing: any cut
+    assert _thinning(field, np.array([0]), (0.5, 1.0)) is None        # a half turn keeps them
+    assert _thinning(field, np.array([0, 1]), (0.5, 1.0)) == {"family": 1, "every": 2}
+    assert _thinning(field, np.array([0, 1]), (1.5, 0.5)) == {"family": 0, "every": 3}
+    with pytest.raises(ParametrizationError, match=r"exchange.*\[0.5, 0.8\].*whole multiple"):
+        _thinning(field, np.array([0, 1]), (0.5, 0.8))
+
+
+def test_a_thinned_lattice_keeps_every_other_line_of_the_sparse_family(saddle_case):
+    """The extraction of a thinned lattice (both families at 1/20, family 1 keeping every
+    other line): family 1 has half the strips, family 0 all of them, and an inner family-0
+    fin runs from one kept family-1 line to the next, 1/10 long (no node where a dropped line
+    would have crossed it)."""
+    c, even = saddle_case
+    p = parametrize(torsal_frame_field(c, smoothing=1 / 40), 1 / 20)
+    p.metadata["thin"] = {"family": 1, "every": 2}
+    s = extract_quads(p, congruence=c)
+    strips = [len(s.strips(f)) for f in (0, 1)]
+    assert strips[0] == len(even.strips(0))
+    assert abs(strips[1] / len(even.strips(1)) - 0.5) < 0.1
+    a, e = s.vertices_a, s.edges
+    inner = ~s.metadata["boundary"][e].any(1) & (s.edge_family == 0)
+    assert abs(np.median(np.linalg.norm(a[e[inner, 1]] - a[e[inner, 0]], axis=1)) - 0.1) < 0.01
+    assert distance_to_A(c, a).max() <= 1e-9

@@ -307,7 +307,9 @@ def parametrize(field: TorsalFrameField, spacing, *, round_jumps: bool = True,
     ------
     ParametrizationError
         Naming the faces where the result folds over, or a singularity on the boundary, or
-        a cut across which the two families exchange while their spacings differ.
+        a cut across which the two families exchange while their spacings differ by other
+        than a whole multiple (with a whole multiple ``m`` both take the smaller spacing and
+        the sparse family keeps every ``m``-th line: ``metadata["thin"]``).
 
     Examples
     --------
@@ -331,8 +333,9 @@ def parametrize(field: TorsalFrameField, spacing, *, round_jumps: bool = True,
     wid = _wedges(F, face_edges, field.edges, field.edge_faces, cut)
     W = int(wid.max()) + 1
     g, area = _gradient_basis(V, F)
-    _families_kept(field, ce, spacings)
-    al = _alignment(field, wid, W, spacings, g, area)
+    thin = _thinning(field, ce, spacings)
+    lattice = (min(spacings),) * 2 if thin else spacings
+    al = _alignment(field, wid, W, lattice, g, area)
     nC = len(ce)
     if nC == 0:
         solve = spla.factorized((al.GtG + al.reg * sp.identity(W)).tocsc())
@@ -349,10 +352,10 @@ def parametrize(field: TorsalFrameField, spacing, *, round_jumps: bool = True,
     transition = np.zeros((len(field.edges), 2), int)
     if nC:
         transition[ce] = np.round(t_jump).astype(int)
-    residual, flipped = _alignment_quality(field, g, area, uv, spacings)
+    residual, flipped = _alignment_quality(field, g, area, uv, lattice)
     meta = {"seconds": time.perf_counter() - t0, "wedges": W, "cut_edges": int(nC),
             "rotational_cut_edges": int(nonid.size), "offset": did_offset,
-            "singularities": field.singularities.tolist()}
+            "singularities": field.singularities.tolist(), "thin": thin}
     p = TorsalParametrization(field=field, spacing=spacing, uv=uv, cut=cut, transition=transition,
                               residual=residual, flipped=flipped, metadata=meta)
     if flipped.size > 0.02 * nF:
@@ -367,21 +370,29 @@ def parametrize(field: TorsalFrameField, spacing, *, round_jumps: bool = True,
     return p
 
 
-def _families_kept(field: TorsalFrameField, cut_edges: np.ndarray,
-                   spacings: tuple[float, float]) -> None:
-    """With two spacings no cut may exchange the families (a matching that swaps ``u`` and
-    ``v``, around a singularity of index 1/4): a family-0 fin would continue as a family-1
-    fin, at the other spacing."""
+def _thinning(field: TorsalFrameField, cut_edges: np.ndarray,
+               spacings: tuple[float, float]) -> dict | None:
+    """Two spacings where a cut exchanges the families (a matching that swaps ``u`` and ``v``,
+    around a singularity of index 1/4: a family-0 fin continues as a family-1 fin there): one
+    lattice at the smaller spacing for both, of which the sparse family keeps every ``m``-th
+    line (``{"family": f, "every": m}``, for :func:`extract_quads`), when the larger spacing
+    is ``m`` times the smaller; a ParametrizationError otherwise. None where the families
+    keep their identity (a lattice of the two spacings)."""
     if spacings[0] == spacings[1] or not len(cut_edges):
-        return
+        return None
     swaps = GROUP[field.matching[cut_edges]][:, 0, 0] == 0
-    if swaps.any():
-        faces = np.unique(field.edge_faces[cut_edges[swaps]].ravel())
-        raise ParametrizationError(
-            f"the two torsal families exchange around a singularity ({_describe_faces(field, faces[faces >= 0])}): "
-            f"a fin of one family continues as a fin of the other there, so the families "
-            f"cannot have different spacings {_spacing_text(spacings)}; give one fins.spacing "
-            "or a surface whose torsal field has no such singularity")
+    if not swaps.any():
+        return None
+    every = max(spacings) / min(spacings)
+    if abs(every - round(every)) <= 1e-9 * every:
+        return {"family": int(np.argmax(spacings)), "every": int(round(every))}
+    faces = np.unique(field.edge_faces[cut_edges[swaps]].ravel())
+    raise ParametrizationError(
+        f"the two torsal families exchange around a singularity ({_describe_faces(field, faces[faces >= 0])}): "
+        f"a fin of one family continues as a fin of the other there, so the families "
+        f"cannot have different spacings {_spacing_text(spacings)} unless the larger is a "
+        "whole multiple of the smaller (e.g. [0.6, 1.2]: every other line of the sparse "
+        "family); give such spacings or one fins.spacing")
 
 
 def _describe_faces(field, faces):
@@ -489,10 +500,12 @@ class _LatticeNodes(NamedTuple):
     node_bary: np.ndarray     # (nN, 3) float: barycentric coordinates of each node
 
 
-def _lattice_nodes(seg: dict) -> _LatticeNodes:
+def _lattice_nodes(seg: dict, thin: dict | None = None) -> _LatticeNodes:
     """The integer values l of the other coordinate y between a segment's two ends; a value
     exactly at an end is counted iff the other end is below (simulation of simplicity:
-    l counted iff (yp >= l) != (yq >= l), i.e. l in (ylo, yhi])."""
+    l counted iff (yp >= l) != (yq >= l), i.e. l in (ylo, yhi]). With ``thin`` (see
+    :func:`_thinning`) the dense family's segments keep only the values on the sparse
+    family's kept lines."""
     S = len(seg["face"])
     yp, yq = seg["p_y"], seg["q_y"]
     lo = np.floor(np.minimum(yp, yq)).astype(np.int64)
@@ -502,6 +515,11 @@ def _lattice_nodes(seg: dict) -> _LatticeNodes:
     rank = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
     asc = (yq >= yp)[sid]
     l_val = np.where(asc, lo[sid] + 1 + rank, hi[sid] - rank)
+    if thin:
+        keep = (seg["fam"][sid] == thin["family"]) | (l_val % thin["every"] == 0)
+        sid, l_val = sid[keep], l_val[keep]
+        m = np.bincount(sid, minlength=S)
+        rank = np.arange(len(sid)) - np.repeat(np.cumsum(m) - m, m)
     sig = (l_val - yp[sid]) / np.where(yq[sid] != yp[sid], (yq - yp)[sid], 1.0)
     nb = (1 - sig)[:, None] * seg["p_bary"][sid] + sig[:, None] * seg["q_bary"][sid]
     fam, k = seg["fam"][sid], seg["k"][sid]
@@ -804,15 +822,20 @@ def extract_quads(param: TorsalParametrization, vertices_b=None, *, congruence=N
     VB = np.asarray(vertices_b, float)
     ef = fld.edge_faces
     _, face_edges = unique_edges(F)
+    thin = param.metadata.get("thin")
     segs = [_segments(param.uv, face_edges, ef, fld.matching, param.transition, fam)
             for fam in (0, 1)]
+    if thin:                 # the sparse family keeps every m-th line of the lattice
+        sparse = segs[thin["family"]]
+        keep = sparse["k"] % thin["every"] == 0
+        segs[thin["family"]] = {key: x[keep] for key, x in sparse.items()}
     seg = {key: np.concatenate([s[key] for s in segs]) for key in segs[0]}
     if len(seg["face"]) == 0:
         raise ParametrizationError(
             f"no iso-line crosses the mesh: spacing {_spacing_text(param.spacing)} is larger "
             "than the patch")
     X = _crossings(seg)
-    N = _lattice_nodes(seg)
+    N = _lattice_nodes(seg, thin)
     fins = _chain_fins(_pieces(seg, X, N, V, F), len(X.keys), len(X.keys) + len(N.face))
     vt, fin_edges = _fin_vertices(fins, X, N, ef)
     faces = _trace_faces(fin_edges, fins, _boundary_sides(vt, X, V, F, face_edges, ef),
