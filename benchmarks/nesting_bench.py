@@ -57,6 +57,8 @@ Run: ``.venv/bin/python benchmarks/nesting_bench.py [--designs 7a 9 11] [--sparr
 from __future__ import annotations
 
 import argparse
+import hashlib
+import pickle
 import time
 import warnings
 from pathlib import Path
@@ -64,7 +66,7 @@ from pathlib import Path
 from torsal.design import Design
 from torsal.fabrication.cutting import Cutting
 from torsal.fabrication.layout import spacing
-from torsal.fabrication.nesting import nest_for_yield, nest_rows, nest_search
+from torsal.fabrication.nesting import crossing_bound, nest_for_yield, nest_rows, nest_search
 from torsal.fabrication.nesting.sparrow import sheet_ok
 from torsal.pipeline import DEFAULT_PIPELINE, StageCache
 from torsal.pipeline.fins import fin_system
@@ -77,8 +79,28 @@ EXAMPLES = {"7a": "7a_facade_block", "9": "9_selective_shading", "11": "11_align
 GAP, MARGIN = 5.0, 10.0
 
 
-def outlines(name: str, cache: Path) -> tuple[list, tuple]:
-    """The unrolled parts of an example at full size and its sheet."""
+def _source_key(name: str) -> str:
+    """A hash of the example's design file and of torsal's sources outside the nesting
+    package: the parts change only when one of them does."""
+    h = hashlib.sha256((ROOT / "examples" / f"{EXAMPLES[name]}.toml").read_bytes())
+    for f in sorted((ROOT / "torsal").rglob("*.py")):
+        if "nesting" not in f.relative_to(ROOT / "torsal").parts:
+            h.update(str(f.relative_to(ROOT)).encode() + f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def outlines(name: str, cache: Path, *, pinned: bool = False) -> tuple[list, tuple]:
+    """The unrolled parts of an example at full size and its sheet, kept in ``cache`` as a
+    pickle named by :func:`_source_key` (rebuilt only when the design or the code that
+    makes the parts changed: the fin system takes 7-350 s). ``pinned``: the snapshot
+    ``parts-NAME.pkl`` in ``cache`` where there is one (to compare nesters on the same parts
+    while the code that makes them changes)."""
+    kept = cache / f"parts-{name}-{_source_key(name)}.pkl"
+    if pinned and (cache / f"parts-{name}.pkl").exists():
+        kept = cache / f"parts-{name}.pkl"
+    if kept.exists():
+        with open(kept, "rb") as f:
+            return pickle.load(f)
     design = Design.from_toml(ROOT / "examples" / f"{EXAMPLES[name]}.toml")
     stages = StageCache(cache, prune=False)
     with warnings.catch_warnings():
@@ -86,7 +108,12 @@ def outlines(name: str, cache: Path) -> tuple[list, tuple]:
         design.run(cache / f"run-{name}", cache=stages, pipeline=DEFAULT_PIPELINE.until("support"))
         support = stages.load("support", stage_keys(DEFAULT_PIPELINE, design.spec)["support"])
         fs = fin_system(design.spec, support["structure"])
-    return list(fs.unrolled().values()), tuple(design.spec.material.sheet_mm)
+    out = list(fs.unrolled().values()), tuple(design.spec.material.sheet_mm)
+    cache.mkdir(parents=True, exist_ok=True)
+    with open(kept.with_suffix(".tmp"), "wb") as f:
+        pickle.dump(out, f)
+    kept.with_suffix(".tmp").replace(kept)
+    return out
 
 
 def _placements(lay) -> list:
@@ -98,15 +125,16 @@ def measure(nester, parts, sheet, cutting) -> dict:
     """Sheets, yield, seconds, validity and sameness of two runs of ``nester``."""
     runs = []
     for _ in range(2):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         lay = nester(parts, sheet=sheet, gap=GAP, margin=MARGIN, cutting=cutting)
-        runs.append((lay, time.perf_counter() - t0))
-    lay, seconds = runs[0]
+        runs.append((lay, time.perf_counter() - t0, time.process_time() - c0))
+    lay, seconds, cpu = runs[0]
     sep, edge = spacing(GAP, MARGIN, cutting)
     valid = all(sheet_ok([p.polygon for p in lay.on_sheet(s)], *lay.sheet, edge, sep)
                 for s in range(lay.n_sheets))
-    return {"sheets": lay.n_sheets, "yield": lay.utilization, "s": seconds, "valid": valid,
-            "same": _placements(runs[0][0]) == _placements(runs[1][0]), "bound": lay.area_bound}
+    return {"sheets": lay.n_sheets, "yield": lay.utilization, "s": seconds, "cpu": cpu, "valid": valid,
+            "same": _placements(runs[0][0]) == _placements(runs[1][0]), "bound": lay.area_bound,
+            "tries": getattr(lay.stats, "tries", 0)}
 
 
 def main() -> None:
@@ -115,24 +143,30 @@ def main() -> None:
     ap.add_argument("--sparrow-s", type=float, default=0.0,
                     help="also sparrow, this many seconds a run (0: not run)")
     ap.add_argument("--cache", type=Path, default=Path("out/nesting_bench"))
+    ap.add_argument("--nesters", nargs="+", default=["rows", "search"],
+                    choices=["rows", "search"], help="which nesters (sparrow: --sparrow-s)")
+    ap.add_argument("--pinned", action="store_true",
+                    help="the parts snapshot parts-NAME.pkl in --cache where there is one")
     args = ap.parse_args()
     cutting = Cutting.for_process("laser")
-    nesters = {"rows": nest_rows, "search": nest_search}
+    nesters = {n: {"rows": nest_rows, "search": nest_search}[n] for n in args.nesters}
     if args.sparrow_s:
         nesters["sparrow"] = lambda *a, **k: nest_for_yield(*a, time_limit=args.sparrow_s, **k)
-    cols = ["design", "parts", "area bound"] + [f"{n} {c}" for n in nesters
-                                                for c in ("sheets", "yield", "s", "valid", "same twice")]
+    sep, edge = spacing(GAP, MARGIN, cutting)
+    cols = ["design", "parts", "area bound", "80 % needs", "crossing bound"] + [
+        f"{n} {c}" for n in nesters for c in ("sheets", "yield", "s", "cpu s", "tries", "valid", "same twice")]
     print("| " + " | ".join(cols) + " |")
     print("|" + "---|" * len(cols))
     for name in args.designs:
-        parts, sheet = outlines(name, args.cache)
-        cells = [name, str(len(parts))]
+        parts, sheet = outlines(name, args.cache, pinned=args.pinned)
+        polys = [getattr(p, "outline", p) for p in parts]
+        area = sum(p.area for p in polys) / (sheet[0] * sheet[1])
+        cells = [name, str(len(parts)), f"{area:.1f}", str(int(area / 0.8 + 1e-9)),
+                 str(crossing_bound(polys, sheet=sheet, sep=sep, edge=edge))]
         for n, nester in nesters.items():
             m = measure(nester, parts, sheet, cutting)
-            if len(cells) == 2:
-                cells.append(f"{m['bound']:.1f}")
             cells += [str(m["sheets"]), f"{100 * m['yield']:.1f} %", f"{m['s']:.1f}",
-                      "yes" if m["valid"] else "NO", "yes" if m["same"] else "no"]
+                      f"{m['cpu']:.1f}", str(m["tries"]), "yes" if m["valid"] else "NO", "yes" if m["same"] else "no"]
         print("| " + " | ".join(cells) + " |", flush=True)
 
 

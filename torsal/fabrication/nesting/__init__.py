@@ -10,18 +10,21 @@
   in the time budget.
 * :mod:`.api`: :func:`nest_parts`, a fin system's parts by the nester a design asks for.
 * :mod:`.stats`: :class:`Nester`, :class:`NestStats` and the defaults.
+* :mod:`.bounds`: :func:`crossing_bound`, the sheets the parts longer than half the sheet
+  need at least (they cross its middle): the search's floor.
 
 * :mod:`.bottom_left`: :func:`nest`, the fast bottom-left fill, and the shelves for small parts.
 * :mod:`.items`: the parts as every nester takes them.
 """
 from .api import nest_parts
 from .bottom_left import merge_layouts, nest, shelf_pack
+from .bounds import crossing_bound
 from .rows import nest_rows
 from .search import DEFAULT_TRIES, nest_search
 from .stats import (DEFAULT_NESTER, DEFAULT_SEED, DEFAULT_TIME_LIMIT, FINAL_CUT_NESTER,
                     SECONDS_PER_SHEET, Nester, NestStats)
 from .yield_ import nest_for_yield
 
-__all__ = ["nest", "shelf_pack", "merge_layouts", "nest_for_yield", "nest_parts", "nest_rows", "nest_search", "Nester", "NestStats",
+__all__ = ["nest", "shelf_pack", "merge_layouts", "nest_for_yield", "nest_parts", "nest_rows", "nest_search", "Nester", "NestStats", "crossing_bound",
            "DEFAULT_TIME_LIMIT", "SECONDS_PER_SHEET", "DEFAULT_SEED", "DEFAULT_TRIES",
            "DEFAULT_NESTER", "FINAL_CUT_NESTER"]

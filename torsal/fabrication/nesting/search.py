@@ -8,8 +8,11 @@
 2. **Sheets emptied.** The emptiest sheet is the *victim*; its parts, largest first, are
    offered to the sheets with the most room (a host's parts and the offer packed afresh on one
    sheet by the skyline, then by the rows); where all fit, they move. A victim that is emptied
-   is one sheet fewer; one whose largest part finds no host is set aside. It stops at the area
-   bound's ceiling, when no victim is left, or after ``tries`` repacks.
+   is one sheet fewer; one whose largest part finds no host is set aside. It stops at the
+   floor, when no victim is left, or after ``tries`` repacks. The floor is the larger of the
+   area bound's ceiling and the crossing bound (:mod:`.bounds`: the parts longer than half the
+   sheet cross its middle, so their widths there fill the sheets' heights): no layout of the
+   search's goes below it, so a start already there is not searched.
 
 Every step is a pure function of the parts and the options: the same design gives the same
 sheets on any machine, however busy (``stats.tries`` counts the repacks). ``time_limit`` is
@@ -35,6 +38,7 @@ import numpy as np
 
 from ..cutting import Cutting
 from ..layout import Layout, placement_of
+from .bounds import crossing_bound
 from .rows import orientations, prepare, row_layout
 from .skyline import DEFAULT_RESOLUTION, SkylinePacker, column_profiles
 from .stats import Nester, NestStats
@@ -276,9 +280,11 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
     total = sum(area.values())
     start_sheets = {k: len(v) for k, v in fill.items()}
     budget = _Counted(tries, None if time_limit is None else t0 + time_limit)
+    by_area = int(np.ceil(total / (w * h) - 1e-9))
+    crossing = crossing_bound([it.outline for it in items], sheet=(w, h), sep=sep, edge=edge)
     search = budget.emptier = SheetEmptier(
         fill[best], area, fit=repack, may_try=budget, usable=frame.length * frame.height,
-        floor=int(np.ceil(total / (w * h) - 1e-9)), progress=progress)
+        floor=max(by_area, crossing), progress=progress)
     search.run()
     placements = sorted((placement_of(by_name[n], si, rot, dx, dy)
                          for si, s in enumerate(search.sheets) for n, (rot, (dx, dy)) in s.items()),
@@ -286,7 +292,8 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
     lay = Layout((w, h), placements, len(search.sheets), unit=unit, gap=gap, margin=margin,
                  cutting=cutting)
     why = ("stopped by the time limit" if budget.time_limited else
-           "at the area bound" if len(search.sheets) <= search.floor else
+           "at the area bound" if len(search.sheets) <= by_area else
+           f"at the crossing bound, {crossing} sheets" if len(search.sheets) <= search.floor else
            "all tries made" if search.tries >= tries else "nothing more to try")
     lay.stats = NestStats(f"{Nester.SEARCH.value} from {best} ({search.emptied} sheets emptied, {why})",
                           time.perf_counter() - t0, time.process_time() - c0, total / (w * h),
@@ -295,5 +302,5 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
                           sheet_fill=lay.sheet_utilization, time_limited=budget.time_limited,
                           start_sheets=start_sheets[best], moves=search.moves,
                           sheets_emptied=search.emptied, tries=search.tries,
-                          starts=start_sheets)
+                          starts=start_sheets, crossing_bound=crossing)
     return lay

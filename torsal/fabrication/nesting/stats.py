@@ -72,3 +72,6 @@ class NestStats:
     tries: int = 0
     #: the search's starts as ``{name: sheets}`` (:attr:`Nester.SEARCH`)
     starts: dict = field(default_factory=dict)
+    #: the sheets the parts crossing every sheet's middle need at least
+    #: (:func:`~.bounds.crossing_bound`; :attr:`Nester.SEARCH`, else None)
+    crossing_bound: int | None = None
