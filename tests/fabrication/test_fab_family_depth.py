@@ -34,9 +34,10 @@ def test_unequal_families_are_slotted_where_both_plates_are(ratio):
                                    depth[p.family], rtol=1e-9)
     [x] = fs.crossings
     both = min(depth.values())
-    # family 0 slotted from its b edge, family 1 from a: they meet half-way up the shared part
-    assert x.depth1 == pytest.approx(0.5 * both)
-    assert x.depth0 == pytest.approx(depth[0] - 0.5 * both)
+    # family 0 slotted from its b edge, family 1 from a: they meet half-way up the shared
+    # part, each running half the clearance past it (the slot ends stand C apart)
+    assert x.depth1 == pytest.approx(0.5 * both + 0.5 * C)
+    assert x.depth0 == pytest.approx(depth[0] - 0.5 * both + 0.5 * C)
     slots = {p.family: s for p in fs.parts for s in p.slots}
     assert slots[0].depth == pytest.approx(x.depth0) and slots[1].depth == pytest.approx(x.depth1)
     assert not interfering_pairs(fs.solids(workers=1))

@@ -36,7 +36,7 @@ def test_egg_crate_one_part_per_strip_with_stable_ids_and_colours():
 
 @pytest.mark.parametrize("make", [sphere_structure, cylinder_structure, flat_structure])
 @pytest.mark.parametrize("ratio", [0.5, 0.3])
-def test_slot_depths_add_up_to_fin_depth_and_widths_match(make, ratio):
+def test_slot_depths_add_up_to_fin_depth_and_clearance_and_widths_match(make, ratio):
     s = make()
     t, c = 3.0, 0.4
     fs = FinSystem(s, thickness=t, clearance=c, slot_ratio=ratio)
@@ -48,8 +48,9 @@ def test_slot_depths_add_up_to_fin_depth_and_widths_match(make, ratio):
         s1 = [sl for p in fs.parts if p.family == 1 for sl in p.slots if sl.node == x.node]
         assert len(s0) == len(s1) == 1
         assert s0[0].side == SlotSide.B and s1[0].side == SlotSide.A
-        assert s0[0].depth + s1[0].depth == pytest.approx(depth[x.node], rel=1e-12)
-        assert s0[0].depth == pytest.approx(ratio * depth[x.node], rel=1e-12)
+        # each runs half the clearance past where they meet: the slot ends stand c apart
+        assert s0[0].depth + s1[0].depth == pytest.approx(depth[x.node] + c, rel=1e-12)
+        assert s0[0].depth == pytest.approx(ratio * depth[x.node] + 0.5 * c, rel=1e-12)
         # widths from the crossing angle and folds there: t + c only for flat plates at 90 deg
         assert s0[0].width == pytest.approx(slot_width(x.angle, thickness=t, clearance=c,
                                                        fold_self=x.fold if make is cylinder_structure else 0.0,

@@ -100,12 +100,18 @@ def test_slots_are_cut_where_the_crossing_plate_passes(sphere_fs):
         in_slot1 = a + 0.5 * x.depth1 * u       # inside family 1's slot (open on the a side)
         assert not p0.is_inside(Vector(*in_slot0)) and p1.is_inside(Vector(*in_slot0))
         assert p0.is_inside(Vector(*in_slot1)) and not p1.is_inside(Vector(*in_slot1))
-        # the slots meet: both bottoms are at the same point of the node line
-        assert x.depth0 + x.depth1 == pytest.approx(np.linalg.norm(b - a), rel=1e-12)
-        bottom = a + x.depth1 * u
-        for d, inside0 in ((+0.2, False), (-0.2, True)):
-            q = Vector(*(bottom + d * u))
-            assert p0.is_inside(q) == inside0 and p1.is_inside(q) == (not inside0)
+        # the slots run past each other by the clearance (0.5 mm): their ends stand that far
+        # apart on the node line, and between them neither plate is
+        assert x.depth0 + x.depth1 == pytest.approx(np.linalg.norm(b - a) + 0.5, rel=1e-12)
+        end1, end0 = a + x.depth1 * u, b - x.depth0 * u
+        assert np.linalg.norm(end1 - end0) == pytest.approx(0.5, rel=1e-9)
+        for at, plate in ((end1, p1), (end0, p0)):
+            # just beyond its slot's end a plate is solid, just inside it it is not
+            past = 0.1 if plate is p1 else -0.1
+            assert plate.is_inside(Vector(*(at + past * u)))
+            assert not plate.is_inside(Vector(*(at - past * u)))
+        gap = Vector(*(0.5 * (end0 + end1)))
+        assert not p0.is_inside(gap) and not p1.is_inside(gap)
         # width: half the slot width either side of the node line, in family 0's panel
         part0 = fs.part(x.parts0[0])
         j = [sl.position for sl in part0.slots if sl.node == x.node][0]

@@ -56,13 +56,14 @@ def test_a_seam_in_the_slot_needs_no_connector_and_assembles(split_for_length):
     assert (seam.family, seam.parts, seam.holders) == (0, ("F0-S001-P00", "F0-S001-P01"),
                                                        ("F1-S002-P00",))
     assert fs.joint_fallbacks == []
-    # both parts slotted at their ends (from the b edge, half the 100 mm depth): the crossing
+    # both parts slotted at their ends (from the b edge, half the 100 mm depth and half the
+    # clearance past it, where the column's slot ends clearance apart): the crossing
     # holds them; the two ends stand clearance/2 off the node line (x = 600 mm)
     left, right = fs.part("F0-S001-P00"), fs.part("F0-S001-P01")
     [sl] = [s for s in left.slots if s.node == 7]
     [sr] = [s for s in right.slots if s.node == 7]
     assert (sl.position, sr.position) == (2, 0)
-    assert sl.side.value == sr.side.value == "b" and sl.depth == sr.depth == pytest.approx(50.0)
+    assert sl.side.value == sr.side.value == "b" and sl.depth == sr.depth == pytest.approx(50.0 + C / 2)
     assert left.panels[-1][[1, 2], 0] == pytest.approx([600 - C / 2] * 2)
     assert right.panels[0][[0, 3], 0] == pytest.approx([600 + C / 2] * 2)
     # and the whole design assembles, by the independent check on every solid
@@ -166,11 +167,11 @@ def test_a_seam_whose_parts_slide_in_from_opposite_edges_is_held_by_two_tongues(
     assert seam.parts == ("F1-S001-P00", "F1-S001-P01") and seam.holders == ("F0-S002-P00",)
     assert not [c for c in fs.connectors if c.id.strip == 7] and not fs.joint_fallbacks
     row = sorted((s.side.value, round(s.depth, 6)) for s in fs.part("F0-S002-P00").slots if s.node == 7)
-    assert row == [("a", round(100 / 3, 6)), ("b", round(100 / 3, 6))]
+    assert row == [("a", round(100 / 3 + C / 2, 6)), ("b", round(100 / 3 + C / 2, 6))]
     [first] = [s for s in fs.part("F1-S001-P00").slots if s.node == 7]
     [second] = [s for s in fs.part("F1-S001-P01").slots if s.node == 7]
     assert (first.side.value, second.side.value) == ("a", "b")
-    assert first.depth == pytest.approx(200 / 3) and second.depth == pytest.approx(200 / 3)
+    assert first.depth == pytest.approx(200 / 3 + C / 2) and second.depth == pytest.approx(200 / 3 + C / 2)
     # one joint record per part, each with its own sense along the node axis (z)
     dirs = {j.parts[-1]: j.insert_direction for j in fs.joints if j.node == 7}
     assert dirs["F1-S001-P00"] @ dirs["F1-S001-P01"] == pytest.approx(-1.0)

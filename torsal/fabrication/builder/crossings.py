@@ -23,6 +23,40 @@ from .seams import SeamReason, SlotSeams
 from .strips import _Strips
 
 
+def slot_depths(depths, ratio: float, sense: int, *, end_gap: float = 0.0) -> tuple[float, float]:
+    """``(d0, d1)``: how deep the family-0 and family-1 plates are slotted at a crossing whose
+    fins are ``depths`` (family 0, family 1) deep along the node line (``unit``). The two
+    slots meet inside the stretch both plates cover, ``[0, min(depths)]`` from ``a``: family
+    0's slot takes ``ratio`` of it, from its ``b`` edge where ``sense`` > 0 (family 1 then from
+    its ``a`` edge), else from its ``a`` edge; each runs ``end_gap / 2`` past the meeting
+    point (no deeper than its fin), so that the two plates sit flush with their slot ends
+    ``end_gap`` apart instead of bottoming out on each other. Equal depths ``d``, no gap:
+    ``(ratio d, (1 - ratio) d)``.
+
+    Why the gap: slot ends that meet exactly touch over a face, so the independent assembly
+    check could not prove the two plates apart by its separating axes and gave every
+    egg-crate pair and path an exact boolean (897 on 7a at full size, two thirds of the
+    check's time); a gap of the clearance proves them apart for free, as it does the slots'
+    sides, and a workshop's slots are cut past half for the same reason.
+
+    >>> slot_depths([0.4, 0.2], 0.5, 1)
+    (0.30000000000000004, 0.1)
+    >>> slot_depths([0.4, 0.2], 0.5, -1)
+    (0.1, 0.1)
+    >>> slot_depths([400.0, 400.0], 0.5, 1, end_gap=0.5)
+    (200.25, 200.25)
+    """
+    D0, D1 = float(depths[0]), float(depths[1])
+    both = min(D0, D1)
+    if sense > 0:      # family 0 down from its b edge, family 1 up from a, meeting at m
+        m = (1.0 - ratio) * both
+        d0, d1 = D0 - m, m
+    else:              # family 0 up from a, family 1 down from its b edge
+        m = ratio * both
+        d0, d1 = m, D1 - m
+    return min(d0 + 0.5 * end_gap, D0), min(d1 + 0.5 * end_gap, D1)
+
+
 class CrossingSlotter:
     """Slots the egg-crate crossings of a fin system ``fs`` under construction: fills the parts'
     ``slots``, its ``crossings``, egg-crate ``joints``, ``slot_conflicts``, the slide plan of its
@@ -117,27 +151,10 @@ class CrossingSlotter:
         each at least two plate thicknesses."""
         return TONGUE_SHARE * depth >= 2.0 * self.fs.thickness
 
-    @staticmethod
-    def _slot_depths(depths, ratio: float, sense: int) -> tuple[float, float]:
-        """``(d0, d1)``: how deep the family-0 and family-1 plates are slotted at a crossing
-        whose fins are ``depths`` (family 0, family 1) deep along the node line. The two
-        slots meet inside the stretch both plates cover, ``[0, min(depths)]`` from ``a``:
-        family 0's slot takes ``ratio`` of it, from its ``b`` edge where ``sense`` > 0
-        (family 1 then from its ``a`` edge), else from its ``a`` edge. Equal depths ``d``:
-        ``(ratio d, (1 - ratio) d)``.
-
-        >>> CrossingSlotter._slot_depths([0.4, 0.2], 0.5, 1)
-        (0.30000000000000004, 0.1)
-        >>> CrossingSlotter._slot_depths([0.4, 0.2], 0.5, -1)
-        (0.1, 0.1)
-        """
-        D0, D1 = float(depths[0]), float(depths[1])
-        both = min(D0, D1)
-        if sense > 0:      # family 0 down from its b edge, family 1 up from a, meeting at m
-            m = (1.0 - ratio) * both
-            return D0 - m, m
-        m = ratio * both   # family 0 up from a, family 1 down from its b edge
-        return m, D1 - m
+    def _slot_depths(self, depths, ratio: float, sense: int) -> tuple[float, float]:
+        """:func:`slot_depths` at a crossing of this fin system: the slot ends stand its
+        clearance apart."""
+        return slot_depths(depths, ratio, sense, end_gap=self.fs.clearance)
 
     @staticmethod
     def _end_depth(p: Part, pos: int, side: SlotSide, depth: float, a: np.ndarray,
