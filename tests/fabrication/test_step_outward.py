@@ -137,3 +137,23 @@ def test_step_read_in_the_background_gives_the_same_solids(tmp_path):
     assert [n for n, _ in stage._step_solids(path)] == [PLATE.name]   # the new file
     stage.drop_prefetched_solids()
     assert stage._PREFETCHED.get() is None
+
+
+def test_the_background_read_meshes_the_solids_as_the_check_would(tmp_path):
+    # the reading process meshes the solids for the assembly check: the triangles it sends
+    # are those the check makes of the same file read here, bit for bit
+    from torsal.fabrication.assembly import TOUCHING_TOLERANCE
+    from torsal.fabrication.assembly.occ import _boundary_triangles, _mesh
+    from torsal.fabrication.exports import binary_round_trip, start_read_step
+
+    path = tmp_path / "joint.step"
+    write_step([(p.name, _part_shape(p, T), (0.5, 0.5, 0.5)) for p in (PLATE, BRACKET)], path,
+               unit="mm")
+    pending = start_read_step(path, mesh_tolerance=TOUCHING_TOLERANCE)
+    assert pending._process is not None
+    there = pending.result()
+    here = binary_round_trip(read_step(path))
+    _mesh([s for _, s in here], TOUCHING_TOLERANCE)
+    for (_, a), (_, b) in zip(there, here):
+        ta, tb = _boundary_triangles(a), _boundary_triangles(b)
+        assert len(ta) >= 12 and np.array_equal(ta, tb)

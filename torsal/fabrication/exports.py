@@ -188,18 +188,38 @@ def read_step(path) -> list[tuple[str, object]]:
     return out
 
 
-def _read_in_child(path: str, conn) -> None:
-    """Reading process: ``("done", [(name, BRep bytes)])`` of :func:`read_step` (shapes do not
-    pickle: OpenCascade's binary form, see :func:`binary_round_trip`) or ``("error",
+def _read_in_child(path: str, mesh_tolerance: float | None, conn) -> None:
+    """Reading process: ``("done", [(name, BRep bytes)])`` of :func:`_read_meshed` (shapes
+    do not pickle: OpenCascade's binary form, see :func:`binary_round_trip`) or ``("error",
     exception)``."""
     from .workers import _to_bytes
 
     try:
-        message = ("done", [(name, _to_bytes(solid)) for name, solid in read_step(path)])
+        message = ("done", [(name, _to_bytes(solid))
+                            for name, solid in _read_meshed(path, mesh_tolerance)])
     except BaseException as exc:            # raised again in the parent
         message = ("error", exc if isinstance(exc, OSError) else RuntimeError(f"{type(exc).__name__}: {exc}"))
     conn.send(message)
     conn.close()
+
+
+def _read_meshed(path, mesh_tolerance: float | None) -> list[tuple[str, object]]:
+    """:func:`read_step`, meshed for the assembly check at ``mesh_tolerance`` (its touching
+    tolerance, unit; None: not meshed). The triangles travel with OpenCascade's binary form:
+    the process that reads the file meshes it, and the check's own meshing of the same
+    shapes, with the same parameters, finds it done."""
+    solids = read_step(path)
+    if mesh_tolerance is not None:
+        from .assembly.occ import _mesh
+
+        _mesh([s for _, s in solids], mesh_tolerance)
+    return solids
+
+
+def _read_for_check(path, mesh_tolerance: float | None) -> list[tuple[str, object]]:
+    """:func:`_read_meshed` in OpenCascade's binary form (:func:`binary_round_trip`): what the
+    reading process sends, read in this one."""
+    return binary_round_trip(_read_meshed(path, mesh_tolerance))
 
 
 def binary_round_trip(solids: list[tuple[str, object]]) -> list[tuple[str, object]]:
@@ -218,19 +238,19 @@ class PendingStepRead:
     may be started (a daemonic worker, :func:`~torsal.core.parallel.limit_workers` ``(1)``),
     :meth:`result` reads the file in this process."""
 
-    def __init__(self, path):
+    def __init__(self, path, mesh_tolerance: float | None = None):
         import multiprocessing as mp
 
         from torsal.core.parallel import usable_workers
 
-        self.path = Path(path)
+        self.path, self.mesh_tolerance = Path(path), mesh_tolerance
         self._process = self._conn = None
         if usable_workers(2) < 2:
             return
         # forked from the clean server the solids' workers come from (OpenCascade imported)
         ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
         self._conn, child = ctx.Pipe(duplex=False)
-        self._process = ctx.Process(target=_read_in_child, args=(str(self.path), child),
+        self._process = ctx.Process(target=_read_in_child, args=(str(self.path), mesh_tolerance, child),
                                     name="torsal-read-step", daemon=True)
         self._process.start()
         child.close()
@@ -239,7 +259,7 @@ class PendingStepRead:
         """``[(name, TopoDS_Solid)]`` of :func:`read_step`, in OpenCascade's binary form
         (:func:`binary_round_trip`) wherever they were read (waits)."""
         if self._process is None:
-            return binary_round_trip(read_step(self.path))
+            return _read_for_check(self.path, self.mesh_tolerance)
         from .workers import _from_bytes
 
         try:
@@ -261,17 +281,18 @@ class PendingStepRead:
             self._process.join()
 
 
-def start_read_step(path) -> PendingStepRead:
+def start_read_step(path, *, mesh_tolerance: float | None = None) -> PendingStepRead:
     """Start :func:`read_step` of ``path`` in a process of its own and return at once: the
     caller goes on (writes other files, measures light) while OpenCascade's reader parses
     and heals the file; ``.result()`` gives its ``[(name, solid)]`` in OpenCascade's binary
     form (vertices bit for bit; each plane's direction normalized again on reading, which
-    moves a volume by round-off, about 1e-15 of it).
+    moves a volume by round-off, about 1e-15 of it). With ``mesh_tolerance`` (the assembly
+    check's touching tolerance, unit) that process meshes them for the check too.
 
     >>> pending = start_read_step("fins.step")          # doctest: +SKIP
     >>> solids = pending.result()                        # doctest: +SKIP
     """
-    return PendingStepRead(path)
+    return PendingStepRead(path, mesh_tolerance)
 
 
 def _tessellate(fin_system, tolerance: float | None):

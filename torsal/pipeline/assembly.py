@@ -106,9 +106,13 @@ def prefetch_step_solids(path) -> None:
     file changed since is read again."""
     from ..fabrication.exports import start_read_step
 
+    from ..fabrication.assembly import TOUCHING_TOLERANCE
+
     drop_prefetched_solids()
     path = Path(path)
-    _PREFETCHED.set(_Prefetch(path.resolve(), _stamp(path), start_read_step(path)))
+    # (meshed there for the check too: a few seconds of this process's time on 7a)
+    _PREFETCHED.set(_Prefetch(path.resolve(), _stamp(path),
+                              start_read_step(path, mesh_tolerance=TOUCHING_TOLERANCE)))
 
 
 def drop_prefetched_solids() -> None:

@@ -80,7 +80,7 @@ from .memo import AssemblyMemo, solid_digest
 from .occ import (_bbox, _boolean_common, _boundary_triangles, _face_prism, _face_records, _mesh,
                   _volume, common_volume, face_polygons, solid_distance)
 from .records import AssemblyJoint, joint_groups, joints_of
-from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
+from .result import MIN_INTERFERENCE_VOLUME, TOUCHING_TOLERANCE, AssemblyCheck, AssemblyStep, Interference
 from .separation import (CLEAR_TOLERANCE, _inside_by_ray, hull_clear_of_triangles, prism_clear,
                          prisms_clear, solid_clear, solid_cover, surfaces_clear)
 from .sweep import swept_overlap
@@ -88,5 +88,6 @@ from .sweep import swept_overlap
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "AssemblyChecker",
            "check_assembly", "verify_assembly", "joints_of", "face_polygons", "common_volume",
            "solid_distance", "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME",
+           "TOUCHING_TOLERANCE",
            "CLEAR_TOLERANCE", "hull_clear_of_triangles", "prism_clear", "prisms_clear",
            "solid_cover", "solid_clear", "surfaces_clear", "AssemblyMemo", "solid_digest"]

@@ -20,7 +20,7 @@ from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _
                   _inside, _mesh, _near, _shape, _vertices, common_volume, is_upright)
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
-from .result import MIN_INTERFERENCE_VOLUME, AssemblyCheck, AssemblyStep, Interference
+from .result import MIN_INTERFERENCE_VOLUME, TOUCHING_TOLERANCE, AssemblyCheck, AssemblyStep, Interference
 from .separation import solid_clear, solid_cover, surfaces_clear
 from .sweep import swept_overlap
 from .workers import JobPool
@@ -60,7 +60,7 @@ class AssemblyChecker:
     """
 
     def __init__(self, names: list[str], solids: list, joints: Iterable = (), *,
-                 tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
+                 tolerance: float = TOUCHING_TOLERANCE, min_volume: float = MIN_INTERFERENCE_VOLUME,
                  workers: int | None = None, unit: str = "mm", progress: Progress | None = None,
                  memo: AssemblyMemo | None = None):
         self.names = [str(n) for n in names]
@@ -92,6 +92,11 @@ class AssemblyChecker:
     def vertices(self, k: int) -> np.ndarray:
         """(v, 3) vertices of solid ``k``, made once per process."""
         return self._keep("vertices", k, lambda: _vertices(self.shapes[k]))
+
+    def upright(self, k: int) -> bool:
+        """:func:`~.occ.is_upright` of solid ``k``, once per process, when a boolean needs it
+        (not checked by OpenCascade in each of its booleans)."""
+        return self._keep("upright", k, lambda: is_upright(self.shapes[k]))
 
     def _meshed(self) -> None:
         """Triangulate the solids for the cheap tests, once, before any worker is forked (a
@@ -127,7 +132,7 @@ class AssemblyChecker:
                     solid_clear(self.cover(j), ta, ba, triangle_boxes=tba) or \
                     surfaces_clear(ta, tb, ba, bb, triangle_boxes=tbb):
                 return i, j, 0.0, 0.0, ""
-            return i, j, 0.0, common_volume(a, b, upright=self.upright[i] and self.upright[j]), ""
+            return i, j, 0.0, common_volume(a, b, upright=self.upright(i) and self.upright(j)), ""
         except Exception as e:   # OpenCascade failures: reported per pair, never assumed clear
             return i, j, float("nan"), float("nan"), f"{type(e).__name__}: {e}"
 
@@ -148,7 +153,7 @@ class AssemblyChecker:
         k, vector, others, stop_above = job
         return k, swept_overlap(self.shapes[k], vector, [self.shapes[o] for o in others],
                                 stop_above=stop_above, faces=self.faces(k),
-                                upright=[self.upright[o] for o in others],
+                                upright=lambda n: self.upright(others[n]),
                                 triangles=lambda n: self.triangles(others[n])[0],
                                 boxes=lambda n: self.boxes[others[n]])
 
@@ -186,8 +191,6 @@ class AssemblyChecker:
         t0 = time.perf_counter()
         try:
             self.boxes = np.array([_bbox(s) for s in self.shapes]).reshape(-1, 2, 3)
-            # checked once here, not by OpenCascade in each of the solid's booleans
-            self.upright = [is_upright(s) for s in self.shapes]
             self.digests = ([solid_digest(s, self.vertices(k)) for k, s in enumerate(self.shapes)]
                             if self.memo is not None else None)
             # one pool of workers for the pairs and every try of the paths: a worker keeps the
@@ -319,7 +322,7 @@ class AssemblyChecker:
 
 
 def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
-                   tolerance: float = 1.0, min_volume: float = MIN_INTERFERENCE_VOLUME,
+                   tolerance: float = TOUCHING_TOLERANCE, min_volume: float = MIN_INTERFERENCE_VOLUME,
                    workers: int | None = None, unit: str = "mm",
                    progress: Progress | None = None,
                    memo: AssemblyMemo | None = None) -> AssemblyCheck:
@@ -359,7 +362,7 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
                            unit=unit, progress=progress, memo=memo).run()
 
 
-def verify_assembly(fin_system, *, step_file=None, tolerance: float = 1.0,
+def verify_assembly(fin_system, *, step_file=None, tolerance: float = TOUCHING_TOLERANCE,
                     min_volume: float = MIN_INTERFERENCE_VOLUME, workers: int | None = None,
                     progress: Progress | None = None) -> AssemblyCheck:
     """:func:`check_assembly` of a :class:`~torsal.fabrication.FinSystem`: its solids (or, with

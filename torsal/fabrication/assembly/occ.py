@@ -329,7 +329,7 @@ def _boundary_triangles(shape) -> np.ndarray:
     meshed first if it is not (:class:`~.checker.AssemblyChecker` keeps them per solid)."""
     from OCP.BRepTools import BRepTools
 
-    from ..solids import _triangles
+    from ..plates import _triangles
 
     if not BRepTools.Triangulation_s(shape, 0.1):
         _mesh([shape], 1.0)           # serially (a check meshes its solids before any fork)

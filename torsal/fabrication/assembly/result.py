@@ -11,11 +11,15 @@ from pathlib import Path
 
 from torsal.core.atomic import atomic_path
 
-__all__ = ["MIN_INTERFERENCE_VOLUME", "Interference", "AssemblyStep", "AssemblyCheck"]
+__all__ = ["MIN_INTERFERENCE_VOLUME", "TOUCHING_TOLERANCE", "Interference", "AssemblyStep", "AssemblyCheck"]
 
 #: unit^3 (mm^3): a common volume above this is an interference (below it: round-off of the
 #: booleans on plates that touch)
 MIN_INTERFERENCE_VOLUME = 1.0
+
+#: unit (mm): parts closer than this touch and get the exact test; the solids are meshed at a
+#: tenth of it for the cheap ones
+TOUCHING_TOLERANCE = 1.0
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
                   faces: list[_Face] | None = None,
                   triangles: Callable[[int], np.ndarray] | None = None,
                   boxes: Callable[[int], np.ndarray] | None = None,
-                  upright: Sequence[bool] | None = None) -> list[float]:
+                  upright: Callable[[int], bool] | None = None) -> list[float]:
     """Volume that ``moving`` sweeps on its way from ``position - vector`` to its place and that
     lies inside each of ``others`` (unit^3, one per other; an upper bound: the sum over the
     prisms every face of ``moving`` sweeps along ``vector``, each intersected exactly). With
@@ -32,8 +32,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     triangles' prisms it proves apart one by one (:func:`face_pieces`).
     ``faces``: the face records of ``moving`` (``_face_records``), if made already;
     ``triangles(i)``: the boundary triangles of ``others[i]`` (``_boundary_triangles``), and
-    ``boxes(i)`` its bounding box (``_bbox``), if kept; ``upright[i]``: whether ``others[i]``
-    is known to face outwards (:func:`~.occ.is_upright`; the prisms do by construction).
+    ``boxes(i)`` its bounding box (``_bbox``), if kept; ``upright(i)``: whether ``others[i]``
+    faces outwards (:func:`~.occ.is_upright`; the prisms do by construction), if known.
 
     >>> from build123d import Box, Pos
     >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
@@ -73,7 +73,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
             if ptri is not None and surfaces_clear(ptri, otri, pb, ob):
                 continue
             try:
-                total += common_volume(pr, o, upright=upright is not None and upright[i])
+                total += common_volume(pr, o, upright=upright is not None and upright(i))
             except RuntimeError:
                 total = float("inf")
             if total > stop_above:
