@@ -458,7 +458,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     # the solids (most of the stage's work) are built by worker processes while this one
     # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards. The
     # workers take seconds to start (each imports OpenCascade): they start while this
-    # process builds the parts (about one per fin)
+    # process builds the parts (about one per fin), and check the seams meanwhile
     if solids:         # the workers mesh the solids too when the 3DM needs them
         prepare_workers(len(structure.edges), mesh=spec.outputs.rhino_3dm)
     written = {}
@@ -469,18 +469,8 @@ def run_fabrication(inp: StageInputs) -> dict:
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
     try:
-        if spec.outputs.step:
-            fs.export_step(out / "fins.step")
-            written["step"] = "fins.step"
-            # the assembly stage checks the solids as this file gives them: read it again
-            # in the background while the 3DM, the parts list and the light are made
-            prefetch_step_solids(out / "fins.step")
-        if spec.outputs.rhino_3dm:
-            fs.export_3dm(out / "fins.3dm")
-            written["3dm"] = "fins.3dm"
-        if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
-            fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
-            written["ifc"] = "fins.ifc"
+        # the sheets first: they need only the flat parts, and this process nests and
+        # writes them while the workers build the solids
         layout = _nest(inp, fs)
         sheets = None
         if spec.outputs.dxf:
@@ -489,6 +479,18 @@ def run_fabrication(inp: StageInputs) -> dict:
         if spec.outputs.bom:
             fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
             written["bom"] = "parts.csv"
+        if spec.outputs.step:
+            fs.export_step(out / "fins.step")
+            written["step"] = "fins.step"
+            # the assembly stage checks the solids as this file gives them: read it again
+            # in the background while the 3DM, the IFC and the light are made
+            prefetch_step_solids(out / "fins.step")
+        if spec.outputs.rhino_3dm:
+            fs.export_3dm(out / "fins.3dm")
+            written["3dm"] = "fins.3dm"
+        if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
+            fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
+            written["ifc"] = "fins.ifc"
     except BaseException:
         fs.cancel_solids()
         drop_prefetched_solids()
