@@ -220,6 +220,7 @@ class PendingSolids:
         self._workers = _take_workers(workers)
         self._pool = self._workers.pool
         self._futures: list = []
+        self._brep_futures: list = []
         self._error: BaseException | None = None
         # submitting waits for the processes to start: a thread does that, so the caller
         # goes on at once
@@ -234,13 +235,21 @@ class PendingSolids:
             for c in chunks:
                 self._futures.append(self._pool.submit(
                     _build_chunk, (c, self.thickness, self.repair, self._workers.mesh)))
+            if self._workers.mesh:
+                # the 3DM's Breps of each chunk as soon as it is built: the caller writes the
+                # sheets meanwhile, and finds them made when it writes the 3DM
+                tol = MESH_TOLERANCE * self.thickness
+                for f in list(self._futures):
+                    rows = [(name, data) for name, _, data, _ in f.result()[0] if data is not None]
+                    if rows:
+                        self._brep_futures.append(self._pool.submit(_brep_chunk, (rows, tol)))
         except BaseException as e:        # re-raised by result()
             self._error = e
 
     def result(self) -> list:
         """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits). With
-        ``mesh`` the workers then make the 3DM's Breps (:meth:`breps`) while the caller
-        writes the STEP file: the solids come first, the Breps are wanted only for the 3DM."""
+        ``mesh`` the workers make the 3DM's Breps (:meth:`breps`) of each chunk once it is
+        built, and go on with them while the caller writes the STEP file."""
         self._starter.join()
         try:
             if self._error is not None:
@@ -256,14 +265,7 @@ class PendingSolids:
             for name, status, data, detail in rows:
                 res[name] = (status, None if data is None else _from_bytes(data), detail)
                 data_of[name] = data
-        self._brep_futures = []
-        if self._workers.mesh:
-            rows = [(p.name, data_of[p.name]) for p in self.parts if data_of[p.name] is not None]
-            n_chunks = min(len(rows), 4 * self.workers)
-            tol = MESH_TOLERANCE * self.thickness
-            self._brep_futures = [self._pool.submit(_brep_chunk, (rows[i::n_chunks], tol))
-                                  for i in range(n_chunks)]
-        else:
+        if not self._workers.mesh:
             self._pool.shutdown(wait=True)
         return [(p.name,) + res[p.name] for p in self.parts]
 
@@ -280,8 +282,8 @@ class PendingSolids:
         return {name: brep for rows, _ in done for name, brep in rows}
 
     def cancel(self) -> None:
-        """Stop: chunks not yet started are dropped, the workers end after their current one."""
-        self._starter.join()
+        """Stop: chunks not yet started are dropped, the workers end after their current one
+        (the thread that hands them out stops at the first it finds cancelled or refused)."""
         self._pool.shutdown(wait=False, cancel_futures=True)
 
 
