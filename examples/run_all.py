@@ -67,7 +67,7 @@ def row(key: str, r: dict | None, err: str | None) -> str:
     p = PAPER.get(key)
     paper = (f"{p[0]} / {p[1]} / {p[2]:g} s / {p[3]:g} / {p[4]:g}" if p else "(no row)")
     if r is None:
-        return f"| {key} | failed: {err} |" + " |" * 17 + f" {paper} |"
+        return f"| {key} | failed: {err} |" + " |" * 18 + f" {paper} |"
     c, s, li = r["congruence"], r["support"], r["light"]
     fa = r.get("fabrication", {})
     return (f"| {key} | {c['vertices']} | {c['faces']} | {c['build_s'] + c['solve_s']:.1f} | "
@@ -78,8 +78,18 @@ def row(key: str, r: dict | None, err: str | None) -> str:
             f"{final_cut_cell(r)} | "
             f"{min_torsal_angle(c)} | "
             f"{interfering_cell(fa.get('assembly'))} | {connector_cell(fa)} | {seams_cell(fa)} | "
-            f"{fastener_cell(fa)} | "
+            f"{fastener_cell(fa)} | {quantities_cell(fa)} | "
             f"{left_out_cell(fa, s['edges'])} | {paper} |")
+
+
+def quantities_cell(fa: dict) -> str:
+    """The bill of quantities' totals (report.json ``fabrication.quantities``): net / gross
+    kg of sheet, metres of cut, pierces, bends."""
+    q = fa.get("quantities")
+    if not q:
+        return "-"
+    return (f"{q['net_kg']:,.0f} / {q['gross_kg']:,.0f} kg; {q['cut_m']:,.0f} m cut; "
+            f"{q['pierces']:,} pierces; {q['bends']:,} bends")
 
 
 def louvers(li: dict, key: str) -> str:
@@ -210,9 +220,10 @@ def main():
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
              "sheets / area bound | utilization (DXF) | final cut: sheets / yield (s) | "
              "min torsal angle, measured (deg): planes / directions in the face | interfering pairs | connectors (share of parts); fixings | "
-             "seams in slots; fallbacks | fasteners; bolts per m² | fin panels left out | "
+             "seams in slots; fallbacks | fasteners; bolts per m² | "
+             "bill of quantities: net / gross sheet, cut, pierces, bends | fin panels left out | "
              "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     started, t0, loads, keys = datetime.now(timezone.utc), time.perf_counter(), [os.getloadavg()[0]], []
     for path in sorted(HERE.glob("*.toml"), key=lambda p: _figure_key(p.stem.split("_")[0])):
         key = path.stem.split("_")[0]
