@@ -20,14 +20,13 @@ REPORT_KEYS = {
 }
 ASSEMBLY_KEYS = {"pairs_checked", "interfering_pairs", "worst_overlap_mm3", "buildable", "joints",
                  "connectors"}
-#: examples whose test-size parts the assembly check still finds interfering or blocked
-#: (2026-11-28: 11's F1-S008-P01 is blocked only as read back from fins.step: the exact
-#: boolean of one face's path prism with F0-S000-P03 returns all of F0-S000-P03, 92,804 mm^3,
-#: in both orders and 0 with the fuzzy tolerance, so the median of the three calls it a
-#: collision; on the fin system's own solids, the same parts and joint records, its path is
-#: clear and the design buildable). The report says so truthfully (checked in the test) and
-#: the gap stays visible
-NOT_YET_BUILDABLE: set[str] = {"11"}
+#: examples whose test-size parts the assembly check still finds interfering or blocked: the
+#: report says so truthfully (checked in the test) and the gap stays visible. Empty since
+#: 2026-11-28: 11's F1-S008-P01 was blocked only on the solids read back from fins.step (the
+#: exact boolean of one face's path prism with F0-S000-P03 gave all of F0-S000-P03, 92,804
+#: mm^3, in both orders and the fuzzy one 0; on the fin system's own solids its path was
+#: clear); at commit 420a42a 11 at test size builds (exit 0, the same check from fins.step)
+NOT_YET_BUILDABLE: set[str] = set()
 
 
 def recount_interference(step_file) -> list[float]:
