@@ -17,7 +17,22 @@ them (cores used = CPU seconds / wall seconds).
 
 ``--size issue40`` is issue 40's study: 7a on a 9 x 9 mesh, fabrication on, fins.spacing
 [1.5, 2.0] x fins.depth [0.3, 0.5] (4 variants; target 60 s with 2 workers), and prints each
-variant's stage seconds.
+variant's stage seconds. Measured 2026-11-28 22:47 UTC (commit b327f26, load 2.0 before, other
+jobs on the machine: the runs got 0.63-0.67 of its 2 cores)::
+
+    run                               wall s   cpu s cores used  done solves  saved
+    serial (1 process, 1 core)          32.6    21.7       0.67     4      1      3
+    Dask, 2 workers                     42.1    26.7       0.63     4      1      3
+
+    starting the cluster and importing on its workers (warm_up): 15.0 s
+
+    | variant | spacing | depth | wall s | assembly | congruence | fabrication |
+    | 000 | 1.5 | 0.3 | 15.5 | 7.9 | 0.3 | 6.9 |
+    | 001 | 1.5 | 0.5 | 10.0 | 5.0 | cached | 4.6 |
+    | 002 | 2 | 0.3 | 13.1 | 7.8 | cached | 4.9 |
+    | 003 | 2 | 0.5 | 14.4 | 8.3 | cached | 5.6 |
+
+(526 s on 2026-11-25's code: nesting 79 s and the assembly check 58 s per variant.)
 
 Run: ``.venv/bin/python benchmarks/study_bench.py [--size test|full|issue40] [--workers 2]``.
 
