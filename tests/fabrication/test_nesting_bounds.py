@@ -3,6 +3,7 @@ than half the sheet, its bin packing, and the final cut's search on instances wh
 known: it reaches it, stops there without searching, and gives the same sheets twice."""
 import numpy as np
 import pytest
+from shapely import affinity
 from shapely.geometry import Polygon, box
 
 from torsal.fabrication.cutting import Cutting
@@ -91,3 +92,40 @@ def test_the_search_reaches_a_known_optimum_and_repeats_it():
     assert a.utilization == pytest.approx(16 * 1230 * 300 / (2 * SHEET[0] * SHEET[1]))
     assert a.utilization > 0.94
     assert placements(a) == placements(b)
+
+
+def test_a_part_dropped_onto_a_sheet_as_it_is():
+    """Two strips on a sheet: a third, dropped from above, lands on them (the two stay where
+    they are) and keeps the spacing; a fourth finds no room above the third."""
+    from torsal.fabrication.nesting.rows import prepare
+    from torsal.fabrication.nesting.search import _Dropper, _Frame, _Skyline
+
+    parts = {f"s{i}": box(0, 0, 2000, 380) for i in range(4)}
+    w, h, items, sep, edge = prepare(parts, SHEET, 5.0, 10.0, None, "mm")
+    drop = _Dropper(_Skyline(items, _Frame.of(w, h, sep, edge), None),
+                    {it.name: it.outline for it in items})
+    sheet = {"s0": (0.0, (edge, edge)), "s1": (0.0, (edge, edge + 380 + sep))}
+    at = drop(sheet, "s2")
+    assert at is not None
+    sheet["s2"] = at
+    placed = [affinity.translate(affinity.rotate(parts[n], rot, origin=(0, 0)), *off)
+              for n, (rot, off) in sheet.items()]
+    assert sheet_ok(placed, w, h, edge, sep)
+    assert placed[2].bounds[1] >= edge + 2 * (380 + sep) - 1e-6
+    assert drop(sheet, "s3") is None
+
+
+@pytest.mark.parametrize("sheet", [(2500.0, 1250.0), (1250.0, 2500.0)])
+def test_the_search_on_either_sheet_way_is_valid_and_repeats(sheet):
+    rng = np.random.default_rng(11)
+    parts = {}
+    for i in range(45):
+        w, h = rng.uniform(250, 1500), rng.uniform(80, 320)
+        shear = rng.uniform(-200, 200)
+        parts[f"q{i:02d}"] = Polygon([(0, 0), (w, 0), (w + shear, h), (shear, h)])
+    cut = Cutting.for_process("laser")
+    a = nest_search(parts, sheet=sheet, gap=5, margin=10, cutting=cut, tries=150)
+    b = nest_search(parts, sheet=sheet, gap=5, margin=10, cutting=cut, tries=150)
+    assert valid(a, 5, 10, cut) and placements(a) == placements(b)
+    assert {p.name for p in a.placements} == set(parts)
+    assert a.n_sheets <= min(a.stats.starts.values())

@@ -6,13 +6,20 @@
    sheets, then the fullest emptiest sheet, is kept. The rows win on straight strips (7a),
    the skyline on curved ones (9, 11).
 2. **Sheets emptied.** The emptiest sheet is the *victim*; its parts, largest first, are
-   offered to the sheets with the most room (a host's parts and the offer packed afresh on one
-   sheet by the skyline, then by the rows); where all fit, they move. A victim that is emptied
-   is one sheet fewer; one whose largest part finds no host is set aside. It stops at the
-   floor, when no victim is left, or after ``tries`` repacks. The floor is the larger of the
-   area bound's ceiling and the crossing bound (:mod:`.bounds`: the parts longer than half the
-   sheet cross its middle, so their widths there fill the sheets' heights): no layout of the
-   search's goes below it, so a start already there is not searched.
+   first dropped from above onto the fullest sheet that takes them as it is (:class:`_Dropper`:
+   a row end, the strip above the rows), else offered to the sheets with the most room (a
+   host's parts and the offer packed afresh on one sheet by the skyline, then by the rows);
+   where all fit, they move. A victim that is emptied is one sheet fewer; one whose largest
+   part finds no host is set aside.
+3. **Parts gathered.** One of the three emptiest sheets and a fuller one (fullest first) are
+   packed afresh together onto two sheets; where the first comes out fuller than the fuller of
+   the two was, they are replaced (the parts gather on the full sheets and the slack on the
+   empty ones), and the emptiest sheet is tried again (7d: 38 -> 37 sheets).
+
+It stops at the floor, when nothing is left to try, or after ``tries`` repacks. The floor is
+the larger of the area bound's ceiling and the crossing bound (:mod:`.bounds`: the parts longer
+than half the sheet cross its middle, so their widths there fill the sheets' heights): no
+layout of the search's goes below it, so a start already there is not searched.
 
 Every step is a pure function of the parts and the options: the same design gives the same
 sheets on any machine, however busy (``stats.tries`` counts the repacks). ``time_limit`` is
@@ -40,7 +47,7 @@ from ..cutting import Cutting
 from ..layout import Layout, placement_of
 from .bounds import crossing_bound
 from .rows import orientations, prepare, row_layout
-from .skyline import DEFAULT_RESOLUTION, SkylinePacker, column_profiles
+from .skyline import DEFAULT_RESOLUTION, SkylinePacker, _edge_extremes, _grown_top, column_profiles
 from .stats import Nester, NestStats
 
 __all__ = ["nest_search", "SheetEmptier", "DEFAULT_TRIES"]
@@ -117,6 +124,50 @@ class _Skyline:
                 for n, (si, o, x, y) in packer.placed.items()}
 
 
+class _Dropper:
+    """One part dropped from above onto a sheet as it is (the skyline of the parts already
+    there, :mod:`.skyline`), its parts left where they are: a row end or the strip above the
+    rows takes it without the sheet being packed afresh."""
+
+    def __init__(self, sky: _Skyline, outlines: dict):
+        f = sky.frame
+        self.sky, self.frame, self.outlines = sky, f, outlines
+        self.packer = SkylinePacker(f.length, f.height, f.sep, sky.res)
+        self.edges = np.arange(self.packer.columns + 1) * sky.res
+        self.low = {n: min(o.height for o in opts) for n, opts in sky.options.items()}
+        self._kept: dict = {}
+
+    def skyline(self, sheet: dict) -> np.ndarray:
+        """The skyline of the parts of ``sheet`` ``{name: (rot, offset)}`` (usable frame)."""
+        key = tuple(sorted((n, r, tuple(o)) for n, (r, o) in sheet.items()))
+        if key in self._kept:
+            return self._kept[key]
+        f, pk = self.frame, self.packer
+        sky = np.zeros(pk.columns)
+        for n, (rot, (dx, dy)) in sheet.items():
+            c, s = np.cos(np.radians(rot)), np.sin(np.radians(rot))
+            pts = np.asarray(self.outlines[n].exterior.coords) @ np.array([[c, s], [-s, c]]) + (dx, dy)
+            if f.turn:                     # the sheet turned a quarter back into the frame
+                pts = np.c_[pts[:, 1], f.w - pts[:, 0]]
+            _, top = _edge_extremes(pts - f.edge, self.edges)
+            sky = np.maximum(sky, _grown_top(top, pk.res, f.sep, pk.g)[pk.g: pk.g + pk.columns])
+        if len(self._kept) > 4096:
+            self._kept.clear()
+        self._kept[key] = sky
+        return sky
+
+    def __call__(self, sheet: dict, name: str):
+        """``(rot, offset)`` of ``name`` dropped onto ``sheet``, or None where it does not fit."""
+        sky = self.skyline(sheet)
+        if self.low[name] > self.frame.height - float(sky.min()) + 1e-9:
+            return None
+        best = self.packer._best_on(sky, self.sky.options[name])
+        if best is None:
+            return None
+        _, x, y, o = best
+        return self.frame.on_sheet(o.rot, o.shift, x * self.packer.res, y)
+
+
 def _sheets(where: dict) -> list[dict]:
     """``[{name: (rot, offset)}]`` per sheet of ``{name: (sheet, rot, offset)}``."""
     sheets: list[dict] = []
@@ -141,8 +192,9 @@ class SheetEmptier:
 
     def __init__(self, sheets, area, *, fit: Callable, may_try: Callable[[], bool],
                  usable: float, floor: int, host_fill: float = _HOST_FILL, hosts: int = _HOSTS,
-                 progress=None):
+                 progress=None, drop: Callable | None = None):
         self.sheets, self.area, self.fit, self.may_try = sheets, area, fit, may_try
+        self.drop, self.drops = drop, 0
         self.usable, self.floor, self.host_fill, self.hosts = usable, floor, host_fill, hosts
         self.progress = progress
         self.start_sheets = len(sheets)
@@ -152,7 +204,19 @@ class SheetEmptier:
     def filled(self, s: dict) -> float:
         return sum(self.area[n] for n in s)
 
-    def run(self) -> None:
+    def run(self, gather: Callable | None = None) -> None:
+        """Empty sheets (the module docstring's step 2); then, with ``gather``, gather the
+        parts onto the fuller sheets (:meth:`gather`) and try the emptiest sheet again after
+        each change, while the budget lasts."""
+        self._empty_all()
+        while gather is not None and len(self.sheets) > self.floor and self.may_try() \
+                and self.gather(gather):
+            victim = min(self.sheets, key=lambda s: (self.filled(s), sorted(s)))
+            if self.empty(victim):
+                self.sheets.remove(victim)
+                self.emptied += 1
+
+    def _empty_all(self) -> None:
         aside: set = set()              # ids of victims whose largest part found no host
         while len(self.sheets) > self.floor and self.may_try():
             victims = [s for s in self.sheets if id(s) not in aside]
@@ -172,6 +236,8 @@ class SheetEmptier:
         while victim:
             parts = sorted(victim, key=lambda n: (-self.area[n], n))
             first = parts[0]
+            if self.drop is not None and self._drop(victim, first):
+                continue
             hosts = sorted((s for s in self.sheets if s is not victim),
                            key=lambda s: (self.filled(s), sorted(s)))
             hosts = [s for s in hosts if self.host_fill * self.usable - self.filled(s)
@@ -179,6 +245,50 @@ class SheetEmptier:
             if not self._move(victim, parts, first, hosts):
                 return False
         return True
+
+    def gather(self, pack: Callable, victims: int = 3) -> bool:
+        """Pack one of the ``victims`` emptiest sheets together with a fuller one (fullest
+        first) onto two sheets, ``pack(names)`` (``[{name: (rot, offset)}]``, the first sheet
+        filled first); where the first comes out fuller than the fuller of the two was, the
+        two are replaced (the parts gather on the full sheets and the empty ones empty out;
+        one sheet where they fit one). True when something changed."""
+        order = sorted(self.sheets, key=lambda s: (self.filled(s), sorted(s)))
+        for victim in order[:victims]:
+            for host in sorted((s for s in self.sheets if s is not victim),
+                               key=lambda s: (-self.filled(s), sorted(s))):
+                if not self.may_try():
+                    return False
+                self.tries += 1
+                new = pack(sorted(host) + sorted(victim))
+                if len(new) == 1:
+                    host.clear()
+                    host.update(new[0])
+                    self.sheets.remove(victim)
+                    self.emptied += 1
+                    return True
+                if len(new) == 2 and self.filled(new[0]) > self.filled(host) + 1e-6 * self.usable:
+                    host.clear()
+                    host.update(new[0])
+                    victim.clear()
+                    victim.update(new[1])
+                    return True
+        return False
+
+    def _drop(self, victim: dict, name: str) -> bool:
+        """Drop ``name`` onto the fullest other sheet that takes it as it is."""
+        for host in sorted((s for s in self.sheets if s is not victim),
+                           key=lambda s: (-self.filled(s), sorted(s))):
+            if self.usable - self.filled(host) < self.area[name]:
+                continue
+            self.drops += 1
+            at = self.drop(host, name)
+            if at is not None:
+                host[name] = at
+                del victim[name]
+                self.repacked.add(name)
+                self.moves += 1
+                return True
+        return False
 
     def _move(self, victim, parts, first, hosts) -> bool:
         for host in hosts:
@@ -284,8 +394,13 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
     crossing = crossing_bound([it.outline for it in items], sheet=(w, h), sep=sep, edge=edge)
     search = budget.emptier = SheetEmptier(
         fill[best], area, fit=repack, may_try=budget, usable=frame.length * frame.height,
-        floor=max(by_area, crossing), progress=progress)
-    search.run()
+        floor=max(by_area, crossing), progress=progress,
+        drop=_Dropper(sky, {n: it.outline for n, it in by_name.items()}))
+    def pack_two(names):
+        outs = [_sheets(sky.pack(names, by)) for by in ("length", "area")]
+        return min(outs, key=lambda o: (len(o), -sum(area[n] for n in o[0])))
+
+    search.run(gather=pack_two)
     placements = sorted((placement_of(by_name[n], si, rot, dx, dy)
                          for si, s in enumerate(search.sheets) for n, (rot, (dx, dy)) in s.items()),
                         key=lambda p: (p.sheet, p.name))
