@@ -15,26 +15,29 @@ once (cached in ``--cache``), the fin system is built and its unrolled parts are
 Every layout is checked with shapely (inside the margins, the gap between cuts) before it is
 counted. "same twice" compares every placement of two runs (name, sheet, rotation, offset).
 
-**The final cut against the bounds (issues 40, 42), 2026-11-28 21:15-22:45**, the parts of
+**The final cut against the bounds (issues 40, 42), 2026-11-28 21:15-22:55**, the parts of
 that evening's code pinned (``--pinned``: the same parts before and after), laser, 5 mm gap,
 10 mm margin, 2.5 x 1.25 m sheets. "80 % needs": the sheets at which the yield is 80 %;
 "crossing": :func:`~torsal.fabrication.nesting.crossing_bound`, the sheets the parts longer
 than half the sheet need at least, whatever the packing (they cross every sheet's middle, three
-or four a sheet). Before: main 1735276 (load 2-4); after: with the crossing bound as the
-search's floor (load 10-12 from other work: wall seconds 3-8 times the CPU seconds, which are
-the ones to compare; the tries are a count). Every layout valid by shapely, and the same twice
-(after; placements compared)::
+or four a sheet). Before: main 1735276 (wall seconds at load 2-4; its CPU seconds, measured
+again with the same tries at load 10: 7b 7.7, 7c 14.6, 7d 10.0, 9 39.4, 10 3.6, 11 15.5, 13
+8.3). After: the crossing bound as the floor, parts dropped onto sheets as they are and
+gathered onto the full sheets (wall seconds at load 1, equal to the CPU seconds; the
+gathering spends the 600 tries, so the CPU seconds grew where the floor did not stop the
+search: 7c 14.6 -> 24.3, 9 39.4 -> 56.9). Every layout valid by shapely, and the same twice
+(placements compared)::
 
-    | design | parts | area bound | 80 % needs | crossing | before sheets | yield | s | tries | after sheets | yield | s (cpu s) | tries |
+    | design | parts | area bound | 80 % needs | crossing | before sheets | yield | s | tries | after sheets | yield | s | tries |
     |---|---|---|---|---|---|---|---|---|---|---|---|---|
-    | 7a | 314 | 30.1 | 37 | 39 | 39 | 77.2 % | 25.4 | 290 | 39 | 77.2 % | 25.1 (4.0) | 1 |
-    | 7b | 309 | 30.3 | 37 | 39 | 40 | 75.7 % | 56.3 | 271 | 40 | 75.7 % | 28.6 (7.7) | 271 |
-    | 7c | 608 | 28.9 | 36 | 26 | 38 | 76.1 % | 67.6 | 340 | 38 | 76.1 % | 29.5 (14.6) | 340 |
-    | 7d | 399 | 26.7 | 33 | 32-33 | 38 | 70.3 % | 44.5 | 375 | 38 | 70.3 % | 30.2 (10.0) | 375 |
-    | 9 | 1251 | 34.0 | 42 | 26 | 50 | 68.1 % | 170.9 | 428 | 50 | 68.1 % | 70.0 (39.4) | 428 |
-    | 10 | 256 | 22.8 | 28 | 27 | 27 | 84.6 % | 10.4 | 0 | 27 | 84.6 % | 28.2 (3.6) | 0 |
-    | 11 | 668 | 30.8 | 38 | 38 | 43 | 71.5 % | 51.8 | 349 | 43 | 71.5 % | 45.3 (15.5) | 349 |
-    | 13 | 500 | 23.1 | 28 | 27 | 29 | 79.5 % | 28.9 | 189 | 29 | 79.5 % | 41.9 (8.3) | 189 |
+    | 7a | 314 | 30.1 | 37 | 39 | 39 | 77.2 % | 25.4 | 290 | 39 | 77.2 % | 3.3 | 1 |
+    | 7b | 309 | 30.3 | 37 | 39 | 40 | 75.7 % | 56.3 | 271 | 40 | 75.7 % | 12.0 | 600 |
+    | 7c | 608 | 28.9 | 36 | 26 | 38 | 76.1 % | 67.6 | 340 | 38 | 76.1 % | 24.3 | 600 |
+    | 7d | 399 | 26.7 | 33 | 32-33 | 38 | 70.3 % | 44.5 | 375 | 37 | 72.2 % | 14.1 | 600 |
+    | 9 | 1251 | 34.0 | 42 | 26 | 50 | 68.1 % | 170.9 | 428 | 50 | 68.1 % | 56.9 | 600 |
+    | 10 | 256 | 22.8 | 28 | 27 | 27 | 84.6 % | 10.4 | 0 | 27 | 84.6 % | 2.5 | 0 |
+    | 11 | 668 | 30.8 | 38 | 38 | 43 | 71.5 % | 51.8 | 349 | 43 | 71.5 % | 21.4 | 600 |
+    | 13 | 500 | 23.1 | 28 | 27 | 29 | 79.5 % | 28.9 | 189 | 29 | 79.5 % | 19.1 | 600 |
 
 (7d's crossing bound is 33 with the bin packing in 1.2 mm steps, 32 in the 5 mm steps the
 search uses.) So packing alone cannot bring 7a or 7b to 80 %: 39 sheets is the least any
@@ -44,11 +47,15 @@ caps them is the parts' lengths: the strips cut to the longest run that fits a s
 mostly longer than half of it. Tried on the same parts with each part between half and 85 %
 of the sheet's length cut in two at its middle (a stand-in for splitting it at the crossing
 nearest its middle, builder/strips.py ``_fit``), the search gives 7a 38 sheets (79.2 %,
-crossing bound 19), 7b 38 (79.7 %), 7d 37 (72.2 %), 11 42 (73.2 %), 13 29 (79.5 %). Tried and measured without a gain on
-these parts (not kept): a sheet-by-sheet best-fit skyline start (11: 44 sheets, as the
+crossing bound 19), 7b 38 (79.7 %), 7d 37 (72.2 %), 11 42 (73.2 %), 13 29 (79.5 %) (before
+the drop and the gathering). Tried and measured without a gain on these parts (not kept): a sheet-by-sheet best-fit skyline start (11: 44 sheets, as the
 skyline), quarter turns both ways in the skyline (7b, 13), twice the hosts per offer (13),
 the host repacked by the rows first (13), and repacking the union of the 2-8 emptiest sheets
-onto fewer (7b, 7c, 13).
+onto fewer (7b, 7c, 13), 600 tries more (11, 13), the gathering step packing with the rows
+too (7c, 13). What caps 7c, 9 and 13 is the packers themselves: the sheets of 9's medium
+quadrilaterals (14 sheets holding 9.3 sheets of parts) come out 14 again from the skyline and
+from the rows in every order; a nester that places parts into holes and between rows (a
+no-fit-polygon or raster bottom-left fill on the true shapes) is what is left to try there.
 
 Measured 2026-11-28 19:10-19:50 on the 2-core machine (load 4-12: other work running; wall
 seconds are inflated, sheets and yields are not), the parts of that afternoon's code (seams in
