@@ -230,3 +230,28 @@ def test_support_obj_and_3d_view_draw_each_family_at_its_depth(tmp_path):
     nodes, tris, _ = _fin_triangles(s, 10)
     assert set(np.round(nodes[tris[0].ravel(), 2], 9)) == {0.0, 0.4}
     assert set(np.round(nodes[tris[1].ravel(), 2], 9)) == {0.0, 0.2}
+
+
+def test_support_obj_of_two_depths_reads_back_for_the_hosts(tmp_path):
+    """The hosts' reader of support.obj (the notebook's figure) finds each family's far ends:
+    family 1 at half the depth, family 0 at B; equal depths read as before."""
+    import numpy as np
+
+    from torsal.geometry.support import SupportStructure
+    from torsal.hosts.figure import read_support_obj
+    from torsal.pipeline.outputs import write_structure_obj
+    from torsal.pipeline.report_3d import _fin_triangles
+
+    a = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    edges, fam = np.array([[0, 1], [1, 2], [3, 2], [0, 3]]), np.array([0, 1, 0, 1])
+    for ratio, top1 in (((1.0, 0.5), 0.2), ((1.0, 1.0), 0.4)):
+        s = SupportStructure(a, a + [0, 0, 0.4], [[0, 1, 2, 3]], edges, fam,
+                             family_depth_ratio=ratio)
+        write_structure_obj(tmp_path / "s.obj", s)
+        back = read_support_obj(tmp_path / "s.obj")
+        np.testing.assert_allclose(back.vertices_a, a, atol=1e-12)
+        np.testing.assert_allclose(back.family_vertices_b(0)[:, 2], 0.4, atol=1e-12)
+        np.testing.assert_allclose(back.family_vertices_b(1)[:, 2], top1, atol=1e-12)
+        assert back.family_depth_ratio == pytest.approx(ratio)
+        nodes, tris, _ = _fin_triangles(back, 10)
+        assert set(np.round(nodes[tris[1].ravel(), 2], 9)) == {0.0, top1}

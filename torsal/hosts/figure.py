@@ -27,16 +27,34 @@ class SupportFins:
     vertices_b: np.ndarray
     edges: np.ndarray
     edge_family: np.ndarray
+    #: each family's far ends (n, 3) where it stops short of B (``fins.depth = [d0, d1]``)
+    family_ends: tuple = (None, None)
 
     @property
     def directions(self) -> np.ndarray:
         return self.vertices_b - self.vertices_a
 
+    def family_vertices_b(self, family: int) -> np.ndarray:
+        """(n, 3) far ends of the fins of ``family`` (B, or its own where it is shallower)."""
+        ends = self.family_ends[family]
+        return self.vertices_b if ends is None else ends
+
+    @property
+    def family_depth_ratio(self) -> tuple[float, float]:
+        """Each family's depth over the deeper one's, as the file's far ends give them (the
+        mean over the nodes; the support structure's own field, read back)."""
+        full = np.linalg.norm(self.directions, axis=1)
+        full = np.where(full > 0, full, 1.0)
+        return tuple(float(np.mean(np.linalg.norm(self.family_vertices_b(f) - self.vertices_a,
+                                                  axis=1) / full)) for f in (0, 1))
+
 
 def read_support_obj(path: str | Path) -> SupportFins:
-    """Read the ``support.obj`` a design run writes (vertices of A~ then B~, fin quads
-    ``i j j+n i+n`` in groups ``fins_family_0`` / ``fins_family_1``)."""
+    """Read the ``support.obj`` a design run writes (vertices of A~ then B~, then the far ends
+    of a family that stops short of B; fin quads ``i j j+k i+k`` in groups ``fins_family_0`` /
+    ``fins_family_1``, ``k`` = n where a family's fins end on B)."""
     verts, edges, family, group = [], [], [], None
+    offset: dict[int, int] = {}          # family -> index offset of its fins' far ends
     for line in Path(path).read_text().splitlines():
         head, _, rest = line.partition(" ")
         if head == "v":
@@ -44,13 +62,16 @@ def read_support_obj(path: str | Path) -> SupportFins:
         elif head == "g":
             group = rest.strip()
         elif head == "f" and group and group.startswith("fins_family_"):
-            i, j = (int(x) - 1 for x in rest.split()[:2])
+            i, j, _, far = (int(x) - 1 for x in rest.split()[:4])
             edges.append((i, j))
             family.append(int(group.removeprefix("fins_family_")))
+            offset[family[-1]] = far - i
     v = np.asarray(verts, float)
-    n = len(v) // 2
-    return SupportFins(v[:n], v[n:], np.asarray(edges, np.int64).reshape(-1, 2),
-                       np.asarray(family, np.int64))
+    # A, B, then the far ends of a family that stops short of B (n each): the quads say where
+    n = min(offset.values(), default=len(v) // 2)
+    ends = tuple(None if offset.get(f, n) == n else v[offset[f]:offset[f] + n] for f in (0, 1))
+    return SupportFins(v[:n], v[n:2 * n], np.asarray(edges, np.int64).reshape(-1, 2),
+                       np.asarray(family, np.int64), ends)
 
 
 def fins_figure(result_or_folder, *, title: str | None = None):
