@@ -258,13 +258,12 @@ class PendingSolids:
         except BaseException:
             self._pool.shutdown(wait=True)
             raise
-        res, data_of = {}, {}
+        res = {}
         #: CPU seconds the workers spent building (what the caller's clock does not see)
         self.cpu_seconds = sum(cpu for _, cpu in done)
         for rows, _ in done:
             for name, status, data, detail in rows:
                 res[name] = (status, None if data is None else _from_bytes(data), detail)
-                data_of[name] = data
         if not self._workers.mesh:
             self._pool.shutdown(wait=True)
         return [(p.name,) + res[p.name] for p in self.parts]
