@@ -9,7 +9,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .result import MIN_INTERFERENCE_VOLUME
+from .result import MIN_INTERFERENCE_VOLUME, TOUCHING_TOLERANCE
 
 def _shape(x):
     """TopoDS_Shape of a build123d shape or an OCP shape."""
@@ -331,7 +331,8 @@ def _boundary_triangles(shape) -> np.ndarray:
 
     from ..plates import _triangles
 
-    if not BRepTools.Triangulation_s(shape, 0.1):
-        _mesh([shape], 1.0)           # serially (a check meshes its solids before any fork)
-    v, f = _triangles(shape, 0.1, threads=False)     # forked workers call this
+    deflection = 0.1 * TOUCHING_TOLERANCE           # as _mesh meshes for the check
+    if not BRepTools.Triangulation_s(shape, deflection):
+        _mesh([shape], TOUCHING_TOLERANCE)   # serially (a check meshes its solids before any fork)
+    v, f = _triangles(shape, deflection, threads=False)     # forked workers call this
     return v[f].reshape(-1, 3, 3)
