@@ -76,12 +76,60 @@ def _live(FreeCAD, make_fins, design, folder):
     # the first design's build is cancelled by the next change, as a designer's would be
     change("first", lambda: None, built=False)
     change("spacing", lambda: setattr(fins, "Spacing", fins.Spacing.Value * 1.25))
+    # a sparse second family (fins.spacing = [s, 2 s]): the preview only, the next change's
+    # build carries it
+    change("spacing1", lambda: setattr(fins, "Spacing1", fins.Spacing.Value * 2), built=False)
     change("sun", lambda: setattr(fins, "SunHours", [12.0, 17.0]))
     # a bad value: invalid with torsal's message, the built solids stay
     fins.SunHours = [18.0, 9.0]
     doc.recompute()
     out["bad"] = _live_record(fins)
     fins.Proxy.close_session()
+    return out
+
+
+def _fins_properties(fins):
+    return {n: fins.getPropertyByName(n).Value for n in ("Spacing", "Spacing1", "Depth", "Depth1")}
+
+
+def families():
+    """Seconds, no design run: the per-family properties of a design file with two spacings
+    and depths, the job they give (as dict), the job with Spacing1 back at 0, and a document
+    saved without Spacing1 / Depth1 (an older torsal's) reopened. Returns what it saw; run as
+    ``runpy.run_path(this)["families"]()`` with ``$TORSAL_SCENARIO_DESIGN`` the per-family
+    file, ``$TORSAL_SCENARIO_DESIGN_ONE`` one with one spacing."""
+    from dataclasses import asdict
+
+    import FreeCAD
+
+    from torsal.freecad import make_fins
+
+    folder = os.environ["TORSAL_SCENARIO_DIR"]
+    out = {}
+    doc = FreeCAD.newDocument("families")
+    fins = make_fins(doc, os.environ["TORSAL_SCENARIO_DESIGN"], live=False)
+    fins.OutputFolder = os.path.join(folder, "families-job")
+    out["properties"] = _fins_properties(fins)
+    out["job"] = asdict(fins.Proxy.job(fins))
+    fins.Spacing1 = 0.0                           # one spacing for both again
+    fins.Depth1 = 450.0
+    out["job_one_spacing"] = asdict(fins.Proxy.job(fins))
+    # an older torsal's document: no Spacing1 / Depth1 (made from a file with one spacing)
+    old = make_fins(doc, os.environ["TORSAL_SCENARIO_DESIGN_ONE"], name="Old", live=False)
+    old.OutputFolder = os.path.join(folder, "old-job")
+    for name in ("Spacing1", "Depth1"):
+        old.removeProperty(name)
+    out["old_before"] = sorted(n for n in old.PropertiesList if n.startswith(("Spacing", "Depth")))
+    path = os.path.join(folder, "families.FCStd")
+    doc.saveAs(path)
+    FreeCAD.closeDocument(doc.Name)
+    doc = FreeCAD.openDocument(path)
+    old = doc.getObject("Old")
+    out["old_reopened"] = {"properties": _fins_properties(old), "job": asdict(old.Proxy.job(old)),
+                           "state": list(old.State)}
+    FreeCAD.closeDocument(doc.Name)
+    with open(os.environ["TORSAL_SCENARIO_OUT"], "w") as fh:
+        json.dump(out, fh)
     return out
 
 

@@ -19,7 +19,8 @@ from torsal.fabrication.solids import read_step
 from torsal.hosts.freecad.feature import FinsError, run_in_torsal
 from torsal.hosts.freecad.install import (FreeCADInstallError, install_workbench,
                                           uninstall_workbench)
-from torsal.hosts.freecad.job import FinsJob, SurfaceGrid, effective_design, grid_mesh
+from torsal.hosts.freecad.job import (FinsJob, SurfaceGrid, effective_design, grid_mesh,
+                                      write_design)
 from torsal.hosts.results import read_parts
 
 HERE = Path(__file__).parent
@@ -38,9 +39,9 @@ def in_freecad(test):
 
 
 @pytest.fixture(scope="module")
-def scenario(tmp_path_factory):
-    """Install the workbench with the CLI into a scratch HOME, run freecad_scenario.py in
-    freecadcmd, return what it measured."""
+def workbench(tmp_path_factory):
+    """The workbench installed with the CLI into a scratch HOME: ``(environment, tmp folder,
+    the install's output)``; skipped without freecadcmd."""
     if FREECADCMD is None:
         pytest.skip("freecadcmd (FreeCAD) is missing, so the FreeCAD object is not tested; `make "
                     "test` installs it as root, or:  sudo apt-get install -y freecad-python3")
@@ -52,20 +53,79 @@ def scenario(tmp_path_factory):
     installed = subprocess.run([str(TORSAL), "freecad", "install"], env=env, capture_output=True,
                                text=True, timeout=300)
     assert installed.returncode == 0, installed.stderr
+    return env, tmp, installed.stdout
+
+
+def _freecadcmd(code: str, env: dict, cwd: Path, timeout: float):
+    run = subprocess.run([FREECADCMD, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=timeout, cwd=cwd)
+    out = Path(env["TORSAL_SCENARIO_OUT"])
+    assert run.returncode == 0 and out.exists(), run.stdout[-3000:] + run.stderr[-3000:]
+    return json.loads(out.read_text()), run.stdout + run.stderr
+
+
+@pytest.fixture(scope="module")
+def scenario(workbench):
+    """Run freecad_scenario.py in freecadcmd, return what it measured."""
+    env, tmp, installed = workbench
     design = tmp / "design.toml"
     design.write_text(DESIGN)
-    out = tmp / "scenario.json"
-    env.update(TORSAL_SCENARIO_DESIGN=str(design), TORSAL_SCENARIO_DIR=str(tmp),
-               TORSAL_SCENARIO_OUT=str(out), TORSAL_EXAMPLES=str(EXAMPLES))
+    env = {**env, "TORSAL_SCENARIO_DESIGN": str(design), "TORSAL_SCENARIO_DIR": str(tmp),
+           "TORSAL_SCENARIO_OUT": str(tmp / "scenario.json"), "TORSAL_EXAMPLES": str(EXAMPLES)}
     code = (f"import runpy; runpy.run_path({str(HERE / 'freecad_scenario.py')!r}, "
             "run_name='__main__')")
     # minutes: five whole runs and a live session's two builds (15 at a load of 10 on 2 cores)
-    run = subprocess.run([FREECADCMD, "-c", code], env=env, capture_output=True, text=True,
-                         timeout=1800, cwd=tmp)
-    assert run.returncode == 0 and out.exists(), run.stdout[-3000:] + run.stderr[-3000:]
-    return {"data": json.loads(out.read_text()), "install": installed.stdout, "home": home,
-            "output": run.stdout + run.stderr,
+    data, output = _freecadcmd(code, env, tmp, 1800)
+    return {"data": data, "install": installed, "home": tmp / "home", "output": output,
             "tmp": tmp, "env": env}
+
+
+#: the hosts' facade with a sparse, shallower second family
+FAMILIES = DESIGN.replace("spacing = 1.5", "spacing = [1.5, 3.0]").replace(
+    "depth = 0.4", "depth = [0.4, 0.25]")
+
+
+@pytest.fixture(scope="module")
+def families(workbench):
+    """freecad_scenario.families() in freecadcmd (seconds: no design run)."""
+    env, tmp, _ = workbench
+    assert FAMILIES != DESIGN
+    (tmp / "families.toml").write_text(FAMILIES)
+    (tmp / "one.toml").write_text(DESIGN)
+    env = {**env, "TORSAL_SCENARIO_DESIGN": str(tmp / "families.toml"),
+           "TORSAL_SCENARIO_DESIGN_ONE": str(tmp / "one.toml"), "TORSAL_SCENARIO_DIR": str(tmp),
+           "TORSAL_SCENARIO_OUT": str(tmp / "families.json")}
+    code = (f"import runpy; runpy.run_path({str(HERE / 'freecad_scenario.py')!r})['families']()")
+    return _freecadcmd(code, env, tmp, 300)[0]
+
+
+def _fins_of(job: dict) -> tuple:
+    """The job's design as torsal loads it: (spacings, depths) of the two families, m."""
+    from torsal.pipeline.design_file import load_design_file
+
+    path, _ = write_design(FinsJob.from_dict(job))
+    fins = load_design_file(path).fins
+    return fins.spacings, fins.depths
+
+
+def test_a_design_file_with_two_spacings_gives_the_family_properties(families):
+    """fins.spacing = [1.5, 3.0], depth = [0.4, 0.25] m: Spacing / Spacing1 and Depth /
+    Depth1 in mm; the job runs the same two families; Spacing1 = 0 means one spacing."""
+    assert families["properties"] == {"Spacing": 1500.0, "Spacing1": 3000.0, "Depth": 400.0,
+                                      "Depth1": 250.0}
+    spacings, depths = _fins_of(families["job"])
+    assert spacings == pytest.approx((1.5, 3.0)) and depths == pytest.approx((0.4, 0.25))
+    spacings, depths = _fins_of(families["job_one_spacing"])
+    assert spacings == pytest.approx((1.5, 1.5)) and depths == pytest.approx((0.4, 0.45))
+
+
+def test_a_document_from_before_the_family_properties_opens_with_one_spacing(families):
+    assert families["old_before"] == ["Depth", "Spacing"]
+    old = families["old_reopened"]
+    assert old["properties"] == {"Spacing": 1500.0, "Spacing1": 0.0, "Depth": 400.0,
+                                 "Depth1": 0.0}
+    assert "Invalid" not in old["state"]
+    assert _fins_of(old["job"]) == (pytest.approx((1.5, 1.5)), pytest.approx((0.4, 0.4)))
 
 
 @in_freecad
@@ -173,7 +233,7 @@ def test_the_live_object_shows_the_preview_at_once_and_the_solids_when_built(sce
     change of spacing re-runs from the remesh, one of the sun hours re-solves the congruence;
     each preview comes within seconds (printed: the measured latency)."""
     live = scenario["data"]["live"]
-    for name in ("first", "spacing", "sun"):
+    for name in ("first", "spacing", "spacing1", "sun"):
         p = live[name]
         print(f"FreeCAD live, {name:>7}: preview {p['recompute']:.2f} s in the recompute "
               f"({p['seconds']:.2f} s in torsal: {', '.join(p['stages_run'])})")
@@ -193,6 +253,10 @@ def test_the_live_object_shows_the_preview_at_once_and_the_solids_when_built(sce
     assert {"congruence", "sun"} <= set(spacing["stages_cached"]) and "remesh" in spacing["stages_run"]
     assert "congruence" in sun["stages_run"] and "surface" in sun["stages_cached"]
     assert spacing["faces"] < first["faces"]
+    # Spacing1 = 2 Spacing: every other family-1 fin (fewer nodes, so family 0 has fewer faces
+    # too, each longer); the sun change's build carries it
+    family1 = [live[k]["groups"].count("family 1") for k in ("spacing", "spacing1", "sun")]
+    assert family1[1] < 0.75 * family1[0] and family1[2] < 0.75 * family1[0], family1
     # warm: a change's preview in a few seconds at most (about 0.3 s at this size, idle)
     for p in (spacing, sun):
         assert p["seconds"] < 3.0 and p["recompute"] < 10.0, p
@@ -267,3 +331,46 @@ def test_the_cli_names_a_mod_folder_it_cannot_use(tmp_path, capsys):
     assert "cannot create" in err and str(blocker) in err and "Traceback" not in err
     assert main(["freecad", "uninstall", "--mod-dir", str(tmp_path)]) == 0
     assert "no torsal workbench was installed there" in capsys.readouterr().out
+
+
+def _previews(tmp_path, jobs: list[FinsJob]) -> list[dict]:
+    """The live session's preview of each job in turn (torsal's side of the protocol)."""
+    import io
+    from dataclasses import asdict
+
+    from torsal.hosts.freecad.live import serve
+
+    lines = [json.dumps({"op": "edit", "id": k, "job": asdict(job)}) + "\n"
+             for k, job in enumerate(jobs, 1)]
+    out = io.StringIO()
+    assert serve(io.StringIO("".join(lines) + '{"op": "close"}\n'), out) == 0
+    answers = [json.loads(line) for line in out.getvalue().splitlines()]
+    previews = [m for m in answers if m["kind"] == "preview"]
+    assert len(previews) == len(jobs), answers
+    return previews
+
+
+def _family_fins(fins: dict, family: int) -> tuple[float, float]:
+    """(total length along A, median depth) of one family's fins in a preview, mm."""
+    a, e = np.asarray(fins["a"]), np.asarray(fins["edges"])
+    b = np.asarray(fins["b" if family == 0 else "b1"])
+    e = e[np.asarray(fins["families"]) == family]
+    return (float(np.linalg.norm(a[e[:, 0]] - a[e[:, 1]], axis=1).sum()),
+            float(np.median(np.linalg.norm(b[e] - a[e], axis=2))))
+
+
+def test_the_live_session_makes_a_sparse_shallow_second_family(tmp_path):
+    """Spacing1 = 2 Spacing and Depth1 through the live path: family 1's fins are half as
+    long in total (every other line) and as deep as Depth1; family 0's stay as they were."""
+    design = tmp_path / "d.toml"
+    design.write_text(DESIGN)
+    job = dict(design=str(design), folder=str(tmp_path / "job"), spacing_mm=1500.0)
+    one, two = _previews(tmp_path, [FinsJob(**job),
+                                    FinsJob(**job, spacing1_mm=3000.0, depth1_mm=250.0)])
+    assert "congruence" not in two["stages_run"] and "remesh" in two["stages_run"]
+    (len0, d0), (len1, d1) = (_family_fins(one["fins"], f) for f in (0, 1))
+    (len0_, d0_), (len1_, d1_) = (_family_fins(two["fins"], f) for f in (0, 1))
+    assert (d0, d1, d0_) == pytest.approx((400.0, 400.0, 400.0), abs=0.5)
+    assert d1_ == pytest.approx(250.0, abs=0.5)
+    assert len0_ == pytest.approx(len0, rel=0.05)
+    assert len1_ == pytest.approx(len1 / 2, rel=0.15)

@@ -54,12 +54,24 @@ class _Prop:
     read_only: bool = False
 
 
+def _family_props(name: str, key: str, what: str, example: str) -> tuple[_Prop, _Prop]:
+    """A per-family length (``key = [family 0, family 1]``): ``name`` (family 0's, and
+    family 1's while ``name1`` is 0) and ``name1`` (family 1's; 0 = ``name``, so a document
+    of an older torsal, which lacks it, keeps one length for both)."""
+    return (_Prop("App::PropertyLength", name, "Design", f"{key}: {what} of family 0, and of "
+                  f"family 1 when {name}1 is 0"),
+            _Prop("App::PropertyLength", f"{name}1", "Design", f"{key}'s second value: family "
+                  f"1's {what} ({example}); 0 = {name}"))
+
+
 #: The object's properties: design keys (editable) and results (read-only).
 PROPERTIES: tuple[_Prop, ...] = (
     _Prop("App::PropertyFile", "DesignFile", "Design", "the torsal design file (TOML) the other "
           "properties override"),
-    _Prop("App::PropertyLength", "Spacing", "Design", "fins.spacing: fin spacing"),
-    _Prop("App::PropertyLength", "Depth", "Design", "fins.depth: fin depth along the lines"),
+    *_family_props("Spacing", "fins.spacing", "fin spacing", "e.g. twice Spacing: a sparse "
+                   "second family"),
+    *_family_props("Depth", "fins.depth", "fin depth along the lines", "e.g. a shallow second "
+                   "family"),
     _Prop("App::PropertyLength", "Thickness", "Design", "material.thickness_mm: plate thickness"),
     _Prop("App::PropertyAngle", "MinTorsalAngle", "Design", "constraints.min_torsal_angle: "
           "smallest angle between the two torsal planes of a face; 0 = no constraint"),
@@ -315,8 +327,8 @@ class FinsFeature:
         surface and strokes sampled here, in FreeCAD)."""
         if not obj.DesignFile:
             raise FinsError(f"{obj.Label}: DesignFile is empty: give a torsal design file (TOML)")
-        spacing = _mm(obj.Spacing)
-        edge = _mm(obj.MeshEdge) or (spacing or 1000.0) / 2
+        spacing, spacing1 = _mm(obj.Spacing), _mm(getattr(obj, "Spacing1", 0.0))
+        edge = _mm(obj.MeshEdge) or min(x for x in (spacing, spacing1, 1000.0) if x) / 2
         surface = face_grid(linked_face(obj.Surface), edge) if obj.Surface else None
         strokes = wire_polylines(obj.Strokes, edge / 2) if obj.Strokes else None
         hours = list(obj.SunHours)
@@ -324,7 +336,8 @@ class FinsFeature:
             raise FinsError(f"{obj.Label}: SunHours must be two numbers [h0, h1], got {hours}")
         return FinsJob(
             design=str(obj.DesignFile), folder=str(job_folder(obj)),
-            spacing_mm=spacing, depth_mm=_mm(obj.Depth), thickness_mm=_mm(obj.Thickness),
+            spacing_mm=spacing, spacing1_mm=spacing1, depth_mm=_mm(obj.Depth),
+            depth1_mm=_mm(getattr(obj, "Depth1", 0.0)), thickness_mm=_mm(obj.Thickness),
             min_torsal_angle=float(obj.MinTorsalAngle.Value), sun_start=obj.SunStart or None,
             sun_end=obj.SunEnd or None, sun_hours=hours or None, surface=surface,
             strokes=strokes, stroke_width_mm=_mm(obj.StrokeWidth))
@@ -378,10 +391,11 @@ def preview_shape(fins: dict):
     import Part
 
     a = [FreeCAD.Vector(*p) for p in fins["a"]]
-    b = [FreeCAD.Vector(*p) for p in fins["b"]]
+    # each family's B side (a message of an older session has one for both)
+    b = [[FreeCAD.Vector(*p) for p in fins[key]] for key in ("b", "b1" if "b1" in fins else "b")]
     faces, groups = [], []
     for (i, j), family in zip(fins["edges"], fins["families"]):
-        quad = [a[i], a[j], b[j], b[i]]
+        quad = [a[i], a[j], b[family][j], b[family][i]]
         try:
             parts = [Part.Face(Part.makePolygon(quad + quad[:1]))]
         except Part.OCCError:
@@ -438,8 +452,9 @@ def make_fins(doc, design_path, *, surface=None, strokes=(), name: str = "Fins",
     obj = doc.addObject("Part::FeaturePython", name)
     FinsFeature(obj)
     obj.DesignFile = str(path)
-    obj.Spacing = spec.fins.spacing * to_mm
-    obj.Depth = spec.fins.depth * to_mm
+    for name, (first, second) in (("Spacing", spec.fins.spacings), ("Depth", spec.fins.depths)):
+        setattr(obj, name, first * to_mm)
+        setattr(obj, name + "1", second * to_mm if second != first else 0.0)   # 0: the same
     obj.Thickness = spec.material.thickness_mm
     obj.MinTorsalAngle = spec.constraints.min_torsal_angle or 0.0
     if spec.sun.start is not None:

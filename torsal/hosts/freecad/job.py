@@ -72,6 +72,10 @@ class FinsJob:
     #: polylines ``[[x, y, z], ...]`` that replace the design's ``goals.strokes``
     strokes: list | None = None
     stroke_width_mm: float | None = None
+    #: family 1's spacing and depth (``fins.spacing = [s0, s1]``); None: ``spacing_mm`` /
+    #: ``depth_mm`` for both families (or, with those None too, the design file's values)
+    spacing1_mm: float | None = None
+    depth1_mm: float | None = None
 
     @classmethod
     def read(cls, path: str | Path) -> "FinsJob":
@@ -145,6 +149,32 @@ def _absolute(data: dict, base: Path) -> None:
             data[table][key] = str((base / value).resolve())
 
 
+def _family_value(given, both_mm: float | None, second_mm: float | None, mm: float):
+    """``fins.spacing`` or ``fins.depth`` in model units from the job's family-0 (or both)
+    and family-1 lengths in mm, over the design file's ``given`` (one number or [f0, f1]);
+    None keeps ``given``. One number where the two families agree.
+
+    >>> _family_value([0.6, 1.2], 800.0, None, 0.001)      # one length: both families
+    0.8
+    >>> _family_value([0.6, 1.2], None, 1800.0, 0.001)     # family 1's only
+    [0.6, 1.8]
+    >>> _family_value(0.6, 600.0, 600.0, 0.001)
+    0.6
+    """
+    if second_mm is None:
+        return None if both_mm is None else both_mm * mm
+    if both_mm is not None:
+        first = both_mm * mm
+    elif isinstance(given, (list, tuple)) and given:
+        first = given[0]
+    else:
+        first = given
+    if first is None:       # no family-0 length anywhere: the loader names the missing key
+        return None
+    second = second_mm * mm
+    return first if abs(second - first) <= 1e-12 * max(abs(first), 1.0) else [first, second]
+
+
 def effective_design(job: FinsJob) -> dict:
     """The design file's data with the job's values applied (model units of the design).
 
@@ -160,10 +190,11 @@ def effective_design(job: FinsJob) -> dict:
     units = data.get("units", "m")
     mm = scale("mm", units) if units in UNIT_TO_MM else 1.0   # (a bad unit: the loader names it)
     fins = data.setdefault("fins", {})
-    if job.spacing_mm is not None:
-        fins["spacing"] = job.spacing_mm * mm
-    if job.depth_mm is not None:
-        fins["depth"] = job.depth_mm * mm
+    for key, both, second in (("spacing", job.spacing_mm, job.spacing1_mm),
+                              ("depth", job.depth_mm, job.depth1_mm)):
+        value = _family_value(fins.get(key), both, second, mm)
+        if value is not None:
+            fins[key] = value
     if job.thickness_mm is not None:
         data.setdefault("material", {})["thickness_mm"] = job.thickness_mm
     if job.min_torsal_angle is not None:

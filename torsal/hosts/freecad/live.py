@@ -40,14 +40,17 @@ class LiveError(TorsalError, RuntimeError):
 
 
 def fins_message(answer: SessionAnswer) -> dict:
-    """A preview's fins for FreeCAD: ``a``, ``b`` (n, 3) fin corners in mm (A side, B side),
-    ``edges`` (k, 2) (a fin is the quad ``a_i a_j b_j b_i``) and ``families`` (k,).
+    """A preview's fins for FreeCAD: ``a`` (n, 3) the fin corners on the A side in mm, ``b``
+    and ``b1`` (n, 3) those on the B side of family 0's and of family 1's fins (each family
+    at its own depth, ``fins.depth = [d0, d1]``), ``edges`` (k, 2) and ``families`` (k,): a
+    fin of family f is the quad ``a_i a_j b_j b_i`` with ``b`` of its family.
 
     >>> fins_message(answer)["edges"][:2]   # doctest: +SKIP
     [[0, 1], [1, 2]]
     """
     s, mm = answer.structure, scale(answer.spec.units, "mm")
-    return {"a": (s.vertices_a * mm).round(6).tolist(), "b": (s.vertices_b * mm).round(6).tolist(),
+    b0, b1 = ((s.family_vertices_b(f) * mm).round(6).tolist() for f in (0, 1))
+    return {"a": (s.vertices_a * mm).round(6).tolist(), "b": b0, "b1": b1,
             "edges": s.edges.tolist(), "families": [int(f) for f in s.edge_family]}
 
 
