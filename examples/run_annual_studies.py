@@ -1,31 +1,40 @@
-"""The examples judged in the annual units (issue 41): for every example at a reduced size, a
-study of its fins with both families at one spacing and with a lighter second family (twice
-the spacing), against the standard devices, on the cooling-season gains avoided (kWh/m2 of
-glazing) against sDA (a facade's rooms) or the view out (a canopy); and the annual table of
-the uniform variant (kWh/m2 bare / fins / best device per season, F_sh, sDA / ASE).
+"""The examples judged in the annual units (issue 41): for every example, a study of its fins
+with both families at one spacing and with a lighter second family (twice the spacing),
+against the standard devices, on the cooling-season gains avoided (kWh/m2 of glazing) against
+sDA (a facade's rooms) or the view out (a canopy); and the annual table of the uniform variant
+(kWh/m2 bare / fins / best device per season, F_sh, sDA / ASE).
 
-    python examples/run_annual_studies.py [--out out/annual-studies] [--only 7a 9 ...]
+    python examples/run_annual_studies.py [--size full|full-design|reduced]
+                                          [--out out/annual-studies] [--only 7a 9 ...]
     python examples/run_annual_studies.py --table-only     # the tables from the saved results
 
 Both rewrite the tables of examples/README.md between the ``annual-studies`` markers.
 
-The reduced size: mesh A at most 17 x 17 vertices, the fin spacing at least a twelfth of A's
-extent (the second family twice that), 300 light samples, 100 glazing points at Radiance -ab 2
--ad 512, rooms 6 m deep and 3 m high per storey at -ab 4 -ad 256 (LM-83 asks 6 and 1000), no
-fabrication; a design without a [site] (7d: explicit sun vectors) gets 7a's (Vienna) for its
-weather year. Each study's table is saved to ``examples/studies/results/<key>_annual.csv``, its
-Pareto plot to ``examples/studies/<key>_annual_pareto.png`` and its timing (wall seconds, load
-average, date, commit) beside the table; the tables are computed from those files.
+``--size full`` (the default): each example's own mesh, fin spacing, depth, light samples and
+iteration limit; Radiance at the ``[annual]`` defaults (300 glazing points, -ab 2 -ad 2048);
+rooms 6 m deep and 3 m high per storey, glazed from a 0.9 m sill to a 2.7 m head, at LM-83's
+-ab 6 -ad 1024 (the ``[room]`` defaults). ``--size full-design`` (the run of 2026-11-29: what a
+shared 2-core machine finishes in a session): the same designs and rooms, Radiance at 150
+glazing points, -ab 2 -ad 1024, rooms -ab 4 -ad 512. ``--size reduced`` (the run of
+2026-11-28): mesh A at most 17 x 17 vertices, the fin spacing at least a twelfth of A's extent,
+300 light samples, 100 glazing points at -ab 2 -ad 512, rooms glazed floor to ceiling at -ab 4
+-ad 256. All: no fabrication; a design without a [site] (7d: explicit sun vectors) gets 7a's
+(Vienna) for its weather year. Each study's table is saved to
+``examples/studies/results/<key>_annual.csv``, its Pareto plot to
+``examples/studies/<key>_annual_pareto.png`` and its timing (wall and processor seconds, load
+average, date, commit, size) beside the table; the tables are computed from those files.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import time
 import tomllib
+from enum import Enum
 from pathlib import Path
 
 import pandas as pd
@@ -34,6 +43,11 @@ import tomli_w
 from torsal import Study
 from torsal.geometry.surfaces import GENERATORS
 from torsal.light.devices import surface_frame
+from torsal.pipeline.cache import StageCache
+from torsal.pipeline.errors import DesignError
+from torsal.pipeline.stage import run_stages
+from torsal.pipeline.stages import DEFAULT_PIPELINE
+from torsal.study.study import SHARED_STAGE
 from torsal.study.study_file import X_KEY, ParetoSpec
 from torsal.study.study_report import verdict_on, write_pareto_png
 
@@ -45,39 +59,67 @@ FILES = {k: next(HERE.glob(f"{k}_*.toml")) for k in KEYS}
 
 AVOIDED = "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2"
 SDA = "light.annual.daylight.fins.sda_all"
-#: the reduced size (see the module docstring)
+
+
+class Size(Enum):
+    """How large the studies run (see the module docstring)."""
+    FULL = "full"
+    #: the examples' full-size designs, Radiance lighter than its defaults
+    FULL_DESIGN = "full-design"
+    REDUCED = "reduced"
+
+
+#: the reduced size's mesh and spacing limits (see the module docstring)
 MAX_GRID, EXTENT_PER_SPACING = 17, 12
-ANNUAL = {"enabled": True, "points": 100, "ambient_divisions": 512}
+#: [annual] per size; full: the design file's defaults
+ANNUAL = {Size.FULL: {"enabled": True},
+          Size.FULL_DESIGN: {"enabled": True, "points": 150, "ambient_divisions": 1024},
+          Size.REDUCED: {"enabled": True, "points": 100, "ambient_divisions": 512}}
+#: [room] per size: rooms 6 m deep and 3 m high per storey; full: windows with a sill and a
+#: head (a facade glazed floor to ceiling saturates sDA, see examples/README) and the
+#: [room] defaults, LM-83's settings
+ROOM = {Size.FULL: {"depth": 6.0, "height": 3.0, "sill": 0.9, "head": 2.7},
+        Size.FULL_DESIGN: {"depth": 6.0, "height": 3.0, "sill": 0.9, "head": 2.7,
+                           "ambient_bounces": 4, "ambient_divisions": 512},
+        Size.REDUCED: {"depth": 6.0, "height": 3.0, "ambient_bounces": 4,
+                       "ambient_divisions": 256}}
 SITE = tomllib.loads(FILES["7a"].read_text())["site"]
-ROOM = {"depth": 6.0, "height": 3.0, "ambient_bounces": 4, "ambient_divisions": 256}
 
 
-def reduced_base(key: str) -> tuple[dict, bool]:
-    """The example's design at the reduced size with [annual] (and [room] on a facade), and
-    whether it is a facade."""
-    d = tomllib.loads(FILES[key].read_text())
+def _reduce(d: dict) -> None:
+    """Shrink the design ``d`` to the reduced size, in place."""
     params = dict(d["surface"].get("params", {}))
     params.update({n: min(int(params.get(n, 33)), MAX_GRID) for n in ("nu", "nv")})
     d["surface"]["params"] = params
-    v, f = GENERATORS[d["surface"]["generator"]](**params)
+    v, _ = GENERATORS[d["surface"]["generator"]](**params)
     extent = float((v.max(axis=0) - v.min(axis=0)).max())
     d["fins"]["spacing"] = round(max(float(d["fins"]["spacing"]), extent / EXTENT_PER_SPACING), 3)
     d["fins"]["developable_levels"] = min(d["fins"].get("developable_levels", 0), 1)
-    d["outputs"] = {"light_samples": 300, "step": False, "rhino_3dm": False, "ifc": False,
-                    "renders": False}
+    d["outputs"]["light_samples"] = 300
     d.setdefault("constraints", {})["max_iter"] = 400
-    d["annual"] = dict(ANNUAL)
+
+
+def study_base(key: str, size: Size = Size.FULL) -> tuple[dict, bool]:
+    """The example's design at ``size`` with [annual] (and [room] on a facade), no exports,
+    and whether it is a facade."""
+    d = tomllib.loads(FILES[key].read_text())
+    d["outputs"] = {**{k: v for k, v in d.get("outputs", {}).items() if k == "light_samples"},
+                    "step": False, "rhino_3dm": False, "ifc": False, "renders": False}
+    if size is Size.REDUCED:
+        _reduce(d)
+    d["annual"] = dict(ANNUAL[size])
     # a design of explicit sun vectors (7d) has no site: the year is 7a's (Vienna)
     d.setdefault("site", SITE)
+    v, f = GENERATORS[d["surface"]["generator"]](**d["surface"].get("params", {}))
     facade = surface_frame(v, f).is_facade
     if facade:
-        d["room"] = dict(ROOM)
+        d["room"] = dict(ROOM[size])
     return d, facade
 
 
-def write_study(key: str, folder: Path) -> Path:
-    """The base design and the study file of ``key`` in ``folder``."""
-    base, facade = reduced_base(key)
+def write_study(key: str, folder: Path, size: Size = Size.FULL) -> Path:
+    """The base design and the study file of ``key`` at ``size`` in ``folder``."""
+    base, facade = study_base(key, size)
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "base.toml").write_text(tomli_w.dumps(base))
     s = base["fins"]["spacing"]
@@ -91,14 +133,38 @@ def write_study(key: str, folder: Path) -> Path:
 
 
 def _commit() -> str:
-    return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE, text=True,
+    """HEAD of the checkout; in a copy without .git (a snapshot of a shared tree) the commit it
+    was copied at, from ``TORSAL_COMMIT``."""
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=HERE, text=True,
                           capture_output=True).stdout.strip()
+    return head or os.environ.get("TORSAL_COMMIT", "unknown")
 
 
-def run(key: str, out: Path, workers: int) -> dict:
-    """Run one study; save its table, plot and timing under examples/studies."""
-    study = Study.from_toml(write_study(key, out / key))
-    load0, t0 = os.getloadavg()[0], time.perf_counter()
+def _cpu_s() -> float:
+    """Processor seconds of this process and its finished children (the study's workers and
+    their Radiance processes)."""
+    own, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def _solve_shared(study: Study, out: Path) -> None:
+    """Solve the variants' shared congruence into the study's cache first: a study runs a
+    variant whose congruence another one is solving after that whole variant (its annual
+    stage too), one it finds in the cache at once, so the two variants' remeshing, light and
+    annual stages run side by side. A failed solve is left to the study to record."""
+    spec = study.variants[0].spec
+    try:
+        run_stages(DEFAULT_PIPELINE.until(SHARED_STAGE), spec, out / "shared",
+                   StageCache(out / ".torsal-cache", prune=False))
+    except DesignError:
+        pass
+
+
+def run(key: str, out: Path, workers: int, size: Size = Size.FULL) -> dict:
+    """Run one study at ``size``; save its table, plot and timing under examples/studies."""
+    study = Study.from_toml(write_study(key, out / key, size))
+    load0, t0, cpu0 = os.getloadavg()[0], time.perf_counter(), _cpu_s()
+    _solve_shared(study, out / key / "out")
     res = study.run(out / key / "out", workers=workers)
     RESULTS.mkdir(parents=True, exist_ok=True)
     keep = [c for c in res.table.columns if c in ("id", "kind", "device", "status", "note",
@@ -108,7 +174,8 @@ def run(key: str, out: Path, workers: int) -> dict:
                                                "light.annual.daylight.fins."))]
     res.table[keep].to_csv(RESULTS / f"{key}_annual.csv", index=False, float_format="%.6g")
     shutil.copyfile(res.files["png"], HERE / "studies" / f"{key}_annual_pareto.png")
-    timing = {"wall_s": time.perf_counter() - t0, "load_start": load0,
+    timing = {"wall_s": time.perf_counter() - t0, "cpu_s": _cpu_s() - cpu0,
+              "size": size.value, "workers": workers, "load_start": load0,
               "load_end": os.getloadavg()[0], "date": time.strftime("%Y-%m-%d %H:%M UTC",
                                                                    time.gmtime()),
               "commit": _commit(), "verdict": res.verdict, "failed": res.failed}
@@ -185,6 +252,13 @@ def failed(key: str, lighter: bool) -> str:
     return str(t["error"].iloc[0]).split(" (e.g.")[0] if len(t) else "-"
 
 
+def _time_cell(tm: dict) -> str:
+    """A study's wall minutes, processor minutes where measured, load, date, commit, size."""
+    cpu = f", {tm['cpu_s'] / 60:.1f} min CPU" if "cpu_s" in tm else ""
+    return (f"{tm['wall_s'] / 60:.1f} min{cpu} (load {tm['load_start']:.0f}-"
+            f"{tm['load_end']:.0f}, {tm['date']}, {tm['commit']}, {tm.get('size', 'reduced')})")
+
+
 def studies_table(keys=KEYS) -> str:
     """Per example: each torsal variant's cooling-season gains avoided and sDA (or view out),
     the devices' best of each, the study's verdict and the verdict against the view out,
@@ -209,8 +283,7 @@ def studies_table(keys=KEYS) -> str:
                          f"{devices.loc[devices[col].idxmax(), 'device']}: "
                          + cell(devices.loc[devices[col].idxmax()]))
         cells += [_lead(key, x) if x != X_KEY else "-", _lead(key, X_KEY),
-                  f"{tm['wall_s'] / 60:.1f} min (load {tm['load_start']:.0f}-"
-                  f"{tm['load_end']:.0f}, {tm['date']}, {tm['commit']})"]
+                  _time_cell(tm)]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -231,13 +304,16 @@ def view_plot(key: str) -> Path:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, default=Path("out/annual-studies"))
-    p.add_argument("--only", nargs="*", default=list(KEYS))
+    p.add_argument("--only", nargs="*", choices=KEYS, default=list(KEYS))
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--size", choices=[z.value for z in Size], default=Size.FULL.value,
+                   help="full: each example's own size at Radiance's defaults; full-design: "
+                   "the same designs, lighter Radiance; reduced: the quick run")
     p.add_argument("--table-only", action="store_true")
     args = p.parse_args(argv)
     if not args.table_only:
         for key in args.only:
-            tm = run(key, args.out, args.workers)
+            tm = run(key, args.out, args.workers, Size(args.size))
             print(f"{key}: {tm['wall_s']:.0f} s (load {tm['load_start']:.1f}-"
                   f"{tm['load_end']:.1f}); {tm['verdict']}", flush=True)
     for key in args.only:

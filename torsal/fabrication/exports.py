@@ -18,7 +18,7 @@ from .rhino import _membrane, _quad, _rhino_mesh, _with_edge_tolerances, brep_of
 from .workers import _parts_key, cancel_breps, solid_shapes
 
 __all__ = ["export_step", "write_step", "read_step", "start_read_step", "PendingStepRead",
-           "binary_round_trip",
+           "binary_round_trip", "read_step_for_check",
            "export_mesh", "export_3dm", "brep_of"]
 
 
@@ -216,9 +216,15 @@ def _read_meshed(path, mesh_tolerance: float | None) -> list[tuple[str, object]]
     return solids
 
 
-def _read_for_check(path, mesh_tolerance: float | None) -> list[tuple[str, object]]:
-    """:func:`_read_meshed` in OpenCascade's binary form (:func:`binary_round_trip`): what the
-    reading process sends, read in this one."""
+def read_step_for_check(path, *, mesh_tolerance: float | None = None
+                        ) -> list[tuple[str, object]]:
+    """:func:`read_step` of ``path`` in OpenCascade's binary form (:func:`binary_round_trip`),
+    meshed at ``mesh_tolerance`` (unit; None: not meshed): what :func:`start_read_step`'s
+    process sends, read in this one, so that the assembly check gets the same solids wherever
+    the file was read.
+
+    >>> solids = read_step_for_check("fins.step", mesh_tolerance=0.1)   # doctest: +SKIP
+    """
     return binary_round_trip(_read_meshed(path, mesh_tolerance))
 
 
@@ -259,7 +265,7 @@ class PendingStepRead:
         """``[(name, TopoDS_Solid)]`` of :func:`read_step`, in OpenCascade's binary form
         (:func:`binary_round_trip`) wherever they were read (waits)."""
         if self._process is None:
-            return _read_for_check(self.path, self.mesh_tolerance)
+            return read_step_for_check(self.path, mesh_tolerance=self.mesh_tolerance)
         from .workers import _from_bytes
 
         try:

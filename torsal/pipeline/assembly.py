@@ -127,15 +127,15 @@ def _step_solids(path: Path):
     """``read_step(path)`` in OpenCascade's binary form, taken from
     :func:`prefetch_step_solids` when it read this file: the check gets the same solids
     whether they were read in the background or here."""
-    from ..fabrication import read_step
-    from ..fabrication.exports import binary_round_trip
+    from ..fabrication.assembly import TOUCHING_TOLERANCE
+    from ..fabrication.exports import read_step_for_check
 
     pre = _PREFETCHED.get()
     if pre is not None and pre.path == path.resolve() and pre.stamp == _stamp(path):
         _PREFETCHED.set(None)
         return pre.read.result()
     drop_prefetched_solids()        # of another file, or of this one before it changed
-    return binary_round_trip(read_step(path))
+    return read_step_for_check(path, mesh_tolerance=TOUCHING_TOLERANCE)
 
 
 def _solids(inp: StageInputs):
