@@ -134,3 +134,29 @@ def test_a_resolve_starts_near_or_far_from_stationarity(solved):
     assert "far" in {k[0] for k in q.nlp.built["tangent"].solvers}
     assert far.success and cold.success
     assert far.objective == pytest.approx(cold.objective, rel=0.01)
+
+
+def test_moved_vertices_are_parameters_of_the_built_nlp():
+    """Mesh A's points are NLP parameters: after ``move_vertices`` and the terms registered
+    again, the built NLP is kept (no rebuild) and evaluates the moved mesh's energies and rows
+    exactly as a problem made on it; a solve before the terms are registered again is refused."""
+    v, f = facade_patch(nu=9, nv=7)
+    terms = lambda p: p.normal().fair().perpendicular(SUN, weight=10).hyperbolic().min_torsal_angle(30)
+    p = terms(CongruenceProblem(Congruence.from_normals((v, f))))
+    p.solve()
+    moved = v.copy()
+    moved[31] += [0.02, -0.1, 0.05]
+    with pytest.raises(ValueError, match="register them again"):
+        p.move_vertices(moved).solve()
+    terms(p)
+    assert p.build() == 0.0 and p.build("alm") == 0.0          # the built NLPs are kept
+    fresh = terms(CongruenceProblem(Congruence.from_normals((moved, f))))
+    e = p.optimum.directions
+    got, want = p.energies(e), fresh.energies(e)
+    assert got.keys() == want.keys()
+    for k in want:
+        assert got[k] == pytest.approx(want[k], rel=1e-12, abs=1e-15), k
+    np.testing.assert_allclose(p.measure(e)["hyperbolic"].values, fresh.measure(e)["hyperbolic"].values,
+                               rtol=1e-12, atol=1e-15)
+    r = p.solve()
+    assert r.success and r.min_torsal_angle_deg >= 30 - 0.1

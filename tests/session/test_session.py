@@ -178,6 +178,30 @@ def test_a_weight_edit_re_solves_the_kept_problem(tmp_path):
         assert "blocked_share" in b.light
 
 
+def test_a_moved_point_re_solves_the_kept_nlp(tmp_path):
+    """Mesh A's points are parameters of the built NLP: a moved surface point re-solves the
+    problem the session keeps, without building its NLP again (0.5 s of a preview at full
+    size), and the problem solved is the moved mesh's (its normal term measured on it)."""
+    with Session(_spec(), tmp_path, build=False) as s:
+        s.start()
+        reused = s.problems_reused
+        a = _moved_point(s)
+        assert a.kind is AnswerKind.PREVIEW and "surface" in a.stages_run
+        assert s.problems_reused == reused + 1
+        assert a.report["congruence"]["build_s"] == 0.0
+    from torsal.pipeline.problem import congruence_problem
+
+    cold = _cold(a.spec, tmp_path / "cold")
+    o, sun = cold["orient"], cold["sun"]
+    np.testing.assert_array_equal(o["vertices"], a.values["orient"]["vertices"])
+    # the energies the session reported are those of a problem made on the moved mesh
+    fresh = congruence_problem(a.spec, o["vertices"], o["faces"], sun["vectors"], sun["weights"])
+    measured = fresh.energies(a.values["congruence"]["directions"])
+    for name, value in a.report["congruence"]["energies"].items():
+        assert value == pytest.approx(measured[name], rel=1e-9, abs=1e-15), name
+    assert _energy(a.report["congruence"]) <= _energy(cold["congruence"]["report"]) * 1.01 + 1e-8
+
+
 def _without_assembly():
     """The design run's stages without the assembly check (19 s at this size): what these
     tests look at is how a build's files are published."""

@@ -128,8 +128,8 @@ class WarmProblem:
 
     :meth:`make` is the congruence stage's ``make_problem``
     (:func:`~torsal.pipeline.stages.run_congruence`): the design's terms are registered on the
-    kept problem again when mesh A and the terms' names are unchanged (a weight, a light
-    direction or a bound is then a parameter of the built NLP: no rebuild), else a new
+    kept problem again when mesh A's faces and the terms' names are unchanged (a weight, a light
+    direction, a bound or a moved vertex is then a parameter of the built NLP: no rebuild), else a new
     problem is made; either way the solve starts from the last good optimum where it is a
     good start (:meth:`_resumable`). :meth:`commit` keeps the problem and its optimum after a good solve; after a
     rejected edit nothing is committed, so the next solve starts from the last good design.
@@ -150,11 +150,12 @@ class WarmProblem:
         self._goals: dict[str, np.ndarray] = {}   # the energies' vertices of the kept problem
 
     def _fits(self, v: np.ndarray, f: np.ndarray, spec: DesignSpec, fresh: CongruenceProblem) -> bool:
+        """The kept problem takes ``spec``'s terms: the same faces of mesh A (its vertices may
+        have moved: mesh data are parameters of the built NLP) and the same terms by name."""
         p = self.problem
         return (p is not None and spec.substructure is None and p.jit == fresh.jit
                 and self._mesh is not None and self._mesh[0].shape == v.shape
-                and np.array_equal(self._mesh[0], v) and np.array_equal(self._mesh[1], f)
-                and _structure(p) == _structure(fresh))
+                and np.array_equal(self._mesh[1], f) and _structure(p) == _structure(fresh))
 
     def _resumable(self, problem: CongruenceProblem, spec: DesignSpec) -> bool:
         """The last optimum is a good start for ``problem``: its size fits, and where the
@@ -178,6 +179,8 @@ class WarmProblem:
         directions (k, 3) and weights (k,), warm: see the class notes."""
         fresh = congruence_problem(spec, v, f, sun, w_sun)
         if self._fits(v, f, spec, fresh):
+            if not np.array_equal(self.problem.congruence.vertices, v):
+                self.problem.move_vertices(v)    # a moved point: its terms are registered again below
             chosen = congruence_problem(spec, v, f, sun, w_sun, into=self.problem)
             self.reused += 1
         else:

@@ -60,10 +60,13 @@ class Term:
         return len(self.elements)
 
     def signature(self):
-        k = ("quadratic", self.matrix.shape) if self.element is None else (self.element.fn.name(),
-                                                                            self.element.k)
+        """What the built NLP depends on: the kernel, the elements, the bounds and the shapes
+        of ``par`` and ``data``. Their values are NLP parameters (a weight, a light direction,
+        a bound, mesh A's points: a moved vertex re-solves the built NLP)."""
+        k = (("quadratic", self.matrix.shape, hash(sp.csr_matrix(self.matrix).data.tobytes()))
+             if self.element is None else (self.element.fn.name(), self.element.k))
         return (self.constraint, k, self.idx.shape, hash(self.idx.tobytes()),
-                hash(np.asarray(self.data).tobytes()), self.par.shape)
+                np.shape(self.data), self.par.shape, self.lower, self.upper)
 
 
 def _as_index(sel, n: int, what: str) -> np.ndarray:

@@ -74,8 +74,9 @@ class _Layout:
     Variables: the directions (``n_dir``: ``dof`` per vertex), then the lifted variables
     (``n_lift``: ``(r, t, phi)`` per face of a lifted term, see :meth:`Built._lift`), then the
     elastic slacks (``n_slack``, see :meth:`Built._elastic`). Parameters: the tangent frames
-    (``n_frames``), then per term its weight and its ``par`` (from ``p_offsets``), then the
-    elastic penalty weight when there are slacks. Constraint rows: the constraint terms'
+    (``n_frames``), then per term its weight, its ``par`` and its ``data`` (mesh A's points in
+    units of delta: a moved vertex is a new parameter value, not a new NLP) from ``p_offsets``,
+    then the elastic penalty weight when there are slacks. Constraint rows: the constraint terms'
     rows in order (from ``g_offsets``).
     """
     n_vertices: int
@@ -105,7 +106,7 @@ class _Layout:
         p_offsets, n_p = [], 9 * n_vertices if tangent else 0
         for t in terms:
             p_offsets.append(n_p)
-            n_p += 1 + t.par.size
+            n_p += 1 + t.par.size + t.data.size
         n_p += 1 if el_rows.any() else 0      # the elastic penalty weight, last
         return cls(n_vertices, tangent, cons, g_offsets, np.flatnonzero(el_rows), lifts, n_lift,
                    p_offsets, n_p)
@@ -322,10 +323,11 @@ class _Assembly:
     def _value_args(self, t: Term, off: int):
         """The element function's mapped arguments ``(X, D, P)`` over the term's elements: the
         directions, the data, the parameters."""
-        m, r = t.size, t.element.n_par
+        m, r, q = t.size, t.element.n_par, t.element.n_data
         X = ca.reshape(self.e_all[t.idx.ravel().tolist()], t.idx.shape[1], m)
-        D = ca.DM(np.ascontiguousarray(t.data.T)) if t.element.n_data else ca.DM(0, m)
         P = ca.reshape(self.p[off + 1:off + 1 + m * r], r, m) if r else ca.MX(0, m)
+        start = off + 1 + t.par.size           # the data follow the term's par (see _Layout)
+        D = ca.reshape(self.p[start:start + m * q], q, m) if q else ca.DM(0, m)
         return X, D, P
 
     def _element_values(self, t: Term, off: int, go: int | None) -> None:
@@ -669,7 +671,8 @@ class Built:
         return x.reshape(-1, 3)
 
     def parameters(self, current: dict | None = None, frames: np.ndarray | None = None) -> np.ndarray:
-        """The parameter vector, taking weights and data from ``current`` terms by name."""
+        """The parameter vector, taking weights, ``par`` and ``data`` (mesh A's points) from
+        ``current`` terms by name."""
         current = current or {}
         p = np.empty(self.n_par)
         if self.n_frames:
@@ -678,6 +681,8 @@ class Built:
             src = current.get(t.name, t)
             p[off] = src.weight if not t.name.startswith("penalty:") else t.weight
             p[off + 1:off + 1 + t.par.size] = src.par.ravel()
+            start = off + 1 + t.par.size
+            p[start:start + t.data.size] = np.asarray(src.data, dtype=float).ravel()
         if self.n_slack:
             p[-1] = self.elastic
         return p

@@ -197,6 +197,28 @@ class CongruenceProblem(EnergyTerms, ConstraintTerms):
         self.registry.terms[name].weight = float(weight)
         return self
 
+    def move_vertices(self, vertices) -> "CongruenceProblem":
+        """Move mesh A's vertices to ``vertices`` (n, 3), model units, keeping its faces: the
+        start directions become the moved mesh's normals. Register every term again afterwards
+        (its data are mesh A's points; solving before raises a clear error): a term over the
+        same elements keeps the built NLP, whose mesh data are parameters, so a designer's
+        moved point re-solves without a rebuild (:class:`torsal.session.Session`). The last
+        answer stays the next warm start.
+
+        Examples
+        --------
+        >>> from torsal.geometry.surfaces import facade_patch
+        >>> v, f = facade_patch(nu=7, nv=5)
+        >>> p = CongruenceProblem(Congruence.from_normals((v, f))).normal().fair().hyperbolic()
+        >>> built = p.build()
+        >>> v2 = v.copy(); v2[17] += [0.0, -0.05, 0.0]
+        >>> p = p.move_vertices(v2).normal().fair().hyperbolic()
+        >>> p.build(), p.solve().success         # the NLP built before, no rebuild
+        (0.0, True)
+        """
+        self.registry.move_vertices(vertices)
+        return self
+
     def remove(self, name: str) -> "CongruenceProblem":
         """Remove a term or constraint (the solver is rebuilt at the next solve)."""
         if name not in self.registry.terms:

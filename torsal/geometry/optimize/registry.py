@@ -68,6 +68,8 @@ class TermRegistry:
         self.offsets: list[int] = [0]
         self.terms: dict[str, Term] = {}
         self._edges = None
+        #: terms registered before :meth:`move_vertices` and not since (their data are the old points)
+        self.stale: set[str] = set()
 
     @property
     def n_var(self) -> int:
@@ -86,6 +88,7 @@ class TermRegistry:
         (new elements, data or kernel), False where only parameters or the weight did."""
         old = self.terms.get(term.name)
         self.terms[term.name] = term
+        self.stale.discard(term.name)
         return old is None or old.signature() != term.signature()
 
     def custom_term(self, name: str, fn, over: str, elements, params, *, weight: float | None = None,
@@ -119,6 +122,21 @@ class TermRegistry:
         return Term(name, weight is None, el, _var_index(verts, 0), c.vertices[verts].reshape(m, 3 * k),
                     np.array(par), ids, scale=1.0 / m, weight=1.0 if weight is None else float(weight),
                     lower=float(lower), upper=float(upper))
+
+    def move_vertices(self, vertices: np.ndarray) -> None:
+        """Mesh A's vertices (n, 3) moved, its faces kept: the first congruence becomes the
+        moved mesh with its normals as start directions (see
+        :meth:`CongruenceProblem.move_vertices <torsal.geometry.optimize.CongruenceProblem.move_vertices>`)."""
+        v = np.asarray(vertices, dtype=float)
+        c = self.congruence
+        if v.shape != c.vertices.shape or not np.isfinite(v).all():
+            raise ValueError(f"moved vertices must be finite, shape {c.vertices.shape}; got {v.shape}")
+        if len(self.blocks) > 1:
+            raise ValueError("a problem aligned with another congruence (align_with) moves both: "
+                             "make a new one")
+        moved = Congruence.from_normals((v, c.faces))
+        self.congruence, self.blocks[0], self.delta = moved, moved, moved.delta
+        self.stale = set(self.terms)
 
     # ------------------------------------------------------------------ mesh data
     def face_data(self, faces: np.ndarray, block: int = 0):
@@ -215,6 +233,9 @@ class TermRegistry:
     def current(self) -> dict:
         """The terms' parameter values as the NLPs have them (hyperbolic without the rows
         min_torsal_angle implies; the penalties of lifted forms as their split rows)."""
+        if self.stale:
+            raise ValueError(f"the terms {sorted(self.stale)} were registered before mesh A's vertices "
+                             "moved (move_vertices): register them again on the moved mesh")
         cur = {k: (self.implied_hyperbolic(t) or t) for k, t in self.terms.items()}
         for k, t in self.terms.items():
             if t.constraint:
