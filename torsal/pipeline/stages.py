@@ -306,9 +306,13 @@ def run_remesh(inp: StageInputs) -> dict:
     return {"structure": s, "delta_pl": s.delta_pl}
 
 
-def run_support(inp: StageInputs) -> dict:
+def run_support(inp: StageInputs, *, optimize=None) -> dict:
     """Planarize the fins (eq. 8), soft then hard if needed, and refine to developable
-    strips (Fig. 10) if asked. Returns ``structure`` and the ``report`` section."""
+    strips (Fig. 10) if asked. Returns ``structure`` and the ``report`` section.
+
+    ``optimize(structure, *, reference, planarity_tol)``: the planarization, default
+    :func:`~torsal.geometry.support.optimize_support`; a live session's preview passes one
+    that stops early (:mod:`torsal.session.preview`)."""
     spec = inp.spec
     o = inp["orient"]
     reference = (o["vertices"], o["faces"])
@@ -318,7 +322,7 @@ def run_support(inp: StageInputs) -> dict:
         from ..geometry.support import optimize_support
 
         # soft eq. (8), then planarity as a hard constraint if the soft energy was not enough
-        r = optimize_support(s, reference=reference, planarity_tol=spec.fins.planarity_tol)
+        r = (optimize or optimize_support)(s, reference=reference, planarity_tol=spec.fins.planarity_tol)
         s, status, ok = r.structure, str(r.status), bool(r.success)
     else:
         status, ok = "not optimized (fins.optimize = false)", True

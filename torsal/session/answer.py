@@ -65,6 +65,12 @@ class SessionAnswer:
         False when the light's comparison with the standard devices (``light.devices``,
         ``light.baseline_louvers``) waits for the built answer (a change of spacing or
         depth); those keys are then left out of a preview's ``light``.
+    support_final : bool
+        False when the preview's fins were made planar by a projection because eq. (8)'s soft
+        planarity did not make them planar in a few iterations (a let-through region: the
+        design run then solves it with planarity as a hard constraint, seconds): the built
+        answer's fins are the design run's (``report["support"]["status"]`` says which).
+        True: the preview's support structure is the design run's.
     folder : Path or None
         A built answer's output folder (its files are ``files``).
     files : dict
@@ -85,6 +91,7 @@ class SessionAnswer:
     values: dict = field(default_factory=dict, repr=False)
     report: dict = field(default_factory=dict, repr=False)
     devices_current: bool = True
+    support_final: bool = True
     folder: Path | None = None
     files: dict = field(default_factory=dict, repr=False)
     message: str = ""

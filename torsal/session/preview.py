@@ -2,28 +2,111 @@
 fabrication (solids, sheets) and the assembly check.
 
 :func:`preview_pipeline` takes the design run's pipeline and keeps the stages a designer looks
-at (:data:`~torsal.session.answer.PREVIEW_STAGES`), with three changes: the congruence stage
+at (:data:`~torsal.session.answer.PREVIEW_STAGES`), with four changes: the congruence stage
 re-solves the session's kept problem from its last optimum (:class:`~.warm.WarmProblem`);
-the devices stage takes the standard devices from the stage cache, or while a change of
-spacing or depth waits for the build, the last good design's (:class:`PreviewDevices`); and
-the light measures every fin (no fabrication has left panels out yet). The stages keep their
-names and cache keys, so the build finds the preview's congruence, remesh and support in the
-cache.
+the support stage stops where eq. (8)'s soft planarity does not make the fins planar in a few
+iterations, and makes them planar by a projection instead, for the build to solve with
+planarity as a hard constraint (:class:`PreviewSupport`); the devices stage takes the standard
+devices from the stage cache, or while a change of spacing or depth waits for the build, the
+last good design's (:class:`PreviewDevices`); and the light measures every fin (no
+fabrication has left panels out yet). The stages keep their names and cache keys, so the
+build finds the preview's congruence, remesh and (where it is the design run's) support in
+the cache.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Callable
 
+from ..geometry.support import SupportOptimizationResult, optimize_support
 from ..pipeline.cache import MISSING, StageCache
 from ..pipeline.measure import run_devices
 from ..pipeline.stage import Pipeline, Stage, StageInputs, stage_keys
-from ..pipeline.stages import run_congruence
+from ..pipeline.stages import run_congruence, run_support
 from .answer import PREVIEW_STAGES
 from .warm import WarmProblem
 
-__all__ = ["PreviewDevices", "preview_pipeline", "preview_light"]
+__all__ = ["PreviewDevices", "PreviewSupport", "preview_support", "preview_pipeline", "preview_light",
+           "PREVIEW_SUPPORT_ITERATIONS"]
+
+#: IPOPT iterations per round of eq. (8)'s soft planarity in a preview. Every one-parameter
+#: edit of 7a but a let-through region took 1 or 2 (full and test size); the region's fins needed
+#: planarity as a hard constraint after 400 (full size: 12 s of processor time, then 2 s hard)
+PREVIEW_SUPPORT_ITERATIONS = 8
+
+
+def preview_support(structure, *, reference, planarity_tol: float,
+                    iterations: int = PREVIEW_SUPPORT_ITERATIONS) -> tuple[SupportOptimizationResult, bool]:
+    """The support structure of a preview and whether it is the design run's (``final``).
+
+    Eq. (8) with soft planarity, ``iterations`` IPOPT iterations per round at most: where every
+    round converges and the fins are planar to ``planarity_tol`` this is, bit for bit, what
+    :func:`~torsal.geometry.support.optimize_support` gives the design run (the same solves; an
+    iteration limit changes no iterate before it). Otherwise the run goes on for seconds (up to
+    200 iterations a round, then planarity as a hard constraint): the preview instead makes
+    those fins planar by the projection (``method="projection"``: a Gauss-Newton projection
+    onto planar fins on A's tangent planes, milliseconds), and is not final: the build solves
+    eq. (8) as the design run does.
+
+    Parameters
+    ----------
+    structure : SupportStructure
+        The extracted fins (the remesh stage's), model units.
+    reference : (vertices, faces)
+        Mesh A.
+    planarity_tol : float
+        The planarity flat sheet parts need (``fins.planarity_tol``).
+    iterations : int
+
+    Returns
+    -------
+    (SupportOptimizationResult, bool)
+    """
+    soft = optimize_support(structure, reference, planarity_tol=None, max_iter=iterations)
+    converged = all(h.get("status") == "Solve_Succeeded" for h in soft.history)
+    if converged and soft.success and soft.delta_pl_after <= planarity_tol:
+        return soft, True
+    planar = optimize_support(soft.structure, reference, hard_tol=planarity_tol, method="projection")
+    status = (f"preview: soft planarity left delta_pl {soft.delta_pl_after:.3g} after {soft.iterations} "
+              f"iterations (> {planarity_tol:.3g} or not converged); made planar by projection "
+              f"({planar.status}); the built answer solves eq. (8) as torsal design does")
+    return replace(planar, status=status, iterations=soft.iterations + planar.iterations,
+                   solve_seconds=soft.solve_seconds + planar.solve_seconds,
+                   delta_pl_before=soft.delta_pl_before), False
+
+
+@dataclass
+class PreviewSupport:
+    """The preview's support stage: the design run's support from the stage cache, else
+    :func:`preview_support`; a final one is stored in the cache for the build, one made planar
+    by projection is not (the build solves eq. (8) itself). Its value carries ``final``.
+
+    Examples
+    --------
+    >>> PreviewSupport(cache, DEFAULT_PIPELINE)(inputs)["final"]     # doctest: +SKIP
+    True
+    """
+
+    cache: StageCache
+    pipeline: Pipeline
+
+    def __call__(self, inp: StageInputs) -> dict:
+        key = stage_keys(self.pipeline, inp.spec)["support"]
+        value = self.cache.load("support", key)
+        if value is not MISSING:
+            return {**value, "final": True}
+        final = []
+
+        def optimize(structure, *, reference, planarity_tol):
+            result, ok = preview_support(structure, reference=reference, planarity_tol=planarity_tol)
+            final.append(ok)
+            return result
+
+        value = run_support(inp, optimize=optimize)
+        if all(final):          # (fins.optimize false: no optimization, the design run's)
+            self.cache.store("support", key, value)
+        return {**value, "final": all(final)}
 
 
 @dataclass
@@ -68,7 +151,8 @@ def preview_light(report: dict, devices_current: bool) -> dict:
     return {k: v for k, v in report.items() if k not in ("devices", "baseline_louvers")}
 
 
-def preview_pipeline(pipeline: Pipeline, warm: WarmProblem, devices: PreviewDevices) -> Pipeline:
+def preview_pipeline(pipeline: Pipeline, warm: WarmProblem, devices: PreviewDevices,
+                     support: PreviewSupport) -> Pipeline:
     """The preview stages of ``pipeline`` (see the module notes).
 
     Parameters
@@ -78,6 +162,7 @@ def preview_pipeline(pipeline: Pipeline, warm: WarmProblem, devices: PreviewDevi
     warm : WarmProblem
         The session's kept congruence problem.
     devices : PreviewDevices
+    support : PreviewSupport
 
     Returns
     -------
@@ -88,7 +173,8 @@ def preview_pipeline(pipeline: Pipeline, warm: WarmProblem, devices: PreviewDevi
     >>> from torsal.pipeline import DEFAULT_PIPELINE, StageCache
     >>> cache = StageCache("/tmp/x")
     >>> p = preview_pipeline(DEFAULT_PIPELINE, WarmProblem(),
-    ...                      PreviewDevices(cache, DEFAULT_PIPELINE, lambda: None))
+    ...                      PreviewDevices(cache, DEFAULT_PIPELINE, lambda: None),
+    ...                      PreviewSupport(cache, DEFAULT_PIPELINE))
     >>> p.names[-3:]
     ('substructure', 'devices', 'light')
     """
@@ -99,6 +185,9 @@ def preview_pipeline(pipeline: Pipeline, warm: WarmProblem, devices: PreviewDevi
         if s.name == "congruence":
             s = Stage(s.name, partial(run_congruence, make_problem=warm.make), inputs=s.inputs,
                       key=s.key, applies=s.applies, cache=s.cache, section=s.section)
+        elif s.name == "support":
+            s = Stage(s.name, support, inputs=s.inputs, key=s.key, applies=s.applies, cache=False,
+                      section=s.section)
         elif s.name == "devices":
             s = Stage(s.name, devices, inputs=s.inputs, key=s.key, applies=s.applies, cache=False,
                       section=s.section)

@@ -16,7 +16,7 @@ from ..pipeline.stages import DEFAULT_PIPELINE
 from .answer import AnswerKind, SessionAnswer
 from .build import Builder, BuildRequest
 from .edits import RegionGoal, apply_edit, moved_point_surface, region_edit
-from .preview import PreviewDevices, preview_light, preview_pipeline
+from .preview import PreviewDevices, PreviewSupport, preview_light, preview_pipeline
 from .warm import WarmCache, WarmProblem
 
 __all__ = ["Session", "SESSION_FOLDER"]
@@ -83,7 +83,7 @@ class Session:
         self._spec = _spec_of(design)
         self._warm = WarmProblem()
         self._preview_pipeline = preview_pipeline(pipeline, self._warm, PreviewDevices(
-            self.cache, pipeline, self._previous_devices))
+            self.cache, pipeline, self._previous_devices), PreviewSupport(self.cache, pipeline))
         self._edit_lock = threading.RLock()
         self._cond = threading.Condition()
         self._revision = -1
@@ -271,12 +271,14 @@ class Session:
             raise
         self._warm.commit(run.values.get("congruence", {}).get("optimum"))
         current = bool(run.values.get("devices", {}).get("current", True))
+        final = bool(run.values.get("support", {}).get("final", True))
         report = {**run.report, "light": preview_light(run.report.get("light", {}), current)}
         answer = SessionAnswer(
             kind=AnswerKind.PREVIEW, revision=revision, spec=spec,
             stages_run=tuple(s for s in self._preview_pipeline.names if s in run.stage_seconds),
             stages_kept=tuple(run.cached), seconds=time.perf_counter() - t0,
-            stage_seconds=dict(run.stage_seconds), values=run.values, report=report, devices_current=current)
+            stage_seconds=dict(run.stage_seconds), values=run.values, report=report, devices_current=current,
+            support_final=final)
         self._good = answer
         if self._builder is not None:
             self._builder.submit(BuildRequest(revision, spec, t0))
