@@ -124,6 +124,23 @@ def _plate_panels(st: _Strips) -> dict:
     return plate
 
 
+def folded_back_reach(fold: float, thickness: float) -> float:
+    """How far from their common node line two plates ``thickness`` thick, one folded back
+    onto the other by ``fold`` degrees (over 90: they lie on the same side of the line, an
+    angle ``180 - fold`` apart), overlap (``unit``): a point of one mid-plane ``r`` from the
+    line is ``r sin(180 - fold)`` off the other's, inside it while that is under a thickness
+    (half of each plate). 0 for folds of 90 degrees or less.
+
+    >>> round(folded_back_reach(170.0, 3.0), 2)
+    17.28
+    >>> folded_back_reach(60.0, 3.0)
+    0.0
+    """
+    if not fold > 90.0:
+        return 0.0
+    return float(thickness / np.sin(np.radians(180.0 - fold)))
+
+
 class StripCutter:
     """Cuts the strips of a fin system ``fs`` (its limits: ``min_panel_width``,
     ``max_fold_angle``, ``max_panels``, ``max_part_length``, ``fit_sheet``) into parts; fills its
@@ -144,8 +161,18 @@ class StripCutter:
         # a panel folded back (more than MITER_LIMIT) onto its kept neighbour lies on top of it:
         # it duplicates that fin and cannot be built; drop it
         for j in range(1, len(quads)):
-            if not drop[j] and not drop[j - 1] and _fold_deg(n[j - 1], n[j]) > MITER_LIMIT:
+            if drop[j] or drop[j - 1]:
+                continue
+            fold = _fold_deg(n[j - 1], n[j])
+            if fold > MITER_LIMIT:
                 drop[j] = True
+            elif fold > 90.0 and (min(w[j - 1], w[j]) < folded_back_reach(fold, fs.thickness)
+                                  + fs.min_panel_width):
+                # folded back less far, but what the narrower panel has outside the other
+                # plate is narrower than a panel is kept (7c at full size: an 18.7 mm panel
+                # folded back 169.5 deg at the end of F1-S000, 16.5 mm of it inside the next
+                # part, 7,773 mm^3): drop that one
+                drop[j - 1 if w[j - 1] < w[j] else j] = True
         return drop
 
     def _miter_ok(self, n1, n2, w1, w2) -> bool:
