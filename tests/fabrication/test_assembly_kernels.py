@@ -96,6 +96,38 @@ def test_clear_prisms_agree_with_the_exact_boolean(angle):
     assert decided > 0 and undecided > 0
 
 
+def test_prisms_of_a_part_against_many_solids_at_once_as_one_by_one():
+    """prisms_clear_of_each (one pass over a part's path and a dozen solids) gives, pair for
+    pair, what prisms_clear of each solid gives, and proves apart where the exact boolean
+    finds nothing in common."""
+    from torsal.fabrication.assembly import _bbox, _mesh, prisms_clear
+    from torsal.fabrication.assembly.separation import prisms_clear_of_each
+
+    rng = np.random.default_rng(7)
+    moving = _box(4, 1, 2, rotate_z=30.0).wrapped
+    faces = _face_records(moving)
+    others = []
+    for _ in range(12):
+        other = _box(*rng.uniform(0.5, 3, 3), at=rng.uniform(-3, 5, 3),
+                     rotate_z=rng.uniform(0, 90)).wrapped
+        _mesh([other], 1.0)
+        tri = _boundary_triangles(other)
+        others.append((other, tri, _bbox(other)))
+    v = np.array([1.0, -2.0, 0.5])
+    candidates = rng.random((len(faces), len(others))) < 0.8
+    each = prisms_clear_of_each(faces, v, [(t, b, (t.min(axis=1), t.max(axis=1)))
+                                           for _, t, b in others], candidates)
+    for i, (other, tri, box) in enumerate(others):
+        rows = np.flatnonzero(candidates[:, i])
+        one = prisms_clear([faces[n] for n in rows], v, tri, box)
+        assert each[rows, i].tolist() == one.tolist()
+        assert not each[~candidates[:, i], i].any()
+        for n in rows[one]:
+            pr = _face_prism(faces[n].face, v)
+            assert pr is None or common_volume(pr, other) == pytest.approx(0.0, abs=1e-9)
+    assert 0 < each.sum() < candidates.sum()          # some proved apart, some not
+
+
 def test_swept_overlap_of_a_tilted_plate_known_by_hand():
     # a 10 x 1 x 2 plate turned 45 degrees about z slides 10 along its long axis into place;
     # a cube 0.5 beside it (apart by a plane parallel to the plate's side) is never met

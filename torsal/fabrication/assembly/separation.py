@@ -78,6 +78,31 @@ def _inside_by_ray(point, triangles) -> bool | None:
     return bool((within & (w > 0)).sum() % 2)
 
 
+def _prism_hulls(faces: Sequence[_Face], vectors, eps: float) -> tuple:
+    """The hulls of the prisms ``faces`` sweep back along ``vectors`` (p, 3): their corners
+    (p, 2m, 3; a face with fewer corners repeats its first, which leaves the hull as it is),
+    edge directions (p, k, 3; zero rows give no axis), face normals (p, 3) and boxes grown by
+    ``eps`` (two (p, 3))."""
+    nf = len(faces)
+    v = np.broadcast_to(np.asarray(vectors, float), (nf, 3))
+    m = max(len(f.points) for f in faces)
+    k = max(len(f.edges) for f in faces) + 1
+    pts = np.empty((nf, 2 * m, 3))
+    edges = np.zeros((nf, k, 3))
+    for n, f in enumerate(faces):
+        fp = np.concatenate([f.points, f.points[:1].repeat(m - len(f.points), axis=0)])
+        pts[n, :m], pts[n, m:] = fp, fp - v[n]
+        edges[n, :len(f.edges)] = f.edges
+        edges[n, len(f.edges)] = v[n]
+    normals = np.array([f.normal for f in faces])
+    return pts, edges, normals, pts.min(axis=1) - eps, pts.max(axis=1) + eps
+
+
+def _near_boxes(lo, hi, tmin, tmax) -> np.ndarray:
+    """(p, t) whether box ``p`` (``lo``, ``hi``: (p, 3)) meets triangle box ``t``."""
+    return (tmin[None] <= hi[:, None]).all(axis=2) & (tmax[None] >= lo[:, None]).all(axis=2)
+
+
 def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
                  other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
                  triangle_boxes=None) -> np.ndarray:
@@ -86,21 +111,10 @@ def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
     nf = len(faces)
     if not nf:
         return np.zeros(0, bool)
-    v = np.broadcast_to(np.asarray(vectors, float), (nf, 3))
-    m = max(len(f.points) for f in faces)
-    k = max(len(f.edges) for f in faces) + 1
-    pts = np.empty((nf, 2 * m, 3))
-    edges = np.zeros((nf, k, 3))                 # zero rows give no axis (masked below)
-    for n, f in enumerate(faces):
-        fp = np.concatenate([f.points, f.points[:1].repeat(m - len(f.points), axis=0)])
-        pts[n, :m], pts[n, m:] = fp, fp - v[n]   # repeated corners leave the hull as it is
-        edges[n, :len(f.edges)] = f.edges
-        edges[n, len(f.edges)] = v[n]
-    normals = np.array([f.normal for f in faces])
-    lo, hi = pts.min(axis=1) - eps, pts.max(axis=1) + eps
+    pts, edges, normals, lo, hi = _prism_hulls(faces, vectors, eps)
     tri = other_triangles
     tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
-    near = ((tmin[None] <= hi[:, None]).all(axis=2) & (tmax[None] >= lo[:, None]).all(axis=2))
+    near = _near_boxes(lo, hi, tmin, tmax)
     clear = np.ones(nf, bool)
     used = near.any(axis=0)
     if used.any():
@@ -112,11 +126,74 @@ def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
     return clear
 
 
+def prisms_clear_of_each(faces: Sequence[_Face], vectors, others: Sequence[tuple],
+                         candidates: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
+                         groups: np.ndarray | None = None) -> np.ndarray:
+    """:func:`prisms_clear` of the prisms of ``faces`` against each of several solids in one
+    vectorized pass (one call per solid cost more in numpy's per-call overhead than in
+    arithmetic: a part's path meets a dozen others). ``others``: per solid ``(triangles
+    (t, 3, 3), box (2, 3), triangle boxes (min, max))``; ``candidates`` (p, o) bool: the
+    (prism, solid) pairs to test. Returns (p, o) bool: True where a candidate pair is proved
+    apart, each exactly as :func:`prisms_clear` of that solid and the candidate prisms would
+    (the same axes and the same tolerance, scaled per solid); False elsewhere. ``groups``
+    (p,) int: prisms tested together in :func:`prisms_clear` calls of their own (the pieces of
+    one face, :func:`~.sweep.face_pieces`), so scaled per group and solid.
+
+    >>> import numpy as np
+    >>> from torsal.fabrication.assembly.occ import _Face
+    >>> sq = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    >>> face = _Face(None, sq, np.roll(sq, -1, axis=0) - sq, np.array([0.0, 0.0, 1.0]))
+    >>> tri = np.array([[[0, 0, 2.0], [1, 0, 2], [0, 1, 2]]])
+    >>> near = (tri, np.array([[0, 0, 2.0], [1, 1, 2]]), (tri.min(axis=1), tri.max(axis=1)))
+    >>> prisms_clear_of_each([face], [0, 0, 1], [near], np.ones((1, 1), bool)).tolist()
+    [[True]]
+    """
+    nf, no = len(faces), len(others)
+    out = np.zeros((nf, no), bool)
+    if not nf or not no or not candidates.any():
+        return out
+    pts, edges, normals, lo, hi = _prism_hulls(faces, vectors, eps)
+    start = np.cumsum([0] + [len(o[0]) for o in others])
+    owner = np.repeat(np.arange(no), np.diff(start))
+    tri = np.concatenate([o[0] for o in others]).reshape(-1, 3, 3)
+    pis, tis = [], []
+    for i, (_, _, (tmin, tmax)) in enumerate(others):
+        p = np.flatnonzero(candidates[:, i])       # the near pairs of each solid's candidates
+        a, b = np.nonzero(_near_boxes(lo[p], hi[p], tmin, tmax))
+        pis.append(p[a])
+        tis.append(b + start[i])
+    pi, ti = np.concatenate(pis), np.concatenate(tis)
+    out[candidates] = True
+    if len(pi):
+        g = owner[ti] if groups is None else np.asarray(groups)[pi] * no + owner[ti]
+        sep = _sat_pairs(pts, edges, normals, tri, pi, ti, g, int(g.max()) + 1, eps)
+        bad = np.zeros((nf, no), bool)
+        bad[pi[~sep], owner[ti[~sep]]] = True
+        out &= ~bad
+    for n, i in zip(*np.nonzero(out)):
+        box = others[i][1]
+        if (lo[n] >= box[0]).all() and (hi[n] <= box[1]).all():
+            out[n, i] = _inside_by_ray(pts[n].mean(axis=0), others[i][0]) is False
+    return out
+
+
 def _sat_clear(pts, edges, normals, tri, near, eps) -> np.ndarray:
     """(p,) whether no near triangle reaches ``eps`` into the hull of each point set ``pts``
     (p, m, 3) with edge directions ``edges`` (p, k, 3), axis ``normals`` (p, 3); ``near``
     (p, t) selects the triangles (t, 3, 3) each is tested against (only those pairs are)."""
     pi, ti = np.nonzero(near)
+    sep = _sat_pairs(pts, edges, normals, tri, pi, ti, np.zeros(len(pi), int), 1, eps)
+    clear = np.ones(len(pts), bool)
+    clear[pi[~sep]] = False
+    return clear
+
+
+def _sat_pairs(pts, edges, normals, tri, pi, ti, group, n_groups: int, eps) -> np.ndarray:
+    """(n,) whether triangle ``tri[ti]`` lies more than ``eps`` outside the hull of point set
+    ``pts[pi]`` along one separating axis: the triangle's normal, the set's normal
+    ``normals[pi]`` and the cross products of the set's ``edges[pi]`` with the triangle's
+    edges. An axis counts if longer than 1e-9 scale^2, ``scale`` the largest centred
+    coordinate among the pairs of its ``group`` (one group: one solid's triangles)."""
     c = pts.mean(axis=1)                               # (p, 3): centred, smaller round-off
     q = (pts - c[:, None])[pi]                         # (n, m, 3)
     t = tri[ti] - c[pi][:, None]                       # (n, 3, 3)
@@ -125,15 +202,14 @@ def _sat_clear(pts, edges, normals, tri, near, eps) -> np.ndarray:
     cross = _cross(edges[pi][:, :, None, :], te[:, None, :, :]).reshape(len(pi), -1, 3)
     axes = np.concatenate([tn[:, None], normals[pi][:, None], cross], axis=1)   # (n, a, 3)
     norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
-    scale = max(float(np.abs(q).max(initial=0.0)), float(np.abs(t).max(initial=0.0)), 1.0)
-    ok = norm > 1e-9 * scale * scale                   # parallel edges give no axis
+    scale = np.ones(n_groups)
+    np.maximum.at(scale, group, np.maximum(np.abs(q).max(axis=(1, 2), initial=0.0),
+                                           np.abs(t).max(axis=(1, 2), initial=0.0)))
+    ok = norm > 1e-9 * (scale * scale)[group][:, None]  # parallel edges give no axis
     pp = axes @ q.transpose(0, 2, 1)                   # (n, a, m)
     tp = axes @ t.transpose(0, 2, 1)                   # (n, a, 3)
     gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
-    sep = (ok & (gap >= -eps * norm)).any(axis=1)      # (n,)
-    clear = np.ones(len(pts), bool)
-    clear[pi[~sep]] = False
-    return clear
+    return (ok & (gap >= -eps * norm)).any(axis=1)     # (n,)
 
 
 def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.ndarray,

@@ -12,7 +12,7 @@ import numpy as np
 
 from .occ import (_Face, _bbox, _boundary_triangles, _face_prism, _face_records, _meshed_triangles,
                   _near, _shape, common_volume)
-from .separation import prisms_clear, surfaces_clear
+from .separation import prisms_clear_of_each, surfaces_clear
 
 __all__ = ["swept_overlap", "face_pieces"]
 
@@ -44,21 +44,32 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
                np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, tuple] = {}            # face index -> (oriented prism, its box) or None
-    pieces: dict[int, list] = {}             # face index -> its triangles as faces
+    shapes = [_shape(o) for o in others]
+    obs = [_bbox(o) if boxes is None else boxes(i) for i, o in enumerate(shapes)]
+    fb, ob_ = np.array(fboxes).reshape(-1, 2, 3), np.array(obs).reshape(-1, 2, 3)
+    # (face, other) whose boxes meet (else apart), then the prisms proved apart of all at once
+    boxes_meet = ~((fb[:, None, 0] > ob_[None, :, 1]).any(axis=2)
+                   | (ob_[None, :, 0] > fb[:, None, 1]).any(axis=2))
+    tris = {i: _boundary_triangles(shapes[i]) if triangles is None else triangles(i)
+            for i in np.flatnonzero(boxes_meet.any(axis=0))}
+    hit = sorted(tris)
+    clear = np.zeros_like(boxes_meet)
+    if hit:
+        clear[:, hit] = prisms_clear_of_each(
+            faces, v, [(tris[i], obs[i], (tris[i].min(axis=1), tris[i].max(axis=1))) for i in hit],
+            boxes_meet[:, hit])
+    # a face with a notch or a hole is not convex: its hull covers the plate in its slot. Its
+    # triangles are (and the face is their union): apart if each is
+    left = boxes_meet & ~clear
+    if hit and left.any():
+        clear[:, hit] |= _pieces_clear_of_each(faces, v, [(tris[i], obs[i]) for i in hit],
+                                               left[:, hit])
     out = []
-    for i, o in enumerate(others):
-        oshape = _shape(o)
-        ob = _bbox(oshape) if boxes is None else boxes(i)
+    for i, oshape in enumerate(shapes):
+        o, ob = others[i], obs[i]
         total = 0.0
-        meets = [n for n, (plo, phi) in enumerate(fboxes)
-                 if not ((plo > ob[1]).any() or (ob[0] > phi).any())]     # else apart
-        if meets:
-            otri = _boundary_triangles(oshape) if triangles is None else triangles(i)
-            clear = prisms_clear([faces[n] for n in meets], v, otri, ob)
-            meets = [n for n, c in zip(meets, clear) if not c]            # else proved apart
-            # a face with a notch or a hole is not convex: its hull covers the plate in its
-            # slot. Its triangles are (and the face is their union): apart if each is
-            meets = [n for n in meets if not _pieces_clear(pieces, n, faces[n], v, otri, ob)]
+        otri = tris.get(i)
+        meets = [int(n) for n in np.flatnonzero(boxes_meet[:, i] & ~clear[:, i])]
         for n in meets:
             face = faces[n]
             if n not in prisms:
@@ -89,9 +100,23 @@ def face_pieces(face: _Face) -> list[_Face]:
     return [_Face(None, t, np.roll(t, -1, axis=0) - t, face.normal) for t in tri]
 
 
-def _pieces_clear(pieces: dict, n: int, face: _Face, v, otri, ob) -> bool:
-    """Whether every triangle of face ``n`` swept along ``v`` is proved apart from the other
-    solid (its triangles ``otri``, box ``ob``): then the whole face's prism is."""
-    if n not in pieces:
-        pieces[n] = face_pieces(face)
-    return bool(len(pieces[n])) and bool(prisms_clear(pieces[n], v, otri, ob).all())
+def _pieces_clear_of_each(faces: list[_Face], v, others: list[tuple], candidates: np.ndarray
+                          ) -> np.ndarray:
+    """(f, o) whether every triangle of face ``f`` (:func:`face_pieces`) swept along ``v`` is
+    proved apart from solid ``o`` (``others``: its triangles and box), for the ``candidates``
+    (f, o): then the whole face's prism is. Faces without triangles are not."""
+    rows = np.flatnonzero(candidates.any(axis=1))
+    pieces = {int(n): face_pieces(faces[n]) for n in rows}
+    of = np.array([n for n in rows for _ in pieces[int(n)]], int)
+    out = np.zeros_like(candidates)
+    if not len(of):
+        return out
+    each = prisms_clear_of_each([p for n in rows for p in pieces[int(n)]], v,
+                                [(t, b, (t.min(axis=1), t.max(axis=1))) for t, b in others],
+                                candidates[of], groups=of)
+    # a face is clear of a solid if all its pieces are (and it has some)
+    bad = np.zeros_like(candidates)
+    np.logical_or.at(bad, of, ~each)
+    has = np.zeros(len(faces), bool)
+    has[of] = True
+    return candidates & has[:, None] & ~bad
