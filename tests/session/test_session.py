@@ -194,9 +194,13 @@ def test_a_weight_edit_re_solves_the_kept_problem(tmp_path):
 def test_a_moved_point_re_solves_the_kept_nlp(tmp_path):
     """Mesh A's points are parameters of the built NLP: a moved surface point re-solves the
     problem the session keeps, without building its NLP again (0.5 s of a preview at full
-    size), and the problem solved is the moved mesh's (its normal term measured on it)."""
+    size), and the problem solved is the moved mesh's (its normal term measured on it). The
+    design's problem is kept while a bound is tried and taken back (the undone edit's answer
+    comes from the stage cache, without a solve)."""
     with Session(_spec(), tmp_path, build=False) as s:
-        s.start()
+        first = s.start()
+        assert s.set_bound(min_torsal_angle=20).kind is AnswerKind.PREVIEW    # another problem
+        assert "congruence" in s.apply(first.spec).stages_kept                 # undone, cached
         reused = s.problems_reused
         a = _moved_point(s)
         assert a.kind is AnswerKind.PREVIEW and "surface" in a.stages_run

@@ -269,7 +269,10 @@ class Session:
         except BaseException:
             self._warm.rollback()
             raise
-        self._warm.commit(run.values.get("congruence", {}).get("optimum"))
+        v = run.values
+        origin = ((spec, v["orient"]["vertices"], v["orient"]["faces"], v["sun"]["vectors"], v["sun"]["weights"])
+                  if "congruence" in v and "orient" in v and "sun" in v else None)
+        self._warm.commit(v.get("congruence", {}).get("optimum"), origin)
         current = bool(run.values.get("devices", {}).get("current", True))
         final = bool(run.values.get("support", {}).get("final", True))
         report = {**run.report, "light": preview_light(run.report.get("light", {}), current)}
