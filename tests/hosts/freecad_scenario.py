@@ -76,10 +76,13 @@ def _live(FreeCAD, make_fins, design, folder):
     # the first design's build is cancelled by the next change, as a designer's would be
     change("first", lambda: None, built=False)
     change("spacing", lambda: setattr(fins, "Spacing", fins.Spacing.Value * 1.25))
-    # a sparse second family (fins.spacing = [s, 2 s]): the preview only, the next change's
-    # build carries it
-    change("spacing1", lambda: setattr(fins, "Spacing1", fins.Spacing.Value * 2), built=False)
-    change("sun", lambda: setattr(fins, "SunHours", [12.0, 17.0]))
+    # a sparse, shallow second family (fins.spacing = [s, 2 s], depth = [d, 250 mm]): the
+    # preview only (at 2 x 1.875 m this facade's family-0 panels outgrow the sheet, so the
+    # build would fail for that reason); the next change keeps the shallow family in its build
+    change("spacing1", lambda: (setattr(fins, "Spacing1", fins.Spacing.Value * 2),
+                                setattr(fins, "Depth1", 250.0)), built=False)
+    change("sun", lambda: (setattr(fins, "SunHours", [12.0, 17.0]),
+                           setattr(fins, "Spacing1", 0.0)))
     # a bad value: invalid with torsal's message, the built solids stay
     fins.SunHours = [18.0, 9.0]
     doc.recompute()

@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -254,9 +255,12 @@ def test_the_live_object_shows_the_preview_at_once_and_the_solids_when_built(sce
     assert "congruence" in sun["stages_run"] and "surface" in sun["stages_cached"]
     assert spacing["faces"] < first["faces"]
     # Spacing1 = 2 Spacing: every other family-1 fin (fewer nodes, so family 0 has fewer faces
-    # too, each longer); the sun change's build carries it
-    family1 = [live[k]["groups"].count("family 1") for k in ("spacing", "spacing1", "sun")]
-    assert family1[1] < 0.75 * family1[0] and family1[2] < 0.75 * family1[0], family1
+    # too, each longer); Depth1 = 250 mm is in the sun change's build
+    family1 = [live[k]["groups"].count("family 1") for k in ("spacing", "spacing1")]
+    assert family1[1] < 0.75 * family1[0], family1
+    ran = tomllib.loads(Path(live["sun_built"]["design_run"]).read_text())["fins"]
+    assert ran["depth"] == [pytest.approx(0.4), pytest.approx(0.25)]
+    assert not isinstance(ran["spacing"], list)
     # warm: a change's preview in a few seconds at most (about 0.3 s at this size, idle)
     for p in (spacing, sun):
         assert p["seconds"] < 3.0 and p["recompute"] < 10.0, p
