@@ -39,22 +39,37 @@ def in_freecad(test):
     return pytest.mark.slow(pytest.mark.xdist_group("freecad-scenario")(test))
 
 
-@pytest.fixture(scope="module")
-def workbench(tmp_path_factory):
-    """The workbench installed with the CLI into a scratch HOME: ``(environment, tmp folder,
-    the install's output)``; skipped without freecadcmd."""
+def _scratch_home(tmp_path_factory) -> tuple[dict, Path]:
+    """A scratch HOME for FreeCAD (the machine's FreeCAD is left alone): its environment and
+    folder; skipped without freecadcmd."""
     if FREECADCMD is None:
         pytest.skip("freecadcmd (FreeCAD) is missing, so the FreeCAD object is not tested; `make "
                     "test` installs it as root, or:  sudo apt-get install -y freecad-python3")
     tmp = tmp_path_factory.mktemp("freecad")
-    home = tmp / "home"
-    home.mkdir()
-    env = {**os.environ, "HOME": str(home), "XDG_CACHE_HOME": str(tmp / "cache")}
+    (tmp / "home").mkdir()
+    env = {**os.environ, "HOME": str(tmp / "home"), "XDG_CACHE_HOME": str(tmp / "cache")}
     env.pop("XDG_DATA_HOME", None)
+    return env, tmp
+
+
+@pytest.fixture(scope="module")
+def workbench(tmp_path_factory):
+    """The workbench installed with the CLI, as a user does: ``(environment, tmp folder, the
+    install's output)``."""
+    env, tmp = _scratch_home(tmp_path_factory)
     installed = subprocess.run([str(TORSAL), "freecad", "install"], env=env, capture_output=True,
                                text=True, timeout=300)
     assert installed.returncode == 0, installed.stderr
     return env, tmp, installed.stdout
+
+
+@pytest.fixture(scope="module")
+def quick_workbench(tmp_path_factory):
+    """The workbench installed in this process into FreeCAD 0.20's user Mod folder (what the
+    CLI finds by asking freecadcmd, a start of FreeCAD saved): ``(environment, tmp folder)``."""
+    env, tmp = _scratch_home(tmp_path_factory)
+    install_workbench(tmp / "home" / ".local" / "share" / "FreeCAD" / "Mod", python=sys.executable)
+    return env, tmp
 
 
 def _freecadcmd(code: str, env: dict, cwd: Path, timeout: float):
@@ -87,9 +102,9 @@ FAMILIES = DESIGN.replace("spacing = 1.5", "spacing = [1.5, 3.0]").replace(
 
 
 @pytest.fixture(scope="module")
-def families(workbench):
+def families(quick_workbench):
     """freecad_scenario.families() in freecadcmd (seconds: no design run)."""
-    env, tmp, _ = workbench
+    env, tmp = quick_workbench
     assert FAMILIES != DESIGN
     (tmp / "families.toml").write_text(FAMILIES)
     (tmp / "one.toml").write_text(DESIGN)
