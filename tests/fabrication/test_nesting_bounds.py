@@ -129,3 +129,14 @@ def test_the_search_on_either_sheet_way_is_valid_and_repeats(sheet):
     assert valid(a, 5, 10, cut) and placements(a) == placements(b)
     assert {p.name for p in a.placements} == set(parts)
     assert a.n_sheets <= min(a.stats.starts.values())
+
+
+def test_a_chord_counts_the_part_not_its_concavity():
+    """A C 2000 x 400 mm whose two arms 100 mm wide run along it around a 200 mm notch takes
+    200 mm of the middle line, not 400: another part may lie in the notch, between the arms.
+    Turned a quarter, it is measured the same (each part is laid along the rows)."""
+    c = Polygon([(0, 0), (2000, 0), (2000, 400), (0, 400), (0, 300), (1800, 300), (1800, 100),
+                 (0, 100)])
+    chords = crossing_chords([box(0, 0, 2000, 100), c, affinity.rotate(c, 90, origin=(0, 0))],
+                             sheet=SHEET, sep=5.0, edge=10.0)
+    assert np.allclose(chords, [100.0, 200.0, 200.0], atol=1e-6)

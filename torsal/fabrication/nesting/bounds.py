@@ -5,8 +5,10 @@ cross the middle of every sheet they are on.
 sheet's longer side, as the rows, the skyline and the search lay every part longer than the
 sheet is high) and longer than half the usable length crosses the sheet's middle line, the line
 across the rows half way along them, wherever it is placed. Where it crosses, it takes its
-*chord*: the extent of that line inside it. The parts crossing one sheet's middle lie on that
-line one after the other, ``sep`` apart, so their chords and spacings fit the usable height:
+*chord*: the length of that line inside it (the sum of its pieces where the part is concave
+across it: another part may lie in between, nested into the concavity). The parts crossing one
+sheet's middle take their pieces of that line and keep ``sep`` to each other, so their chords
+and spacings fit the usable height:
 the sheets are at least the bins of a bin packing of ``chord + sep`` into ``height + sep``. A
 part's chord is the least over the places the middle line can cross it, its slots closed (no
 part goes into another's slot). The bin packing's bound is the arc-flow linear programme's
@@ -70,9 +72,8 @@ def crossing_chords(outlines, *, sheet, sep: float, edge: float) -> np.ndarray:
         # the middle line crosses the part at x0 + t, t from (its length - half) to half
         ts = x0 + np.linspace((x1 - x0) - half, half, _SAMPLES)
         lines = shapely.linestrings([[[t, y0 - 1.0], [t, y1 + 1.0]] for t in ts])
-        b = shapely.bounds(shapely.intersection(c, lines))
-        extent = np.where(np.isnan(b[:, 1]), 0.0, b[:, 3] - b[:, 1])
-        chords.append(float(extent.min()))
+        inside = shapely.length(shapely.intersection(c, lines))
+        chords.append(float(np.nan_to_num(inside).min()))
     return np.asarray(chords)
 
 

@@ -42,10 +42,12 @@ import time
 from typing import Callable, NamedTuple
 
 import numpy as np
+from shapely import affinity
 
 from ..cutting import Cutting
 from ..layout import Layout, placement_of
 from .bounds import crossing_bound
+from .raster import DEFAULT_CELLS, RasterGrid
 from .rows import orientations, prepare, row_layout
 from .skyline import DEFAULT_RESOLUTION, SkylinePacker, _edge_extremes, _grown_top, column_profiles
 from .stats import Nester, NestStats
@@ -166,6 +168,65 @@ class _Dropper:
             return None
         _, x, y, o = best
         return self.frame.on_sheet(o.rot, o.shift, x * self.packer.res, y)
+
+
+class _HoleFiller:
+    """One part put into a hole of a sheet as it is (:mod:`.raster`: any free place its true
+    shape fits, also under other parts and between them), the sheet's parts left where they
+    are: where the skyline (:class:`_Dropper`) finds no place from above."""
+
+    def __init__(self, frame: _Frame, outlines: dict, options: dict):
+        self.frame, self.outlines = frame, outlines
+        self.grid = RasterGrid(length=frame.length, height=frame.height, sep=frame.sep,
+                               res=frame.length / DEFAULT_CELLS)
+        self.rots = {n: sorted({o.rot for o in opts}) for n, opts in options.items()}
+        self._feet: dict = {}
+        self._kept: dict = {}
+
+    def footprints(self, name: str) -> list:
+        if name not in self._feet:
+            self._feet[name] = [self.grid.footprint(self.outlines[name], r, name)
+                                for r in self.rots[name]]
+        return self._feet[name]
+
+    def raster(self, sheet: dict):
+        """The :class:`~.raster.RasterSheet` of ``sheet`` ``{name: (rot, offset)}``."""
+        key = tuple(sorted((n, r, tuple(o)) for n, (r, o) in sheet.items()))
+        if key in self._kept:
+            return self._kept[key]
+        f = self.frame
+        rs = self.grid.sheet()
+        for n, (rot, (dx, dy)) in sorted(sheet.items()):
+            placed = affinity.translate(affinity.rotate(self.outlines[n], rot, origin=(0, 0)), dx, dy)
+            if f.turn:                     # the sheet turned a quarter back into the frame
+                placed = affinity.affine_transform(placed, (0, 1, -1, 0, 0, f.w))
+            rs.add(affinity.translate(placed, -f.edge, -f.edge), n)
+        if len(self._kept) > 256:
+            self._kept.clear()
+        self._kept[key] = rs
+        return rs
+
+    def __call__(self, sheet: dict, name: str):
+        """``(rot, offset)`` of ``name`` put into a hole of ``sheet``, or None."""
+        spot = self.grid.spot(self.raster(sheet), self.footprints(name))
+        if spot is None:
+            return None
+        o = spot.footprint
+        return self.frame.on_sheet(o.rot, o.shift, spot.x, spot.y)
+
+
+class _Drops:
+    """The skyline's drop, else the hole filler's."""
+
+    def __init__(self, *drops):
+        self.drops = drops
+
+    def __call__(self, sheet: dict, name: str):
+        for d in self.drops:
+            at = d(sheet, name)
+            if at is not None:
+                return at
+        return None
 
 
 def _sheets(where: dict) -> list[dict]:
@@ -391,11 +452,12 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
     start_sheets = {k: len(v) for k, v in fill.items()}
     budget = _Counted(tries, None if time_limit is None else t0 + time_limit)
     by_area = int(np.ceil(total / (w * h) - 1e-9))
+    outlines = {n: it.outline for n, it in by_name.items()}
     crossing = crossing_bound([it.outline for it in items], sheet=(w, h), sep=sep, edge=edge)
     search = budget.emptier = SheetEmptier(
         fill[best], area, fit=repack, may_try=budget, usable=frame.length * frame.height,
         floor=max(by_area, crossing), progress=progress,
-        drop=_Dropper(sky, {n: it.outline for n, it in by_name.items()}))
+        drop=_Drops(_Dropper(sky, outlines), _HoleFiller(frame, outlines, sky.options)))
     def pack_two(names):
         outs = [_sheets(sky.pack(names, by)) for by in ("length", "area")]
         return min(outs, key=lambda o: (len(o), -sum(area[n] for n in o[0])))
