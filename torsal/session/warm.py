@@ -144,8 +144,10 @@ def restarted(optimum, before: dict[str, np.ndarray], problem: CongruenceProblem
 
 
 #: congruence problems a session keeps built, by structure (the most recent first): an edit
-#: undone (a bound removed, a region taken away) finds its problem's NLP built
-KEEP_PROBLEMS = 3
+#: undone (a bound removed, a region taken away) finds its problem's NLP built. Four: the
+#: design's own terms and the three goals a designer adds and takes back (strokes, a region, a
+#: bound; session_bench's rows), so a moved point after all three re-solves the design's NLP
+KEEP_PROBLEMS = 4
 
 
 class _Kept(NamedTuple):
