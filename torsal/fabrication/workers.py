@@ -26,7 +26,8 @@ from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _l
 from .rhino import encoded_brep
 
 __all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
-           "release_workers", "start_solids", "build_solids", "solid_shapes", "map_prepared"]
+           "release_workers", "start_solids", "build_solids", "solid_shapes", "map_prepared",
+           "start_fork_server"]
 
 
 def _to_bytes(shape) -> bytes:
@@ -96,19 +97,13 @@ class WorkerPool:
     for the fork server to import OpenCascade), to build solids with later."""
 
     def __init__(self, workers: int, mesh: bool = False):
-        import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers, self.mesh = workers, mesh
         # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can
         # deadlock in the child: workers are forked from a clean server that has imported
         # this module
-        if "forkserver" in mp.get_all_start_methods():
-            ctx = mp.get_context("forkserver")
-            ctx.set_forkserver_preload(["torsal.fabrication.workers", "OCP.BRepAlgoAPI"])
-        else:
-            ctx = mp.get_context("spawn")
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=_context())
         self.error: BaseException | None = None
         self._starter = threading.Thread(target=self._start, daemon=True)
         self._starter.start()
@@ -134,6 +129,40 @@ class WorkerPool:
             return
         threading.Thread(target=self.pool.shutdown, kwargs={"wait": False, "cancel_futures": True},
                          daemon=True).start()
+
+
+#: what the fork server imports before it forks a worker (OpenCascade: seconds)
+_PRELOAD = ["torsal.fabrication.workers", "OCP.BRepAlgoAPI"]
+
+
+def _context():
+    """The workers' multiprocessing context: forked from a clean server that has imported
+    :data:`_PRELOAD`, where there is one, else spawned."""
+    import multiprocessing as mp
+
+    if "forkserver" not in mp.get_all_start_methods():
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(_PRELOAD)
+    return ctx
+
+
+def start_fork_server() -> None:
+    """Start the server the solids' workers are forked from now, in the background: its
+    imports (OpenCascade, about a second and a half) then run while this process optimizes,
+    and the fabrication's workers start at once. Nothing where no worker may be started
+    (a daemonic process, :func:`~torsal.core.parallel.limit_workers` ``(1)``) or where
+    processes are spawned.
+
+    >>> start_fork_server()
+    """
+    from multiprocessing import forkserver
+
+    from torsal.core.parallel import usable_workers
+
+    if usable_workers(2) < 2 or _context().get_start_method() != "forkserver":
+        return
+    forkserver.ensure_running()
 
 
 def _ready() -> None:

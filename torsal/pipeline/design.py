@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.outputs import output_folder
+from ..fabrication.workers import start_fork_server
 from .design_file import DesignSpec, load_design_file
 from .assembly import UnbuildableDesignError, unbuildable_message
 from .cache import StageCache
@@ -118,6 +119,9 @@ class Design:
                                               inputs=pipeline["estimate"].inputs,
                                               key=pipeline["estimate"].key, cache=False))
         spec = self.spec
+        if spec.outputs.step or spec.outputs.rhino_3dm or spec.outputs.ifc:
+            # the solids' workers import OpenCascade while the congruence is optimized
+            start_fork_server()
         staging = Staging(out, kind="design")
         try:
             with staging:
