@@ -193,23 +193,35 @@ def _sat_pairs(pts, edges, normals, tri, pi, ti, group, n_groups: int, eps) -> n
     ``pts[pi]`` along one separating axis: the triangle's normal, the set's normal
     ``normals[pi]`` and the cross products of the set's ``edges[pi]`` with the triangle's
     edges. An axis counts if longer than 1e-9 scale^2, ``scale`` the largest centred
-    coordinate among the pairs of its ``group`` (one group: one solid's triangles)."""
+    coordinate among the pairs of its ``group`` (one group: one solid's triangles). The two
+    normals separate most pairs: the cross products are made for the others only."""
     c = pts.mean(axis=1)                               # (p, 3): centred, smaller round-off
     q = (pts - c[:, None])[pi]                         # (n, m, 3)
     t = tri[ti] - c[pi][:, None]                       # (n, 3, 3)
-    te = t[:, [1, 2, 0]] - t                           # (n, 3, 3) triangle edges
-    tn = _cross(te[:, 0], te[:, 1])                    # (n, 3)
-    cross = _cross(edges[pi][:, :, None, :], te[:, None, :, :]).reshape(len(pi), -1, 3)
-    axes = np.concatenate([tn[:, None], normals[pi][:, None], cross], axis=1)   # (n, a, 3)
-    norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
     scale = np.ones(n_groups)
     np.maximum.at(scale, group, np.maximum(np.abs(q).max(axis=(1, 2), initial=0.0),
                                            np.abs(t).max(axis=(1, 2), initial=0.0)))
-    ok = norm > 1e-9 * (scale * scale)[group][:, None]  # parallel edges give no axis
+    shortest = 1e-9 * (scale * scale)[group]           # (n,): parallel edges give no axis
+    te = t[:, [1, 2, 0]] - t                           # (n, 3, 3) triangle edges
+    sep = _separated(np.stack([_cross(te[:, 0], te[:, 1]), normals[pi]], axis=1), q, t,
+                     shortest, eps)
+    rest = np.flatnonzero(~sep)
+    if len(rest):
+        cross = _cross(edges[pi[rest]][:, :, None, :], te[rest][:, None, :, :])
+        sep[rest] = _separated(cross.reshape(len(rest), -1, 3), q[rest], t[rest],
+                               shortest[rest], eps)
+    return sep
+
+
+def _separated(axes, q, t, shortest, eps) -> np.ndarray:
+    """(n,) whether one of the ``axes`` (n, a, 3) longer than ``shortest`` (n,) has the
+    points ``q`` (n, m, 3) and the triangle ``t`` (n, 3, 3) more than ``eps`` (times its
+    length) apart."""
+    norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
     pp = axes @ q.transpose(0, 2, 1)                   # (n, a, m)
     tp = axes @ t.transpose(0, 2, 1)                   # (n, a, 3)
     gap = np.maximum(tp.min(axis=2) - pp.max(axis=2), pp.min(axis=2) - tp.max(axis=2))
-    return (ok & (gap >= -eps * norm)).any(axis=1)     # (n,)
+    return ((norm > shortest[:, None]) & (gap >= -eps * norm)).any(axis=1)
 
 
 def prism_clear(face: _Face, vector, other_triangles: np.ndarray, other_box: np.ndarray,
