@@ -278,15 +278,26 @@ def _triangles_apart(ta: np.ndarray, tb: np.ndarray, eps: float) -> np.ndarray:
     a, b = ta - c[:, None], tb - c[:, None]
     ea, eb = a[:, [1, 2, 0]] - a, b[:, [1, 2, 0]] - b                  # (n, 3, 3) edges
     na, nb = _cross(ea[:, 0], ea[:, 1]), _cross(eb[:, 0], eb[:, 1])
-    axes = np.concatenate([na[:, None], nb[:, None],
-                           _cross(ea[:, :, None], eb[:, None]).reshape(-1, 9, 3),
-                           _cross(na[:, None], ea), _cross(nb[:, None], eb)], axis=1)  # (n, 17, 3)
-    norm = np.sqrt((axes * axes).sum(axis=2))
     scale = max(float(np.abs(a).max(initial=0.0)), float(np.abs(b).max(initial=0.0)), 1.0)
-    ok = norm > 1e-9 * scale ** 3                                     # parallel edges: no axis
-    pa, pb = axes @ a.transpose(0, 2, 1), axes @ b.transpose(0, 2, 1)  # (n, 17, 3)
+    shortest = 1e-9 * scale ** 3                                      # parallel edges: no axis
+    # the two normals separate most pairs: the other 15 axes for the rest only
+    apart = _apart(np.stack([na, nb], axis=1), a, b, shortest, eps)
+    rest = np.flatnonzero(~apart)
+    if len(rest):
+        ea, eb, na, nb = ea[rest], eb[rest], na[rest], nb[rest]
+        axes = np.concatenate([_cross(ea[:, :, None], eb[:, None]).reshape(-1, 9, 3),
+                               _cross(na[:, None], ea), _cross(nb[:, None], eb)], axis=1)
+        apart[rest] = _apart(axes, a[rest], b[rest], shortest, eps)
+    return apart
+
+
+def _apart(axes, a, b, shortest: float, eps: float) -> np.ndarray:
+    """(n,) whether one of the ``axes`` (n, k, 3) longer than ``shortest`` has the triangles
+    ``a`` and ``b`` (n, 3, 3) more than ``eps`` (times its length) apart."""
+    norm = np.sqrt((axes * axes).sum(axis=2))
+    pa, pb = axes @ a.transpose(0, 2, 1), axes @ b.transpose(0, 2, 1)  # (n, k, 3)
     gap = np.maximum(pb.min(axis=2) - pa.max(axis=2), pa.min(axis=2) - pb.max(axis=2))
-    return (ok & (gap > eps * norm)).any(axis=1)
+    return ((norm > shortest) & (gap > eps * norm)).any(axis=1)
 
 
 def surfaces_clear(triangles_a: np.ndarray, triangles_b: np.ndarray, box_a: np.ndarray,
