@@ -219,6 +219,20 @@ def test_a_moved_point_re_solves_the_kept_nlp(tmp_path):
     assert _energy(a.report["congruence"]) <= _energy(cold["congruence"]["report"]) * 1.01 + 1e-8
 
 
+def test_an_edit_taken_back_after_many_finds_its_results(tmp_path):
+    """The stage cache on disk keeps one entry per stage: the design as the session started is
+    found in memory after several edits (it was re-solved after four)."""
+    with Session(_spec(), tmp_path, build=False) as s:
+        first = s.start()
+        for perp in (11, 12, 13, 14, 15, 16):
+            assert s.set_weights(perp=perp).kind is AnswerKind.PREVIEW
+        back = s.apply(first.spec)
+    assert {"congruence", "remesh"} <= set(back.stages_kept)
+    np.testing.assert_array_equal(back.values["congruence"]["directions"],
+                                  first.values["congruence"]["directions"])
+    np.testing.assert_array_equal(back.structure.vertices_b, first.structure.vertices_b)
+
+
 def _without_assembly():
     """The design run's stages without the assembly check (19 s at this size): what these
     tests look at is how a build's files are published."""

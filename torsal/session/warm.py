@@ -20,6 +20,13 @@ from ..pipeline.problem import congruence_problem
 __all__ = ["WarmCache", "WarmProblem"]
 
 
+#: stage results a session keeps in memory per stage. The stage cache on disk keeps one entry
+#: per stage, so an edit taken back finds its results only here: with 4, session_bench's rows
+#: (a setup and an edit each) pushed the file's design out after two rows, and going back to
+#: it re-solved its congruence (1 s). A 7a result at full size is about 50 kB
+KEEP_RESULTS = 16
+
+
 class WarmCache(StageCache):
     """A :class:`~torsal.pipeline.cache.StageCache` with the last results of each stage kept
     in memory too: a session reads an unchanged stage's result without unpickling it, and
@@ -31,7 +38,7 @@ class WarmCache(StageCache):
     folder : path
         The stage cache on disk (``OUT/.torsal-cache``, as ``torsal design`` keeps it).
     keep : int
-        Results kept in memory per stage (the most recent).
+        Results kept in memory per stage (the most recent; default :data:`KEEP_RESULTS`).
 
     Examples
     --------
@@ -42,9 +49,9 @@ class WarmCache(StageCache):
     (0.1, True)
     """
 
-    def __init__(self, folder, *, keep: int = 4):
+    def __init__(self, folder, *, keep: int | None = None):
         super().__init__(folder, enabled=True, prune=True)
-        self.keep = int(keep)
+        self.keep = KEEP_RESULTS if keep is None else int(keep)
         self._memory: dict[str, OrderedDict] = {}
         self._lock = threading.Lock()
 
