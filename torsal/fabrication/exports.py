@@ -14,6 +14,7 @@ from torsal.core.atomic import atomic_path
 
 from .model import CONNECTOR_FAMILY, FIXING_FAMILY
 from .plates import MESH_TOLERANCE, _triangles
+from .step_order import canonical_styles_file
 from .rhino import _membrane, _quad, _rhino_mesh, _with_edge_tolerances, brep_of  # noqa: F401
 from .workers import _parts_key, cancel_breps, solid_shapes
 
@@ -102,9 +103,8 @@ def write_step(solids, path, *, unit: str = "mm", label: str = "torsal_fins") ->
     header.SetName(TCollection_HAsciiString(label))
     header.SetOriginatingSystem(TCollection_HAsciiString("torsal"))
     # a file stamped with the clock differs from the last run's for no change of the design:
-    # the time stamp of reproducible builds (SOURCE_DATE_EPOCH), else a fixed one. (OpenCascade
-    # still orders a few presentation entities by memory address: the bytes may differ, the
-    # solids do not)
+    # the time stamp of reproducible builds (SOURCE_DATE_EPOCH), else a fixed one (and the
+    # colours, which OpenCascade orders by memory address, in canonical order below)
     header.SetTimeStamp(TCollection_HAsciiString(_time_stamp()))
     STEPCAFControl_Controller.Init_s()
     STEPControl_Controller.Init_s()
@@ -113,6 +113,7 @@ def write_step(solids, path, *, unit: str = "mm", label: str = "torsal_fins") ->
     writer.Transfer(doc, STEPControl_StepModelType.STEPControl_AsIs)
     if writer.Write(str(path)) != IFSelect_ReturnStatus.IFSelect_RetDone:
         raise OSError(f"the STEP writer failed for {path}")
+    canonical_styles_file(path)
 
 
 def _time_stamp() -> str:
