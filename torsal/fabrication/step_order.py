@@ -42,11 +42,12 @@ def canonical_styles(text: str) -> str:
     #7 = STYLED_ITEM('c',(#5),#2);
     ENDSEC;
     """
-    start = re.search(rf"^#\d+\s*=\s*{_PRESENTATION}\(", text, re.M)
-    end = text.find("ENDSEC;", start.start()) if start else -1
-    if start is None or end < 0:
+    at = text.find(f"= {_PRESENTATION}(")         # (str.find: the file is megabytes long)
+    start = text.rfind("\n", 0, at) + 1
+    end = text.find("ENDSEC;", at) if at >= 0 else -1
+    if end < 0 or not text.startswith("#", start):
         return text
-    head, section, tail = text[:start.start()], text[start.start():end], text[end:]
+    head, section, tail = text[:start], text[start:end], text[end:]
     body = {int(m.group(1)): m.group(2) for m in _INSTANCE.finditer(section)}
     if not body or any(int(r) in body for r in _REF.findall(head)):
         return text
