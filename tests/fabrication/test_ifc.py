@@ -248,6 +248,17 @@ def test_global_ids_stay_with_the_project(exported, tmp_path):
     assert len({e.GlobalId for e in other.by_type("IfcRoot")}) == len(other.by_type("IfcRoot"))
 
 
+def test_the_same_fins_write_the_same_bytes_a_second_later(exported, tmp_path):
+    import time
+
+    fs = exported[0]
+    first = fs.export_ifc(tmp_path / "first.ifc", latitude=48.21, longitude=-16.37).read_bytes()
+    time.sleep(1.1)                       # the clock's second moves on: not in the file
+    again = fs.export_ifc(tmp_path / "again.ifc", latitude=48.21, longitude=-16.37).read_bytes()
+    assert first == again
+    assert b"'2000-01-01T00:00:00'" in first      # the fixed stamp (no SOURCE_DATE_EPOCH)
+
+
 def test_a_failed_write_leaves_no_file(exported, tmp_path, monkeypatch):
     fs, f, out = exported
 

@@ -51,6 +51,7 @@ import numpy as np
 from torsal.core.atomic import atomic_path
 from torsal.core.units import UNIT_TO_MM
 
+from .exports import _time_stamp
 from .builder.fasteners import Fastener, anchor_for, fastener_for, part_fastening
 from .model import CONNECTOR_FAMILY, FIXING_FAMILY, Part, PartId, quad_normals
 from .plates import MESH_TOLERANCE, _triangles
@@ -422,7 +423,9 @@ class _Writer:
         units.append(f.createIfcDerivedUnit(
             [f.createIfcDerivedUnitElement(units[-1], 1), f.createIfcDerivedUnitElement(metre, -3)],
             "MASSDENSITYUNIT", None))
-        ifcopenshell.api.unit.assign_unit(f, units=units)
+        assignment = ifcopenshell.api.unit.assign_unit(f, units=units)
+        # the API gathers them in a Python set (an order by memory address): in the order made
+        assignment.Units = sorted(assignment.Units, key=lambda u: u.id())
 
     def _georeference(self, site: dict) -> None:
         """The site's latitude, longitude (compound angles) and elevation (project unit)."""
@@ -483,6 +486,9 @@ class _Writer:
                                           None, None, [element], pset)
 
     def write(self, path: Path) -> None:
+        # stamped as the STEP file is (SOURCE_DATE_EPOCH, else a fixed date), not with the
+        # clock: the same design writes the same bytes
+        self.f.header.file_name.time_stamp = _time_stamp()
         self.f.write(str(path))
 
 
