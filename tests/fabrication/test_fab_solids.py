@@ -248,6 +248,12 @@ def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(s
             np.r_[pts.min(axis=0), pts.max(axis=0)], abs=1e-6)
         assert len(brep) >= 8 and len(g.Faces) >= 6
     assert seen == set(bom)
+    # a part and a layer keep their ids in the next file of the same parts
+    again = rhino3dm.File3dm.Read(str(fs.export_3dm(tmp_path / "again.3dm")))
+    ids = {o.Attributes.Name: str(o.Attributes.Id) for o in model.Objects}
+    assert {o.Attributes.Name: str(o.Attributes.Id) for o in again.Objects} == ids
+    assert len(set(ids.values())) == len(ids)
+    assert [str(x.Id) for x in again.Layers] == [str(x.Id) for x in model.Layers]
 
 
 def test_slightly_nonplanar_structure_still_gives_valid_solids_and_reports_unroll_error():

@@ -330,6 +330,14 @@ def export_mesh(fin_system, path, *, file_type: str = "glb", tolerance: float | 
     return Path(path)
 
 
+def _rhino_id(key: str):
+    """A 3DM object's or layer's id from its name, not random: a part keeps its id from one
+    run of a design to the next (rhino3dm still stamps the file with the time it was written)."""
+    import uuid
+
+    return uuid.uuid5(uuid.NAMESPACE_URL, f"torsal:3dm:{key}")
+
+
 def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     """Rhino 3DM (through rhino3dm): one closed, valid Brep per part (:func:`brep_of`), named
     with the part id (as in parts.csv), on a layer per family (``family 0``, ``family 1``,
@@ -355,6 +363,7 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
         if key not in layers:
             lay = rhino3dm.Layer()
             lay.Name = name
+            lay.Id = _rhino_id(f"layer:{parent}::{name}")
             lay.Color = tuple(int(255 * c) for c in colour) + (255,)
             if parent is not None:
                 lay.ParentLayerId = model.Layers.FindIndex(layers[(None, parent)]).Id
@@ -384,6 +393,7 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
             brep = brep_of(shapes[p.name], tol)
         attr = rhino3dm.ObjectAttributes()
         attr.Name = p.name
+        attr.Id = _rhino_id(f"part:{p.name}")
         attr.LayerIndex = index
         attr.ColorSource = rhino3dm.ObjectColorSource.ColorFromLayer
         if brep is not None and brep.IsSolid and brep.IsValid:
