@@ -151,6 +151,8 @@ def main(argv=None) -> None:
             solve = answer.report.get("congruence", {}) if "congruence" in answer.stages_run else {}
             if solve:
                 stages += f" ({solve['solver']}, {solve['iterations']} steps)"
+            if answer.ok and not answer.support_final:
+                stages += " [support made planar by projection: the build solves eq. (8)]"
             print(f"{name:>8} {what:<40} | {row_load:>4} | {answer.seconds:9.2f} {cpu:5.2f} {ok:>5} | "
                   f"{built_s:>7} | {cold:6.1f} | {stages}{note}", flush=True)
 
