@@ -55,8 +55,15 @@ def _inside_by_ray(point, triangles) -> bool | None:
     """Whether ``point`` lies inside the closed triangulated surface ``triangles`` (t, 3, 3):
     the parity of the crossings of one ray (Moller-Trumbore); None when that is not certain
     (the point on the surface, the ray grazing an edge or running in a triangle's plane)."""
+    inside = _inside_by_rays(np.asarray(point, float)[None], triangles)[0]
+    return None if inside < 0 else bool(inside)
+
+
+def _inside_by_rays(points, triangles) -> np.ndarray:
+    """:func:`_inside_by_ray` of many ``points`` (p, 3) against one surface at once: (p,) int,
+    1 inside, 0 outside, -1 not certain."""
     d = np.array([0.5773, 0.5871, 0.5675])          # a direction no face of a model shares
-    a = triangles[:, 0] - point
+    a = triangles[None, :, 0] - points[:, None]      # (p, t, 3)
     e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
     h = _cross(d, e2)
     det = (e1 * h).sum(axis=1)
@@ -64,18 +71,18 @@ def _inside_by_ray(point, triangles) -> bool | None:
     nn = np.sqrt((n * n).sum(axis=1))
     good = np.abs(det) > 1e-9 * nn
     tol = 1e-9
-    if (~good & (np.abs((n * a).sum(axis=1)) <= tol * nn)).any():
-        return None                                  # the ray runs in a triangle's plane
+    # the ray runs in a triangle's plane
+    unsure = (~good & (np.abs((n * a).sum(axis=2)) <= tol * nn)).any(axis=1)
     inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
-    u = -(a * h).sum(axis=1) * inv
+    u = -(a * h).sum(axis=2) * inv
     q = _cross(-a, e1)
-    v = (q @ d) * inv
-    w = (e2 * q).sum(axis=1) * inv                   # distance along the ray
+    v = (q * d).sum(axis=2) * inv
+    w = (e2 * q).sum(axis=2) * inv                   # distance along the ray
     within = good & (u > -tol) & (v > -tol) & (u + v < 1 + tol)
     edge = (np.abs(u) < tol) | (np.abs(v) < tol) | (np.abs(u + v - 1) < tol)
-    if (within & ((np.abs(w) < tol) | (edge & (w > -tol)))).any():
-        return None              # on the surface, or the ray grazes an edge or a corner
-    return bool((within & (w > 0)).sum() % 2)
+    # on the surface, or the ray grazes an edge or a corner
+    unsure |= (within & ((np.abs(w) < tol) | (edge & (w > -tol)))).any(axis=1)
+    return np.where(unsure, -1, (within & (w > 0)).sum(axis=1) % 2)
 
 
 def _prism_hulls(faces: Sequence[_Face], vectors, eps: float) -> tuple:
@@ -121,8 +128,9 @@ def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
         clear = _sat_clear(pts, edges, normals, tri[used], near[:, used], eps)
     # clear of the boundary: apart unless wholly inside (a hull sticking out of the box is not)
     inside_box = (lo >= other_box[0]).all(axis=1) & (hi <= other_box[1]).all(axis=1)
-    for n in np.flatnonzero(clear & inside_box):
-        clear[n] = _inside_by_ray(pts[n].mean(axis=0), tri) is False
+    ask = np.flatnonzero(clear & inside_box)
+    if len(ask):
+        clear[ask] = _inside_by_rays(pts[ask].mean(axis=1), tri) == 0
     return clear
 
 
@@ -170,10 +178,12 @@ def prisms_clear_of_each(faces: Sequence[_Face], vectors, others: Sequence[tuple
         bad = np.zeros((nf, no), bool)
         bad[pi[~sep], owner[ti[~sep]]] = True
         out &= ~bad
-    for n, i in zip(*np.nonzero(out)):
+    # clear of a boundary: apart unless wholly inside (one ray per hull inside the box)
+    for i in np.flatnonzero(out.any(axis=0)):
         box = others[i][1]
-        if (lo[n] >= box[0]).all() and (hi[n] <= box[1]).all():
-            out[n, i] = _inside_by_ray(pts[n].mean(axis=0), others[i][0]) is False
+        ask = np.flatnonzero(out[:, i] & (lo >= box[0]).all(axis=1) & (hi <= box[1]).all(axis=1))
+        if len(ask):
+            out[ask, i] = _inside_by_rays(pts[ask].mean(axis=1), others[i][0]) == 0
     return out
 
 
