@@ -210,10 +210,10 @@ def _share(x) -> str:
 
 
 def annual_table(keys=KEYS) -> str:
-    """Per example, its uniform variant: kWh/m2 on the glazing in the cooling / heating
-    season, bare, behind the fins and behind the device that avoids the most cooling-season
-    gains; F_sh (cooling); sDA / ASE bare, fins, that device; the annual stage's and the whole
-    variant's wall seconds."""
+    """Per example (and the size it ran at), its uniform variant: kWh/m2 on the glazing in
+    the cooling / heating season, bare, behind the fins and behind the device that avoids the
+    most cooling-season gains; F_sh (cooling); sDA / ASE bare, fins, that device; the annual
+    stage's and the whole variant's wall seconds."""
     lines = ["| example | bare kWh/m2 cooling / heating | fins | best device (cooling gains "
              "avoided) | F_sh cooling fins / device | sDA bare / fins / device | ASE bare / "
              "fins / device | annual stage s / variant run s |", "|" + "---|" * 8]
@@ -225,7 +225,8 @@ def annual_table(keys=KEYS) -> str:
         d = devices.loc[devices[AVOIDED].idxmax()] if not devices.empty else None
         fsh = "light.annual.fins.shading_factor.f_sh_cooling"
         dl = ("light.annual.daylight.bare.", "light.annual.daylight.fins.")
-        cells = [key, _kwh(r, "bare"), _kwh(r, "fins"),
+        size = json.loads((RESULTS / f"{key}_annual.json").read_text()).get("size", "reduced")
+        cells = [f"{key} ({size})", _kwh(r, "bare"), _kwh(r, "fins"),
                  "-" if d is None else f"{d['device']}: {_kwh(d, 'fins')}",
                  f"{r[fsh]:.2f} / " + ("-" if d is None else f"{d[fsh]:.2f}")]
         for what in ("sda_all", "ase_all"):
