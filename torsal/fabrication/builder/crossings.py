@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -55,6 +56,69 @@ def slot_depths(depths, ratio: float, sense: int, *, end_gap: float = 0.0) -> tu
         m = ratio * both
         d0, d1 = m, D1 - m
     return min(d0 + 0.5 * end_gap, D0), min(d1 + 0.5 * end_gap, D1)
+
+
+class _Sense(NamedTuple):
+    """The sense a family-1 part slides in (+1: along its direction), whether it keeps every
+    gap of its butted ends (``ok``), and the largest sine it runs into one of their faces at."""
+
+    sense: float
+    ok: bool
+    run_in: float
+
+
+#: grid points per side of the square of directions :func:`slide_direction` searches
+SLIDE_SEARCH_STEPS = 61
+
+
+def slide_direction(axes: np.ndarray, walls: np.ndarray, *, max_skew: float, tol: float,
+                    prefer_plus: bool = False) -> tuple[np.ndarray, float] | None:
+    """``(direction, sense)``: a direction a plate slotted at crossings with node axes ``axes``
+    (k, 3) unit vectors, signed alike) can slide onto all of them along, each at most
+    ``max_skew`` degrees off it, and a sense (+1 or -1) in which it runs into none of the
+    faces ``walls`` (m, 3) (unit normals turned towards the plate: its butted ends) at a sine
+    over ``tol``; the direction is returned times the sense. Of the directions that do, the one
+    with the smallest largest skew (the narrowest slots), sense +1 first where ``prefer_plus``
+    (a part with a seam inside a slot: the two parts of the seam slide in alike); None if no
+    direction does.
+
+    The directions searched are a grid of :data:`SLIDE_SEARCH_STEPS` squared round the mean
+    axis, ``2 max_skew`` to every side: a direction within ``max_skew`` of every axis lies
+    within that of the mean (the same search on every machine).
+
+    >>> ax = np.array([[0, 0, 1.0], [np.sin(np.radians(3.0)), 0, np.cos(np.radians(3.0))]])
+    >>> d, s = slide_direction(ax, np.zeros((0, 3)), max_skew=2.0, tol=1e-3)
+    >>> round(float(np.degrees(np.arccos(d @ ax[0]))), 1), s
+    (1.5, 1.0)
+    >>> slide_direction(ax, np.zeros((0, 3)), max_skew=1.0, tol=1e-3) is None
+    True
+    """
+    axes = np.asarray(axes, float).reshape(-1, 3)
+    walls = np.asarray(walls, float).reshape(-1, 3)
+    m = axes.sum(axis=0)
+    m = m / np.linalg.norm(m)
+    e1 = _cross(m, np.eye(3)[int(np.argmin(np.abs(m)))])
+    e1 = e1 / np.linalg.norm(e1)
+    e2 = _cross(m, e1)
+    r = np.tan(np.radians(2.0 * max_skew))
+    g = np.linspace(-r, r, SLIDE_SEARCH_STEPS)
+    u, v = np.meshgrid(g, g, indexing="ij")
+    d = m + u.reshape(-1, 1) * e1 + v.reshape(-1, 1) * e2
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    cos = np.clip(d @ axes.T, -1.0, 1.0)
+    skew = np.degrees(np.arccos(cos.min(axis=1)))
+    best = None
+    for sense in (1.0, -1.0):
+        run_in = (sense * d @ walls.T).max(axis=1) if len(walls) else np.zeros(len(d))
+        ok = (skew <= max_skew) & (run_in <= tol)
+        if not ok.any():
+            continue
+        i = int(np.flatnonzero(ok)[np.argmin(skew[ok])])
+        if best is None or skew[i] < best[2]:
+            best = (d[i], sense, skew[i])
+        if prefer_plus:
+            break
+    return None if best is None else (best[1] * best[0], best[1])
 
 
 class CrossingSlotter:
@@ -177,10 +241,12 @@ class CrossingSlotter:
         """``{family-1 part name: (unit direction, sense)}``: every family-1 plate slides onto
         all its egg-crate crossings along one direction, the mean of their node axes
         (``sense`` +1: along ``a - b``, slots open on its ``a`` edge; -1: along ``b - a``),
-        the sense in which its butted ends do not run into the plates they meet. A crossing
-        whose axis is more than :data:`~.joints.MAX_SLOT_SKEW` off that direction, or a plate
-        whose butted ends block it in both senses, is listed in ``_unslidable`` (butted in the
-        next build)."""
+        the sense in which its butted ends do not run into the plates they meet. Where a
+        crossing's axis is more than :data:`~.joints.MAX_SLOT_SKEW` off the mean, or the
+        butted ends block it in both senses, the direction within that of every axis that
+        keeps the gaps (:func:`slide_direction`); where there is none, the crossing farthest
+        off, or every crossing of a plate blocked in both senses, is listed in
+        ``_unslidable`` (butted in the next build)."""
         fs = self.fs
         nodes_of: dict[str, list[int]] = {}
         for node, (l0, l1) in sorted(at_node.items()):
@@ -193,6 +259,16 @@ class CrossingSlotter:
             d = axes.sum(axis=0)
             d = d / np.linalg.norm(d)
             skew = np.degrees(np.arctan2(np.linalg.norm(_cross(axes, d), axis=1), axes @ d))
+            if skew.max() > MAX_SLOT_SKEW or not self._sense_of(name, d, nodes, st).ok:
+                # the mean axis is too far off one of them, or its butted ends close a gap
+                # in both senses: another direction within MAX_SLOT_SKEW of every axis may
+                # do (on 7c at full size 86 of 280 connectors were such crossings butted)
+                found = slide_direction(axes, self._walls_of(name), max_skew=MAX_SLOT_SKEW,
+                                        tol=self._tol(nodes, st),
+                                        prefer_plus=self._has_seams(nodes))
+                if found is not None:
+                    plan[name] = found
+                    continue
             if skew.max() > MAX_SLOT_SKEW:
                 fs._unslidable[nodes[int(np.argmax(skew))]] = 1, (
                     f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
@@ -210,19 +286,11 @@ class CrossingSlotter:
         close is refused (:class:`~.seams.SlotSeams`), any other crossing listed in
         ``_unslidable``."""
         fs = self.fs
-        walls = fs._walls.get(name, [])
-        if not walls:
-            return 1.0
-        run_in = {s_: max(s_ * d @ n for n in walls) for s_ in (1.0, -1.0)}
-        # the butted end may close its gap (clearance / 2) over a travel of the depth
-        tol = 0.5 * fs.clearance / float(st.depth[nodes].max())
+        choice = self._sense_of(name, d, nodes, st)
+        if choice.ok:
+            return choice.sense
+        sense, why = choice.sense, f"({np.degrees(np.arcsin(min(1.0, choice.run_in))):.1f} deg)"
         seams = [v for v in nodes if (1, v) in fs._seam_crossings]
-        sense = min(run_in, key=run_in.get)
-        if seams and run_in[1.0] <= tol:
-            sense = 1.0
-        if run_in[sense] <= tol:
-            return sense
-        why = f"({np.degrees(np.arcsin(min(1.0, run_in[sense]))):.1f} deg)"
         if seams:
             # a seam inside a slot may close: split there as before (next build)
             for v in seams:
@@ -233,6 +301,33 @@ class CrossingSlotter:
                 fs._unslidable.setdefault(v, (1, f"{name} would run into a plate it butts "
                                               f"against while sliding along its node axes {why}"))
         return sense
+
+    def _walls_of(self, name: str) -> np.ndarray:
+        """(m, 3) unit normals of the faces the part ``name`` ends against, turned towards it."""
+        return np.asarray(self.fs._walls.get(name, []), float).reshape(-1, 3)
+
+    def _tol(self, nodes: list[int], st: "_Strips") -> float:
+        """The sine a slide may run into a wall at: the butted end may close its gap
+        (clearance / 2) over a travel of the deepest crossing's depth."""
+        return 0.5 * self.fs.clearance / float(st.depth[nodes].max())
+
+    def _has_seams(self, nodes: list[int]) -> bool:
+        """Whether a family-1 part slotted at ``nodes`` has a seam inside one of their slots."""
+        return any((1, v) in self.fs._seam_crossings for v in nodes)
+
+    def _sense_of(self, name: str, d: np.ndarray, nodes: list[int], st: "_Strips") -> _Sense:
+        """The sense the family-1 part ``name`` slides along ``d`` in (:meth:`_sense`), without
+        refusing anything: the one whose butted ends run least into their walls (+1 where the
+        part has a seam in a slot and +1 keeps every gap), whether it keeps every gap."""
+        walls = self._walls_of(name)
+        if not len(walls):
+            return _Sense(1.0, True, 0.0)
+        run_in = {s_: float((s_ * walls @ d).max()) for s_ in (1.0, -1.0)}
+        tol = self._tol(nodes, st)
+        sense = min(run_in, key=run_in.get)
+        if self._has_seams(nodes) and run_in[1.0] <= tol:
+            sense = 1.0
+        return _Sense(sense, run_in[sense] <= tol, run_in[sense])
 
     def _resolve_slot_splits(self) -> None:
         """Slots that would cut a part in two (a narrow or slanted panel at the node: the slot
