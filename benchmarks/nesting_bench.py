@@ -15,6 +15,40 @@ once (cached in ``--cache``), the fin system is built and its unrolled parts are
 Every layout is checked with shapely (inside the margins, the gap between cuts) before it is
 counted. "same twice" compares every placement of two runs (name, sheet, rotation, offset).
 
+**The hole filler (issues 40, 42), 2026-11-29 00:40-01:40**, the same pinned parts, the search
+with its 600 tries, a victim's part now also put into any hole of a sheet as it is
+(:mod:`~torsal.fabrication.nesting.raster`) where the skyline's drop from above finds no place.
+CPU seconds of the search, before and after measured the same hour (wall seconds were 2-15
+times more: load 5-20 on 2 cores, other work running; * the quiet run of 2026-11-28 below);
+every layout valid by shapely::
+
+    | design | area bound | 80 % needs | before sheets | yield | cpu s | after sheets | yield | cpu s |
+    |---|---|---|---|---|---|---|---|---|
+    | 7a | 30.1 | 37 | 39 | 77.2 % | 3.3* | 39 | 77.2 % | 3.6 |
+    | 7b | 30.3 | 37 | 40 | 75.7 % | 12.0* | 40 | 75.7 % | 14.3 |
+    | 7c | 28.9 | 36 | 38 | 76.1 % | 33.5 | 38 | 76.1 % | 44.9 |
+    | 7d | 26.7 | 33 | 37 | 72.2 % | 20.8 | 37 | 72.2 % | 23.5 |
+    | 9 | 34.0 | 42 | 50 | 68.1 % | 65.9 | 48 | 70.9 % | 73.8 |
+    | 10 | 22.8 | 28 | 27 | 84.6 % | 2.5* | 27 | 84.6 % | 3.9 |
+    | 11 | 30.8 | 38 | 43 | 71.5 % | 26.7 | 43 | 71.5 % | 36.0 |
+    | 13 | 23.1 | 28 | 29 | 79.5 % | 24.8 | 29 | 79.5 % | 22.1 |
+
+(9 and 13 after: measured again at load 6-7 once the hole filler skipped sheets whose longest
+free run of cells is shorter than the part's, the same layouts to the byte: 9 90.3 -> 73.8 s;
+13 with 2,500 tries instead of 600 stays at 29.) It helps where parts leave holes others fit
+(9: long slivers into the gaps between its curved strips); on the strips of 7a-7d, 11 and 13
+the holes left are smaller than any part still to place (13: the last sheet's four 590 x 300
+mm plates fit no hole of the other 28). What those need is parts of other lengths. Measured
+with stand-ins on the same parts (outlines cut at a fold line, not built; ``--split half``,
+``--split rows``): halving every part between half and 85 % of a sheet long (63 cuts) took 7a
+39 -> 38 sheets (79.2 %), 13 29 -> 29; filling each row's end with a piece cut off another
+part at a fold line (rows longest first, 27 cuts) 7a 39 -> 38 (79.2 %, crossing bound 37).
+27-63 seams for one sheet: only the bill of quantities with the user's rates
+can say whether that pays. The crossing bound proves 80 % out of reach for 7a's and 7b's
+parts; for 7d's and 11's it leaves no slack (33 and 38 sheets, every sheet's middle filled to
+the bin packing's optimum), and their 1.8-2.2 m strips leave 0.3-0.7 m of every 2.48 m row
+with too few short parts to fill it.
+
 **The final cut against the bounds (issues 40, 42), 2026-11-28 21:15-22:55**, the parts of
 that evening's code pinned (``--pinned``: the same parts before and after), laser, 5 mm gap,
 10 mm margin, 2.5 x 1.25 m sheets. "80 % needs": the sheets at which the yield is 80 %;
@@ -105,10 +139,15 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
+from shapely.geometry import Polygon
+from shapely.ops import unary_union
+
 from torsal.design import Design
 from torsal.fabrication.cutting import Cutting
 from torsal.fabrication.layout import spacing
 from torsal.fabrication.nesting import crossing_bound, nest_for_yield, nest_rows, nest_search
+from torsal.fabrication.nesting.bounds import _base_turned
 from torsal.fabrication.nesting.sparrow import sheet_ok
 from torsal.pipeline import DEFAULT_PIPELINE, StageCache
 from torsal.pipeline.fins import fin_system
@@ -158,6 +197,84 @@ def outlines(name: str, cache: Path, *, pinned: bool = False) -> tuple[list, tup
     return out
 
 
+def _length(poly) -> float:
+    """The length of ``poly`` along its minimum rotated rectangle."""
+    x0, _, x1, _ = _base_turned(poly).bounds
+    return x1 - x0
+
+
+def _halves(panels, outline, i: int) -> tuple:
+    """``outline`` (of flat ``panels`` (k, 4, 2)) cut at its fold line ``i`` (after panel
+    ``i``): a stand-in for the two parts a rebuild split there would give (not built)."""
+    panels = [Polygon(p) for p in panels]
+    a = unary_union(panels[:i + 1]).buffer(0.01)
+    b = unary_union(panels[i + 1:]).buffer(0.01)
+
+    def largest(g):
+        return g if g.geom_type == "Polygon" else max(g.geoms, key=lambda q: q.area)
+
+    first = largest(outline.intersection(a).difference(b.buffer(-0.02)))
+    return first, largest(outline.intersection(b).difference(first.buffer(0.001)))
+
+
+def split_stand_in(parts, sheet, sep: float, edge: float, rule: str) -> tuple[dict, int]:
+    """``({name: outline}, cuts)``: the parts with some cut at a fold line (stand-ins, not
+    built). ``rule`` ``"half"``: every part between half and 85 % of the usable length, at the
+    fold that leaves the shorter longer piece; ``"rows"``: rows of the usable length filled
+    longest part first, each row's end by the longest whole part that fits, else by the longest
+    piece that fits cut off a part at a fold line (the rest back among the parts), until the
+    row is 90 % full or no piece fills half the gap."""
+    usable = max(sheet) - 2 * edge
+    small = 0.02 * usable * (min(sheet) - 2 * edge)
+    out, cuts = {}, 0
+    if rule == "half":
+        for u in parts:
+            k = len(u.panels)
+            if 0.5 * usable < _length(u.outline) <= 0.85 * usable and k >= 2:
+                a, b = min((_halves(u.panels, u.outline, i) for i in range(k - 1)),
+                           key=lambda ab: max(_length(ab[0]), _length(ab[1])))
+                out[u.name + "a"], out[u.name + "b"] = a, b
+                cuts += 1
+            else:
+                out[u.name] = u.outline
+        return out, cuts
+    # "rows": pieces (name, panels, outline, length)
+    pool = [(u.name, np.asarray(u.panels), u.outline, _length(u.outline)) for u in parts]
+    out = {n: o for n, _, o, _ in pool if o.area < small}
+    pool = sorted((p for p in pool if p[2].area >= small), key=lambda p: (-p[3], p[0]))
+    while pool:
+        first = pool.pop(0)
+        out[first[0]] = first[2]
+        gap = usable - first[3] - sep
+        while gap > 0.1 * usable:
+            whole = [p for p in pool if p[3] <= gap]
+            if whole:
+                p = max(whole, key=lambda p: (p[3], p[0]))
+                pool.remove(p)
+                out[p[0]] = p[2]
+                gap -= p[3] + sep
+                continue
+            best = None
+            for p in pool:
+                for i in range(len(p[1]) - 1):
+                    a, b = _halves(p[1], p[2], i)
+                    for (x, xs, y, ys) in ((a, slice(0, i + 1), b, slice(i + 1, None)),
+                                           (b, slice(i + 1, None), a, slice(0, i + 1))):
+                        lx = _length(x)
+                        if lx <= gap and (best is None or lx > best[0]):
+                            best = (lx, p, x, y, p[1][xs], p[1][ys])
+            if best is None or best[0] < 0.5 * gap:
+                break
+            lx, p, x, y, px, py = best
+            pool.remove(p)
+            out[p[0] + "a"] = x
+            gap -= lx + sep
+            cuts += 1
+            pool.append((p[0] + "b", py, y, _length(y)))
+            pool.sort(key=lambda p: (-p[3], p[0]))
+    return out, cuts
+
+
 def _placements(lay) -> list:
     return [(p.name, p.sheet, round(p.rotation, 9), tuple(round(x, 6) for x in p.offset))
             for p in lay.placements]
@@ -189,6 +306,8 @@ def main() -> None:
                     choices=["rows", "search"], help="which nesters (sparrow: --sparrow-s)")
     ap.add_argument("--pinned", action="store_true",
                     help="the parts snapshot parts-NAME.pkl in --cache where there is one")
+    ap.add_argument("--split", choices=["half", "rows"],
+                    help="nest stand-ins of the parts cut at fold lines (split_stand_in), not built")
     args = ap.parse_args()
     cutting = Cutting.for_process("laser")
     nesters = {n: {"rows": nest_rows, "search": nest_search}[n] for n in args.nesters}
@@ -201,7 +320,11 @@ def main() -> None:
     print("|" + "---|" * len(cols))
     for name in args.designs:
         parts, sheet = outlines(name, args.cache, pinned=args.pinned)
-        polys = [getattr(p, "outline", p) for p in parts]
+        if args.split:
+            cut, cuts = split_stand_in(parts, sheet, sep, edge, args.split)
+            parts = sorted(cut.items())
+            print(f"{name}: {cuts} cuts ({args.split}), {len(parts)} parts", flush=True)
+        polys = [p[1] if isinstance(p, tuple) else p.outline for p in parts]
         area = sum(p.area for p in polys) / (sheet[0] * sheet[1])
         cells = [name, str(len(parts)), f"{area:.1f}", str(int(area / 0.8 + 1e-9)),
                  str(crossing_bound(polys, sheet=sheet, sep=sep, edge=edge))]

@@ -5,7 +5,7 @@ import numpy as np
 from shapely import affinity
 from shapely.geometry import Polygon, box
 
-from torsal.fabrication.nesting.raster import RasterGrid, RasterPacker, rasterize
+from torsal.fabrication.nesting.raster import RasterGrid, RasterPacker, longest_runs, rasterize
 from torsal.fabrication.nesting.skyline import SkylinePacker, column_profiles
 
 
@@ -20,6 +20,15 @@ def test_rasterize_counts_the_centres_inside():
     xc = (np.arange(10) + 0.5) * 10
     yc = (np.arange(5) + 0.5) * 10
     assert np.array_equal(tri, yc[None, :] < xc[:, None] / 2)
+
+
+def test_longest_runs_along_and_across():
+    cells = np.zeros((6, 5), dtype=bool)
+    cells[1:4, 3] = True                 # 3 along axis 0
+    cells[5, 0:5] = True                 # 5 along axis 1
+    cells[0, 3] = True                   # joins the first: 4 along axis 0
+    assert longest_runs(cells) == (4, 5)
+    assert longest_runs(np.zeros((3, 2), dtype=bool)) == (0, 0)
 
 
 def test_parts_placed_keep_the_spacing_and_the_frame():

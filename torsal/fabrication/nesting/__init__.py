@@ -5,6 +5,8 @@
 * :mod:`.skyline`: each part dropped into the hollow of the parts below it.
 * :mod:`.search`: :func:`nest_search`, the final cut: the rows and the skyline, then sheets
   emptied in counted tries (deterministic).
+* :mod:`.raster`: a part put into any hole of a sheet its true shape fits (cells, one FFT
+  correlation): the search's hole filler.
 * :mod:`.sparrow`: one sheet packed by sparrow (``spyrrow``), true shapes, any rotation.
 * :mod:`.yield_`: :func:`nest_for_yield`, the rows, then sparrow empties the emptiest sheets
   in the time budget.

@@ -50,6 +50,17 @@ def _grown(poly: Polygon, radius: float) -> Polygon:
     return poly.buffer(radius / _CHORD, quad_segs=2)
 
 
+def longest_runs(cells: np.ndarray) -> tuple[int, int]:
+    """The longest run of set cells along the grid's columns (axis 0) and along its rows."""
+    out = []
+    for a in (0, 1):
+        n = cells.shape[a]
+        idx = np.arange(n).reshape((-1, 1) if a == 0 else (1, -1))
+        last = np.maximum.accumulate(np.where(cells, -1, idx), axis=a)   # the last unset cell
+        out.append(int((idx - last).max(initial=0)))
+    return out[0], out[1]
+
+
 def rasterize(poly: Polygon, x0: float, y0: float, nx: int, ny: int, res: float) -> np.ndarray:
     """``(nx, ny)`` bool: the cells whose centre ``(x0 + (i + 1/2) res, y0 + (j + 1/2) res)``
     lies inside ``poly``'s exterior (even-odd crossings along each row of centres)."""
@@ -83,6 +94,7 @@ class Footprint(NamedTuple):
     height: float
     cells: np.ndarray
     count: int
+    runs: tuple[int, int]
 
 
 class Spot(NamedTuple):
@@ -102,13 +114,28 @@ class RasterSheet:
     occupied: np.ndarray
     names: list = field(default_factory=list)
     _fft: np.ndarray | None = field(default=None, repr=False)
+    _free: int | None = field(default=None, repr=False)
+    _runs: tuple | None = field(default=None, repr=False)
     grid: "RasterGrid" = field(default=None, repr=False)
 
     @property
     def free(self) -> int:
         """Free cells inside the usable frame."""
-        p = self.grid.pad
-        return int((~self.occupied[p:p + self.grid.nx, p:p + self.grid.ny]).sum())
+        self._count()
+        return self._free
+
+    @property
+    def runs(self) -> tuple[int, int]:
+        """The longest runs of free cells along the frame's length and across it, padding
+        included (a footprint reaches into it): a footprint with a longer run fits nowhere."""
+        self._count()
+        return self._runs
+
+    def _count(self) -> None:
+        if self._free is None:
+            p = self.grid.pad
+            self._free = int((~self.occupied[p:p + self.grid.nx, p:p + self.grid.ny]).sum())
+            self._runs = longest_runs(~self.occupied)
 
     def add(self, placed: Polygon, name: str = "") -> None:
         """Mark ``placed`` (in the usable frame) and the ``sep`` around it occupied."""
@@ -123,7 +150,7 @@ class RasterSheet:
             cells = rasterize(big, (i0 - g.pad) * g.res, (j0 - g.pad) * g.res, i1 - i0, j1 - j0, g.res)
             self.occupied[i0:i1, j0:j1] |= cells
         self.names.append(name)
-        self._fft = None
+        self._fft = self._free = self._runs = None
 
     def fft(self) -> np.ndarray:
         if self._fft is None:
@@ -159,15 +186,16 @@ class RasterGrid:
         nx, ny = int(np.ceil(w / r - 1e-9)) + 2 * p, int(np.ceil(h / r - 1e-9)) + 2 * p
         cells = rasterize(_grown(q, r * np.sqrt(0.5)), -p * r, -p * r, nx, ny, r)
         return Footprint(name, float(rot), (-minx, -miny), float(w), float(h), cells,
-                         int(cells.sum()))
+                         int(cells.sum()), longest_runs(cells))
 
     def spot(self, sheet: RasterSheet, footprints) -> Spot | None:
         """The lowest-topped, then leftmost, free position on ``sheet`` of any of
         ``footprints`` (orientations of one part), or None."""
         best = None
-        free = sheet.free
+        free, (run_x, run_y) = sheet.free, sheet.runs
         for f in footprints:
-            if f.count > free or f.width > self.length + 1e-9 or f.height > self.height + 1e-9:
+            if f.count > free or f.runs[0] > run_x or f.runs[1] > run_y or \
+                    f.width > self.length + 1e-9 or f.height > self.height + 1e-9:
                 continue
             hit = self._hits(sheet, f)
             ni = int(np.floor((self.length - f.width) / self.res + 1e-9)) + 1
