@@ -201,7 +201,7 @@ class _HoleFiller:
             if f.turn:                     # the sheet turned a quarter back into the frame
                 placed = affinity.affine_transform(placed, (0, 1, -1, 0, 0, f.w))
             rs.add(affinity.translate(placed, -f.edge, -f.edge), n)
-        if len(self._kept) > 256:
+        if len(self._kept) > 64:             # a sheet and its FFT: about 0.6 MB
             self._kept.clear()
         self._kept[key] = rs
         return rs
