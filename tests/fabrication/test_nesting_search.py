@@ -92,14 +92,16 @@ def test_tries_must_be_a_count():
         nest_search([box(0, 0, 10, 10)], sheet=(100, 100), tries=-1)
 
 
-def test_the_search_fills_a_hole_inside_a_part():
+@pytest.mark.parametrize("sheet", [(1000.0, 500.0), (500.0, 1000.0)], ids=["landscape", "portrait"])
+def test_the_search_fills_a_hole_inside_a_part(sheet):
     """A C-shaped plate 800 x 400 mm open on its short side holds a 700 x 300 mm hole; on a
     1000 x 500 mm sheet two 280 x 200 mm plates fit nowhere else (not above it: 95 mm left; not
     beside it: 195 mm). The starts put them on a second sheet, and no part dropped from above
-    reaches the hole (the skyline); the hole filler empties that sheet into it."""
+    reaches the hole (the skyline); the hole filler empties that sheet into it, on a portrait
+    sheet too (the search's frame turned a quarter)."""
     c = Polygon([(0, 0), (800, 0), (800, 400), (0, 400), (0, 350), (700, 350), (700, 50), (0, 50)])
     parts = {"c": c, "plate1": box(0, 0, 280, 200), "plate2": box(0, 0, 280, 200)}
-    lay = nest_search(parts, sheet=(1000.0, 500.0), gap=5.0, margin=0.0)
+    lay = nest_search(parts, sheet=sheet, gap=5.0, margin=0.0)
     assert min(lay.stats.starts.values()) == 2
     assert lay.n_sheets == 1
     assert valid(lay, 5.0, 0.0)
