@@ -38,6 +38,9 @@ from enum import Enum
 from pathlib import Path
 
 import dask
+# loaded first: its config defaults would go with the value dask.config.set restores
+# after the first study (KeyError: 'comm' in the second study's LocalCluster)
+import distributed  # noqa: F401
 import pandas as pd
 import tomli_w
 
