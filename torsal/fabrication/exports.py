@@ -200,8 +200,11 @@ def _read_in_child(path: str, mesh_tolerance: float | None, conn) -> None:
                             for name, solid in _read_meshed(path, mesh_tolerance)])
     except BaseException as exc:            # raised again in the parent
         message = ("error", exc if isinstance(exc, OSError) else RuntimeError(f"{type(exc).__name__}: {exc}"))
-    conn.send(message)
-    conn.close()
+    try:
+        conn.send(message)
+        conn.close()
+    except OSError:       # the caller stopped waiting (a cancelled build, a closed session)
+        pass
 
 
 def _read_meshed(path, mesh_tolerance: float | None) -> list[tuple[str, object]]:
