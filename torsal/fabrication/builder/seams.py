@@ -60,6 +60,9 @@ class SeamReason(str, Enum):
     ASSEMBLY = "assembly"
     #: a solid around the joint could not be built, so nothing proves the joint
     SOLID = "solid"
+    #: a part of the seam cannot slide onto it and its other crossings within
+    #: :data:`~.joints.MAX_SLOT_SKEW` (their node axes turn too fast): butted there
+    SKEW = "skew"
 
 
 @dataclass(frozen=True)
@@ -250,10 +253,11 @@ class SlotSeams:
 
     def _crossing_joints(self) -> dict[int, list[Joint]]:
         """``{node: [egg-crate joint records]}`` (two at a family-1 seam whose parts slide in
-        along directions of their own, :class:`~.crossings.CrossingSlotter`)."""
+        along directions of their own, :class:`~.crossings.CrossingSlotter`), with the
+        ``slot-seam`` record that says which of them goes in first."""
         out: dict[int, list[Joint]] = {}
         for j in self.fs.joints:
-            if j.kind == JointKind.EGG_CRATE:
+            if j.kind in (JointKind.EGG_CRATE, JointKind.SLOT_SEAM):
                 out.setdefault(j.node, []).append(j)
         return out
 
