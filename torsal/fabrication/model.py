@@ -147,10 +147,6 @@ class JointKind(str, Enum):
     #: a fin fixed to the building: a bent angle (a part of its own, ``A-E<edge>-<i>``) bolted
     #: to the fin and anchored to the design surface A where the fin stands on it
     FIXING = "fixing"
-    #: two parts of one strip split inside a crossing slot, meeting on their mitred seam there
-    #: without a connector (``parts``: the one that goes in first, then the other, which
-    #: slides in along ``insert_direction``, its own, without closing the seam)
-    SLOT_SEAM = "slot-seam"
 
 
 @dataclass(frozen=True)

@@ -58,14 +58,6 @@ def slot_depths(depths, ratio: float, sense: int, *, end_gap: float = 0.0) -> tu
     return min(d0 + 0.5 * end_gap, D0), min(d1 + 0.5 * end_gap, D1)
 
 
-def _mean_skew(axes: np.ndarray) -> float:
-    """The largest angle (degrees) of the unit vectors ``axes`` (k, 3), signed alike, off their
-    mean."""
-    d = axes.sum(axis=0)
-    d = d / np.linalg.norm(d)
-    return float(np.degrees(np.arctan2(np.linalg.norm(_cross(axes, d), axis=1), axes @ d)).max())
-
-
 class _Sense(NamedTuple):
     """The sense a family-1 part slides in (+1: along its direction), whether it keeps every
     gap of its butted ends (``ok``), and the largest sine it runs into one of their faces at."""
@@ -214,12 +206,6 @@ class CrossingSlotter:
             else:
                 fs.joints.append(Joint(JointKind.EGG_CRATE, node, names0 + names1,
                                        direction, None, None, float(x.angle)))
-            order = fs._seam_order.get(node)
-            if order is not None and set(order) <= set(names1):
-                # the two parts of a family-1 seam in this slot: the first, then the second
-                # along its own direction (one that keeps the seam open)
-                fs.joints.append(Joint(JointKind.SLOT_SEAM, node, order, fs._plan[order[1]][0],
-                                       None, None, float(x.angle)))
 
     def _tongues_fit(self, depth: float) -> bool:
         """Whether fins ``depth`` deep along their node line (``unit``, the stretch both
@@ -258,10 +244,9 @@ class CrossingSlotter:
         the sense in which its butted ends do not run into the plates they meet. Where a
         crossing's axis is more than :data:`~.joints.MAX_SLOT_SKEW` off the mean, or the
         butted ends block it in both senses, the direction within that of every axis that
-        keeps the gaps (:func:`slide_direction`); where there is none, the plate is split in
-        the next build (``_unslidable``: :meth:`_split_skewed`, or its middle crossing), the
-        split a seam inside the slot where the seams allow it; the order of each seam's parts
-        is :meth:`_order_seams`'s."""
+        keeps the gaps (:func:`slide_direction`); where there is none, the crossing farthest
+        off, or every crossing of a plate blocked in both senses, is listed in
+        ``_unslidable`` (butted in the next build)."""
         fs = self.fs
         nodes_of: dict[str, list[int]] = {}
         for node, (l0, l1) in sorted(at_node.items()):
@@ -285,52 +270,12 @@ class CrossingSlotter:
                     plan[name] = found
                     continue
             if skew.max() > MAX_SLOT_SKEW:
-                self._split_skewed(name, nodes, axes, skew)
-                # it is split there in the next build, and its parts planned afresh: its
-                # butted ends decide nothing more now
-                sense = self._sense_of(name, d, nodes, st).sense
-                plan[name] = (sense * d, sense)
-                continue
+                fs._unslidable[nodes[int(np.argmax(skew))]] = 1, (
+                    f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
+                    f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
             sense = self._sense(name, d, nodes, st)
             plan[name] = (sense * d, sense)
-        self._order_seams(st, plan, nodes_of)
         return plan
-
-    def _order_seams(self, st: "_Strips", plan: dict, nodes_of: dict) -> None:
-        """``fs._seam_order`` (``{node: (first, second)}``): which of the two family-1 parts of
-        each seam inside a slot goes in first. The first may slide along any direction its
-        slots allow (its partner is not there yet); the second must not close the seam (its
-        normal turned towards it, ``_slot_seam_walls``): the part whose direction keeps the
-        seam open goes second, else one whose slots allow a direction that does (in the same
-        sense); where neither can, the seam is refused (:attr:`SeamReason.CLOSES_SEAM`). Both
-        parts had to keep it open before, as their order was not given (8 of 7c's and 15 of
-        9's seams fell back to brackets for it at full size)."""
-        fs = self.fs
-        seam_walls: dict[str, list] = {}              # the seams each part goes in second at
-        for node, walls in sorted(fs._slot_seam_walls.items()):
-            names = sorted(n for n in walls if n in plan)
-            if len(names) != 2:
-                continue
-            order = next(((f, s_) for f, s_ in (names, names[::-1])
-                          if plan[s_][0] @ walls[s_] <= self._tol(nodes_of[s_], st)), None)
-            for first, second in ((names, names[::-1]) if order is None else ()):
-                nodes = nodes_of[second]
-                axes = np.array([(st.a[v] - st.b[v]) / st.depth[v] for v in nodes])
-                more = seam_walls.get(second, []) + [walls[second]]
-                found = slide_direction(axes, np.vstack([self._walls_of(second)] + more),
-                                        max_skew=MAX_SLOT_SKEW, tol=self._tol(nodes, st),
-                                        prefer_plus=True)
-                if found is not None and found[1] == plan[second][1]:
-                    plan[second] = found
-                    order = (first, second)
-                    break
-            if order is None:
-                SlotSeams(fs).refuse(1, node, SeamReason.CLOSES_SEAM, f"{names[0]} and {names[1]} "
-                                     "would each close their seam sliding in along a direction "
-                                     "their slots allow", tuple(names))
-                continue
-            seam_walls.setdefault(order[1], []).append(walls[order[1]])
-            fs._seam_order[node] = order
 
     def _sense(self, name: str, d: np.ndarray, nodes: list[int], st: "_Strips") -> float:
         """The sense (+1: along ``d``) the family-1 part ``name`` slides onto its crossings
@@ -352,54 +297,10 @@ class CrossingSlotter:
                 SlotSeams(fs).refuse(1, v, SeamReason.CLOSES_SEAM, f"{name} would close its "
                                      f"seam sliding along its node axes {why}", (name,))
         else:
-            # split at its middle crossing, which may be a seam inside the slot: each part
-            # then has the walls of one end and its own direction (every crossing of it was
-            # butted before: 42 of 7c's 280 connectors at full size)
-            text = (1, f"{name} would run into a plate it butts against while sliding along "
-                       f"its node axes {why}")
-            if len(nodes) < 3:
-                for v in nodes:
-                    fs._unslidable.setdefault(v, text)
-            else:
-                v = self._middle(name, nodes)
-                fs._skewed.add(v)
-                fs._unslidable.setdefault(v, text)
+            for v in nodes:
+                fs._unslidable.setdefault(v, (1, f"{name} would run into a plate it butts "
+                                              f"against while sliding along its node axes {why}"))
         return sense
-
-    def _split_skewed(self, name: str, nodes: list[int], axes: np.ndarray,
-                      skew: np.ndarray) -> None:
-        """Where the family-1 part ``name``, whose crossings ``nodes`` (node axes ``axes``)
-        lie up to ``skew`` degrees off their mean axis, more than :data:`MAX_SLOT_SKEW`, is
-        split in the next build. With three crossings or more, at the inner one that leaves
-        the parts on either side least skewed: the split may be a seam inside that slot
-        (``_skewed``), each part sliding in along its own direction (a seam's crossing is a
-        crossing of both its parts). Else at the crossing farthest off, butted; where that is
-        a seam inside the slot already, the seam is refused (:attr:`SeamReason.SKEW`)."""
-        fs = self.fs
-        part = next(p for p in fs.parts if p.name == name)
-        pos = [int(np.flatnonzero(np.asarray(part.nodes) == v)[0]) for v in nodes]
-        order = np.argsort(pos, kind="stable")
-        why = (f"its node axis is {skew.max():.1f} deg off the slide direction of {name} "
-               f"(> {MAX_SLOT_SKEW:g}): the plate cannot slide onto all its crossings")
-        inner = [j for j in range(1, len(order) - 1) if (1, nodes[order[j]]) not in fs._seam_crossings]
-        if inner:
-            j = min(inner, key=lambda j: (max(_mean_skew(axes[order[:j + 1]]),
-                                              _mean_skew(axes[order[j:]])), j))
-            v = nodes[order[j]]
-            fs._skewed.add(v)
-            fs._unslidable[v] = 1, why
-            return
-        v = nodes[int(np.argmax(skew))]
-        if (1, v) in fs._seam_crossings:
-            SlotSeams(fs).refuse(1, v, SeamReason.SKEW, why, (name,))
-        else:
-            fs._unslidable[v] = 1, why
-
-    def _middle(self, name: str, nodes: list[int]) -> int:
-        """Of the crossings ``nodes`` of the family-1 part ``name``, the middle one along it."""
-        part = next(p for p in self.fs.parts if p.name == name)
-        along = sorted(nodes, key=lambda v: int(np.flatnonzero(np.asarray(part.nodes) == v)[0]))
-        return along[(len(along) - 1) // 2]
 
     def _walls_of(self, name: str) -> np.ndarray:
         """(m, 3) unit normals of the faces the part ``name`` ends against, turned towards it."""

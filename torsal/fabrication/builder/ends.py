@@ -133,16 +133,9 @@ class EndJoiner:
             return
         a, seam = plane
         b = p.panels[0][3]
-        node = int(p.nodes[0])
-        # a family-1 seam inside a slot is a wall of only the part that goes in second, which
-        # the slide plan chooses (.crossings: _order_seams): kept apart until then
-        in_slot = p.family == 1 and (1, node) in fs._seam_crossings
         for q, quad, other, end in ((p, p.panels[0], prev, 0), (prev, prev.panels[-1], p, -1)):
             n = seam if direction_into(quad, end == 0, a, b) @ seam >= 0 else -seam
-            if in_slot:
-                fs._slot_seam_walls.setdefault(node, {})[q.name] = n
-            else:
-                fs._walls.setdefault(q.name, []).append(n)
+            fs._walls.setdefault(q.name, []).append(n)
             # (the other part, the plane's normal turned towards this one, this one's panel
             # there, the node)
             fs._seams.setdefault(q.name, []).append((other.name, n, end % len(q.panels),

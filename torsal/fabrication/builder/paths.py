@@ -126,7 +126,7 @@ class _PathCheck:
                 later = names[-1:]
             elif j.kind == JointKind.EGG_CRATE:
                 later = [n for n in names if n[:2] == "F1"]
-            elif j.kind in (JointKind.FIXING, JointKind.SLOT_SEAM):
+            elif j.kind == JointKind.FIXING:
                 later = names[1:]
             else:
                 later = []
@@ -316,7 +316,7 @@ class AssemblyPlanner:
             names = [n for n in j.parts if n not in conn]
             if j.kind == JointKind.EGG_CRATE:
                 pairs = [(a, b) for a in names for b in names if a[:2] == "F0" and b[:2] == "F1"]
-            elif j.kind in (JointKind.BUTT_BRACKET, JointKind.SLOT_SEAM):
+            elif j.kind == JointKind.BUTT_BRACKET:
                 pairs = [(a, names[-1]) for a in names[:-1]]
             else:
                 pairs = []

@@ -26,9 +26,8 @@ from .seams import JointFallback, SlotSeam, SlotSeams
 from .strips import StripCutter, _plate_panels, _read_strips
 
 #: how often a :class:`~torsal.fabrication.parts.FinSystem` rebuilds at most, changing joints
-#: and leaving out panels (24: a plate split where its slide direction turns is split once
-#: per build; example 13 at full size settled in 17, and at 16 its paths were never checked)
-MAX_REBUILDS = 24
+#: and leaving out panels
+MAX_REBUILDS = 16
 
 
 def reset_state(fs) -> None:
@@ -68,8 +67,6 @@ def init_joints(fs) -> None:
     fs._bad_seams: set = set()
     #: crossings an egg-crate cannot join (node -> reason): butted in the next build
     fs._unslidable: dict[int, str] = {}
-    #: of those, the crossings whose node axis is too far off the plate's slide direction
-    fs._skewed: set = set()
     #: parts whose path into place is blocked: [(part, [(panel, plate, its panel, distance)])]
     fs._blocked_paths: list = []
     #: splits at crossings tried as seams inside the slot ({(family, node)}), those refused
@@ -81,10 +78,6 @@ def init_joints(fs) -> None:
     fs.joint_fallbacks: list[JointFallback] = []
     #: part name -> [unit normal of a plate it butts against, turned towards the part]
     fs._walls: dict[str, list] = {}
-    #: node -> {part name: its seam's normal turned towards it} of the family-1 seams inside
-    #: slots, and node -> (the part that goes in first, the second) (.crossings)
-    fs._slot_seam_walls: dict[int, dict] = {}
-    fs._seam_order: dict[int, tuple[str, str]] = {}
     #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
     fs._ends_at: dict[tuple[int, int], list] = {}
     #: part name -> [(part across a mitred seam, seam normal turned to it, its panel there)]
@@ -134,10 +127,6 @@ class Rebuilder:
         #: assembly checks of the seams by content (.builder.seams)
         fs._seams_refused: dict = {}
         fs._seam_verdicts: dict = {}
-        #: crossings split because a family-1 plate could not slide onto all its crossings:
-        #: the split may be a seam inside the slot (.builder.seams), each part sliding in
-        #: along its own direction, the second keeping the seam open (.crossings)
-        fs._slide_forced: set = set()
         for attempt in range(MAX_REBUILDS + 1):
             fs._rebuilds = attempt
             reset_state(fs)
@@ -154,10 +143,8 @@ class Rebuilder:
             fs._avoid_splits |= moved
             changed = bool(moved) or len(fs._base_at) > swapped
             new.update({(si, i): rec for si, i, *rec in fs._clashing_panels(leaving=set(new))})
-            slide = {v: why for v, why in fs._unslidable.items()
-                     if v not in forced and v not in new_forced}
-            new_forced.update(slide)
-            fs._slide_forced |= set(slide) & fs._skewed
+            new_forced.update((v, why) for v, why in fs._unslidable.items()
+                              if v not in forced and v not in new_forced)
             cycles = AssemblyPlanner(fs)._break_cycles(forced)
             new_forced.update((v, why) for v, why in cycles.items() if v not in new_forced)
             changed |= self._settle_seams(settled=not (new or new_forced or changed))
@@ -267,9 +254,7 @@ class Rebuilder:
                     if p.ends[end] in ("miter", "fold"):
                         cont[fam, int(p.nodes[-end])] = False
         seams = SlotSeams(fs)
-        butted = {v for v, (split, _) in (forced or {}).items()
-                  if not (split == 1 and v in getattr(fs, "_slide_forced", ()))}
-        fs._seam_crossings = seams.candidates(st, part_of_strip, joinery, cont, butted)
+        fs._seam_crossings = seams.candidates(st, part_of_strip, joinery, cont, set(forced or ()))
         seams.slot(joinery)
         EndJoiner(fs)._join_ends(st, part_of_strip, plate, cont)
         CrossingSlotter(fs)._slot_crossings(st, part_of_strip, joinery, cont)

@@ -60,9 +60,6 @@ class SeamReason(str, Enum):
     ASSEMBLY = "assembly"
     #: a solid around the joint could not be built, so nothing proves the joint
     SOLID = "solid"
-    #: a part of the seam cannot slide onto it and its other crossings within
-    #: :data:`~.joints.MAX_SLOT_SKEW` (their node axes turn too fast): butted there
-    SKEW = "skew"
 
 
 @dataclass(frozen=True)
@@ -253,11 +250,10 @@ class SlotSeams:
 
     def _crossing_joints(self) -> dict[int, list[Joint]]:
         """``{node: [egg-crate joint records]}`` (two at a family-1 seam whose parts slide in
-        along directions of their own, :class:`~.crossings.CrossingSlotter`), with the
-        ``slot-seam`` record that says which of them goes in first."""
+        along directions of their own, :class:`~.crossings.CrossingSlotter`)."""
         out: dict[int, list[Joint]] = {}
         for j in self.fs.joints:
-            if j.kind in (JointKind.EGG_CRATE, JointKind.SLOT_SEAM):
+            if j.kind == JointKind.EGG_CRATE:
                 out.setdefault(j.node, []).append(j)
         return out
 
