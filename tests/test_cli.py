@@ -113,6 +113,7 @@ step = false
 rhino_3dm = false
 renders = false
 dxf = false
+ifc = false
 light_samples = 100
 """
 
