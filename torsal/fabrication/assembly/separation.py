@@ -115,23 +115,10 @@ def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
                  triangle_boxes=None) -> np.ndarray:
     """:func:`prism_clear` of many face prisms against one other solid at once: ``vectors``
     (p, 3) or (3,), one per face or shared. Returns (p,) bool (True: proved apart)."""
-    nf = len(faces)
-    if not nf:
-        return np.zeros(0, bool)
-    pts, edges, normals, lo, hi = _prism_hulls(faces, vectors, eps)
     tri = other_triangles
-    tmin, tmax = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
-    near = _near_boxes(lo, hi, tmin, tmax)
-    clear = np.ones(nf, bool)
-    used = near.any(axis=0)
-    if used.any():
-        clear = _sat_clear(pts, edges, normals, tri[used], near[:, used], eps)
-    # clear of the boundary: apart unless wholly inside (a hull sticking out of the box is not)
-    inside_box = (lo >= other_box[0]).all(axis=1) & (hi <= other_box[1]).all(axis=1)
-    ask = np.flatnonzero(clear & inside_box)
-    if len(ask):
-        clear[ask] = _inside_by_rays(pts[ask].mean(axis=1), tri) == 0
-    return clear
+    boxes = triangle_boxes if triangle_boxes is not None else (tri.min(axis=1), tri.max(axis=1))
+    return prisms_clear_of_each(faces, vectors, [(tri, other_box, boxes)],
+                                np.ones((len(faces), 1), bool), eps=eps)[:, 0]
 
 
 def prisms_clear_of_each(faces: Sequence[_Face], vectors, others: Sequence[tuple],
