@@ -47,13 +47,18 @@ import time
 from pathlib import Path
 
 
-def load(out: Path):
-    """``(solids, joints, seconds)`` of a design run folder: the solids re-read from fins.step,
-    the joint records from the cached fabrication stage."""
+def load(out: Path, prepared: bool = False):
+    """``(solids, joints, seconds)`` of a design run folder: the solids re-read from fins.step
+    (with ``prepared``, as the pipeline's background read gives them: meshed, with the
+    records of the cheap tests, :mod:`torsal.fabrication.assembly.prepared`), the joint
+    records from the cached fabrication stage."""
     from torsal.fabrication import read_step
+    from torsal.fabrication.assembly import TOUCHING_TOLERANCE
+    from torsal.fabrication.exports import read_step_for_check
 
     t = time.process_time()
-    solids = read_step(out / "fins.step")
+    solids = (read_step_for_check(out / "fins.step", mesh_tolerance=TOUCHING_TOLERANCE)
+              if prepared else read_step(out / "fins.step"))
     pkl = sorted((out / ".torsal-cache").glob("fabrication-*.pkl"))[-1]
     with open(pkl, "rb") as fh:
         fab = pickle.load(fh)
@@ -161,6 +166,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=None)
     ap.add_argument("--profile", type=Path, help="write cProfile stats here (workers=1)")
     ap.add_argument("--compare", nargs=2, type=Path)
+    ap.add_argument("--prepared", action="store_true",
+                    help="the solids as the pipeline gives them (records made while loading)")
     ap.add_argument("--memo", action="store_true",
                     help="also the check again from its memo (pairs, seconds, memo hits)")
     ap.add_argument("--fixtures", action="store_true",
@@ -190,7 +197,7 @@ def main(argv=None) -> int:
         return 0
 
     t0w = time.perf_counter()
-    solids, joints, load_cpu = load(args.out)
+    solids, joints, load_cpu = load(args.out, args.prepared)
     load_wall = time.perf_counter() - t0w
     phases = {}
 

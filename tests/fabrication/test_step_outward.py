@@ -106,7 +106,7 @@ def test_step_read_in_the_background_gives_the_same_solids(tmp_path):
     # process may start, or the assembly stage reads the file itself); a changed file is not
     # taken from a read of the file before (the pipeline's hand-over to the assembly stage)
     from torsal.core.parallel import limit_workers
-    from torsal.fabrication.assembly.occ import _vertices
+    from torsal.fabrication.assembly.occ import _shape, _vertices
     from torsal.fabrication.exports import binary_round_trip, start_read_step
     from torsal.pipeline import assembly as stage
 
@@ -130,8 +130,8 @@ def test_step_read_in_the_background_gives_the_same_solids(tmp_path):
     taken = stage._step_solids(path)
     assert [n for n, _ in taken] == [PLATE.name, BRACKET.name]
     assert stage._PREFETCHED.get() is None                  # taken once
-    assert [_signed_volume(s) for _, s in stage._step_solids(path)] == \
-        [_signed_volume(s) for _, s in taken]               # read here: the same solids
+    assert [_signed_volume(_shape(s)) for _, s in stage._step_solids(path)] == \
+        [_signed_volume(_shape(s)) for _, s in taken]       # read here: the same solids
     stage.prefetch_step_solids(path)
     write_step([(PLATE.name, built[PLATE.name], (0.5, 0.5, 0.5))], path, unit="mm")
     assert [n for n, _ in stage._step_solids(path)] == [PLATE.name]   # the new file
@@ -140,11 +140,15 @@ def test_step_read_in_the_background_gives_the_same_solids(tmp_path):
 
 
 def test_the_background_read_meshes_the_solids_as_the_check_would(tmp_path):
-    # the reading process meshes the solids for the assembly check: the triangles it sends
-    # are those the check makes of the same file read here, bit for bit
+    # the reading process meshes the solids for the assembly check and makes the records of
+    # its cheap tests: the triangles it sends are those the check makes of the same file
+    # read here, bit for bit, and its face records are those of the solid that arrives
+    # (the same faces in the same explorer order: the same vertices, edges and normals)
     from torsal.fabrication.assembly import TOUCHING_TOLERANCE
-    from torsal.fabrication.assembly.occ import _boundary_triangles, _mesh
-    from torsal.fabrication.exports import binary_round_trip, start_read_step
+    from torsal.fabrication.assembly.occ import _boundary_triangles, _face_records, _mesh, _shape
+    from torsal.fabrication.assembly.prepared import PreparedSolid, face_records_of, solid_records
+    from torsal.fabrication.assembly.separation import solid_cover
+    from torsal.fabrication.exports import binary_round_trip, read_step_for_check, start_read_step
 
     path = tmp_path / "joint.step"
     write_step([(p.name, _part_shape(p, T), (0.5, 0.5, 0.5)) for p in (PLATE, BRACKET)], path,
@@ -154,6 +158,20 @@ def test_the_background_read_meshes_the_solids_as_the_check_would(tmp_path):
     there = pending.result()
     here = binary_round_trip(read_step(path))
     _mesh([s for _, s in here], TOUCHING_TOLERANCE)
-    for (_, a), (_, b) in zip(there, here):
-        ta, tb = _boundary_triangles(a), _boundary_triangles(b)
+    alone = read_step_for_check(path, mesh_tolerance=TOUCHING_TOLERANCE)
+    for (_, a), (_, b), (_, c) in zip(there, here, alone):
+        assert isinstance(a, PreparedSolid) and isinstance(c, PreparedSolid)
+        ta, tb = _boundary_triangles(_shape(a)), _boundary_triangles(b)
         assert len(ta) >= 12 and np.array_equal(ta, tb)
+        assert np.array_equal(a.records.triangles, tb)
+        mine, sent = _face_records(b), face_records_of(_shape(a), a.records)
+        assert len(mine) == len(sent) >= 6
+        for f, g in zip(mine, sent):
+            assert np.array_equal(f.points, g.points) and np.array_equal(f.edges, g.edges)
+            assert np.array_equal(f.normal, g.normal)
+        cover = solid_cover(b, mine)
+        assert [mine.index(f) for f, _ in cover] == list(a.records.cover_faces)
+        assert np.allclose(cover[0][1], a.records.cover_vector, rtol=1e-12, atol=0)
+        for x, y in zip(solid_records(_shape(c)), a.records):     # in this process alike
+            assert all(np.array_equal(u, v) for u, v in zip(x, y)) if isinstance(x, tuple) \
+                else np.allclose(x, y, rtol=1e-12, atol=0)

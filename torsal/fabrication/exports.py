@@ -190,14 +190,14 @@ def read_step(path) -> list[tuple[str, object]]:
 
 
 def _read_in_child(path: str, mesh_tolerance: float | None, conn) -> None:
-    """Reading process: ``("done", [(name, BRep bytes)])`` of :func:`_read_meshed` (shapes
-    do not pickle: OpenCascade's binary form, see :func:`binary_round_trip`) or ``("error",
-    exception)``."""
+    """Reading process: ``("done", [(name, BRep bytes, records)])`` of :func:`_read_meshed`
+    (shapes do not pickle: OpenCascade's binary form, see :func:`binary_round_trip`; the
+    records are arrays) or ``("error", exception)``."""
     from .workers import _to_bytes
 
     try:
-        message = ("done", [(name, _to_bytes(solid))
-                            for name, solid in _read_meshed(path, mesh_tolerance)])
+        message = ("done", [(name, _to_bytes(solid), records)
+                            for name, solid, records in _read_meshed(path, mesh_tolerance)])
     except BaseException as exc:            # raised again in the parent
         message = ("error", exc if isinstance(exc, OSError) else RuntimeError(f"{type(exc).__name__}: {exc}"))
     try:
@@ -207,17 +207,29 @@ def _read_in_child(path: str, mesh_tolerance: float | None, conn) -> None:
         pass
 
 
-def _read_meshed(path, mesh_tolerance: float | None) -> list[tuple[str, object]]:
-    """:func:`read_step`, meshed for the assembly check at ``mesh_tolerance`` (its touching
-    tolerance, unit; None: not meshed). The triangles travel with OpenCascade's binary form:
-    the process that reads the file meshes it, and the check's own meshing of the same
-    shapes, with the same parameters, finds it done."""
+def _read_meshed(path, mesh_tolerance: float | None) -> list[tuple[str, object, object]]:
+    """``[(name, solid, records)]``: :func:`read_step`, meshed for the assembly check at
+    ``mesh_tolerance`` (its touching tolerance, unit; None: not meshed, no records), with
+    the records of the check's cheap tests (:func:`~.assembly.prepared.solid_records`) made
+    here, once. The triangles travel with OpenCascade's binary form: the process that reads
+    the file meshes it, and the check's own meshing of the same shapes, with the same
+    parameters, finds it done."""
     solids = read_step(path)
-    if mesh_tolerance is not None:
-        from .assembly.occ import _mesh
+    if mesh_tolerance is None:
+        return [(name, s, None) for name, s in solids]
+    from .assembly.occ import _mesh
+    from .assembly.prepared import solid_records
 
-        _mesh([s for _, s in solids], mesh_tolerance)
-    return solids
+    _mesh([s for _, s in solids], mesh_tolerance)
+    return [(name, s, solid_records(s)) for name, s in solids]
+
+
+def _prepared(name: str, solid, records) -> tuple[str, object]:
+    """``(name, solid)``, the solid a :class:`~.assembly.prepared.PreparedSolid` when it has
+    records."""
+    from .assembly.prepared import PreparedSolid
+
+    return name, solid if records is None else PreparedSolid(solid, records)
 
 
 def read_step_for_check(path, *, mesh_tolerance: float | None = None
@@ -229,7 +241,10 @@ def read_step_for_check(path, *, mesh_tolerance: float | None = None
 
     >>> solids = read_step_for_check("fins.step", mesh_tolerance=0.1)   # doctest: +SKIP
     """
-    return binary_round_trip(_read_meshed(path, mesh_tolerance))
+    from .workers import _from_bytes, _to_bytes
+
+    return [_prepared(name, _from_bytes(_to_bytes(solid)), records)
+            for name, solid, records in _read_meshed(path, mesh_tolerance)]
 
 
 def binary_round_trip(solids: list[tuple[str, object]]) -> list[tuple[str, object]]:
@@ -282,7 +297,7 @@ class PendingStepRead:
         self._process.join()
         if kind == "error":
             raise value
-        return [(name, _from_bytes(data)) for name, data in value]
+        return [_prepared(name, _from_bytes(data), records) for name, data, records in value]
 
     def cancel(self) -> None:
         """Stop the reading process."""

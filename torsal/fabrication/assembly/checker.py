@@ -21,6 +21,7 @@ from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
 from .result import MIN_INTERFERENCE_VOLUME, TOUCHING_TOLERANCE, AssemblyCheck, AssemblyStep, Interference
+from .prepared import PreparedSolid, SolidRecords, face_records_of
 from .separation import solid_clear, solid_cover, surfaces_clear
 from .sweep import swept_overlap
 from .workers import JobPool
@@ -77,6 +78,9 @@ class AssemblyChecker:
         self.memo_hits = self.memo_misses = 0
         self._mesh_done = False
         self._kept: dict = {}             # (what, solid index) -> faces, cover or triangles
+        for k, s in enumerate(solids):    # records made where the solids were read
+            if isinstance(s, PreparedSolid):
+                self._take_records(k, s.records)
 
     # ------------------------------------------------------------------ per-solid records
     def _keep(self, what: str, k: int, make):
@@ -84,6 +88,15 @@ class AssemblyChecker:
         if key not in self._kept:
             self._kept[key] = make()
         return self._kept[key]
+
+    def _take_records(self, k: int, rec: SolidRecords) -> None:
+        """Keep the :class:`~.prepared.SolidRecords` of solid ``k`` as its own (the
+        records of a :class:`~.prepared.PreparedSolid`: made once, where it was read)."""
+        faces = face_records_of(self.shapes[k], rec)
+        self._kept[("faces", k)] = faces
+        self._kept[("vertices", k)] = rec.vertices
+        self._kept[("cover", k)] = [(faces[n], rec.cover_vector) for n in rec.cover_faces]
+        self._kept[("boundary", k)] = rec.triangles
 
     def faces(self, k: int) -> list:
         """Face records of solid ``k``, made once per process."""
@@ -112,7 +125,9 @@ class AssemblyChecker:
     def triangles(self, k: int) -> tuple:
         """``(triangles, box, triangle boxes)`` of solid ``k`` for the cheap tests."""
         def make():
-            tri = _boundary_triangles(self.shapes[k])
+            tri = self._kept.get(("boundary", k))
+            if tri is None:
+                tri = _boundary_triangles(self.shapes[k])
             return tri, _bbox(self.shapes[k]), (tri.min(axis=1), tri.max(axis=1))
         return self._keep("triangles", k, make)
 
