@@ -2,6 +2,8 @@
 weather for bare planes, the cut-off profile angle for infinite louvers."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pvlib
@@ -22,6 +24,7 @@ from torsal.light.annual import (
     seasons,
     shading_factor,
     sky_year,
+    weather_year,
 )
 from torsal.light.annual import radiance as radiance_module
 from torsal.light.annual.daylight import Room, daylight, occupied
@@ -32,6 +35,9 @@ from torsal.light.sun import write_synthetic_epw
 from torsal.pipeline.design_file import RoomSpec, SunSpec
 
 VIENNA = dict(latitude=48.21, longitude=16.37)
+#: a measured typical year that pvlib ships: TMY3 of Greensboro, North Carolina
+GREENSBORO_TMY3 = Path(pvlib.__file__).parent / "data" / "723170TYA.CSV"
+GREENSBORO = dict(latitude=36.1, longitude=-79.95)
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +50,11 @@ def epw_weather(tmp_path_factory):
 @pytest.fixture(scope="module")
 def clear_weather():
     return clear_sky_year(**VIENNA, timezone="Europe/Vienna", elevation=170.0)
+
+
+@pytest.fixture(scope="module")
+def tmy3_weather():
+    return weather_year(GREENSBORO_TMY3)
 
 
 def _normal(tilt, azimuth):
@@ -64,17 +75,19 @@ def _pvlib_poa(weather: Weather, tilt, azimuth, albedo=0.2) -> pd.DataFrame:
         model="perez").fillna(0.0)
 
 
-@pytest.mark.parametrize("which", ["epw", "clear sky"])
+@pytest.mark.parametrize("which", ["epw", "clear sky", "tmy3"])
 @pytest.mark.parametrize("tilt", [90.0, 30.0])
-def test_bare_plane_matches_pvlib_perez_within_3_percent(which, tilt, epw_weather, clear_weather):
+def test_bare_plane_matches_pvlib_perez_within_3_percent(which, tilt, epw_weather, clear_weather,
+                                                         tmy3_weather):
     """A south-facing vertical and a 30-degree plane, bare: the year's kWh/m^2 within 3 % of
     pvlib's Perez transposition of the same hours (Radiance's sky is the Perez all-weather
     luminance model, a different model of the same sky: its diffuse share on a vertical plane
     is 8 % below Perez transposition's, in the winter months 4 % below, on a north wall the
     total is 4 % below); the cooling season (months or days, whichever the rule picked) within
     3 %; the direct sun, which both take from the same DNI and sun path, within 0.5 % over the
-    year and 1 % in each month and season."""
-    weather = epw_weather if which == "epw" else clear_weather
+    year and 1 % in each month and season. The years: a synthetic clear-sky EPW and pvlib's
+    clear sky at Vienna, and a measured typical year with its clouds (TMY3, Greensboro)."""
+    weather = {"epw": epw_weather, "clear sky": clear_weather, "tmy3": tmy3_weather}[which]
     sky, split = sky_year(weather), seasons(weather)
     normal = _normal(tilt, 180.0)
     points = np.c_[np.arange(8.0), np.zeros(8), np.ones(8)]
@@ -329,6 +342,88 @@ def test_annual_stage_reads_the_designs_epw(tmp_path):
                             "hours": 8760}
     assert r["seasons"]["rule"] == "temperature"
     assert 0 < r["fins"]["annual_kwh_m2"] < r["bare"]["annual_kwh_m2"]
+
+
+def _greensboro_design(weather, **sun):
+    """The toy design at Greensboro with ``sun.weather``."""
+    spec = _toy_design(devices=False, points=8)
+    return spec.model_copy(update={
+        "site": spec.site.model_copy(update={**GREENSBORO, "timezone": "America/New_York"}),
+        "sun": SunSpec(weather=weather, **sun)})
+
+
+def test_annual_stage_reads_a_tmy3_year(tmp_path):
+    """With sun.weather a TMY3 file: the year is the file's, its seasons its temperatures."""
+    from torsal.pipeline.annual import run_annual
+
+    inp, _ = _stage_inputs(_greensboro_design(GREENSBORO_TMY3), tmp_path)
+    r = run_annual(inp)["report"]
+    assert r["weather"] == {"source": "tmy3", "description": "TMY3 weather file 723170TYA.CSV",
+                            "hours": 8760}
+    assert r["seasons"]["rule"] == "temperature"
+    assert 0 < r["fins"]["annual_kwh_m2"] < r["bare"]["annual_kwh_m2"]
+
+
+def test_a_weather_file_far_from_the_site_is_refused(tmp_path):
+    """Greensboro's year on a Vienna facade: the sun and the annual stages name both places;
+    sun.allow_distant_weather lets it through."""
+    from torsal.pipeline.annual import design_weather
+    from torsal.pipeline.errors import DesignError
+    from torsal.pipeline.stages import sun_directions
+
+    far = _toy_design().model_copy(update={"sun": SunSpec(weather=GREENSBORO_TMY3)})
+    for call, stage in ((sun_directions, "sun"), (design_weather, "annual")):
+        with pytest.raises(DesignError) as err:
+            call(far)
+        text = str(err.value)
+        assert err.value.stage == stage and err.value.key == "sun.weather"
+        assert "GREENSBORO PIEDMONT TRIAD INT, NC at 36.10 N, 79.95 W" in text
+        assert "[site] at 48.21 N, 16.37 E" in text and "sun.allow_distant_weather" in text
+    allowed = far.model_copy(update={"sun": SunSpec(weather=GREENSBORO_TMY3,
+                                                    allow_distant_weather=True)})
+    assert len(sun_directions(allowed)[0]) > 100
+    assert design_weather(allowed).latitude == 36.1          # the file's place, as asked
+    # within a degree (a neighbouring town): the site's own weather
+    near = _greensboro_design(GREENSBORO_TMY3)
+    near = near.model_copy(update={"site": near.site.model_copy(update={"latitude": 35.3})})
+    assert design_weather(near).place == "GREENSBORO PIEDMONT TRIAD INT, NC"
+    # sun.epw is checked alike
+    epw = tmp_path / "amsterdam.epw"
+    write_synthetic_epw(epw, 52.30, 4.77, tz_hours=1.0)
+    with pytest.raises(DesignError, match=r"sun\.epw = .*Synthetic, XXX at 52\.30 N, 4\.77 E"):
+        design_weather(_toy_design().model_copy(update={"sun": SunSpec(epw=epw)}))
+
+
+#: pvlib's other TMY3 sample: Sand Point, Alaska, a cloudy coast (DNI a quarter of its clear sky's)
+SAND_POINT_TMY3 = GREENSBORO_TMY3.with_name("703165TY.csv")
+
+
+@pytest.mark.parametrize("path", [SAND_POINT_TMY3, GREENSBORO_TMY3], ids=lambda p: p.name)
+def test_a_measured_years_daylight_is_its_own(path):
+    """The same south room (the examples' window: glazed from 0.9 to 2.7 m across its width, 6 m
+    deep) under a measured typical year and under the clear-sky year of the same place. Direct
+    sun: the measured year's clouds leave fewer hours of it on the work plane (ASE hours at most
+    0.8 of the clear sky's), at both places. sDA: on Sand Point's cloudy coast less of the room
+    reaches 300 lx for half the occupied hours than under its clear sky (93 % against 98 %); in
+    sunnier Greensboro the clouded hours' brighter diffuse sky (DHI 78 against 43 W/m^2 a year)
+    makes up for the sun and sDA is level (99 % both): a measured year does not lower sDA by
+    itself."""
+    measured = weather_year(path)
+    clear = clear_sky_year(measured.latitude, measured.longitude,
+                           timezone=measured.utc_offset_hours, elevation=measured.elevation)
+    settings = RadianceSettings(ambient_bounces=2, ambient_divisions=128)
+    room = Room((-3.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), 6.0, 6.0, 3.0, 0.9, 2.7,
+                transmittance=0.6, reflectance=(0.2, 0.5, 0.7))
+    d = {name: daylight(room, sky_year(w, quantity=SkyQuantity.VISIBLE), settings=settings)
+         for name, w in (("measured", measured), ("clear", clear))}
+    assert d["measured"].hours_ase.mean() < 0.8 * d["clear"].hours_ase.mean()
+    assert 0.5 < d["measured"].sda
+    if path == SAND_POINT_TMY3:
+        assert d["measured"].sda < d["clear"].sda
+        assert d["measured"].hours_sda.mean() < d["clear"].hours_sda.mean()
+    else:
+        assert d["measured"].sda == pytest.approx(d["clear"].sda, abs=0.02)
+        assert measured.dhi.mean() > 1.5 * clear.dhi.mean()
 
 
 def test_a_search_on_annual_figures_needs_the_annual_stage(tmp_path):

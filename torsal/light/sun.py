@@ -1,5 +1,9 @@
 """Where the sun is: sun directions from a site and times, or from a weather file.
 
+Weather files: EPW (EnergyPlus), TMY3 (NREL, ``.csv``) and TMY2 (NREL, ``.tm2``), read by
+:func:`read_weather` into one hourly frame (:func:`epw_hours`'s); all three stamp each hour at
+its end and hold the irradiance received over the hour before it.
+
 All solar positions come from pvlib's implementation of the NREL Solar Position
 Algorithm (SPA, Reda & Andreas 2004), ``pvlib.solarposition.get_solarposition(...,
 method="nrel_numpy")``: stated uncertainty +/-0.0003 degrees for years -2000..6000.
@@ -23,6 +27,7 @@ Examples
 from __future__ import annotations
 
 import datetime as _dt
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,8 +44,11 @@ __all__ = [
     "sun_path",
     "hot_hours",
     "read_epw",
+    "read_weather",
     "epw_hours",
     "EPWError",
+    "WeatherFileError",
+    "WEATHER_FORMATS",
     "light_directions",
     "write_synthetic_epw",
 ]
@@ -337,21 +345,22 @@ def sun_path(latitude: float, longitude: float, start, end, *, timezone: str,
 
 def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *,
               north_angle: float = 0.0, months=None, hours=None,
-              coerce_year: int | None = None) -> SunDirections:
-    """Design sun directions from an EnergyPlus weather file: the hot, sunny hours.
+              coerce_year: int | None = None, weather=None) -> SunDirections:
+    """Design sun directions from a weather file (EPW, TMY3 or TMY2): the hot, sunny hours.
 
-    Every hour of the file is read as :func:`epw_hours` does (the EPW convention, see there
-    and the README): the hour from ``(h-1):00`` to ``h:00`` local standard time, its direct
-    normal irradiance the file's value for hour ``h`` (an hourly total), its temperature the
-    mean of the readings at its start and end (hours ``h-1`` and ``h``: the value at the middle
-    of the hour, as EnergyPlus interpolates), the sun at the middle of the hour. Kept: the
-    hours with that temperature ``>= min_temperature`` and DNI ``>= min_dni`` while the sun is
-    above the horizon at mid-hour, each weighted by its DNI.
+    Every hour of the file is read as :func:`read_weather` does (the convention the three
+    formats share, see :func:`epw_hours` and the README): the hour from ``(h-1):00`` to
+    ``h:00`` local standard time, its direct normal irradiance the file's value for hour ``h``
+    (an hourly total), its temperature the mean of the readings at its start and end (hours
+    ``h-1`` and ``h``: the value at the middle of the hour, as EnergyPlus interpolates), the sun
+    at the middle of the hour. Kept: the hours with that temperature ``>= min_temperature`` and
+    DNI ``>= min_dni`` while the sun is above the horizon at mid-hour, each weighted by its DNI.
+    The sun is placed at the file's latitude, longitude and elevation.
 
     Parameters
     ----------
     epw_path : str or Path
-        EPW file (see :func:`write_synthetic_epw` for a generated one).
+        EPW, TMY3 or TMY2 file (see :func:`write_synthetic_epw` for a generated one).
     min_temperature : float, default 26
         Dry-bulb threshold, degC.
     min_dni : float, default 200
@@ -363,7 +372,10 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
     hours : (float, float), optional
         Keep only hours whose middle is within this window of local standard-time hours.
     coerce_year : int, optional
-        Passed to ``read_epw`` (EPW files mix years; one year gives a continuous index).
+        Passed to :func:`read_weather` (files mix years; one year gives a continuous index).
+    weather : (pandas.DataFrame, dict), optional
+        The file as :func:`read_weather` returned it, when the caller has read it already
+        (``epw_path`` then only names it in messages).
 
     Returns
     -------
@@ -371,8 +383,7 @@ def hot_hours(epw_path, min_temperature: float = 26.0, min_dni: float = 200.0, *
         Above-horizon directions with ``weights`` = DNI in W/m^2, ``times`` at mid-hour.
     """
     path = Path(epw_path)
-    data, meta = read_epw(path, coerce_year=coerce_year)
-    h = epw_hours(data)
+    h, meta = read_weather(path, coerce_year=coerce_year) if weather is None else weather
     mid = h.index
     temp = h["temp_air"].to_numpy(float)
     dni = h["dni"].to_numpy(float)
@@ -452,7 +463,12 @@ _EPW_COLUMNS = 35
 _EPW_HEADER_LINES = 8
 
 
-class EPWError(TorsalError, ValueError):
+class WeatherFileError(TorsalError, ValueError):
+    """A weather file that is not a usable EPW, TMY3 or TMY2 file; the message names the file
+    (and the line where it can)."""
+
+
+class EPWError(WeatherFileError):
     """A weather file that is not a usable EPW; the message names the file and the line."""
 
 
@@ -529,6 +545,193 @@ def read_epw(path, *, coerce_year: int | None = None):
     except (ValueError, KeyError, IndexError) as exc:
         raise EPWError(f"{path}: pvlib could not read it as EPW ({type(exc).__name__}: {exc})"
                        ) from None
+
+
+#: the weather-file formats :func:`read_weather` reads: name -> what it is
+WEATHER_FORMATS = {
+    "epw": "EPW (EnergyPlus weather file, .epw)",
+    "tmy3": "TMY3 (NREL typical meteorological year, 3rd series, .csv)",
+    "tmy2": "TMY2 (NREL typical meteorological year, 2nd series, .tm2)",
+}
+
+_TMY3_HEADER = "Date (MM/DD/YYYY)"
+# TMY2's first line: WBAN, city, state, time zone, N/S dd mm, E/W ddd mm, elevation (m)
+_TMY2_LOCATION = re.compile(r"^\s*(\d+)\s+(.*?)\s+([A-Z]{2})\s+(-?\d+)\s+([NS])\s*(\d+)\s+(\d+)"
+                            r"\s+([EW])\s*(\d+)\s+(\d+)\s+(-?\d+)\s*$")
+
+
+def _weather_format(path: Path, lines: list[str]) -> str | None:
+    """The format of a weather file from its first two lines (EPW: ``LOCATION,...``; TMY3: a
+    station line, then the ``Date (MM/DD/YYYY),...`` header; TMY2: the fixed-width station
+    line), else from its name's suffix; None when neither tells."""
+    first = lines[0] if lines else ""
+    second = lines[1] if len(lines) > 1 else ""
+    if first.split(",", 1)[0].strip().upper() == "LOCATION":
+        return "epw"
+    if second.startswith(_TMY3_HEADER):
+        return "tmy3"
+    if _TMY2_LOCATION.match(first):
+        return "tmy2"
+    return {".epw": "epw", ".csv": "tmy3", ".tm2": "tmy2"}.get(path.suffix.lower())
+
+
+def read_weather(path, *, format: str | None = None, coerce_year: int | None = None):
+    """A weather file's hours, whatever its format: EPW, TMY3 or TMY2 (:data:`WEATHER_FORMATS`).
+
+    The format is told by the file's first lines (an EPW's ``LOCATION`` line, a TMY3's
+    ``Date (MM/DD/YYYY),Time (HH:MM),...`` header on its second line, a TMY2's fixed-width
+    station line), else by its suffix (``.epw``, ``.csv``, ``.tm2``).
+
+    The three formats share one convention: a row stamped ``h:00`` (EPW: Hour field ``h`` of
+    1..24; TMY3: ``Time (HH:MM)`` 01:00..24:00; TMY2: hour 1..24) is the hour from ``(h-1):00``
+    to ``h:00`` local standard time, its irradiance the total received over that hour (Wh/m^2,
+    the hour's mean in W/m^2: the TMY3 and TMY2 manuals' "during the 60-minute period ending
+    at the timestamp", the EPW data dictionary's "during the 60 minutes preceding"), its
+    dry-bulb temperature the reading at ``h:00`` ("at the time indicated"). pvlib's readers
+    stamp the rows differently: ``read_epw`` and ``read_tmy2`` at the hour's start,
+    ``read_tmy3`` at its end (24:00 as 0:00 of the next day, and 24:00 on 28 February of a
+    leap year as 1 March); ``read_tmy2`` also keeps the dry bulb in tenths of degC. Here every
+    row is stamped at its hour's start (a TMY3's from its own date and time, ``HH:00`` minus
+    an hour; a midnight written 00:00, as SolarAnywhere does, ends the day before), the TMY2
+    temperature is divided by 10, and :func:`epw_hours` makes the hourly frame: indexed at the
+    middle of the hour, the temperature at mid-hour.
+
+    Parameters
+    ----------
+    path : str or Path
+    format : {"epw", "tmy3", "tmy2"}, optional
+        Read as this format (default: told from the file).
+    coerce_year : int, optional
+        One calendar year for every row of an EPW or TMY3 (the files mix years, a month from
+        each). TMY2 rows take the first row's year already (pvlib).
+
+    Returns
+    -------
+    hours : pandas.DataFrame
+        :func:`epw_hours`'s frame: index at mid-hour (the file's standard time zone),
+        ``start``, ``end``, ``dni``, ``ghi``, ``dhi`` (W/m^2), ``temp_air`` (degC at mid-hour),
+        ``temp_start``, ``temp_end``.
+    meta : dict
+        ``format`` (a key of :data:`WEATHER_FORMATS`), ``name`` (the station or city),
+        ``latitude``, ``longitude`` (degrees, north and east positive), ``TZ`` (hours of local
+        standard time from UTC), ``altitude`` (m), and the rest of pvlib's metadata.
+
+    Raises
+    ------
+    WeatherFileError
+        Not a weather file of these formats, or a damaged one (:class:`EPWError` for an EPW);
+        the message names the file.
+
+    Examples
+    --------
+    >>> import os, pvlib
+    >>> h, meta = read_weather(os.path.join(os.path.dirname(pvlib.__file__), "data",
+    ...                                     "723170TYA.CSV"))
+    >>> meta["format"], meta["name"], meta["latitude"], meta["longitude"], len(h)
+    ('tmy3', 'GREENSBORO PIEDMONT TRIAD INT, NC', 36.1, -79.95, 8760)
+    >>> str(h.index[0]), str(h["start"].iloc[0]), str(h["end"].iloc[0])
+    ('1988-01-01 00:30:00-05:00', '1988-01-01 00:00:00-05:00', '1988-01-01 01:00:00-05:00')
+    """
+    path = Path(path)
+    if format is not None and format not in WEATHER_FORMATS:
+        raise ValueError(f"format must be one of {sorted(WEATHER_FORMATS)}, got {format!r}")
+    raw = read_input(path, "weather file")
+    text = raw.decode("utf-8") if _is_utf8(raw) else raw.decode("latin-1")
+    text = text.removeprefix("\ufeff")
+    lines = text.splitlines()
+    fmt = format or _weather_format(path, lines[:2])
+    if fmt is None:
+        first = repr(lines[0][:60]) if lines else "an empty file"
+        raise WeatherFileError(
+            f"{path}: not a weather file torsal reads: an EPW (first line 'LOCATION,...'), a "
+            f"TMY3 (.csv: a station line, then '{_TMY3_HEADER},Time (HH:MM),...') or a TMY2 "
+            f"(.tm2: a fixed-width station line); got {first}")
+    if fmt == "epw":
+        data, meta = read_epw(path, coerce_year=coerce_year)
+        meta = {**meta, "name": ", ".join(str(meta.get(k, "")).strip() for k in
+                                          ("city", "state-prov", "country")
+                                          if str(meta.get(k, "")).strip() not in ("", "-"))}
+    elif fmt == "tmy3":
+        data, meta = _read_tmy3(path, text, lines, coerce_year)
+    else:
+        data, meta = _read_tmy2(path, lines)
+    return epw_hours(data), {**meta, "format": fmt}
+
+
+def _read_tmy3(path: Path, text: str, lines: list[str], coerce_year):
+    """A TMY3 file checked, then read by ``pvlib.iotools.read_tmy3``: the rows restamped at
+    their hour's start (pvlib stamps the end)."""
+    import io
+
+    import pvlib
+
+    loc = lines[0].split(",") if lines else []
+    if len(loc) < 7:
+        raise WeatherFileError(f"{path}: not a TMY3 file (the first line must be 'USAF,name,"
+                               "state,time zone,latitude,longitude,elevation')")
+    try:
+        tz, lat, lon, _ = (float(x) for x in loc[-4:])
+    except ValueError:
+        raise WeatherFileError(f"{path}: line 1: time zone, latitude, longitude and elevation "
+                               f"must be numbers, got {','.join(loc[-4:])!r}") from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180 and -12 <= tz <= 14):
+        raise WeatherFileError(f"{path}: line 1: latitude {lat}, longitude {lon}, time zone "
+                               f"{tz} out of range")
+    if len(lines) < 2 or not lines[1].startswith(_TMY3_HEADER):
+        raise WeatherFileError(f"{path}: line 2 must be the TMY3 column header "
+                               f"'{_TMY3_HEADER},Time (HH:MM),...'")
+    if len(loc) > 7:          # a station name with commas in it: pvlib splits on every comma
+        loc = [loc[0], " ".join(x.strip() for x in loc[1:-5]), *loc[-5:]]
+        text = "\n".join([",".join(loc), *lines[1:]])
+    try:
+        data, meta = pvlib.iotools.read_tmy3(io.StringIO(text))
+        cols = data[["ghi", "dni", "dhi", "temp_air"]].apply(pd.to_numeric, errors="raise")
+        day = pd.to_datetime(data["Date (MM/DD/YYYY)"], format="%m/%d/%Y")
+        hh, mm = (data["Time (HH:MM)"].str.split(":").str[k].astype(int) for k in (0, 1))
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError) as exc:
+        raise WeatherFileError(f"{path}: pvlib could not read it as TMY3 "
+                               f"({type(exc).__name__}: {exc})") from None
+    if not len(data):
+        raise WeatherFileError(f"{path}: no hourly data rows after the 2 header lines")
+    if (mm != 0).any():
+        raise WeatherFileError(f"{path}: rows at minutes past the hour; torsal reads hourly "
+                               "weather files (one row per hour), convert it to hourly")
+    if coerce_year is not None:
+        day = day.map(lambda d: d.replace(year=coerce_year))
+    # the hour's start from the file's own date and time (HH:00 ends the hour): pvlib's stamp
+    # moves 24:00 on 28 February of a leap year to 1 March (its leap-day shift), a day late
+    start = pd.DatetimeIndex(day + pd.to_timedelta(hh - 1, unit="h"))
+    cols.index = start.tz_localize(_dt.timezone(_dt.timedelta(hours=float(meta["TZ"]))))
+    name = ", ".join(str(meta[k]).strip().strip('"') for k in ("Name", "State")
+                     if str(meta.get(k, "")).strip())
+    return cols, {**meta, "name": name}
+
+
+def _read_tmy2(path: Path, lines: list[str]):
+    """A TMY2 file checked, then read by ``pvlib.iotools.read_tmy2`` (stamped at the hour's
+    start already); the dry bulb from tenths of degC to degC."""
+    import pvlib
+
+    m = _TMY2_LOCATION.match(lines[0]) if lines else None
+    if m is None:
+        raise WeatherFileError(f"{path}: not a TMY2 file (the first line must be the station: "
+                               "WBAN, city, state, time zone, N/S degrees minutes, E/W degrees "
+                               "minutes, elevation)")
+    if len(m.group(2).split()) != 1:
+        raise WeatherFileError(f"{path}: line 1: pvlib reads a TMY2 city name of one word, got "
+                               f"{m.group(2)!r}; join its words with '_'")
+    if len(lines) < 2:
+        raise WeatherFileError(f"{path}: no hourly data rows after the station line")
+    try:
+        data, meta = pvlib.iotools.read_tmy2(str(path))
+    except (ValueError, KeyError, IndexError, TypeError) as exc:
+        raise WeatherFileError(f"{path}: pvlib could not read it as TMY2 "
+                               f"({type(exc).__name__}: {exc})") from None
+    cols = pd.DataFrame({"ghi": data["GHI"], "dni": data["DNI"], "dhi": data["DHI"],
+                         "temp_air": data["DryBulb"] / 10.0}, index=data.index).astype(float)
+    name = ", ".join(str(meta[k]).strip().replace("_", " ") for k in ("City", "State")
+                     if str(meta.get(k, "")).strip())
+    return cols, {**meta, "name": name, "TZ": float(meta["TZ"])}
 
 
 def _is_utf8(raw: bytes) -> bool:

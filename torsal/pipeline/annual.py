@@ -3,11 +3,15 @@
 With ``[annual] enabled = true`` a design run measures, after the light stage, what reaches
 mesh A's glazing over a weather year (:mod:`torsal.light.annual`): bare, behind the fins as
 built, and behind each standard device of the same depth and spacing, on the same sample
-points, under the same sky. The weather is ``sun.epw``, or without one the clear-sky year of
-the ``[site]``. The report's ``light.annual`` holds kWh/m^2 per month and season, the
-shading factor of each shading against the bare glazing, and the engine's settings. With a
-``[room]`` table, ``light.annual.daylight`` adds the sDA and ASE (IES LM-83) of a room behind
-each storey of the facade (:func:`facade_rooms`), bare and behind each shading.
+points, under the same sky. The weather is the design's weather file (``sun.weather``: EPW,
+TMY3 or TMY2; or ``sun.epw``), or without one the clear-sky year of the ``[site]``. A weather
+file whose place lies more than :data:`~torsal.pipeline.design_file.WEATHER_SITE_TOLERANCE_DEG`
+from the ``[site]`` is refused (:func:`check_weather_site`) unless
+``sun.allow_distant_weather``. The report's ``light.annual`` holds kWh/m^2 per month and
+season, the shading factor of each shading against the bare glazing, and the engine's
+settings. With a ``[room]`` table, ``light.annual.daylight`` adds the sDA and ASE (IES LM-83)
+of a room behind each storey of the facade (:func:`facade_rooms`), bare and behind each
+shading.
 """
 from __future__ import annotations
 
@@ -19,19 +23,20 @@ import trimesh
 
 from ..geometry.mesh import average_edge_length
 from ..light.annual import (RadianceSettings, Room, SeasonRule, SkyQuantity, annual_irradiance,
-                            clear_sky_year, daylight, epw_year, seasons, shading_factor, sky_year)
+                            clear_sky_year, daylight, seasons, shading_factor, sky_year,
+                            weather_year)
 from ..light.annual.daylight import GRID_M, WORK_PLANE_M
 from ..light.devices import surface_frame
 from ..light.annual.radiance import PACKAGE
-from ..light.sun import EPWError
-from .design_file import DesignSpec
+from ..light.sun import WeatherFileError
+from .design_file import WEATHER_SITE_TOLERANCE_DEG, DesignSpec
 from .errors import DesignError
 from .measure import design_devices, devices_key
 from .report import best_device, plot_annual_map, plot_annual_months, plot_daylight_plans
 from .stage import StageInputs
 
 __all__ = ["run_annual", "annual_key", "annual_applies", "design_weather", "glazing_points",
-           "annual_summary", "facade_rooms", "room_daylight"]
+           "annual_summary", "facade_rooms", "room_daylight", "check_weather_site"]
 
 
 def annual_applies(spec: DesignSpec) -> bool:
@@ -47,17 +52,73 @@ def annual_key(spec: DesignSpec) -> tuple:
             spec.view.storey_height_m, spec.outputs.renders)
 
 
+def _place(latitude: float, longitude: float) -> str:
+    """``36.10 N, 79.95 W``."""
+    return (f"{abs(latitude):.2f} {'N' if latitude >= 0 else 'S'}, "
+            f"{abs(longitude):.2f} {'E' if longitude >= 0 else 'W'}")
+
+
+def check_weather_site(spec: DesignSpec, latitude: float, longitude: float, place: str = "", *,
+                       stage: str) -> None:
+    """Refuse a weather file whose place (``latitude``, ``longitude``, the station ``place``)
+    lies more than :data:`~torsal.pipeline.design_file.WEATHER_SITE_TOLERANCE_DEG` degrees of
+    great circle from the design's ``[site]``: its sun, sky and temperatures are another
+    place's, a silently wrong result. No check without a ``[site]`` (the file's place is the
+    site then) or with ``sun.allow_distant_weather``.
+
+    Raises
+    ------
+    DesignError
+        Naming the file's key and path, both places and how far apart they are.
+
+    Examples
+    --------
+    >>> from torsal.pipeline.design_file import DesignSpec
+    >>> spec = DesignSpec.model_validate({"surface": {"generator": "flat_facade"},
+    ...     "site": {"latitude": 48.21, "longitude": 16.37, "timezone": "Europe/Vienna"},
+    ...     "sun": {"weather": "723170TYA.CSV"}, "fins": {"spacing": 0.5, "depth": 0.3}})
+    >>> check_weather_site(spec, 48.5, 16.0, stage="sun")      # 0.4 degrees away: the site's
+    >>> check_weather_site(spec, 36.1, -79.95, "GREENSBORO, NC", stage="sun")
+    Traceback (most recent call last):
+    ...
+    torsal.pipeline.errors.DesignError: stage 'sun' failed: sun.weather = '723170TYA.CSV': the weather file is for GREENSBORO, NC at 36.10 N, 79.95 W, 67.7 degrees of great circle (7,524 km) from [site] at 48.21 N, 16.37 E: its sun, sky and temperatures are that place's, not the site's. Give the site's own weather file, set [site] to the file's place, or set sun.allow_distant_weather = true to use it anyway
+    """
+    site, sun = spec.site, spec.sun
+    if site is None or sun.allow_distant_weather:
+        return
+    a, b = np.radians([latitude, longitude]), np.radians([site.latitude, site.longitude])
+    cos = (np.sin(a[0]) * np.sin(b[0]) + np.cos(a[0]) * np.cos(b[0]) * np.cos(a[1] - b[1]))
+    angle = float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    if angle <= WEATHER_SITE_TOLERANCE_DEG:
+        return
+    where = f"{place} at " if place else ""
+    raise DesignError(stage, f"the weather file is for {where}{_place(latitude, longitude)}, "
+                      f"{angle:.1f} degrees of great circle ({np.radians(angle) * 6371.0:,.0f} km)"
+                      f" from [site] at {_place(site.latitude, site.longitude)}: its sun, sky and "
+                      "temperatures are that place's, not the site's. Give the site's own weather "
+                      "file, set [site] to the file's place, or set sun.allow_distant_weather = "
+                      "true to use it anyway", key=sun.weather_key, value=str(sun.weather_file))
+
+
 def design_weather(spec: DesignSpec):
-    """The design's weather year: ``sun.epw``, else the clear-sky year of ``[site]``
-    (:class:`~torsal.light.annual.Weather`); a :class:`DesignError` without either."""
-    if spec.sun.epw is not None:
+    """The design's weather year: its weather file (``sun.weather`` or ``sun.epw``: EPW, TMY3
+    or TMY2), else the clear-sky year of ``[site]`` (:class:`~torsal.light.annual.Weather`);
+    a :class:`DesignError` without either, for a file that cannot be read, or for one whose
+    place is far from ``[site]`` (:func:`check_weather_site`)."""
+    path = spec.sun.weather_file
+    if path is not None:
         try:
-            return epw_year(spec.sun.epw)
-        except EPWError as exc:
-            raise DesignError("annual", str(exc), key="sun.epw", value=str(spec.sun.epw)) from None
+            weather = weather_year(path)
+        except WeatherFileError as exc:
+            raise DesignError("annual", str(exc), key=spec.sun.weather_key,
+                              value=str(path)) from None
+        check_weather_site(spec, weather.latitude, weather.longitude, weather.place,
+                           stage="annual")
+        return weather
     if spec.site is None:
         raise DesignError("annual", "the annual irradiance needs a weather year: a [site] "
-                          "(its clear-sky year) or sun.epw", key="annual.enabled", value=True)
+                          "(its clear-sky year) or a weather file (sun.weather)",
+                          key="annual.enabled", value=True)
     s = spec.site
     return clear_sky_year(s.latitude, s.longitude, timezone=s.timezone, elevation=s.elevation)
 
@@ -82,8 +143,9 @@ def _built_fins(structure, left_out) -> trimesh.Trimesh:
 def _season_rule(spec: DesignSpec, weather):
     rule = spec.annual.season
     if rule is SeasonRule.TEMPERATURE and weather.temp_air is None:
-        raise DesignError("annual", "the temperature season rule needs sun.epw's temperatures; "
-                          "without a weather file use season = 'months' (or 'auto')",
+        raise DesignError("annual", "the temperature season rule needs a weather file's "
+                          "temperatures (sun.weather or sun.epw); without a weather file use "
+                          "season = 'months' (or 'auto')",
                           key="annual.season", value=rule.value)
     return seasons(weather, rule, balance_temperature=spec.annual.balance_temperature_c)
 

@@ -105,11 +105,12 @@ class SizeEstimate:
 
 def sun_position_count(spec: DesignSpec) -> int:
     """Sun positions a design asks for, counted from the design file (no solar positions):
-    explicit vectors, at most 8784 hours of an EPW year, or days x daily window / step."""
+    explicit vectors, at most 8784 hours of a weather file's year, or days x daily window /
+    step."""
     s = spec.sun
     if s.vectors is not None:
         return len(s.vectors)
-    if s.epw is not None:
+    if s.weather_file is not None:
         return 8784
     import pandas as pd
 

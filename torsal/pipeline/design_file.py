@@ -211,9 +211,15 @@ def _check_directions(v):
     return v
 
 
+#: how far (degrees of great circle) a weather file's place may lie from [site] before the
+#: design is refused (unless sun.allow_distant_weather): about 110 km, a neighbouring station
+WEATHER_SITE_TOLERANCE_DEG = 1.0
+
+
 class SunSpec(_Spec):
-    """When the sun matters: a date range with a daily window of local hours, an EPW weather
-    file with a hot-hour rule, or explicit sun vectors (site -> sun, model frame)."""
+    """When the sun matters: a date range with a daily window of local hours, a weather file
+    (EPW, TMY3 or TMY2) with a hot-hour rule, or explicit sun vectors (site -> sun, model
+    frame)."""
 
     start: _dt.date | None = None
     end: _dt.date | None = None
@@ -221,6 +227,13 @@ class SunSpec(_Spec):
     step: str = "1h"
     months: list[int] | None = None
     epw: Path | None = None
+    weather: Path | None = Field(None, description="weather file, relative to the design file: "
+                                 "EPW (.epw), TMY3 (.csv) or TMY2 (.tm2), told by its content; "
+                                 "as sun.epw, its hot, sunny hours are the design sun and its "
+                                 "year the [annual] stage's weather")
+    allow_distant_weather: bool = Field(False, description="use a weather file whose place is "
+                                        f"more than {WEATHER_SITE_TOLERANCE_DEG:g} degree (great "
+                                        "circle) from [site] anyway; false: such a file is refused")
     min_temperature: float = 26.0
     min_dni: float = 300.0
     vectors: list[Vec3] | None = Field(None, description="site -> sun, model frame (z up); "
@@ -236,13 +249,26 @@ class SunSpec(_Spec):
     def _vectors(cls, v):
         return _check_directions(v)
 
+    @property
+    def weather_file(self) -> Path | None:
+        """The weather file, ``sun.weather`` or ``sun.epw`` (None: a date range or vectors)."""
+        return self.weather if self.weather is not None else self.epw
+
+    @property
+    def weather_key(self) -> str:
+        """The key that names the weather file, for messages."""
+        return "sun.weather" if self.weather is not None else "sun.epw"
+
     @model_validator(mode="after")
     def _one_source(self):
-        sources = [self.start is not None or self.end is not None, self.epw is not None,
+        if self.epw is not None and self.weather is not None:
+            raise ValueError("give sun.weather or sun.epw, not both (sun.weather reads EPW, "
+                             "TMY3 and TMY2 files)")
+        sources = [self.start is not None or self.end is not None, self.weather_file is not None,
                    self.vectors is not None]
         if sum(sources) != 1:
-            raise ValueError("give exactly one of: sun.start + sun.end (date range), sun.epw "
-                             "(weather file), or sun.vectors (explicit directions)")
+            raise ValueError("give exactly one of: sun.start + sun.end (date range), sun.weather "
+                             "or sun.epw (weather file), or sun.vectors (explicit directions)")
         if sources[0] and (self.start is None or self.end is None or self.start > self.end):
             raise ValueError("sun.start and sun.end must both be dates with start <= end")
         if not 0 <= self.hours[0] <= self.hours[1] <= 24:
@@ -610,8 +636,9 @@ class CostsSpec(_Spec):
 
 class AnnualSpec(_Spec):
     """Annual solar irradiance on the glazing by Radiance (report ``light.annual``): the bare
-    surface, the fins as built and each standard device, over the weather year of ``sun.epw``
-    or, without one, the site's clear-sky year (see torsal.light.annual)."""
+    surface, the fins as built and each standard device, over the weather year of
+    ``sun.weather`` (or ``sun.epw``) or, without one, the site's clear-sky year (see
+    torsal.light.annual)."""
 
     enabled: bool = Field(False, description="compute it (Radiance, from the pyradiance "
                           "package; seconds to a minute)")
@@ -632,8 +659,9 @@ class AnnualSpec(_Spec):
     season: SeasonRule = Field(SeasonRule.AUTO, description="which hours are the cooling "
                                "season: months (May-September north of the equator, "
                                "November-March south), temperature (days whose mean outdoor "
-                               "temperature is above balance_temperature_c; needs sun.epw) or "
-                               "auto (temperature with sun.epw, else months)")
+                               "temperature is above balance_temperature_c; needs a weather "
+                               "file, sun.weather or sun.epw) or auto (temperature with a "
+                               "weather file, else months)")
     balance_temperature_c: float = Field(BALANCE_TEMPERATURE_C, description="degC; the "
                                          "temperature rule's threshold on a day's mean")
     devices: bool = Field(True, description="also behind each standard device the light "
@@ -796,10 +824,12 @@ def load_design_file(path: str | Path) -> DesignSpec:
         return p if p is None or p.is_absolute() else (base / p)
 
     surface = spec.surface.model_copy(update={"mesh": resolve(spec.surface.mesh)})
-    sun = spec.sun.model_copy(update={"epw": resolve(spec.sun.epw)})
+    sun = spec.sun.model_copy(update={"epw": resolve(spec.sun.epw),
+                                      "weather": resolve(spec.sun.weather)})
     spec = spec.model_copy(update={"surface": surface, "sun": sun})
     if spec.surface.mesh is not None and not spec.surface.mesh.exists():
         raise DesignFileError(f"{path}: surface.mesh: file not found: {spec.surface.mesh}")
-    if spec.sun.epw is not None and not spec.sun.epw.exists():
-        raise DesignFileError(f"{path}: sun.epw: file not found: {spec.sun.epw}")
+    if spec.sun.weather_file is not None and not spec.sun.weather_file.exists():
+        raise DesignFileError(f"{path}: {spec.sun.weather_key}: file not found: "
+                              f"{spec.sun.weather_file}")
     return spec

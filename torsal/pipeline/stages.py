@@ -16,7 +16,7 @@ from ..geometry.congruence import Congruence, direction_spread
 from ..geometry.optimize import TorsalAngleBetween
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from ..geometry.support import per_family
-from .annual import annual_applies, annual_key, run_annual
+from .annual import annual_applies, annual_key, check_weather_site, run_annual
 from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
                        prefetch_step_solids, run_assembly, support_gate)
 from ..fabrication.nesting.background import write_sheets
@@ -58,7 +58,9 @@ def surface_mesh(spec: DesignSpec, *, report: bool = False):
 
 def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
     """Unit sun vectors (k, 3), site -> sun in the model frame, and their weights (k,):
-    explicit vectors, the hot hours of an EPW file, or a pvlib sun path."""
+    explicit vectors, the hot hours of a weather file (EPW, TMY3 or TMY2; refused when its
+    place is far from ``[site]``, :func:`~torsal.pipeline.annual.check_weather_site`), or a
+    pvlib sun path."""
     s, site = spec.sun, spec.site
     from ..light import sun as sunmod
 
@@ -69,14 +71,19 @@ def sun_directions(spec: DesignSpec) -> tuple[np.ndarray, np.ndarray]:
             raise DesignError("sun", "sun vectors must be non-empty and of non-zero length",
                               key="sun.vectors", value=s.vectors)
         return vec / length, np.ones(len(vec))
-    if s.epw is not None:
+    if s.weather_file is not None:
         north = site.north_angle if site else 0.0
+        path = s.weather_file
         try:
-            res = sunmod.hot_hours(s.epw, s.min_temperature, s.min_dni, north_angle=north,
-                                   months=s.months, hours=tuple(s.hours))
-        except sunmod.EPWError as exc:
-            raise DesignError("sun", str(exc).removeprefix(f"{s.epw}: "), key="sun.epw",
-                              value=str(s.epw)) from None
+            weather = sunmod.read_weather(path)
+        except sunmod.WeatherFileError as exc:
+            raise DesignError("sun", str(exc).removeprefix(f"{path}: "), key=s.weather_key,
+                              value=str(path)) from None
+        meta = weather[1]
+        check_weather_site(spec, meta["latitude"], meta["longitude"], meta.get("name", ""),
+                           stage="sun")
+        res = sunmod.hot_hours(path, s.min_temperature, s.min_dni, north_angle=north,
+                               months=s.months, hours=tuple(s.hours), weather=weather)
     else:
         res = sunmod.sun_path(site.latitude, site.longitude, str(s.start), str(s.end),
                               timezone=site.timezone, hours=tuple(s.hours), freq=s.step,
@@ -658,7 +665,7 @@ def _sun_key(spec):
     s = spec.sun
     return (s.model_dump(mode="json"),
             spec.site.model_dump(mode="json") if spec.site else None,
-            _file_digest(s.epw) if s.epw is not None else None)
+            _file_digest(s.weather_file) if s.weather_file is not None else None)
 
 
 def _congruence_key(spec):

@@ -245,7 +245,7 @@ def _set(data: dict, key: str, value) -> None:
 def _absolute_paths(data: dict, base_dir: Path) -> dict:
     """File paths in a design dict made absolute against the base design's folder, so a
     variant's design file works from its own folder."""
-    for table, key in (("surface", "mesh"), ("sun", "epw")):
+    for table, key in (("surface", "mesh"), ("sun", "epw"), ("sun", "weather")):
         p = data.get(table, {}).get(key)
         if isinstance(p, str) and not Path(p).is_absolute():
             data[table][key] = str((base_dir / p).resolve())

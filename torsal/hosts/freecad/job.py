@@ -141,9 +141,9 @@ def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
 
 
 def _absolute(data: dict, base: Path) -> None:
-    """The design file's relative paths (surface.mesh, sun.epw) made absolute: the job's
-    design file lives in another folder."""
-    for table, key in (("surface", "mesh"), ("sun", "epw")):
+    """The design file's relative paths (surface.mesh, sun.epw, sun.weather) made absolute:
+    the job's design file lives in another folder."""
+    for table, key in (("surface", "mesh"), ("sun", "epw"), ("sun", "weather")):
         value = data.get(table, {}).get(key)
         if value is not None and not Path(value).is_absolute():
             data[table][key] = str((base / value).resolve())
@@ -205,7 +205,7 @@ def effective_design(job: FinsJob) -> dict:
             constraints.pop("min_torsal_angle", None)
     sun = data.setdefault("sun", {})
     if job.sun_start or job.sun_end:
-        for key in ("epw", "vectors"):      # a date range replaces the file's sun source
+        for key in ("epw", "weather", "vectors"):   # a date range replaces the file's sun
             sun.pop(key, None)
         sun["start"], sun["end"] = job.sun_start or sun.get("start"), job.sun_end or sun.get("end")
     if job.sun_hours is not None:

@@ -1,6 +1,7 @@
 """Annual solar irradiance on the glazing, by Radiance (the ``pyradiance`` wheel's programs).
 
-- :mod:`~torsal.light.annual.weather`: the weather year (an EPW file, or pvlib's clear sky);
+- :mod:`~torsal.light.annual.weather`: the weather year (an EPW, TMY3 or TMY2 file, or pvlib's
+  clear sky);
 - :mod:`~torsal.light.annual.sky`: its sky matrix (``gendaymtx``), its suns and its seasons;
 - :mod:`~torsal.light.annual.irradiance`: the irradiance on the glazing, bare or behind fins
   (``rcontrib``), in kWh/m^2 by source, month and season, and the shading factor;
@@ -41,13 +42,15 @@ from torsal.light.annual.sky import (
     seasons,
     sky_year,
 )
-from torsal.light.annual.weather import Weather, WeatherSource, clear_sky_year, epw_year
+from torsal.light.annual.weather import (Weather, WeatherSource, clear_sky_year, epw_year,
+                                         weather_year)
 
 __all__ = [
     "AnnualIrradiance", "RadianceSettings", "ShadingFactor", "Source", "annual_irradiance",
     "shading_factor", "Radiance", "RadianceError", "RadianceNotFound", "SeasonRule", "Seasons",
     "SkySubdivision", "SkyQuantity", "SkyYear", "seasons", "sky_year", "Weather", "WeatherSource",
-    "clear_sky_year", "epw_year", "AMBIENT_BOUNCES", "AMBIENT_DIVISIONS", "FIN_REFLECTANCE",
+    "clear_sky_year", "epw_year", "weather_year", "AMBIENT_BOUNCES", "AMBIENT_DIVISIONS",
+    "FIN_REFLECTANCE",
     "GROUND_REFLECTANCE", "BALANCE_TEMPERATURE_C", "SHADING_FACTOR_STANDARD", "Room",
     "Daylight", "daylight",
 ]

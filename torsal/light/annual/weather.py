@@ -1,7 +1,9 @@
-"""The weather year an annual irradiance run is driven by: an EPW file, or a clear-sky year.
+"""The weather year an annual irradiance run is driven by: a weather file (EPW, TMY3 or TMY2),
+or a clear-sky year.
 
 Each row of a :class:`Weather` is one hour of a year, stamped at its middle in local standard
-time (the EPW convention as :func:`torsal.light.sun.epw_hours` reads it): the hour's mean
+time (the convention the three formats share, as :func:`torsal.light.sun.read_weather` and
+:func:`torsal.light.sun.epw_hours` read it): the hour's mean
 direct normal (DNI), diffuse horizontal (DHI) and global horizontal (GHI) irradiance in W/m^2,
 which over the hour is Wh/m^2.
 
@@ -30,10 +32,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from torsal.light.sun import epw_hours, read_epw
+from torsal.light.sun import read_weather
 
-__all__ = ["Weather", "WeatherSource", "epw_year", "clear_sky_year", "wea_text",
-           "CLEAR_SKY_YEAR"]
+__all__ = ["Weather", "WeatherSource", "epw_year", "weather_year", "clear_sky_year",
+           "wea_text", "CLEAR_SKY_YEAR"]
 
 #: the calendar year of a clear-sky year (not a leap year: 8760 hours, as an EPW file)
 CLEAR_SKY_YEAR = 2023
@@ -43,6 +45,8 @@ class WeatherSource(str, Enum):
     """Where a weather year comes from."""
 
     EPW = "epw"
+    TMY3 = "tmy3"
+    TMY2 = "tmy2"
     CLEAR_SKY = "clear sky"
 
 
@@ -68,6 +72,8 @@ class Weather:
     source : WeatherSource
     description : str
         What the year is, in words, for the report.
+    place : str
+        The weather file's station or city ("" for a clear-sky year).
     """
 
     latitude: float
@@ -81,18 +87,47 @@ class Weather:
     temp_air: np.ndarray | None
     source: WeatherSource
     description: str
+    place: str = ""
 
     def __len__(self) -> int:
         return len(self.times)
 
 
-def epw_year(path) -> Weather:
-    """The hours of an EPW file (:func:`torsal.light.sun.read_epw`, then
-    :func:`torsal.light.sun.epw_hours`: irradiance as the hour's mean, temperature at mid-hour).
+def weather_year(path, *, format: str | None = None) -> Weather:
+    """The hours of a weather file, EPW, TMY3 or TMY2 (:func:`torsal.light.sun.read_weather`:
+    irradiance as the hour's mean, temperature at mid-hour, stamped at mid-hour).
 
     Parameters
     ----------
     path : str or Path
+    format : {"epw", "tmy3", "tmy2"}, optional
+        Default: told from the file.
+
+    Returns
+    -------
+    Weather
+        ``source`` the file's format; raises :class:`torsal.light.sun.WeatherFileError`
+        (:class:`~torsal.light.sun.EPWError` for an EPW) for a file that is not usable.
+
+    Examples
+    --------
+    >>> import os, pvlib
+    >>> w = weather_year(os.path.join(os.path.dirname(pvlib.__file__), "data", "12839.tm2"))
+    >>> w.source.value, w.place, len(w), round(float(w.temp_air.mean()), 1)
+    ('tmy2', 'MIAMI, FL', 8760, 24.3)
+    """
+    path = Path(path)
+    h, meta = read_weather(path, format=format)
+    source = WeatherSource(meta["format"])
+    return Weather(float(meta["latitude"]), float(meta["longitude"]), float(meta["altitude"]),
+                   float(meta["TZ"]), pd.DatetimeIndex(h.index),
+                   *(h[c].to_numpy(float).clip(min=0.0) for c in ("dni", "dhi", "ghi")),
+                   h["temp_air"].to_numpy(float), source,
+                   f"{source.name} weather file {path.name}", meta.get("name", ""))
+
+
+def epw_year(path) -> Weather:
+    """The hours of an EPW file: :func:`weather_year` read as an EPW.
 
     Returns
     -------
@@ -100,14 +135,7 @@ def epw_year(path) -> Weather:
         ``source`` :attr:`WeatherSource.EPW`; raises :class:`torsal.light.sun.EPWError` for a
         file that is not a usable EPW.
     """
-    path = Path(path)
-    data, meta = read_epw(path)
-    h = epw_hours(data)
-    return Weather(float(meta["latitude"]), float(meta["longitude"]), float(meta["altitude"]),
-                   float(meta["TZ"]), pd.DatetimeIndex(h.index),
-                   *(h[c].to_numpy(float).clip(min=0.0) for c in ("dni", "dhi", "ghi")),
-                   h["temp_air"].to_numpy(float), WeatherSource.EPW,
-                   f"EPW weather file {path.name}")
+    return weather_year(path, format="epw")
 
 
 def standard_utc_offset(timezone: str, year: int = CLEAR_SKY_YEAR) -> float:
