@@ -615,11 +615,12 @@ class _Rounds(NamedTuple):
 
 
 def _solve_rounds(solver, s0: "SupportStructure", sc: _SupportScales, a_cur, e_cur, *,
-                  rounds: int, hard_tol: float | None, fixed_e: bool, history: list) -> _Rounds:
+                  rounds: int, hard_tol: float | None, fixed_e: bool, history: list,
+                  stop_unconverged: bool = False) -> _Rounds:
     """Outer rounds (Fig. 8c): tangent planes of A at the current closest points, then IPOPT.
     With a hard constraint the diagonals' sines that bound vol are refreshed and the round
     re-solved (warm) until the planarity itself holds: sliver fins turn their diagonals as
-    they move."""
+    they move. ``stop_unconverged``: no round after one IPOPT did not converge."""
     n = len(s0.vertices_a)
     i, j = s0.edges[:, 0], s0.edges[:, 1]
     ref = sc.reference
@@ -654,6 +655,8 @@ def _solve_rounds(solver, s0: "SupportStructure", sc: _SupportScales, a_cur, e_c
                                family_depth_ratio=s0.family_depth_ratio)
         history.append({"round": rnd, "objective": float(sol["f"]), "delta_pl": cur.delta_pl,
                         "status": status, "iterations": int(st.get("iter_count", 0))})
+        if stop_unconverged and not ok:
+            break
     return _Rounds(a_cur, e_cur, ok, status, iters, history)
 
 
@@ -662,7 +665,8 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
                      fixed_e: bool = False, ipopt_options: dict | None = None,
                      method: str = "ipopt", exact_hessian: str = "assembled",
                      start: str = "input",
-                     planarity_tol: float | None = PLANARITY_TOL) -> SupportOptimizationResult:
+                     planarity_tol: float | None = PLANARITY_TOL,
+                     stop_unconverged: bool = False) -> SupportOptimizationResult:
     """Optimize a support structure towards planar fins, eq. (8) of Wang et al. 2013.
 
     Minimizes, over ``a~`` and ``e~ = b~ - a~``::
@@ -701,6 +705,11 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
         again with planarity as a hard constraint (``hard_tol=planarity_tol``). ``success``
         is False, and ``status`` says why, unless ``delta_pl <= planarity_tol`` in the end.
         ``None``: the paper's soft formulation only (``success`` is IPOPT's verdict).
+    stop_unconverged : bool, default False
+        With ``planarity_tol=None`` or ``hard_tol``: end the rounds at the first one IPOPT
+        does not converge in (``max_iter``): for a caller that then does not take the result
+        as the design's (a live session's preview projects such fins instead,
+        :func:`torsal.session.preview.preview_support`). The rounds before are as without it.
     start : {"input", "projection"}, default "input"
         Starting point of IPOPT when ``hard_tol`` is given: the (feasible, planar) result of the
         projection method, or the input structure. Proximity is always measured from the input.
@@ -764,7 +773,7 @@ def optimize_support(structure: "SupportStructure", reference=None, weights: Sup
         history.append({"round": "start", "delta_pl": pr.delta_pl_after, "status": pr.status,
                         "iterations": pr.iterations})
     r = _solve_rounds(solver, s0, sc, a_cur, e_cur, rounds=rounds, hard_tol=hard_tol,
-                      fixed_e=fixed_e, history=history)
+                      fixed_e=fixed_e, history=history, stop_unconverged=stop_unconverged)
     out = SupportStructure(r.a, r.a + r.e, s0.faces, s0.edges, s0.edge_family,
                            metadata=dict(s0.metadata), family_depth_ratio=s0.family_depth_ratio)
     dist_ref = float("nan")

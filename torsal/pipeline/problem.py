@@ -157,7 +157,8 @@ def add_reflect_terms(p: CongruenceProblem, planes: ReflectPlanes, weight: float
 
 
 def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.ndarray,
-                       w_sun: np.ndarray, *, into: CongruenceProblem | None = None) -> CongruenceProblem:
+                       w_sun: np.ndarray, *, into: CongruenceProblem | None = None,
+                       weighted_subsets: bool = False) -> CongruenceProblem:
     """The eq. (9) problem of a design: mesh A (v (n, 3), f (m, 3)), sun directions
     (k, 3) site -> sun with weights (k,).
 
@@ -167,6 +168,15 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
     unchanged keeps the built NLP and its compiled kernels (a weight, a light direction, a
     bound is a parameter); the caller checks that the names match (``terms``). Not for a
     design with ``[substructure]`` (two aligned problems).
+
+    ``weighted_subsets``: the let-through region (``goals.let_through``) and the strokes'
+    faces (``goals.strokes``, the boundary's) as NLP parameters, not as the structure:
+    ``f_perp`` and ``f_par`` over every vertex of mesh A with per-vertex weights
+    (``vertex_weights``: 0 off their vertices, ``|V| / |V'|`` on them, so each is the same
+    mean over its vertices as without), ``f_dir`` over every face with per-face weights
+    (``face_weights``, likewise). A moved region or stroke then re-solves the built NLP (a
+    live session's); without it the terms' subsets change, and the NLP and its Newton
+    matrix's analysis are built again. The same energies, to rounding.
 
     >>> from torsal.pipeline.design_file import DesignSpec
     >>> from torsal.geometry.surfaces import facade_patch
@@ -200,10 +210,20 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
                          "contains no vertex of the surface; check its ranges against the mesh")
     blocked_v = np.setdiff1d(np.arange(len(v)), through)
     d_main = dominant_light_direction(light, w_sun)
-    if g.block and blocked_v.size and not g.sun_regions:
-        p.perpendicular(d_main, vertices=blocked_v, weight=W["perpendicular"])
-    if through.size:
-        p.parallel(d_main, vertices=through, weight=W["parallel"])
+    if weighted_subsets and through.size:
+        # one term over every vertex each, the region as each vertex's weight (see above)
+        n = len(v)
+        inside = np.zeros(n)
+        inside[through] = 1.0
+        if g.block and blocked_v.size and not g.sun_regions:
+            p.perpendicular(d_main, weight=W["perpendicular"],
+                            vertex_weights=(1.0 - inside) * (n / blocked_v.size))
+        p.parallel(d_main, weight=W["parallel"], vertex_weights=inside * (n / through.size))
+    else:
+        if g.block and blocked_v.size and not g.sun_regions:
+            p.perpendicular(d_main, vertices=blocked_v, weight=W["perpendicular"])
+        if through.size:
+            p.parallel(d_main, vertices=through, weight=W["parallel"])
     for k, st in enumerate(g.see_through):
         idx = select_vertices(st.region, v)
         if idx.size == 0:
@@ -211,7 +231,11 @@ def congruence_problem(spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.n
         p.through_points(np.tile(st.target, (idx.size, 1)), vertices=idx,
                          weight=W["through_points"], name=f"through_points_{k}")
     faces_dir, seg_dir = stroke_faces(spec, v, f)
-    if faces_dir.size:
+    if faces_dir.size and weighted_subsets:
+        fw, segments = np.zeros(len(f)), np.zeros((len(f), 3))
+        fw[faces_dir], segments[faces_dir] = len(f) / faces_dir.size, seg_dir
+        p.torsal_direction(None, segments, weight=W["torsal_direction"], face_weights=fw)
+    elif faces_dir.size:
         p.torsal_direction(faces_dir, seg_dir, weight=W["torsal_direction"])
     for k, sr in enumerate(g.sun_regions):
         fi = select_faces(sr.region, v, f)

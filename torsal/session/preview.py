@@ -47,7 +47,10 @@ def preview_support(structure, *, reference, planarity_tol: float,
     200 iterations a round, then planarity as a hard constraint): the preview instead makes
     those fins planar by the projection (``method="projection"``: a Gauss-Newton projection
     onto planar fins on A's tangent planes, milliseconds), and is not final: the build solves
-    eq. (8) as the design run does.
+    eq. (8) as the design run does. The first round that does not converge decides that, so
+    the rounds after it are not run (``stop_unconverged``: 7a's let-through region at full
+    size, the soft solve 0.55 -> 0.31 s of processor time; the projection starts from the
+    first round's fins).
 
     Parameters
     ----------
@@ -63,7 +66,9 @@ def preview_support(structure, *, reference, planarity_tol: float,
     -------
     (SupportOptimizationResult, bool)
     """
-    soft = optimize_support(structure, reference, planarity_tol=None, max_iter=iterations)
+    # a round IPOPT does not converge in decides it (not final): the rounds after it are not run
+    soft = optimize_support(structure, reference, planarity_tol=None, max_iter=iterations,
+                            stop_unconverged=True)
     converged = all(h.get("status") == "Solve_Succeeded" for h in soft.history)
     if converged and soft.success and soft.delta_pl_after <= planarity_tol:
         return soft, True

@@ -91,9 +91,15 @@ def _structure(p: CongruenceProblem) -> dict:
 
 def _energy_vertices(p: CongruenceProblem) -> dict[str, np.ndarray]:
     """The vertices (sorted ids) each energy of one line per element (``f_perp``, ``f_par``,
-    lines through points) of ``p`` acts on."""
-    return {name: np.unique(t.idx // 3) for name, t in p.registry.terms.items()
-            if not t.constraint and t.element is not None and t.idx.shape[1] == 3}
+    lines through points) of ``p`` acts on: those with a nonzero weight where the term has
+    per-vertex weights (a let-through region as NLP parameters, ``weighted_subsets``)."""
+    out = {}
+    for name, t in p.registry.terms.items():
+        if t.constraint or t.element is None or t.idx.shape[1] != 3:
+            continue
+        idx = t.idx if t.element_weights is None else t.idx[np.asarray(t.element_weights) > 0]
+        out[name] = np.unique(idx // 3)
+    return out
 
 
 def restarted(optimum, before: dict[str, np.ndarray], problem: CongruenceProblem):
@@ -152,8 +158,9 @@ def restarted(optimum, before: dict[str, np.ndarray], problem: CongruenceProblem
 
 #: congruence problems a session keeps built, by structure (the most recent first): an edit
 #: undone (a bound removed, a region taken away) finds its problem's NLP built. Four: the
-#: design's own terms and the three goals a designer adds and takes back (strokes, a region, a
-#: bound; session_bench's rows), so a moved point after all three re-solves the design's NLP
+#: design's own terms and the goals a designer adds and takes back (a region, a bound; strokes
+#: share 7a's structure, its boundary's f_dir, since the strokes' faces are weights:
+#: session_bench's rows), so a moved point after them re-solves the design's NLP
 KEEP_PROBLEMS = 4
 
 
@@ -179,7 +186,10 @@ class WarmProblem:
     :meth:`make` is the congruence stage's ``make_problem``
     (:func:`~torsal.pipeline.stages.run_congruence`): the design's terms are registered again on
     a kept problem with mesh A's faces and the same terms by name (a weight, a light direction,
-    a bound or a moved vertex is then a parameter of the built NLP: no rebuild), else a new
+    a bound, a moved vertex, and with the let-through region and the strokes' faces as
+    per-element weights (``weighted_subsets`` of
+    :func:`~torsal.pipeline.problem.congruence_problem`) a moved region or stroke, is then a
+    parameter of the built NLP: no rebuild), else a new
     problem is made; either way the solve starts from the last good optimum where it is a
     good start (:meth:`_resumable`). :meth:`commit` keeps the problem and its optimum after a
     good solve; after a rejected edit nothing is committed, so the next solve starts from the
@@ -233,19 +243,19 @@ class WarmProblem:
     def _before(self) -> dict[str, np.ndarray]:
         """The energies' vertices of the design the last optimum belongs to (:func:`restarted`)."""
         if self._goals is None:
-            self._goals = _energy_vertices(congruence_problem(*self._origin))
+            self._goals = _energy_vertices(congruence_problem(*self._origin, weighted_subsets=True))
         return self._goals
 
     def make(self, spec: DesignSpec, v: np.ndarray, f: np.ndarray, sun: np.ndarray,
              w_sun: np.ndarray) -> CongruenceProblem:
         """The problem of ``spec`` on mesh A (``v`` (n, 3), ``f`` (m, 3)) with sun
         directions (k, 3) and weights (k,), warm: see the class notes."""
-        fresh = congruence_problem(spec, v, f, sun, w_sun)
+        fresh = congruence_problem(spec, v, f, sun, w_sun, weighted_subsets=True)
         kept = self._kept_for(fresh, f, spec)
         if kept is not None:
             if not np.array_equal(kept.congruence.vertices, v):
                 kept.move_vertices(v)    # a moved point: its terms are registered again below
-            chosen = congruence_problem(spec, v, f, sun, w_sun, into=kept)
+            chosen = congruence_problem(spec, v, f, sun, w_sun, into=kept, weighted_subsets=True)
             self.reused += 1
         else:
             chosen = fresh

@@ -54,6 +54,8 @@ class Term:
     block: int = 0                       # the aligned congruence its elements belong to
     lift: bool = False                   # rows k . (u, v, w) = lifted variables (nlp.Built._lift)
     between: str = "planes"              # a torsal-angle bound's angle (terms.TorsalAngleBetween)
+    element_weights: np.ndarray | None = None   # (m,) each element's factor, folded into ``par``
+    #                      (f_perp, f_par: ``vertex_weights``; f_dir: ``face_weights``); None: all 1
 
     @property
     def size(self) -> int:

@@ -8,6 +8,9 @@ is built from this and :class:`~torsal.geometry.optimize.constraints.ConstraintT
 """
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import replace
 from typing import Callable, Self
 
@@ -17,6 +20,33 @@ import scipy.sparse as sp
 from . import terms as T
 from ..mesh import umbrella_laplacian
 from .catalogue import Term, _as_index, _points, _stroke_barycentric, _unit_rows, _var_index
+
+
+#: f_fair's matrices kept by mesh A's faces (a live session registers a design's terms again
+#: on every edit, on the same faces: the Laplacian and its Kronecker product took 14 ms of the
+#: 35 of 7a's full-size problem)
+_FAIR_KEEP = 4
+_FAIR: OrderedDict = OrderedDict()
+_FAIR_LOCK = threading.Lock()      # a session's preview and its background build share it
+
+
+def _fair_matrix(faces: np.ndarray, n: int) -> sp.csr_matrix:
+    """``L^T L (x) I_3`` of the umbrella Laplacian ``L`` of ``faces`` over ``n`` vertices (kept
+    for the last :data:`_FAIR_KEEP` meshes; not to be changed in place)."""
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    key = (n, f.shape, hashlib.sha1(f.tobytes()).hexdigest())
+    with _FAIR_LOCK:
+        Q = _FAIR.get(key)
+        if Q is not None:
+            _FAIR.move_to_end(key)
+            return Q
+    L = umbrella_laplacian(f, n)
+    Q = sp.kron((L.T @ L).tocsr(), sp.identity(3), format="csr")
+    with _FAIR_LOCK:
+        _FAIR[key] = Q
+        while len(_FAIR) > _FAIR_KEEP:
+            _FAIR.popitem(last=False)
+    return Q
 
 
 class EnergyTerms:
@@ -39,8 +69,7 @@ class EnergyTerms:
         """
         c = self.congruence
         n = len(c.vertices)
-        L = umbrella_laplacian(c.faces, n)
-        Q = sp.kron((L.T @ L).tocsr(), sp.identity(3), format="csr")
+        Q = _fair_matrix(c.faces, n)
         t = Term("fair", False, None, np.zeros((n, 0), np.int64), np.zeros((n, 0)), np.zeros((n, 0)),
                   np.arange(n), scale=1.0 / n, weight=self.registry.weight("fair", weight), matrix=Q)
         return self._add(t)
@@ -87,8 +116,8 @@ class EnergyTerms:
         return self._add(t)
 
     def perpendicular(self, d, vertices=None, weight: float | None = None,
-                      name: str = "perpendicular") -> Self:
-        """f_perp: lines orthogonal to the light, 1/|V'| sum <e_i, d_i>^2 (eq. (9)).
+                      name: str = "perpendicular", *, vertex_weights=None) -> Self:
+        """f_perp: lines orthogonal to the light, 1/|V'| sum w_i <e_i, d_i>^2 (eq. (9)).
 
         Parameters
         ----------
@@ -98,6 +127,11 @@ class EnergyTerms:
             The subset V' (default all vertices).
         name : str
             Use distinct names for several perpendicular terms (e.g. per sun position).
+        vertex_weights : (|V'|,) float, optional
+            A factor ``w_i >= 0`` per vertex of V' (default 1). NLP parameters (folded into
+            ``d_i`` as ``sqrt(w_i) d_i``): a region given as weights over every vertex
+            (0 outside it, ``|V| / |region|`` inside: the region's mean) moves without
+            rebuilding the NLP, where a subset ``vertices`` is its structure.
 
         Examples
         --------
@@ -106,13 +140,21 @@ class EnergyTerms:
         >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
         >>> round(p.perpendicular([0, 1, 0]).energies()["perpendicular"], 2)
         0.95
+        >>> w = np.zeros(25); w[[0, 1]] = 25 / 2                # vertices 0, 1 as weights
+        >>> a = p.perpendicular([0, 1, 0], vertex_weights=w).energies()["perpendicular"]
+        >>> b = p.perpendicular([0, 1, 0], vertices=[0, 1]).energies()["perpendicular"]
+        >>> bool(np.isclose(a, b, rtol=1e-14))
+        True
         """
         return self._direction_term(name, T.perpendicular_element(), d, vertices, weight,
-                                    "perpendicular", "light direction d")
+                                    "perpendicular", "light direction d", vertex_weights)
 
     def parallel(self, d, vertices=None, weight: float | None = None,
-                 name: str = "parallel") -> Self:
-        """f_par: lines parallel to ``d``, 1/|V'| sum ||e_i x d_i||^2 (eq. (9), Fig. 9).
+                 name: str = "parallel", *, vertex_weights=None) -> Self:
+        """f_par: lines parallel to ``d``, 1/|V'| sum w_i ||e_i x d_i||^2 (eq. (9), Fig. 9).
+
+        ``vertex_weights``: as in :meth:`perpendicular` (a let-through region as NLP
+        parameters).
 
         Examples
         --------
@@ -123,15 +165,25 @@ class EnergyTerms:
         0.08
         """
         return self._direction_term(name, T.parallel_element(), d, vertices, weight,
-                                    "parallel", "direction d")
+                                    "parallel", "direction d", vertex_weights)
 
     def _direction_term(self, name: str, element, d, vertices, weight, kind: str,
-                        what: str) -> Self:
-        """A term of one unit direction per vertex of V' (f_perp, f_par): mean over V'."""
+                        what: str, vertex_weights=None) -> Self:
+        """A term of one unit direction per vertex of V' (f_perp, f_par): mean over V',
+        each summand times its vertex weight (``par = sqrt(w_i) d_i``: both energies are
+        quadratic in ``d_i``)."""
         vi = _as_index(vertices, len(self.congruence.vertices), "vertices")
         dd = _unit_rows(d, len(vi), what)
+        w = None
+        if vertex_weights is not None:
+            w = np.asarray(vertex_weights, dtype=float)
+            if w.shape != (len(vi),) or not np.isfinite(w).all() or np.any(w < 0):
+                raise ValueError(f"vertex_weights must be {len(vi)} finite numbers >= 0 (one per vertex "
+                                 f"of the subset), got shape {w.shape}")
+            dd = dd * np.sqrt(w)[:, None]
         t = Term(name, False, element, _var_index(vi, 0), np.zeros((len(vi), 0)), dd,
-                 vi, scale=1.0 / len(vi), weight=self.registry.weight(kind, weight))
+                 vi, scale=1.0 / len(vi), weight=self.registry.weight(kind, weight),
+                 element_weights=None if w is None else w.copy())
         return self._add(t)
 
     def through_points(self, points, vertices, weight: float | None = None,
@@ -207,10 +259,10 @@ class EnergyTerms:
         return fv, _stroke_barycentric(corners, np.asarray(tdir, float))
 
     def torsal_direction(self, faces, segments, weight: float | None = None,
-                         name: str = "torsal_direction") -> Self:
+                         name: str = "torsal_direction", *, face_weights=None) -> Self:
         """f_dir: prescribed torsal directions (design strokes), Wang et al. 2013, 4.1 and eq. (9).
 
-        ``1/|F'| sum ([a_p2 - a_p1, e_p1, e_p2] / delta)^2``: the lines through the stroke's
+        ``1/|F'| sum w_f ([a_p2 - a_p1, e_p1, e_p2] / delta)^2``: the lines through the stroke's
         endpoints are coplanar (see :func:`torsal.geometry.optimize.terms.torsal_direction_residual_sx`
         for why this replaces the printed ``[e_p1, e_p2, e_c]``). Each stroke only gives a
         direction: it is re-centred at the face barycenter (the paper requires ``c`` on
@@ -222,6 +274,13 @@ class EnergyTerms:
             The subset F'.
         segments : (|F'|, 2, 3) or (|F'|, 3) float
             Stroke segments (endpoints) or stroke directions, one per face. NLP parameters.
+            With ``face_weights``, a face of weight 0 needs none (a zero row, or any).
+        face_weights : (|F'|,) float, optional
+            A factor ``w_f >= 0`` per face of F' (default 1). NLP parameters: the residual
+            is of degree 3 in the endpoints' barycentric coordinates, so they are scaled by
+            ``w_f^(1/6)``. Strokes given as weights over every face (0 off them, ``|F| /
+            |F'|`` on them: their mean) move without rebuilding the NLP, where a subset
+            ``faces`` is its structure.
 
         Examples
         --------
@@ -230,12 +289,33 @@ class EnergyTerms:
         >>> p = CongruenceProblem(Congruence.from_normals(facade_patch(nu=5, nv=5)))
         >>> p.torsal_direction([0, 1], [1.0, 0, 0]).terms["torsal_direction"]
         ('energy', 0.1, 2)
+        >>> e = np.random.default_rng(0).normal(size=(25, 3))
+        >>> a = p.energies(e)["torsal_direction"]
+        >>> w = np.zeros(32); w[[0, 1]] = 32 / 2                 # faces 0, 1 as weights
+        >>> d = np.zeros((32, 3)); d[[0, 1]] = [1.0, 0, 0]
+        >>> b = p.torsal_direction(None, d, face_weights=w).energies(e)["torsal_direction"]
+        >>> bool(np.isclose(a, b, rtol=1e-12))
+        True
         """
         fi = _as_index(faces, len(self.congruence.faces), "faces")
-        fv, w = self._strokes(fi, segments)
+        if face_weights is None:
+            fv, w, fw = *self._strokes(fi, segments), None
+        else:
+            fw = np.asarray(face_weights, dtype=float)
+            if fw.shape != (len(fi),) or not np.isfinite(fw).all() or np.any(fw < 0):
+                raise ValueError(f"face_weights must be {len(fi)} finite numbers >= 0 (one per face "
+                                 f"of the subset), got shape {fw.shape}")
+            live = fw > 0
+            fv, w = self.congruence.faces[fi], np.zeros((len(fi), 6))
+            if live.any():
+                seg = np.asarray(segments, dtype=float)
+                seg = seg[live] if seg.ndim >= 2 and len(seg) == len(fi) else seg
+                w[live] = self._strokes(fi[live], seg)[1] * fw[live, None] ** (1.0 / 6.0)
+            fw = fw.copy()
         t = Term(name, False, T.torsal_direction_element(1.0), _var_index(fv, 0),
                   self.congruence.vertices[fv].reshape(len(fi), 9) / self.delta, w,
-                  fi, scale=1.0 / len(fi), weight=self.registry.weight("torsal_direction", weight))
+                  fi, scale=1.0 / len(fi), weight=self.registry.weight("torsal_direction", weight),
+                  element_weights=fw)
         return self._add(t)
 
     def torsal_plane(self, faces, segments=None, normals=None, weight: float | None = None,
