@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import re
+import struct
 import warnings
 
 import numpy as np
@@ -203,25 +204,46 @@ def test_preview_exports_reread(sphere_fs, tmp_path):
     assert model.Settings.ModelUnitSystem == rhino3dm.UnitSystem.Millimeters
 
 
-def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(sphere_fs, tmp_path):
-    """fins.3dm re-read with rhino3dm: a solid, valid Brep per part, named as in parts.csv, on
-    the layer of its family or of its connector kind, with the bounding box of the part's
-    OpenCascade solid."""
-    import rhino3dm
+def _brep_volume(brep) -> float:
+    """Volume of a rhino3dm Brep of planar faces (rhino3dm has no mass properties): the sum
+    over its faces' loops, each a polygon of its trims' start vertices (the divergence
+    theorem: (1/6) sum (p_i x p_i+1) . c, c a point of the face's plane)."""
+    pts = np.array([(v.Location.X, v.Location.Y, v.Location.Z) for v in brep.Vertices])
+    total = 0.0
+    for face in brep.Faces:
+        outer = pts[[t.StartVertexIndex for t in face.Loops[0].Trims]]
+        c = outer.mean(axis=0)
+        for loop in face.Loops:
+            p = pts[[t.StartVertexIndex for t in loop.Trims]]
+            total += np.cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0) @ c / 6.0
+    return total
+
+
+def _ocp_faces_and_vertices(shape):
+    """The number of faces of an OCC shape and its vertices (k, 3), each once."""
     from OCP.BRep import BRep_Tool
-    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopAbs import TopAbs_FACE, TopAbs_VERTEX
     from OCP.TopExp import TopExp_Explorer
     from OCP.TopoDS import TopoDS
 
-    from torsal.fabrication.solids import solid_shapes
-
-    def corners(shape):            # every face is a plane: the vertices bound the solid
-        exp, pts = TopExp_Explorer(shape, TopAbs_VERTEX), []
+    def each(kind):
+        exp, found = TopExp_Explorer(shape, kind), {}
         while exp.More():
-            p = BRep_Tool.Pnt_s(TopoDS.Vertex(exp.Current()))
-            pts.append((p.X(), p.Y(), p.Z()))
+            found.setdefault(hash(exp.Current()), exp.Current())
             exp.Next()
-        return np.array(pts)
+        return list(found.values())
+
+    pts = [BRep_Tool.Pnt_s(TopoDS.Vertex(v)) for v in each(TopAbs_VERTEX)]
+    return len(each(TopAbs_FACE)), np.array([(p.X(), p.Y(), p.Z()) for p in pts])
+
+
+def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(sphere_fs, tmp_path):
+    """fins.3dm re-read with rhino3dm: a solid, valid Brep per part, named as in parts.csv, on
+    the layer of its family or of its connector kind, with the faces (one per face: all are
+    planes), the vertices and the volume of the part's OpenCascade solid."""
+    import rhino3dm
+
+    from torsal.fabrication.solids import _volume, solid_shapes
 
     fs = sphere_fs
     model = rhino3dm.File3dm.Read(str(fs.export_3dm(tmp_path / "fins.3dm")))
@@ -241,12 +263,13 @@ def test_3dm_holds_one_closed_valid_brep_per_part_on_layers_by_family_and_kind(s
         want = ("fixings" if row["kind"] == "fixing" else f"connectors::{row['kind']}"
                 if row["kind"] != "plate" else f"family {row['family']}")
         assert layers[o.Attributes.LayerIndex] == want
-        # the Brep's vertices are the solid's corners
-        pts = corners(shapes[name])
+        # the Brep's vertices are the solid's corners, its faces the solid's faces, its
+        # volume the solid's
+        n_faces, pts = _ocp_faces_and_vertices(shapes[name])
         brep = np.array([(v.Location.X, v.Location.Y, v.Location.Z) for v in g.Vertices])
-        assert np.r_[brep.min(axis=0), brep.max(axis=0)] == pytest.approx(
-            np.r_[pts.min(axis=0), pts.max(axis=0)], abs=1e-6)
-        assert len(brep) >= 8 and len(g.Faces) >= 6
+        assert len(brep) == len(pts) and len(g.Faces) == n_faces >= 6
+        assert np.abs(np.sort(brep, axis=0) - np.sort(pts, axis=0)).max() < 1e-9
+        assert _brep_volume(g) == pytest.approx(_volume(shapes[name]), rel=1e-9)
     assert seen == set(bom)
     # a part and a layer keep their ids in the next file of the same parts
     again = rhino3dm.File3dm.Read(str(fs.export_3dm(tmp_path / "again.3dm")))
@@ -379,36 +402,94 @@ def test_slot_area_from_the_records_is_the_unrolled_one(sphere_fs):
         assert S._slot_record_area(p) == pytest.approx(S._slot_area(p), rel=1e-3)
 
 
-def test_workers_make_the_breps_after_the_solids_and_can_be_stopped(sphere_fs, tmp_path):
-    """With mesh=True the workers hand over the solids first and make the 3DM's Breps after
-    (the caller writes the STEP file meanwhile): collected when the 3DM reads them, their CPU
-    seconds added to solids_cpu_seconds; cancel_solids stops them, and the 3DM is then made
-    here, with the same Breps."""
+def test_workers_make_the_3dm_records_with_the_solids(sphere_fs, tmp_path):
+    """With mesh=True the workers hand each solid over with its 3DM record, made from the
+    shape they built (not read again from its bytes): the same bytes as this process makes
+    from the solid it got, their CPU seconds counted (``breps_cpu_seconds``, part of
+    ``solids_cpu_seconds``); forgotten (cancel_solids), the 3DM makes them here: the same
+    file's objects."""
     import rhino3dm
 
     from torsal.fabrication import FinSystem
     from torsal.fabrication import solids as S
+    from torsal.fabrication.rhino import brep_record
 
-    def fresh():
-        fs = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
-        assert S.prepare_workers(len(fs.parts), workers=2, mesh=True) == 2
-        assert fs.start_solids(workers=2)
-        S.solid_shapes(fs)                       # the solids, while the Breps are being made
-        return fs
+    fs = FinSystem(sphere_fs.structure, thickness=sphere_fs.thickness, clearance=sphere_fs.clearance)
+    assert S.prepare_workers(len(fs.parts), workers=2, mesh=True) == 2
+    assert fs.start_solids(workers=2)
+    shapes = S.solid_shapes(fs)
+    made = fs._breps.breps
+    assert set(made) == {p.name for p in fs.parts}
+    tol = S.MESH_TOLERANCE * fs.thickness
+    assert made == {name: brep_record(shape, tol) for name, shape in shapes.items()}
+    assert 0 < fs.breps_cpu_seconds < fs.solids_cpu_seconds
 
-    def breps(path):
-        return {o.Attributes.Name: (len(o.Geometry.Vertices), len(o.Geometry.Faces), o.Geometry.IsValid)
+    def objects(path):
+        return {o.Attributes.Name: (len(o.Geometry.Vertices), len(o.Geometry.Faces), o.Geometry.IsValid,
+                                    o.Geometry.IsSolid, str(o.Attributes.Id))
                 for o in rhino3dm.File3dm.Read(str(path)).Objects}
 
-    fs = fresh()
-    pending = fs._breps.breps
-    assert not isinstance(pending, dict)
-    cpu = fs.solids_cpu_seconds
-    assert set(pending) == {p.name for p in fs.parts} and all(pending.values())
-    assert fs.solids_cpu_seconds > cpu
-    workers = breps(fs.export_3dm(tmp_path / "workers.3dm"))
-    stopped = fresh()
-    stopped.cancel_solids()
-    assert dict(stopped._breps.breps) == {}
-    assert breps(stopped.export_3dm(tmp_path / "here.3dm")) == workers
-    assert len(workers) == len(fs.parts) and all(ok for _, _, ok in workers.values())
+    workers = objects(fs.export_3dm(tmp_path / "workers.3dm"))
+    fs.cancel_solids()
+    assert fs._breps is None
+    assert objects(fs.export_3dm(tmp_path / "here.3dm")) == workers
+    assert len(workers) == len(fs.parts) and all(v[2] and v[3] for v in workers.values())
+
+
+def _chunks(data: bytes, a: int, b: int) -> dict:
+    """{type code: [chunk bytes]} of the chunks of a .3dm file between ``a`` and ``b``."""
+    out: dict = {}
+    while a < b:
+        tc, n = struct.unpack_from("<Iq", data, a)
+        end = a + 12 + (0 if tc & 0x80000000 else n)
+        out.setdefault(tc, []).append(data[a:end])
+        a = end
+    return out
+
+
+def test_3dm_is_the_file_rhino3dm_writes_with_the_breps_added(sphere_fs, tmp_path, monkeypatch):
+    """The records put in the place of their placeholders make the file rhino3dm writes when
+    it is given the Breps (decoded from the same records, added with the same attributes):
+    every table the same bytes (the object table too) but the properties (rhino3dm stamps
+    the time and the file's name). Should rhino3dm write a file the splice does not expect, the Breps are added
+    so: the same objects."""
+    import rhino3dm
+
+    from torsal.fabrication import exports
+    from torsal.fabrication.rhino import _encoding, brep_record
+    from torsal.fabrication.solids import solid_shapes
+
+    fs = sphere_fs
+    spliced = fs.export_3dm(tmp_path / "fins.3dm").read_bytes()
+    # the same model with the Breps decoded and added by rhino3dm (IsSolid not asked: it
+    # would be written with the Brep)
+    shapes = solid_shapes(fs)
+    tol = exports.MESH_TOLERANCE * fs.thickness
+    records = {p.name: brep_record(shapes[p.name], tol) for p in fs.parts}
+    model, placed, meshed = exports._rhino_model(fs, shapes, records, tol, splice=True)
+    assert not meshed and len(placed) == len(fs.parts)
+    ref = rhino3dm.File3dm()
+    ref.Settings.ModelUnitSystem = model.Settings.ModelUnitSystem
+    ref.Settings.ModelAbsoluteTolerance = model.Settings.ModelAbsoluteTolerance
+    for lay in model.Layers:
+        ref.Layers.Add(lay)
+    for k, o in enumerate(model.Objects):
+        ref.Objects.AddBrep(rhino3dm.CommonObject.Decode(_encoding(placed[k])), o.Attributes)
+    assert ref.Write(str(tmp_path / "ref.3dm"), 7)
+    expected = (tmp_path / "ref.3dm").read_bytes()
+    got, want = _chunks(spliced, 32, len(spliced)), _chunks(expected, 32, len(expected))
+    assert spliced[:32] == expected[:32]
+    assert set(got) == set(want) and 0x10000013 in got            # the object table
+    # but the properties (the time, the file's name) and the end mark (the file's length)
+    assert {tc for tc in got if got[tc] != want[tc]} <= {0x10000014, 0x00007FFF}
+    # rhino3dm adds the Breps itself where the splice fails
+    def refuse(data, records):
+        raise ValueError("unexpected")
+
+    monkeypatch.setattr("torsal.fabrication.exports.splice_records", refuse)
+    added = rhino3dm.File3dm.Read(str(fs.export_3dm(tmp_path / "added.3dm")))
+    again = rhino3dm.File3dm.Read(str(tmp_path / "fins.3dm"))
+    assert [(o.Attributes.Name, str(o.Attributes.Id), o.Attributes.LayerIndex, len(o.Geometry.Faces),
+             o.Geometry.IsValid, o.Geometry.IsSolid) for o in added.Objects] == \
+        [(o.Attributes.Name, str(o.Attributes.Id), o.Attributes.LayerIndex, len(o.Geometry.Faces),
+          o.Geometry.IsValid, True) for o in again.Objects]

@@ -15,7 +15,8 @@ from torsal.core.atomic import atomic_path
 from .model import CONNECTOR_FAMILY, FIXING_FAMILY
 from .plates import MESH_TOLERANCE, _triangles
 from .step_order import canonical_styles_file
-from .rhino import _membrane, _quad, _rhino_mesh, _with_edge_tolerances, brep_of  # noqa: F401
+from .rhino import (_encoding, _membrane, _mesh_brep, _quad, _rhino_mesh,  # noqa: F401
+                    _with_edge_tolerances, brep_of, brep_record, placeholder, splice_records)
 from .workers import _parts_key, cancel_breps, solid_shapes
 
 __all__ = ["export_step", "write_step", "read_step", "start_read_step", "PendingStepRead",
@@ -357,13 +358,59 @@ def _rhino_id(key: str):
 
 
 def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
-    """Rhino 3DM (through rhino3dm): one closed, valid Brep per part (:func:`brep_of`), named
-    with the part id (as in parts.csv), on a layer per family (``family 0``, ``family 1``,
-    ``developable``) and, for connectors, a sublayer of ``connectors`` per joint kind
-    (``connectors::butt-bracket``, ...), the fixings to the building on ``fixings``, coloured
-    by family; model units set to ``unit``.
+    """Rhino 3DM (through rhino3dm): one closed, valid Brep per part, a planar face per plane
+    face of its solid (:func:`~.rhino.brep_record`; where the solid's faces make none, its
+    mesh's faces joined by rhino3dm, :func:`~.rhino.brep_of`), named with the part id (as in
+    parts.csv), on a layer per family (``family 0``, ``family 1``, ``developable``) and, for
+    connectors, a sublayer of ``connectors`` per joint kind (``connectors::butt-bracket``,
+    ...), the fixings to the building on ``fixings``, coloured by family; model units set
+    to ``unit``; parts and layers keep their ids from one file to the next (:func:`_rhino_id`).
     ``tolerance``: the deflection of the curved faces (fastener holes), default
-    :data:`~.plates.MESH_TOLERANCE` x thickness; plane faces are exact."""
+    :data:`~.plates.MESH_TOLERANCE` x thickness; plane faces are exact.
+
+    The Breps' records are those the solids' worker processes made with the solids (they
+    need no rhino3dm) or are made here; rhino3dm writes the file with a placeholder in the
+    place of each (attributes and all) and the records are put in their place
+    (:func:`~.rhino.splice_records`): the file is the one rhino3dm writes with the Breps
+    decoded and added (the tests check it byte for byte), without the cost of decoding
+    them and encoding them again. Should rhino3dm write a file that is not so made, the
+    Breps are decoded and added."""
+    shapes = solid_shapes(fin_system)
+    tol = tolerance if tolerance is not None else MESH_TOLERANCE * fin_system.thickness
+    # the records the solids' workers made for this file (the same brep_record, in parallel)
+    made = getattr(fin_system, "_breps", None)
+    if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol:
+        made = made.breps
+    else:
+        cancel_breps(fin_system)      # records made for other parts or at another tolerance
+        made = {}
+    records = {p.name: made[p.name] if p.name in made else brep_record(shapes[p.name], tol)
+               for p in fin_system.parts}
+    model, placed, meshed = _rhino_model(fin_system, shapes, records, tol, splice=True)
+    with atomic_path(path) as tmp:
+        if not model.Write(str(tmp), 7):
+            raise RuntimeError(f"rhino3dm could not write {path}")
+        if placed:
+            try:
+                tmp.write_bytes(splice_records(tmp.read_bytes(), placed))
+            except ValueError:       # not the file it expects: rhino3dm adds the Breps
+                model, _, meshed = _rhino_model(fin_system, shapes, records, tol, splice=False)
+                if not model.Write(str(tmp), 7):
+                    raise RuntimeError(f"rhino3dm could not write {path}") from None
+    if meshed:
+        warnings.warn(f"fins.3dm: {len(meshed)} parts are closed meshes, not Breps (rhino3dm made "
+                      f"no valid solid of them): {', '.join(meshed[:8])}"
+                      + (" ..." if len(meshed) > 8 else "") + "; the STEP has their solids",
+                      stacklevel=2)
+    return Path(path)
+
+
+def _rhino_model(fin_system, shapes: dict, records: dict, tol: float, *, splice: bool):
+    """``(File3dm, {key: record}, [names of meshed parts])`` of :func:`export_3dm`: its
+    settings, layers and one object per part, a placeholder (:func:`~.rhino.placeholder`)
+    for each record of ``records`` {part name: record or None} with ``splice``, else the
+    record's Brep; a part without a record joined from its mesh (:func:`~.rhino._mesh_brep`)
+    or, where that is not a valid solid, its closed mesh."""
     import rhino3dm
 
     model = rhino3dm.File3dm()
@@ -371,7 +418,6 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
           "m": rhino3dm.UnitSystem.Meters, "in": rhino3dm.UnitSystem.Inches,
           "ft": rhino3dm.UnitSystem.Feet}[fin_system.unit]
     model.Settings.ModelUnitSystem = us
-    tol = tolerance if tolerance is not None else MESH_TOLERANCE * fin_system.thickness
     model.Settings.ModelAbsoluteTolerance = float(min(0.01, tol))
     kind_of = {j.connector: j.kind.value for j in getattr(fin_system, "joints", []) if j.connector}
     layers: dict = {}
@@ -388,16 +434,9 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
             layers[key] = model.Layers.Add(lay)
         return layers[key]
 
-    shapes = solid_shapes(fin_system)
-    # the Breps the solids' workers made for this file (the same brep_of, in parallel)
-    made = getattr(fin_system, "_breps", None)
-    if made is not None and made.key == _parts_key(fin_system) and made.tolerance == tol:
-        made = made.breps
-    else:
-        cancel_breps(fin_system)      # Breps the workers were making for other parts or tolerance
-        made = {}
+    placed: dict = {}
     meshed: list[str] = []
-    for p in fin_system.parts:
+    for k, p in enumerate(fin_system.parts):
         if p.family == CONNECTOR_FAMILY:
             layer("connectors", p.color)
             index = layer(kind_of.get(p.name, "connector"), p.color, parent="connectors")
@@ -405,15 +444,19 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
             index = layer("fixings", p.color)
         else:
             index = layer(f"family {p.family}" if p.family >= 0 else "developable", p.color)
-        if p.name in made:                  # None: the worker found no valid solid
-            brep = made[p.name] and rhino3dm.CommonObject.Decode(made[p.name])
-        else:
-            brep = brep_of(shapes[p.name], tol)
         attr = rhino3dm.ObjectAttributes()
         attr.Name = p.name
         attr.Id = _rhino_id(f"part:{p.name}")
         attr.LayerIndex = index
         attr.ColorSource = rhino3dm.ObjectColorSource.ColorFromLayer
+        record = records.get(p.name)
+        if record is not None and splice:
+            placed[k] = record
+            model.Objects.AddPoint(placeholder(k), attr)
+            continue
+        brep = rhino3dm.CommonObject.Decode(_encoding(record)) if record is not None else None
+        if brep is None or not (brep.IsSolid and brep.IsValid):
+            brep = _mesh_brep(shapes[p.name], tol)
         if brep is not None and brep.IsSolid and brep.IsValid:
             model.Objects.AddBrep(brep, attr)
         else:
@@ -421,13 +464,4 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
             # connector): the part as its closed mesh, named, rather than no file at all
             meshed.append(p.name)
             model.Objects.AddMesh(_rhino_mesh(shapes[p.name], tol, quads=False), attr)
-    if meshed:
-        warnings.warn(f"fins.3dm: {len(meshed)} parts are closed meshes, not Breps (rhino3dm made "
-                      f"no valid solid of them): {', '.join(meshed[:8])}"
-                      + (" ..." if len(meshed) > 8 else "") + "; the STEP has their solids",
-                      stacklevel=2)
-
-    with atomic_path(path) as tmp:
-        if not model.Write(str(tmp), 7):
-            raise RuntimeError(f"rhino3dm could not write {path}")
-    return Path(path)
+    return model, placed, meshed

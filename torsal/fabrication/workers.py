@@ -2,12 +2,12 @@
 
 The solids (:mod:`.plates`) are independent per part: a :class:`WorkerPool` of processes
 (forked from a clean server that has imported OpenCascade) builds them and sends them back as
-OpenCascade binary BReps, with their preview meshes if asked. The fabrication stage starts the
-pool ahead (:func:`prepare_workers`: the processes take seconds to start, while the stage
-builds its parts), :func:`start_solids` hands the parts to it and returns at once
-(:class:`PendingSolids`), and the exports collect the shapes (:func:`solid_shapes`). The
-prepared pool is held in a context variable (one per thread or task), not in a module global:
-the pool object owns its processes and its start-up thread.
+OpenCascade binary BReps, with their preview meshes and the 3DM's Breps if asked. The
+fabrication stage starts the pool ahead (:func:`prepare_workers`: the processes take seconds
+to start, while the stage builds its parts), :func:`start_solids` hands the parts to it and
+returns at once (:class:`PendingSolids`), and the exports collect the shapes
+(:func:`solid_shapes`). The prepared pool is held in a context variable (one per thread or
+task), not in a module global: the pool object owns its processes and its start-up thread.
 
 Units: the ``unit`` of the fin system (mm by default).
 """
@@ -23,7 +23,7 @@ import numpy as np
 from torsal.core.parallel import usable_workers
 
 from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _labelled, _mesh
-from .rhino import encoded_brep
+from .rhino import brep_record
 
 __all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
            "release_workers", "start_solids", "build_solids", "solid_shapes", "map_prepared",
@@ -55,31 +55,26 @@ def _from_bytes(data: bytes):
 
 def _build_chunk(args):
     """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
-    worker never imports build123d), and the CPU seconds that took. With ``mesh`` each is
-    meshed at the default tolerance first (the triangles travel with the BRep)."""
+    worker never imports build123d or rhino3dm), and the CPU seconds that took. With
+    ``mesh`` each is meshed at the default tolerance first (the triangles travel with the
+    BRep) and comes with its 3DM record (:func:`~.rhino.brep_record` at that tolerance: bytes,
+    None where the 3DM joins the part's mesh), made from the shape in hand rather than from
+    the bytes read again; the CPU seconds of the records separately."""
     import time
 
     parts, thickness, repair, mesh = args
-    cpu = time.process_time()
+    cpu, record_cpu = time.process_time(), 0.0
     out = []
     for p in parts:
         status, shape, detail = _build_one(p, thickness, repair)
+        record = None
         if shape is not None and mesh:
             _mesh(shape, MESH_TOLERANCE * thickness, threads=False)
-        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail))
-    return out, time.process_time() - cpu
-
-
-def _brep_chunk(args):
-    """Worker: the 3DM's Brep (:func:`~.rhino.encoded_brep`; None where it is not a valid
-    solid: the 3DM then takes the part's mesh) of each solid ``(name, binary BRep)`` as the
-    process that asked has it (read from the same bytes, meshed), and the CPU seconds."""
-    import time
-
-    rows, tolerance = args
-    cpu = time.process_time()
-    out = [(name, encoded_brep(_from_bytes(data), tolerance)) for name, data in rows]
-    return out, time.process_time() - cpu
+            t0 = time.process_time()
+            record = brep_record(shape, MESH_TOLERANCE * thickness, threads=False)
+            record_cpu += time.process_time() - t0
+        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail, record))
+    return out, time.process_time() - cpu, record_cpu
 
 
 def default_workers(n_parts: int) -> int:
@@ -179,7 +174,8 @@ def prepare_workers(n_parts: int, *, workers: int | None = None, mesh: bool = Fa
     that :func:`start_solids` finds them ready: the caller builds its parts meanwhile (the
     fabrication stage: its FinSystem takes as long as the workers take to start). With
     ``mesh`` they also mesh every solid for the previews (3DM, glTF, STL at the default
-    tolerance), which then only read the triangles. Returns the number of processes started
+    tolerance), which then only read the triangles, and make the 3DM's records of the solids
+    (:func:`~.rhino.brep_record`). Returns the number of processes started
     (0: the solids will be built in this process). :func:`release_workers` stops them if no
     build comes."""
     release_workers()
@@ -249,7 +245,7 @@ class PendingSolids:
         self._workers = _take_workers(workers)
         self._pool = self._workers.pool
         self._futures: list = []
-        self._brep_futures: list = []
+        self._records: dict | None = None
         self._error: BaseException | None = None
         # submitting waits for the processes to start: a thread does that, so the caller
         # goes on at once
@@ -264,50 +260,39 @@ class PendingSolids:
             for c in chunks:
                 self._futures.append(self._pool.submit(
                     _build_chunk, (c, self.thickness, self.repair, self._workers.mesh)))
-            if self._workers.mesh:
-                # the 3DM's Breps of each chunk as soon as it is built: the caller writes the
-                # sheets meanwhile, and finds them made when it writes the 3DM
-                tol = MESH_TOLERANCE * self.thickness
-                for f in list(self._futures):
-                    rows = [(name, data) for name, _, data, _ in f.result()[0] if data is not None]
-                    if rows:
-                        self._brep_futures.append(self._pool.submit(_brep_chunk, (rows, tol)))
         except BaseException as e:        # re-raised by result()
             self._error = e
 
     def result(self) -> list:
-        """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits). With
-        ``mesh`` the workers make the 3DM's Breps (:meth:`breps`) of each chunk once it is
-        built, and go on with them while the caller writes the STEP file."""
+        """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits), then
+        stops the workers. With ``mesh`` the workers made the 3DM's records too
+        (:meth:`breps`)."""
         self._starter.join()
         try:
             if self._error is not None:
                 raise self._error
             done = [f.result() for f in self._futures]
-        except BaseException:
-            self._pool.shutdown(wait=True)
-            raise
-        res = {}
-        #: CPU seconds the workers spent building (what the caller's clock does not see)
-        self.cpu_seconds = sum(cpu for _, cpu in done)
-        for rows, _ in done:
-            for name, status, data, detail in rows:
-                res[name] = (status, None if data is None else _from_bytes(data), detail)
-        if not self._workers.mesh:
-            self._pool.shutdown(wait=True)
-        return [(p.name,) + res[p.name] for p in self.parts]
-
-    def breps(self) -> dict:
-        """With ``mesh``, after :meth:`result`: {part name: encoded 3DM Brep or None}
-        (:func:`~.rhino.encoded_brep` of the solid as :meth:`result` gave it; a part without
-        a solid is not listed); waits for the workers, then stops them. ``brep_cpu_seconds``:
-        their CPU seconds."""
-        try:
-            done = [f.result() for f in self._brep_futures]
         finally:
             self._pool.shutdown(wait=True)
-        self.brep_cpu_seconds = sum(cpu for _, cpu in done)
-        return {name: brep for rows, _ in done for name, brep in rows}
+        res = {}
+        #: CPU seconds the workers spent building, the 3DM's records included (what the
+        #: caller's clock does not see), and those of the records alone
+        self.cpu_seconds = sum(cpu for _, cpu, _ in done)
+        self.brep_cpu_seconds = sum(cpu for _, _, cpu in done)
+        records = {}
+        for rows, _, _ in done:
+            for name, status, data, detail, record in rows:
+                res[name] = (status, None if data is None else _from_bytes(data), detail)
+                if data is not None:
+                    records[name] = record
+        self._records = records if self._workers.mesh else None
+        return [(p.name,) + res[p.name] for p in self.parts]
+
+    def breps(self) -> dict | None:
+        """With ``mesh``, after :meth:`result`: {part name: 3DM record (:func:`~.rhino.brep_record`
+        of the solid :meth:`result` gave, bytes) or None (the 3DM joins its mesh)}; a part
+        without a solid is not listed. None without ``mesh``."""
+        return self._records
 
     def cancel(self) -> None:
         """Stop: chunks not yet started are dropped, the workers end after their current one
@@ -380,53 +365,20 @@ def solid_shapes(fin_system, *, repair: bool = True, workers: int | None = None)
 
 
 class WorkerBreps(NamedTuple):
-    """The 3DM Breps the solids' workers made (:func:`~.rhino.encoded_brep`): for which parts
-    (``key``, :func:`_parts_key`), at which ``tolerance``, and ``breps`` {part name: encoded
-    Brep or None} (a :class:`_PendingBreps` while the workers make them)."""
+    """The 3DM records the solids' workers made with the solids (:func:`~.rhino.brep_record`):
+    for which parts (``key``, :func:`_parts_key`), at which ``tolerance``, and ``breps``
+    {part name: record (bytes) or None (the 3DM joins the part's mesh)}."""
 
     key: tuple
     tolerance: float
     breps: Mapping
 
 
-class _PendingBreps(Mapping):
-    """{part name: encoded Brep or None} that the solids' workers are still making
-    (:meth:`PendingSolids.breps`): waits for them when first read, and adds their CPU seconds
-    to the fin system's ``solids_cpu_seconds``."""
-
-    def __init__(self, pending: PendingSolids, fin_system):
-        self._pending, self._fin_system, self._breps = pending, fin_system, None
-
-    def _get(self) -> dict:
-        if self._breps is None:
-            self._breps = self._pending.breps()
-            fs = self._fin_system
-            fs.solids_cpu_seconds = getattr(fs, "solids_cpu_seconds", 0.0) + self._pending.brep_cpu_seconds
-            self._pending = self._fin_system = None
-        return self._breps
-
-    def cancel(self) -> None:
-        if self._pending is not None:
-            self._pending.cancel()
-            self._pending = self._fin_system = None
-            self._breps = {}
-
-    def __getitem__(self, name):
-        return self._get()[name]
-
-    def __iter__(self):
-        return iter(self._get())
-
-    def __len__(self) -> int:
-        return len(self._get())
-
-
 def cancel_breps(fin_system) -> None:
-    """Stop the solids' workers still making the 3DM's Breps of ``fin_system`` (a
-    :class:`_PendingBreps` in its ``_breps``); nothing where they are made or none were asked."""
-    made = getattr(fin_system, "_breps", None)
-    if made is not None and isinstance(made.breps, _PendingBreps):
-        made.breps.cancel()
+    """Forget the 3DM records the solids' workers made for ``fin_system`` (they come with the
+    solids: nothing is left to stop); :func:`~.exports.export_3dm` then makes its own."""
+    if getattr(fin_system, "_breps", None) is not None:
+        fin_system._breps = None
 
 
 def _parts_key(fin_system) -> tuple:
@@ -448,14 +400,16 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
     if pending is not None:
         rows = pending.result()
         cpu = pending.cpu_seconds
-        if pending._brep_futures:    # the 3DM's Breps, being made by the workers meanwhile
-            fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t,
-                                            _PendingBreps(pending, fin_system))
+        records = pending.breps()
+        if records is not None:      # the 3DM's records, made by the workers with the solids
+            fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t, records)
+            fin_system.breps_cpu_seconds = pending.brep_cpu_seconds
     else:
         cpu = time.process_time()
         rows = [(p.name,) + _build_one(p, t, repair) for p in parts]
         cpu = time.process_time() - cpu
-    # CPU seconds of the last build, in whichever process it ran (for benchmarks)
+    # CPU seconds of the last build, in whichever process it ran (for benchmarks; with the
+    # 3DM's records the workers made, breps_cpu_seconds of them)
     fin_system.solids_cpu_seconds = cpu
     out, bad, detail, unslotted = {}, [], [], []
     for name, status, shape, info in rows:
@@ -477,6 +431,6 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
             + (" ..." if len(unslotted) > 8 else "") + "; see FinSystem.unslotted_solids",
             stacklevel=4)
     if bad:
-        cancel_breps(fin_system)        # no 3DM of an invalid set of solids: stop the workers
+        cancel_breps(fin_system)        # no 3DM of an invalid set of solids
         raise InvalidSolidError(bad, "; ".join(detail))
     return out
