@@ -28,31 +28,13 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import sys
 import time
 import warnings
 from pathlib import Path
 
-
-def design_structure(toml: Path, out: Path):
-    """The design spec and its support structure (stages up to ``support``, cached; a last
-    stage in the place of fabrication only hands the structure over)."""
-    from torsal.design import Design
-    from torsal.pipeline import DEFAULT_PIPELINE, Stage, StageCache
-
-    got = {}
-
-    def take(inp):
-        got["structure"] = inp["support"]["structure"]
-        return {"report": {}}
-
-    fabrication = DEFAULT_PIPELINE["fabrication"]
-    pipe = DEFAULT_PIPELINE.until("fabrication").replace(
-        Stage("fabrication", take, inputs=fabrication.inputs, key=fabrication.key, cache=False))
-    design = Design.from_toml(toml)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        design.run(out / "run", cache=StageCache(out / "cache", prune=False), pipeline=pipe)
-    return design.spec, got["structure"]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_common import design_structure  # noqa: E402
 
 
 def main() -> None:

@@ -4,12 +4,18 @@ with holes, curved hole walls as triangles, far from the origin), the mesh's Bre
 make none, and the records put into a file rhino3dm wrote."""
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 rhino3dm = pytest.importorskip("rhino3dm")
 
 from torsal.fabrication import rhino as R  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from bench_common import brep_volume as _brep_volume  # noqa: E402
 
 
 def _box(x0, y0, z0, dx, dy, dz):
@@ -48,18 +54,6 @@ def _brep(record):
     brep = rhino3dm.CommonObject.Decode(R._encoding(record))
     assert isinstance(brep, rhino3dm.Brep)
     return brep
-
-
-def _brep_volume(brep) -> float:
-    """The volume of a Brep of planar faces: (1/6) sum over its loops of (p_i x p_i+1) . c."""
-    pts = np.array([(v.Location.X, v.Location.Y, v.Location.Z) for v in brep.Vertices])
-    total = 0.0
-    for face in brep.Faces:
-        c = pts[[t.StartVertexIndex for t in face.Loops[0].Trims]].mean(axis=0)
-        for loop in face.Loops:
-            p = pts[[t.StartVertexIndex for t in loop.Trims]]
-            total += np.cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0) @ c / 6.0
-    return total
 
 
 @pytest.mark.parametrize("origin", [(0.0, 0.0, 0.0), (-61234.5, 48211.25, 15000.0)])
@@ -123,7 +117,7 @@ def test_brep_of_joins_the_mesh_where_there_is_no_record(monkeypatch):
     """Where the faces make no record, brep_of is the mesh's Brep (rhino3dm's
     CreateFromMesh, edge tolerances set): valid and closed, a face per quad."""
     shape = _box(0.0, 0.0, 0.0, 30.0, 20.0, 3.0)
-    monkeypatch.setattr(R, "brep_record", lambda *a, **k: None)
+    monkeypatch.setattr(R.brep, "brep_record", lambda *a, **k: None)     # where brep_of finds it
     brep = R.brep_of(shape, 0.15)
     assert brep.IsValid and brep.IsSolid and len(brep.Faces) == 6
     assert rhino3dm.CommonObject.Decode(R.encoded_brep(shape, 0.15)).IsValid
