@@ -209,7 +209,7 @@ ERRATIC_JUMP = 1.0
 #: (energy 0.1140) which the solve without it left after step 115 (0.0934 at step 282, converged
 #: 0.0923); without it, the rule had met such a plateau feasible at step 92 (0.1147) a step before
 #: its objective settled, and it stops 5.8 % above the converged energy at 50 degrees. Unchanged:
-#: 45 members of the design family at 12 x 12 vertices (40/60/80 degrees), canopies 11-15 at
+#: the design family's 20 members at 12 x 12 vertices x 40/60/80 degrees (60 solves), canopies 11-15 at
 #: 50-70 degrees (11 at 50 raised too, at step 56: 57 steps either way, energy -0.002 %), rows
 #: 7a, 7b, 7d, 11, 13
 SETTLED_GAMMA = GAMMA
