@@ -117,21 +117,27 @@ def _oblique_slotted_part():
     return part, depth, width
 
 
-def test_slot_in_a_thin_oblique_plate_is_cut():
+@pytest.mark.parametrize("route", ["direct", "boolean"])
+def test_slot_in_a_thin_oblique_plate_is_cut(route, monkeypatch):
     """Example 7c's F1-S014-P00 (3 mm, two panels met obliquely by a 5.2 mm slot 199 mm deep):
     OpenCascade's exact boolean returned an empty shape and the part was modelled without its
-    slot, so the assembly check found it blocked by its egg-crate partner. The fuzzy retry
-    (``SLOT_CUT_FUZZY``) cuts it: the slot is open, measured independently with a point
-    classifier at the slot's middle, and slot area x thickness is removed."""
+    slot, so the assembly check found it blocked by its egg-crate partner. The slot cut in the
+    faces' planes cuts it (``direct``), and so does the boolean route where that declines,
+    with its fuzzy retry (``SLOT_CUT_FUZZY``): the slot is open, measured independently with a
+    point classifier at the slot's middle, and slot area x thickness is removed."""
     from OCP.BRepClass3d import BRepClass3d_SolidClassifier
     from OCP.gp import gp_Pnt
     from OCP.TopAbs import TopAbs_IN, TopAbs_OUT
 
-    from torsal.fabrication.plates import _part_shape
+    from torsal.fabrication import plates
 
     part, depth, width = _oblique_slotted_part()
     panels, t = part.panels, 3.0
-    shape = _part_shape(part, t)
+    if route == "boolean":
+        monkeypatch.setattr(plates, "_slotted_direct", lambda *a, **k: None)
+    else:
+        assert plates._slotted_direct(part, t, 1e-9) is not None
+    shape = plates._part_shape(part, t)
     # the slot runs from the node line's B end (panels[0, 2]) towards its A end (panels[0, 1]),
     # centred on the node line: probe the mid-plane across the slot and along it
     b, a = panels[0, 2], panels[0, 1]
@@ -155,17 +161,17 @@ def test_slot_in_a_thin_oblique_plate_is_cut():
         assert state(depth + 0.5 * (length - depth), 0.4 * width, panel) == TopAbs_IN
 
 
-def test_oblique_slotted_plate_is_a_solid_brep_in_3dm(tmp_path):
-    """The fuzzy cut of that plate leaves a membrane of zero thickness (coincident faces of
-    opposite orientation) inside the OCC solid; fins.3dm drops it and writes the part as a
-    closed Brep (rhino3dm made none before: the part went into fins.3dm as a mesh). Re-read
-    from the file: a valid solid around the plate's panels."""
+def test_oblique_slotted_plate_is_a_solid_brep_in_3dm(tmp_path, monkeypatch):
+    """The fuzzy cut of that plate (the boolean route, where the direct cut declines) leaves a
+    membrane of zero thickness (coincident faces of opposite orientation) inside the OCC solid;
+    fins.3dm drops it and writes the part as a closed Brep (rhino3dm made none before: the part
+    went into fins.3dm as a mesh). Re-read from the file: a valid solid around the plate's
+    panels."""
     rhino3dm = pytest.importorskip("rhino3dm")
     from torsal.fabrication.exports import brep_of
-    from torsal.fabrication.plates import _part_shape
 
     part, _, _ = _oblique_slotted_part()
-    shape = _part_shape(part, 3.0)
+    shape = _boolean_route(part, 3.0, monkeypatch)
     model = rhino3dm.File3dm()
     model.Objects.AddBrep(brep_of(shape, 0.15))
     assert model.Write(str(tmp_path / "part.3dm"), 7)
@@ -186,9 +192,10 @@ def _triangles_in_child(q):
     q.put(len(_boundary_triangles(_FORKED_SHAPE)))
 
 
-def test_forked_assembly_worker_meshes_after_a_threaded_mesh_in_the_parent():
+def test_forked_assembly_worker_meshes_after_a_threaded_mesh_in_the_parent(monkeypatch):
     """The assembly check's forked workers triangulate solids whose mesh is incomplete (the
-    oblique slotted plate above: its membrane faces do not mesh at the check's deflection).
+    oblique slotted plate above as the boolean route cuts it: its membrane faces do not mesh at
+    the check's deflection).
     After the parent has meshed in parallel (the 3DM export does), OpenCascade's thread
     pool has no threads in the child: a parallel mesh there waited for ever (7c's assembly
     stage hung). The workers mesh serially; the child ends with the plate's triangles."""
@@ -196,13 +203,13 @@ def test_forked_assembly_worker_meshes_after_a_threaded_mesh_in_the_parent():
 
     from build123d import Box, Cylinder
 
-    from torsal.fabrication.plates import _mesh, _part_shape
+    from torsal.fabrication.plates import _mesh
 
     if "fork" not in multiprocessing.get_all_start_methods():
         pytest.skip("no fork on this platform: the assembly check runs its jobs in-process")
     global _FORKED_SHAPE
     part, _, _ = _oblique_slotted_part()
-    _FORKED_SHAPE = _part_shape(part, 3.0)
+    _FORKED_SHAPE = _boolean_route(part, 3.0, monkeypatch)
     _mesh((Box(5, 5, 5) - Cylinder(1, 20)).wrapped, 0.01)       # the parent's thread pool
     ctx = multiprocessing.get_context("fork")
     q = ctx.Queue()
@@ -237,3 +244,165 @@ def test_a_slot_wider_than_the_narrow_end_panel_next_to_it_is_cut():
     # the slot band: 11.5 mm of the wide panel and all 5.6 mm of the narrow one, 100 mm deep
     removed = (0.5 * width + (xs[2] - xs[1])) * depth * t
     assert solids._volume(shape) == pytest.approx((xs[2] * h) * t - removed, rel=1e-9)
+
+
+# --- slots cut without a boolean (issue 40): the direct route against OpenCascade's cut ---
+
+def _strip(folds_deg, width=120.0, height=200.0, slots=(), warp=0.0):
+    """A strip of len(folds_deg) + 1 panels, each ``width`` along its own direction in the xz
+    plane, folded by ``folds_deg`` about its node lines (parallel to y, ``height`` long; the a
+    edges zigzag in y by 7 as real fins' do, so that no two side faces lie on one plane);
+    ``warp`` lifts the last panel's corner 2 off its plane; mitres on the fold bisectors.
+    ``slots``: ``(position, side, depth, width)``."""
+    from torsal.fabrication.model import Slot, SlotSide
+
+    angles = np.radians(np.r_[0.0, np.cumsum(folds_deg)])
+    p = np.vstack([[0.0, 0.0, 0.0], np.cumsum([[width * np.cos(a), 0.0, width * np.sin(a)]
+                                              for a in angles], axis=0)])
+    p[:, 1] = 7.0 * (np.arange(len(p)) % 2)
+    y = np.array([0.0, height, 0.0])
+    panels = np.array([[p[i], p[i + 1], p[i + 1] + y, p[i] + y] for i in range(len(angles))])
+    panels[-1, 2, 2] += warp
+    n = np.cross(panels[:, 1] - panels[:, 0], panels[:, 3] - panels[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    miters = np.vstack([n[:1], (n[:-1] + n[1:]) / (1.0 + np.einsum("ij,ij->i", n[:-1], n[1:]))[:, None],
+                        n[-1:]])
+    k = len(panels)
+    return Part(PartId(0, 0, 0), panels, np.arange(k + 1), np.arange(k),
+                slots=[Slot(node=pos, position=pos, side=SlotSide(side), depth=d, width=w)
+                       for pos, side, d, w in slots], miters=miters)
+
+
+def _topology(shape) -> tuple:
+    """Numbers of faces, edges and vertices of an OCC shape."""
+    from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE, TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+
+    out = []
+    for kind in (TopAbs_FACE, TopAbs_EDGE, TopAbs_VERTEX):
+        seen, exp = set(), TopExp_Explorer(shape, kind)
+        while exp.More():
+            seen.add(hash(exp.Current()))
+            exp.Next()
+        out.append(len(seen))
+    return tuple(out)
+
+
+def _boolean_route(part, t, monkeypatch):
+    """The part's solid as OpenCascade's boolean cuts it (the direct route switched off)."""
+    from torsal.fabrication import plates
+
+    with monkeypatch.context() as m:
+        m.setattr(plates, "_slotted_direct", lambda *a, **k: None)
+        return plates._part_shape(part, t)
+
+
+_SLOTTED = {
+    # an end slot from each edge at both ends of a gently folded strip
+    "end slots": lambda: _strip([2.0, 4.0], slots=[(0, "b", 80.0, 3.5), (3, "a", 120.0, 3.5)]),
+    # a slot across a fold flatter than SINGLE_BOX_FOLD: one box on the bisector plane
+    "slight fold": lambda: _strip([3.0], slots=[(1, "a", 100.0, 3.5), (1, "b", 60.0, 3.5)]),
+    # across a fold of 35 degrees: a box in each panel's plane, their bottoms one face
+    "sharp fold": lambda: _strip([35.0], slots=[(1, "b", 90.0, 4.0)]),
+    # a slot in a warped panel: its top and bottom are two triangles each
+    "warped panel": lambda: _strip([5.0], warp=0.8, slots=[(2, "a", 70.0, 3.5)]),
+    # example 7c's oblique plate, which the exact boolean returned empty (cut fuzzily since)
+    "oblique 7c": lambda: _oblique_slotted_part()[0],
+}
+
+
+@pytest.mark.parametrize("case", sorted(_SLOTTED))
+def test_direct_slot_cut_is_the_boolean_cut(case, monkeypatch):
+    """The slots cut in the plate's face planes (no boolean) give OpenCascade's solid: the same
+    volume, the same faces, edges and vertices after OpenCascade's face unification, valid,
+    every slot open (the direct route's own checks). Example 7a's 135 slotted parts compare
+    alike (benchmarks/solids_bench.py)."""
+    from torsal.fabrication import plates
+
+    part = _SLOTTED[case]()
+    t = 3.0
+    direct = plates._slotted_direct(part, t, 1e-9)
+    assert direct is not None
+    cut = _boolean_route(part, t, monkeypatch)
+    assert solids._is_valid(direct)
+    assert solids._volume(direct) == pytest.approx(solids._volume(cut), rel=1e-9)
+    assert _topology(direct) == _topology(cut)
+    assert plates._part_shape(part, t) is not None      # the direct route is the default
+
+
+def test_direct_cut_leaves_coplanar_panels_to_the_boolean(monkeypatch):
+    """Two panels on one plane: OpenCascade's unification merges their faces, which the direct
+    cut does not do; it declines and the boolean cuts the part (the same solid as before)."""
+    from torsal.fabrication import plates
+
+    part = _strip([0.0], slots=[(1, "a", 100.0, 3.5)])
+    assert plates._slotted_direct(part, 3.0, 1e-9) is None
+    shape = plates._part_shape(part, 3.0)
+    assert solids._volume(shape) == pytest.approx(solids._volume(_boolean_route(part, 3.0, monkeypatch)),
+                                                  rel=1e-12)
+    # flat: panel area less the unrolled slot area, times the thickness
+    area = part.panel_areas.sum() - plates._slot_area(part)
+    assert solids._volume(shape) == pytest.approx(area * 3.0, rel=1e-9)
+
+
+def test_direct_cut_declines_a_corner_on_a_cutting_plane():
+    """A slot as deep as its node line is long puts the slot's bottom through the plate's
+    corners: a configuration OpenCascade's tolerances decide, so the direct cut declines."""
+    from torsal.fabrication import plates
+
+    part = _strip([3.0], height=200.0, slots=[(1, "a", 200.0, 3.5)])
+    pts, loops, normals, centres, volume = plates._plate_polyhedron(part, 3.0, 1e-9)
+    with pytest.raises(plates._Decline):
+        plates._cut_polyhedron(pts, loops, normals, centres, plates._slot_box_frames(part, 3.0))
+
+
+def test_stored_plane_curves_leave_meshes_and_step_alike(tmp_path):
+    """Every edge's curve on its faces' planes is stored with the plate (BRepCheck, volumes,
+    point classification and meshing then do not compute it again): the meshes are those of the
+    plate without them, triangle for triangle, and the STEP file the same bytes."""
+    import subprocess
+    import sys
+
+    from torsal.fabrication import plates
+
+    part = _strip([3.0, 20.0], warp=0.8)
+    pts, loops, normals, centres, _ = plates._plate_polyhedron(part, 3.0, 1e-9)
+    with_curves = plates._polyhedron_solid(pts, loops, normals, centres)
+    without = plates._polyhedron_solid(pts, loops, normals, centres, pcurves=False)
+    for a, b in zip(plates._face_triangles(with_curves, 0.15, threads=False),
+                    plates._face_triangles(without, 0.15, threads=False)):
+        assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    # the STEP writer numbers its occurrences per process: each file in a process of its own
+    code = ("import sys, pickle; from torsal.fabrication.exports import write_step; "
+            "from torsal.fabrication.workers import _from_bytes; "
+            "write_step([('P', _from_bytes(open(sys.argv[1], 'rb').read()), (0.5, 0.5, 0.5))], sys.argv[2])")
+    from torsal.fabrication.workers import _to_bytes
+
+    files = []
+    for name, shape in (("with", with_curves), ("without", without)):
+        (tmp_path / f"{name}.brep").write_bytes(_to_bytes(shape))
+        subprocess.run([sys.executable, "-c", code, str(tmp_path / f"{name}.brep"),
+                        str(tmp_path / f"{name}.step")], check=True, env={**__import__("os").environ,
+                                                                          "SOURCE_DATE_EPOCH": "0"})
+        files.append((tmp_path / f"{name}.step").read_bytes())
+    assert files[0] == files[1]
+
+
+@pytest.mark.parametrize("case", sorted(_SLOTTED))
+def test_slot_probes_on_the_polyhedron_agree_with_the_classifier(case):
+    """The direct route probes its slots on the polyhedron it builds the solid from (winding
+    numbers): the same verdicts as OpenCascade's point classifier on the solid, on the cut
+    plate (every slot open, its web kept) and on the plate before the cut (no slot open)."""
+    from torsal.fabrication import plates
+
+    part = _SLOTTED[case]()
+    pts, loops, normals, centres, volume = plates._plate_polyhedron(part, 3.0, 1e-9)
+    if volume < 0:
+        loops, normals = [x[::-1] for x in loops], -normals
+    cut = plates._cut_polyhedron(pts, loops, normals, centres, plates._slot_box_frames(part, 3.0))
+    plates._check_slots_polyhedron(cut[0], cut[1], part)
+    plates._check_slots(plates._polyhedron_solid(*cut[:4]), part)
+    for check, shape in ((plates._check_slots_polyhedron, (pts, loops)),
+                         (plates._check_slots, (plates._polyhedron_solid(pts, loops, normals, centres),))):
+        with pytest.raises(ValueError, match="is not cut"):
+            check(*shape, part)
