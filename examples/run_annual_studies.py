@@ -12,9 +12,10 @@ Both rewrite the tables of examples/README.md between the ``annual-studies`` mar
 
 ``--size full`` (the default): each example's own mesh, fin spacing, depth, light samples and
 iteration limit; Radiance at the ``[annual]`` defaults (300 glazing points, -ab 2 -ad 2048);
-rooms 6 m deep and 3 m high per storey, glazed from a 0.9 m sill to a 2.7 m head, at LM-83's
--ab 6 -ad 1024 (the ``[room]`` defaults). ``--size full-design`` (the run of 2026-11-29: what a
-shared 2-core machine finishes in a session): the same designs and rooms, Radiance at 150
+rooms 9 m deep (:data:`ROOM_DEPTH_M`; the first runs of 2026-11-29: 6 m) and 3 m high per
+storey, glazed from a 0.9 m sill to a 2.7 m head, at LM-83's -ab 6 -ad 1024 (the ``[room]``
+defaults). ``--size full-design`` (what a shared 2-core machine finishes in a session): the
+same designs and rooms, Radiance at 150
 glazing points, -ab 2 -ad 1024, rooms -ab 4 -ad 512. ``--size reduced`` (the run of
 2026-11-28): mesh A at most 17 x 17 vertices, the fin spacing at least a twelfth of A's extent,
 300 light samples, 100 glazing points at -ab 2 -ad 512, rooms glazed floor to ceiling at -ab 4
@@ -79,11 +80,17 @@ MAX_GRID, EXTENT_PER_SPACING = 17, 12
 ANNUAL = {Size.FULL: {"enabled": True},
           Size.FULL_DESIGN: {"enabled": True, "points": 150, "ambient_divisions": 1024},
           Size.REDUCED: {"enabled": True, "points": 100, "ambient_divisions": 512}}
-#: [room] per size: rooms 6 m deep and 3 m high per storey; full: windows with a sill and a
-#: head (a facade glazed floor to ceiling saturates sDA, see examples/README) and the
-#: [room] defaults, LM-83's settings
-ROOM = {Size.FULL: {"depth": 6.0, "height": 3.0, "sill": 0.9, "head": 2.7},
-        Size.FULL_DESIGN: {"depth": 6.0, "height": 3.0, "sill": 0.9, "head": 2.7,
+#: m: the full sizes' room depth, a deep-plan office. By the limiting-depth rule of BS 8206-2 /
+#: BRE 209 (the back half gloomy if L/W + L/H > 2 / (1 - R_b)), a room 12 m wide with a 2.7 m
+#: window head and LM-83's reflectances (R_b 0.47 over the back half) is daylit to 8.3 m: at
+#: 6 m every design lights the whole room (sDA 100 %, examples/README), at 9 m the back of the
+#: room is what the shading decides. Neither LM-83 nor EN 17037 fixes a depth.
+ROOM_DEPTH_M = 9.0
+#: [room] per size: rooms ROOM_DEPTH_M deep (reduced: 6 m) and 3 m high per storey; full:
+#: windows with a sill and a head (a facade glazed floor to ceiling saturates sDA, see
+#: examples/README) and the [room] defaults, LM-83's settings
+ROOM = {Size.FULL: {"depth": ROOM_DEPTH_M, "height": 3.0, "sill": 0.9, "head": 2.7},
+        Size.FULL_DESIGN: {"depth": ROOM_DEPTH_M, "height": 3.0, "sill": 0.9, "head": 2.7,
                            "ambient_bounces": 4, "ambient_divisions": 512},
         Size.REDUCED: {"depth": 6.0, "height": 3.0, "ambient_bounces": 4,
                        "ambient_divisions": 256}}
@@ -182,7 +189,8 @@ def run(key: str, out: Path, workers: int, size: Size = Size.FULL) -> dict:
     res.table[keep].to_csv(RESULTS / f"{key}_annual.csv", index=False, float_format="%.6g")
     shutil.copyfile(res.files["png"], HERE / "studies" / f"{key}_annual_pareto.png")
     timing = {"wall_s": time.perf_counter() - t0, "cpu_s": _cpu_s() - cpu0,
-              "size": size.value, "workers": workers, "load_start": load0,
+              "size": size.value, "room_depth_m": ROOM[size]["depth"], "workers": workers,
+              "load_start": load0,
               "load_end": os.getloadavg()[0], "date": time.strftime("%Y-%m-%d %H:%M UTC",
                                                                    time.gmtime()),
               "commit": _commit(), "verdict": res.verdict, "failed": res.failed}
@@ -228,8 +236,10 @@ def annual_table(keys=KEYS) -> str:
         d = devices.loc[devices[AVOIDED].idxmax()] if not devices.empty else None
         fsh = "light.annual.fins.shading_factor.f_sh_cooling"
         dl = ("light.annual.daylight.bare.", "light.annual.daylight.fins.")
-        size = json.loads((RESULTS / f"{key}_annual.json").read_text()).get("size", "reduced")
-        cells = [f"{key} ({size})", _kwh(r, "bare"), _kwh(r, "fins"),
+        tm = json.loads((RESULTS / f"{key}_annual.json").read_text())
+        room = (f", {tm.get('room_depth_m', 6.0):g} m room"                 # a facade's
+                if pd.notna(r.get(dl[0] + "sda_all")) else "")
+        cells = [f"{key} ({tm.get('size', 'reduced')}{room})", _kwh(r, "bare"), _kwh(r, "fins"),
                  "-" if d is None else f"{d['device']}: {_kwh(d, 'fins')}",
                  f"{r[fsh]:.2f} / " + ("-" if d is None else f"{d[fsh]:.2f}")]
         for what in ("sda_all", "ase_all"):
