@@ -15,6 +15,38 @@ once (cached in ``--cache``), the fin system is built and its unrolled parts are
 Every layout is checked with shapely (inside the margins, the gap between cuts) before it is
 counted. "same twice" compares every placement of two runs (name, sheet, rotation, offset).
 
+**Plates split for yield (issues 40, 42), 2026-11-29 05:10-05:50**: ``torsal design
+--final-cut`` of the real thing (not stand-ins): the search, then plates cut at crossing
+slots where that empties a sheet (:mod:`~torsal.fabrication.nesting.split`: A, sheets
+emptied by cuts; B, cuts planned for the rows, the search afresh, then A), the fin system
+built again with those cuts, each a seam held in its slot, the pieces put where their
+stand-ins lay (:mod:`~torsal.fabrication.nesting.final_cut`), and the bill of quantities
+deciding (no ``[costs]`` in the examples: only cuts that add no connector, fastener or
+fixing). Before: the search alone (d4ca522, 2026-11-29 03:19-03:52, load 9-12; 9's design names
+the rows, which its final cut used then); after: load
+2-5 on 2 cores. "user s": the CPU seconds of the run's main process (the solids' workers not
+counted), all stages, the split search, rebuild and check included; every row buildable (the
+assembly check: 0 interfering pairs, no part blocked)::
+
+    | design | before sheets | yield | user s | after sheets | yield | cuts (plates) | cut m | pierces | connectors | user s | split s (rebuild s) |
+    |---|---|---|---|---|---|---|---|---|---|---|---|
+    | 7a | 39 | 77.2 % | 52 | 38 | 79.2 % | 4 (3) | +1.6 | +4 | +0 | 97 | 97 (7) |
+    | 7b | 40 | 75.7 % | 59 | 38 | 79.7 % | 6 (6) | +2.4 | +6 | +0 | 110 | 83 (5) |
+    | 7d | 37 | 72.2 % | 69 | 36 | 74.2 % | 7 (4) | +2.8 | +7 | +0 | 133 | 119 (11) |
+    | 9 | 51 (rows) | 66.2 % | 122 | 48 | 70.3 % | - | - | - | +0 | 183 | 228 |
+    | 11 | 43 | 71.1 % | 118 | 43 | 71.1 % | (2 refused) | - | - | +0 | 185 | 156 (41) |
+
+(``split`` in ``--nesters`` gives the split search's sheets, cuts and plates on the stand-ins.)
+On 11 the stand-ins saved a sheet with 2 cuts, but the fin system built with them settled its
+joints another way (4 connectors fewer, two parts that no longer lie inside a stand-in) and
+took 43 sheets again: refused. On 9 no cut empties one of its 48 sheets (the final cut now
+searches there too: its design names the rows, every run's nester). On 7a the plates that keep the yield below 80 % are the
+family-1 strips of three slanted panels (2.0-2.1 m): a fourth panel does not fit their rows,
+so a cut piece fills only a sheet's end strip, turned upright (one a sheet); a family-0
+cut adds a fixing (its pieces are fixed to the building each), which only a ``[costs]`` table
+can weigh: with example rates (EUR: 6/kg, laser 1.5/m, anchor 2.5, 3 min a part at 1/min)
+7a took 3 cuts, one of a family-0 plate (+1 fixing, +1 anchor), 38 sheets, -132.69 EUR.
+
 **The hole filler (issues 40, 42), 2026-11-29 00:40-01:40**, the same pinned parts, the search
 with its 600 tries, a victim's part now also put into any hole of a sheet as it is
 (:mod:`~torsal.fabrication.nesting.raster`) where the skyline's drop from above finds no place.
@@ -128,7 +160,8 @@ their curved strips (outlines that fill 55-75 % of their bounding rectangle), 7a
 7c's the strips between half a sheet and a sheet long (7a: 118 of 314 parts), which share a
 row with short parts only.
 
-Run: ``.venv/bin/python benchmarks/nesting_bench.py [--designs 7a 9 11] [--sparrow-s 60]``.
+Run: ``.venv/bin/python benchmarks/nesting_bench.py [--designs 7a 9 11] [--sparrow-s 60]
+[--nesters rows search split]``.
 """
 from __future__ import annotations
 
@@ -147,6 +180,8 @@ from torsal.design import Design
 from torsal.fabrication.cutting import Cutting
 from torsal.fabrication.layout import spacing
 from torsal.fabrication.nesting import crossing_bound, nest_for_yield, nest_rows, nest_search
+from torsal.fabrication.nesting.final_cut import yield_cut_sites
+from torsal.fabrication.nesting.split import nest_split
 from torsal.fabrication.nesting.bounds import _base_turned
 from torsal.fabrication.nesting.sparrow import sheet_ok
 from torsal.pipeline import DEFAULT_PIPELINE, StageCache
@@ -176,6 +211,19 @@ def outlines(name: str, cache: Path, *, pinned: bool = False) -> tuple[list, tup
     makes the parts changed: the fin system takes 7-350 s). ``pinned``: the snapshot
     ``parts-NAME.pkl`` in ``cache`` where there is one (to compare nesters on the same parts
     while the code that makes them changes)."""
+    got = _kept_parts(name, cache, pinned=pinned)
+    return got[0], got[1]
+
+
+def cut_sites(name: str, cache: Path, *, pinned: bool = False) -> dict:
+    """Where the example's plates may be cut for yield at a crossing slot, without a fixing
+    more (:func:`~torsal.fabrication.nesting.final_cut.yield_cut_sites`, no rates), kept with
+    its parts (``{}`` for a snapshot made before they were)."""
+    got = _kept_parts(name, cache, pinned=pinned)
+    return got[2] if len(got) > 2 else {}
+
+
+def _kept_parts(name: str, cache: Path, *, pinned: bool = False) -> tuple:
     kept = cache / f"parts-{name}-{_source_key(name)}.pkl"
     if pinned and (cache / f"parts-{name}.pkl").exists():
         kept = cache / f"parts-{name}.pkl"
@@ -189,7 +237,8 @@ def outlines(name: str, cache: Path, *, pinned: bool = False) -> tuple[list, tup
         design.run(cache / f"run-{name}", cache=stages, pipeline=DEFAULT_PIPELINE.until("support"))
         support = stages.load("support", stage_keys(DEFAULT_PIPELINE, design.spec)["support"])
         fs = fin_system(design.spec, support["structure"])
-    out = list(fs.unrolled().values()), tuple(design.spec.material.sheet_mm)
+    out = (list(fs.unrolled().values()), tuple(design.spec.material.sheet_mm),
+           yield_cut_sites(fs)[0])
     cache.mkdir(parents=True, exist_ok=True)
     with open(kept.with_suffix(".tmp"), "wb") as f:
         pickle.dump(out, f)
@@ -288,12 +337,26 @@ def measure(nester, parts, sheet, cutting) -> dict:
         lay = nester(parts, sheet=sheet, gap=GAP, margin=MARGIN, cutting=cutting)
         runs.append((lay, time.perf_counter() - t0, time.process_time() - c0))
     lay, seconds, cpu = runs[0]
+    split = getattr(lay, "split", None)
     sep, edge = spacing(GAP, MARGIN, cutting)
     valid = all(sheet_ok([p.polygon for p in lay.on_sheet(s)], *lay.sheet, edge, sep)
                 for s in range(lay.n_sheets))
     return {"sheets": lay.n_sheets, "yield": lay.utilization, "s": seconds, "cpu": cpu, "valid": valid,
             "same": _placements(runs[0][0]) == _placements(runs[1][0]), "bound": lay.area_bound,
-            "tries": getattr(lay.stats, "tries", 0)}
+            "tries": getattr(lay.stats, "tries", 0) + (split.tries if split else 0),
+            "cuts": split.n_cuts if split else None, "plates": len(split.cuts) if split else None}
+
+
+def splitter(sites: dict):
+    """The final cut with plates cut at crossing slots where that empties a sheet
+    (:func:`~torsal.fabrication.nesting.split.nest_split`, every sheet saved paying: no
+    rates), on stand-ins (the rebuilt fin system's pieces lie inside them); the layout's
+    ``split`` is the :class:`~torsal.fabrication.nesting.split.SplitNesting`."""
+    def nest(parts, **kw):
+        res = nest_split(parts, cuts=sites, **kw)
+        res.layout.split = res
+        return res.layout
+    return nest
 
 
 def main() -> None:
@@ -303,19 +366,22 @@ def main() -> None:
                     help="also sparrow, this many seconds a run (0: not run)")
     ap.add_argument("--cache", type=Path, default=Path("out/nesting_bench"))
     ap.add_argument("--nesters", nargs="+", default=["rows", "search"],
-                    choices=["rows", "search"], help="which nesters (sparrow: --sparrow-s)")
+                    choices=["rows", "search", "split"],
+                    help="which nesters (sparrow: --sparrow-s); split: the final cut with "
+                         "plates cut at crossing slots (stand-ins)")
     ap.add_argument("--pinned", action="store_true",
                     help="the parts snapshot parts-NAME.pkl in --cache where there is one")
     ap.add_argument("--split", choices=["half", "rows"],
                     help="nest stand-ins of the parts cut at fold lines (split_stand_in), not built")
     args = ap.parse_args()
     cutting = Cutting.for_process("laser")
-    nesters = {n: {"rows": nest_rows, "search": nest_search}[n] for n in args.nesters}
+    nesters = {n: {"rows": nest_rows, "search": nest_search, "split": None}[n] for n in args.nesters}
     if args.sparrow_s:
         nesters["sparrow"] = lambda *a, **k: nest_for_yield(*a, time_limit=args.sparrow_s, **k)
     sep, edge = spacing(GAP, MARGIN, cutting)
     cols = ["design", "parts", "area bound", "80 % needs", "crossing bound"] + [
-        f"{n} {c}" for n in nesters for c in ("sheets", "yield", "s", "cpu s", "tries", "valid", "same twice")]
+        f"{n} {c}" for n in nesters for c in ("sheets", "yield", "s", "cpu s", "tries")
+        + (("cuts", "plates cut") if n == "split" else ()) + ("valid", "same twice")]
     print("| " + " | ".join(cols) + " |")
     print("|" + "---|" * len(cols))
     for name in args.designs:
@@ -329,9 +395,14 @@ def main() -> None:
         cells = [name, str(len(parts)), f"{area:.1f}", str(int(area / 0.8 + 1e-9)),
                  str(crossing_bound(polys, sheet=sheet, sep=sep, edge=edge))]
         for n, nester in nesters.items():
+            if n == "split":
+                nester = splitter(cut_sites(name, args.cache, pinned=args.pinned))
             m = measure(nester, parts, sheet, cutting)
             cells += [str(m["sheets"]), f"{100 * m['yield']:.1f} %", f"{m['s']:.1f}",
-                      f"{m['cpu']:.1f}", str(m["tries"]), "yes" if m["valid"] else "NO", "yes" if m["same"] else "no"]
+                      f"{m['cpu']:.1f}", str(m["tries"])]
+            if n == "split":
+                cells += [str(m["cuts"]), str(m["plates"])]
+            cells += ["yes" if m["valid"] else "NO", "yes" if m["same"] else "no"]
         print("| " + " | ".join(cells) + " |", flush=True)
 
 

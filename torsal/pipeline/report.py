@@ -944,6 +944,29 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
                         sections="\n".join(secs))
 
 
+def _split_cell(sp: dict) -> str:
+    """The final cut's plates split for yield (``fabrication.nesting.split``): which, where
+    and what it saved, or why none."""
+    if not sp.get("kept"):
+        return "none: " + html.escape(sp.get("why") or "")
+    d = sp.get("delta", {})
+    price = (f", price {d['price']:+,.2f} {html.escape(sp.get('currency') or '')}".rstrip()
+             if d.get("price") is not None else "")
+    plates = "; ".join(f"{html.escape(p['plate'])} at node{'s' if len(p['nodes']) > 1 else ''} "
+                       + ", ".join(str(v) for v in p["nodes"])
+                       + f" -> {', '.join(html.escape(n) for n in p['pieces'])}"
+                       for p in sp.get("plates", [])[:12])
+    more = len(sp.get("plates", [])) - 12
+    return (f"{sp['plates_split']} plates cut {sp['cuts']} times at crossing slots "
+            f"({sp['seams_in_slot']} seams held in their slots, {len(sp.get('fallbacks', []))} "
+            f"fell back to brackets): {sp['sheets_before']} &rarr; {sp['sheets_after']} sheets "
+            f"({100 * sp['utilization_before']:.1f}% &rarr; {100 * sp['utilization_after']:.1f}%); "
+            f"the bill: cut {d.get('cut_m', 0):+.1f} m, pierces {d.get('pierces', 0):+d}, "
+            f"bends {d.get('bends', 0):+d}, parts {d.get('parts', 0):+d}, connectors "
+            f"{d.get('connectors', 0):+d}, fixings {d.get('fixings', 0):+d}{price}. "
+            + plates + (f"; and {more} more" if more > 0 else ""))
+
+
 def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
     """Report rows of the nesting (sheets against the area bound, utilization read back from
     the DXF, time) and the cutting process."""
@@ -966,6 +989,8 @@ def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
                   "load" if nest.get("time_limited") else
                   "NO: sparrow stops on the clock; nest with the rows or the final cut's search "
                   "for sheets that repeat")]
+    if nest and nest.get("split"):
+        rows.append(("plates split for yield (final cut)", _split_cell(nest["split"])))
     if cut:
         rows.append(("cutting (DXF layer CUT)",
                      f"{cut['process']}, kerf {cut['kerf_mm']:g} mm, tool {cut['tool_diameter_mm']:g} mm, "

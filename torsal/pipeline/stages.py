@@ -475,6 +475,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     written = {}
     try:
         fs = fin_system(spec, structure)
+        fs, layout = _final_cut(inp, fs)      # plates split for yield (the final cut only)
         if solids:
             fs.start_solids()
     finally:
@@ -482,7 +483,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     try:
         # the sheets first: they need only the flat parts, and this process nests and
         # writes them while the workers build the solids
-        layout = _nest(inp, fs)
+        layout = _nest(inp, fs) if layout is None else layout
         sheets = None
         if spec.outputs.dxf:
             sheets = write_sheets(layout, out / "sheets" / "fins.dxf")
@@ -532,15 +533,66 @@ def nest_options(spec: DesignSpec, unit: str) -> dict:
     [cutting] process and [nesting] keys; the nester is the rows, or the search for the final
     cut (``nesting.final_cut``), unless ``nesting.nester`` names one."""
     from ..fabrication.cutting import Cutting
-    from ..fabrication.nesting import DEFAULT_NESTER, FINAL_CUT_NESTER
+    from ..fabrication.nesting import DEFAULT_NESTER, FINAL_CUT_NESTER, Nester
 
     m, c, n = spec.material, spec.cutting, spec.nesting
     cutting = Cutting.for_process(c.process, kerf_mm=c.kerf_mm, tool_diameter_mm=c.tool_diameter_mm,
                                   relief=c.relief, unit=unit)
-    nester = n.nester or (FINAL_CUT_NESTER if n.final_cut else DEFAULT_NESTER)
+    # the final cut nests for yield: the search, also where the design names the rows (its
+    # every run's nester; example 9) but not a nester of its own choice for yield
+    nester = (FINAL_CUT_NESTER if n.final_cut and n.nester in (None, Nester.ROWS) else
+              n.nester or DEFAULT_NESTER)
     return dict(sheet=tuple(m.sheet_mm), gap=m.gap_mm, margin=n.margin_mm, cutting=cutting,
                 nester=nester, time_limit=n.time_limit_s, seed=n.seed, tries=n.tries,
                 rotation_step=n.rotation_step_deg)
+
+
+#: the version of the final cut's splits: a memo of an earlier one is not read back
+_FINAL_CUT_VERSION = 1
+
+
+def _final_cut(inp: StageInputs, fs):
+    """``(fin system, layout)``: with ``nesting.final_cut`` and the search, the final cut
+    (:func:`~torsal.fabrication.nesting.final_cut.final_cut`): the sheets, and the plates
+    split where a sheet saved pays (a new fin system, built with those cuts); ``(fs, None)``
+    otherwise (:func:`_nest` nests). The split search is kept by the parts' content in the
+    design's memo, so a re-run only builds the cut fin system again."""
+    from ..fabrication.nesting import Nester
+    from ..fabrication.nesting import final_cut as fc
+    from . import fins
+
+    spec = inp.spec
+    # a fin system an earlier final cut of this process split (kept for its assembly check,
+    # the design writing no STEP): every run starts from the one it was split from
+    unsplit = getattr(fs, "_unsplit", None)
+    if unsplit is not None:
+        fs = unsplit
+        fins._LAST.set((fins._key(fs.structure, spec.material.thickness_mm, fins._options(spec)),
+                        fs))
+    options = nest_options(spec, fs.unit)
+    if not spec.nesting.final_cut or options["nester"] != Nester.SEARCH:
+        return fs, None
+
+    def progress(done, left):
+        inp.progress("progress", {"phase": "nesting sheets", "done": done, "total": done + left})
+
+    rates = None if spec.costs is None else spec.costs.rates()
+    key = None
+    if inp.memo is not None:
+        from .memo import content_key
+
+        key = content_key(_FINAL_CUT_VERSION, sorted(fs.unrolled().items()), sorted(
+            (k, v.value if hasattr(v, "value") else v) for k, v in options.items()
+            if k != "cutting"), options["cutting"], rates, spec.material.density,
+            fc.yield_cut_sites(fs, rates))
+    new, layout, split = fc.final_cut(fs, options, rates=rates, density=spec.material.density,
+                                      progress=progress, memo=inp.memo, key=key)
+    if new is not fs and not spec.outputs.step:
+        # the assembly check builds the solids of this run's fin system (no STEP to read)
+        new._unsplit = fs
+        fins._LAST.set((fins._key(fs.structure, spec.material.thickness_mm, fins._options(spec)),
+                        new))
+    return new, layout
 
 
 def _nest(inp: StageInputs, fs):
@@ -589,7 +641,9 @@ def _nesting_report(layout, sheets) -> dict:
            "fallback_parts": int(st.fallback_parts), "rotation": st.rotation,
            "time_limited": bool(st.time_limited), "tries": int(st.tries),
            "starts": dict(st.starts), "deterministic": "sparrow" not in st.method
-           and not st.time_limited}
+           and not st.time_limited,
+           # the final cut's plates split for yield: which, where, what it saved (or why not)
+           "split": getattr(st, "split", None)}
     if sheets is not None and layout.n_sheets:
         rep["utilization_dxf"] = float(sheets.area_read_back / (layout.n_sheets * sheet_area))
     return rep

@@ -43,7 +43,8 @@ from ..joints import MAX_HOLDER_FOLD
 from ..model import Joint, JointKind, Part
 from .memo import _memo_key
 
-__all__ = ["SeamReason", "SlotSeam", "JointFallback", "SlotSeams", "local_part", "joinery_report"]
+__all__ = ["SeamReason", "SlotSeam", "JointFallback", "SlotSeams", "local_part", "joinery_report",
+           "yield_cut_positions"]
 
 
 class SeamReason(str, Enum):
@@ -317,3 +318,36 @@ def joinery_report(fs) -> dict:
                        "reason": f.reason.value, "why": f.detail} for f in fallbacks],
         "fallbacks_by_reason": dict(sorted(by_reason.items())),
     }
+
+
+def yield_cut_positions(fs) -> dict[str, tuple[int, ...]]:
+    """``{plate name: node lines}``: where each plate of ``fs`` may be split for the sheets'
+    yield (the final cut, :mod:`~torsal.fabrication.nesting.split`) with a seam inside a
+    crossing slot, no connector: the inner node lines (``1 .. panels - 1``) where the plate is
+    slotted at an egg-crate crossing and the crossing plate passes through whole (not split
+    there itself, with its own seam in this plate's slot); the plate folds there no more than
+    a mitre allows (or it would have been split there already); not where a seam of its
+    family was refused before or whose joint changed (``_base_at``). Whether the seam stays in
+    its slot is the rebuilt fin system's to decide (:class:`SlotSeams`: the slide plan and the
+    local assembly check; a refused one falls back to brackets, counted)."""
+    if fs.family_split.value != "egg-crate":
+        return {}
+    refused = getattr(fs, "_seams_refused", {})
+    changed = getattr(fs, "_base_at", {})
+    # the nodes each family's plates pass through whole: the crossing plate must (a node
+    # where the other family is split already, its own seam in this plate's slot, would
+    # lose both seams to brackets)
+    through = {f: {int(v) for p in fs.plates if p.family == f for v in p.nodes[1:-1]}
+               for f in (0, 1)}
+    out: dict[str, tuple[int, ...]] = {}
+    for p in fs.plates:
+        if p.family not in (0, 1):
+            continue
+        k = len(p.panels)
+        slotted = sorted({int(s.position) for s in p.slots if 0 < s.position < k})
+        keep = tuple(j for j in slotted if (p.family, int(p.nodes[j])) not in refused
+                     and int(p.nodes[j]) not in changed
+                     and int(p.nodes[j]) in through[1 - p.family])
+        if keep:
+            out[p.name] = keep
+    return out

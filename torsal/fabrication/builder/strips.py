@@ -141,6 +141,21 @@ def folded_back_reach(fold: float, thickness: float) -> float:
     return float(thickness / np.sin(np.radians(180.0 - fold)))
 
 
+def _cut_at(ranges: list[tuple[int, int]], cuts) -> list[tuple[int, int]]:
+    """Panel ranges ``[lo, hi)`` cut also at the node lines ``cuts`` that lie inside them.
+
+    >>> _cut_at([(0, 4), (4, 7)], {2, 4, 5})
+    [(0, 2), (2, 4), (4, 5), (5, 7)]
+    """
+    if not cuts:
+        return ranges
+    out = []
+    for lo, hi in ranges:
+        c = sorted({lo, hi} | {int(j) for j in cuts if lo < j < hi})
+        out += list(zip(c[:-1], c[1:]))
+    return out
+
+
 class StripCutter:
     """Cuts the strips of a fin system ``fs`` (its limits: ``min_panel_width``,
     ``max_fold_angle``, ``max_panels``, ``max_part_length``, ``fit_sheet``) into parts; fills its
@@ -358,6 +373,9 @@ class StripCutter:
                            if base != fam and v in at and 0 < at[v] < len(q) + strip.closed}
             ranges = self._split_ranges(q, strip.closed, drop, extra_cuts=split_here,
                                         avoid={j for s_, j in fs._avoid_splits if s_ == si})
+            # the final cut's splits for the sheets' yield (nesting.final_cut): node lines
+            # where a part of the build without them is cut once more, its other cuts kept
+            ranges = _cut_at(ranges, getattr(fs, "_yield_cuts", {}).get(si, ()))
             if fs.family_split == FamilySplit.FAMILY0_CONTINUOUS and fam == 1:
                 # family 1 is cut at every node where a family-0 plate is
                 cuts = sorted({0, len(q)} | {j for j in range(1, len(q))

@@ -7,6 +7,12 @@
   emptied in counted tries (deterministic).
 * :mod:`.raster`: a part put into any hole of a sheet its true shape fits (cells, one FFT
   correlation): the search's hole filler.
+* :mod:`.split`: :func:`~.split.nest_split`, the search, then plates cut at crossing slots
+  where that empties a sheet that pays (stand-ins of the pieces, :mod:`.pieces`; sheets
+  emptied by cuts, :mod:`.split_phase`; cuts planned for the rows, :mod:`.row_plan`).
+* :mod:`.final_cut`: :func:`~.final_cut.final_cut`, a fin system's final cut: those cuts
+  built (a new fin system, each cut a seam in its slot) and its pieces in their stand-ins'
+  places (:mod:`.mapped`), kept where the bill of quantities says so (:mod:`.cut_costs`).
 * :mod:`.sparrow`: one sheet packed by sparrow (``spyrrow``), true shapes, any rotation.
 * :mod:`.yield_`: :func:`nest_for_yield`, the rows, then sparrow empties the emptiest sheets
   in the time budget.

@@ -36,7 +36,7 @@ from ..cutting import Cutting
 from ..layout import Layout, PartTooLargeError, placement_of, spacing
 from .items import _as_items, _turned_shapes, check_fits
 
-__all__ = ["nest_rows", "row_layout", "prepare", "SLABS"]
+__all__ = ["nest_rows", "row_layout", "planned_layout", "prepare", "SLABS"]
 
 #: parts smaller than this share of the usable sheet go in shelves (connectors), not rows
 SMALL = 0.02
@@ -278,54 +278,130 @@ def row_layout(items, w: float, h: float, sep: float, edge: float,
     docstring). ``items``: prepared parts (``nesting.items._as_items``) that fit the sheet;
     ``order``: the plates longest (``"length"``), largest (``"area"``) or widest
     (``"height"``) first."""
-    turn = h > w                              # rows run along the longer side
-    length, height = (h, w) if turn else (w, h)
-    length, height = length - 2 * edge, height - 2 * edge
-    usable = length * height
-    small = {it.name for it in items if it.outline.area < SMALL * usable}
-    names, outlines, rots = [], [], []
-    for it in items:
-        for r in orientations(it.outline, it.base, rotation_step, length, height,
-                              across=it.name in small):
-            names.append(it.name)
-            outlines.append(it.outline)
-            rots.append(r)
-    by: dict[str, list[Shape]] = {}
-    for s in shapes_of(names, outlines, rots, sep, height):
-        if s.length <= length + 1e-9 and s.height <= height + 1e-9:
-            by.setdefault(s.name, []).append(s)
-    for it in items:
-        if it.name not in by:
-            raise PartTooLargeError(
-                f"part {it.name} fits the {w:g} x {h:g} sheet with margin {edge:g} at none of the "
-                f"rotations in steps of {rotation_step:g} deg: allow finer steps "
-                "([nesting] rotation_step_deg) or any rotation")
-    packer = RowPacker(length, height, sep)
-    large = sorted((n for n in by if n not in small), key=_ORDERS[order](by))
+    frame = _RowFrame.of(items, w, h, sep, edge, rotation_step)
+    packer = RowPacker(frame.length, frame.height, sep)
+    large = sorted((n for n in frame.by if n not in frame.small), key=_ORDERS[order](frame.by))
     for n in large:
-        packer.add(by[n])
-    # small parts: the free rectangles of the rows' sheets, then new sheets of shelves
-    rects = [(si, r) for si, sh in enumerate(packer.sheets) for r in packer.free_rectangles(sh)]
-    todo = sorted((n for n in by if n in small), key=lambda n: n)
-    fresh = False                             # whether rects is one empty sheet
-    while todo:
-        if not rects:
+        packer.add(frame.by[n])
+    return frame.finish(packer)
+
+
+def planned_layout(items, plan, w: float, h: float, sep: float, edge: float,
+                   rotation_step: float | None = None) -> dict:
+    """:func:`row_layout`'s ``{name: (sheet, rotation deg, (dx, dy))}`` with the rows given:
+    ``plan`` ``[[name, ...], ...]``, the plates of each row in the order they go end to end
+    (each in the orientation that ends nearest the row's start; a plate that does not fit its
+    row's length is left to the rows' best fit afterwards). The rows go onto the sheets
+    tallest first, each onto the first sheet with the height for it; the plates of no row
+    and the small parts as :func:`row_layout` places them."""
+    frame = _RowFrame.of(items, w, h, sep, edge, rotation_step)
+    by, length = frame.by, frame.length
+    packer = RowPacker(length, frame.height, sep)
+    rows, left, planned = [], [], set()
+    for names in plan:
+        row = None
+        for n in names:
+            if n not in by or n in frame.small or n in planned:
+                continue
+            planned.add(n)
+            if row is None:
+                s = min(by[n], key=lambda o: (o.height, o.rot))
+                row = Row(s.height, np.full(SLABS, -np.inf))
+                RowPacker._put(row, s, 0.0)
+                continue
+            best = None
+            for s in by[n]:
+                d = row.frontier - s.left
+                d[~np.isfinite(d)] = -np.inf
+                x = max(0.0, float(d.max()))
+                if x + s.length <= length + 1e-9 and (best is None or
+                                                       (x + s.length, s.height) < best[0]):
+                    best = ((x + s.length, s.height), s, x)
+            if best is None:
+                left.append(n)
+            else:
+                RowPacker._put(row, best[1], best[2])
+        if row is not None:
+            rows.append(row)
+    for row in sorted(rows, key=lambda r: -r.height):      # (stable: the plan's order)
+        fits = [sh for sh in packer.sheets
+                if sh.height_used(sep) + sep + row.height <= frame.height + 1e-9]
+        if not fits:
             packer.sheets.append(RowSheet())
-            rects, fresh = [(len(packer.sheets) - 1, (0.0, 0.0, length, height))], True
-        placed, left = shelf_fill([r for _, r in rects], [by[n] for n in todo], sep)
-        for ri, s, x, y in placed:
-            packer.sheets[rects[ri][0]].loose.append((s, x, y))
-        if fresh and not placed:              # pragma: no cover - each part fits an empty sheet
-            raise RuntimeError("a small part fits no empty sheet")
-        todo, rects = [todo[i] for i in left], []
-    out = {}
-    for si, s, x, y in packer.place():
-        dx, dy = s.shift[0] + x + edge, s.shift[1] + y + edge
-        rot = s.rot
-        if turn:                              # the frame turned a quarter: back onto the sheet
-            rot, (dx, dy) = (rot + 90.0) % 360.0, (w - dy, dx)
-        out[s.name] = (si, rot, (dx, dy))
-    return out
+            fits = packer.sheets[-1:]
+        fits[0].rows.append(row)
+    rest = [n for n in by if n not in frame.small and n not in planned] + left
+    for n in sorted(rest, key=_ORDERS["length"](by)):
+        packer.add(by[n])
+    return frame.finish(packer)
+
+
+@dataclass
+class _RowFrame:
+    """The usable sheet of the rows (along its longer side: ``turn`` whether that is the
+    sheet turned a quarter), the parts' allowed shapes ``by`` name and the ``small`` ones."""
+
+    w: float
+    h: float
+    edge: float
+    sep: float
+    turn: bool
+    length: float
+    height: float
+    by: dict
+    small: set
+
+    @classmethod
+    def of(cls, items, w, h, sep, edge, rotation_step) -> "_RowFrame":
+        turn = h > w                              # rows run along the longer side
+        length, height = (h, w) if turn else (w, h)
+        length, height = length - 2 * edge, height - 2 * edge
+        usable = length * height
+        small = {it.name for it in items if it.outline.area < SMALL * usable}
+        names, outlines, rots = [], [], []
+        for it in items:
+            for r in orientations(it.outline, it.base, rotation_step, length, height,
+                                  across=it.name in small):
+                names.append(it.name)
+                outlines.append(it.outline)
+                rots.append(r)
+        by: dict[str, list[Shape]] = {}
+        for s in shapes_of(names, outlines, rots, sep, height):
+            if s.length <= length + 1e-9 and s.height <= height + 1e-9:
+                by.setdefault(s.name, []).append(s)
+        for it in items:
+            if it.name not in by:
+                raise PartTooLargeError(
+                    f"part {it.name} fits the {w:g} x {h:g} sheet with margin {edge:g} at none of the "
+                    f"rotations in steps of {rotation_step:g} deg: allow finer steps "
+                    "([nesting] rotation_step_deg) or any rotation")
+        return cls(w, h, edge, sep, turn, length, height, by, small)
+
+    def finish(self, packer: "RowPacker") -> dict:
+        """The small parts into the free rectangles of the rows' sheets, then new sheets of
+        shelves; ``{name: (sheet, rotation deg, (dx, dy))}`` of every part."""
+        by, sep, length, height = self.by, self.sep, self.length, self.height
+        rects = [(si, r) for si, sh in enumerate(packer.sheets) for r in packer.free_rectangles(sh)]
+        todo = sorted((n for n in by if n in self.small), key=lambda n: n)
+        fresh = False                             # whether rects is one empty sheet
+        while todo:
+            if not rects:
+                packer.sheets.append(RowSheet())
+                rects, fresh = [(len(packer.sheets) - 1, (0.0, 0.0, length, height))], True
+            placed, left = shelf_fill([r for _, r in rects], [by[n] for n in todo], sep)
+            for ri, s, x, y in placed:
+                packer.sheets[rects[ri][0]].loose.append((s, x, y))
+            if fresh and not placed:              # pragma: no cover - each part fits an empty sheet
+                raise RuntimeError("a small part fits no empty sheet")
+            todo, rects = [todo[i] for i in left], []
+        out = {}
+        for si, s, x, y in packer.place():
+            dx, dy = s.shift[0] + x + self.edge, s.shift[1] + y + self.edge
+            rot = s.rot
+            if self.turn:                         # the frame turned a quarter: back onto the sheet
+                rot, (dx, dy) = (rot + 90.0) % 360.0, (self.w - dy, dx)
+            out[s.name] = (si, rot, (dx, dy))
+        return out
 
 
 def prepare(outlines, sheet, gap: float, margin: float, cutting: Cutting | None, unit: str):

@@ -4,7 +4,9 @@
    to tail) and the skyline (:mod:`.skyline`: each part dropped into the hollow of the parts
    below), each in two orders (longest first, largest first); the start with the fewest
    sheets, then the fullest emptiest sheet, is kept. The rows win on straight strips (7a),
-   the skyline on curved ones (9, 11).
+   the skyline on curved ones (9, 11). (The final cut's splits, :mod:`.split`, add the rows
+   their plan asks for, :func:`~.rows.planned_layout`, and go on from the sheets the search
+   found: :class:`_Search`.)
 2. **Sheets emptied.** The emptiest sheet is the *victim*; its parts, largest first, are
    first dropped from above onto the fullest sheet that takes them as it is (:class:`_Dropper`:
    a row end, the strip above the rows), else offered to the sheets with the most room (a
@@ -48,7 +50,7 @@ from ..cutting import Cutting
 from ..layout import Layout, placement_of
 from .bounds import crossing_bound
 from .raster import DEFAULT_CELLS, RasterGrid
-from .rows import orientations, prepare, row_layout
+from .rows import orientations, planned_layout, prepare, row_layout
 from .skyline import DEFAULT_RESOLUTION, SkylinePacker, _edge_extremes, _grown_top, column_profiles
 from .stats import Nester, NestStats
 
@@ -93,21 +95,30 @@ class _Skyline:
     """The skyline packer over prepared parts: each part's orientations made once."""
 
     def __init__(self, items, frame: _Frame, rotation_step):
-        self.frame = frame
+        self.frame, self.rotation_step = frame, rotation_step
         self.res = DEFAULT_RESOLUTION * frame.length
+        self.options: dict[str, list] = {}
+        self.area: dict[str, float] = {}
+        self.length_of: dict[str, float] = {}
+        self.add_items(items)
+
+    def add_items(self, items) -> None:
+        """Make the orientations of ``items`` (prepared parts)."""
+        frame = self.frame
         names, outlines, rots = [], [], []
         for it in items:
-            for r in orientations(it.outline, it.base, rotation_step, frame.length, frame.height,
-                                  across=True):
+            for r in orientations(it.outline, it.base, self.rotation_step, frame.length,
+                                  frame.height, across=True):
                 names.append(it.name)
                 outlines.append(it.outline)
                 rots.append(r)
-        self.options: dict[str, list] = {}
         for p in column_profiles(outlines, rots, res=self.res, sep=frame.sep, names=names):
             if p.width <= frame.length + 1e-9 and p.height <= frame.height + 1e-9:
                 self.options.setdefault(p.name, []).append(p)
-        self.area = {it.name: it.outline.area for it in items}
-        self.length_of = {n: max(o.width for o in opts) for n, opts in self.options.items()}
+        for it in items:
+            self.area[it.name] = it.outline.area
+            if it.name in self.options:
+                self.length_of[it.name] = max(o.width for o in self.options[it.name])
 
     def order(self, names, by: str) -> list:
         key = (lambda n: (-self.length_of[n], -self.area[n], n)) if by == "length" else \
@@ -138,6 +149,13 @@ class _Dropper:
         self.edges = np.arange(self.packer.columns + 1) * sky.res
         self.low = {n: min(o.height for o in opts) for n, opts in sky.options.items()}
         self._kept: dict = {}
+
+    def add_items(self, items) -> None:
+        """Parts added to the skyline's (:meth:`_Skyline.add_items`, made first)."""
+        for it in items:
+            opts = self.sky.options.get(it.name)
+            if opts:
+                self.low[it.name] = min(o.height for o in opts)
 
     def skyline(self, sheet: dict) -> np.ndarray:
         """The skyline of the parts of ``sheet`` ``{name: (rot, offset)}`` (usable frame)."""
@@ -179,9 +197,16 @@ class _HoleFiller:
         self.frame, self.outlines = frame, outlines
         self.grid = RasterGrid(length=frame.length, height=frame.height, sep=frame.sep,
                                res=frame.length / DEFAULT_CELLS)
+        self.options = options
         self.rots = {n: sorted({o.rot for o in opts}) for n, opts in options.items()}
         self._feet: dict = {}
         self._kept: dict = {}
+
+    def add_items(self, items) -> None:
+        """Parts added to the skyline's options (made first)."""
+        for it in items:
+            if it.name in self.options:
+                self.rots[it.name] = sorted({o.rot for o in self.options[it.name]})
 
     def footprints(self, name: str) -> list:
         if name not in self._feet:
@@ -216,17 +241,30 @@ class _HoleFiller:
 
 
 class _Drops:
-    """The skyline's drop, else the hole filler's."""
+    """The skyline's drop, else the hole filler's; each answer remembered by the part and the
+    sheet's content (a pure function of the two: asked again, as the split phase asks for the
+    same pieces on the same sheets victim after victim, it is not worked out again).
+    ``evaluations`` counts the answers worked out."""
 
     def __init__(self, *drops):
         self.drops = drops
+        self.evaluations = 0
+        self._known: dict = {}
 
     def __call__(self, sheet: dict, name: str):
+        key = (name, tuple(sorted((n, r, tuple(o)) for n, (r, o) in sheet.items())))
+        if key in self._known:
+            return self._known[key]
+        self.evaluations += 1
+        at = None
         for d in self.drops:
             at = d(sheet, name)
             if at is not None:
-                return at
-        return None
+                break
+        if len(self._known) > 200_000:
+            self._known.clear()
+        self._known[key] = at
+        return at
 
 
 def _sheets(where: dict) -> list[dict]:
@@ -423,61 +461,123 @@ def nest_search(outlines, *, sheet: tuple[float, float] = (2500.0, 1250.0), gap:
     Layout
         With :attr:`~.layout.Layout.stats` a :class:`NestStats` (``tries``, ``starts``).
     """
-    t0, c0 = time.perf_counter(), time.process_time()
-    if tries < 0:
-        raise ValueError(f"tries must be >= 0, got {tries}")
-    w, h, items, sep, edge = prepare(outlines, sheet, gap, margin, cutting, unit)
-    frame = _Frame.of(w, h, sep, edge)
-    by_name = {it.name: it for it in items}
-    area = {n: it.outline.area for n, it in by_name.items()}
-    sky = _Skyline(items, frame, rotation_step)
-    starts = {f"rows by {by}": row_layout(items, w, h, sep, edge, rotation_step, order=by)
-              for by in ("length", "area")}
-    for by in ("length", "area"):
-        starts[f"skyline by {by}"] = sky.pack(list(by_name), by)
-    fill = {k: _sheets(v) for k, v in starts.items()}
-    best = min(fill, key=lambda k: (len(fill[k]), -min(sum(area[n] for n in s) for s in fill[k]), k))
+    search = _Search(outlines, sheet=sheet, gap=gap, margin=margin, unit=unit, cutting=cutting,
+                     rotation_step=rotation_step, tries=tries, time_limit=time_limit,
+                     progress=progress)
+    search.run()
+    return search.layout()
 
-    def repack(names):
+
+class _Search:
+    """The final cut's search (:func:`nest_search`) as an object: its parts prepared, its
+    packers and its sheets kept, so that a later phase (:mod:`.split`: plates split where
+    that empties a sheet) goes on from the sheets it found, with parts it adds
+    (:meth:`add_items`)."""
+
+    def __init__(self, outlines, *, sheet, gap, margin, unit, cutting, rotation_step, tries,
+                 time_limit, progress, sheets: list | None = None, plan: list | None = None):
+        """``sheets`` (``[{name: (rot, offset)}]``): start from these sheets, not from the
+        rows and the skyline (their parts among ``outlines``; :meth:`run` is not needed);
+        ``plan`` (``[[name, ...], ...]``): rows of plates, one more start
+        (:func:`~.rows.planned_layout`)."""
+        self.t0, self.c0 = time.perf_counter(), time.process_time()
+        if tries < 0:
+            raise ValueError(f"tries must be >= 0, got {tries}")
+        self.gap, self.margin, self.unit, self.cutting = gap, margin, unit, cutting
+        self.rotation_step, self.tries, self.time_limit = rotation_step, tries, time_limit
+        w, h, items, sep, edge = prepare(outlines, sheet, gap, margin, cutting, unit)
+        self.w, self.h, self.sep, self.edge = w, h, sep, edge
+        frame = self.frame = _Frame.of(w, h, sep, edge)
+        by_name = self.by_name = {it.name: it for it in items}
+        area = self.area = {n: it.outline.area for n, it in by_name.items()}
+        sky = self.sky = _Skyline(items, frame, rotation_step)
+        if sheets is None:
+            starts = {f"rows by {by}": row_layout(items, w, h, sep, edge, rotation_step, order=by)
+                      for by in ("length", "area")}
+            for by in ("length", "area"):
+                starts[f"skyline by {by}"] = sky.pack(list(by_name), by)
+            if plan is not None:
+                starts["rows as planned"] = planned_layout(items, plan, w, h, sep, edge,
+                                                           rotation_step)
+            fill = {k: _sheets(v) for k, v in starts.items()}
+        else:
+            fill = {"given": [dict(s) for s in sheets]}
+        best = self.best = min(fill, key=lambda k: (len(fill[k]), -min(sum(area[n] for n in s)
+                                                                       for s in fill[k]), k))
+        self.total = sum(area.values())
+        self.start_sheets = {k: len(v) for k, v in fill.items()}
+        self.budget = _Counted(tries, None if time_limit is None else self.t0 + time_limit)
+        self.by_area = int(np.ceil(self.total / (w * h) - 1e-9))
+        outlines = self.outlines = {n: it.outline for n, it in by_name.items()}
+        self.crossing = crossing_bound([it.outline for it in items], sheet=(w, h), sep=sep,
+                                       edge=edge) if sheets is None else 0
+        self.dropper = _Dropper(sky, outlines)
+        self.holes = _HoleFiller(frame, outlines, sky.options)
+        self.emptier = self.budget.emptier = SheetEmptier(
+            fill[best], area, fit=self.repack, may_try=self.budget,
+            usable=frame.length * frame.height, floor=max(self.by_area, self.crossing),
+            progress=progress, drop=_Drops(self.dropper, self.holes))
+
+    def add_items(self, items) -> None:
+        """Parts the search did not start with (prepared :class:`~.items._Item` objects: the
+        pieces of a split plate), known from now on to every packer."""
+        items = [it for it in items if it.name not in self.by_name]
+        for it in items:
+            self.by_name[it.name] = it
+            self.area[it.name] = it.outline.area
+            self.outlines[it.name] = it.outline
+        self.sky.add_items(items)
+        self.dropper.add_items(items)
+        self.holes.add_items(items)
+
+    def repack(self, names):
+        """``{name: (rot, offset)}`` of ``names`` packed afresh on one sheet, or None."""
+        sky, f = self.sky, self.frame
         for by in ("length", "area"):
             where = sky.pack(names, by, one_sheet=True)
             if where is not None:
                 return {n: (rot, off) for n, (_, rot, off) in where.items()}
-        where = row_layout([by_name[n] for n in names], w, h, sep, edge, rotation_step)
+        where = row_layout([self.by_name[n] for n in names], self.w, self.h, self.sep, self.edge,
+                           self.rotation_step)
         if max(si for si, _, _ in where.values()) == 0:
             return {n: (rot, off) for n, (_, rot, off) in where.items()}
         return None
 
-    total = sum(area.values())
-    start_sheets = {k: len(v) for k, v in fill.items()}
-    budget = _Counted(tries, None if time_limit is None else t0 + time_limit)
-    by_area = int(np.ceil(total / (w * h) - 1e-9))
-    outlines = {n: it.outline for n, it in by_name.items()}
-    crossing = crossing_bound([it.outline for it in items], sheet=(w, h), sep=sep, edge=edge)
-    search = budget.emptier = SheetEmptier(
-        fill[best], area, fit=repack, may_try=budget, usable=frame.length * frame.height,
-        floor=max(by_area, crossing), progress=progress,
-        drop=_Drops(_Dropper(sky, outlines), _HoleFiller(frame, outlines, sky.options)))
-    def pack_two(names):
-        outs = [_sheets(sky.pack(names, by)) for by in ("length", "area")]
+    def pack_two(self, names):
+        area = self.area
+        outs = [_sheets(self.sky.pack(names, by)) for by in ("length", "area")]
         return min(outs, key=lambda o: (len(o), -sum(area[n] for n in o[0])))
 
-    search.run(gather=pack_two)
-    placements = sorted((placement_of(by_name[n], si, rot, dx, dy)
-                         for si, s in enumerate(search.sheets) for n, (rot, (dx, dy)) in s.items()),
-                        key=lambda p: (p.sheet, p.name))
-    lay = Layout((w, h), placements, len(search.sheets), unit=unit, gap=gap, margin=margin,
-                 cutting=cutting)
-    why = ("stopped by the time limit" if budget.time_limited else
-           "at the area bound" if len(search.sheets) <= by_area else
-           f"at the crossing bound, {crossing} sheets" if len(search.sheets) <= search.floor else
-           "all tries made" if search.tries >= tries else "nothing more to try")
-    lay.stats = NestStats(f"{Nester.SEARCH.value} from {best} ({search.emptied} sheets emptied, {why})",
-                          time.perf_counter() - t0, time.process_time() - c0, total / (w * h),
-                          time_limit=time_limit, fallback_parts=0,
-                          rotation="free" if rotation_step is None else f"{rotation_step:g} deg steps",
-                          sheet_fill=lay.sheet_utilization, time_limited=budget.time_limited,
-                          start_sheets=start_sheets[best], moves=search.moves,
-                          sheets_emptied=search.emptied, tries=search.tries,
-                          starts=start_sheets, crossing_bound=crossing)
-    return lay
+    def run(self) -> None:
+        self.emptier.run(gather=self.pack_two)
+
+    def why(self) -> str:
+        """Why the search stopped."""
+        search = self.emptier
+        return ("stopped by the time limit" if self.budget.time_limited else
+                "at the area bound" if len(search.sheets) <= self.by_area else
+                f"at the crossing bound, {self.crossing} sheets" if len(search.sheets) <= search.floor
+                else "all tries made" if search.tries >= self.tries else "nothing more to try")
+
+    def layout(self, *, method: str | None = None) -> Layout:
+        """The layout of the sheets as they are now, with its :class:`NestStats`."""
+        search, w, h = self.emptier, self.w, self.h
+        placements = sorted((placement_of(self.by_name[n], si, rot, dx, dy)
+                             for si, s in enumerate(search.sheets)
+                             for n, (rot, (dx, dy)) in s.items()),
+                            key=lambda p: (p.sheet, p.name))
+        lay = Layout((w, h), placements, len(search.sheets), unit=self.unit, gap=self.gap,
+                     margin=self.margin, cutting=self.cutting)
+        if method is None:
+            method = (f"{Nester.SEARCH.value} from {self.best} ({search.emptied} sheets emptied, "
+                      f"{self.why()})")
+        rotation = "free" if self.rotation_step is None else f"{self.rotation_step:g} deg steps"
+        placed = sum(self.area[n] for s in search.sheets for n in s)
+        lay.stats = NestStats(method, time.perf_counter() - self.t0, time.process_time() - self.c0,
+                              placed / (w * h), time_limit=self.time_limit, fallback_parts=0,
+                              rotation=rotation, sheet_fill=lay.sheet_utilization,
+                              time_limited=self.budget.time_limited,
+                              start_sheets=self.start_sheets[self.best], moves=search.moves,
+                              sheets_emptied=search.emptied, tries=search.tries,
+                              starts=dict(self.start_sheets), crossing_bound=self.crossing)
+        return lay

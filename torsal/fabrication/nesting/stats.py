@@ -75,3 +75,6 @@ class NestStats:
     #: the sheets the parts crossing every sheet's middle need at least
     #: (:func:`~.bounds.crossing_bound`; :attr:`Nester.SEARCH`, else None)
     crossing_bound: int | None = None
+    #: the final cut's plates split for yield (:meth:`~.final_cut.YieldSplit.as_report`), or
+    #: None where none was tried
+    split: dict | None = None
