@@ -1,12 +1,12 @@
 """Helpers the benchmarks share: a design's support structure from its stages (cached), and
-the volume of a rhino3dm Brep of planar faces (the 3DM's check; tests/fabrication/test_rhino.py
-uses it too)."""
+the volume of a rhino3dm Brep of planar faces (the 3DM's check; a name for
+:func:`torsal.fabrication.rhino.brep_volume`, which the tests use too)."""
 from __future__ import annotations
 
 import warnings
 from pathlib import Path
 
-import numpy as np
+from torsal.fabrication.rhino import brep_volume  # noqa: F401
 
 
 def design_structure(toml: Path, out: Path):
@@ -29,16 +29,3 @@ def design_structure(toml: Path, out: Path):
         warnings.simplefilter("ignore")
         design.run(out / "run", cache=StageCache(out / "cache", prune=False), pipeline=pipe)
     return design.spec, got["structure"]
-
-
-def brep_volume(brep) -> float:
-    """Volume of a rhino3dm Brep of planar faces (cubed units of its points): (1/6) sum over
-    its loops of (p_i x p_i+1) . c, c the centroid of its face's outer loop's points."""
-    pts = np.array([(v.Location.X, v.Location.Y, v.Location.Z) for v in brep.Vertices])
-    total = 0.0
-    for face in brep.Faces:
-        c = pts[[t.StartVertexIndex for t in face.Loops[0].Trims]].mean(axis=0)
-        for loop in face.Loops:
-            p = pts[[t.StartVertexIndex for t in loop.Trims]]
-            total += np.cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0) @ c / 6.0
-    return total

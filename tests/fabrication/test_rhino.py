@@ -4,18 +4,13 @@ with holes, curved hole walls as triangles, far from the origin), the mesh's Bre
 make none, and the records put into a file rhino3dm wrote."""
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 rhino3dm = pytest.importorskip("rhino3dm")
 
 from torsal.fabrication import rhino as R  # noqa: E402
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from bench_common import brep_volume as _brep_volume  # noqa: E402
+from torsal.fabrication.rhino import brep_volume as _brep_volume  # noqa: E402
 
 
 def _box(x0, y0, z0, dx, dy, dz):

@@ -22,7 +22,8 @@ The modules, in the order a record is made:
 - :mod:`.topology`: the loops, trims, face planes, edges and vertices of those faces as numpy
   arrays, checked to close;
 - :mod:`.records`: the topology as openNURBS bytes (curves, surfaces, tables, chunks, CRCs);
-- :mod:`.brep`: the entry points (:func:`brep_record`, :func:`encoded_brep`, :func:`brep_of`);
+- :mod:`.brep`: the entry points (:func:`brep_record`, :func:`encoded_brep`, :func:`brep_of`;
+  :func:`brep_volume` reads a Brep's volume back);
 - :mod:`.mesh_brep`: rhino3dm's ``CreateFromMesh`` Brep, where the faces make no record;
 - :mod:`.splice`: the records put into a file rhino3dm wrote (:func:`splice_records`).
 
@@ -30,9 +31,9 @@ Units: those of the solid.
 """
 from __future__ import annotations
 
-from .brep import _brep_bytes, _encoding, brep_of, brep_record, encoded_brep  # noqa: F401
+from .brep import _brep_bytes, _encoding, brep_of, brep_record, brep_volume, encoded_brep  # noqa: F401
 from .faces import PLANAR, _membrane, _polygon_faces  # noqa: F401
 from .mesh_brep import _mesh_brep, _quad, _rhino_mesh, _with_edge_tolerances  # noqa: F401
 from .splice import placeholder, splice_records
 
-__all__ = ["brep_of", "encoded_brep", "brep_record", "splice_records"]
+__all__ = ["brep_of", "encoded_brep", "brep_record", "brep_volume", "splice_records"]

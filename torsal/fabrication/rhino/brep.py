@@ -1,7 +1,7 @@
 """A solid part's 3DM Brep: its record (:func:`brep_record`: openNURBS bytes made without
 rhino3dm, from the solid's faces), rhino3dm's encoding of it (:func:`encoded_brep`) and the
 rhino3dm ``Brep`` (:func:`brep_of`), with the mesh's Brep (:mod:`.mesh_brep`) where the faces
-make no record.
+make no record; the volume of a Brep read back (:func:`brep_volume`).
 
 Units: those of the solid.
 """
@@ -65,6 +65,21 @@ def brep_of(shape, tolerance: float):
         if brep is not None:
             return brep
     return _mesh_brep(shape, tolerance)
+
+
+def brep_volume(brep) -> float:
+    """The volume of a rhino3dm ``Brep`` of planar faces (cubed units of its points; rhino3dm
+    has no mass properties), to check a Brep read back from a .3dm file against its solid: the
+    divergence theorem over its faces' loops, each the polygon of its trims' start vertices,
+    (1/6) sum (p_i x p_i+1) . c, c the centroid of its face's outer loop."""
+    pts = np.array([(v.Location.X, v.Location.Y, v.Location.Z) for v in brep.Vertices])
+    total = 0.0
+    for face in brep.Faces:
+        c = pts[[t.StartVertexIndex for t in face.Loops[0].Trims]].mean(axis=0)
+        for loop in face.Loops:
+            p = pts[[t.StartVertexIndex for t in loop.Trims]]
+            total += np.cross(p - c, np.roll(p, -1, axis=0) - c).sum(axis=0) @ c / 6.0
+    return total
 
 
 def _encoding(record: bytes) -> dict:
