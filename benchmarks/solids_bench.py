@@ -82,6 +82,15 @@ ORDER = ["plate faces", "plate B-rep", "slot boxes", "boolean cut + unify", "pol
          "cut B-rep", "BRepCheck", "volume", "slot probes", "mesh (3DM)", "other"]
 
 
+def _set(module, name: str, fn) -> None:
+    """``name`` bound to ``fn`` in a package and in each of its modules that holds it (where
+    its callers look it up)."""
+    prefix = module.__name__ + "."
+    for m in [module, *(m for n, m in list(sys.modules.items()) if n.startswith(prefix))]:
+        if hasattr(m, name):
+            setattr(m, name, fn)
+
+
 class Timers:
     """Exclusive CPU seconds per phase of the wrapped functions of a module (``names``: name
     -> phase, or -> (phase, phase inside ``_slotted_direct``))."""
@@ -93,12 +102,12 @@ class Timers:
         self.module = module
         self.original = {name: getattr(module, name) for name in [*names, "_slotted_direct"]}
         for name, phase in names.items():
-            setattr(module, name, self._wrap(self.original[name], phase))
-        setattr(module, "_slotted_direct", self._inside(self.original["_slotted_direct"]))
+            _set(module, name, self._wrap(self.original[name], phase))
+        _set(module, "_slotted_direct", self._inside(self.original["_slotted_direct"]))
 
     def restore(self) -> None:
         for name, fn in self.original.items():
-            setattr(self.module, name, fn)
+            _set(self.module, name, fn)
 
     def _inside(self, fn):
         def marked(*args, **kwargs):
@@ -155,9 +164,10 @@ def build(plates, parts, thickness, route: str, mesh: bool):
     def bare(*args, **kwargs):
         return solid(*args, **{**kwargs, "pcurves": False})
     if route == "before":
-        plates._slotted_direct, plates._polyhedron_solid = (lambda *a, **k: None), bare
+        _set(plates, "_slotted_direct", lambda *a, **k: None)
+        _set(plates, "_polyhedron_solid", bare)
     else:
-        plates._slotted_direct = counted
+        _set(plates, "_slotted_direct", counted)
     timers = Timers(plates, PHASES)
     meshing = 0.0
     try:
@@ -172,7 +182,8 @@ def build(plates, parts, thickness, route: str, mesh: bool):
         total = time.process_time() - start
     finally:
         timers.restore()
-        plates._slotted_direct, plates._polyhedron_solid = direct, solid
+        _set(plates, "_slotted_direct", direct)
+        _set(plates, "_polyhedron_solid", solid)
     seconds = dict(timers.seconds)
     seconds["mesh (3DM)"] = meshing
     seconds["other"] = total - sum(seconds.values())

@@ -134,7 +134,8 @@ def test_slot_in_a_thin_oblique_plate_is_cut(route, monkeypatch):
     part, depth, width = _oblique_slotted_part()
     panels, t = part.panels, 3.0
     if route == "boolean":
-        monkeypatch.setattr(plates, "_slotted_direct", lambda *a, **k: None)
+        # off where _part_shape looks it up (its module, plates.part)
+        monkeypatch.setattr(plates.part, "_slotted_direct", lambda *a, **k: None)
     else:
         assert plates._slotted_direct(part, t, 1e-9) is not None
     shape = plates._part_shape(part, t)
@@ -293,7 +294,7 @@ def _boolean_route(part, t, monkeypatch):
     from torsal.fabrication import plates
 
     with monkeypatch.context() as m:
-        m.setattr(plates, "_slotted_direct", lambda *a, **k: None)
+        m.setattr(plates.part, "_slotted_direct", lambda *a, **k: None)   # _part_shape's module
         return plates._part_shape(part, t)
 
 
