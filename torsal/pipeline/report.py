@@ -145,9 +145,16 @@ def _figure(figsize):
 
 
 def _save(fig, path: Path) -> str:
+    """Lay ``fig`` out tight and write it as a PNG at ``path``; returns the file name.
+
+    Written by Agg's ``print_png`` directly: ``savefig`` would draw the whole figure once
+    more without rendering it first (the layout engine ``tight_layout`` leaves behind makes it
+    do so), for the same bytes (7a's five pictures: about a quarter of their time)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
     fig.tight_layout()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
+        FigureCanvasAgg(fig).print_png(tmp)
     return path.name
 
 
