@@ -43,24 +43,43 @@ def run(path: Path, out: Path) -> dict:
 
 
 def final_cut(spec) -> dict:
-    """The final cut of the run's parts (``torsal design --final-cut``'s search), nested here
-    from the fin system the run built: sheets, yield of the sheets and seconds."""
-    from torsal.fabrication.nesting import Nester
+    """The final cut of the run's parts (``torsal design --final-cut``:
+    :func:`~torsal.fabrication.nesting.final_cut.final_cut`, the search, then plates split at
+    crossing slots where the bill of quantities says a sheet saved pays), from the fin system
+    the run built: sheets, yield, cuts kept, processor seconds, and where plates were split,
+    the split design's assembly check (interfering pairs, blocked parts)."""
+    from torsal.fabrication import verify_assembly
+    from torsal.fabrication.nesting import final_cut as fc
     from torsal.pipeline.fins import last_fin_system
     from torsal.pipeline.stages import nest_options
 
     fs = last_fin_system()
-    t0 = time.perf_counter()
-    lay = fs.layout(**{**nest_options(spec, fs.unit), "nester": Nester.SEARCH})
-    return {"sheets": lay.n_sheets, "utilization": lay.utilization,
-            "seconds": time.perf_counter() - t0, "method": lay.stats.method}
+    c0 = time.process_time()
+    rates = None if spec.costs is None else spec.costs.rates()
+    fs2, lay, split = fc.final_cut(fs, nest_options(spec, fs.unit), rates=rates,
+                                   density=spec.material.density)
+    out = {"sheets": lay.n_sheets, "utilization": lay.utilization, "bound": lay.area_bound,
+           "cpu_s": time.process_time() - c0, "method": lay.stats.method,
+           "split": split.as_report()}
+    if fs2 is not fs:
+        check = verify_assembly(fs2)
+        out["buildable"] = bool(check.buildable)
+        out["interfering"], out["blocked"] = check.interfering_pairs, len(check.blocked)
+    return out
 
 
 def final_cut_cell(r: dict) -> str:
+    """Sheets / yield of the final cut, its plates cut (seams in their slots) and processor
+    seconds; "not buildable" where the split design's assembly check refuses it."""
     f = r.get("final_cut")
     if not f:
         return "-"
-    return f"{f['sheets']} / {100 * f['utilization']:.0f}% ({f['seconds']:.0f} s)"
+    sp = f.get("split") or {}
+    cuts = f"{sp['cuts']} cuts" if sp.get("kept") else "no cut"
+    ok = "" if f.get("buildable", True) else (
+        f", NOT buildable: {f['interfering']} interfering, {f['blocked']} blocked")
+    return (f"{f['sheets']} / {100 * f['utilization']:.1f}% ({cuts}{ok}; "
+            f"{f['cpu_s']:.0f} s CPU)")
 
 
 def row(key: str, r: dict | None, err: str | None) -> str:
@@ -218,7 +237,7 @@ def main():
     out = Path(args.out)
     lines = ["| example | \\|V\\| | \\|F\\| | T congruence (s) | all stages (s) | delta_pl extracted | "
              "delta_pl optimized | sun blocked (louvers) | view clear (louvers) | fins / parts / sheets | "
-             "sheets / area bound | utilization (DXF) | final cut: sheets / yield (s) | "
+             "sheets / area bound | utilization (DXF) | final cut: sheets / yield (plates cut; s) | "
              "min torsal angle, measured (deg): planes / directions in the face | interfering pairs | connectors (share of parts); fixings | "
              "seams in slots; fallbacks | fasteners; bolts per m² | "
              "bill of quantities: net / gross sheet, cut, pierces, bends | fin panels left out | "
