@@ -104,6 +104,44 @@ Most differences after are of the size of those before and of the digits past co
 +11 %): figures of the remeshing that follow digits the energy does not see. One run each: the
 spread of a figure between runs of one rule was not measured.
 
+Issues 44 and 43, about 4 factorizations per Newton step (2026-11-29 06:45-07:45 UTC, this 2-core
+machine at a load of 14-29: wall times 3-9 times the processor times, so processor seconds and
+counts; the brief's quiet-machine measurement of HEAD 9a076d9, load 1.1: 7c 0.51 + 3.42 s, facade80
+0.38 + 8.61 s). Where 7c's 111 factorizations in 26 Newton steps come from: 26 directions, 78
+passes of the predicted active set (``alm.PREDICT`` = 3 at every step: hundreds of rows change
+per pass, the set never repeats), 3 tries of the exact Hessian (3, 8 and 29 negative pivots) and
+4 directions whose decrement ends an inner minimization. No symbolic analysis is redone (one per
+pattern) and no shift restarts from zero (the projected matrix was never refused). Fewer passes
+are not faster: ``PREDICT`` 1 / 0 took 7c 37 / 44 Newton steps (81 / 52 factorizations), the
+facade at 80 degrees 49 / 102, so the passes stay. The facade's steps crept instead (the objective
+down 3 % a full step, decrements 1e-4) because its exact Newton matrix, tried after full short
+steps, had one negative pivot that a shift of 1e-8 of its mean diagonal removes: IPOPT's inertia
+correction (``alm.INERTIA_PIVOTS``) takes those exact steps. A warm re-solve ends at the design
+tolerance at the rate of its last 3 steps (``alm.WARM_WINDOW``) instead of waiting for 10.
+``--tables design`` (``torsal design``'s congruence stage) and session_bench's let-through
+region, before (HEAD 9a076d9) and after::
+
+    row        run     cpu s   Newton  fact  exact/corrected  E            min ang   ended by
+    7c         before  4.71      26    111    0 / -           0.42719271   39.975    design tolerance
+    7c         after   3.58      26    111    0 / 0           0.42719271   39.975    (the same iterates)
+    facade80   before  8.56      77    305    2 / -           4.1207e-07   80.28     converged
+    facade80   after   4.24      42    166    6 / 5           4.2735e-07   80.54     converged
+    9          before  19.8-24.5 74    300    0 / -           0.017240853  60.006    design tolerance
+    9          after   24.5      74    300    0 / 0           0.017240853  60.006    (the same iterates)
+    region     before  1.95      13     56    the preview: congruence 1.19 s cpu, energy 0.0225343
+    region     after   1.49      7      34    congruence 0.78 s cpu, energy 0.0225381 (+0.017 %)
+
+(9's processor seconds: before at a load of 8-12, after at 29.) On a quiet machine the facade's
+0.38 + 8.61 s would be about 0.38 + 4.3 s at the processor-time ratio, under its 7.4 s; 7c's path is
+unchanged (its 3.92 s against T 3.7 s is the per-step cost: the element Hessians' eigenvalue
+projection, about 25 ms a step, and 4.3 factorizations at 8-10 ms each). The region preview's
+other stages (support 0.35-0.48 s, light 0.28-0.37 s, remesh 0.08-0.12 s of processor time) keep
+it above 1 s. How close the facade at 80 is to converged (it ends by convergence before and
+after: its energy is 3e-7 of its start's, and the design tolerance is relative to the energy
+itself, so it never ends such a solve first), against a run to tol/10 (46 Newton steps, energy
+4.1630e-07): lines at most 0.095 degrees apart (mean 0.039; before 0.245 / 0.186), energy +2.7 %
+(before -1.0 %), smallest torsal plane angle 80.54 against 80.83 (before 80.28).
+
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]
           [--facade-angles 40 60 80]

@@ -159,9 +159,37 @@ DESIGN_DECREMENT = 1e-3
 DESIGN_DECREASE = 1e-3
 #: see DESIGN_DECREMENT
 DESIGN_WINDOW = 10
+#: a warm re-solve's design tolerance before it has taken DESIGN_WINDOW Newton steps: the
+#: objective's decrease over the last WARM_WINDOW steps, at that rate over DESIGN_WINDOW steps,
+#: within DESIGN_DECREASE. A warm re-solve starts at the last design's optimum: 7a's let-through
+#: region moved 0.5 m (issue 43's preview, full size) was at step 4 within 4e-4 of the energy it
+#: then crept to by step 13 at 3e-5 a step (full projected steps, decrements 1e-5), where the
+#: window of 10 ended it; with this it ends at step 7, energy 0.0225381 against 0.0225343
+#: (+0.017 %; benchmarks/session_bench.py). Cold solves as before
+WARM_WINDOW = 3
 
 #: the exact Hessian is tried after a full projected step that turned no line by more than this
 TURN_EXACT = 0.05
+#: the exact Hessian's inertia correction (IPOPT's ``delta_w``, Wachter and Biegler 2006, 3.1): where
+#: the exact ``K`` has at most this many negative pivots (MUMPS's inertia) it is factored again
+#: with a shift ``delta (mean diagonal) I`` (:meth:`AugmentedLagrangian._exact`): :data:`INERTIA_FIRST`,
+#: then :data:`INERTIA_GROW` times the last, up to :data:`INERTIA_MAX`; the next exact step starts
+#: from :data:`INERTIA_SHRINK` times the shift that worked. More negative pivots, or retries that
+#: failed (not made again until an exact step succeeds): the projected ``K``, as without it
+#: (:class:`Inertia`). The doubly curved facade at min_torsal_angle 80 (torsal design's, issue
+#: 44): its exact ``K`` had one negative pivot where it was tried, a shift of 1e-8 of the mean
+#: diagonal made it positive definite, and the projected steps in between crept (the objective
+#: down 3 % a step): 77 -> 42 Newton steps, 305 -> 166 factorizations (benchmarks/optimize_bench.py's
+#: docstring). Fig. 12's 7c and 9 had 3-29 negative pivots: unchanged
+INERTIA_PIVOTS = 2
+#: see INERTIA_PIVOTS
+INERTIA_FIRST = 1e-8
+#: see INERTIA_PIVOTS
+INERTIA_GROW = 10.0
+#: see INERTIA_PIVOTS
+INERTIA_SHRINK = 1.0 / 3.0
+#: see INERTIA_PIVOTS
+INERTIA_MAX = 1e-6
 #: a step shorter than this raises the Levenberg-Marquardt shift
 SHORT_STEP = 0.1
 #: how the energies' element Hessians are made positive semidefinite (:func:`.projected.psd_projection`)
@@ -235,6 +263,15 @@ class NewtonSystem:
     chol: SparseCholesky
     counts: dict = field(default_factory=lambda: {"factorizations": 0})
     chol_definite: SparseCholesky | None = None     # see proving()
+    # values(): the row of each pair, and the last Hessian and Jacobian with what they gave
+    pair_row: np.ndarray = field(init=False, repr=False)
+    _last_hess: np.ndarray | None = field(default=None, init=False, repr=False)
+    _k_hess: np.ndarray | None = field(default=None, init=False, repr=False)
+    _last_jac: np.ndarray | None = field(default=None, init=False, repr=False)
+    _jac_pairs: tuple = field(default=(), init=False, repr=False)
+
+    def __post_init__(self):
+        self.pair_row = self.jac_rows[self.pair_a]
 
     @classmethod
     def of(cls, b: Built, backend: str | None = None) -> "NewtonSystem":
@@ -274,14 +311,29 @@ class NewtonSystem:
                    SparseCholesky(pattern, backend))
 
     def values(self, hess: np.ndarray, jac: np.ndarray, w_rows: np.ndarray, shift: float) -> np.ndarray:
-        """``K``'s values: ``hess + J^T diag(w_rows) J + shift I`` (``jac`` the Jacobian's nonzeros)."""
-        k = np.bincount(self.hess_pos, weights=hess, minlength=self.chol.nnz)
+        """``K``'s values: ``hess + J^T diag(w_rows) J + shift I`` (``jac`` the Jacobian's nonzeros).
+
+        A Newton step assembles ``K`` up to 1 + :data:`PREDICT` times from one ``hess`` and one
+        ``jac`` with other row weights: the scattered Hessian and the pairs' Jacobian entries of
+        the last arrays passed are kept (by identity: the callers never change them in place),
+        the same numbers in the same order."""
+        if self._last_hess is not hess:
+            self._last_hess, self._k_hess = hess, np.bincount(self.hess_pos, weights=hess, minlength=self.chol.nnz)
+        k = self._k_hess.copy()
         if self.pair_a.size:
-            w = w_rows[self.jac_rows[self.pair_a]]
+            if self._last_jac is not jac:
+                self._last_jac, self._jac_pairs = jac, (jac[self.pair_a], jac[self.pair_b])
+            ja, jb = self._jac_pairs
+            w = w_rows[self.pair_row]
             sel = w > 0
-            k += np.bincount(self.pair_pos[sel], weights=w[sel] * jac[self.pair_a[sel]] * jac[self.pair_b[sel]],
-                             minlength=self.chol.nnz)
+            k += np.bincount(self.pair_pos[sel], weights=w[sel] * ja[sel] * jb[sel], minlength=self.chol.nnz)
         k[self.diag_pos] += shift
+        return k
+
+    def matrix(self, hess: np.ndarray, jac: np.ndarray, w_rows: np.ndarray, shift: float) -> np.ndarray:
+        """``K``'s values: :meth:`values` plus ``shift`` times its mean diagonal (at least 1)."""
+        k = self.values(hess, jac, w_rows, 0.0)
+        k[self.diag_pos] += shift * max(1.0, float(np.mean(np.abs(k[self.diag_pos]))))
         return k
 
     def proving(self) -> SparseCholesky:
@@ -318,6 +370,7 @@ class _Direction(NamedTuple):
     d: np.ndarray             # the Newton direction (chart coordinates)
     exact: bool               # from the exact Hessian (else the projected one)
     h: np.ndarray             # that Hessian's nonzeros (the predicted steps reuse it)
+    shift: float = 0.0        # the relative shift K was factored with (the predicted steps keep it)
 
 
 class _Search(NamedTuple):
@@ -341,6 +394,37 @@ def _phr(c: np.ndarray, lam: np.ndarray, rho: np.ndarray, lo: np.ndarray, hi: np
     pt = np.clip(t, lo, hi)
     r = t - pt
     return _Merit(float(np.sum(0.5 * rho * r * r - 0.5 * lam * lam / rho)), rho * r, r != 0.0)
+
+
+@dataclass
+class Inertia:
+    """IPOPT's inertia correction of the exact Hessian's ``K`` within one solve (see
+    :data:`INERTIA_PIVOTS`): the relative shift that last made it positive definite (0: none
+    was needed) and whether a refused factorization is retried with a larger shift."""
+
+    last: float = 0.0
+    retry: bool = True
+
+    def first(self, rel: float) -> float:
+        """The first shift of an exact step: the Levenberg-Marquardt one ``rel``, or
+        :data:`INERTIA_SHRINK` of the last that worked."""
+        return max(rel, INERTIA_SHRINK * self.last)
+
+    def retry_with(self, shift: float, negative: int | None) -> float | None:
+        """The next shift after a factorization at ``shift`` refused with ``negative`` negative
+        pivots (None: not counted), or None: no retry."""
+        if not self.retry or negative is None or not 0 < negative <= INERTIA_PIVOTS or shift >= INERTIA_MAX:
+            return None
+        return min(max(INERTIA_FIRST, INERTIA_GROW * shift), INERTIA_MAX)
+
+    def ended(self, ok: bool, retried: bool, shift: float) -> None:
+        """An exact step ended (``ok``: with a direction, at relative ``shift``, 0 where the
+        Levenberg-Marquardt one sufficed): a failed retry stops the retries until an exact step
+        succeeds."""
+        if ok or retried:
+            self.retry = ok
+        if ok:
+            self.last = shift
 
 
 class AugmentedLagrangian:
@@ -373,10 +457,11 @@ class AugmentedLagrangian:
         b.hess_lag.constraint_curvature = CONSTRAINT_CURVATURE
         self.lo, self.hi = b.lbg, b.ubg
         self.counts = {"factorizations": 0, "shifted": 0, "trials": 0, "exact": 0, "indefinite": 0,
-                       "predicted": 0, "erratic": 0, "tightened": 0, "backend": self.sys.chol.route}
+                       "predicted": 0, "erratic": 0, "tightened": 0, "corrected": 0, "backend": self.sys.chol.route}
         # wall seconds by phase: the Lagrangian Hessian's blocks (and their projection), the
         # factorizations with their solves, the line searches (their point evaluations)
         self.seconds = {"hessian": 0.0, "factor": 0.0, "line search": 0.0}
+        self.inertia = Inertia()
 
     # ------------------------------------------------------------------ evaluations
     def _recentre(self, e: np.ndarray) -> np.ndarray:
@@ -425,53 +510,69 @@ class AugmentedLagrangian:
 
     def _direction(self, z, gl, jac, mu, w, try_exact: bool) -> _Direction | None:
         """The Newton direction ``-K^-1 grad L_A``: with the exact Hessian when asked and it is
-        positive definite (one factorization), else the projected one (one factorization,
-        more only if rounding makes it fail: then with a larger shift)."""
+        positive definite, or nearly so (:meth:`_exact`), else the projected one (one
+        factorization, more only if rounding makes it fail: then with a larger shift)."""
         t0 = time.perf_counter()
         exact_h, projected = self._hessians(mu, exact=try_exact, z=z)
         self.seconds["hessian"] += time.perf_counter() - t0
-        for h, exact in ((exact_h, True), (projected, False)):
-            if h is None:
-                continue
-            if not exact:
-                t0 = time.perf_counter()
-                h = h()
-                self.seconds["hessian"] += time.perf_counter() - t0
-            d = self._solve(h, exact, jac, w, gl)
+        if exact_h is not None:
+            d, shift = self._exact(exact_h, jac, w, gl)
             if d is not None:
-                self.counts["exact"] += int(exact)
-                return _Direction(d, exact, h)
-        return None
+                self.counts["exact"] += 1
+                return _Direction(d, True, exact_h, shift)
+        t0 = time.perf_counter()
+        h = projected()
+        self.seconds["hessian"] += time.perf_counter() - t0
+        d = self._solve(h, False, jac, w, gl)
+        return None if d is None else _Direction(d, False, h, self.rel)
 
-    def _solve(self, h: np.ndarray, exact: bool, jac: np.ndarray, w: np.ndarray, rhs: np.ndarray
-               ) -> np.ndarray | None:
-        """``-(h + J^T diag(w) J + shift I)^-1 rhs``, a descent direction for ``rhs``; None where
-        ``h`` is not positive definite (exact) or rounding defeats every shift (projected)."""
-        sys = self.sys
-        chol = sys.proving() if exact else sys.chol
-        base = sys.values(h, jac, w, 0.0)
-        scale = max(1.0, float(np.mean(np.abs(base[sys.diag_pos]))))
-        for _ in range(1 if exact else 8):
-            k = base.copy()
-            k[sys.diag_pos] += self.rel * scale
-            self.counts["factorizations"] += 1
-            t0 = time.perf_counter()
-            try:
-                chol.factor(k)
-                d = -chol.solve(rhs)
-            except NotPositiveDefinite:
-                self.seconds["factor"] += time.perf_counter() - t0
-                self.counts["indefinite" if exact else "shifted"] += 1
-                if not exact:
-                    self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
-                continue
+    def _exact(self, h: np.ndarray, jac: np.ndarray, w: np.ndarray, rhs: np.ndarray
+               ) -> tuple[np.ndarray | None, float]:
+        """The exact Hessian's Newton direction with IPOPT's inertia correction (:class:`Inertia`):
+        ``(direction or None, the relative shift it was factored with)``."""
+        shift, retried = self.inertia.first(self.rel), False
+        d, negative = self._attempt(self.sys.proving(), self.sys.matrix(h, jac, w, shift), rhs, True)
+        while d is None and (nxt := self.inertia.retry_with(shift, negative)) is not None:
+            shift, retried = nxt, True
+            d, negative = self._attempt(self.sys.proving(), self.sys.matrix(h, jac, w, shift), rhs, True)
+        self.inertia.ended(d is not None, retried, shift if shift > self.rel else 0.0)
+        self.counts["corrected"] += int(d is not None and shift > self.rel)
+        return d, shift
+
+    def _attempt(self, chol: SparseCholesky, k: np.ndarray, rhs: np.ndarray, exact: bool
+                 ) -> tuple[np.ndarray | None, int | None]:
+        """``-k^-1 rhs`` by one factorization: ``(descent direction or None, negative pivots)``
+        (the pivots None where the backend does not count them, or the solve gave no descent)."""
+        self.counts["factorizations"] += 1
+        t0 = time.perf_counter()
+        try:
+            chol.factor(k)
+            d = -chol.solve(rhs)
+        except NotPositiveDefinite as exc:
             self.seconds["factor"] += time.perf_counter() - t0
-            # a descent direction, or the factorization was not what it claimed
-            if np.all(np.isfinite(d)) and (float(rhs @ d) < 0 or not np.any(rhs)):
-                return d
             self.counts["indefinite" if exact else "shifted"] += 1
-            if exact:
-                break
+            if _DEBUG and exact:
+                print(f"    exact K: {exc}")
+            return None, exc.negative
+        self.seconds["factor"] += time.perf_counter() - t0
+        # a descent direction, or the factorization was not what it claimed
+        if np.all(np.isfinite(d)) and (float(rhs @ d) < 0 or not np.any(rhs)):
+            return d, 0
+        self.counts["indefinite" if exact else "shifted"] += 1
+        return None, None
+
+    def _solve(self, h: np.ndarray, exact: bool, jac: np.ndarray, w: np.ndarray, rhs: np.ndarray,
+               shift: float | None = None) -> np.ndarray | None:
+        """``-(h + J^T diag(w) J + shift I)^-1 rhs``, a descent direction for ``rhs``; None where
+        ``h`` is not positive definite (exact, factored once with ``shift``, default the
+        Levenberg-Marquardt one) or rounding defeats every shift (projected)."""
+        if exact:
+            k = self.sys.matrix(h, jac, w, self.rel if shift is None else shift)
+            return self._attempt(self.sys.proving(), k, rhs, True)[0]
+        for _ in range(8):
+            d, _ = self._attempt(self.sys.chol, self.sys.matrix(h, jac, w, self.rel), rhs, False)
+            if d is not None:
+                return d
             self.rel = min(max(self.rel * 100.0, 1e-8), 1e4)
         return None
 
@@ -502,7 +603,7 @@ class AugmentedLagrangian:
             r = np.where(pred, t - np.where(tp < lo, lo, hi), 0.0)
             self.counts["predicted"] += 1
             nxt = self._solve(nd.h, nd.exact, pt.jac, np.where(pred, rho * s * s, 0.0),
-                              pt.grad + sys.jt(pt.jac, s * rho * r))
+                              pt.grad + sys.jt(pt.jac, s * rho * r), nd.shift)
             if nxt is None:
                 break
             d, used, piece = nxt, pred, True
@@ -633,32 +734,18 @@ class AugmentedLagrangian:
         self._moved(run)
         if (not run.status and self.stop is Stop.DESIGN and SETTLED_GAMMA > 1 and not self.monitor.last_feasible
                 and run.steps >= run.tightened + DESIGN_WINDOW and _settled(run)):
-            self._tighten(run)
+            self.counts["tightened"] += run.tighten()
         if not run.status and self.stop is Stop.DESIGN and self._designed(run):
             run.status, run.converged, run.reason = (
                 f"stopped at the design tolerance: measured feasible, Newton decrement {run.dec_own:.1e}, "
-                f"objective down {_recent_decrease(run):.1e} over the last {DESIGN_WINDOW} Newton steps", True,
+                f"objective down {_recent_decrease(run):.1e} over {DESIGN_WINDOW} Newton steps"
+                f"{'' if _window(run) == DESIGN_WINDOW else f' at the rate of the last {_window(run)}'}", True,
                 StopReason.DESIGN)
         return True
 
     def _designed(self, run: "_Run") -> bool:
         """The design tolerance (:data:`DESIGN_DECREMENT`) holds at the iterate just taken."""
         return self.monitor.last_feasible and _settled(run)
-
-    def _tighten(self, run: "_Run") -> None:
-        """The penalties of the rows out of their bounds (beyond :data:`VTOL`, scaled) grow by
-        :data:`SETTLED_GAMMA` (:data:`RHO_MAX` at most): the objective has settled, the iterate
-        is not measured feasible (see SETTLED_GAMMA)."""
-        sg = run.s * run.pt.g
-        v = np.abs(sg - np.clip(sg, run.lo, run.hi))
-        out = v > VTOL
-        if not out.any():       # out only as measured (within VTOL here): nothing to raise
-            return
-        if _DEBUG:
-            print(f"  settled at step {run.steps}: {int(out.sum())} rows out, at most {v.max():.2e}: penalties raised")
-        run.rho = np.where(out, np.minimum(run.rho * SETTLED_GAMMA, RHO_MAX), run.rho)
-        run.tightened = run.steps
-        self.counts["tightened"] += int(out.sum())
 
     def _step(self, run: "_Run", nd: _Direction, d: np.ndarray, gl: np.ndarray, LA: float,
               band: np.ndarray) -> tuple[_Search, float]:
@@ -680,7 +767,7 @@ class AugmentedLagrangian:
             run.erratic |= found.jump
             self.counts["erratic"] += 1
             w = np.where(band | run.erratic, rho * s * s, 0.0)
-            d = self._solve(nd.h, nd.exact, run.pt.jac, w, gl)
+            d = self._solve(nd.h, nd.exact, run.pt.jac, w, gl, nd.shift)
             if d is None:
                 return _Search(), turn
         return found, turn
@@ -774,14 +861,37 @@ class _Run:
     reason: StopReason = StopReason.CONVERGED
     objectives: list = field(default_factory=list)   # F after each Newton step (DESIGN_WINDOW)
 
+    def tighten(self) -> int:
+        """The penalties of the rows out of their bounds (beyond :data:`VTOL`, scaled) grow by
+        :data:`SETTLED_GAMMA` (:data:`RHO_MAX` at most): the objective has settled, the iterate
+        is not measured feasible (see SETTLED_GAMMA). Returns how many grew."""
+        sg = self.s * self.pt.g
+        v = np.abs(sg - np.clip(sg, self.lo, self.hi))
+        out = v > VTOL
+        if not out.any():       # out only as measured (within VTOL here): nothing to raise
+            return 0
+        if _DEBUG:
+            print(f"  settled at step {self.steps}: {int(out.sum())} rows out, at most {v.max():.2e}: penalties raised")
+        self.rho = np.where(out, np.minimum(self.rho * SETTLED_GAMMA, RHO_MAX), self.rho)
+        self.tightened = self.steps
+        return int(out.sum())
+
+
+def _window(run: "_Run") -> int:
+    """The Newton steps :func:`_recent_decrease` looks back over: :data:`DESIGN_WINDOW`, or
+    :data:`WARM_WINDOW` in a warm re-solve that has not taken more than DESIGN_WINDOW."""
+    return DESIGN_WINDOW if len(run.objectives) > DESIGN_WINDOW or not run.warm else WARM_WINDOW
+
 
 def _recent_decrease(run: "_Run") -> float | None:
     """The objective's relative decrease over the last :data:`DESIGN_WINDOW` Newton steps
-    (relative to ``|F|``, without the floor of the Newton decrement), None before that many."""
-    f = run.objectives
-    if len(f) <= DESIGN_WINDOW:
+    (relative to ``|F|``, without the floor of the Newton decrement), None before that many.
+    A warm re-solve's before that many: its decrease over the last :data:`WARM_WINDOW` steps
+    times ``DESIGN_WINDOW / WARM_WINDOW`` (None before WARM_WINDOW + 1 steps)."""
+    f, window = run.objectives, _window(run)
+    if len(f) <= window:
         return None
-    return (f[-1 - DESIGN_WINDOW] - f[-1]) / max(abs(f[-1]), 1e-300)
+    return (f[-1 - window] - f[-1]) / max(abs(f[-1]), 1e-300) * (DESIGN_WINDOW / window)
 
 
 def _settled(run: "_Run") -> bool:

@@ -51,7 +51,15 @@ MUMPS_BACKWARD_ERROR = 1e-8
 
 
 class NotPositiveDefinite(ArithmeticError):
-    """The matrix handed to :meth:`SparseCholesky.factor` is not positive definite."""
+    """The matrix handed to :meth:`SparseCholesky.factor` is not positive definite.
+
+    ``negative``: the number of negative pivots where the backend counts them (MUMPS called
+    directly: its inertia), else None.
+    """
+
+    def __init__(self, message: str, negative: int | None = None):
+        super().__init__(message)
+        self.negative = negative
 
 
 class SparseCholesky:
@@ -149,7 +157,7 @@ class SparseCholesky:
         except mumps.MumpsError as exc:
             raise NotPositiveDefinite(str(exc)) from None
         if negative:
-            raise NotPositiveDefinite(f"{negative} pivots of MUMPS's LDL^T are negative")
+            raise NotPositiveDefinite(f"{negative} pivots of MUMPS's LDL^T are negative", negative)
 
     def _solve_mumps(self, rhs):
         if self.route == "mumps":

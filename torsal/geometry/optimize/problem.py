@@ -343,7 +343,8 @@ class CongruenceProblem(EnergyTerms, ConstraintTerms):
             augmented Lagrangian also ends at the first iterate that holds every constraint
             as measured while its objective has stopped moving (relative Newton decrement and
             decrease over the last 10 Newton steps both below 1e-3,
-            :data:`~torsal.geometry.optimize.alm.DESIGN_DECREMENT`): the digits after it do
+            :data:`~torsal.geometry.optimize.alm.DESIGN_DECREMENT`; a warm re-solve before its
+            10th step: at the rate of its last 3, :data:`~torsal.geometry.optimize.alm.WARM_WINDOW`): the digits after it do
             not change the fins, the light figures or the measured angles (examples 7c and 9,
             ``benchmarks/optimize_bench.py --tables stop``). ``"converged"``: to ``tol``.
             ``OptimizationResult.convergence`` says which ended the solve and how close to

@@ -88,8 +88,9 @@ class Convergence(NamedTuple):
         multipliers); None where it did not run last.
     recent_decrease : float or None
         The objective's relative decrease over the last :data:`~torsal.geometry.optimize.alm.DESIGN_WINDOW`
-        Newton steps (an estimate of the energy still to gain, per that many steps); None
-        where fewer steps ran or the augmented Lagrangian did not run last.
+        Newton steps (an estimate of the energy still to gain, per that many steps; a warm
+        re-solve that took fewer: at the rate of its last :data:`~torsal.geometry.optimize.alm.WARM_WINDOW`);
+        None where fewer steps ran or the augmented Lagrangian did not run last.
     """
 
     stop: Stop
@@ -176,8 +177,9 @@ class OptimizationResult:
     counts : dict
         ``"iterations"``; for the augmented Lagrangian also ``"newton_steps"``,
         ``"outer_iterations"``, ``"factorizations"`` (all sparse Cholesky factorizations),
-        ``"exact"`` (steps with the exact Hessian), ``"indefinite"`` (tries of it that were
-        not positive definite), ``"shifted"`` (projected matrices refactored with a larger
+        ``"exact"`` (steps with the exact Hessian), ``"corrected"`` (those of them whose
+        Newton matrix needed the inertia correction's shift, :data:`~torsal.geometry.optimize.alm.INERTIA_PIVOTS`),
+        ``"indefinite"`` (factorizations of it that were not positive definite), ``"shifted"`` (projected matrices refactored with a larger
         shift), ``"trials"`` (line-search evaluations) and ``"backend"`` (the factorization:
         ``"mumps"`` called directly, ``"mumps/casadi"`` through casadi's interface, see
         :mod:`~torsal.geometry.optimize.factor`).
