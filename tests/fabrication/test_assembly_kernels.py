@@ -302,3 +302,49 @@ def test_a_boolean_of_upright_solids_skips_the_inside_out_check_with_the_same_vo
         assert common_volume(s, t, upright=True) == pytest.approx(common_volume(s, t), rel=1e-9)
     assert is_upright(a) and is_upright(c)
     assert not is_upright(a.wrapped.Reversed())
+
+
+def _edge_uses(tri: np.ndarray) -> np.ndarray:
+    """How many triangles of ``tri`` (t, 3, 3) use each of their edges (vertices matched by
+    coordinates)."""
+    pts, index = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+    t = index.reshape(-1, 3)
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    return np.unique(edges, axis=0, return_counts=True)[1]
+
+
+def test_a_prism_surface_is_the_closed_surface_of_the_swept_face():
+    """The prism of a face of an L-shaped plate swept 2 along its normal: a closed surface
+    (every edge on two triangles) of the area a hand count gives (two L faces of area 3 and
+    six walls, perimeter 8 x height 2), proved clear of a box 1e-3 beyond it and not of one
+    reaching 1e-3 into it; OpenCascade's prism of the same face has the same area."""
+    from build123d import Align, Box, Pos
+
+    from torsal.fabrication.assembly.separation import surfaces_clear
+    from torsal.fabrication.assembly.sweep import _prism_surface
+
+    plate = (Box(2, 2, 0.5, align=(Align.MIN,) * 3)
+             - Pos(1, 1, -1) * Box(1, 1, 3, align=(Align.MIN,) * 3))
+    face = next(f for f in _face_records(plate.wrapped) if abs(f.normal[2]) > 0.99
+                and f.points[:, 2].max() < 0.25)                   # the bottom face, z = 0
+    tri, box = _prism_surface(face, np.array([0.0, 0.0, -2.0]))    # swept to z = 2
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1).sum()
+    assert (_edge_uses(tri) == 2).all()
+    assert area == pytest.approx(2 * 3 + 8 * 2, abs=1e-9)
+    np.testing.assert_allclose(box, [[0, 0, 0], [2, 2, 2]], atol=1e-12)
+    from OCP.BRepGProp import BRepGProp
+    from OCP.GProp import GProp_GProps
+
+    props = GProp_GProps()
+    BRepGProp.SurfaceProperties_s(_face_prism(face.face, np.array([0.0, 0.0, -2.0])), props)
+    assert props.Mass() == pytest.approx(area, abs=1e-9)
+    for gap, apart in ((1e-3, True), (-1e-3, False)):
+        other = _box(1, 1, 1, at=(2 + gap, 0.5, 0.5))
+        otri = _boundary_triangles(other.wrapped)
+        obox = np.array([otri.min(axis=(0, 1)), otri.max(axis=(0, 1))])
+        assert surfaces_clear(tri, otri, box, obox) is apart
+    # a small box in the prism's notch-free part, wholly inside it: not clear (ray parity)
+    inner = _box(0.2, 0.2, 0.2, at=(0.4, 0.4, 0.9))
+    itri = _boundary_triangles(inner.wrapped)
+    assert surfaces_clear(tri, itri, box, np.array([itri.min(axis=(0, 1)), itri.max(axis=(0, 1))])) is False

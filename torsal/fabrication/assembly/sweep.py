@@ -29,7 +29,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
 
     A prism that :func:`prism_clear` or :func:`~.separation.surfaces_clear` proves apart from
     an other adds 0 without a boolean; so does the prism of a notched or holed face whose
-    triangles' prisms it proves apart one by one (:func:`face_pieces`).
+    triangles' prisms it proves apart one by one (:func:`face_pieces`), or its surface made of
+    the face's triangles (:func:`_prism_surface`).
     ``faces``: the face records of ``moving`` (``_face_records``), if made already;
     ``triangles(i)``: the boundary triangles of ``others[i]`` (``_boundary_triangles``), and
     ``boxes(i)`` its bounding box (``_bbox``), if kept; ``upright(i)``: whether ``others[i]``
@@ -44,6 +45,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
                np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, tuple] = {}            # face index -> (oriented prism, its box) or None
+    surfaces: dict[int, tuple | None] = {}   # face index -> :func:`_prism_surface`
     shapes = [_shape(o) for o in others]
     obs = [_bbox(o) if boxes is None else boxes(i) for i, o in enumerate(shapes)]
     fb, ob_ = np.array(fboxes).reshape(-1, 2, 3), np.array(obs).reshape(-1, 2, 3)
@@ -72,6 +74,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
         meets = [int(n) for n in np.flatnonzero(boxes_meet[:, i] & ~clear[:, i])]
         for n in meets:
             face = faces[n]
+            if _surface_clear(surfaces, n, face, v, otri, ob):      # before OpenCascade's prism
+                continue
             if n not in prisms:
                 pr = _face_prism(face.face, v)
                 prisms[n] = None if pr is None else (pr, _bbox(pr), _meshed_triangles(pr))
@@ -91,6 +95,39 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
                 break
         out.append(total)
     return out
+
+
+def _surface_clear(surfaces: dict, n: int, face: _Face, v: np.ndarray, triangles, box) -> bool:
+    """:func:`~.separation.surfaces_clear` of the prism of face ``n`` (:func:`_prism_surface`,
+    made once and kept in ``surfaces``) and a solid's boundary ``triangles`` (None: not
+    known), ``box``."""
+    if n not in surfaces:
+        surfaces[n] = _prism_surface(face, v)
+    return (surfaces[n] is not None and triangles is not None
+            and surfaces_clear(surfaces[n][0], triangles, surfaces[n][1], box))
+
+
+def _prism_surface(face: _Face, v: np.ndarray) -> tuple | None:
+    """``(triangles (t, 3, 3), box (2, 3))`` of the closed surface of the prism ``face`` sweeps
+    along ``-v``: the face's triangles (its exact triangulation, :func:`face_pieces`), their
+    translates by ``-v`` and two triangles on the sweep of each edge of the face's boundary
+    (an edge of one triangle only, vertices matched by their coordinates). None where the face
+    has no triangles. :func:`~.separation.surfaces_clear` of it and another solid's boundary
+    proves the prism clear of that solid as the prism OpenCascade builds would (the same
+    closed surface, other triangles), without building, orienting and meshing it (on 7a's
+    first tries of the paths: 3.87/3.73 -> 2.87/2.57 s CPU, every swept volume the same)."""
+    tri = _boundary_triangles(face.face)
+    if not len(tri):
+        return None
+    pts, index = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+    t = index.reshape(-1, 3)
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    a, b = pts[uniq[count == 1, 0]], pts[uniq[count == 1, 1]]
+    w = np.asarray(v, float)
+    out = np.concatenate([tri, tri - w, np.stack([a, b, b - w], axis=1),
+                          np.stack([a, b - w, a - w], axis=1)])
+    return out, np.array([out.min(axis=(0, 1)), out.max(axis=(0, 1))])
 
 
 def face_pieces(face: _Face) -> list[_Face]:
