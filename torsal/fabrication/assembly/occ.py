@@ -17,10 +17,16 @@ def _shape(x):
 
 
 def _mesh(shapes, tolerance: float) -> None:
-    """Triangulate the shapes (in place, once, before any fork) for the proximity prefilter."""
+    """Triangulate the shapes (in place, once, before any fork) for the proximity prefilter,
+    each unless it has a triangulation that fine already (as :func:`~..plates._mesh`): the
+    solids re-read from the STEP file come meshed so by the reading process, and meshing
+    them again found it done in 0.7 s of this process's time on 7a (the test: 0.01 s)."""
     from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepTools import BRepTools
 
     for s in shapes:
+        if BRepTools.Triangulation_s(s, 0.1 * tolerance):
+            continue
         # serial: worker threads left behind would deadlock the forked processes
         BRepMesh_IncrementalMesh(s, 0.1 * tolerance, False, 0.5, False)
 
