@@ -200,3 +200,21 @@ def test_rows_as_planned():
     over = planned_layout(items, [["a", "c", "b", "d"]], 1000.0, 330.0, 5.0, 10.0)
     assert set(over) == set(parts) and max(si for si, _, _ in over.values()) == 0
     assert set(row_layout(items, 1000.0, 330.0, 5.0, 10.0)) == set(parts)
+
+
+def test_the_row_plans_take_the_parts_not_the_pieces(grid, monkeypatch):
+    # step B plans the rows of the parts as they are; step A's pieces (stand-ins it added to
+    # the search) are not parts of their own
+    from torsal.fabrication.nesting import split as sp
+
+    seen = []
+
+    class Recorder(sp.RowPlan):
+        def __init__(self, pieces, names, frame):
+            seen.append(sorted(names))
+            super().__init__(pieces, names, frame)
+
+    monkeypatch.setattr(sp, "RowPlan", Recorder)
+    res = nest_split(list(grid.unrolled().values()), cuts=yield_cut_positions(grid), **OPTIONS)
+    assert res.n_cuts == 1 and res.pieces           # step A cut a plate into two stand-ins
+    assert seen == [sorted(grid.unrolled())]

@@ -110,6 +110,8 @@ class _SplitRun:
         self.options, self.split_tries = options, split_tries
         self.base = search.layout()
         self.n0 = self.base.n_sheets
+        #: the parts as the search had them (step A adds its pieces to the search's)
+        self.names = list(search.by_name)
         self.used = 0
         self.t0, self.c0 = search.t0, search.c0
 
@@ -130,7 +132,7 @@ class _SplitRun:
         or where the cuts cost more than those sheets are worth), each nested afresh, then
         step A; the candidates whose cuts pay."""
         search, pieces, pays, n0 = self.search, self.pieces, self.pays, self.n0
-        names = list(search.by_name)
+        names = self.names
         plan = RowPlan(pieces, names, search.frame)
         plan.run(0)
         per_sheet = len(plan.rows) / n0
