@@ -140,7 +140,17 @@ it above 1 s. How close the facade at 80 is to converged (it ends by convergence
 after: its energy is 3e-7 of its start's, and the design tolerance is relative to the energy
 itself, so it never ends such a solve first), against a run to tol/10 (46 Newton steps, energy
 4.1630e-07): lines at most 0.095 degrees apart (mean 0.039; before 0.245 / 0.186), energy +2.7 %
-(before -1.0 %), smallest torsal plane angle 80.54 against 80.83 (before 80.28).
+(before -1.0 %), smallest torsal plane angle 80.54 against 80.83 (before 80.28). The design family
+(:func:`~torsal.geometry.optimize.family.design_family`, 20 members at 12 x 12 vertices x 20/40/60/80
+degrees, 80 solves): all 80 measured feasible and converged before and after, Newton steps 1713 ->
+1610, factorizations 6839 -> 6473, processor time 31.6 -> 30.5 s (load 20-25). 11 solves took fewer
+Newton steps (facade-2 at 80: 56 -> 32, canopy-7 at 80: 99 -> 45), 5 more (canopy-11 at 80: 73 ->
+106; facade-2 at 60: 7 -> 16, to a lower energy, 2.6e-7 against 4.9e-7), 25 the same steps with up
+to 9 factorizations more where the retries fail (a real negative pivot: 3 per failed try; canopy-3
+at 80: 94 -> 103), 39 nothing changed.
+Keeping the retries off after a failed one for the whole solve was worse in sum (1658 steps, 6661
+factorizations). The line search's full step is evaluated as a whole point (its value kernel gives
+the same numbers to the last bit): one evaluation less per step taken whole (7c: 26 of 28 trials).
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]

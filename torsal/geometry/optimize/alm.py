@@ -617,14 +617,20 @@ class AugmentedLagrangian:
         alpha = 1.0
         for _ in range(30):
             self.counts["trials"] += 1
-            # the objective and the rows only (half the cost of a point); the accepted one in full
+            # the full step as a whole point (most are taken: 7c 26 of 28 trials); the shorter
+            # ones the objective and the rows only (half the cost of a point), the accepted one
+            # in full. Both kernels give the same values to the last bit
             z = pt.z + alpha * d
-            f, g = self._val(z, self.p)
-            F = float(f[0]) * self.sF
+            full = self._point(z) if alpha == 1.0 else None
+            if full is None:
+                f, g = self._val(z, self.p)
+                F = float(f[0]) * self.sF
+            else:
+                F, g = full.F, full.g
             # a trial where a row is not defined (NaN: a line turned onto a degenerate face) fails
             if (np.isfinite(F) and np.all(np.isfinite(g))
                     and F + _phr(s * g, lam, rho, lo, hi).value <= LA + ARMIJO * alpha * slope):
-                return _Search(alpha, self._point(z))
+                return _Search(alpha, full if full is not None else self._point(z))
             if erratic and alpha == 1.0 and np.all(np.isfinite(g)):
                 lin = s * (pt.g + self.sys.jv(pt.jac, d))
                 y = s * g + lam / rho
