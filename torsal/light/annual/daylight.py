@@ -12,7 +12,9 @@ irradiance).
 - **sDA 300 / 50 %** (spatial daylight autonomy): the share of the work-plane points with at
   least 300 lx for at least half of the occupied hours. LM-83 closes operable blinds in the
   hours where more than 2 % of the points get over 1000 lx of direct sun; here the fins are the
-  shading and no blinds are drawn: the value is that of the room as built.
+  shading and no blinds are drawn: the value is that of the room as built, not LM-83's sDA with
+  its blinds (which blinds closed in the sunniest hours would usually lower; not computed here).
+  Checked against a room computed by hand in ``tests/light/test_annual_daylight.py``.
 - **ASE 1000 / 250** (annual sunlight exposure): the share of the points that get at least
   1000 lx of direct sun (no reflections) for more than 250 occupied hours a year.
 
