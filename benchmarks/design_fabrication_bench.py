@@ -116,6 +116,41 @@ other on the critical path; the check's meshing 1.9 s and paths' plans 1 s in on
 its pairs 12 s and paths 9-11 s in two workers. On a quiet machine the stages after the
 congruence add up to about 60 s by these numbers (support 8, fin system 13, solids 11.5, STEP
 3.5, the read 8.5 beside the 3DM and light, check 15).
+
+Issue 40 (``make demo`` <= 45 s, 7a at full size <= 30 s), 2026-11-29: work taken out of the
+fabrication, assembly and report stages, the same outputs. Before = the working tree of 07:03
+(main 9d4e06a and the plates package being split), after = the same tree with adb0f7e (the
+seams' local checks without build123d in the workers), b9e572d (the pairs' first cheap proof
+one vectorized pass per solid), c2f9b54 (pictures without savefig's extra draw), 7c6067b (the
+paths' prisms proved clear from the face's triangles before OpenCascade builds them) and
+2200d67 (solids meshed by the reading process not meshed again). Whole runs, before and after
+taking turns, in a cpuacct cgroup (CPU of every process: the fork server's workers, the STEP
+reader, the check's workers); the machine at load 18-29 throughout (about 6 engineers on 2
+cores), so the wall seconds say little, the CPU seconds are what to compare, and even they
+swell under such load::
+
+    | run                                    | before wall s | before CPU s | after wall s | after CPU s | load      |
+    |----------------------------------------|---------------|--------------|--------------|-------------|-----------|
+    | 7a full size, all stages (1st pair)    | 179.9         | 71.6         | 179.1        | 71.4        | 25 -> 28  |
+    | 7a full size, all stages (2nd pair)    | 119.5         | 68.0         | 123.6        | 56.2        | 26 -> 20  |
+    | make demo's three commands (1st pair)  | 183.6         | 84.2         | 132.4        | 68.3        | 28 -> 26  |
+    | make demo's three commands (2nd pair)  | 194.9         | 78.2         | 165.8        | 70.3        | 20 -> 19  |
+
+parts.csv (2e328af7dee5), assembly.csv (b0085b1bccfc), the 40 DXF sheets (52094f258a4c),
+fins.step, fins.ifc, the PNGs and report.json (but its seconds) identical in all eight runs;
+fins.3dm differs between any two runs of the same code (rhino3dm's time stamp and the length
+of what follows it: 14,884,847-14,884,865 bytes over six runs of either).
+
+Each piece alone, old and new taking turns in one process (CPU s, load 15-25), every result
+identical: the check's 1,478 pairs 4.11/4.20/4.55 -> 3.07/3.15/2.88; its 188 first tries of the
+paths 3.87/3.73 -> 2.87/2.57; its meshing of the re-read solids before the workers fork 0.70 ->
+0.01; a picture like sheets.png 3.53/3.13 -> 2.78/2.32; and build123d's import (2.0 s in each of
+the two workers that ran the seams' local checks) gone. What is left, by a py-spy profile of
+7a (load 15, samples swollen about 2.6 times): the main process about 35 s (report pictures,
+fin system, IFC, STEP write and collecting the solids, nesting and the DXF written and read
+back), the seams' 69 local checks about 5 s (their slotted solids 40 %, the check 60 %), the
+solids 7 s, the STEP re-read 8 s (its transfer and healing 4 s), the check's workers 7 s (6.7 s in
+this benchmark's cold row after the changes, 11.2 before the pairs and paths changes).
 """
 from __future__ import annotations
 
