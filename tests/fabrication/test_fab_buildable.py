@@ -44,8 +44,10 @@ def corner_blocked_structure() -> SupportStructure:
 def _build(structure=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        # (brackets: their paths and holes are what this module checks; tabs instead of
+        # brackets are test_fab_tabs')
         return FinSystem(structure if structure is not None else corner_blocked_structure(),
-                         thickness=T, clearance=C)
+                         thickness=T, clearance=C, tabs=False)
 
 
 @pytest.fixture(scope="module")

@@ -46,7 +46,7 @@ def test_the_panel_before_the_fold_is_a_dart_whose_centre_is_across_the_line():
 def test_a_bracket_joins_the_fold_with_its_leg_on_the_dart():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        fs = FinSystem(dart_fold(), thickness=T, clearance=C, max_fold_angle=30)
+        fs = FinSystem(dart_fold(), thickness=T, clearance=C, max_fold_angle=30, tabs=False)
     prev, nxt = fs.plates
     assert prev.ends[1] == "fold" and nxt.ends[0] == "fold"
     [j] = [j for j in fs.joints if j.kind == JointKind.BUTT_BRACKET]

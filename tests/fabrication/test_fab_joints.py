@@ -41,6 +41,8 @@ def folded_rows(fold_deg: float = 60.0, step: float = 0.3, depth: float = 0.1):
 
 
 def _build(structure, **kw):
+    # (the joinery's joints as chosen: brackets; tabs instead of brackets are test_fab_tabs')
+    kw.setdefault("tabs", False)
     with warnings.catch_warnings():
         warnings.simplefilter("error")             # constructed cases: nothing to warn about
         return FinSystem(structure, thickness=T, clearance=C, **kw)
@@ -82,7 +84,7 @@ def test_slot_of_only_t_over_sin_alpha_would_interfere_at_45_degrees():
 
 def test_too_oblique_crossing_is_butted_with_brackets():
     with pytest.warns(UserWarning, match="2 joints have no connector"):
-        fs = FinSystem(sheared_grid(20.0), thickness=T, clearance=C)
+        fs = FinSystem(sheared_grid(20.0), thickness=T, clearance=C, tabs=False)
     # the two L corners of 20 deg have no room for a bracket: named, not silent
     assert sorted((n, v) for n, v, _ in fs.unconnected_joints) == [("F1-S000-P00", 0),
                                                                     ("F1-S002-P00", 8)]
@@ -106,7 +108,8 @@ def test_too_oblique_crossing_is_butted_with_brackets():
     # a user may allow slots down to 10 deg: then the slot is t cot(10 deg) + c wide
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        slotted = FinSystem(sheared_grid(20.0), thickness=T, clearance=C, min_crossing_angle=10.0)
+        slotted = FinSystem(sheared_grid(20.0), thickness=T, clearance=C, min_crossing_angle=10.0,
+                            tabs=False)
     [x] = slotted.crossings
     assert x.width == pytest.approx(T / np.tan(np.radians(10.0)) + C)
     assert not interfering_pairs(slotted.solids(workers=1))

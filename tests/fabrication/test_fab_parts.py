@@ -15,7 +15,7 @@ from torsal.geometry.support import SupportStructure
 
 def test_egg_crate_one_part_per_strip_with_stable_ids_and_colours():
     s = sphere_structure(nu=4, nv=3)
-    fs = FinSystem(s, thickness=3.0)
+    fs = FinSystem(s, thickness=3.0, tabs=False)         # (brackets, not tabs: their names)
     plates = [p for p in fs.parts if p.family >= 0]
     assert len(plates) == len(s.fins()) == 3 + 4
     # the 10 boundary T/L junctions are butted with a bracket each, named after their node
@@ -25,7 +25,7 @@ def test_egg_crate_one_part_per_strip_with_stable_ids_and_colours():
     assert [p.name for p in fs.parts[:2]] == ["F0-S000-P00", "F0-S001-P00"]
     assert fs.parts[3].id == PartId(1, 0, 0)
     # ids are stable: rebuilding gives the same names for the same panels
-    again = FinSystem(s, thickness=3.0)
+    again = FinSystem(s, thickness=3.0, tabs=False)
     assert [p.name for p in again.parts] == [p.name for p in fs.parts]
     assert all(np.array_equal(p.edges, q.edges) for p, q in zip(fs.parts, again.parts))
     cols = {p.family: p.color for p in fs.parts}
@@ -63,7 +63,7 @@ def test_slot_depths_add_up_to_fin_depth_and_clearance_and_widths_match(make, ra
 def test_boundary_ends_are_trimmed_against_the_crossing_plate():
     t, c = 3.0, 0.5
     s = flat_structure()
-    fs = FinSystem(s, thickness=t, clearance=c)
+    fs = FinSystem(s, thickness=t, clearance=c, tabs=False)      # (the butt trim, no tab)
     # flat grid, step 300 mm: a column (family 1) ends on rows 0 and 2 (T junctions) and is
     # shortened by t/2 + c/2 at both ends; row 1 ends on the boundary columns
     col = fs.part("F1-S001-P00")
@@ -77,7 +77,7 @@ def test_boundary_ends_are_trimmed_against_the_crossing_plate():
 
 
 def test_family0_continuous_cuts_family1_into_single_panels():
-    fs = FinSystem(sphere_structure(), thickness=3.0, family_split="family0-continuous")
+    fs = FinSystem(sphere_structure(), thickness=3.0, family_split="family0-continuous", tabs=False)
     assert fs.family_split is FamilySplit.FAMILY0_CONTINUOUS
     f0 = [p for p in fs.parts if p.family == 0]
     f1 = [p for p in fs.parts if p.family == 1]
@@ -138,7 +138,7 @@ def test_folded_crossings_are_split_and_held_in_the_slot():
     s = cylinder_structure(nu=8, closed=True)
     with warnings.catch_warnings():
         warnings.simplefilter("error")          # a sound design: nothing to warn about
-        fs = FinSystem(s, thickness=3.0, clearance=0.5, fit_sheet=None)
+        fs = FinSystem(s, thickness=3.0, clearance=0.5, fit_sheet=None, tabs=False)
     # the 8 crossings of the middle row: it folds there, the columns are flat
     assert len(fs.joinery) == 8
     # the dihedral angle of consecutive panels of the middle row, from their normals
@@ -199,7 +199,7 @@ def test_zero_depth_node_raises():
 
 def test_max_part_length_splits_strips_to_fit_sheets():
     s = sphere_structure(nu=9, nv=3, step=0.1)              # rows of 8 panels of ~300 mm
-    fs = FinSystem(s, thickness=3.0, max_part_length=1000.0)
+    fs = FinSystem(s, thickness=3.0, max_part_length=1000.0, tabs=False)
     for p in fs.parts:
         la = np.linalg.norm(p.panels[:, 1] - p.panels[:, 0], axis=1).sum()
         lb = np.linalg.norm(p.panels[:, 2] - p.panels[:, 3], axis=1).sum()

@@ -56,6 +56,9 @@ def test_every_part_is_a_valid_finite_solid(name):
     plates = [p for p in fs.parts if p.family >= 0]
     edges = np.concatenate([p.edges for p in plates])
     dropped = {e for _, e, _ in fs.dropped_panels} | {e for _, e, _, _ in fs.coplanar_panels}
+    # a tab bent from a plate's end is a panel of no fin (edge -1), one per tab joint
+    assert np.count_nonzero(edges < 0) == len(fs.tab_joints)
+    edges = edges[edges >= 0]
     # every fin of the structure is in exactly one part, unless dropped as degenerate or left
     # out as lying along the plate it ends against
     assert len(edges) == len(set(edges.tolist()))
@@ -65,6 +68,10 @@ def test_every_part_is_a_valid_finite_solid(name):
         # no fold inside a plate beyond max_fold_angle (a bracket is bent to its corner), no
         # mitre beyond the mitre limit
         limit = fs.max_fold_angle if p.family >= 0 else 180.0 - 25.0
+        # (the bend of a tab, a panel of no fin, is bent to its corner as a bracket is)
+        edges = np.asarray(p.edges)
+        tab = (edges[:-1] < 0) | (edges[1:] < 0) if p.family >= 0 else False
+        limit = np.where(tab, 180.0 - 25.0, limit)
         assert np.all(np.degrees(np.abs(p.fold_angles)) <= limit + 1e-9), p.name
         assert np.all(np.linalg.norm(p.miters, axis=1) <= 1.0 / np.cos(np.radians(MITER_LIMIT / 2)))
         s = sol[p.name]
@@ -80,7 +87,9 @@ def test_sharp_folds_split_the_part_and_are_reported():
     worst = max(np.nan_to_num(np.degrees(_folds(f.quads))).max(initial=0) for f in st.fins())
     assert worst > 170.0
     # ... and every such fold is a part boundary (never an interior fold of a part)
-    interior = {(p.family, int(v)) for p in fs.parts for v in p.nodes[1:-1]}
+    # (the node lines between two fin panels: not the bend of a tab bent from an end)
+    interior = {(p.family, int(p.nodes[i])) for p in fs.parts for i in range(1, len(p.panels))
+                if p.edges[i - 1] >= 0 and p.edges[i] >= 0}
     for f in st.fins():
         ang = np.degrees(np.abs(_folds(f.quads)))
         for j in np.flatnonzero(ang > fs.max_fold_angle):

@@ -44,7 +44,7 @@ def edge_sine(run: float, rise: float) -> float:
 def _build(s):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return FinSystem(s, thickness=T, clearance=C)
+        return FinSystem(s, thickness=T, clearance=C, tabs=False)   # (the ends' brackets)
 
 
 def test_a_sheared_end_at_9_degrees_is_trimmed_along_the_plate_and_kept():

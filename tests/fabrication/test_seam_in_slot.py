@@ -21,6 +21,7 @@ T, C = 3.0, 0.5
 
 
 def _build(structure, **kw) -> FinSystem:
+    kw.setdefault("tabs", False)        # (the seams and their brackets; tabs: test_fab_tabs)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return FinSystem(structure, thickness=T, clearance=C, **kw)

@@ -276,20 +276,23 @@ class FastenerPlacement:
 
 
 def _plate_holes(fs) -> tuple[np.ndarray, list[str]]:
-    """Centres (k, 3) of the fin plates' holes and the plate of each."""
+    """Centres (k, 3) of the fin plates' holes and the plate of each (the matching holes: not
+    those of a tab bent from the plate, whose bolt goes through them from the tab)."""
     centres, hosts = [], []
     for p in fs.plates:
         for h in p.holes:
+            if getattr(h, "own", False):
+                continue
             centres.append(h.center)
             hosts.append(p.name)
     return np.asarray(centres, float).reshape(-1, 3), hosts
 
 
 def fastener_placements(fs) -> list[FastenerPlacement]:
-    """Every bolt and anchor of a finished fin system, one per hole of a connector or fixing
-    that is not shared (a bolt through two connectors on the two faces of a plate is placed
-    once, at the first, with a grip of three plates): as many as the ``fasteners`` column of
-    parts.csv counts.
+    """Every bolt and anchor of a finished fin system, one per hole of a connector, fixing or
+    tab bent from a fin plate that is not shared (a bolt through two connectors on the two
+    faces of a plate is placed once, at the first, with a grip of three plates): as many as the
+    ``fasteners`` column of parts.csv counts.
 
     The bolt runs from the part's outer face through the part and the fin plate it lies on
     (the plate's matching hole, the nearest plate hole within ``2 thickness``); an anchor
@@ -304,13 +307,16 @@ def fastener_placements(fs) -> list[FastenerPlacement]:
     sizes = {f.label: f for f in (fastener_for(t * mm), anchor_for(t * mm))}
     centres, hosts = _plate_holes(fs)
     plate_tree = cKDTree(centres) if len(centres) else None
-    shared = [h.center for p in fs.connectors + fs.fixings for h in p.holes if h.shared]
+    shared = [h.center for p in fs.parts for h in p.holes if h.shared]
     shared_tree = cKDTree(np.asarray(shared, float).reshape(-1, 3)) if shared else None
     out = []
-    for p in fs.connectors + fs.fixings:
+    # (the tabs' holes are their plates' own: a bolt through the tab and the plate it lies on)
+    tabbed = [p for p in fs.plates if any(getattr(h, "own", False) for h in p.holes)]
+    for p in fs.connectors + fs.fixings + tabbed:
         normals = quad_normals(p.panels)
+        loose = p.family in (CONNECTOR_FAMILY, FIXING_FAMILY)
         for i, h in enumerate(p.holes):
-            if h.shared:
+            if h.shared or not (loose or getattr(h, "own", False)):
                 continue
             f = sizes[h.fastener]
             d = f.bolt_mm / mm

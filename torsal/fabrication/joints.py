@@ -35,6 +35,17 @@ every node the joint is chosen from the real geometry of the plates there:
   and each part enters with a tongue from its own side (:data:`TONGUE_SHARE`). Kept per joint
   only where the assembly check on the solids around it proves it, else butted with brackets
   as above, the fallback named (:mod:`torsal.fabrication.builder.seams`).
+* **Butt joint with a tab** (:attr:`JointKind.BUTT_TAB`, no connector): where a bracket
+  was placed, the butted part's end is bent into a tab instead, a flange of the part itself
+  that lies where the bracket's leg on the continuous plate lay and is bolted to that plate
+  (:func:`tab_panel`). The end panel then ends on the bend line, where its mid-plane meets the
+  plane ``t + clearance/2`` off the continuous plate's (the tab's face keeps the clearance/2
+  of the butted end it replaces); the tab is an extra panel of the part, a trapezoid from the
+  whole bend line to the bracket leg's free edge, so its solid, its flat pattern (one bend
+  more) and its parts-list row are the part's. Kept per joint only where the assembly check
+  on the solids around it proves it, else the bracket stays, the fallback named
+  (:mod:`torsal.fabrication.builder.tabs`). An end bracketed in both corners (a bridge across
+  the other family's seam) keeps one bracket: an end bends into one tab.
 * **Mitre with a splice plate** (:attr:`JointKind.MITRE_SPLICE`) where a strip is split on a
   mild fold away from any crossing plate (``max_panels``, ``max_part_length``, sheet size): the
   ends are mitred on the fold's bisector plane, each trimmed back from it by ``clearance/2``
@@ -107,7 +118,7 @@ __all__ = ["MIN_CROSSING_ANGLE", "MAX_CROSSING_FOLD", "MAX_SLOT_SKEW", "MAX_HOLD
            "place_connector", "connector_variants", "connector_offset", "corner_point",
            "fixing_panels", "corners",
            "mitre_trim", "continues", "seam_trim", "CONTINUE_ANGLE", "JointKind", "MIN_TRIM_SINE",
-           "BRACKET_TRIM_SINE"]
+           "BRACKET_TRIM_SINE", "tab_panel", "TabGeometry"]
 
 #: degrees: plates crossing more obliquely than this are not slotted (butt joint + bracket)
 MIN_CROSSING_ANGLE = 30.0
@@ -691,3 +702,122 @@ def _facing(panels, quad: np.ndarray, start: bool, pa: np.ndarray) -> list:
 def fold_deg(n1: np.ndarray, n2: np.ndarray) -> float:
     """Unsigned angle between two unit normals, degrees."""
     return _fold_deg(n1, n2)
+
+
+class TabGeometry(NamedTuple):
+    """A tab bent from a butted part's end (:func:`tab_panel`): ``moved``, the end panel's two
+    end corners on the bend line (``{corner index: point}``); ``tab``, the tab's quad (4, 3) in
+    the order of the part's panels (``a_i a_j b_j b_i``: before the end panel at a start,
+    after it at an end); ``fold``, the bend (degrees; 180 less the corner it fills); ``leg``,
+    the tab's length from the bend line to its free edge (at the free edge's middle)."""
+
+    moved: dict
+    tab: np.ndarray
+    fold: float
+    leg: float
+
+
+def tab_panel(quad: np.ndarray, start: bool, host: np.ndarray, n_host: np.ndarray,
+              free: np.ndarray, *, thickness: float, gap: float, rise: float = 0.0,
+              others: np.ndarray | None = None, min_sine: float = MIN_TRIM_SINE) -> TabGeometry:
+    """The tab bent from the end of a butted part's end panel ``quad`` (4, 3) (``start``: its
+    ``a_i b_i`` end, corners 0 and 3; else corners 1 and 2) onto the face of ``host`` (4, 3),
+    the panel of the plate it ends against, instead of a bracket there.
+
+    ``n_host`` is the host panel's unit normal turned towards the butted part (the face the
+    tab lies on); ``free`` (2, 3) the two ends of the tab's free edge, the ``a`` side first
+    (the free edge of the bracket leg it replaces: the stretch the bracket found room for).
+    The tab's mid-plane is ``thickness + gap`` off the host's mid-plane (more where a corner
+    of a panel that is planar only to the structure's tolerance stands out), so its face
+    stays ``gap`` off the host's face (``clearance/2``, as the butted end it replaces). The
+    end panel's end corners move along its ``a`` and ``b`` edges onto that plane: the bend
+    line, where the end panel and the tab meet. The fold's mitred outer corner then lies on
+    the end panel's face plane and the tab's: no nearer the host than the tab.
+
+    The tab lies up to ``rise`` farther off the host where it must: where the end is trimmed
+    back past that plane already (it clears another part's end there: the tab then lies on
+    the plane through the end's farther corner), and where the plate folds at the node
+    towards the butted part, so that its other panels there (``others``, (k, 4, 3) quads)
+    would reach the fold's corners.
+
+    Raises :class:`_Untrimmable` where there is no such tab: an edge meets the host at less
+    than ``asin(min_sine)``, the tab would have to lie more than ``rise`` off the host, the
+    panel is too short, or the tab is no convex quad beyond the bend.
+
+    >>> q = np.array([[0, 1.75, 0], [0, 50, 0], [0, 50, 40], [0, 1.75, 40.0]])  # a butted end
+    >>> host = np.array([[-60, 0, -5], [60, 0, -5], [60, 0, 45], [-60, 0, 45.0]])
+    >>> g = tab_panel(q, True, host, np.array([0, 1.0, 0]), np.array([[20, 0, 10], [20, 0, 30.0]]),
+    ...               thickness=3.0, gap=0.25)
+    >>> g.moved[0].tolist(), round(g.fold, 1), round(g.leg, 1)
+    ([0.0, 3.25, 0.0], 90.0, 20.0)
+    """
+    t, h = float(thickness), 0.5 * float(thickness)
+    n_host = np.asarray(n_host, float)
+    centre = host.mean(axis=0)
+    proud = max(0.0, float(((host - centre) @ n_host).max()))
+    base = float(centre @ n_host) + t + gap + proud      # the tab's mid-plane: x . n_host
+    (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
+    level = max(base, float(quad[ia] @ n_host), float(quad[ib] @ n_host))
+    # the host's other panels at the node, their normals turned to the host's side
+    planes = []
+    for o in (() if others is None else np.asarray(others, float).reshape(-1, 4, 3)):
+        no = quad_normals(o[None])[0]
+        no = no if no @ n_host >= 0 else -no
+        if abs(no @ n_host) < 1.0 - 1e-9:            # (one in the host's plane adds nothing)
+            c = o.mean(axis=0)
+            planes.append((no, float(c @ no) + max(0.0, float(((o - c) @ no).max()))))
+    for _ in range(4):
+        if level - base > rise + 1e-9 * t:
+            raise _Untrimmable(f"the tab would lie {level - base + gap:.3g} off the plate "
+                               f"(the end is trimmed back past its bend, or the plate folds "
+                               f"towards it)")
+        moved = {}
+        for cc, oc in ((ia, ja), (ib, jb)):
+            u = quad[oc] - quad[cc]
+            L = float(np.linalg.norm(u))
+            if not L > 0:
+                raise _Untrimmable("its edge has zero length")
+            u = u / L
+            cos = float(u @ n_host)
+            if cos < min_sine:
+                raise _Untrimmable(f"its edge meets the plate at "
+                                   f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
+            s = (level - float(quad[cc] @ n_host)) / cos
+            if s >= 0.5 * L:
+                raise _Untrimmable(f"panel too short ({L:.3g}) to bend a tab {s:.3g} from its end")
+            moved[cc] = quad[cc] + max(s, 0.0) * u
+        ba, bb = moved[ia], moved[ib]
+        end = quad.copy()
+        end[ia], end[ib] = ba, bb
+        f2 = np.asarray(free, float)
+        f2 = f2 - (f2 @ n_host - level)[:, None] * n_host[None]
+        tab = np.array([f2[0], ba, bb, f2[1]]) if start else np.array([ba, f2[0], f2[1], bb])
+        n_end, n_tab = quad_normals(np.array([end, tab]))
+        if n_end @ n_tab <= -0.999:
+            raise _Untrimmable("the tab would fold back onto its end panel")
+        m = _miter(n_end, n_tab)
+        # the bend's corners (both faces) stay off the host's other panels' faces (the
+        # mitred outer corner stands out past the bend a real bend's radius keeps inside)
+        corners = np.array([x + sg * h * m for x in (ba, bb) for sg in (1.0, -1.0)])
+        short = max((1.01 * h - float((corners @ no - off).min()) for no, off in planes),
+                    default=0.0)
+        if short <= 1e-9 * t:
+            break
+        level += short
+    else:
+        raise _Untrimmable("the plate folds towards the tab at the node")
+    # the free edge beyond the bend line, every corner turning the same way (a convex quad)
+    e = (bb - ba) / np.linalg.norm(bb - ba)
+    w = f2.mean(axis=0) - ba
+    w = w - (w @ e) * e
+    leg = float(np.linalg.norm(w))
+    if not leg > t or min((f - ba) @ w for f in f2) <= t * leg:
+        raise _Untrimmable("the tab's free edge does not lie beyond its bend")
+    turns = [float(_cross(tab[i] - tab[i - 1], tab[(i + 1) % 4] - tab[i]) @ n_host)
+             for i in range(4)]
+    if not (all(x > 0 for x in turns) or all(x < 0 for x in turns)):
+        raise _Untrimmable("the tab is no convex quad")
+    fold = _fold_deg(n_end, n_tab)
+    if not fold < 180.0 - MIN_BRACKET_ANGLE + 1e-9:
+        raise _Untrimmable(f"the tab would bend {fold:.0f} deg")
+    return TabGeometry(moved, tab, fold, leg)

@@ -141,6 +141,9 @@ class JointKind(str, Enum):
     EGG_CRATE = "egg-crate"
     #: a part end butt-trimmed against a plate it meets and fastened with a bent bracket
     BUTT_BRACKET = "butt-bracket"
+    #: a part end butted against a plate as for a bracket, bent into a tab of its own sheet that
+    #: lies on that plate and is bolted to it: no connector (issue 42)
+    BUTT_TAB = "butt-tab"
     #: two parts of one strip split on a mild fold, mitred on the fold's bisector plane and
     #: fastened with a bent splice plate across the seam
     MITRE_SPLICE = "mitre-splice"
@@ -334,6 +337,11 @@ class Hole:
     shared : bool
         The bolt through it is counted at another connector's hole: two connectors on the two
         faces of a plate, one bolt through both and the plate.
+    own : bool
+        The fastener through it is counted at this hole although the part is a fin plate: a
+        hole of a tab bent from the plate (:attr:`JointKind.BUTT_TAB`), whose bolt holds it to
+        the plate it lies on (the hole there is that plate's matching hole). A connector's or
+        fixing's holes are its own by the part's family.
     """
 
     center: np.ndarray
@@ -341,6 +349,7 @@ class Hole:
     panel: int = -1
     fastener: str = ""
     shared: bool = False
+    own: bool = False
 
 
 @dataclass

@@ -29,7 +29,11 @@ closed strips are always cut into at least two parts. Those splits meet on the b
 of the fold (mitred) with a splice plate, or, at a crossing, meet on that seam inside the
 crossing plate's slot without a connector where the assembly check on the parts around the
 joint proves it (``seams_in_slot``; else butted against the crossing plate with brackets, named
-in ``joint_fallbacks``, :mod:`.builder.seams`). Connectors (brackets, splice plates) are parts of their own, named ``C-N<node>-<i>``;
+in ``joint_fallbacks``, :mod:`.builder.seams`). Once the design is settled, a butted end's
+bracket becomes a tab bent from the end itself, lying on the plate and bolted to it, wherever
+the assembly check on the parts around that joint proves it (``tab_joints``; a bracket that
+stays is named in ``joint_fallbacks``, :mod:`.builder.tabs`). Connectors (brackets, splice
+plates) are parts of their own, named ``C-N<node>-<i>``;
 :attr:`FinSystem.joints` lists every joint (:class:`~.model.Joint`).
 
 Every part goes in along one direction (:mod:`.joints`, "one insertion direction per part"):
@@ -168,6 +172,10 @@ class FinSystem:
         sheet you will nest on; ``None`` keeps whole strips.
     model_unit, unit : str
         One of ``mm, cm, m, in, ft``; the structure is scaled by ``model_unit -> unit``.
+    tabs : bool
+        Bend a butted end into a tab bolted to the plate it meets instead of a bracket, per
+        joint where the assembly check on the parts around it proves it (default; issue 42,
+        :mod:`.builder.tabs`). False keeps every bracket.
 
     Attributes
     ----------
@@ -211,7 +219,7 @@ class FinSystem:
                  model_unit: str = "m", unit: str = "mm", min_panel_width: float | None = None,
                  min_crossing_angle: float = MIN_CROSSING_ANGLE,
                  max_crossing_fold: float = MAX_CROSSING_FOLD,
-                 fixing_spacing: float | None = FIXING_SPACING):
+                 fixing_spacing: float | None = FIXING_SPACING, tabs: bool = True):
         self._check_common(thickness, clearance, model_unit, unit, max_panels)
         if not 0.0 < slot_ratio < 1.0:
             raise ValueError(f"slot_ratio must be in (0, 1), got {slot_ratio}")
@@ -238,6 +246,7 @@ class FinSystem:
         if fixing_spacing is not None and not (np.isfinite(fixing_spacing) and fixing_spacing > 0):
             raise ValueError(f"fixing_spacing must be > 0 (or None: no fixings), got {fixing_spacing}")
         self.fixing_spacing = None if fixing_spacing is None else float(fixing_spacing)
+        self.tabs = bool(tabs)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
         self.parts: list[Part] = []
@@ -306,6 +315,7 @@ class FinSystem:
         self._set_fit(fit_sheet, fit_margin)
         self._set_min_width(min_panel_width)
         self.fixing_spacing = None          # free strips: no design surface to fix them to
+        self.tabs = False                   # (their splits at sharp folds have no bracket)
         self.model_unit, self.unit = model_unit, unit
         self.scale = UNIT_TO_MM[model_unit] / UNIT_TO_MM[unit]
         self.crossings, self.parts, self.untrimmed_joints = [], [], []

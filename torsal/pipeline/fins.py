@@ -87,13 +87,17 @@ def fabrication_summary(fs) -> dict:
     sizes, from the holes of :mod:`torsal.fabrication.builder.fasteners`), the
     ``panels_left_out_share`` (fin panels not built, of the structure's fins) and the
     ``joinery`` (:func:`~torsal.fabrication.builder.seams.joinery_report`: seams in slots,
-    fallbacks named).
+    fallbacks named, the brackets that stayed instead of a tab among them) and ``tabs``
+    (:func:`~torsal.fabrication.builder.tabs.tab_report`: the butt joints made with a tab bent
+    from the butted plate instead of a bracket, the fallbacks by reason, the brackets taken
+    away where the parts were joined without them).
 
     >>> fabrication_summary(fs)["connector_share"]                    # doctest: +SKIP
     0.43
     """
     from ..fabrication.builder.fasteners import fastener_counts
     from ..fabrication.builder.seams import joinery_report
+    from ..fabrication.builder.tabs import tab_report
 
     counts = fastener_counts(fs)
     parts = len(fs.parts)
@@ -112,4 +116,6 @@ def fabrication_summary(fs) -> dict:
         # seams held in crossing slots without a connector, and those that fell back to
         # brackets, named with why (issue 42)
         "joinery": joinery_report(fs),
+        # butt joints made with a tab bent from the butted plate, no bracket (issue 42)
+        "tabs": tab_report(fs),
     }

@@ -14,6 +14,9 @@ and every path is clear; :class:`FreeStrips` (:mod:`.free`) makes the parts of f
 * :mod:`.seams` holds the seams of strips split at a crossing in the other plate's slot,
   without a connector, where the assembly check on the parts around each proves it, and
   names the ones that fall back to brackets (:class:`SlotSeams`);
+* :mod:`.tabs` bends the butted end of a bracketed joint into a tab bolted to the plate it
+  meets, with no bracket, once the design is settled, where the assembly check on the parts
+  around each proves it, and names the brackets that stay (:class:`TabJoints`);
 * :mod:`.clash` finds plates that run into each other without a joint (:class:`ClashFinder`);
 * :mod:`.paths` orders the parts, gives each butted part its direction and checks its path
   into place (:class:`AssemblyPlanner`);
@@ -34,6 +37,7 @@ from .paths import AssemblyPlanner
 from .rebuild import Rebuilder
 from .seams import SlotSeams
 from .strips import StripCutter
+from .tabs import TabJoints
 
 __all__ = ["StripCutter", "EndJoiner", "ButtTrimmer", "ConnectorPlacer", "CrossingSlotter",
-           "ClashFinder", "AssemblyPlanner", "SlotSeams", "Rebuilder", "FreeStrips"]
+           "ClashFinder", "AssemblyPlanner", "SlotSeams", "TabJoints", "Rebuilder", "FreeStrips"]

@@ -14,6 +14,12 @@ the leg is long enough along the bend for two at that pitch (:func:`row_count`).
 short across for a hole (:func:`min_leg`) gets none: its connector is welded or bonded, and
 is counted as such.
 
+A tab bent from a butted part instead of a bracket (:mod:`.tabs`) is drilled like the bracket's
+leg it replaces: a row along its bend at the edge distance from its free edge
+(:func:`tab_holes`), bolts through the tab and the plate it lies on. The tab's holes are the
+part's own (:attr:`~torsal.fabrication.model.Hole.own`: their bolts are counted there, under
+the joint kind ``butt-tab``), the plate's are its matching holes.
+
 Lengths in the fin system's ``unit``; fastener sizes in mm (converted).
 
 Example
@@ -38,7 +44,7 @@ from ..model import CONNECTOR_FAMILY, FIXING_FAMILY, Hole, Part, _cross, quad_no
 
 __all__ = ["Fastener", "fastener_for", "anchor_for", "min_leg", "row_count", "leg_holes",
            "connector_holes", "matching_hole", "EDGE_FACTOR", "PITCH_FACTOR", "CLEARANCE_HOLES",
-           "FastenerLayout", "FastenerCount", "fastener_counts", "part_fastening"]
+           "FastenerLayout", "FastenerCount", "fastener_counts", "part_fastening", "tab_holes"]
 
 #: bolt size (mm) -> clearance hole diameter (mm), ISO 273 medium series
 CLEARANCE_HOLES = {4: 4.5, 5: 5.5, 6: 6.6, 8: 9.0, 10: 11.0, 12: 13.5, 16: 17.5}
@@ -146,6 +152,30 @@ def connector_holes(q: np.ndarray, legs: tuple[Fastener | None, Fastener | None]
     return tuple(out)
 
 
+def tab_holes(bend0: np.ndarray, bend1: np.ndarray, free0: np.ndarray, free1: np.ndarray,
+              f: Fastener, *, thickness: float, unit: str = "mm") -> list[np.ndarray]:
+    """Hole centres (each (3,)) of a tab (:func:`~torsal.fabrication.joints.tab_panel`): its bend
+    line ``bend0 -> bend1`` and its free edge ``free0 -> free1`` (mid-surface corners, the
+    ``a`` side first; the free edge may be shorter than the bend, a trapezoid). As
+    :func:`leg_holes` on the rectangle under the free edge: the row along the free edge's
+    stretch, the edge distance from it; none if the tab is too short across or along.
+
+    >>> h = tab_holes(np.zeros(3), np.array([0, 0, 100.0]), np.array([20, 0, 25.0]),
+    ...               np.array([20, 0, 75.0]), fastener_for(3.0), thickness=3.0)
+    >>> [x.round(1).tolist() for x in h]
+    [[10.1, 0.0, 34.9], [10.1, 0.0, 65.1]]
+    """
+    e = (bend1 - bend0) / np.linalg.norm(bend1 - bend0)
+    w = 0.5 * (free0 + free1) - bend0
+    w = w - (w @ e) * e
+    leg = float(np.linalg.norm(w))
+    if not leg > 0:
+        return []
+    b0 = bend0 + ((free0 - bend0) @ e) * e
+    b1 = bend0 + ((free1 - bend0) @ e) * e
+    return leg_holes(b0, b1, b0 + w, f, thickness=thickness, unit=unit)
+
+
 def matching_hole(hole: Hole, plate: Part, panel: int, *, margin: float = 0.0) -> Hole | None:
     """The hole in ``plate`` (panel ``panel``) that a bolt through ``hole`` of a connector leg
     lying on it passes: the centre projected on the panel's mid-plane; None where that falls
@@ -213,9 +243,29 @@ class FastenerLayout:
                     keep.append(h)
                     there.append(m)
             part.holes = tuple(keep)
+        # the tabs bent from butted parts (.tabs): their holes are the part's own
+        own: dict[str, list[Hole]] = {}
+        for tj in getattr(fs, "tab_joints", []):
+            p, plate = by_name.get(tj.part), by_name.get(tj.host)
+            if p is None or plate is None:
+                continue
+            i = tj.panel(p)
+            q = p.panels[i]
+            (b0, b1), (f0, f1) = ((q[1], q[2]), (q[0], q[3])) if tj.start else ((q[0], q[3]), (q[1], q[2]))
+            for c in tab_holes(b0, b1, f0, f1, bolt, thickness=t, unit=fs.unit):
+                h = Hole(c, bolt.hole_mm / mm, i, bolt.label, own=True)
+                m = matching_hole(h, plate, tj.host_panel)
+                if m is None:
+                    continue
+                there = plate_holes.setdefault(plate.name, [])
+                shared = any(np.linalg.norm(o.center - m.center) < 0.1 * m.diameter for o in there)
+                own.setdefault(p.name, []).append(Hole(c, h.diameter, i, h.fastener, shared=shared,
+                                                       own=True))
+                if not shared:
+                    there.append(m)
         for p in fs.parts:
             if p.family not in (CONNECTOR_FAMILY, FIXING_FAMILY):
-                p.holes = tuple(plate_holes.get(p.name, []))
+                p.holes = tuple(plate_holes.get(p.name, []) + own.get(p.name, []))
 
 
 class FastenerCount(NamedTuple):
@@ -255,6 +305,18 @@ def fastener_counts(fs) -> dict[str, FastenerCount]:
         r[3] += not p.holes
         r[4].update(h.fastener for h in p.holes)
         r[5].update(round(float(h.diameter), 6) for h in p.holes)
+    # tabs bent from the butted parts: no connector, their bolts counted at the tab's holes
+    by_name = {p.name: p for p in fs.parts}
+    for tj in getattr(fs, "tab_joints", []):
+        p = by_name.get(tj.part)
+        if p is None:
+            continue
+        r = rows.setdefault("butt-tab", [0, 0, 0, 0, set(), set()])
+        holes = [h for h in p.holes if h.own and h.panel == tj.panel(p)]
+        r[1] += sum(1 for h in holes if not h.shared)
+        r[3] += not holes
+        r[4].update(h.fastener for h in holes)
+        r[5].update(round(float(h.diameter), 6) for h in holes)
     return {k: FastenerCount(r[0], r[1], r[2], r[3], ", ".join(sorted(r[4])),
                              max(r[5], default=0.0))
             for k, r in sorted(rows.items())}
@@ -264,20 +326,20 @@ def part_fastening(fs) -> dict[str, dict]:
     """Per part name, the parts list's fastener columns: ``kind`` (``plate``, the joint kind of
     a connector, or ``fixing``), ``holes`` (count), ``hole_diameter_mm`` (largest; 0 without
     holes), ``fasteners`` (the bolts and anchors that go through its own holes, for a connector
-    or fixing, a bolt shared with the connector on the plate's other face counted there; 0 for a
-    plate: the connector's bolt passes its matching hole) and ``fastener``
-    (the sizes, e.g. ``M6 bolt``)."""
+    or fixing, a bolt shared with the connector on the plate's other face counted there; for a
+    plate those through the tabs bent from it, :mod:`.tabs`; not a connector's bolt, which
+    passes its matching hole) and ``fastener`` (the sizes, e.g. ``M6 bolt``)."""
     kind_of = {j.connector: j.kind.value for j in getattr(fs, "joints", []) if j.connector}
     mm = UNIT_TO_MM[fs.unit]
     out = {}
     for p in fs.parts:
         kind = ("fixing" if p.family == FIXING_FAMILY else kind_of.get(p.name, "plate"))
         holes = getattr(p, "holes", ())
-        own = kind != "plate"
+        own = [h for h in holes if kind != "plate" or getattr(h, "own", False)]
         out[p.name] = {
             "kind": kind, "holes": len(holes),
             "hole_diameter_mm": round(max((h.diameter for h in holes), default=0.0) * mm, 3),
-            "fasteners": sum(1 for h in holes if not h.shared) if own else 0,
-            "fastener": " + ".join(sorted({h.fastener for h in holes})) if own else "",
+            "fasteners": sum(1 for h in own if not h.shared),
+            "fastener": " + ".join(sorted({h.fastener for h in own})),
         }
     return out

@@ -24,6 +24,7 @@ from .fixings import FixingPlacer
 from .paths import AssemblyPlanner
 from .seams import JointFallback, SlotSeam, SlotSeams
 from .strips import StripCutter, _plate_panels, _read_strips
+from .tabs import TabJoints
 
 #: how often a :class:`~torsal.fabrication.parts.FinSystem` rebuilds at most, changing joints
 #: and leaving out panels
@@ -76,6 +77,11 @@ def init_joints(fs) -> None:
     fs._refuse_seams: dict = {}
     fs.seams_in_slot: list[SlotSeam] = []
     fs.joint_fallbacks: list[JointFallback] = []
+    #: the butt joints made with a tab bent from the butted part instead of a bracket (.tabs)
+    fs.tab_joints: list = []
+    #: brackets taken away at an end bent into a tab in its other corner, whose parts are
+    #: joined at the node without them: (node, bracket, parts, why) (.tabs)
+    fs.spare_brackets: list = []
     #: part name -> [unit normal of a plate it butts against, turned towards the part]
     fs._walls: dict[str, list] = {}
     #: (family, node) -> [(normal, into direction, plate normal)] of part ends butted there
@@ -171,6 +177,9 @@ class Rebuilder:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         # slots that would cut a part in two: once, on the final parts (it unrolls them all)
         CrossingSlotter(fs)._resolve_slot_splits()
+        # brackets whose butted end can bend into a tab instead, where the assembly check
+        # around each proves it (issue 42)
+        TabJoints(fs).make()
         # the fasteners' holes, in the connectors, fixings and the plates they lie on
         FastenerLayout(fs)._drill()
         if left_out:

@@ -259,7 +259,9 @@ def part_quantities(part: Part, unrolled: Unrolled, *, thickness: float, unit: s
     net = outline.area - sum(0.25 * np.pi * float(h.diameter) ** 2 for h in part.holes)
     contours = outline.exterior.length + sum(r.length for r in outline.interiors)
     own = part.family in (CONNECTOR_FAMILY, FIXING_FAMILY)
-    fasteners = Counter(h.fastener for h in part.holes if own and not h.shared)
+    # (a fin plate's own holes: those of a tab bent from it, bolted to the plate it lies on)
+    fasteners = Counter(h.fastener for h in part.holes
+                        if (own or getattr(h, "own", False)) and not h.shared)
     kg_per_m2 = thickness * to_m * density
     return PartQuantities(
         name=part.name, net_m2=net * to_m ** 2, net_kg=net * to_m ** 2 * kg_per_m2,
