@@ -15,7 +15,7 @@ import pytest
 from fab_structures import flat_structure
 
 from torsal.fabrication import FinSystem, JointKind, verify_assembly
-from torsal.fabrication.builder import tabs as tabs_module
+from torsal.fabrication.builder import tab_check, tab_sites
 from torsal.fabrication.builder.fasteners import fastener_counts, part_fastening
 from torsal.fabrication.builder.tabs import TabReason, with_tabs
 from torsal.fabrication.joints import _Untrimmable, tab_panel
@@ -161,10 +161,10 @@ def test_a_tab_the_assembly_check_refuses_leaves_its_bracket(monkeypatch):
     # tabs sunk 1 mm into the plate they lie on (a gap of -1 mm): the parts around each joint
     # interfere, the check on them refuses every tab, and every bracket stays, each named
     # among the fallbacks with what the check found
-    monkeypatch.setattr(tabs_module, "TAB_GAP", -2.0)
+    monkeypatch.setattr(tab_sites, "TAB_GAP", -2.0)
     checked = []
-    local = tabs_module._local_check
-    monkeypatch.setattr(tabs_module, "_local_check",
+    local = tab_check._local_check
+    monkeypatch.setattr(tab_check, "_local_check",
                         lambda ask: checked.append(sorted(p.name for p in ask[0])) or local(ask))
     fs = _build(flat_structure(4, 3))
     assert not fs.tab_joints

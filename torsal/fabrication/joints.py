@@ -758,34 +758,13 @@ def tab_panel(quad: np.ndarray, start: bool, host: np.ndarray, n_host: np.ndarra
     base = float(centre @ n_host) + t + gap + proud      # the tab's mid-plane: x . n_host
     (ia, ib), (ja, jb) = ((0, 3), (1, 2)) if start else ((1, 2), (0, 3))
     level = max(base, float(quad[ia] @ n_host), float(quad[ib] @ n_host))
-    # the host's other panels at the node, their normals turned to the host's side
-    planes = []
-    for o in (() if others is None else np.asarray(others, float).reshape(-1, 4, 3)):
-        no = quad_normals(o[None])[0]
-        no = no if no @ n_host >= 0 else -no
-        if abs(no @ n_host) < 1.0 - 1e-9:            # (one in the host's plane adds nothing)
-            c = o.mean(axis=0)
-            planes.append((no, float(c @ no) + max(0.0, float(((o - c) @ no).max()))))
+    planes = _host_planes(others, n_host)
     for _ in range(4):
         if level - base > rise + 1e-9 * t:
             raise _Untrimmable(f"the tab would lie {level - base + gap:.3g} off the plate "
                                f"(the end is trimmed back past its bend, or the plate folds "
                                f"towards it)")
-        moved = {}
-        for cc, oc in ((ia, ja), (ib, jb)):
-            u = quad[oc] - quad[cc]
-            L = float(np.linalg.norm(u))
-            if not L > 0:
-                raise _Untrimmable("its edge has zero length")
-            u = u / L
-            cos = float(u @ n_host)
-            if cos < min_sine:
-                raise _Untrimmable(f"its edge meets the plate at "
-                                   f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
-            s = (level - float(quad[cc] @ n_host)) / cos
-            if s >= 0.5 * L:
-                raise _Untrimmable(f"panel too short ({L:.3g}) to bend a tab {s:.3g} from its end")
-            moved[cc] = quad[cc] + max(s, 0.0) * u
+        moved = _bend_line(quad, ((ia, ja), (ib, jb)), n_host, level, min_sine)
         ba, bb = moved[ia], moved[ib]
         end = quad.copy()
         end[ia], end[ib] = ba, bb
@@ -806,18 +785,67 @@ def tab_panel(quad: np.ndarray, start: bool, host: np.ndarray, n_host: np.ndarra
         level += short
     else:
         raise _Untrimmable("the plate folds towards the tab at the node")
-    # the free edge beyond the bend line, every corner turning the same way (a convex quad)
+    leg = _tab_leg(tab, ba, bb, f2, n_host, t)
+    fold = _fold_deg(n_end, n_tab)
+    if not fold < 180.0 - MIN_BRACKET_ANGLE + 1e-9:
+        raise _Untrimmable(f"the tab would bend {fold:.0f} deg")
+    return TabGeometry(moved, tab, fold, leg)
+
+
+def _host_planes(others: np.ndarray | None, n_host: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """``[(unit normal, offset)]``: the face towards the host's side of each of the host
+    plate's other panels at the node (``others``, (k, 4, 3)), ``x . normal = offset`` (the
+    normal turned towards ``n_host``; the offset includes how far a corner stands out of a
+    panel planar only to the structure's tolerance); one in the host's plane adds nothing."""
+    planes = []
+    for o in (() if others is None else np.asarray(others, float).reshape(-1, 4, 3)):
+        no = quad_normals(o[None])[0]
+        no = no if no @ n_host >= 0 else -no
+        if abs(no @ n_host) < 1.0 - 1e-9:
+            c = o.mean(axis=0)
+            planes.append((no, float(c @ no) + max(0.0, float(((o - c) @ no).max()))))
+    return planes
+
+
+def _bend_line(quad: np.ndarray, edges: tuple, n_host: np.ndarray, level: float,
+               min_sine: float) -> dict:
+    """``{corner index: point}``: the end corners of the end panel ``quad`` (4, 3) moved along
+    its edges ``edges`` (``((end corner, other corner), ...)``, its ``a`` and ``b`` edges) onto
+    the plane ``x . n_host = level`` (lengths as the quad's; a corner past the plane already
+    stays). Raises :class:`_Untrimmable` where an edge has no length, meets the plane at less
+    than ``asin(min_sine)`` or would lose half its length or more."""
+    moved = {}
+    for cc, oc in edges:
+        u = quad[oc] - quad[cc]
+        L = float(np.linalg.norm(u))
+        if not L > 0:
+            raise _Untrimmable("its edge has zero length")
+        u = u / L
+        cos = float(u @ n_host)
+        if cos < min_sine:
+            raise _Untrimmable(f"its edge meets the plate at "
+                               f"{np.degrees(np.arcsin(np.clip(cos, -1, 1))):.1f} deg")
+        s = (level - float(quad[cc] @ n_host)) / cos
+        if s >= 0.5 * L:
+            raise _Untrimmable(f"panel too short ({L:.3g}) to bend a tab {s:.3g} from its end")
+        moved[cc] = quad[cc] + max(s, 0.0) * u
+    return moved
+
+
+def _tab_leg(tab: np.ndarray, ba: np.ndarray, bb: np.ndarray, free: np.ndarray,
+             n_host: np.ndarray, thickness: float) -> float:
+    """The length of the tab ``tab`` (4, 3) from its bend line ``ba -> bb`` to the middle of
+    its free edge ``free`` (2, 3). Raises :class:`_Untrimmable` where the free edge does not
+    lie more than ``thickness`` beyond the bend (both its ends) or the tab is no convex quad
+    (its corners do not all turn the same way about ``n_host``)."""
     e = (bb - ba) / np.linalg.norm(bb - ba)
-    w = f2.mean(axis=0) - ba
+    w = free.mean(axis=0) - ba
     w = w - (w @ e) * e
     leg = float(np.linalg.norm(w))
-    if not leg > t or min((f - ba) @ w for f in f2) <= t * leg:
+    if not leg > thickness or min((f - ba) @ w for f in free) <= thickness * leg:
         raise _Untrimmable("the tab's free edge does not lie beyond its bend")
     turns = [float(_cross(tab[i] - tab[i - 1], tab[(i + 1) % 4] - tab[i]) @ n_host)
              for i in range(4)]
     if not (all(x > 0 for x in turns) or all(x < 0 for x in turns)):
         raise _Untrimmable("the tab is no convex quad")
-    fold = _fold_deg(n_end, n_tab)
-    if not fold < 180.0 - MIN_BRACKET_ANGLE + 1e-9:
-        raise _Untrimmable(f"the tab would bend {fold:.0f} deg")
-    return TabGeometry(moved, tab, fold, leg)
+    return leg

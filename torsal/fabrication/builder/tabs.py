@@ -40,69 +40,20 @@ family's seam at a node where both families are split) the other stays
 A refused tab leaves its bracket (the joint as before), named in ``FinSystem.joint_fallbacks``
 (a :class:`~.seams.JointFallback` whose reason is a :class:`TabReason`); the tabs made are
 ``FinSystem.tab_joints`` (:class:`TabJoint`). ``FinSystem(tabs=False)`` keeps every bracket.
-Lengths in the fin system's ``unit``.
+Lengths in the fin system's ``unit``. Where a tab may go: :mod:`.tab_sites`; the local check:
+:mod:`.tab_check`.
 """
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from enum import Enum
 
-import numpy as np
-
-from torsal.core.units import UNIT_TO_MM
-
-from ..joints import TabGeometry, _Untrimmable, place_connector, tab_panel
-from ..model import (CONNECTOR_FAMILY, FIXING_FAMILY, Joint, JointKind, Part, _miter,
-                     _oriented_size, quad_normals)
-from ..unroll import unroll
-from .connectors import CONNECTOR_GAP, _starts_on
-from .proximity import _swept_and_still_distances
+from ..model import Joint, JointKind, Part
 from .seams import JointFallback
+from .tab_check import TabRegion, _Verdict
+from .tab_sites import TabReason, TabSites, _Proposal, with_tabs
 
 __all__ = ["TabReason", "TabJoint", "TabJoints", "with_tabs", "tab_report"]
-
-
-#: the gap between a tab's face and the face of the plate it lies on, as a share of the
-#: clearance: half of it, as the butted end it replaces kept (the part may slide in along a
-#: direction that closes that end's gap by as much over the joint's depth, so the tab's too)
-TAB_GAP = 0.5
-
-
-#: how much farther off the plate (a share of the clearance) a tab may lie where the butted
-#: end is trimmed back past its bend already (clear of another part's end there): the tab's
-#: face then stands up to the clearance off the plate's, which its bolts close
-TAB_RISE = 0.5
-
-
-#: mm more than ``FinSystem.fit_margin`` a tabbed part keeps off the sheet's edges when it is
-#: checked against ``fit_sheet`` (the nester keeps the margin and the kerf, up to 1 mm for a
-#: waterjet): a part cut to fit the sheet does not outgrow it by a tab's length
-TAB_FIT_ALLOWANCE_MM = 1.0
-
-
-#: the local check proves a tab with this share of the assembly check's least interference
-#: volume (1 mm^3): a tab whose path grazes a plate by less than that locally may graze it by
-#: more once the part is seen whole, with a tab at each end (example 9: five parts with two
-#: tabs blocked by 1.0-2.4 mm^3 in the whole design, each tab proved on its own)
-LOCAL_VOLUME_SHARE = 0.1
-
-
-class TabReason(str, Enum):
-    """Why a bracket stayed (no tab bent from the butted end there)."""
-
-    #: no tab can be bent there (the end's edges nearly along the plate, the tab more than the
-    #: clearance off it, the panel too short, the tab no convex quad beyond its bend)
-    GEOMETRY = "tab-geometry"
-    #: the end bends into a tab in its other corner; this bracket joins parts the others at
-    #: the node do not (it bridges the other family's seam: an end makes one tab)
-    SECOND_CORNER = "tab-second-corner"
-    #: the part with its tab (or tabs) laid flat does not fit the sheet (``fit_sheet``)
-    SHEET = "tab-sheet"
-    #: the assembly check on the solids around the node found them interfering or blocked
-    ASSEMBLY = "tab-assembly"
-    #: a solid around the node could not be built, so nothing proves the tab
-    SOLID = "tab-solid"
 
 
 @dataclass(frozen=True)
@@ -123,360 +74,27 @@ class TabJoint:
         return 0 if self.start else len(part.panels) - 1
 
 
-@dataclass(frozen=True)
-class _Proposal:
-    """A tab that may replace the bracket of joint ``joint`` (an index of ``fs.joints``)."""
-
-    joint: int
-    bracket: str
-    part: str
-    start: bool
-    host: str
-    host_panel: int
-    node: int
-    geometry: TabGeometry
-    #: 0: in the corner of the bracket it replaces; 1: in another corner of its site
-    corner: int = 0
-
-    @property
-    def key(self) -> tuple[str, bool]:
-        return self.part, self.start
-
-
-def with_tabs(part: Part, tabs: dict) -> Part:
-    """A copy of ``part`` with a tab bent from its start and / or end: ``tabs`` is ``{start
-    (bool): TabGeometry}``. The end panel's end corners move onto the bend line, the tab becomes
-    a panel before (start) or after (end) the others with the fold's mitre between them and a
-    square end cap; its free edge's node line and its structure edge are -1 (the bend line
-    keeps the end's node), and the slots' node lines move by one where a tab goes first."""
-    panels, miters = part.panels.copy(), part.miters.copy()
-    nodes, edges, slots = np.asarray(part.nodes).copy(), np.asarray(part.edges).copy(), list(part.slots)
-    for start in sorted(tabs, reverse=True):           # the end first: indices stay put
-        g = tabs[start]
-        j = 0 if start else len(panels) - 1
-        for cc, x in g.moved.items():
-            panels[j, cc] = x
-        n_end, n_tab = quad_normals(np.array([panels[j], g.tab]))
-        if start:
-            panels = np.concatenate([g.tab[None], panels])
-            miters = np.concatenate([n_tab[None], _miter(n_tab, n_end)[None], miters[1:]])
-            nodes, edges = np.r_[-1, nodes], np.r_[-1, edges]
-            slots = [dataclasses.replace(s, position=s.position + 1) for s in slots]
-        else:
-            panels = np.concatenate([panels, g.tab[None]])
-            miters = np.concatenate([miters[:-1], _miter(n_end, n_tab)[None], n_tab[None]])
-            nodes, edges = np.r_[nodes, -1], np.r_[edges, -1]
-    return dataclasses.replace(part, panels=panels, miters=miters, nodes=nodes.astype(int),
-                               edges=edges.astype(int), slots=slots)
-
-
-def _local(part: Part, lo: int, hi: int) -> Part:
-    """Panels ``lo..hi-1`` of ``part`` with their slots, under the same name (holes left out)."""
-    slots = [dataclasses.replace(s, position=s.position - lo) for s in part.slots
-             if lo <= s.position <= hi]
-    return dataclasses.replace(part, panels=part.panels[lo:hi].copy(),
-                               nodes=np.asarray(part.nodes)[lo:hi + 1].copy(),
-                               edges=np.asarray(part.edges)[lo:hi].copy(),
-                               miters=part.miters[lo:hi + 1].copy(), slots=slots, holes=())
-
-
-@dataclass(frozen=True)
-class _Verdict:
-    """The local assembly check of the tabs at one node: ``ok`` or refused (``detail``)."""
-
-    ok: bool
-    reason: TabReason | None = None
-    detail: str = ""
-    parts: tuple = ()
-
-
-def _local_check(ask: tuple) -> _Verdict:
-    """:func:`~torsal.fabrication.assembly.check_assembly` of the local parts with their joint
-    records (``(parts, joints, thickness, unit)``), in this process (one argument: a task for
-    a worker process)."""
-    from ..assembly import MIN_INTERFERENCE_VOLUME, check_assembly
-    from ..plates import InvalidSolidError, part_solid
-
-    parts, joints, thickness, unit = ask
-    try:
-        solids = {p.name: part_solid(p, thickness) for p in parts}
-    except InvalidSolidError as e:
-        return _Verdict(False, TabReason.SOLID, f"{e}")
-    names = set(solids)
-    local = []
-    for j in joints:
-        keep = tuple(n for n in j.parts if n in names)
-        if keep:
-            local.append(dataclasses.replace(
-                j, parts=keep, connector=j.connector if j.connector in names else None))
-    r = check_assembly(solids, joints=local, workers=1, unit=unit,
-                       min_volume=LOCAL_VOLUME_SHARE * MIN_INTERFERENCE_VOLUME / UNIT_TO_MM[unit] ** 3)
-    if r.buildable:
-        return _Verdict(True)
-    bad = tuple(sorted(set(r.interfering_parts) | {s.part for s in r.blocked}))
-    return _Verdict(False, TabReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "), bad)
-
-
 class TabJoints:
     """Turns the brackets of a finished fin system ``fs`` into tabs where the assembly check
     proves them (rules in the module text): fills ``fs.tab_joints``, appends the brackets kept
     to ``fs.joint_fallbacks``, and changes ``fs.parts`` (tabbed parts, brackets gone),
     ``fs.joints`` (the brackets' joints become :attr:`~.model.JointKind.BUTT_TAB`) and what
-    names a panel of a part that got a tab at its start (connector and fixing sites)."""
-
-    #: how far (multiples of the thickness) around a tab and its end the local check looks
-    REACH = 2.0
+    names a panel of a part that got a tab at its start (connector and fixing sites). Where
+    a tab may go: :class:`~.tab_sites.TabSites`; the check around it:
+    :class:`~.tab_check.TabRegion`."""
 
     def __init__(self, fs):
         self.fs = fs
+        self.sites = TabSites(fs)
+        self.region = TabRegion(fs)
 
-    # ------------------------------------------------------------------ proposals
-    def _ends(self) -> tuple[dict, dict, list[JointFallback]]:
-        """The tabs each bracketed end may bend into, in the order they are tried:
-        ``({(part, start): [_Proposal]}, {(part, start): [bracket names]}, fallbacks)``. First
-        the corner of each of its brackets (by name), then the other corners the first
-        bracket's site allows (:meth:`~.connectors.ConnectorPlacer._bracket`; the tab there,
-        its free edge that of the largest bracket that fits); those that cannot be bent
-        (:func:`~.joints.tab_panel`) are named with why."""
-        fs = self.fs
-        by_name = {p.name: p for p in fs.parts}
-        ends: dict[tuple[str, bool], list[_Proposal]] = {}
-        brackets: dict[tuple[str, bool], list[str]] = {}
-        why: dict[tuple[str, bool], list] = {}
-        order = sorted((j.connector, k) for k, j in enumerate(fs.joints)
-                       if j.kind == JointKind.BUTT_BRACKET and j.connector and j.connector in by_name)
-        for conn, k in order:
-            j = fs.joints[k]
-            site = fs._sites.get(conn)
-            if site is None:
-                continue
-            a, b, options = site
-            (host, hj), (name, pj) = options[0][6]
-            p, h = by_name.get(name), by_name.get(host)
-            if p is None or h is None or p.family not in (0, 1):
-                continue
-            start = _starts_on(p.panels[pj], a, b)
-            if (pj != 0 and start) or (pj != len(p.panels) - 1 and not start):
-                continue
-            key = (name, start)
-            first = key not in brackets
-            brackets.setdefault(key, []).append(conn)
-            c = by_name[conn]
-            places = [(options[0], np.array([c.panels[0, 0], c.panels[0, 3]]), 0)]
-            if first:
-                places += [(opt, None, 1) for opt in options[1:]]
-            for opt, free, corner in places:
-                pr = self._proposal(k, conn, key, j.node, opt, free, corner, a, b, by_name)
-                if isinstance(pr, _Proposal):
-                    ends.setdefault(key, []).append(pr)
-                elif pr is not None:
-                    why.setdefault(key, []).append((j.node, p.family, pr, tuple(
-                        n for n in j.parts if n != conn)))
-        # the corners of an end's brackets first, then the other corners of its site (those
-        # of another of its brackets once)
-        for key, prs in ends.items():
-            own = {(pr.host, pr.host_panel) for pr in prs if pr.corner == 0}
-            ends[key] = sorted((pr for pr in prs if pr.corner == 0
-                                or (pr.host, pr.host_panel) not in own),
-                               key=lambda pr: (pr.corner, pr.bracket))
-        refused = [JointFallback(node, fam, reason, detail, parts)
-                   for key, ws in why.items() if key not in ends
-                   for node, fam, (reason, detail), parts in ws[:1]]
-        return ends, brackets, refused
-
-    def _proposal(self, k: int, conn: str, key: tuple, node: int, opt, free, corner: int, a, b,
-                  by_name):
-        """The :class:`_Proposal` of a tab in the corner ``opt`` of a bracket's site (with the
-        free edge ``free`` (2, 3), else that of the largest bracket there; ``corner`` 0: the
-        bracket's own, 1: another), or ``(reason, detail)`` of why there is none (None: no
-        bracket fits that corner either)."""
-        fs = self.fs
-        (host, hj), (name, pj) = opt[6]
-        p, h = by_name.get(name), by_name.get(host)
-        if p is None or h is None or h.family not in (0, 1):
-            return None
-        if free is None:
-            plates = tuple(by_name[n].slab_corners(i, fs.thickness) for n, i in opt[6])
-            q = self._kernel(place_connector, a, b, *opt[:4], thickness=fs.thickness,
-                             gap=CONNECTOR_GAP * fs.thickness, plates=plates)
-            if q is None:
-                return None
-            free = np.array([q[0, 0], q[0, 3]])
-        # the other panels of the plate at the node (where it folds, or its other part)
-        others = np.array([q.panels[i] for q, i in self._panels_at(node)
-                           if q.family == h.family and (q.name, i) != (host, hj)]).reshape(-1, 4, 3)
-        try:
-            g = self._kernel(tab_panel, p.panels[pj], key[1], h.panels[hj], opt[0][0], free,
-                             thickness=fs.thickness, gap=TAB_GAP * fs.clearance,
-                             rise=TAB_RISE * fs.clearance, others=others)
-        except _Untrimmable as e:
-            return TabReason.GEOMETRY, f"no tab from {name} onto {host}: {e}"
-        if not self._fits(p, {key[1]: g}):
-            return TabReason.SHEET, f"{name} with a tab onto {host} does not fit the sheet"
-        return _Proposal(k, conn, name, key[1], host, hj, node, g, corner)
-
-    def _panels_at(self, node: int) -> list[tuple[Part, int]]:
-        """``[(plate, panel)]``: the fin panels with a node line at ``node``."""
-        at = self.__dict__.get("_at")
-        if at is None:
-            at = self._at = {}
-            for q in sorted(self.fs.parts, key=lambda q: q.name):
-                if q.family not in (0, 1):
-                    continue
-                k = len(q.panels)
-                for line, v in enumerate(np.asarray(q.nodes).tolist()):
-                    for i in (line - 1, line):
-                        if v >= 0 and 0 <= i < k:
-                            at.setdefault(v, []).append((q, i))
-        return at.get(node, [])
-
-    def _fits(self, part: Part, tabs: dict) -> bool:
-        """Whether ``part`` with the ``tabs`` (``{start: TabGeometry}``) is no longer than
-        ``max_part_length`` along its ``a`` and ``b`` edges and, laid flat, fits ``fit_sheet``
-        with the margin and :data:`TAB_FIT_ALLOWANCE_MM` all round. Laid flat, a tab lies
-        within its length of its bend, an edge of the part without it: where the part without
-        tabs fits with that much more all round, so does the part with them (the exact flat
-        outline is looked at only for a part near the sheet's size)."""
-        fs = self.fs
-        q = with_tabs(part, tabs).panels
-        if fs.max_part_length is not None and max(
-                np.linalg.norm(q[:, 1] - q[:, 0], axis=1).sum(),
-                np.linalg.norm(q[:, 2] - q[:, 3], axis=1).sum()) > fs.max_part_length:
-            return False
-        if fs.fit_sheet is None:
-            return True
-        sw, sh = sorted(fs.fit_sheet, reverse=True)
-        m = 2.0 * (fs.fit_margin + TAB_FIT_ALLOWANCE_MM / UNIT_TO_MM[fs.unit])
-        size = self.__dict__.setdefault("_sizes", {})
-        if part.name not in size:
-            size[part.name] = _flat_size(part.panels)
-        w, h = size[part.name]
-        r = 2.0 * max(_reach(g) for g in tabs.values())
-        if w + r <= sw - m and h + r <= sh - m:
-            return True
-        w, h = _flat_size(q)
-        return w <= sw - m and h <= sh - m
-
-    def _kernel(self, fn, *args, **kw):
-        """``fn(*args, **kw)``, remembered across the rebuilds' memo while there is one."""
-        fs = self.fs
-        return fs._cached(fn, *args, **kw) if "_memo" in fs.__dict__ else fn(*args, **kw)
-
-    # ------------------------------------------------------------------ the local check
-    def _stack(self) -> tuple:
-        """``(parts by name, quads (N, 4, 3), owner part (N,), panel (N,), lo (N, 3), hi (N, 3),
-        names, {name: index})``: every panel of the fin system's parts, once per
-        :meth:`make`."""
-        st = self.__dict__.get("_stacked")
-        if st is None:
-            parts = sorted(self.fs.parts, key=lambda q: q.name)
-            quads = np.concatenate([q.panels for q in parts])
-            owner = np.repeat(np.arange(len(parts)), [len(q.panels) for q in parts])
-            panel = np.concatenate([np.arange(len(q.panels)) for q in parts])
-            names = [q.name for q in parts]
-            st = self._stacked = (parts, quads, owner, panel, quads.min(axis=1), quads.max(axis=1),
-                                  names, {n: i for i, n in enumerate(names)})
-        return st
-
-    def _local(self, props: list[_Proposal], tabbed: dict[str, Part], joints: list[Joint],
-               gone: set) -> tuple:
-        """``(parts, joints, thickness, unit)`` of the local assembly check of the tabs
-        ``props`` (of one node): what changed there (each tab, and the end it is bent from
-        :attr:`REACH` thicknesses into its end panel), swept along the tabbed part's way into
-        place both ways over its joint's depth (the parts that go in after it must keep clear
-        of the tab too); of every part (plate, connector, fixing; not the brackets ``gone``,
-        which tabs replace; the tabbed parts with their tabs) the panels whose mid-surfaces
-        come within :attr:`REACH` thicknesses of that region, with their slots; and the joint
-        records."""
-        fs = self.fs
-        t = fs.thickness
-        reach = self.REACH * t
-        region, sweeps = [], []
-        for pr in props:
-            p = tabbed[pr.part]
-            k = len(p.panels)
-            tab = p.panels[0 if pr.start else k - 1]
-            end = p.panels[1 if pr.start else k - 2]
-            (b0, f0), (b1, f1) = ((0, 1), (3, 2)) if pr.start else ((1, 0), (2, 3))
-            into = [end[b] + min(1.0, reach / max(float(np.linalg.norm(end[f] - end[b])), 1e-12))
-                    * (end[f] - end[b]) for b, f in ((b0, f0), (b1, f1))]
-            strip = np.array([end[b0], into[0], into[1], end[b1]])
-            j = fs.joints[pr.joint]
-            d = np.asarray(j.insert_direction, float)
-            travel = (float(j.depth) if j.depth is not None else 0.0) + 2 * t
-            region.append(np.array([tab, strip]))
-            sweeps.append(travel * d)
-        parts, quads, owner, panel, qlo, qhi, names, index = self._stack()
-        # (the region each sweeps, both ways, grown by the reach: the boxes first)
-        pts = np.concatenate([np.concatenate([r.reshape(-1, 3) - v, r.reshape(-1, 3) + v])
-                              for r, v in zip(region, sweeps)])
-        lo, hi = pts.min(axis=0) - reach, pts.max(axis=0) + reach
-        skip = np.zeros(len(parts), bool)
-        skip[[index[n] for n in set(gone) | set(tabbed) if n in index]] = True
-        cand = np.flatnonzero(((qlo <= hi) & (qhi >= lo)).all(axis=1) & ~skip[owner])
-        near_of: dict[int, set] = {}
-
-        def near(others: np.ndarray) -> np.ndarray:
-            out = np.zeros(len(others), bool)
-            for r, v in zip(region, sweeps):
-                # boxes in a frame along the sweep first (the region is thin across it), then
-                # the mid-surfaces' distances
-                frame = _frame(v)
-                o = others @ frame.T                                 # (m, 4, 3)
-                rr = r.reshape(-1, 3) @ frame.T
-                rlo, rhi = rr.min(axis=0) - reach, rr.max(axis=0) + reach
-                rlo[2] -= np.linalg.norm(v)
-                rhi[2] += np.linalg.norm(v)
-                box = np.flatnonzero(((o.min(axis=1) <= rhi) & (o.max(axis=1) >= rlo)).all(axis=1))
-                if len(box):
-                    dist = _swept_and_still_distances(r - v, 2.0 * v, others[box], within=reach)[0]
-                    out[box[(dist < reach).any(axis=0)]] = True
-            return out
-
-        for i in cand[near(quads[cand])]:
-            near_of.setdefault(int(owner[i]), set()).add(int(panel[i]))
-        for name, q in tabbed.items():
-            hit = np.flatnonzero(near(q.panels))
-            if len(hit):
-                near_of.setdefault(index[name], set()).update(hit.tolist())
-        out = []
-        for k in sorted(near_of):
-            idx = near_of[k]
-            q = tabbed.get(names[k], parts[k])
-            out.append(q if q.family in (CONNECTOR_FAMILY, FIXING_FAMILY)
-                       else _local(q, min(idx), max(idx) + 1))
-        names = {q.name for q in out}
-        # a slot whose partner plate is not among the local parts holds nothing there: the
-        # notch is not cut (the exact cut is the dearest part of a local solid)
-        out = [q if all(any(n in names for n in s.partner.split("+")) for s in q.slots)
-               else dataclasses.replace(q, slots=[s for s in q.slots if any(
-                   n in names for n in s.partner.split("+"))]) for q in out]
-        local = [joints[k] for k in sorted({k for n in names for k in self._joints_of(n)})]
-        return out, local, t, fs.unit
-
-    def _joints_of(self, name: str) -> list[int]:
-        """Indices of the joints (``fs.joints``, in order) that name the part ``name``."""
-        of = self.__dict__.get("_of")
-        if of is None:
-            of = self._of = {}
-            for k, j in enumerate(self.fs.joints):
-                for n in j.parts:
-                    of.setdefault(n, []).append(k)
-        return of.get(name, [])
-
-    def _verdicts(self, asks: list[tuple]) -> list[_Verdict]:
-        from ..workers import map_prepared
-
-        return map_prepared(_local_check, asks)
-
-    # ------------------------------------------------------------------ making them
     def make(self) -> None:
         """Tabs for the brackets the check proves (rules in the module text)."""
         fs = self.fs
         fs.tab_joints, fs.spare_brackets = [], []
         if not fs.joints or not getattr(fs, "tabs", True):
             return
-        ends, brackets, refused = self._ends()
+        ends, brackets, refused = self.sites.ends()
         by_name = {p.name: p for p in fs.parts}
         kept: dict[tuple[str, bool], _Proposal] = {}
         tried: dict[tuple[str, bool], list] = {}
@@ -500,7 +118,7 @@ class TabJoints:
             other = kept.get((name, not start))
             if start or other is None:
                 continue
-            if not self._fits(by_name[name], {True: other.geometry, False: pr.geometry}):
+            if not self.sites.fits(by_name[name], {True: other.geometry, False: pr.geometry}):
                 del kept[(name, False)]
                 self._refuse(pr, _Verdict(False, TabReason.SHEET, f"{name} with tabs at both ends "
                                           "does not fit the sheet"), refused)
@@ -609,8 +227,8 @@ class TabJoints:
             prs = groups[key] + tuple(context.get(key, ()))
             sub = {pr.key: pr for pr in prs}
             tabbed, joints = self._design(sub, by_name)
-            asks.append(self._local(list(groups[key]), tabbed, joints, {pr.bracket for pr in prs}))
-        return dict(zip(keys, self._verdicts(asks)))
+            asks.append(self.region.local(list(groups[key]), tabbed, joints, {pr.bracket for pr in prs}))
+        return dict(zip(keys, self.region.verdicts(asks)))
 
     def _refuse(self, pr: _Proposal, vd: _Verdict, refused: list) -> None:
         refused.append(JointFallback(pr.node, int(pr.part[1]), vd.reason or TabReason.ASSEMBLY,
@@ -661,35 +279,6 @@ class TabJoints:
         fs.tab_joints = sorted((TabJoint(pr.node, pr.part, pr.host,
                                          pr.host_panel + (pr.host in first), pr.start, pr.bracket)
                                 for pr in kept.values()), key=lambda x: (x.node, x.part, x.start))
-
-
-def _flat_size(quads: np.ndarray) -> tuple[float, float]:
-    """(long, short) sides of the least rectangle round the panels ``quads`` laid flat (inf:
-    they overlap themselves laid flat)."""
-    try:
-        return _oriented_size(unroll(quads, slots=[]).outline)
-    except ValueError:
-        return np.inf, np.inf
-
-
-def _reach(g: TabGeometry) -> float:
-    """How far the tab ``g`` reaches from its bend line (the segment its end panel ends on)."""
-    ba, bb = (np.asarray(x, float) for x in g.moved.values())
-    e = bb - ba
-    ee = float(e @ e)
-    out = 0.0
-    for x in g.tab:
-        s_ = min(1.0, max(0.0, float((x - ba) @ e) / ee)) if ee > 0 else 0.0
-        out = max(out, float(np.linalg.norm(x - (ba + s_ * e))))
-    return out
-
-
-def _frame(v: np.ndarray) -> np.ndarray:
-    """(3, 3) rows: two unit vectors square to ``v`` (3,) and ``v``'s unit direction."""
-    d = v / np.linalg.norm(v)
-    e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
-    e1 /= np.linalg.norm(e1)
-    return np.array([e1, np.cross(d, e1), d])
 
 
 def _joined(a: str, b: str, pairs: list[tuple]) -> bool:
