@@ -37,6 +37,11 @@ def _build(structure, **kw) -> FinSystem:
         return FinSystem(structure, thickness=T, clearance=C, **kw)
 
 
+def _lead(fs, name: str) -> int:
+    """1 where the part starts with a tab bent from its end (a panel of no fin), else 0."""
+    return int(fs.part(name).edges[0] < 0)
+
+
 @pytest.fixture(scope="module")
 def grid():
     return _build(flat_structure(4, 3))
@@ -58,10 +63,12 @@ def test_the_long_plates_cannot_fill_the_sheets(grid):
 
 def test_a_plate_may_be_cut_where_it_is_slotted(grid):
     sites = yield_cut_positions(grid)
-    # the middle row at both its inner nodes, columns at the middle row (node line 1): each
-    # where the plate is slotted at an egg-crate crossing
-    assert sites["F0-S001-P00"] == (1, 2)
-    assert all(js == (1,) for n, js in sites.items() if n.startswith("F1-"))
+    # the middle row at both its inner nodes, columns at the middle row (node line 1 of their
+    # fin panels, 2 of the part: every end bends into a tab, the part's panel 0 at its start):
+    # each where the plate is slotted at an egg-crate crossing
+    assert all(_lead(grid, n) == 1 for n in sites)
+    assert sites["F0-S001-P00"] == (1 + 1, 2 + 1)
+    assert all(js == (1 + 1,) for n, js in sites.items() if n.startswith("F1-"))
     assert all(all(grid.part(n).nodes[j] in {s.node for s in grid.part(n).slots} for j in js)
                for n, js in sites.items())
 
@@ -72,7 +79,8 @@ def test_the_split_empties_a_sheet_with_a_seam_in_the_slot(grid, cut):
     assert (split.sheets_before, split.sheets_after, lay.n_sheets) == (3, 2, 2)
     assert split.utilization_after > split.utilization_before + 0.25
     [p] = split.plates
-    assert p["plate"].startswith("F1-") and p["node_lines"] == [1] and len(p["pieces"]) == 2
+    assert p["plate"].startswith("F1-") and len(p["pieces"]) == 2
+    assert p["node_lines"] == [1 + _lead(grid, p["plate"])]
     # the cut is a seam held in the crossing slot: no connector, no fastener, no fixing more
     assert split.seams == 1 and split.fallbacks == []
     d = split.delta
@@ -156,7 +164,8 @@ def test_the_split_search_alone(grid):
     res = nest_split(un, cuts=yield_cut_positions(grid), **OPTIONS)
     assert res.base.n_sheets == 3 and res.layout.n_sheets == 2 and res.n_cuts == 1
     [(part, js)] = res.cuts.items()
-    assert set(res.pieces.values()) == {(part, 0, js[0]), (part, js[0], 2)}
+    # (each piece with the tab at its end of the column: 2 fin panels and 2 tabs)
+    assert set(res.pieces.values()) == {(part, 0, js[0]), (part, js[0], 2 + 2)}
     q = bill_of_quantities(grid, density=2700.0, layout=res.base)
     assert q.sheets == 3
 

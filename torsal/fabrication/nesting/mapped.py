@@ -52,8 +52,16 @@ def strip_cuts(fs, cuts: Mapping[str, tuple]) -> dict[int, set]:
     out: dict[int, set] = {}
     for name, js in cuts.items():
         p = fs.part(name)
-        out.setdefault(fs._strip_of[name], set()).update(p.span[0] + int(j) for j in js)
+        lead = _lead_tabs(p)
+        out.setdefault(fs._strip_of[name], set()).update(p.span[0] + int(j) - lead for j in js)
     return out
+
+
+def _lead_tabs(p) -> int:
+    """1 where the plate ``p`` starts with a tab bent from its end (a panel of no fin, before
+    its first: :mod:`~torsal.fabrication.builder.tabs`), else 0: its panel ``j`` is panel
+    ``span[0] + j - _lead_tabs(p)`` of its strip."""
+    return int(len(p.edges) > 0 and int(p.edges[0]) < 0)
 
 
 def pieces_of(fs_old, fs_new, name: str) -> list[str]:
@@ -96,7 +104,9 @@ def _stand_ins(fs_old, fs_new, names: set) -> dict[str, tuple[str, int, int]]:
         for q in by_strip.get(fs_new._strip_of[p.name], []):
             lo, hi = q.span
             if lo <= lo2 and hi2 <= hi:
-                a, b = lo2 - lo, hi2 - lo
+                # (in the old part's panels: a piece at its start or end keeps the tab there)
+                a = 0 if lo2 == lo else lo2 - lo + _lead_tabs(q)
+                b = len(q.panels) if hi2 == hi else hi2 - lo + _lead_tabs(q)
                 stand = q.name if (a, b) == (0, len(q.panels)) else piece_name(q.name, a, b)
                 if stand in names:
                     out[p.name] = (stand, a, b)
