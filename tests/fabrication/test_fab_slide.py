@@ -84,6 +84,11 @@ def test_butt_joint_groups_the_plate_it_butts_against():
                       np.array([0.0, 0, 1]), "C-N0003-0")
     # the two halves of the plate are not each other's partners by this joint
     assert joint_groups(j) == [("F0-S001-P00", "F0-S001-P01"), ("F1-S002-P00",), ("C-N0003-0",)]
+    # nor by a tab bent from the butted part instead of the bracket: the second half does not
+    # wait for the first and move in along the tabbed part's direction (7c at full size:
+    # F0-S003-P08 went in after F0-S003-P07 along F1-S031-P04's way, into F0-S003-P09)
+    tab = j._replace(kind="butt-tab", parts=j.parts[:3], connector=None)
+    assert joint_groups(tab) == [("F0-S001-P00", "F0-S001-P01"), ("F1-S002-P00",)]
 
 
 def test_quads_crossing_without_a_joint_are_found():

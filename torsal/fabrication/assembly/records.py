@@ -80,14 +80,15 @@ def joint_groups(joint: AssemblyJoint) -> list[tuple[str, ...]]:
     plates of one family, then those of the other (named ``F<family>-...``: two parts of one
     strip split at the crossing are not each other's partners); for a butt joint the parts of
     the plate it butts against (one group: they are not joined to each other by it), the butted
-    part, the connector; for a mitre the two parts (either may go in first: they meet on the
+    part, the connector (a ``butt-tab``: the butted part's end bent into a tab lying on the
+    plate, no connector); for a mitre the two parts (either may go in first: they meet on the
     fold's bisector plane), then the splice plate; otherwise one part at a time."""
     if joint.kind == "egg-crate":
         groups: dict[str, list] = {}
         for p in joint.parts:
             groups.setdefault(p.split("-", 1)[0], []).append(p)
         return [tuple(g) for g in groups.values()]
-    if joint.kind == "butt-bracket":
+    if joint.kind in ("butt-bracket", "butt-tab"):
         plates = [p for p in joint.parts if p != joint.connector]
         return ([tuple(plates[:-1])] if len(plates) > 1 else []) + [(plates[-1],)] + (
             [(joint.connector,)] if joint.connector else [])
