@@ -143,3 +143,54 @@ def test_splice_puts_the_records_in_the_place_of_their_placeholders(tmp_path):
         R.splice_records(data, {0: record, 5: record})
     with pytest.raises(ValueError):
         R.splice_records(b"not a 3dm file" + bytes(40), {0: record})
+
+
+def test_fixed_properties_leave_no_path_or_clock_in_the_file(tmp_path):
+    """openNURBS writes the path written to and the time (created, last edited) into the
+    properties: two writes of the same model, a second apart into folders of different
+    lengths, differ; with the properties fixed they are the same bytes, the file's own name
+    in the place of the path, rhino3dm reads them, and the revision history holds the fixed
+    date where it held today's (its fields read here from openNURBS' layout)."""
+    import struct
+    import time
+    import zlib
+
+    from torsal.fabrication.rhino.properties import FIXED_TIME
+
+    import uuid
+
+    def written(folder):
+        model = rhino3dm.File3dm()
+        layer = rhino3dm.Layer()
+        layer.Name, layer.Id = "family 0", uuid.uuid5(uuid.NAMESPACE_URL, "layer")   # as export_3dm
+        attributes = rhino3dm.ObjectAttributes()
+        attributes.Id, attributes.LayerIndex = uuid.uuid5(uuid.NAMESPACE_URL, "part"), model.Layers.Add(layer)
+        model.Objects.AddPoint(rhino3dm.Point3d(1.0, 2.0, 3.0), attributes)
+        path = tmp_path / folder / "fins.3dm"
+        path.parent.mkdir()
+        assert model.Write(str(path), 7)
+        return path.read_bytes()
+
+    a = written("a")
+    time.sleep(1.05)
+    b = written("a longer folder")
+    assert a != b and len(a) != len(b)
+    fa, fb = (R.fixed_properties(x, "fins.3dm") for x in (a, b))
+    assert fa == fb
+    assert str(tmp_path).encode("utf-16-le") not in fa and "fins.3dm".encode("utf-16-le") in fa
+    (tmp_path / "fixed.3dm").write_bytes(fa)
+    back = rhino3dm.File3dm.Read(str(tmp_path / "fixed.3dm"))
+    assert back is not None and len(back.Objects) == 1 and back.Revision == 1
+    # TCODE_PROPERTIES_REVISIONHISTORY: version byte, created-by (empty: count 0), created
+    # (8 int32), last-edited-by, last edited, revision count, CRC-32 of what precedes it
+    at = fa.index(struct.pack("<I", 0x20008021))
+    (n,) = struct.unpack_from("<q", fa, at + 4)
+    body = fa[at + 12:at + 12 + n]
+    ints = struct.unpack_from("<19i", body, 1)
+    today = time.gmtime()
+    assert struct.unpack_from("<19i", a[a.index(struct.pack("<I", 0x20008021)) + 12:], 1)[6] \
+        == today.tm_year - 1900
+    assert ints[1:9] == ints[10:18] == struct.unpack("<8i", FIXED_TIME) == (0, 0, 0, 1, 0, 100, 6, 0)
+    assert ints[18] == 1 and struct.unpack("<I", body[-4:])[0] == zlib.crc32(body[:-4])
+    with pytest.raises(ValueError, match="3dm"):
+        R.fixed_properties(b"not a 3dm file" + bytes(40), "fins.3dm")

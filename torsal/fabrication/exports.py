@@ -16,7 +16,8 @@ from .model import CONNECTOR_FAMILY, FIXING_FAMILY
 from .plates import MESH_TOLERANCE, _triangles
 from .step_order import canonical_styles_file
 from .rhino import (_encoding, _membrane, _mesh_brep, _quad, _rhino_mesh,  # noqa: F401
-                    _with_edge_tolerances, brep_of, brep_record, placeholder, splice_records)
+                    _with_edge_tolerances, brep_of, brep_record, fixed_properties, placeholder,
+                    splice_records)
 from .workers import _parts_key, cancel_breps, solid_shapes
 
 __all__ = ["export_step", "write_step", "read_step", "start_read_step", "PendingStepRead",
@@ -374,7 +375,8 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     (:func:`~.rhino.splice_records`): the file is the one rhino3dm writes with the Breps
     decoded and added (the tests check it byte for byte), without the cost of decoding
     them and encoding them again. Should rhino3dm write a file that is not so made, the
-    Breps are decoded and added."""
+    Breps are decoded and added. The properties' file name is ``path``'s name and their
+    times a fixed date (:func:`~.rhino.fixed_properties`): the same parts give the same bytes."""
     shapes = solid_shapes(fin_system)
     tol = tolerance if tolerance is not None else MESH_TOLERANCE * fin_system.thickness
     # the records the solids' workers made for this file (the same brep_record, in parallel)
@@ -390,13 +392,17 @@ def export_3dm(fin_system, path, *, tolerance: float | None = None) -> Path:
     with atomic_path(path) as tmp:
         if not model.Write(str(tmp), 7):
             raise RuntimeError(f"rhino3dm could not write {path}")
+        data = tmp.read_bytes()
         if placed:
             try:
-                tmp.write_bytes(splice_records(tmp.read_bytes(), placed))
+                data = splice_records(data, placed)
             except ValueError:       # not the file it expects: rhino3dm adds the Breps
                 model, _, meshed = _rhino_model(fin_system, shapes, records, tol, splice=False)
                 if not model.Write(str(tmp), 7):
                     raise RuntimeError(f"rhino3dm could not write {path}") from None
+                data = tmp.read_bytes()
+        # the staging path and the clock out of the file: the same parts, the same bytes
+        tmp.write_bytes(fixed_properties(data, Path(path).name))
     if meshed:
         warnings.warn(f"fins.3dm: {len(meshed)} parts are closed meshes, not Breps (rhino3dm made "
                       f"no valid solid of them): {', '.join(meshed[:8])}"

@@ -25,7 +25,8 @@ The modules, in the order a record is made:
 - :mod:`.brep`: the entry points (:func:`brep_record`, :func:`encoded_brep`, :func:`brep_of`;
   :func:`brep_volume` reads a Brep's volume back);
 - :mod:`.mesh_brep`: rhino3dm's ``CreateFromMesh`` Brep, where the faces make no record;
-- :mod:`.splice`: the records put into a file rhino3dm wrote (:func:`splice_records`).
+- :mod:`.splice`: the records put into a file rhino3dm wrote (:func:`splice_records`);
+- :mod:`.properties`: its file name and times made a function of the model (:func:`fixed_properties`).
 
 Units: those of the solid.
 """
@@ -34,6 +35,7 @@ from __future__ import annotations
 from .brep import _brep_bytes, _encoding, brep_of, brep_record, brep_volume, encoded_brep  # noqa: F401
 from .faces import PLANAR, _membrane, _polygon_faces  # noqa: F401
 from .mesh_brep import _mesh_brep, _quad, _rhino_mesh, _with_edge_tolerances  # noqa: F401
+from .properties import fixed_properties
 from .splice import placeholder, splice_records
 
-__all__ = ["brep_of", "encoded_brep", "brep_record", "brep_volume", "splice_records"]
+__all__ = ["brep_of", "encoded_brep", "brep_record", "brep_volume", "splice_records", "fixed_properties"]
