@@ -152,6 +152,29 @@ Keeping the retries off after a failed one for the whole solve was worse in sum 
 factorizations). The line search's full step is evaluated as a whole point (its value kernel gives
 the same numbers to the last bit): one evaluation less per step taken whole (7c: 26 of 28 trials).
 
+Issue 44, 7c's per-step cost and build (2026-11-29 08:05-08:25 UTC, this 2-core machine at a load
+of 17-24: processor seconds and counts). The element Hessians of an energy depend on the point
+alone, and the augmented Lagrangian projects them again at the same point after each multiplier
+update and failed line search: ``ProjectedHessian`` keeps each block's last projection and
+reuses it where the block's matrices are the same to the bit (7c: 31 projections of 3,008 8 x 8
+element Hessians, 26 distinct). And an augmented-Lagrangian solve no longer builds IPOPT's NLP
+just to evaluate energies and rows (``NlpCache.main`` evaluates them with the solve's own NLP,
+the same values; a certifying IPOPT pass builds its own): 0.05 s of processor time of 7c's
+build. ``--tables design``, 3 runs each alternating (before = HEAD b379746)::
+
+    row       run     stage cpu s          eigh batches  eigh cpu s          steps  fact  E
+    7c        before  3.97 3.46 3.32       62 (31 x 2)   0.92 0.78 0.70      26     111   0.4271927055201825
+    7c        after   3.91 3.42 3.18       52 (26 x 2)   0.75 0.68 0.64      26     111   (the same iterates)
+    facade80  before  4.09                 120           0.44                42     166   4.273500537141264e-07
+    facade80  after   4.43                 114           0.48                42     166   (the same iterates)
+
+(the same directions to the bit: their sha1 compared; facade80 one run each, its processor
+times within the load's noise). On the brief's quiet machine (25 ms of
+projection a step) that is about 0.13 s of 7c's solve and 0.05 s of its build: 3.92 -> about
+3.75 s, estimated, not measured quietly; T is 3.7 s. session_bench's region row: eigh batches
+of the whole run 108 -> 96, the preview 1.84 / 1.36 -> 1.43 s cpu (load 17-22, noise larger
+than the change).
+
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]
           [--facade-angles 40 60 80]

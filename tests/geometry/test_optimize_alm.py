@@ -249,16 +249,22 @@ def test_newton_matrix_is_the_projected_hessian_plus_the_penalty_gauss_newton_pa
     np.testing.assert_allclose(sys_.jt(jnz, v), jac.T @ v, atol=1e-10)
 
 
-def test_the_projected_matrix_and_the_line_search_values_skip_what_they_do_not_need():
-    """The augmented Lagrangian's cheaper evaluations give the same numbers: the projected
-    Hessian without the constraints' element Hessians (left out of it) and the line search's
-    value-only function (objective and rows of a point)."""
+def _small_alm_nlp():
+    """The augmented Lagrangian's NLP of a 6 x 5 facade patch with a torsal angle bound, and
+    its parameters at the normals."""
     c = Congruence.from_normals(facade_patch(nu=6, nv=5))
     p = CongruenceProblem(c).normal().fair().perpendicular(SUN).hyperbolic().min_torsal_angle(40)
     p.build("alm")
     b = p.nlp.built["tangent/alm"]
+    return b, b.parameters(p.registry.current(), tangent_frames(c.directions))
+
+
+def test_the_projected_matrix_and_the_line_search_values_skip_what_they_do_not_need():
+    """The augmented Lagrangian's cheaper evaluations give the same numbers: the projected
+    Hessian without the constraints' element Hessians (left out of it) and the line search's
+    value-only function (objective and rows of a point)."""
+    b, par = _small_alm_nlp()
     h = b.hess_lag
-    par = b.parameters(p.registry.current(), tangent_frames(c.directions))
     x = 0.01 * np.random.default_rng(2).standard_normal(b.n_var)
     args = [x, par, np.array([float(b.n_vertices)]), np.linspace(-1.0, 1.0, b.n_g)]
     h.constraint_curvature = False
@@ -271,6 +277,42 @@ def test_the_projected_matrix_and_the_line_search_values_skip_what_they_do_not_n
     fv, gv = (np.asarray(v).ravel() for v in b.value(x, par))
     np.testing.assert_allclose(fv, f, rtol=1e-14)
     np.testing.assert_allclose(gv, g, rtol=1e-14, atol=1e-14)
+
+
+def test_a_projection_at_the_same_point_is_the_kept_one_and_a_new_point_is_projected_again(monkeypatch):
+    """The projected Hessian keeps each block's last projection for the same matrices: the
+    same numbers as a fresh projection (each element's matrix with its negative eigenvalues
+    clamped, computed here by numpy's eigh element by element), at the same point and at a
+    moved one, and only one eigendecomposition per distinct point."""
+    import torsal.geometry.optimize.projected as projected
+
+    b, par = _small_alm_nlp()
+    h = b.hess_lag
+    rng = np.random.default_rng(3)
+
+    def clamped(a):         # the element matrices one by one, V max(L, 0) V^T
+        out = a.copy()
+        for e, m in enumerate(a):
+            if np.abs(m).max() > 0:
+                w, v = np.linalg.eigh(m)
+                out[e] = (v * np.maximum(w, 0.0)) @ v.T
+        return out
+
+    def expected(rest, mats):      # the blocks clamped one element at a time, scattered
+        vals = [rest]
+        for blk, (iu, ju), a in zip(h.blocks, h._upper, mats):
+            skip = a is None or (blk.constraint and not h.constraint_curvature)
+            vals.append(np.zeros(blk.ids.shape[0] * iu.size) if skip else clamped(a)[:, iu, ju].ravel())
+        return h._scatter @ np.concatenate(vals)
+
+    calls, eigh = [], projected._psd_eigh
+    monkeypatch.setattr(projected, "_psd_eigh", lambda a, mode: (calls.append(len(a)), eigh(a, mode)))
+    for x in (0.01 * rng.standard_normal(b.n_var),) * 2 + (0.02 * rng.standard_normal(b.n_var),):
+        args = [x, par, np.array([1.0]), np.linspace(-1.0, 1.0, b.n_g)]
+        rest, mats = h.pieces(args, constraints=False)
+        np.testing.assert_allclose(h.combine(rest, mats, True), expected(rest, mats), rtol=1e-12, atol=1e-12)
+    n_big = sum(1 for blk in h.blocks if blk.n > 2 and not blk.constraint)
+    assert n_big >= 1 and len(calls) == 2 * n_big     # the second point is the first one's: kept
 
 
 def test_phr_terms_of_lower_and_upper_bounds():

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..congruence import Congruence
 from .alm import ALM_MAX_STEPS, AlmStrategy
-from .cache import Hessian, NlpCache, NlpKind
+from .cache import Hessian, NlpCache
 from .factor import limit_mumps_threads
 from .history import SolveMonitor
 from .ipopt import CERTIFY_ITERATIONS, IpoptSolve, IpoptWarm, rescues
@@ -211,9 +211,9 @@ class SolveCall:
         if first is Solver.IPOPT and self._resumes_alm():
             first = Solver.ALM     # a re-solve continues with the strategy whose state it keeps
         strategy = strategy_of(first, reg, nlp, opts)
+        # energies and constraints are evaluated with this NLP where IPOPT's is not built
+        # (NlpCache.main: the same values); a certifying IPOPT pass builds its own on demand
         b, build_s = nlp.get(strategy.kind)
-        if strategy.kind != NlpKind.IPOPT:
-            build_s += nlp.build(NlpKind.IPOPT)    # the main NLP also evaluates energies and constraints
         tols = opts.tolerances
 
         def worst(e):
