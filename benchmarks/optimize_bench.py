@@ -167,8 +167,10 @@ build. ``--tables design``, 3 runs each alternating (before = HEAD b379746)::
     7c        after   3.91 3.42 3.18       52 (26 x 2)   0.75 0.68 0.64      26     111   (the same iterates)
     facade80  before  4.09                 120           0.44                42     166   4.273500537141264e-07
     facade80  after   4.43                 114           0.48                42     166   (the same iterates)
+    9         before  29.2                 150           6.0                 74     300   0.01724085282788787
+    9         after   28.1 (load 14)       148           5.7                 74     300   (the same iterates)
 
-(the same directions to the bit: their sha1 compared; facade80 one run each, its processor
+(the same directions to the bit: their sha1 compared; facade80 and 9 one run each, their processor
 times within the load's noise). On the brief's quiet machine (25 ms of
 projection a step) that is about 0.13 s of 7c's solve and 0.05 s of its build: 3.92 -> about
 3.75 s, estimated, not measured quietly; T is 3.7 s. session_bench's region row: eigh batches
