@@ -17,7 +17,8 @@ from contextvars import ContextVar
 
 from .design_file import DesignSpec
 
-__all__ = ["fin_system", "fabrication_summary", "last_fin_system", "forget_fin_system"]
+__all__ = ["fin_system", "fabrication_summary", "last_fin_system", "forget_fin_system",
+           "keep_fin_system"]
 
 #: (key, FinSystem) of the last call in this thread or task: the fabrication and assembly
 #: stages of one run share it
@@ -34,6 +35,19 @@ def last_fin_system():
 def forget_fin_system() -> None:
     """Drop the memo: the next :func:`fin_system` call builds afresh (a cold run)."""
     _LAST.set(None)
+
+
+def keep_fin_system(spec: DesignSpec, fs, *, structure=None) -> None:
+    """Make ``fs`` what :func:`fin_system` returns in this thread or task for ``spec`` and
+    ``structure`` (default ``fs.structure``): the final cut's split fin system stands for the
+    one it was split from, for the stages after it.
+
+    >>> keep_fin_system(spec, split, structure=unsplit.structure)     # doctest: +SKIP
+    >>> fin_system(spec, unsplit.structure) is split                   # doctest: +SKIP
+    True
+    """
+    structure = fs.structure if structure is None else structure
+    _LAST.set((_key(structure, spec.material.thickness_mm, _options(spec)), fs))
 
 
 def _options(spec: DesignSpec) -> dict:

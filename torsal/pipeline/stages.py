@@ -567,8 +567,7 @@ def _final_cut(inp: StageInputs, fs):
     unsplit = getattr(fs, "_unsplit", None)
     if unsplit is not None:
         fs = unsplit
-        fins._LAST.set((fins._key(fs.structure, spec.material.thickness_mm, fins._options(spec)),
-                        fs))
+        fins.keep_fin_system(spec, fs)
     options = nest_options(spec, fs.unit)
     if not spec.nesting.final_cut or options["nester"] != Nester.SEARCH:
         return fs, None
@@ -590,8 +589,7 @@ def _final_cut(inp: StageInputs, fs):
     if new is not fs and not spec.outputs.step:
         # the assembly check builds the solids of this run's fin system (no STEP to read)
         new._unsplit = fs
-        fins._LAST.set((fins._key(fs.structure, spec.material.thickness_mm, fins._options(spec)),
-                        new))
+        fins.keep_fin_system(spec, new, structure=fs.structure)
     return new, layout
 
 
