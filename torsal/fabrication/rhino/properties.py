@@ -13,7 +13,7 @@ import struct
 import zlib
 
 from .records import _HEAD
-from .splice import _TC_END_OF_FILE, _chunks
+from .splice import _chunks, rewritten
 
 __all__ = ["fixed_properties"]
 
@@ -39,18 +39,8 @@ def fixed_properties(data: bytes, name: str) -> bytes:
     >>> b"t\\x00m\\x00p" in fixed        # the folder it was written to is gone
     False
     """
-    if not data.startswith(b"3D Geometry File Format ") or int(data[24:32]) < 50:
-        raise ValueError("not a .3dm file of version 5 or later")
-    out = [data[:32]]
-    for c in _chunks(data, 32, len(data)):
-        if c.tc == _TC_END_OF_FILE:
-            if c.stop != len(data):
-                raise ValueError("the file does not end with its end mark")
-            out.append(_HEAD.pack(c.tc, 8) + struct.pack("<q", sum(map(len, out)) + 20))
-            return b"".join(out)
-        out.append(_properties_table(data, c.start, c.stop, name)
-                   if c.tc == _TC_PROPERTIES_TABLE else data[c.start:c.stop])
-    raise ValueError("the file has no end mark")
+    return rewritten(data, lambda c: [_properties_table(data, c.start, c.stop, name)]
+                     if c.tc == _TC_PROPERTIES_TABLE else None)
 
 
 def _properties_table(data: bytes, a: int, b: int, name: str) -> bytes:

@@ -7,7 +7,7 @@ Offsets and lengths in bytes.
 from __future__ import annotations
 
 import struct
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 from .records import _HEAD, _TC_CLASS
 
@@ -35,28 +35,39 @@ def splice_records(data: bytes, records: dict) -> bytes:
     the lengths of the object records, of the object table and of the file (its end mark)
     follow. The object records' CRC is unchanged (openNURBS leaves nested chunks out of it).
     ValueError if the file is not so made or a placeholder is missing."""
+    done: set = set()
+
+    def replace(c: "_Chunk") -> list | None:
+        if c.tc != _TC_OBJECT_TABLE:
+            return None
+        table = _object_table(data, c.start, c.stop, records)
+        done.update(table.keys)
+        return [_HEAD.pack(c.tc, sum(map(len, table.pieces))), *table.pieces]
+
+    out = rewritten(data, replace)
+    if done != set(records):
+        raise ValueError(f"{len(set(records) - done)} placeholders are not in the file")
+    return out
+
+
+def rewritten(data: bytes, replace: Callable[["_Chunk"], list | None]) -> bytes:
+    """The bytes of the .3dm file ``data`` (version 5 or later: 8-byte chunk lengths) with each
+    top-level chunk ``c`` for which ``replace(c)`` gives pieces (bytes-likes) replaced by them
+    (None: kept as it is), and the file's end mark (its length) after them. ValueError if the
+    file is not so made."""
     if not data.startswith(b"3D Geometry File Format ") or int(data[24:32]) < 50:
         raise ValueError("not a .3dm file of version 5 or later")
     mv = memoryview(data)
-    out, done = [data[:32]], set()
-    for tc, value, a, b in _chunks(data, 32, len(data)):
-        if tc == _TC_END_OF_FILE:
-            out.append(_HEAD.pack(tc, 8) + struct.pack("<q", sum(map(len, out)) + 20))
-            if b != len(data) or value != 8:
+    out = [data[:32]]
+    for c in _chunks(data, 32, len(data)):
+        if c.tc == _TC_END_OF_FILE:
+            if c.stop != len(data) or c.value != 8:
                 raise ValueError("the file does not end with its end mark")
-            break
-        if tc != _TC_OBJECT_TABLE:
-            out.append(mv[a:b])
-            continue
-        table = _object_table(data, a, b, records)
-        done |= table.keys
-        out.append(_HEAD.pack(tc, sum(map(len, table.pieces))))
-        out.extend(table.pieces)
-    else:
-        raise ValueError("the file has no end mark")
-    if done != set(records):
-        raise ValueError(f"{len(set(records) - done)} placeholders are not in the file")
-    return b"".join(out)
+            out.append(_HEAD.pack(c.tc, 8) + struct.pack("<q", sum(map(len, out)) + 20))
+            return b"".join(out)
+        pieces = replace(c)
+        out.extend([mv[c.start:c.stop]] if pieces is None else pieces)
+    raise ValueError("the file has no end mark")
 
 
 class _Chunk(NamedTuple):
