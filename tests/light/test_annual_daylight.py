@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 
 from torsal.light.annual import RadianceSettings, SkyQuantity, SkySubdivision, SkyYear
-from torsal.light.annual.daylight import (GRID_M, LUMINOUS_EFFICACY, WORK_PLANE_M, Room,
-                                          daylight, occupied)
+from torsal.light.annual.daylight import (GRID_M, LUMINOUS_EFFICACY, WORK_PLANE_M, Blinds, Room,
+                                          blinds_closed, daylight, occupied)
 from torsal.light.annual.irradiance import _sensors, sky_coefficients
 from torsal.light.annual.radiance import Radiance
 from torsal.light.annual.weather import Weather, WeatherSource
@@ -134,3 +134,81 @@ def test_sda_counts_half_the_occupied_hours_not_more(year):
         sda[lit] = daylight(room, _uniform_sky(year, luminance), settings=settings)
     assert sda[1825].sda == 1.0 and np.all(sda[1825].hours_sda == 1825)
     assert sda[1824].sda == 0.0 and np.all(sda[1824].hours_sda == 1824)
+
+
+# ---------------------------------------------------------------- LM-83's operable blinds
+def test_blinds_close_when_more_than_two_percent_of_the_points_are_sunlit():
+    """LM-83-12 2.2.6 on 50 points: 1 point at 1000 lx of direct sun is 2 % (not more: open),
+    2 points are 4 % (closed); 999 lx is not sunlit; no sun, no blinds."""
+    lux = np.zeros((50, 5))
+    lux[:1, 1] = 1000.0
+    lux[:2, 2] = 1000.0
+    lux[:10, 3] = 999.0
+    lux[:, 4] = 5e4
+    assert blinds_closed(lux).tolist() == [False, False, True, False, True]
+    assert blinds_closed(lux, Blinds(share=0.0)).tolist() == [False, True, True, False, True]
+    with pytest.raises(ValueError, match="transmittance"):
+        Blinds(transmittance=1.0)
+
+
+#: the sun of the blinds test: due south (the window's outside, -y), 30 degrees up
+SUN = np.array([0.0, -np.cos(np.radians(30.0)), np.sin(np.radians(30.0))])
+
+
+def _sunny_sky(weather: Weather, luminance, dni, sunny) -> SkyYear:
+    """:func:`_uniform_sky` with a sun in direction :data:`SUN` in the ``sunny`` hours, of
+    visible direct normal irradiance ``dni`` (T,) (lux = 179 x dni)."""
+    sky = _uniform_sky(weather, luminance)
+    hours = np.flatnonzero(sunny)
+    return SkyYear(weather, sky.subdivision, 0.0, 0.0, sky.sky, sky.sun_patches,
+                   np.tile(SUN, (len(hours), 1)), hours, np.asarray(dni, float)[hours],
+                   SkyQuantity.VISIBLE)
+
+
+def test_sda_with_lm83_blinds_in_a_box_room_matches_the_hand_count(year):
+    """LM-83's sDA with its blinds in :func:`black_room` (one open window, 70 points), counted
+    by hand. On a random 40 % of the hours a sun due south 30 degrees up shines through the
+    window: the ray from a work-plane point at depth y leaves the room at the window wall
+    0.76 + y tan 30 deg above the floor, inside the window's 0.8-2.9 m for the rows y <= 3.3 m
+    (60 points, 86 %), above it (on the ceiling) for the back row y = 3.9 m; its direct
+    illuminance there is 179 x DNI x sin 30 deg. The blinds close in the hours in which that
+    is at least 1000 lx (86 % of the points sunlit, more than 2 %); then each point gets 5 % of
+    the sky's and the sun's light. A point's illuminance is 179 x L x (the window's projected
+    solid angle) + the sun's; its lit hours, with and without the blinds, are bracketed by
+    the solid angle :data:`SAMPLING` lower and higher (rcontrib samples the sky; the sun it
+    traces exactly)."""
+    rng = np.random.default_rng(83)
+    luminance = np.exp(rng.uniform(np.log(1.0), np.log(45.0), len(year)))
+    dni = rng.uniform(5.0, 30.0, len(year))             # direct 447-2685 lx at sin 30 deg
+    sunny = rng.uniform(size=len(year)) < 0.4
+    sky = _sunny_sky(year, luminance, dni, sunny)
+    d = daylight(black_room(), sky, settings=RadianceSettings(ambient_bounces=1,
+                                                              ambient_divisions=DIVISIONS))
+    mask = occupied(sky)
+    p = d.points
+    lit_rows = (p[:, 1] * np.tan(np.radians(30.0)) + WORK_PLANE_M) <= 2.9     # by hand
+    assert lit_rows.sum() == 60
+    sun_lux = np.where(sunny, LUMINOUS_EFFICACY * dni * SUN[2], 0.0)[mask]     # (hours,)
+    direct = np.outer(lit_rows, sun_lux)                                       # (n, hours)
+    closed = sunny[mask] & (sun_lux >= 1000.0)          # 60 of 70 points sunlit: > 2 %
+    assert d.blinds.tolist() == closed.tolist()
+    assert d.blinds_hours == closed.sum() and 900 < closed.sum() < 1300
+    assert np.array_equal(d.hours_ase, (direct >= 1000.0).sum(axis=1))    # no blinds in ASE
+    counts = {}
+    for f in (1 - SAMPLING, 1 + SAMPLING):
+        lux = LUMINOUS_EFFICACY * np.outer(f * _hand(p), luminance[mask]) + direct
+        counts[f] = ((lux >= 300.0).sum(axis=1),
+                     (np.where(closed, 0.05 * lux, lux) >= 300.0).sum(axis=1))
+    (open_low, blind_low), (open_high, blind_high) = counts[1 - SAMPLING], counts[1 + SAMPLING]
+    assert np.all(open_low <= d.hours_sda_unshaded) and np.all(d.hours_sda_unshaded <= open_high)
+    assert np.all(blind_low <= d.hours_sda) and np.all(d.hours_sda <= blind_high)
+    half = 1825
+    assert np.mean(open_low >= half) <= d.sda_unshaded <= np.mean(open_high >= half)
+    assert np.mean(blind_low >= half) <= d.sda <= np.mean(blind_high >= half)
+    assert np.mean(blind_high >= half) - np.mean(blind_low >= half) <= 0.1     # a narrow bracket
+    # the blinds take daylight: fewer lit hours at every point, and sDA falls by the count
+    assert np.all(d.hours_sda <= d.hours_sda_unshaded) and d.sda < d.sda_unshaded
+    none = daylight(black_room(), sky, settings=RadianceSettings(ambient_bounces=1,
+                                                                 ambient_divisions=DIVISIONS),
+                    blinds=None)
+    assert np.array_equal(none.hours_sda, d.hours_sda_unshaded) and none.blinds_hours == 0

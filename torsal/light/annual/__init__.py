@@ -29,7 +29,7 @@ from torsal.light.annual.irradiance import (
     annual_irradiance,
     shading_factor,
 )
-from torsal.light.annual.daylight import Daylight, Room, daylight
+from torsal.light.annual.daylight import Blinds, Daylight, Room, blinds_closed, daylight
 from torsal.light.annual.radiance import Radiance, RadianceError, RadianceNotFound
 from torsal.light.annual.sky import (
     BALANCE_TEMPERATURE_C,
@@ -52,5 +52,5 @@ __all__ = [
     "clear_sky_year", "epw_year", "weather_year", "AMBIENT_BOUNCES", "AMBIENT_DIVISIONS",
     "FIN_REFLECTANCE",
     "GROUND_REFLECTANCE", "BALANCE_TEMPERATURE_C", "SHADING_FACTOR_STANDARD", "Room",
-    "Daylight", "daylight",
+    "Daylight", "daylight", "Blinds", "blinds_closed",
 ]

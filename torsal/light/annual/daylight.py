@@ -10,11 +10,20 @@ reflections ``ambient_bounces - 1``; illuminance = 179 lm/W times Radiance's vis
 irradiance).
 
 - **sDA 300 / 50 %** (spatial daylight autonomy): the share of the work-plane points with at
-  least 300 lx for at least half of the occupied hours. LM-83 closes operable blinds in the
-  hours where more than 2 % of the points get over 1000 lx of direct sun; here the fins are the
-  shading and no blinds are drawn: the value is that of the room as built, not LM-83's sDA with
-  its blinds (which blinds closed in the sunniest hours would usually lower; not computed here).
-  Checked against a room computed by hand in ``tests/light/test_annual_daylight.py``.
+  least 300 lx for at least half of the occupied hours, **with operable blinds as LM-83
+  operates them** (IES LM-83-12 section 2.2.6, "Blinds/Shades Operation"): the blinds of a
+  space are closed in every occupied hour in which more than 2 % of its analysis points receive
+  1000 lx or more of direct sunlight (the sun alone, through the glazing, no interreflections:
+  the direct-sun illuminance ASE counts), and open in the others; sDA is then counted from the
+  hourly illuminance with the blinds in that state (:func:`blinds_closed`,
+  :class:`Blinds`). A closed blind is a neutral shade behind the glazing that passes a fraction
+  :data:`SHADE_TRANSMITTANCE` of all the light the window lets in (sky, ground, sun and their
+  reflections; LM-83-12 section 2.2.7 asks for the actual blinds' properties and leaves the
+  choice to the modeller; 5 % is the closed-shade transmittance that Ladybug Tools'
+  honeybee-radiance-postprocess uses by default for LEED v4.1 Daylight Option 1, which follows
+  LM-83). One room is one space with one window group. The room without blinds (the room as
+  built, the fins its only shading) is reported beside it: :attr:`Daylight.sda_unshaded`.
+  Checked against rooms computed by hand in ``tests/light/test_annual_daylight.py``.
 - **ASE 1000 / 250** (annual sunlight exposure): the share of the points that get at least
   1000 lx of direct sun (no reflections) for more than 250 occupied hours a year.
 
@@ -34,7 +43,8 @@ from torsal.light.annual.sky import SkyQuantity, SkyYear
 
 __all__ = ["Room", "Daylight", "daylight", "LUMINOUS_EFFICACY", "SDA_LUX", "SDA_SHARE",
            "ASE_LUX", "ASE_HOURS", "OCCUPIED_HOURS", "WORK_PLANE_M", "GRID_M",
-           "ROOM_REFLECTANCE", "GLAZING_TRANSMITTANCE", "ROOM_BOUNCES", "ROOM_DIVISIONS"]
+           "ROOM_REFLECTANCE", "GLAZING_TRANSMITTANCE", "ROOM_BOUNCES", "ROOM_DIVISIONS",
+           "Blinds", "blinds_closed", "SHADE_TRANSMITTANCE", "BLINDS_LUX", "BLINDS_SHARE"]
 
 #: lm/W: Radiance's white-light efficacy (illuminance = 179 x visible irradiance)
 LUMINOUS_EFFICACY = 179.0
@@ -52,6 +62,65 @@ ROOM_REFLECTANCE = (0.2, 0.5, 0.7)
 GLAZING_TRANSMITTANCE = 0.6
 #: rcontrib -ab and -ad in a room (LM-83's Radiance parameters: -ab 6 -ad 1000)
 ROOM_BOUNCES, ROOM_DIVISIONS = 6, 1024
+#: LM-83-12 2.2.6: the blinds close in an hour where more than BLINDS_SHARE of the points get
+#: BLINDS_LUX (lx) or more of direct sunlight
+BLINDS_LUX, BLINDS_SHARE = 1000.0, 0.02
+#: the share of the light through the window that closed blinds pass (see the module docstring)
+SHADE_TRANSMITTANCE = 0.05
+
+
+@dataclass(frozen=True)
+class Blinds:
+    """Operable blinds behind a room's window, operated as IES LM-83-12 2.2.6 states.
+
+    Attributes
+    ----------
+    transmittance : float, default :data:`SHADE_TRANSMITTANCE`
+        The share of the light through the window that the closed blinds pass, in [0, 1).
+    lux : float, default :data:`BLINDS_LUX`
+        Direct-sun illuminance (lx) at which a point counts as sunlit.
+    share : float, default :data:`BLINDS_SHARE`
+        The blinds close when more than this share of the points is sunlit.
+
+    Examples
+    --------
+    >>> Blinds().transmittance, Blinds().share
+    (0.05, 0.02)
+    """
+
+    transmittance: float = SHADE_TRANSMITTANCE
+    lux: float = BLINDS_LUX
+    share: float = BLINDS_SHARE
+
+    def __post_init__(self):
+        if not 0.0 <= self.transmittance < 1.0:
+            raise ValueError(f"blinds' transmittance must be in [0, 1), got {self.transmittance}")
+        if not (self.lux > 0 and 0.0 <= self.share < 1.0):
+            raise ValueError("blinds need lux > 0 and a share in [0, 1)")
+
+
+def blinds_closed(direct_lux, blinds: Blinds = Blinds()) -> np.ndarray:
+    """LM-83-12 2.2.6's schedule: the hours in which the blinds are closed.
+
+    Parameters
+    ----------
+    direct_lux : (n, H) float
+        Direct-sun illuminance (lx) at each of n points in each of H occupied hours.
+    blinds : Blinds
+
+    Returns
+    -------
+    (H,) bool
+        True where more than ``blinds.share`` of the points get at least ``blinds.lux``.
+
+    Examples
+    --------
+    >>> lux = np.zeros((50, 3)); lux[:1, 1] = lux[:2, 2] = 2000.0
+    >>> blinds_closed(lux).tolist()          # 1 of 50 points is 2 %, not more: open
+    [False, False, True]
+    """
+    d = np.asarray(direct_lux, float)
+    return (d >= blinds.lux).sum(axis=0) > blinds.share * d.shape[0]
 
 
 @dataclass(frozen=True)
@@ -156,20 +225,41 @@ class Daylight:
     occupied_hours : int
         The year's occupied hours H.
     hours_sda : (n,) int
-        Occupied hours with at least :data:`SDA_LUX` at each point.
+        Occupied hours with at least :data:`SDA_LUX` at each point, the blinds operated as
+        LM-83 states (:func:`blinds_closed`; without blinds the same as ``hours_sda_unshaded``).
     hours_ase : (n,) int
         Occupied hours with at least :data:`ASE_LUX` of direct sun at each point.
+    hours_sda_unshaded : (n,) int
+        Occupied hours with at least :data:`SDA_LUX` at each point, no blinds drawn.
+    blinds : (H,) bool
+        The occupied hours in which the blinds are closed (all False without blinds).
+    shade_transmittance : float or None
+        The closed blinds' :attr:`Blinds.transmittance`; None: no blinds.
     """
 
     points: np.ndarray
     occupied_hours: int
     hours_sda: np.ndarray
     hours_ase: np.ndarray
+    hours_sda_unshaded: np.ndarray
+    blinds: np.ndarray
+    shade_transmittance: float | None = SHADE_TRANSMITTANCE
 
     @property
     def sda(self) -> float:
-        """sDA 300/50%: share of the points lit to 300 lx for half the occupied hours."""
+        """sDA 300/50% as LM-83 defines it, with its blinds: share of the points lit to 300 lx
+        for half the occupied hours."""
         return float(np.mean(self.hours_sda >= SDA_SHARE * self.occupied_hours))
+
+    @property
+    def sda_unshaded(self) -> float:
+        """sDA 300/50% with no blinds drawn (the room as built, its fins the only shading)."""
+        return float(np.mean(self.hours_sda_unshaded >= SDA_SHARE * self.occupied_hours))
+
+    @property
+    def blinds_hours(self) -> int:
+        """Occupied hours with the blinds closed."""
+        return int(np.count_nonzero(self.blinds))
 
     @property
     def ase(self) -> float:
@@ -177,9 +267,12 @@ class Daylight:
         return float(np.mean(self.hours_ase > ASE_HOURS))
 
     def as_dict(self) -> dict:
-        """JSON-ready: ``sda``, ``ase``, ``points``, ``occupied_hours``."""
-        return {"sda": self.sda, "ase": self.ase, "points": int(len(self.points)),
-                "occupied_hours": int(self.occupied_hours)}
+        """JSON-ready: ``sda`` (LM-83's, with blinds), ``sda_unshaded``, ``ase``,
+        ``blinds_hours``, ``shade_transmittance``, ``points``, ``occupied_hours``."""
+        return {"sda": self.sda, "sda_unshaded": self.sda_unshaded, "ase": self.ase,
+                "blinds_hours": self.blinds_hours,
+                "shade_transmittance": self.shade_transmittance,
+                "points": int(len(self.points)), "occupied_hours": int(self.occupied_hours)}
 
 
 def occupied(sky: SkyYear, hours=OCCUPIED_HOURS) -> np.ndarray:
@@ -191,8 +284,9 @@ def occupied(sky: SkyYear, hours=OCCUPIED_HOURS) -> np.ndarray:
 
 def daylight(room: Room, sky: SkyYear, *, fins=None, settings: RadianceSettings | None = None,
              hours=OCCUPIED_HOURS, spacing: float = GRID_M, work_plane: float = WORK_PLANE_M,
-             radiance: Radiance | None = None) -> Daylight:
-    """sDA and ASE of ``room`` behind ``fins`` over the weather year.
+             radiance: Radiance | None = None, blinds: Blinds | None = Blinds()) -> Daylight:
+    """sDA (with LM-83's operable blinds, and without) and ASE of ``room`` behind ``fins``
+    over the weather year.
 
     Parameters
     ----------
@@ -209,10 +303,19 @@ def daylight(room: Room, sky: SkyYear, *, fins=None, settings: RadianceSettings 
         The grid's largest spacing and its height above the floor, model units (LM-83's
         0.6 m and 0.76 m in metres).
     radiance : Radiance, optional
+    blinds : Blinds or None, default ``Blinds()``
+        The operable blinds LM-83's sDA draws; None: none (``sda`` is ``sda_unshaded``).
 
     Returns
     -------
     Daylight
+
+    Examples
+    --------
+    >>> room = Room((0, 0, 0), (1, 0, 0), (0, 1, 0), 6.0, 9.0, 3.0, 0.9, 2.7)
+    >>> d = daylight(room, sky_year(w, quantity=SkyQuantity.VISIBLE))     # doctest: +SKIP
+    >>> d.sda, d.sda_unshaded, d.blinds_hours                             # doctest: +SKIP
+    (0.55, 0.9, 1210)
     """
     if sky.quantity is not SkyQuantity.VISIBLE:
         raise ValueError("daylight needs a visible sky: sky_year(..., quantity=SkyQuantity.VISIBLE)")
@@ -226,6 +329,13 @@ def daylight(room: Room, sky: SkyYear, *, fins=None, settings: RadianceSettings 
     lux = LUMINOUS_EFFICACY * hourly_sums(sensors, scene, sky, group, int(mask.sum()),
                                           bounces=int(settings.ambient_bounces),
                                           settings=settings, radiance=radiance or Radiance.bundled())
-    direct = lux[:, :, list(Source).index(Source.SUN)]
-    return Daylight(points, int(mask.sum()), (lux.sum(axis=2) >= SDA_LUX).sum(axis=1),
-                    (direct >= ASE_LUX).sum(axis=1))
+    direct, total = lux[:, :, list(Source).index(Source.SUN)], lux.sum(axis=2)
+    unshaded = (total >= SDA_LUX).sum(axis=1)
+    if blinds is None:
+        return Daylight(points, int(mask.sum()), unshaded, (direct >= ASE_LUX).sum(axis=1),
+                        unshaded, np.zeros(int(mask.sum()), bool), None)
+    closed = blinds_closed(direct, blinds)
+    # one window group: closed blinds scale everything the window lets in
+    shaded = np.where(closed[None, :], blinds.transmittance * total, total)
+    return Daylight(points, int(mask.sum()), (shaded >= SDA_LUX).sum(axis=1),
+                    (direct >= ASE_LUX).sum(axis=1), unshaded, closed, blinds.transmittance)
