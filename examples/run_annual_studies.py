@@ -63,7 +63,12 @@ BEGIN, END = "<!-- annual-studies:begin -->", "<!-- annual-studies:end -->"
 FILES = {k: next(HERE.glob(f"{k}_*.toml")) for k in KEYS}
 
 AVOIDED = "light.annual.fins.shading_factor.cooling_gains_avoided_kwh_m2"
+#: LM-83's sDA, with its operable blinds (since aa8c610; before, the room without blinds)
 SDA = "light.annual.daylight.fins.sda_all"
+#: the timing file's mark of a run whose sDA is LM-83's with blinds
+BLINDS = "sda_lm83_blinds"
+#: the rooms' prefixes in a study's table: bare, and behind the row's shading
+DAYLIGHT = ("light.annual.daylight.bare.", "light.annual.daylight.fins.")
 
 
 class Size(Enum):
@@ -171,8 +176,25 @@ def _solve_shared(study: Study, out: Path) -> None:
         pass
 
 
+def keep_unshaded(key: str) -> None:
+    """Before a new run replaces a saved study whose sDA had no blinds (a timing file without
+    the :data:`BLINDS` mark), keep its sDA columns and timing as ``<key>_annual_unshaded.csv``
+    / ``.json``: the sDA of the same rooms without blinds, which the study table of a run with
+    LM-83's blinds does not carry (the pipeline reports LM-83's ``sda`` alone)."""
+    csv, tm = RESULTS / f"{key}_annual.csv", RESULTS / f"{key}_annual.json"
+    if not (csv.exists() and tm.exists()) or json.loads(tm.read_text()).get(BLINDS):
+        return
+    t = pd.read_csv(csv)
+    cols = [p + "sda_all" for p in DAYLIGHT if p + "sda_all" in t]
+    if cols:
+        t[["kind", "device", "fins.spacing", *cols]].to_csv(
+            RESULTS / f"{key}_annual_unshaded.csv", index=False, float_format="%.6g")
+        shutil.copyfile(tm, RESULTS / f"{key}_annual_unshaded.json")
+
+
 def run(key: str, out: Path, workers: int, size: Size = Size.FULL) -> dict:
     """Run one study at ``size``; save its table, plot and timing under examples/studies."""
+    keep_unshaded(key)
     study = Study.from_toml(write_study(key, out / key, size))
     load0, t0, cpu0 = os.getloadavg()[0], time.perf_counter(), _cpu_s()
     _solve_shared(study, out / key / "out")
@@ -193,7 +215,7 @@ def run(key: str, out: Path, workers: int, size: Size = Size.FULL) -> dict:
               "load_start": load0,
               "load_end": os.getloadavg()[0], "date": time.strftime("%Y-%m-%d %H:%M UTC",
                                                                    time.gmtime()),
-              "commit": _commit(), "verdict": res.verdict, "failed": res.failed}
+              "commit": _commit(), "verdict": res.verdict, "failed": res.failed, BLINDS: True}
     (RESULTS / f"{key}_annual.json").write_text(json.dumps(timing, indent=1))
     return timing
 
@@ -217,17 +239,41 @@ def _kwh(r, source: str) -> str:
 
 
 def _share(x) -> str:
-    return "-" if pd.isna(x) else f"{100 * x:.0f}%"
+    return "-" if x is None or pd.isna(x) else f"{100 * x:.0f}%"
+
+
+def _sda(key: str, tm: dict, row, prefix: str) -> tuple:
+    """``(LM-83's sDA with blinds, sDA without blinds)`` of a study's ``row`` (bare or behind
+    its shading, ``prefix`` of :data:`DAYLIGHT`), None where not measured: a run with the
+    :data:`BLINDS` mark gives LM-83's and, where the pipeline reports it, the unshaded
+    (``sda_unshaded_all``), else the one kept from the run before (:func:`keep_unshaded`); an
+    older run gives the unshaded alone."""
+    if row is None or pd.isna(row.get(prefix + "sda_all")):
+        return None, None
+    if not tm.get(BLINDS):
+        return None, row[prefix + "sda_all"]
+    if pd.notna(row.get(prefix + "sda_unshaded_all")):
+        return row[prefix + "sda_all"], row[prefix + "sda_unshaded_all"]
+    kept = RESULTS / f"{key}_annual_unshaded.csv"
+    if not kept.exists():
+        return row[prefix + "sda_all"], None
+    k = pd.read_csv(kept)
+    same = ((k["kind"] == row["kind"]) & (k["device"].fillna("") == ("" if pd.isna(
+        row.get("device")) else row["device"])) & (k["fins.spacing"].astype(str)
+                                                   == str(row["fins.spacing"])))
+    old = k.loc[same, prefix + "sda_all"] if prefix + "sda_all" in k else k[:0]
+    return row[prefix + "sda_all"], (old.iloc[0] if len(old) else None)
 
 
 def annual_table(keys=KEYS) -> str:
     """Per example (and the size it ran at), its uniform variant: kWh/m2 on the glazing in
     the cooling / heating season, bare, behind the fins and behind the device that avoids the
-    most cooling-season gains; F_sh (cooling); sDA / ASE bare, fins, that device; the annual
-    stage's and the whole variant's wall seconds."""
+    most cooling-season gains; F_sh (cooling); sDA with LM-83's blinds and without, and ASE,
+    bare, fins, that device; the annual stage's and the whole variant's wall seconds."""
     lines = ["| example | bare kWh/m2 cooling / heating | fins | best device (cooling gains "
-             "avoided) | F_sh cooling fins / device | sDA bare / fins / device | ASE bare / "
-             "fins / device | annual stage s / variant run s |", "|" + "---|" * 8]
+             "avoided) | F_sh cooling fins / device | sDA LM-83 (blinds) bare / fins / device "
+             "| sDA without blinds bare / fins / device | ASE bare / fins / device | annual "
+             "stage s / variant run s |", "|" + "---|" * 9]
     for key, torsal, devices in _studies(keys):
         uniform = torsal[~torsal["fins.spacing"].astype(str).str.startswith("[")]
         if uniform.empty:
@@ -235,16 +281,19 @@ def annual_table(keys=KEYS) -> str:
         r = uniform.iloc[0]
         d = devices.loc[devices[AVOIDED].idxmax()] if not devices.empty else None
         fsh = "light.annual.fins.shading_factor.f_sh_cooling"
-        dl = ("light.annual.daylight.bare.", "light.annual.daylight.fins.")
         tm = json.loads((RESULTS / f"{key}_annual.json").read_text())
         room = (f", {tm.get('room_depth_m', 6.0):g} m room"                 # a facade's
-                if pd.notna(r.get(dl[0] + "sda_all")) else "")
+                if pd.notna(r.get(DAYLIGHT[0] + "sda_all")) else "")
         cells = [f"{key} ({tm.get('size', 'reduced')}{room})", _kwh(r, "bare"), _kwh(r, "fins"),
                  "-" if d is None else f"{d['device']}: {_kwh(d, 'fins')}",
                  f"{r[fsh]:.2f} / " + ("-" if d is None else f"{d[fsh]:.2f}")]
-        for what in ("sda_all", "ase_all"):
-            cells.append(" / ".join(_share(x.get(p + what)) for x, p in
-                                    ((r, dl[0]), (r, dl[1]), (d if d is not None else {}, dl[1]))))
+        sda = [_sda(key, tm, x, p) for x, p in ((r, DAYLIGHT[0]), (r, DAYLIGHT[1]),
+                                                (d, DAYLIGHT[1]))]
+        for j in (0, 1):
+            cells.append(" / ".join(_share(s[j]) for s in sda))
+        cells.append(" / ".join(_share(x.get(p + "ase_all")) for x, p in
+                                ((r, DAYLIGHT[0]), (r, DAYLIGHT[1]),
+                                 (d if d is not None else {}, DAYLIGHT[1]))))
         cells.append(f"{r['stage_s.annual']:.0f} / {r['wall_s']:.0f}")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -288,7 +337,8 @@ def studies_table(keys=KEYS) -> str:
     for key, torsal, devices in _studies(keys):
         tm = json.loads((RESULTS / f"{key}_annual.json").read_text())
         x = SDA if SDA in torsal and torsal[SDA].notna().any() else X_KEY
-        word = "sDA" if x == SDA else "view"
+        # LM-83's sDA with its blinds; a run before them measured the room without
+        word = ("view" if x != SDA else "sDA LM-83" if tm.get(BLINDS) else "sDA w/o blinds")
 
         def cell(r):
             return (f"{r[AVOIDED]:.0f} kWh/m2, {word} {_share(r[x])}"
