@@ -146,10 +146,13 @@ def test_the_rates_decide_whether_a_sheet_pays():
     assert fc.cuts_pay(rates(2.4), **kw)(cost, 1)
     assert not fc.cuts_pay(rates(2.2), **kw)(cost, 1)
     assert not fc.cuts_pay(rates(100.0), **kw)(cost, 0)
-    # without rates: a sheet saved by seams that add no fixing
+    # without rates: a sheet saved pays for its seams and at most one fixing more
     free = fc.cuts_pay(None, **kw)
     assert free(cost, 1) and not free(cost, 0)
-    assert not free([cost[0]._replace(fixings=1)], 1)
+    fixed = cost[0]._replace(fixings=1)
+    assert free([fixed], 1) and free([fixed, fixed], 2) and free([fixed, cost[0]], 1)
+    assert not free([fixed, fixed], 1) and not free([fixed._replace(fixings=2)], 1)
+    assert not free([fixed], 0)
 
 
 def test_no_sheet_to_save_no_split(grid):
@@ -179,10 +182,18 @@ def test_the_bill_decides():
         def __init__(self, total):
             self.total = total
 
-    d = dict(sheets=-1, panels_left_out=0, blocked=0, connectors=0, fixings=0, bolts=0, anchors=0)
+    d = dict(sheets=-1, panels_left_out=0, blocked=0, connectors=0, fixings=0, bolts=0, anchors=0,
+             connector_bolts=0, connector_anchors=0)
     base, fewer = Sheets(3), Sheets(2)
     assert fc._verdict(d, None, None, base, fewer, "") == ""
     assert "connectors" in fc._verdict(d | {"connectors": 2}, None, None, base, fewer, "")
+    assert "connector bolts" in fc._verdict(d | {"connector_bolts": 1}, None, None, base, fewer, "")
+    # without rates a sheet saved may add one fixing, with its own bolts and anchors
+    one = d | {"fixings": 1, "bolts": 2, "anchors": 2}
+    assert fc._verdict(one, None, None, base, fewer, "") == ""
+    assert "2 fixings more for 1 sheets" in fc._verdict(one | {"fixings": 2}, None, None, base,
+                                                          fewer, "")
+    assert fc._verdict(one | {"fixings": 2, "sheets": -2}, None, None, base, Sheets(1), "") == ""
     assert "not fewer" in fc._verdict(d | {"sheets": 0}, None, None, base, Sheets(3), "")
     assert "panels" in fc._verdict(d | {"panels_left_out": 1}, Price(2), Price(1), base, fewer, "")
     # with rates the price decides, brackets and all

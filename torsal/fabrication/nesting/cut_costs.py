@@ -2,6 +2,16 @@
 where a plate may be cut for yield, the fixings a cut adds, and whether cuts pay at the
 user's rates (:class:`~torsal.fabrication.quantities.Rates`).
 
+**Without rates** (no ``[costs]``: no price, none invented) the bill is compared in its own
+quantities. A sheet saved is a whole sheet of material (on 3 mm aluminium, 2.5 x 1.25 m:
+25 kg, and the cutting of its skeleton); a seam held in its crossing slot adds one contour
+and one pierce (metres and pierces the report gives); a plate fixed to the building, cut,
+takes one fixing more (each piece is fixed): one small bent bracket and its fasteners
+(7a: 0.004 m^2, 33 g, 0.13 % of the sheet saved; 2 M6 bolts and 2 M8 anchors). So a sheet saved pays for its seams
+and at most :data:`FIXINGS_PER_SHEET_SAVED` fixing: cuts that add more fixings than that
+per sheet they save are not made, and no cut may add a connector (a bracket or splice).
+With rates, the rates decide, fixings and all.
+
 Units: those of the fin system (``unit``); prices in the rates' currency.
 """
 from __future__ import annotations
@@ -10,18 +20,24 @@ from typing import Callable, Mapping
 
 from .pieces import CutCost
 
-__all__ = ["cuts_pay", "fixings_added", "per_fixing", "yield_cut_sites"]
+__all__ = ["cuts_pay", "fixings_added", "per_fixing", "yield_cut_sites",
+           "FIXINGS_PER_SHEET_SAVED"]
+
+#: without rates, the fixings one sheet saved may add (see the module docstring)
+FIXINGS_PER_SHEET_SAVED = 1
 
 
 def cuts_pay(rates, *, sheet, thickness: float, density: float, unit: str, process,
              per_fixing: float = 0.0) -> Callable:
     """``pays(cuts, sheets saved)`` of :func:`~.split.nest_split` from the user's
-    :class:`~torsal.fabrication.quantities.Rates` (None: every sheet a seam in a slot saves
-    pays, where no cut adds a fixing; see the module docstring). ``sheet`` ``(w, h)`` and
+    :class:`~torsal.fabrication.quantities.Rates` (None: every sheet seams in their slots
+    save pays, where the cuts add at most :data:`FIXINGS_PER_SHEET_SAVED` fixing a sheet
+    saved; see the module docstring). ``sheet`` ``(w, h)`` and
     ``thickness`` in ``unit``, ``density`` kg/m^3, ``process`` the cutting process the cut rate
     is for, ``per_fixing`` what a fixing costs (its part, anchors and bolts)."""
     if rates is None:
-        return lambda cuts, saved: saved > 0 and not any(c.fixings for c in cuts)
+        return lambda cuts, saved: saved > 0 and sum(c.fixings for c in cuts) <= \
+            FIXINGS_PER_SHEET_SAVED * saved
     from torsal.core.units import UNIT_TO_MM
 
     m = UNIT_TO_MM[unit] / 1000.0
@@ -87,12 +103,15 @@ def per_fixing(fs, rates, density: float, cutting) -> float:
 def yield_cut_sites(fs, rates=None) -> tuple[dict, dict]:
     """``(cuts, fixings)``: where the plates of ``fs`` may be cut for yield
     (:func:`~torsal.fabrication.builder.seams.yield_cut_positions`) and the fixings each cut
-    adds (:func:`fixings_added`); without ``rates`` only the cuts that add no fixing."""
+    adds (:func:`fixings_added`); without ``rates`` only the cuts that add at most
+    :data:`FIXINGS_PER_SHEET_SAVED` fixing (whether a sheet saved pays for them,
+    :func:`cuts_pay` decides)."""
     from ..builder.seams import yield_cut_positions
 
     cuts = yield_cut_positions(fs)
     fixings = fixings_added(fs, cuts)
-    if rates is None:          # no price: only the cuts that add nothing but contour
-        cuts = {n: tuple(j for j in js if not fixings.get((n, j))) for n, js in cuts.items()}
+    if rates is None:          # no price: contour, pierces and at most one fixing
+        cuts = {n: tuple(j for j in js if fixings.get((n, j), 0) <= FIXINGS_PER_SHEET_SAVED)
+                for n, js in cuts.items()}
         cuts = {n: js for n, js in cuts.items() if js}
     return cuts, fixings

@@ -9,9 +9,9 @@ bill of quantities says a sheet saved is worth the cuts (issues 40, 42).
    (:func:`~.cut_costs.cuts_pay`): with the user's rates, the sheets' material against what the cuts add
    (their contour, a pierce and a part to place each, less the bend a cut at a fold removes,
    and the fixings a cut of a plate fixed to the building adds: each piece is fixed);
-   without rates, only the cuts that add no fixing may be made (no connector, no fastener:
-   the bill adds only contour and pierces, which the report gives), and every sheet they
-   empty pays.
+   without rates, a sheet emptied pays for the seams that empty it (contour and pierces,
+   which the report gives) and at most one fixing more (a cut of a plate fixed to the
+   building: :data:`~.cut_costs.FIXINGS_PER_SHEET_SAVED`, argued in :mod:`.cut_costs`).
 3. **The real parts.** The fin system is built again with those cuts
    (:func:`~.mapped.rebuilt_with_cuts`: the same structure and options, the plates cut once more at
    those node lines, ``FinSystem._yield_cuts``): each cut becomes a seam inside its slot,
@@ -24,7 +24,8 @@ bill of quantities says a sheet saved is worth the cuts (issues 40, 42).
 4. **The bill decides** (:func:`~torsal.fabrication.quantities.bill_of_quantities` of both
    designs on their sheets). The split design is kept where it has fewer sheets, leaves out
    no more fin panels and blocks no more parts' paths and, with rates, costs less; without
-   rates, has no more connectors, fixings, bolts or anchors. Else the fin system and the
+   rates, has no more connectors or connectors' bolts and anchors, and at most one fixing
+   more (with its own fasteners) a sheet saved. Else the fin system and the
    sheets without splits stand (:attr:`YieldSplit.kept` False, saying why).
 
 Every step counts tries, never seconds: the same design gives the same parts and sheets on
@@ -40,7 +41,8 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
-from .cut_costs import cuts_pay, fixings_added, per_fixing, yield_cut_sites
+from .cut_costs import (FIXINGS_PER_SHEET_SAVED, cuts_pay, fixings_added, per_fixing,
+                        yield_cut_sites)
 from .mapped import mapped_layout, pieces_of, rebuilt_with_cuts, strip_cuts
 from .search import DEFAULT_TRIES
 from .split import DEFAULT_SPLIT_TRIES, SplitNesting, nest_split
@@ -100,6 +102,9 @@ def _counts(fs) -> dict:
     return {"connectors": len(fs.connectors), "fixings": len(fs.fixings),
             "bolts": int(sum(c.bolts for c in counts.values())),
             "anchors": int(sum(c.anchors for c in counts.values())),
+            # the fasteners of the connectors alone (what a cut may not add without rates)
+            "connector_bolts": int(sum(c.bolts for k, c in counts.items() if k != "fixing")),
+            "connector_anchors": int(sum(c.anchors for k, c in counts.items() if k != "fixing")),
             "panels_left_out": len(getattr(fs, "coplanar_panels", [])) + len(fs.dropped_panels),
             "blocked": len(getattr(fs, "_blocked_paths", []))}
 
@@ -194,8 +199,16 @@ def _verdict(delta: dict, p0, p1, base, lay2, currency: str) -> str:
     if p0 is not None:
         return "" if p1.total < p0.total else (
             f"the price went up by {p1.total - p0.total:.2f} {currency}".rstrip())
-    worse = [k for k in ("connectors", "fixings", "bolts", "anchors") if delta[k] > 0]
-    return "" if not worse else "more " + ", ".join(worse) + " than without the cuts"
+    # without rates (cut_costs' module docstring): no connector or connector fastener more,
+    # at most FIXINGS_PER_SHEET_SAVED fixings (with their own fasteners) a sheet saved
+    worse = [k.replace("_", " ") for k in ("connectors", "connector_bolts", "connector_anchors")
+             if delta.get(k, 0) > 0]
+    if worse:
+        return "more " + ", ".join(worse) + " than without the cuts"
+    if delta["fixings"] > FIXINGS_PER_SHEET_SAVED * -delta["sheets"]:
+        return (f"{delta['fixings']} fixings more for {-delta['sheets']} sheets saved (at most "
+                f"{FIXINGS_PER_SHEET_SAVED} a sheet without [costs])")
+    return ""
 
 
 def _attempt(fs, res: SplitNesting, kw: dict, rates, density: float, t0: float):
