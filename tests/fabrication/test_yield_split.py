@@ -155,6 +155,22 @@ def test_the_rates_decide_whether_a_sheet_pays():
     assert not free([fixed], 0)
 
 
+def test_without_rates_a_cut_may_add_one_fixing(grid, monkeypatch):
+    from torsal.fabrication.builder import seams
+    from torsal.fabrication.nesting import cut_costs
+
+    sites = {"F0-S001-P00": (2, 3), "F1-S001-P00": (2,)}
+    monkeypatch.setattr(seams, "yield_cut_positions", lambda fs: dict(sites))
+    # the row fixed to the building: its pieces take one fixing more at node line 2, two at 3
+    monkeypatch.setattr(cut_costs, "fixings_added",
+                        lambda fs, cuts: {("F0-S001-P00", 2): 1, ("F0-S001-P00", 3): 2})
+    cuts, fixings = fc.yield_cut_sites(grid)
+    assert cuts == {"F0-S001-P00": (2,), "F1-S001-P00": (2,)}
+    assert fixings[("F0-S001-P00", 3)] == 2
+    # with rates every site is offered: the price decides
+    assert fc.yield_cut_sites(grid, rates=object())[0] == sites
+
+
 def test_no_sheet_to_save_no_split(grid):
     big = dict(OPTIONS, sheet=(2500.0, 1250.0))
     fs2, lay, split = fc.final_cut(grid, big)
