@@ -48,11 +48,9 @@ def _jit(fn: ca.Function) -> ca.Function:
     fails (no compiler, read-only cache, ...).
     """
     import hashlib
-    import os
-    import shutil
 
     try:
-        cc = shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+        cc = _cc()
         if cc is None:
             return fn
         # the fixed file name keeps the code, and so the hash, independent of the process
@@ -69,16 +67,32 @@ def _jit(fn: ca.Function) -> ca.Function:
         return fn
 
 
+def _cc() -> str | None:
+    """The system C compiler (``$CC``, else gcc or cc), None where there is none."""
+    import os
+    import shutil
+
+    return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
+
+
 def _compile(cg: ca.CodeGenerator, lib, cc: str) -> None:
     """Compile the code of ``cg`` into the library ``lib`` (a path in the kernel cache)."""
+    import os
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="torsal_jit_") as tmp:
+        # generated into a private folder (never the caller's working directory)
+        _compile_file(cg.generate(tmp + os.sep), lib, cc)
+
+
+def _compile_file(src: str, lib, cc: str) -> None:
+    """Compile the C file ``src`` into the library ``lib`` (a path in the kernel cache)."""
     import os
     import shutil
     import subprocess
     import tempfile
 
-    with tempfile.TemporaryDirectory(prefix="torsal_jit_") as tmp:
-        # generated into a private folder (never the caller's working directory)
-        src = cg.generate(tmp + os.sep)
+    with tempfile.TemporaryDirectory(prefix="torsal_cc_") as tmp:
         lib.parent.mkdir(parents=True, exist_ok=True)
         out = os.path.join(tmp, "tk.so")
         subprocess.run([cc, "-O2", "-shared", "-fPIC", src, "-o", out, "-lm"],
@@ -93,6 +107,36 @@ def _compile(cg: ca.CodeGenerator, lib, cc: str) -> None:
         finally:
             if os.path.exists(part):
                 os.unlink(part)
+
+
+def c_library(source: str, prefix: str):
+    """The shared library of the C ``source``, compiled once per machine into the kernel cache
+    (:func:`_kernel_cache_dir`, named by the hash of the source) and loaded with ctypes; None
+    where there is no C compiler or anything fails (the caller keeps its numpy path).
+
+    >>> lib = c_library("int twice(int x) { return 2 * x; }", "doc")
+    >>> lib is None or lib.twice(21) == 42
+    True
+    """
+    import ctypes
+    import hashlib
+    import os
+    import tempfile
+
+    try:
+        cc = _cc()
+        if cc is None:
+            return None
+        lib = _kernel_cache_dir() / f"{prefix}_{hashlib.sha1(source.encode()).hexdigest()[:16]}.so"
+        if not lib.exists():
+            with tempfile.TemporaryDirectory(prefix="torsal_src_") as tmp:
+                src = os.path.join(tmp, prefix + ".c")
+                with open(src, "w") as fh:
+                    fh.write(source)
+                _compile_file(src, lib, cc)
+        return ctypes.CDLL(str(lib))
+    except Exception:   # pragma: no cover - no compiler, read-only cache, ...: the numpy path
+        return None
 
 
 class Local:
