@@ -687,8 +687,13 @@ def main():
     ap.add_argument("--family-n", type=int, default=20)
     ap.add_argument("--max-vertices", type=int, default=100_000, help="synthetic rows up to this size")
     ap.add_argument("--no-jit", action="store_true", help="interpreted casadi kernels")
+    ap.add_argument("--psd", choices=["numpy", "compiled"], default=None,
+                    help="the element Hessians' eigendecompositions (projected.PSD_KERNEL; default its default)")
     args = ap.parse_args()
     OPTS["jit"] = not args.no_jit
+    if args.psd:
+        from torsal.geometry.optimize import projected
+        projected.PSD_KERNEL = args.psd
     print(_machine())
     print()
     if "fig12" in args.tables:
@@ -798,8 +803,11 @@ def print_design(rows):
 
     from torsal.pipeline.stages import DEFAULT_PIPELINE, run_congruence
 
+    from torsal.geometry.optimize import projected, psd_kernel
+
     print("torsal design's congruence stage (report.json congruence; the pipeline up to it, no cache)")
-    print(_load())
+    kernel = projected.PSD_KERNEL if projected.PSD_KERNEL != "compiled" or psd_kernel.available() else "numpy"
+    print(f"{_load()}; element Hessians' eigendecompositions: {kernel}")
     head = (f"{'row':>8} {'T':>5} | {'build':>6} {'solve':>7} {'b+s':>7} {'<=T':>4} | {'cpu':>6} {'steps':>5} "
             f"{'fact':>5} | {'E':>10} {'min ang':>7} | ended by, decrement, recent decrease")
     print(head)

@@ -75,6 +75,7 @@ def test_kernel_on_known_eigenpairs():
 def test_matrices_not_finite_are_left_to_numpy(monkeypatch):
     """A matrix with a NaN is left as it is and named; psd_projection hands it to numpy's eigh,
     so the batch ends as it did without the kernel (numpy's LinAlgError, or its NaNs)."""
+    monkeypatch.setattr(projected, "PSD_KERNEL", "compiled")
     rng = np.random.default_rng(1)
     a = _random_symmetric(rng, 6, 8)
     a[2, 1, 4] = a[2, 4, 1] = np.nan
@@ -94,15 +95,20 @@ def test_matrices_not_finite_are_left_to_numpy(monkeypatch):
 
 
 def test_psd_projection_with_and_without_the_kernel(monkeypatch):
-    """psd_projection by the kernel and by numpy's eigh (the path without a C compiler) agree
-    to 1e-12; the kernel is deterministic (the same bytes twice)."""
+    """psd_projection by the kernel (PSD_KERNEL "compiled") and by numpy's eigh (the default,
+    and the path without a C compiler) agree to 1e-12; the kernel is deterministic (the same
+    bytes twice)."""
     rng = np.random.default_rng(5)
     a = _random_symmetric(rng, 3000, 8)
+    by_numpy = projected.psd_projection(a)          # the default (PSD_KERNEL "numpy")
+    monkeypatch.setattr(projected, "PSD_KERNEL", "compiled")
     with_kernel = projected.psd_projection(a)
     assert np.array_equal(with_kernel, projected.psd_projection(a))
+    assert not np.array_equal(with_kernel, by_numpy)    # the kernel was used: other rounding
     monkeypatch.setattr(psd_kernel, "_LIB", False)
     assert psd_kernel.project(a.copy(), "clamp") is None
     without = projected.psd_projection(a)
+    assert np.array_equal(without, by_numpy)
     scale = np.abs(a).max(axis=(1, 2))[:, None, None]
     np.testing.assert_allclose(with_kernel / scale, without / scale, rtol=0, atol=1e-12)
 

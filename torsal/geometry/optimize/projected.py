@@ -54,8 +54,8 @@ def psd_projection(a: np.ndarray, *, mode: str = "clamp") -> np.ndarray:
     (m, n, n) array
         Matrices that are already positive semidefinite come back unchanged. 2 x 2 blocks
         (the chart's curvature per vertex) take the closed form of their eigenvalues, larger
-        ones the compiled kernel of :mod:`.psd_kernel` (numpy's ``eigh`` where there is no C
-        compiler): the same numbers to rounding.
+        ones numpy's ``eigh`` or the compiled kernel of :mod:`.psd_kernel`
+        (:data:`PSD_KERNEL`): the same numbers to rounding.
 
     Examples
     --------
@@ -109,12 +109,27 @@ def _chunks(m: int) -> list[slice]:
     return [slice(int(lo), int(hi)) for lo, hi in zip(edges[:-1], edges[1:])]
 
 
+#: how :func:`psd_projection` decomposes blocks larger than 2 x 2: ``"numpy"`` (numpy's batched
+#: ``eigh``, LAPACK's ``dsyevd`` per matrix, about 11 us for an 8 x 8 one here) or
+#: ``"compiled"`` (:mod:`.psd_kernel`, about 4.5 us; numpy's where there is no C compiler).
+#: Both give the same projection to rounding, but rounding is enough to move the augmented
+#: Lagrangian's path where its line search is cutting steps short: measured 2026-11-29 on
+#: ``torsal design``'s congruence stage, 7c kept its 26 Newton steps / 111 factorizations
+#: (projection 0.68-0.92 -> 0.37 s cpu, stage 3.3-4.6 -> 3.1 s cpu, lines within 1.2e-6 deg)
+#: and the facade at 80 degrees its 42 / 166, but Fig. 12 row 9 went from 74 Newton steps /
+#: 300 factorizations (24.5 s cpu) to 137 / 555 (41 s cpu; energy +9e-5, 899 fins against
+#: 914): its first inner minimization crawls (steps 10-40 at step lengths 1/32-1/4) and
+#: its end depends on digits past the 15th. numpy's stays the default until that crawl is
+#: fixed (``benchmarks/optimize_bench.py --tables design --psd compiled`` measures the other)
+PSD_KERNEL = "numpy"
+
+
 def _psd_eigh(a: np.ndarray, mode: str) -> None:
     """:func:`psd_projection` of (m, n, n) symmetric matrices ``a`` in place: by the compiled
-    kernel (:mod:`.psd_kernel`, 2.5 times numpy's ``eigh`` on 8 x 8 matrices), numpy's ``eigh``
-    where it is not available and for the matrices it leaves (entries not finite, eigenvalues
-    not converged)."""
-    left = psd_kernel.project(a, mode)
+    kernel (:mod:`.psd_kernel`) where :data:`PSD_KERNEL` asks for it and it is available,
+    numpy's ``eigh`` otherwise and for the matrices the kernel leaves (entries not finite,
+    eigenvalues not converged)."""
+    left = psd_kernel.project(a, mode) if PSD_KERNEL == "compiled" else None
     if left is None:
         _psd_numpy(a, mode)
     elif left.size:
