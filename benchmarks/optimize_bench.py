@@ -177,9 +177,36 @@ projection a step) that is about 0.13 s of 7c's solve and 0.05 s of its build: 3
 of the whole run 108 -> 96, the preview 1.84 / 1.36 -> 1.43 s cpu (load 17-22, noise larger
 than the change).
 
+Issue 44, the projection compiled (``--psd compiled``: ``projected.PSD_KERNEL``, the kernel of
+:mod:`torsal.geometry.optimize.psd_kernel`, Householder tridiagonalization and implicit QL in C,
+about 4.5 us per 8 x 8 matrix against numpy's batched ``eigh`` at about 11), 2026-11-29
+09:35-10:30 UTC at a load of 25-30 (processor seconds and counts; stage = ``run_congruence``,
+projection = ``psd_projection`` with its threads; before = numpy's, HEAD 7ff80fa)::
+
+    row        eigh      stage cpu s          projection cpu s   Newton  fact  E
+    7c         numpy     3.26  3.36  4.56     0.68  0.70  0.92     26      111   0.4271927055201825
+    7c         compiled  3.06  3.07  3.14     0.37  0.37  0.38     26      111   0.42719270552018246
+    facade80   numpy     4.37                                      42      166   4.273500537141264e-07
+    facade80   compiled  4.22                                      42      166   4.2735005370571043e-07
+    9          numpy     24.5  27.8                                74      300   0.01724085282788787
+    9          compiled  41.1  43.7                                137     555   0.017242473503185904
+
+Up to the support stage: 7c's lines within 1.2e-6 degrees of numpy's, the same remeshed faces
+(297 nodes, 466 fins, nodes within 9e-12), delta_pl 0.117875 extracted / 8.9876e-05 optimized
+both; the facade at 80 within 8.5e-7 degrees, the same faces (nodes within 2.3e-6), delta_pl
+0.00115602 / 8.9359e-05 both; 7a (IPOPT) within 1.2e-6 degrees, the same faces. Row 9 parts at
+Newton step 27 (L_A in its 7th digit) inside a first inner minimization that crawls at step
+lengths 1/32-1/4, and ends 63 steps later: lines up to 5.3 degrees apart (mean 0.98), 546 -> 537
+nodes, 914 -> 899 fins, quads 385 -> 381, delta_pl extracted 0.250 -> 0.314 (optimized 9.003e-05
+both), smallest torsal plane angle 60.006 -> 60.013, direction angle 6.87 -> 7.71 degrees. Row 9's
+length is a matter of digits past the 15th there, so numpy's ``eigh`` stays the default: it keeps
+row 9's 74 steps (at T) and 7c's 3.77 s quiet (T 3.7 s); the compiled projection would take
+about 0.15-0.3 s of 7c's wall on a quiet machine (0.3-0.55 s cpu over two threads; estimated, not
+measured quietly) once row 9's crawl no longer decides its length.
+
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]
-          [--facade-angles 40 60 80]
+          [--facade-angles 40 60 80] [--psd numpy|compiled]
 
 Timings on a shared machine vary: the script prints the machine (CPU model, cores, the BLAS
 threads in use) and the load average; compare methods by processor time and counts. Under each
