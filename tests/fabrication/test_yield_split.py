@@ -171,6 +171,19 @@ def test_without_rates_a_cut_may_add_one_fixing(grid, monkeypatch):
     assert fc.yield_cut_sites(grid, rates=object())[0] == sites
 
 
+def test_of_equal_sheets_the_cuts_that_add_no_fixing_win():
+    from torsal.fabrication.nesting.split import _Candidate
+
+    seam = CutCost("F1-S000-P00", 1, 100.0, 1)
+    fixed = CutCost("F0-S000-P00", 2, 100.0, 1, fixings=1)
+    three = _Candidate(38, 3, None, (), [seam, seam, fixed], [])
+    four = _Candidate(38, 4, None, (), [seam] * 4, [])
+    fewer = _Candidate(37, 5, None, (), [seam] * 4 + [fixed], [])
+    assert min([three, four], key=lambda c: c.rank) is four
+    assert min([three, four, fewer], key=lambda c: c.rank) is fewer
+    assert four.rank == (38, 0, 4) and three.rank == (38, 1, 3)
+
+
 def test_no_sheet_to_save_no_split(grid):
     big = dict(OPTIONS, sheet=(2500.0, 1250.0))
     fs2, lay, split = fc.final_cut(grid, big)

@@ -27,8 +27,8 @@ B. **Cuts for the rows** (:class:`~.row_plan.RowPlan`). The same, in one dimensi
    :data:`ROW_PLANS` of them) are made before the search, which runs afresh on the pieces,
    and then A again.
 
-Of the layouts whose cuts pay, the one with the fewest sheets, then the fewest cuts, is
-kept. Every step counts its tries (drops and repacks), never seconds: the same parts, cuts
+Of the layouts whose cuts pay, the one with the fewest sheets, then the fewest fixings
+added, then the fewest cuts, is kept. Every step counts its tries (drops and repacks), never seconds: the same parts, cuts
 and options give the same sheets on every machine.
 
 Units: those of the outlines.
@@ -98,6 +98,13 @@ class _Candidate(NamedTuple):
     costs: list
     steps: list
 
+    @property
+    def rank(self) -> tuple[int, int, int]:
+        """The fewest sheets, then the fewest fixings added (each a bracket, its bolts and
+        an anchor drilled into the building, where a seam in its slot adds only a contour),
+        then the fewest cuts: the smaller the better."""
+        return self.sheets, sum(c.fixings for c in self.costs), self.cuts
+
 
 class _SplitRun:
     """One :func:`nest_split`: the search's sheets ``search`` (run), its layout ``base``, the
@@ -166,8 +173,9 @@ class _SplitRun:
         return found
 
     def result(self, found: list[_Candidate]) -> SplitNesting:
-        """The :class:`SplitNesting` of the candidate with the fewest sheets, then the fewest
-        cuts, among those that save a sheet and whose cuts pay."""
+        """The :class:`SplitNesting` of the best candidate (:attr:`_Candidate.rank`: the
+        fewest sheets, then fixings added, then cuts) among those that save a sheet and whose
+        cuts pay."""
         base, n0, pays = self.base, self.n0, self.pays
         ok = [c for c in found if c.sheets < n0 and (not c.cuts or pays(c.costs, n0 - c.sheets))]
         seconds = dict(seconds=time.perf_counter() - self.t0,
@@ -177,7 +185,7 @@ class _SplitRun:
                                why=f"no cuts that pay emptied a sheet ({self.used} tries)")
             res.layout.stats = dataclasses.replace(base.stats, **seconds)
             return res
-        best = min(ok, key=lambda c: (c.sheets, c.cuts))
+        best = min(ok, key=lambda c: c.rank)
         lay = best.layout
         # (the time of the whole split search, every candidate's)
         lay.stats.seconds, lay.stats.cpu_seconds = seconds["seconds"], seconds["cpu_seconds"]
