@@ -199,10 +199,19 @@ Newton step 27 (L_A in its 7th digit) inside a first inner minimization that cra
 lengths 1/32-1/4, and ends 63 steps later: lines up to 5.3 degrees apart (mean 0.98), 546 -> 537
 nodes, 914 -> 899 fins, quads 385 -> 381, delta_pl extracted 0.250 -> 0.314 (optimized 9.003e-05
 both), smallest torsal plane angle 60.006 -> 60.013, direction angle 6.87 -> 7.71 degrees. Row 9's
-length is a matter of digits past the 15th there, so numpy's ``eigh`` stays the default: it keeps
-row 9's 74 steps (at T) and 7c's 3.77 s quiet (T 3.7 s); the compiled projection would take
-about 0.15-0.3 s of 7c's wall on a quiet machine (0.3-0.55 s cpu over two threads; estimated, not
-measured quietly) once row 9's crawl no longer decides its length.
+length is a matter of digits past the 15th there, and 74 is the short one: numpy's ``eigh`` with
+other rounding (the same decomposition, ``V f(L) V^T`` by einsum instead of matmul; or ``eigh`` of
+the upper triangle, ``UPLO="U"``) took 137 / 555 (48.6 s cpu, E 0.0172425) and 136 / 551 (46.3 s
+cpu, E 0.0172489), HEAD's own code again 74 / 300 (26.6 s cpu, the same directions' sha1
+8465ac3fe002). In every one the inner minimizations crawl: most steps cut to 1/64-1/4 by the line
+search, the Levenberg-Marquardt shift bouncing between 1e-5 and 1e-2, each of the first inner
+minimizations run to INNER_MAX (40 steps); the 74-step run ends where its objective's change over
+10 steps first drops under DESIGN_DECREASE, the others keep descending (44.84 against 44.85 at
+their ends). So row 9 at T rests on its rounding on this machine (another BLAS or CPU may take the
+137-step path); numpy's ``eigh`` stays the default so as not to lose it here, and 7c stays at its
+3.77 s quiet (T 3.7 s). The compiled projection would take about 0.15-0.3 s of 7c's wall on a quiet
+machine (0.3-0.55 s cpu over two threads; estimated, not measured quietly) once the crawl no longer
+decides row 9's length.
 
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]

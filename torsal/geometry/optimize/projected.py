@@ -119,8 +119,10 @@ def _chunks(m: int) -> list[slice]:
 #: and the facade at 80 degrees its 42 / 166, but Fig. 12 row 9 went from 74 Newton steps /
 #: 300 factorizations (24.5 s cpu) to 137 / 555 (41 s cpu; energy +9e-5, 899 fins against
 #: 914): its first inner minimization crawls (steps 10-40 at step lengths 1/32-1/4) and
-#: its end depends on digits past the 15th. numpy's stays the default until that crawl is
-#: fixed (``benchmarks/optimize_bench.py --tables design --psd compiled`` measures the other)
+#: its end depends on digits past the 15th (numpy's own eigh with other rounding, UPLO="U" or
+#: the product by einsum, took 136 and 137 steps: 74 is the short path). numpy's stays the
+#: default until that crawl is fixed (``benchmarks/optimize_bench.py --tables design --psd
+#: compiled`` measures the other)
 PSD_KERNEL = "numpy"
 
 
