@@ -45,7 +45,8 @@ def test_keys_follow_the_inputs_only():
     c = stage_keys(DEFAULT_PIPELINE, thicker)
     # the light stage measures the fins as built: the plate thickness decides which panels
     # the fabrication leaves out
-    assert {s for s in a if a[s] != c[s]} == {"fabrication", "light", "assembly", "report"}
+    assert {s for s in a if a[s] != c[s]} == {"fabrication", "light", "pictures", "assembly",
+                                              "report"}
 
 
 def test_unset_weights_come_from_the_optimizer_defaults():
@@ -255,3 +256,53 @@ def test_support_obj_of_two_depths_reads_back_for_the_hosts(tmp_path):
         assert back.family_depth_ratio == pytest.approx(ratio)
         nodes, tris, _ = _fin_triangles(back, 10)
         assert set(np.round(nodes[tris[1].ravel(), 2], 9)) == {0.0, top1}
+
+
+# ---------------------------------------------------------------- concurrent stages
+def _src(inp):
+    return {"x": inp.spec.fins.spacing, "report": {"x": inp.spec.fins.spacing}}
+
+
+def _pid(inp):
+    import os
+
+    from torsal.core.errors import TorsalError
+
+    if inp.spec.fins.depth > 1:
+        raise TorsalError("fins.depth above 1 refused (the test's bad input)")
+    return {"pid": os.getpid(), "y": 2 * inp["src"]["x"], "report": {"y": 2 * inp["src"]["x"]}}
+
+
+def _pid_key(spec):
+    return (spec.fins.depth,)
+
+
+def _after(inp):
+    return {"report": {"z": inp["pid"]["y"] + 1}}
+
+
+def test_a_concurrent_stage_runs_in_a_process_of_its_own_with_the_same_result(tmp_path):
+    import os
+
+    from torsal.core.parallel import limit_workers
+
+    events = []
+    p = Pipeline((Stage("src", _src), Stage("pid", _pid, inputs=("src",), key=_pid_key,
+                                                       concurrent=True),
+                  Stage("other", _src), Stage("after", _after, inputs=("pid",))))
+    run = run_stages(p, SPEC, tmp_path, StageCache(tmp_path / "c"),
+                     progress=lambda stage, event, info: events.append((stage, event)))
+    assert run.values["pid"]["pid"] != os.getpid()          # computed in another process
+    assert run.report == {"src": {"x": 1.5}, "pid": {"y": 3.0}, "other": {"x": 1.5},
+                          "after": {"z": 4.0}}
+    # started in order, collected when a later stage reads it; its seconds are its own
+    assert events.index(("pid", "start")) < events.index(("other", "start"))
+    assert events.index(("pid", "done")) < events.index(("after", "start"))
+    assert run.stage_seconds["pid"] >= 0
+    with limit_workers(1):                                   # no second process: in order
+        alone = run_stages(p, SPEC, tmp_path, StageCache(tmp_path / "c", enabled=False))
+    assert alone.values["pid"]["pid"] == os.getpid() and alone.report == run.report
+    # the input's fault, found in the other process, names the stage as in this one
+    with pytest.raises(DesignError, match="stage 'pid' failed: fins.depth above 1") as err:
+        run_stages(p, _depth(SPEC, 1.5), tmp_path, StageCache(tmp_path / "c"))
+    assert err.value.stage == "pid"

@@ -175,3 +175,22 @@ def test_the_background_read_meshes_the_solids_as_the_check_would(tmp_path):
         for x, y in zip(solid_records(_shape(c)), a.records):     # in this process alike
             assert all(np.array_equal(u, v) for u, v in zip(x, y)) if isinstance(x, tuple) \
                 else np.allclose(x, y, rtol=1e-12, atol=0)
+
+
+def test_the_reading_process_meshes_half_the_solids_in_a_fork(tmp_path):
+    # the reading process meshes and records the odd solids in a fork of itself: the same
+    # rows (names, binary BReps with their triangles, records), in the same order, as
+    # meshing them all in one process, for an odd count too
+    from torsal.fabrication.assembly import TOUCHING_TOLERANCE
+    from torsal.fabrication.exports import _meshed_rows
+
+    path = tmp_path / "three.step"
+    write_step([(n, _part_shape(p, T), (0.5, 0.5, 0.5)) for n, p in
+                (("a", PLATE), ("b", BRACKET), ("c", PLATE))], path, unit="mm")
+    forked = _meshed_rows(read_step(path), TOUCHING_TOLERANCE, fork=True)
+    here = _meshed_rows(read_step(path), TOUCHING_TOLERANCE)
+    assert [n for n, _, _ in forked] == [n for n, _, _ in here] == ["a", "b", "c"]
+    for (_, a, ra), (_, b, rb) in zip(forked, here):
+        assert a == b and len(a) > 1000
+        assert len(ra.triangles) >= 12 and np.array_equal(ra.triangles, rb.triangles)
+        assert all(np.array_equal(u, v) for u, v in zip(ra.face_points, rb.face_points))

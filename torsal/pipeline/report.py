@@ -12,7 +12,8 @@ from .report_3d import design_view_html
 
 __all__ = ["plot_torsal_field", "principal_plane", "plot_fins", "plot_blocked_sun", "plot_sheets",
            "plot_annual_map", "plot_annual_months", "plot_daylight_plans", "best_device",
-           "design_report_html", "write_design_report", "plot_assembly", "plot_ceiling_light"]
+           "design_report_html", "write_design_report", "draw_design_pictures", "plot_assembly",
+           "plot_ceiling_light"]
 
 
 def principal_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1005,13 +1006,12 @@ def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
     return rows
 
 
-def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,
-                        surface, layout, *, sun=None) -> dict:
-    """Write the PNG renders and ``report.html`` for a design run; returns {kind: file name}.
-
-    ``sun`` (vectors (S, 3) site -> sun, weights (S,)): the design's sun directions, drawn in
-    the report's interactive 3D view (without them the view shows the surface and fins only).
-    """
+def draw_design_pictures(out: Path, spec, congruence, structure, light_map: dict, surface,
+                         layout) -> dict:
+    """Write the PNG renders of a design run into ``out``: the torsal field, the fins, the
+    blocked sun, the sheets (with a ``layout``) and the ceiling light (a reflection goal);
+    returns {kind: file name}. The pipeline's ``pictures`` stage draws them while the
+    assembly is checked; :func:`write_design_report` draws them when not given."""
     out = Path(out)
     images = {
         "torsal_field": plot_torsal_field(congruence, out / "torsal_field.png",
@@ -1025,6 +1025,22 @@ def write_design_report(out: Path, spec, report: dict, congruence, structure, li
     if light_map.get("reflection"):
         images["ceiling_light"] = plot_ceiling_light(light_map["reflection"],
                                                      out / "ceiling_light.png").name
+    return images
+
+
+def write_design_report(out: Path, spec, report: dict, congruence, structure, light_map: dict,
+                        surface, layout, *, sun=None, images: dict | None = None) -> dict:
+    """Write the PNG renders and ``report.html`` for a design run; returns {kind: file name}.
+
+    ``sun`` (vectors (S, 3) site -> sun, weights (S,)): the design's sun directions, drawn in
+    the report's interactive 3D view (without them the view shows the surface and fins only).
+    ``images``: the renders :func:`draw_design_pictures` wrote already ({kind: file name} in
+    ``out``); None: drawn here.
+    """
+    out = Path(out)
+    if images is None:
+        images = draw_design_pictures(out, spec, congruence, structure, light_map, surface,
+                                      layout)
     with atomic_path(out / "report.html") as tmp:
         tmp.write_text(design_report_html(report, images, spec.name,
                                           view3d=design_view_html(surface, structure, sun,

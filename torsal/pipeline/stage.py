@@ -10,7 +10,10 @@ and returns a dict. Documented keys of that dict:
 - anything else: values for later stages (arrays, structures, ...).
 
 :func:`run_stages` runs a list of stages in order, reusing cached results whose key did not
-change. A :class:`Pipeline` is an ordered list of stages with ways to insert one::
+change. A stage marked ``concurrent`` runs in a process of its own while the stages after it
+go on (the report's pictures while the assembly is checked); the first stage that reads it,
+or the end of the run, waits for its result. A :class:`Pipeline` is an ordered list of
+stages with ways to insert one::
 
     from torsal.pipeline import DEFAULT_PIPELINE, Stage
     pipeline = DEFAULT_PIPELINE.insert(Stage("assembly", run_assembly,
@@ -22,7 +25,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -66,6 +69,13 @@ class Stage:
     section : str, optional
         The report section for the result's ``"report"``; default ``name``. A dotted name
         (``"fabrication.assembly"``) nests the section inside another stage's.
+    concurrent : bool
+        Run in a process of its own (forked from a clean server process) while the later
+        stages go on; the first stage that reads it, or the end of the run, waits for it.
+        Its inputs and result must pickle, it sees the report as it was when it started and
+        reports no progress of its own. Where no second process may be started
+        (:func:`~torsal.core.parallel.limit_workers` ``(1)``, a daemonic process) it runs in
+        order like any other stage: the same result either way.
     """
 
     name: str
@@ -75,6 +85,7 @@ class Stage:
     applies: Callable[[DesignSpec], bool] = _always
     cache: bool = True
     section: str | None = None
+    concurrent: bool = False
 
 
 @dataclass
@@ -219,51 +230,196 @@ def _put_section(report: dict, section: str, value) -> None:
     node[last] = value
 
 
+def _compute(s: Stage, inputs: "StageInputs") -> dict:
+    """``s.run(inputs)``; an error the input causes as a :class:`DesignError` naming the
+    stage, any other exception (a bug) with a note naming it."""
+    try:
+        return s.run(inputs)
+    except DesignError:
+        raise
+    except (TorsalError, ValueError) as exc:
+        if not isinstance(exc, TorsalError) and not raised_in_torsal(exc):
+            exc.add_note(f"in stage '{s.name}'")
+            raise                       # a ValueError inside numpy/scipy: a bug
+        # the input is the cause (stages raise these for what they reject)
+        raise DesignError(s.name, str(exc)) from exc
+    except Exception as exc:
+        # a bug, not the input: not a DesignError, so the command line says "internal"
+        exc.add_note(f"in stage '{s.name}'")
+        raise
+
+
+def _compute_in_child(conn) -> None:
+    """Process of a concurrent stage: reads the pickled ``(stage, inputs)`` from ``conn``,
+    answers ``("done", (result, seconds))`` or ``("error", exception)``."""
+    import pickle
+
+    try:
+        s, inputs = pickle.loads(conn.recv_bytes())
+        t0 = time.perf_counter()
+        message = ("done", (_compute(s, inputs), time.perf_counter() - t0))
+    except BaseException as exc:            # raised again in the parent
+        message = _portable(exc)
+    try:
+        conn.send(message)
+        conn.close()
+    except OSError:                          # the run stopped waiting (it failed)
+        pass
+
+
+def _portable(exc: BaseException) -> tuple:
+    """An exception of a concurrent stage's process as it crosses to the run's:
+    ``("design", (message, stage, key, value))`` for a :class:`DesignError` (its
+    constructor takes other arguments than its message), else ``("error", exc)``, or its
+    type and message where it does not pickle."""
+    import pickle
+
+    if isinstance(exc, DesignError):
+        return "design", (str(exc), exc.stage, exc.key, exc.value)
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return "error", exc
+    except Exception:
+        return "error", RuntimeError(f"{type(exc).__name__}: {exc}" + "".join(
+            f"; {n}" for n in getattr(exc, "__notes__", ())))
+
+
+class _Concurrent:
+    """A concurrent stage running in a process of its own (:attr:`Stage.concurrent`):
+    ``payload`` is its pickled ``(stage, inputs)``, sent by a thread (the process reads it
+    once it has started) so that this process goes on at once."""
+
+    def __init__(self, name: str, payload: bytes):
+        import multiprocessing as mp
+        import threading
+
+        ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods()
+                             else "spawn")
+        self._conn, child = ctx.Pipe(duplex=True)
+        self._process = ctx.Process(target=_compute_in_child, args=(child,),
+                                    name=f"torsal-stage-{name}", daemon=True)
+        self._process.start()
+        child.close()
+        self._sender = threading.Thread(target=self._send, args=(payload,), daemon=True)
+        self._sender.start()
+
+    def _send(self, payload: bytes) -> None:
+        try:
+            self._conn.send_bytes(payload)
+        except OSError:          # the process ended (cancelled): result() says so
+            pass
+
+    def result(self) -> tuple[dict, float]:
+        """``(result, seconds)`` of the stage (waits); its error raised again here."""
+        try:
+            kind, value = self._conn.recv()
+        except EOFError:
+            raise RuntimeError(f"the process of {self._process.name} ended without a result "
+                               f"(exit code {self._process.join() or self._process.exitcode})"
+                               ) from None
+        finally:
+            self._conn.close()
+        self._process.join()
+        self._sender.join()
+        if kind == "design":
+            message, stage, key, value = value
+            exc = DesignError(stage, "")
+            exc.args, exc.key, exc.value = (message,), key, value
+            raise exc
+        if kind == "error":
+            raise value
+        return value
+
+    def cancel(self) -> None:
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join()
+
+
+def _start_concurrent(s: Stage, inputs: "StageInputs") -> _Concurrent | None:
+    """``s`` started in a process of its own, or None where it runs in order (no second
+    process may be started, or its inputs do not pickle)."""
+    import pickle
+
+    from ..core.parallel import usable_workers
+
+    if usable_workers(2) < 2:
+        return None
+    try:
+        payload = pickle.dumps((s, inputs), protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:           # a stage built from a closure, inputs holding a live object
+        return None
+    return _Concurrent(s.name, payload)
+
+
 def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache, *,
                progress: Progress = quiet, run: StageRun | None = None) -> StageRun:
     """Run the stages that apply to ``spec`` in order; raises :class:`DesignError` naming
     the stage that failed when its input is the cause (a :class:`TorsalError`, or a
     ``ValueError`` raised by torsal's own checks); any other exception is a bug and
-    propagates with a note naming the stage. Results of earlier stages stay cached."""
+    propagates with a note naming the stage. Results of earlier stages stay cached.
+    Concurrent stages (:attr:`Stage.concurrent`) run beside the later ones; a failure
+    stops them."""
     run = run if run is not None else StageRun()
     keys = stage_keys(pipeline, spec)
     memo = Memo(cache.folder / "memo", enabled=cache.enabled)
-    for s in pipeline:
-        if not s.applies(spec):
-            continue
+    running: dict[str, tuple[Stage, _Concurrent]] = {}
+
+    def finish(s: Stage, value: dict) -> None:
         key = keys[s.name]
-        value = cache.load(s.name, key) if s.cache else MISSING
-        if value is not MISSING and not _files_present(value, out):
-            value = MISSING             # outputs deleted since the cached run: make them again
-        if value is MISSING:
-            progress(s.name, "start", {})
-            t0 = time.perf_counter()
-            inputs = StageInputs(spec=spec, out=out, stage=s.name,
-                                 results={i: run.values[i] for i in s.inputs if i in run.values},
-                                 report=run.report, _progress=progress, memo=memo)
-            try:
-                value = s.run(inputs)
-            except DesignError:
-                raise
-            except (TorsalError, ValueError) as exc:
-                if not isinstance(exc, TorsalError) and not raised_in_torsal(exc):
-                    exc.add_note(f"in stage '{s.name}'")
-                    raise                       # a ValueError inside numpy/scipy: a bug
-                # the input is the cause (stages raise these for what they reject)
-                raise DesignError(s.name, str(exc)) from exc
-            except Exception as exc:
-                # a bug, not the input: not a DesignError, so the command line says "internal"
-                exc.add_note(f"in stage '{s.name}'")
-                raise
-            run.stage_seconds[s.name] = time.perf_counter() - t0
-            if s.cache:
-                cache.store(s.name, key, value)
-            progress(s.name, "done", {"seconds": run.stage_seconds[s.name]})
-        else:
-            progress(s.name, "cached", {})
-            run.cached.append(s.name)
+        if s.cache:
+            cache.store(s.name, key, value)
+        progress(s.name, "done", {"seconds": run.stage_seconds[s.name]})
         run.values[s.name], run.keys[s.name] = value, key
         if "report" in value:
             _put_section(run.report, s.section or s.name, value["report"])
         run.files.update(value.get("files", {}))
+
+    def collect(name: str) -> None:
+        s, pending = running.pop(name)
+        try:
+            value, run.stage_seconds[name] = pending.result()
+        except BaseException:
+            pending.cancel()
+            raise
+        finish(s, value)
+
+    try:
+        for s in pipeline:
+            if not s.applies(spec):
+                continue
+            for name in s.inputs:
+                if name in running:
+                    collect(name)
+            key = keys[s.name]
+            value = cache.load(s.name, key) if s.cache else MISSING
+            if value is not MISSING and not _files_present(value, out):
+                value = MISSING             # outputs deleted since the cached run: make them again
+            if value is MISSING:
+                progress(s.name, "start", {})
+                t0 = time.perf_counter()
+                inputs = StageInputs(spec=spec, out=out, stage=s.name,
+                                     results={i: run.values[i] for i in s.inputs if i in run.values},
+                                     report=run.report, _progress=progress, memo=memo)
+                if s.concurrent:
+                    pending = _start_concurrent(s, replace(inputs, report=dict(run.report),
+                                                           _progress=quiet))
+                    if pending is not None:
+                        running[s.name] = (s, pending)
+                        continue
+                value = _compute(s, inputs)
+                run.stage_seconds[s.name] = time.perf_counter() - t0
+                finish(s, value)
+            else:
+                progress(s.name, "cached", {})
+                run.cached.append(s.name)
+                run.values[s.name], run.keys[s.name] = value, key
+                if "report" in value:
+                    _put_section(run.report, s.section or s.name, value["report"])
+                run.files.update(value.get("files", {}))
+        for name in list(running):
+            collect(name)
+    finally:
+        for _, pending in running.values():
+            pending.cancel()
     return run

@@ -29,7 +29,7 @@ from .stage import Pipeline, Stage, StageInputs
 
 __all__ = ["surface_mesh", "sun_directions", "run_surface", "run_estimate", "run_sun", "run_orient",
            "run_congruence", "run_remesh", "run_support", "measure_fins", "run_light", "run_substructure",
-           "run_fabrication", "run_report", "DEFAULT_PIPELINE", "STAGES", "fin_system",
+           "run_fabrication", "run_pictures", "run_report", "DEFAULT_PIPELINE", "STAGES", "fin_system",
            "run_assembly", "run_devices"]
 
 # constraints met to 1e-4 are met for a building (unit length to 0.01%, c_hyp to rounding of
@@ -480,30 +480,31 @@ def run_fabrication(inp: StageInputs) -> dict:
             fs.start_solids()
     finally:
         release_workers()          # not taken by start_solids (fewer parts, or an error)
+    sheets_path = out / "sheets" / "fins.dxf"
+    pending = None
     try:
-        # the sheets first: they need only the flat parts, and this process nests and
-        # writes them while the workers build the solids
-        layout = _nest(inp, fs) if layout is None else layout
+        # the sheets need only the flat parts: a process of their own nests and writes them
+        # (the rows nester) while the workers build the solids and this process writes the
+        # solids' files as soon as they come; the final cut's layout is nested here
+        if layout is None and solids:
+            pending = _start_nest(inp, fs, sheets_path if spec.outputs.dxf else None)
+        step = _write_solids(inp, fs) if solids else {}
         sheets = None
-        if spec.outputs.dxf:
-            sheets = write_sheets(layout, out / "sheets" / "fins.dxf")
+        if pending is not None:
+            layout, sheets = pending.result(), pending.sheets
+        else:
+            layout = _nest(inp, fs) if layout is None else layout
+            if spec.outputs.dxf:
+                sheets = write_sheets(layout, sheets_path)
+        if sheets is not None:
             written["dxf"] = [str(Path(p).relative_to(out)) for p in sheets.paths]
         if spec.outputs.bom:
             fs.bill_of_materials(out / "parts.csv", density=m.density, layout=layout)
             written["bom"] = "parts.csv"
-        if spec.outputs.step:
-            fs.export_step(out / "fins.step")
-            written["step"] = "fins.step"
-            # the assembly stage checks the solids as this file gives them: read it again
-            # in the background while the 3DM, the IFC and the light are made
-            prefetch_step_solids(out / "fins.step")
-        if spec.outputs.rhino_3dm:
-            fs.export_3dm(out / "fins.3dm")
-            written["3dm"] = "fins.3dm"
-        if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
-            fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
-            written["ifc"] = "fins.ifc"
+        written.update(step)                 # in the order of earlier reports' files
     except BaseException:
+        if pending is not None:
+            pending.cancel()
         fs.cancel_solids()
         drop_prefetched_solids()
         raise
@@ -526,6 +527,43 @@ def run_fabrication(inp: StageInputs) -> dict:
         "left_out_edges": sorted({d["edge"] for d in left_out}),
         # for the assembly stage: which parts each joint joins, and along which axis
         "joints": joints_of(fs)}
+
+
+def _write_solids(inp: StageInputs, fs) -> dict:
+    """Write the STEP, 3DM and IFC files the design asks for; returns ``{kind: file}``.
+    The assembly stage checks the solids as the STEP file gives them: it is read again in
+    the background (:func:`~.assembly.prefetch_step_solids`) while the 3DM, the IFC and the
+    light are made."""
+    spec, out = inp.spec, inp.out
+    written = {}
+    if spec.outputs.step:
+        fs.export_step(out / "fins.step")
+        written["step"] = "fins.step"
+        prefetch_step_solids(out / "fins.step")
+    if spec.outputs.rhino_3dm:
+        fs.export_3dm(out / "fins.3dm")
+        written["3dm"] = "fins.3dm"
+    if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
+        fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
+        written["ifc"] = "fins.ifc"
+    return written
+
+
+def _start_nest(inp: StageInputs, fs, dxf):
+    """The design's sheets nested, and written to ``dxf`` (a path, or None), in a process of
+    its own (:meth:`~torsal.fabrication.FinSystem.start_layout`: the same layout and files
+    as :func:`_nest` and :func:`~torsal.fabrication.nesting.background.write_sheets` here);
+    None for the final cut's search, which :func:`_nest` keeps by the parts' content."""
+    from ..fabrication.nesting import Nester
+
+    options = nest_options(inp.spec, fs.unit)
+    if options["nester"] == Nester.SEARCH:
+        return None
+
+    def progress(done, left):
+        inp.progress("progress", {"phase": "nesting sheets", "done": done, "total": done + left})
+
+    return fs.start_layout(progress=progress, dxf=dxf, **options)
 
 
 def nest_options(spec: DesignSpec, unit: str) -> dict:
@@ -663,6 +701,22 @@ def _cutting_report(layout) -> dict | None:
 
 
 # ------------------------------------------------------------------ report
+def run_pictures(inp: StageInputs) -> dict:
+    """The report's PNG renders (``outputs.renders``): the torsal field, the fins, the blocked
+    sun, the sheets, the ceiling light (:func:`~torsal.pipeline.report.draw_design_pictures`).
+    A concurrent stage: drawn in a process of its own while the assembly is checked. Returns
+    ``files`` {kind: file name}, which the report's HTML shows."""
+    from .report import draw_design_pictures
+
+    o = inp["orient"]
+    images = draw_design_pictures(inp.out, inp.spec, optimized_congruence(inp),
+                                  inp["support"]["structure"], inp["light"]["map"],
+                                  (o["vertices"], o["faces"]),
+                                  inp["fabrication"].get("layout") if "fabrication" in inp
+                                  else None)
+    return {"files": images}
+
+
 def run_report(inp: StageInputs) -> dict:
     """Geometry files (congruence PLY, support OBJ), ``report.json`` and, with
     ``outputs.renders``, the figures and ``report.html``; cheap, so always written fresh.
@@ -689,7 +743,9 @@ def run_report(inp: StageInputs) -> dict:
                                          inp["light"]["map"], (o["vertices"], o["faces"]),
                                          inp["fabrication"].get("layout")
                                          if "fabrication" in inp else None,
-                                         sun=(inp["sun"]["vectors"], inp["sun"]["weights"])))
+                                         sun=(inp["sun"]["vectors"], inp["sun"]["weights"]),
+                                         images=inp["pictures"]["files"]
+                                         if "pictures" in inp else None))
     return {"report": design, "files": files}
 
 
@@ -756,6 +812,14 @@ def _assembly_key(spec):
     return (spec.outputs.renders,)
 
 
+def _pictures_key(spec):
+    return (spec.name,)
+
+
+def _renders(spec):
+    return bool(spec.outputs.renders)
+
+
 #: The stages of a design run, in order. Insert more with ``DEFAULT_PIPELINE.insert``.
 DEFAULT_PIPELINE = Pipeline((
     Stage("surface", run_surface, key=_surface_key),
@@ -773,14 +837,19 @@ DEFAULT_PIPELINE = Pipeline((
     # after the fabrication: it measures the fins that are built
     Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication", "devices"),
           key=_light_key),
+    # the report's pictures, drawn in a process of their own while the annual light and
+    # the assembly are computed
+    Stage("pictures", run_pictures, inputs=("orient", "congruence", "support", "light",
+                                            "fabrication"), key=_pictures_key,
+          applies=_renders, cache=False, concurrent=True),
     # annual irradiance by Radiance, bare / fins as built / devices ([annual] enabled)
     Stage("annual", run_annual, inputs=("orient", "sun", "support", "fabrication"),
           key=annual_key, applies=annual_applies, section="light.annual"),
     Stage("assembly", run_assembly, inputs=("support", "fabrication"),
           key=_assembly_key, section="fabrication.assembly"),
     Stage("report", run_report, inputs=("sun", "orient", "congruence", "support", "light",
-                                        "substructure", "fabrication", "assembly"), cache=False,
-          section="design"),
+                                        "substructure", "fabrication", "pictures", "assembly"),
+          cache=False, section="design"),
 ))
 
 #: Stage names in order.
