@@ -184,12 +184,9 @@ class TabSites:
             if q is None:
                 return None
             free = np.array([q[0, 0], q[0, 3]])
-        # the other panels of the plate at the node (where it folds, or its other part): of
-        # its own strip only, never the tabbed part (a butted end of the plate's family, at a
-        # T, is no fold of the plate: its panel holds the bend's corners by construction)
+        # the other panels of the plate at the node (where it folds, or its other part)
         others = np.array([q.panels[i] for q, i in self._panels_at(node)
-                           if q.id.family == h.id.family and q.id.strip == h.id.strip
-                           and q.name != name and (q.name, i) != (host, hj)]).reshape(-1, 4, 3)
+                           if q.family == h.family and (q.name, i) != (host, hj)]).reshape(-1, 4, 3)
         try:
             g = self._kernel(tab_panel, p.panels[pj], key[1], h.panels[hj], opt[0][0], free,
                              thickness=fs.thickness, gap=TAB_GAP * fs.clearance,

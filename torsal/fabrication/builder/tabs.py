@@ -19,9 +19,7 @@ Whether a bracket becomes a tab is decided *per joint*, once the rest of the des
    allows. None can be bent (:attr:`TabReason.GEOMETRY`) where the end's edges run nearly
    along the plate, the tab would lie more than the clearance off the plate (the end is
    trimmed back past the bend to clear another part's end, or the plate folds at the node
-   towards the butted part so that its other panel reaches the bend's corners: the plate's
-   own panels, of its strip; the tabbed part's end and the other strips there, a T of one
-   family, are the assembly check's to judge), the panel is
+   towards the butted part so that its other panel reaches the bend's corners), the panel is
    too short or the tab is no convex quad; nor where the part with its tabs would no longer
    fit the sheet or ``max_part_length`` (:attr:`TabReason.SHEET`).
 2. The assembly check (:func:`~torsal.fabrication.assembly.check_assembly`, the independent
