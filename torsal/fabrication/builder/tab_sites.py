@@ -184,9 +184,12 @@ class TabSites:
             if q is None:
                 return None
             free = np.array([q[0, 0], q[0, 3]])
-        # the other panels of the plate at the node (where it folds, or its other part)
+        # the other panels of the plate's family at the node (where it folds, its other part,
+        # the family's other strips); never the tabbed part's own: its end panel holds the
+        # bend's corners by construction (a T of one family)
         others = np.array([q.panels[i] for q, i in self._panels_at(node)
-                           if q.family == h.family and (q.name, i) != (host, hj)]).reshape(-1, 4, 3)
+                           if q.family == h.family and q.name != name
+                           and (q.name, i) != (host, hj)]).reshape(-1, 4, 3)
         try:
             g = self._kernel(tab_panel, p.panels[pj], key[1], h.panels[hj], opt[0][0], free,
                              thickness=fs.thickness, gap=TAB_GAP * fs.clearance,
