@@ -317,6 +317,15 @@ def test_annual_stage_measures_the_rooms_daylight(tmp_path):
     assert dl["applicable"] and dl["storeys"] == [0.0]
     assert 0 < dl["fins"]["ase_all"] < dl["bare"]["ase_all"]
     assert dl["bare"]["points"] == 5 * 5 and len(dl["fins"]["sda"]) == 1
+    # LM-83's blinds only take light away: its sDA is at most the room's without blinds,
+    # and the blinds close in at most every occupied hour
+    for name in ("bare", "fins"):
+        d = dl[name]
+        assert d["sda_all"] <= d["sda_unshaded_all"]
+        assert d["sda_unshaded_all"] == pytest.approx(np.mean(d["sda_unshaded"]))
+        h0, h1 = dl["occupied_hours"]
+        assert all(0 <= h <= (h1 - h0) * 366 for h in d["blinds_hours"])
+    assert "blinds" in dl["standard"] and "no blinds drawn (the fins" not in dl["standard"]
     # the figures a study's search may optimize are in the report under their names
     from torsal.study.study_file import ANNUAL_OBJECTIVE_KEYS
     from torsal.study.study_tasks import flatten

@@ -25,7 +25,8 @@ from ..geometry.mesh import average_edge_length
 from ..light.annual import (RadianceSettings, Room, SeasonRule, SkyQuantity, annual_irradiance,
                             clear_sky_year, daylight, seasons, shading_factor, sky_year,
                             weather_year)
-from ..light.annual.daylight import GRID_M, WORK_PLANE_M
+from ..light.annual.daylight import (BLINDS_LUX, BLINDS_SHARE, GRID_M, SHADE_TRANSMITTANCE,
+                                     WORK_PLANE_M)
 from ..light.devices import surface_frame
 from ..light.annual.radiance import PACKAGE
 from ..light.sun import WeatherFileError
@@ -271,7 +272,9 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
     -------
     report : dict
         ``light.annual.daylight``: ``storeys`` (floor heights, model units), ``bare`` and
-        every shading's ``sda`` / ``ase`` per storey and over the storeys, the settings, or
+        every shading's ``sda`` (LM-83's, with its blinds) / ``sda_unshaded`` / ``ase`` and
+        ``blinds_hours`` per storey, ``sda_all`` / ``sda_unshaded_all`` / ``ase_all`` over the
+        storeys, the settings, or
         ``applicable`` False with the ``reason``.
     plans : dict
         For the figure: ``rooms`` (list of Room), ``bare`` and ``fins`` (list of
@@ -286,7 +289,10 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
                    quantity=SkyQuantity.VISIBLE)
     settings = RadianceSettings(r.ambient_bounces, r.ambient_divisions, a.fin_reflectance)
     out = {"applicable": True, "standard": "IES LM-83-12: sDA 300 lx / 50 % of the occupied "
-           "hours, ASE 1000 lx of direct sun / 250 h; no blinds drawn (the fins are the shading)",
+           "hours, with its operable blinds (2.2.6: closed in each occupied hour in which more "
+           f"than {BLINDS_SHARE:.0%} of the points get {BLINDS_LUX:.0f} lx or more of direct sun; "
+           f"closed they pass {SHADE_TRANSMITTANCE:.0%} of the window's light); ASE 1000 lx of "
+           "direct sun / 250 h. sda_unshaded: the same rooms with no blinds drawn",
            "storeys": [float(room.origin[2]) for room in rooms],
            "occupied_hours": list(r.occupied_hours), "ambient_bounces": r.ambient_bounces,
            "ambient_divisions": r.ambient_divisions, "work_plane_m": WORK_PLANE_M,
@@ -300,6 +306,9 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
                       spacing=GRID_M * k, work_plane=WORK_PLANE_M * k) for room in rooms]
         out[name] = {"sda": [x.sda for x in d], "ase": [x.ase for x in d],
                      "sda_all": float(np.mean([x.sda for x in d])),
+                     "sda_unshaded": [x.sda_unshaded for x in d],
+                     "sda_unshaded_all": float(np.mean([x.sda_unshaded for x in d])),
+                     "blinds_hours": [x.blinds_hours for x in d],
                      "ase_all": float(np.mean([x.ase for x in d])),
                      "points": int(sum(len(x.points) for x in d))}
         if name in ("bare", "fins"):

@@ -280,8 +280,8 @@ def plot_daylight_plans(plans: dict, path: str | Path) -> Path:
                             vmin=limits[0], vmax=limits[1], marker="s", s=30)
             ax.axhline(0.0, color="tab:blue", lw=3)          # the window wall
             ax.set_aspect("equal")
-            ax.set_title(f"storey at {room.origin[2]:.1f}, {which}: " +
-                         ("share of hours >= 300 lx" if measure == "sda" else
+            ax.set_title(f"storey at {room.origin[2]:.1f}, {which}\n" +
+                         ("share of hours >= 300 lx (LM-83 blinds)" if measure == "sda" else
                           "hours of sun >= 1000 lx"), fontsize=8)
             ax.tick_params(labelsize=7)
             fig.colorbar(sc, ax=ax, shrink=0.8)
@@ -848,11 +848,12 @@ def _daylight_html(dl: dict | None, names: list) -> str:
     if not dl["applicable"]:
         return f"<h3>Daylight</h3><p>Not applicable: {html.escape(dl['reason'])}</p>"
     keys = ["bare", "fins", *(n.removesuffix(", same depth and spacing") for n in names[1:])]
-    head = ("<tr><th>glazing</th><th>sDA<sub>300/50%</sub></th><th>ASE<sub>1000/250</sub></th>"
+    head = ("<tr><th>glazing</th><th>sDA<sub>300/50%</sub> (LM-83, its blinds)</th>"
+            "<th>sDA without blinds</th><th>ASE<sub>1000/250</sub></th>"
             + "".join(f"<th>storey at {z:.1f}: sDA / ASE</th>" for z in dl["storeys"]) + "</tr>")
 
     def cells(d):
-        return (f"{_pct(d['sda_all'])}{_pct(d['ase_all'])}"
+        return (f"{_pct(d['sda_all'])}{_pct(d.get('sda_unshaded_all'))}{_pct(d['ase_all'])}"
                 + "".join(f'<td class="num">{100 * a:.0f}% / {100 * b:.0f}%</td>'
                           for a, b in zip(d["sda"], d["ase"])))
 
