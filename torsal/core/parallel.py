@@ -16,11 +16,12 @@ True
 from __future__ import annotations
 
 import multiprocessing
+import pickle
 from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Iterator
 
-__all__ = ["usable_workers", "limit_workers"]
+__all__ = ["usable_workers", "limit_workers", "portable_error"]
 
 #: the cap set by the innermost :func:`limit_workers` (None: no cap)
 _CAP: ContextVar[int | None] = ContextVar("torsal_worker_cap", default=None)
@@ -47,3 +48,24 @@ def limit_workers(n: int) -> Iterator[None]:
         yield
     finally:
         _CAP.reset(token)
+
+
+def portable_error(exc: BaseException) -> BaseException:
+    """``exc`` as it may cross from a child process to its parent: itself where it survives
+    pickling both ways, else a ``RuntimeError`` with its type, message and notes (an
+    exception of a C extension, or one whose constructor takes other arguments).
+
+    >>> portable_error(ValueError("bad"))
+    ValueError('bad')
+    >>> class Odd(Exception):
+    ...     def __init__(self, a, b):
+    ...         super().__init__(f"{a}{b}")
+    >>> portable_error(Odd("x", "y"))
+    RuntimeError('Odd: xy')
+    """
+    try:
+        pickle.loads(pickle.dumps(exc))
+        return exc
+    except Exception:
+        return RuntimeError(f"{type(exc).__name__}: {exc}" + "".join(
+            f"; {n}" for n in getattr(exc, "__notes__", ())))

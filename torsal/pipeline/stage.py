@@ -272,16 +272,11 @@ def _portable(exc: BaseException) -> tuple:
     ``("design", (message, stage, key, value))`` for a :class:`DesignError` (its
     constructor takes other arguments than its message), else ``("error", exc)``, or its
     type and message where it does not pickle."""
-    import pickle
+    from ..core.parallel import portable_error
 
     if isinstance(exc, DesignError):
         return "design", (str(exc), exc.stage, exc.key, exc.value)
-    try:
-        pickle.loads(pickle.dumps(exc))
-        return "error", exc
-    except Exception:
-        return "error", RuntimeError(f"{type(exc).__name__}: {exc}" + "".join(
-            f"; {n}" for n in getattr(exc, "__notes__", ())))
+    return "error", portable_error(exc)
 
 
 class _Concurrent:
@@ -365,15 +360,17 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
     memo = Memo(cache.folder / "memo", enabled=cache.enabled)
     running: dict[str, tuple[Stage, _Concurrent]] = {}
 
-    def finish(s: Stage, value: dict) -> None:
-        key = keys[s.name]
-        if s.cache:
-            cache.store(s.name, key, value)
-        progress(s.name, "done", {"seconds": run.stage_seconds[s.name]})
-        run.values[s.name], run.keys[s.name] = value, key
+    def record(s: Stage, value: dict) -> None:
+        run.values[s.name], run.keys[s.name] = value, keys[s.name]
         if "report" in value:
             _put_section(run.report, s.section or s.name, value["report"])
         run.files.update(value.get("files", {}))
+
+    def finish(s: Stage, value: dict) -> None:
+        if s.cache:
+            cache.store(s.name, keys[s.name], value)
+        progress(s.name, "done", {"seconds": run.stage_seconds[s.name]})
+        record(s, value)
 
     def collect(name: str) -> None:
         s, pending = running.pop(name)
@@ -413,10 +410,7 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
             else:
                 progress(s.name, "cached", {})
                 run.cached.append(s.name)
-                run.values[s.name], run.keys[s.name] = value, key
-                if "report" in value:
-                    _put_section(run.report, s.section or s.name, value["report"])
-                run.files.update(value.get("files", {}))
+                record(s, value)
         for name in list(running):
             collect(name)
     finally:

@@ -26,13 +26,12 @@ Example
 from __future__ import annotations
 
 import multiprocessing as mp
-import pickle
 import queue
 import threading
 from pathlib import Path
 from typing import Callable, NamedTuple
 
-from torsal.core.parallel import usable_workers
+from torsal.core.parallel import portable_error, usable_workers
 
 __all__ = ["start_nesting", "PendingNesting", "SheetFiles", "write_sheets"]
 
@@ -71,11 +70,7 @@ def _nest_in_child(unrolled, options: dict, dxf, queue) -> None:
     try:
         layout = _nest_and_write(unrolled, options, dxf, progress)
     except BaseException as exc:            # re-raised in the parent
-        try:
-            pickle.dumps(exc)
-        except Exception:
-            exc = RuntimeError(f"{type(exc).__name__}: {exc}")
-        queue.put(("error", exc))
+        queue.put(("error", portable_error(exc)))
         return
     queue.put(("done", layout))
 
