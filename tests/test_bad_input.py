@@ -636,6 +636,10 @@ FULL = {
               "per_pierce": 0.05, "per_bend": 0.8, "fasteners": {"bolt": 0.35, "anchor": 2.5},
               "per_minute": 1.0, "minutes_per_part": 3.0, "minutes_per_fastener": 1.0,
               "minutes_per_hole_drilled": 0.5},
+    "annual": {"enabled": False, "points": 100, "ambient_bounces": 1},
+    "room": {"depth": 6.0, "height": 3.0, "storey_height": 3.5, "sill": 0.9, "head": 2.7,
+             "reflectance": [0.2, 0.5, 0.7], "transmittance": 0.6, "shade_transmittance": 0.05,
+             "occupied_hours": [8.0, 18.0], "ambient_bounces": 2, "ambient_divisions": 512},
 }
 #: keys whose tables are maps of the user's names (not keys of the schema)
 MAPS = ("params", "cut_per_m", "fasteners")

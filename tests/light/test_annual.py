@@ -302,17 +302,24 @@ def test_annual_stage_reports_bare_fins_and_devices(tmp_path):
     assert r["devices"] == {}
 
 
-def test_annual_stage_measures_the_rooms_daylight(tmp_path):
+def test_annual_stage_measures_the_rooms_daylight(tmp_path, monkeypatch):
     """With a [room]: each storey's sDA and ASE, bare and behind the louvers, which keep the
-    direct sun off the work plane (a lower ASE)."""
+    direct sun off the work plane (a lower ASE). The room's closed blinds pass its
+    ``shade_transmittance`` (here 20 %, not the default 5 %)."""
+    import torsal.pipeline.annual as annual
     from torsal.pipeline.annual import run_annual
     from torsal.pipeline.report import _daylight_html
 
+    passed, real = [], annual.daylight
+    monkeypatch.setattr(annual, "daylight", lambda *a, **kw: passed.append(kw["blinds"])
+                        or real(*a, **kw))
     spec = _toy_design(devices=False).model_copy(update={"room": RoomSpec(
-        depth=3.0, height=2.0, storey_height=2.0, ambient_bounces=1)})
+        depth=3.0, height=2.0, storey_height=2.0, ambient_bounces=1, shade_transmittance=0.2)})
     inp, _ = _stage_inputs(spec, tmp_path)
     out = run_annual(inp)
     dl = out["report"]["daylight"]
+    assert [b.transmittance for b in passed] == [0.2, 0.2]          # bare and the fins
+    assert dl["shade_transmittance"] == 0.2 and "closed they pass 20%" in dl["standard"]
     assert (tmp_path / out["files"]["daylight_plans"]).stat().st_size > 1000
     assert dl["applicable"] and dl["storeys"] == [0.0]
     assert 0 < dl["fins"]["ase_all"] < dl["bare"]["ase_all"]

@@ -25,7 +25,7 @@ from ..geometry.mesh import average_edge_length
 from ..light.annual import (RadianceSettings, Room, SeasonRule, SkyQuantity, annual_irradiance,
                             clear_sky_year, daylight, seasons, shading_factor, sky_year,
                             weather_year)
-from ..light.annual.daylight import (BLINDS_LUX, BLINDS_SHARE, GRID_M, SHADE_TRANSMITTANCE,
+from ..light.annual.daylight import (BLINDS_LUX, BLINDS_SHARE, GRID_M, Blinds,
                                      WORK_PLANE_M)
 from ..light.devices import surface_frame
 from ..light.annual.radiance import PACKAGE
@@ -291,10 +291,11 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
     out = {"applicable": True, "standard": "IES LM-83-12: sDA 300 lx / 50 % of the occupied "
            "hours, with its operable blinds (2.2.6: closed in each occupied hour in which more "
            f"than {BLINDS_SHARE:.0%} of the points get {BLINDS_LUX:.0f} lx or more of direct sun; "
-           f"closed they pass {SHADE_TRANSMITTANCE:.0%} of the window's light); ASE 1000 lx of "
+           f"closed they pass {r.shade_transmittance:.0%} of the window's light); ASE 1000 lx of "
            "direct sun / 250 h. sda_unshaded: the same rooms with no blinds drawn",
            "storeys": [float(room.origin[2]) for room in rooms],
            "occupied_hours": list(r.occupied_hours), "ambient_bounces": r.ambient_bounces,
+           "shade_transmittance": r.shade_transmittance,
            "ambient_divisions": r.ambient_divisions, "work_plane_m": WORK_PLANE_M,
            "grid_m": GRID_M}
     plans = {"rooms": rooms}
@@ -303,7 +304,8 @@ def room_daylight(spec: DesignSpec, weather, vertices, faces, shadings: dict, *,
             progress("progress", {"phase": f"daylight: {name}", "done": j,
                                   "total": len(shadings) + 1})
         d = [daylight(room, sky, fins=fins, settings=settings, hours=r.occupied_hours,
-                      spacing=GRID_M * k, work_plane=WORK_PLANE_M * k) for room in rooms]
+                      spacing=GRID_M * k, work_plane=WORK_PLANE_M * k,
+                      blinds=Blinds(transmittance=r.shade_transmittance)) for room in rooms]
         out[name] = {"sda": [x.sda for x in d], "ase": [x.ase for x in d],
                      "sda_all": float(np.mean([x.sda for x in d])),
                      "sda_unshaded": [x.sda_unshaded for x in d],

@@ -56,7 +56,7 @@ from ..fabrication.nesting import (DEFAULT_SEED, DEFAULT_TIME_LIMIT, DEFAULT_TRI
 from ..light.annual import (AMBIENT_BOUNCES, AMBIENT_DIVISIONS, BALANCE_TEMPERATURE_C,
                             FIN_REFLECTANCE, GROUND_REFLECTANCE, SeasonRule, SkySubdivision)
 from ..light.annual.daylight import (GLAZING_TRANSMITTANCE, OCCUPIED_HOURS, ROOM_BOUNCES,
-                                     ROOM_DIVISIONS, ROOM_REFLECTANCE)
+                                     ROOM_DIVISIONS, ROOM_REFLECTANCE, SHADE_TRANSMITTANCE)
 from ..light.view import ViewField
 
 __all__ = [
@@ -687,6 +687,11 @@ class RoomSpec(_Spec):
                                                     "ceiling (visible; LM-83's 0.2, 0.5, 0.7)")
     transmittance: float = Field(GLAZING_TRANSMITTANCE, gt=0, le=1, description="the glazing's "
                                  "visible transmittance at normal incidence")
+    shade_transmittance: float = Field(SHADE_TRANSMITTANCE, ge=0, lt=1, description="the "
+                                       "closed blinds' visible transmittance, a share of all "
+                                       "the light the window lets in (LM-83's sDA draws them; "
+                                       "the standard asks for the real product's; default "
+                                       "Ladybug Tools' 5 %)")
     occupied_hours: tuple[float, float] = Field(OCCUPIED_HOURS, description="h; the occupied "
                                                 "hours of every day, local standard time "
                                                 "(LM-83's 8 to 18)")
