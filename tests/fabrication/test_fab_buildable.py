@@ -214,6 +214,27 @@ def test_a_degenerate_one_sun_design_builds_or_names_what_to_do(tmp_path, capsys
         assert fa["panels_left_out"] == len(fa["panels_left_out_list"])
         assert fa["panels_left_out_share"] == pytest.approx(fa["panels_left_out"] / r["support"]["edges"])
         assert (tmp_path / "out" / "fins.step").exists()
+    elif rc == 3:
+        # its fins are 5 mm deep: no room for a fixing, a bracket or a bolt; the plates go in
+        # but nothing holds them (issue 42's load path): named, with what to do
+        r = json.loads((tmp_path / "out" / "report.json").read_text())
+        a = r["fabrication"]["assembly"]
+        assert a["interfering_pairs"] == 0 and not a["blocked_parts"] and not a["buildable"]
+        lp = a["load_path"]
+        assert r["fabrication"]["fixings"] == 0 and lp["edges"].get("anchor", 0) == 0
+        # every part, each a loose group of its own
+        assert a["unsupported_parts"] == lp["unsupported_parts"] == sorted(
+            s["part"] for s in a["sequence"])
+        assert lp["components"] == len(lp["groups"]) == a["parts"]
+        flat = " ".join(err.split())
+        assert "do not reach the building" in flat and "fixings" in flat
+        assert all(n in flat for n in lp["unsupported_parts"][:8])
+        # (the design writes no report.html: its assembly section as report.html shows it)
+        from torsal.pipeline.report import _assembly_html
+
+        html = _assembly_html(a)
+        assert "parts not held to the building" in html and "NOT BUILDABLE" in html
+        assert lp["unsupported_parts"][0] in html
     else:
         assert rc == 2 and "invalid solid for part" in err and "min_torsal_angle" in err
         assert not (tmp_path / "out" / "report.json").exists()

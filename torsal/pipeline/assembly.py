@@ -10,9 +10,15 @@ What the check proved is kept in the design's cache by the solids' content
 (:class:`~torsal.fabrication.assembly.AssemblyMemo`): a re-run, or a study variant, whose parts
 did not change takes those pairs and paths from it (``memo_hits`` in the report).
 
-A design whose parts interfere is not buildable: :meth:`Design.run` raises
-:class:`UnbuildableDesignError` naming the parts after every output (report included) is
-written, unless ``accept_unbuildable=True`` (``torsal design --accept-unbuildable``).
+The load path (:mod:`torsal.fabrication.assembly.load_path`): every part must reach the
+building through joints that hold it (bolts and anchors read from the parts' holes, slots
+that bear its weight); the parts that do not are ``unsupported_parts``, the rest of the graph
+is ``load_path`` in the section.
+
+A design whose parts interfere, cannot be inserted or are not held is not buildable:
+:meth:`Design.run` raises :class:`UnbuildableDesignError` naming the parts after every output
+(report included) is written, unless ``accept_unbuildable=True`` (``torsal design
+--accept-unbuildable``).
 
 Quality gates at the stages that cause joinery problems: :func:`congruence_gate` (faces whose
 torsal planes cross more obliquely than the joinery's minimum crossing angle) and
@@ -72,6 +78,9 @@ def unbuildable_message(assembly: dict) -> str:
     if failed:
         out.append(f"{len(failed)} pairs could not be checked: "
                    + ", ".join(f"{a} / {b}" for a, b, _ in failed[:8]))
+    held = assembly.get("load_path") or {}
+    if held.get("unsupported"):
+        out.append(held["message"])
     return "the design is not buildable: " + "; ".join(out)
 
 
@@ -166,6 +175,7 @@ def run_assembly(inp: StageInputs) -> dict:
     """Interference check and assembly order of the fabricated parts. Returns the ``report``
     section (``fabrication.assembly``) and ``files`` (``assembly.csv``, ``assembly.png``)."""
     from ..fabrication import check_assembly
+    from ..fabrication.assembly import check_load_path
 
     solids = _solids(inp)
     joints = inp["fabrication"].get("joints", [])
@@ -179,6 +189,12 @@ def run_assembly(inp: StageInputs) -> dict:
         inp.memo.store(_MEMO_NAME, _MEMO_KEY, memo)
     files = {"assembly": check.write_csv(inp.out / "assembly.csv").name}
     report = check.report()
+    # held, not only in place: every part must reach the building through joints that hold
+    # (None from a fabrication stage cached before the fasteners were handed on: not judged)
+    held = check_load_path(check.parts, joints, inp["fabrication"].get("fastenings"))
+    report["load_path"] = {**held.report(), "message": held.problems()}
+    report["unsupported_parts"] = list(held.unsupported_parts)
+    report["buildable"] = bool(check.buildable and held.supported)
     if inp.spec.outputs.renders:
         from .report import plot_assembly
 

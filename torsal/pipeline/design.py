@@ -140,5 +140,6 @@ class Design:
         if assembly is not None and not assembly["buildable"] and not accept_unbuildable:
             raise UnbuildableDesignError(
                 unbuildable_message(assembly), result,
-                parts=sorted(set(assembly["interfering_parts"]) | set(assembly["blocked_parts"])))
+                parts=sorted(set(assembly["interfering_parts"]) | set(assembly["blocked_parts"])
+                             | set(assembly.get("unsupported_parts", []))))
         return result

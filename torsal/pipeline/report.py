@@ -697,6 +697,7 @@ def _assembly_html(a: dict, max_steps: int = 300) -> str:
             ("connectors", ", ".join(f"{k}: {v}" for k, v in a["connectors"].items()) or "none")]
     if inter:
         rows.append(("interfering parts", inter + (" ..." if len(a["interfering"]) > 30 else "")))
+    rows += _load_path_rows(a.get("load_path"))
     out = ["<h2>5. Assembly check</h2>", _table(rows)]
     if a.get("picture"):
         out.append(f'<img src="{a["picture"]}" alt="parts, interfering ones in red">')
@@ -717,6 +718,30 @@ def _assembly_html(a: dict, max_steps: int = 300) -> str:
         if len(seq) > max_steps:
             out.append(f"<p>... {len(seq) - max_steps} more steps in {csv}</p>")
     return "\n".join(out)
+
+
+def _load_path_rows(lp: dict | None) -> list[tuple]:
+    """The assembly table's rows of the load path (:mod:`torsal.fabrication.assembly.load_path`):
+    whether every part reaches the building through joints that hold it, and which do not."""
+    if lp is None or not lp.get("checked"):
+        return [("held to the building", "not checked")]
+    verdict = ('<span class="ok">every part</span>' if lp["supported"] else
+               f'<span class="bad">{lp["unsupported"]} of {lp["parts"]} parts not held</span>')
+    edges = ", ".join(f"{k}: {v}" for k, v in lp["edges"].items()) or "none"
+    rows = [("held to the building (load path)", f"{verdict}; {lp['components']} connected "
+             f"groups; holding joints {edges}")]
+    if lp["unsupported_parts"]:
+        names = lp["unsupported_parts"]
+        rows.append(("parts not held to the building", ", ".join(map(html.escape, names[:60]))
+                     + (" ..." if len(names) > 60 else "") + "<br>" + html.escape(lp["message"])))
+    if lp["slot_held"]:
+        rows.append(("held by slots only (no fastener of their own)",
+                     f"{lp['slot_held']} parts: their weight keeps them in their slots; a bolt "
+                     "or clip at one crossing keeps wind from drawing them out"))
+    if lp["unfastened_joints"]:
+        rows.append(("joints without a fastener", f"{len(lp['unfastened_joints'])}: " + ", ".join(
+            f"{html.escape(j['kind'])} at node {j['node']}" for j in lp["unfastened_joints"][:20])))
+    return rows
 
 
 def _area(a) -> str:

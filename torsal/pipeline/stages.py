@@ -460,6 +460,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     """Parts, joints and solids; STEP / 3DM / nested DXF sheets / parts list as the design's
     [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
     from ..fabrication import joints_of
+    from ..fabrication.assembly import fastenings_of
     from ..fabrication.solids import prepare_workers, release_workers
 
     spec, out = inp.spec, inp.out
@@ -525,8 +526,9 @@ def run_fabrication(inp: StageInputs) -> dict:
         "files": written, "layout": layout,
         # for the light stage: the fins that are not built
         "left_out_edges": sorted({d["edge"] for d in left_out}),
-        # for the assembly stage: which parts each joint joins, and along which axis
-        "joints": joints_of(fs)}
+        # for the assembly stage: which parts each joint joins, and along which axis; which
+        # parts each bolt and anchor holds (read from the holes: the load path)
+        "joints": joints_of(fs), "fastenings": fastenings_of(fs)}
 
 
 def _write_solids(inp: StageInputs, fs) -> dict:

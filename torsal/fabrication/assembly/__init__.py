@@ -61,8 +61,9 @@ joint records it reads, the placement order and the directions to try), :mod:`.o
 OpenCascade kernels: booleans, distances, faces, triangles), :mod:`.separation` (the exact
 cheap proofs that solids are apart), :mod:`.sweep` (the volume swept into placed parts),
 :mod:`.checker` (:class:`AssemblyChecker`, the object that owns one check's solids and what is
-made from them), :mod:`.workers` (its forked worker processes) and :mod:`.memo` (what was
-proved, by the solids' content: :class:`AssemblyMemo`).
+made from them), :mod:`.workers` (its forked worker processes), :mod:`.memo` (what was
+proved, by the solids' content: :class:`AssemblyMemo`) and :mod:`.load_path` (whether every
+part, once in, is held to the building through bolts, anchors and slots: :func:`load_path`).
 
 Units: those of the solids (``unit`` of the fin system, mm by default): volumes in unit^3.
 
@@ -84,10 +85,12 @@ from .result import MIN_INTERFERENCE_VOLUME, TOUCHING_TOLERANCE, AssemblyCheck, 
 from .separation import (CLEAR_TOLERANCE, _inside_by_ray, hull_clear_of_triangles, prism_clear,
                          prisms_clear, solid_clear, solid_cover, surfaces_clear)
 from .sweep import swept_overlap
+from .load_path import BUILDING, Fastening, LoadPath, check_load_path, fastenings_of, load_path
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "AssemblyChecker",
            "check_assembly", "verify_assembly", "joints_of", "face_polygons", "common_volume",
            "solid_distance", "swept_overlap", "joint_groups", "MIN_INTERFERENCE_VOLUME",
            "TOUCHING_TOLERANCE",
            "CLEAR_TOLERANCE", "hull_clear_of_triangles", "prism_clear", "prisms_clear",
-           "solid_cover", "solid_clear", "surfaces_clear", "AssemblyMemo", "solid_digest"]
+           "solid_cover", "solid_clear", "surfaces_clear", "AssemblyMemo", "solid_digest",
+           "BUILDING", "Fastening", "LoadPath", "check_load_path", "fastenings_of", "load_path"]
