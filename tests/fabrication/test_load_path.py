@@ -138,6 +138,9 @@ def test_a_slot_holds_a_plate_unless_its_weight_draws_it_out(d, holds_later, hol
     assert (lp.unsupported_parts == []) == holds_later
     if holds_later:                 # held by its slot only: named as such
         assert lp.slot_held_parts == ["F1-S000-P00"] and lp.edges["slot"] == 1
+    else:                           # named with the dip of its way out: 90 or 6 deg
+        dip = 90.0 if d[2] > 0.5 else 6.0
+        assert lp.sliding_out == {"F1-S000-P00": pytest.approx(dip, abs=1e-9)}
     # the same crossing with the later plate fixed and the earlier one hanging on it
     fixed1 = [Fastening(("A-E0000-0", BUILDING), "M8 anchor"),
               Fastening(("A-E0000-0", "F1-S000-P00"), "M6 bolt")]
@@ -145,6 +148,8 @@ def test_a_slot_holds_a_plate_unless_its_weight_draws_it_out(d, holds_later, hol
     assert (lp.unsupported_parts == []) == holds_earlier
     if not holds_earlier:
         assert lp.unsupported_parts == ["F0-S000-P00"] and lp.components == 2
+        # its way off the later plate is +d: straight down here
+        assert lp.sliding_out == {"F0-S000-P00": 90.0} and "dips up to 90 deg" in lp.problems()
 
 
 def test_a_real_grid_with_two_corners_without_a_bracket_still_reaches_the_building():

@@ -98,7 +98,9 @@ class LoadPath:
     holding connections by kind (``bolt``, ``anchor``, ``slot``: a slot crossing that holds
     at least one way); ``unfastened_joints`` the joints (other than slot crossings) whose
     parts no fastener joins, ``(kind, node, parts)``; ``checked`` False when no fastenings
-    were given (nothing is judged).
+    were given (nothing is judged); ``sliding_out`` the unsupported parts that sit in slots
+    their weight draws them out of, with the steepest dip of their way out (degrees below the
+    horizontal).
     """
 
     parts: list[str]
@@ -109,6 +111,7 @@ class LoadPath:
     edges: dict = field(default_factory=dict)
     unfastened_joints: list[tuple] = field(default_factory=list)
     checked: bool = True
+    sliding_out: dict = field(default_factory=dict)
 
     @property
     def supported(self) -> bool:
@@ -126,6 +129,10 @@ class LoadPath:
                  if set(j[2]) & set(self.unsupported_parts)][:4]
         why = ("; their joints without a fastener: " + ", ".join(
             f"{k} at node {n} ({' / '.join(p)})" for k, n, p in loose)) if loose else ""
+        if self.sliding_out:
+            why += (f"; {len(self.sliding_out)} of them sit in slots whose way out dips up to "
+                    f"{max(self.sliding_out.values()):.0f} deg below the horizontal, so their "
+                    "weight draws them out")
         return (f"{len(self.unsupported_parts)} parts do not reach the building through joints "
                 f"that hold them ({len(self.groups)} loose groups): {named}{why}; fix them to "
                 "the building (more fixings: a smaller fixings spacing) or bolt them to a part "
@@ -147,6 +154,7 @@ class LoadPath:
             "edges": {str(k): int(v) for k, v in sorted(self.edges.items())},
             "unfastened_joints": [{"kind": k, "node": int(n), "parts": list(p)}
                                   for k, n, p in self.unfastened_joints],
+            "sliding_out": dict(sorted(self.sliding_out.items())),
             "slide_dip_deg": SLIDE_DIP_DEG,
         }
 
@@ -211,27 +219,30 @@ def _panel_of(part, centre) -> int:
     return int(np.argmin(dist))
 
 
-def _slot_edges(joint, known: set, up: np.ndarray, dip: float) -> list[tuple[str, str]]:
+def _slot_edges(joint, known: set, up: np.ndarray, dip: float) -> tuple[list, list]:
     """Directed edges ``(holder, held)`` of a slot crossing: each earlier-group part holds each
     later-group part when the later's way out (``-d``) does not dip more than ``dip``
-    (radians) below the horizontal, and the other way when ``+d`` does not."""
+    (radians) below the horizontal, and the other way when ``+d`` does not; and the edges
+    refused, ``(held, degrees its way out dips)``."""
     from .records import joint_groups
 
     groups = [[p for p in g if p in known] for g in joint_groups(joint)]
     if len(groups) < 2:
-        return []
+        return [], []
     d = np.asarray(joint.insert_direction, float)
     d = d / np.linalg.norm(d)
     limit = -np.sin(dip)
-    out = []
+    rise = float(d @ up)                          # the later plate's way out rises by -rise
+    out, refused = [], []
     for first, later in zip(groups[:-1], groups[1:]):
         for a in first:
             for b in later:
-                if float(-d @ up) >= limit:      # b stays on a: its way out is not downhill
-                    out.append((a, b))
-                if float(d @ up) >= limit:       # a stays on b
-                    out.append((b, a))
-    return out
+                for holder, held, way in ((a, b, -rise), (b, a, rise)):
+                    if way >= limit:              # its way out is not downhill: it stays
+                        out.append((holder, held))
+                    else:
+                        refused.append((held, float(np.degrees(np.arcsin(min(1.0, -way))))))
+    return out, refused
 
 
 def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable | None, *,
@@ -280,12 +291,15 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
         edges[kind] = edges.get(kind, 0) + 1
         fastened.update((a, b))
         joined.add(frozenset((a, b)))
-    slot_pairs, unfastened = set(), []
+    slot_pairs, unfastened, sliding = set(), [], {}
     for j in map(_as_joint, joints):
         if j.kind in _SLOT_KINDS:
-            for a, b in _slot_edges(j, known, up, np.radians(slide_dip_deg)):
+            kept, refused = _slot_edges(j, known, up, np.radians(slide_dip_deg))
+            for a, b in kept:
                 holds[a].add(b)
                 slot_pairs.add(frozenset((a, b)))
+            for b, deg in refused:
+                sliding[b] = max(deg, sliding.get(b, 0.0))
         elif not _joint_fastened(j, known, joined):
             unfastened.append((j.kind, int(j.node), tuple(p for p in j.parts if p in known)))
     if slot_pairs:
@@ -295,7 +309,9 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
     groups = _groups(unsupported, holds)
     components = 1 + len(groups) if len(reached) > 1 or not names else len(groups)
     slot_held = [n for n in names if n in reached and n not in fastened]
-    return LoadPath(names, components, unsupported, groups, slot_held, edges, unfastened)
+    sliding_out = {n: round(sliding[n], 1) for n in unsupported if n in sliding}
+    return LoadPath(names, components, unsupported, groups, slot_held, edges, unfastened,
+                    sliding_out=sliding_out)
 
 
 def _joint_fastened(j, known: set, joined: set) -> bool:
