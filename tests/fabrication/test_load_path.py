@@ -102,6 +102,8 @@ def test_a_tab_holds_to_the_part_of_a_split_plate_its_bolt_goes_through():
                   [Hole(np.array([50.7, 50, 3.5]), m6, 0, "M6 bolt")])
     fs = _System([pa, pb, tab, fixing, far, aside])
     got = fastenings_of(fs)
+    # a part listed twice is one part: its holes do not bolt it to itself
+    assert fastenings_of(_System(fs.parts + [fixing])) == got
     assert got == [Fastening(("A-E0000-0", "F0-S000-P00"), "M6 bolt"),
                    Fastening(("A-E0000-0", BUILDING), "M8 anchor"),
                    Fastening(("F0-S000-P01", "F1-S000-P00"), "M6 bolt")]

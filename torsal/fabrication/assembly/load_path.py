@@ -175,7 +175,8 @@ def fastenings_of(fin_system, *, reach: float = BOLT_REACH) -> list[Fastening]:
     from ..model import CONNECTOR_FAMILY, FIXING_FAMILY, quad_normals
 
     rows = []                      # (part index, centre, axis, diameter, own, fastener)
-    parts = list(fin_system.parts)
+    # one entry a name (a part listed twice is one part)
+    parts = list({p.name: p for p in fin_system.parts}.values())
     for k, p in enumerate(parts):
         by_family = p.family in (CONNECTOR_FAMILY, FIXING_FAMILY)
         for h in getattr(p, "holes", ()):
@@ -206,6 +207,8 @@ def fastenings_of(fin_system, *, reach: float = BOLT_REACH) -> list[Fastening]:
             along = float(off @ axis)
             if abs(along) <= grip and np.linalg.norm(off - along * axis) <= _AXIS_SHARE * d:
                 a, b = sorted((parts[k].name, parts[kj].name))
+                if a == b:
+                    continue
                 out.add(((a, b), fastener))
     return [Fastening(p, f) for p, f in sorted(out)]
 
