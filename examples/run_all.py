@@ -153,7 +153,7 @@ def min_torsal_angle(c: dict) -> str:
 
 def interfering_cell(a: dict | None) -> str:
     """Interfering pairs found by the assembly stage (exact booleans on fins.step), the worst
-    overlap, and parts that cannot be inserted."""
+    overlap, parts that cannot be inserted, and parts not held to the building."""
     if a is None:
         return "-"
     cell = str(a["interfering_pairs"])
@@ -161,6 +161,8 @@ def interfering_cell(a: dict | None) -> str:
         cell += f" (worst {a['worst_overlap_mm3']:,.0f} mm³, {len(a['interfering_parts'])} parts)"
     if a["blocked_parts"]:
         cell += f", {len(a['blocked_parts'])} blocked"
+    if a.get("unsupported_parts"):        # the load path: parts not held to the building
+        cell += f", {len(a['unsupported_parts'])} not held"
     return cell
 
 
