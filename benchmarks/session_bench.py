@@ -176,7 +176,10 @@ def main(argv=None) -> None:
                                for k, v in answer.stage_seconds.items() if v >= 0.005)
             solve = answer.report.get("congruence", {}) if "congruence" in answer.stages_run else {}
             if solve:
-                stages += f" ({solve['solver']}, {solve['iterations']} steps)"
+                # counts, not seconds, decide the solve: the same on a loaded machine
+                fact = solve.get("counts", {}).get("factorizations")
+                stages += f" ({solve['solver']}, {solve['iterations']} steps" + (
+                    f", {fact} factorizations)" if fact is not None else ")")
             if answer.ok and not answer.support_final:
                 stages += " [support made planar by projection: the build solves eq. (8)]"
             print(f"{name:>8} {what:<40} | {row_load:>4} | {answer.seconds:9.2f} {cpu:5.2f} {ok:>5} | "

@@ -138,9 +138,11 @@ def _matched(e: np.ndarray, last: np.ndarray, v: np.ndarray, old: np.ndarray, ne
     s_old, s_new = _signed_distance(v, old), _signed_distance(v, new)
     near = (np.abs(s_old) < band) | (np.abs(s_new) < band)
     near[changed[changed < len(v)]] = True
+    was, now = np.isin(np.arange(len(v)), old), np.isin(np.arange(len(v)), new)
     for side in (True, False):
-        to = np.flatnonzero(near & ((s_new > 0) == side))
-        src = np.flatnonzero((s_old > 0) == side)
+        # sides by membership (a vertex on top of another has distance 0 from the edge)
+        to = np.flatnonzero(near & (now == side))
+        src = np.flatnonzero(was == side)
         if to.size and src.size:
             tree = cKDTree(np.c_[v[src], RESTART_SIDE_WEIGHT * s_old[src]])
             j = tree.query(np.c_[v[to], RESTART_SIDE_WEIGHT * s_new[to]])[1]
