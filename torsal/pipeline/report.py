@@ -728,8 +728,9 @@ def _load_path_rows(lp: dict | None) -> list[tuple]:
     verdict = ('<span class="ok">every part</span>' if lp["supported"] else
                f'<span class="bad">{lp["unsupported"]} of {lp["parts"]} parts not held</span>')
     edges = ", ".join(f"{k}: {v}" for k, v in lp["edges"].items()) or "none"
+    loose = len(lp["groups"])
     rows = [("held to the building (load path)", f"{verdict}; {lp['components']} connected "
-             f"groups; holding joints {edges}")]
+             f"groups ({loose} not reaching the building); holding joints {edges}")]
     if lp["unsupported_parts"]:
         names = lp["unsupported_parts"]
         rows.append(("parts not held to the building", ", ".join(map(html.escape, names[:60]))
