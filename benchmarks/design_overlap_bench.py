@@ -46,6 +46,8 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
+
 HZ = os.sysconf("SC_CLK_TCK")
 
 
@@ -93,6 +95,21 @@ class Sampler:
             self.samples.append((time.perf_counter(), _descendants(me)))
             time.sleep(self.period)
 
+    def processes(self) -> list[tuple[int, int, float, float]]:
+        """``[(pid, first sample index, last sample index it gained CPU, CPU seconds)]`` of
+        every process sampled, in the order they appeared."""
+        first, last, ticks = {}, {}, {}
+        for k, (_, s) in enumerate(self.samples):
+            for p, v in s.items():
+                first.setdefault(p, k)
+                if v != ticks.get(p, -1):
+                    last[p] = k
+                ticks[p] = max(ticks.get(p, 0), v)
+        base = {p: self.samples[first[p]][1][p] for p in first}
+        # a process first seen with CPU already spent (the root) counts from zero
+        return [(p, first[p], last[p], (ticks[p] - (base[p] if first[p] else 0)) / HZ)
+                for p in first]
+
     def quiet_clock(self) -> list[tuple[float, float, float]]:
         """``[(time, estimated quiet seconds so far, CPU seconds so far)]`` per sample."""
         out, est, cpu = [], 0.0, 0.0
@@ -109,10 +126,15 @@ def main() -> None:
     ap.add_argument("--design", type=Path, default=Path("examples/7a_facade_block.toml"))
     ap.add_argument("--out", type=Path, default=Path("out/overlap-bench"))
     ap.add_argument("--label", default="")
+    ap.add_argument("--marks", action="store_true",
+                    help="also time the fabrication's main steps in this process and list every "
+                         "process with its span on the estimated clock")
     args = ap.parse_args()
     from torsal.design import Design
 
     events = []
+    if args.marks:
+        _mark(events)
 
     def progress(stage, event, info):
         if event in ("start", "done"):
@@ -150,6 +172,61 @@ def main() -> None:
             starts[stage] = t
         elif stage in starts:
             print(f"| {stage} | {at(starts[stage]):.1f} | {at(t):.1f} | {t - starts[stage]:.1f} |")
+
+
+    if args.marks:
+        print("\n| process | start (est. s) | end (est. s) | CPU s |")
+        print("|---|---|---|---|")
+        for pid, a, b, c in sampler.processes():
+            if c >= 0.05:
+                print(f"| {pid} | {clock[max(a - 1, 0)][1]:.1f} | {clock[max(b - 1, 0)][1]:.1f} | "
+                      f"{c:.1f} |")
+        # where one core idles: per 2 s of the estimated clock, the CPU seconds of all the
+        # processes (2.0: both cores busy all along)
+        row, k = [], 0
+        for edge in np.arange(2.0, est + 2.0, 2.0):
+            cpu0 = clock[k][2] if k < len(clock) else cpu
+            while k < len(clock) and clock[k][1] < edge:
+                k += 1
+            row.append(f"{(clock[k - 1][2] if k else 0.0) - cpu0:.1f}")
+        print("\nCPU s per 2 s of the estimated clock:", " ".join(row))
+
+
+#: the steps of this process :func:`_mark` times (the module they are looked up in, attribute)
+_MARKED = [("torsal.pipeline.stages", "fin_system"),
+           ("torsal.fabrication.parts", "FinSystem.start_solids"),
+           ("torsal.fabrication.parts", "FinSystem.start_layout"),
+           ("torsal.fabrication.workers", "PendingSolids.result"),
+           ("torsal.fabrication.parts", "FinSystem.export_step"),
+           ("torsal.fabrication.exports", "write_step"),
+           ("torsal.fabrication.parts", "FinSystem.export_3dm"),
+           ("torsal.fabrication.parts", "FinSystem.export_ifc"),
+           ("torsal.fabrication.parts", "FinSystem.bill_of_materials"),
+           ("torsal.fabrication.exports", "PendingStepRead.result"),
+           ("torsal.fabrication", "check_assembly")]
+
+
+def _mark(events: list) -> None:
+    """Wrap the :data:`_MARKED` functions so that each call adds a start and a done event
+    (named ``~ function``) to ``events``, as the stages do."""
+    import functools
+    import importlib
+
+    for mod, attr in _MARKED:
+        owner = importlib.import_module(mod)
+        *path, name = attr.split(".")
+        for a in path:
+            owner = getattr(owner, a)
+        fn = getattr(owner, name)
+
+        def wrapped(*a, _fn=fn, _label=f"~ {attr}", **k):
+            events.append((time.perf_counter(), _label, "start"))
+            try:
+                return _fn(*a, **k)
+            finally:
+                events.append((time.perf_counter(), _label, "done"))
+
+        setattr(owner, name, functools.wraps(fn)(wrapped))
 
 
 if __name__ == "__main__":
