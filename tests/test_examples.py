@@ -158,7 +158,11 @@ def test_example_runs_small(path, tmp_path):
     recount = recount_interference(tmp_path / "fins.step")
     assert a["interfering_pairs"] == len(recount)
     assert a["worst_overlap_mm3"] == pytest.approx(recount[0] if recount else 0.0, rel=1e-6)
-    assert a["buildable"] == (not recount and not a["blocked_parts"] and not a["failed_pairs"])
+    # buildable: the parts fit, go in, and are held to the building (the load path, issue 42)
+    held = a["load_path"]
+    assert held["checked"] and a["unsupported_parts"] == held["unsupported_parts"]
+    assert a["buildable"] == (not recount and not a["blocked_parts"] and not a["failed_pairs"]
+                              and not a["unsupported_parts"])
     assert sum(1 for _ in open(tmp_path / "assembly.csv")) == fa["parts"] + 1
     assert "Assembly check" in (tmp_path / "report.html").read_text()
     key = path.name.split("_")[0]
@@ -166,7 +170,8 @@ def test_example_runs_small(path, tmp_path):
         # the report says so truthfully (checked above); the gap stays visible
         pytest.xfail(f"{key} at test size: {a['interfering_pairs']} interfering pairs, "
                      f"{len(a['blocked_parts'])} parts without an insertion path (issue 15)")
-    assert a["interfering_pairs"] == 0 and a["buildable"], (a["interfering"], a["blocked_parts"])
+    assert a["interfering_pairs"] == 0 and not a["blocked_parts"] and not a["failed_pairs"], (
+        a["interfering"], a["blocked_parts"])
     for name in ["report.json", "report.html", "congruence.ply", "support.obj", "fins.step",
                  "fins.3dm", "parts.csv", "fins.png", "torsal_field.png", "blocked_sun.png",
                  "sheets.png", "assembly.csv", "assembly.png", *fa["dxf"]]:
@@ -178,6 +183,12 @@ def test_example_runs_small(path, tmp_path):
         assert 0.0 <= li["reflected_to_target"] <= 1.0
     assert not list(tmp_path.glob("*.tmp*")), "temporary files left behind"
     assert set(res.files) >= {"report_json", "report_html", "congruence", "support"}
+    if a["unsupported_parts"]:
+        # parts the fixings, bolts and slots do not hold to the building (issue 42's load
+        # path; 7a and 7c at full size have them, 2026-11-29): the report names them, the
+        # verdict says not buildable (checked above), and the gap stays visible here
+        pytest.xfail(f"{key} at test size: {held['message']}")
+    assert a["buildable"]
 
 
 def test_changing_only_the_material_reruns_only_fabrication_and_what_measures_it(tmp_path):
