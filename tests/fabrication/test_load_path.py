@@ -61,6 +61,13 @@ def test_a_bracket_without_its_bolt_leaves_the_far_parts_named():
     # without the anchor nothing reaches the building: every part named, one loose group
     lp = check_load_path(names, joints, bolts[1:])
     assert lp.unsupported_parts == sorted(names) and lp.components == 1 and len(lp.groups) == 1
+    assert lp.bare_connectors == []
+    # a bracket without a single bolt (no room for a hole) is loose, and named as such
+    bare = [b for b in bolts if "C-N0001-0" not in b.parts]
+    lp = check_load_path(names, joints, bare)
+    assert lp.unsupported_parts == ["C-N0001-0", "F1-S000-P00", "F1-S001-P00"]
+    assert lp.bare_connectors == ["C-N0001-0"]
+    assert "1 of them are connectors without" in lp.problems()
 
 
 def test_nothing_is_judged_without_fastenings():

@@ -100,7 +100,9 @@ class LoadPath:
     parts no fastener joins, ``(kind, node, parts)``; ``checked`` False when no fastenings
     were given (nothing is judged); ``sliding_out`` the unsupported parts that sit in slots
     their weight draws them out of, with the steepest dip of their way out (degrees below the
-    horizontal).
+    horizontal); ``bare_connectors`` the unsupported connectors (brackets, splice plates) with
+    no fastener at all (no hole: too small for a bolt; the parts list counts them welded or
+    bonded, which no drawing says).
     """
 
     parts: list[str]
@@ -112,6 +114,7 @@ class LoadPath:
     unfastened_joints: list[tuple] = field(default_factory=list)
     checked: bool = True
     sliding_out: dict = field(default_factory=dict)
+    bare_connectors: list[str] = field(default_factory=list)
 
     @property
     def supported(self) -> bool:
@@ -129,6 +132,9 @@ class LoadPath:
                  if set(j[2]) & set(self.unsupported_parts)][:4]
         why = ("; their joints without a fastener: " + ", ".join(
             f"{k} at node {n} ({' / '.join(p)})" for k, n, p in loose)) if loose else ""
+        if self.bare_connectors:
+            why += (f"; {len(self.bare_connectors)} of them are connectors without a bolt hole "
+                    "(too small for one: weld or bond them, or make room for a bolt)")
         if self.sliding_out:
             why += (f"; {len(self.sliding_out)} of them sit in slots whose way out dips up to "
                     f"{max(self.sliding_out.values()):.0f} deg below the horizontal, so their "
@@ -155,6 +161,7 @@ class LoadPath:
             "unfastened_joints": [{"kind": k, "node": int(n), "parts": list(p)}
                                   for k, n, p in self.unfastened_joints],
             "sliding_out": dict(sorted(self.sliding_out.items())),
+            "bare_connectors": list(self.bare_connectors),
             "slide_dip_deg": SLIDE_DIP_DEG,
         }
 
@@ -294,8 +301,9 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
         edges[kind] = edges.get(kind, 0) + 1
         fastened.update((a, b))
         joined.add(frozenset((a, b)))
-    slot_pairs, unfastened, sliding = set(), [], {}
+    slot_pairs, unfastened, sliding, connectors = set(), [], {}, set()
     for j in map(_as_joint, joints):
+        connectors.add(j.connector)
         if j.kind in _SLOT_KINDS:
             kept, refused = _slot_edges(j, known, up, np.radians(slide_dip_deg))
             for a, b in kept:
@@ -313,8 +321,9 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
     components = 1 + len(groups) if len(reached) > 1 or not names else len(groups)
     slot_held = [n for n in names if n in reached and n not in fastened]
     sliding_out = {n: round(sliding[n], 1) for n in unsupported if n in sliding}
+    bare = [n for n in unsupported if n in connectors and n not in fastened]
     return LoadPath(names, components, unsupported, groups, slot_held, edges, unfastened,
-                    sliding_out=sliding_out)
+                    sliding_out=sliding_out, bare_connectors=bare)
 
 
 def _joint_fastened(j, known: set, joined: set) -> bool:
