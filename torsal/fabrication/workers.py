@@ -268,23 +268,25 @@ class PendingSolids:
         stops the workers. With ``mesh`` the workers made the 3DM's records too
         (:meth:`breps`)."""
         self._starter.join()
+        res, records = {}, {}
+        #: CPU seconds the workers spent building, the 3DM's records included (what the
+        #: caller's clock does not see), and those of the records alone
+        self.cpu_seconds = self.brep_cpu_seconds = 0.0
         try:
             if self._error is not None:
                 raise self._error
-            done = [f.result() for f in self._futures]
+            # each chunk's shapes are read back as it comes, while the workers build the
+            # last ones (a second of this process's time on 7a that the STEP file waited for)
+            for f in self._futures:
+                rows, cpu, record_cpu = f.result()
+                self.cpu_seconds += cpu
+                self.brep_cpu_seconds += record_cpu
+                for name, status, data, detail, record in rows:
+                    res[name] = (status, None if data is None else _from_bytes(data), detail)
+                    if data is not None:
+                        records[name] = record
         finally:
             self._pool.shutdown(wait=True)
-        res = {}
-        #: CPU seconds the workers spent building, the 3DM's records included (what the
-        #: caller's clock does not see), and those of the records alone
-        self.cpu_seconds = sum(cpu for _, cpu, _ in done)
-        self.brep_cpu_seconds = sum(cpu for _, _, cpu in done)
-        records = {}
-        for rows, _, _ in done:
-            for name, status, data, detail, record in rows:
-                res[name] = (status, None if data is None else _from_bytes(data), detail)
-                if data is not None:
-                    records[name] = record
         self._records = records if self._workers.mesh else None
         return [(p.name,) + res[p.name] for p in self.parts]
 
