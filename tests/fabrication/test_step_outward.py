@@ -8,6 +8,8 @@ as built are 0.05 mm apart. Rebuilt here from the two parts of that build (mm, m
 origin); seconds. The same plate, and panels warped with a reflex corner at 1 or 3, built by
 the sewn fallback (faces one by one) are split on the same inner diagonal.
 """
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -177,20 +179,51 @@ def test_the_background_read_meshes_the_solids_as_the_check_would(tmp_path):
                 else np.allclose(x, y, rtol=1e-12, atol=0)
 
 
-def test_the_reading_process_meshes_half_the_solids_in_a_fork(tmp_path):
-    # the reading process meshes and records the odd solids in a fork of itself: the same
-    # rows (names, binary BReps with their triangles, records), in the same order, as
-    # meshing them all in one process, for an odd count too
+def test_the_reading_process_reads_half_the_solids_in_a_fork(tmp_path):
+    # the reading process transfers, meshes and records the odd components in a fork of
+    # itself: the same rows (names, binary BReps with their triangles, records), in the same
+    # order, as reading the file whole (read_step) and meshing every solid in one process,
+    # for an odd count too
     from torsal.fabrication.assembly import TOUCHING_TOLERANCE
-    from torsal.fabrication.exports import _meshed_rows
+    from torsal.fabrication.exports import _rows, _split_rows
 
     path = tmp_path / "three.step"
     write_step([(n, _part_shape(p, T), (0.5, 0.5, 0.5)) for n, p in
                 (("a", PLATE), ("b", BRACKET), ("c", PLATE))], path, unit="mm")
-    forked = _meshed_rows(read_step(path), TOUCHING_TOLERANCE, fork=True)
-    here = _meshed_rows(read_step(path), TOUCHING_TOLERANCE)
+    forked = _split_rows(path, TOUCHING_TOLERANCE)
+    here = _rows(read_step(path), TOUCHING_TOLERANCE)
     assert [n for n, _, _ in forked] == [n for n, _, _ in here] == ["a", "b", "c"]
     for (_, a, ra), (_, b, rb) in zip(forked, here):
         assert a == b and len(a) > 1000
         assert len(ra.triangles) >= 12 and np.array_equal(ra.triangles, rb.triangles)
         assert all(np.array_equal(u, v) for u, v in zip(ra.face_points, rb.face_points))
+
+
+def test_components_read_one_by_one_are_the_solids_of_the_whole_read(tmp_path):
+    # the reading process transfers the assembly's components one by one, half in a fork
+    # (exports._split_rows): each is bit for bit (OpenCascade's binary form: vertices,
+    # tolerances, the placement the assembly gives it) the solid read_step's XCAF reader
+    # gives, under the same name, in the same order; a file that is not an assembly of
+    # parts (a bare solid) is left to read_step
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    from torsal.fabrication.exports import (_flat_components, _read_solids, _rows, _split_rows,
+                                            _step_reader)
+    from torsal.fabrication.workers import _to_bytes
+
+    parts = (PLATE, BRACKET, dataclasses.replace(PLATE, id=PartId(0, 2, 0)))
+    path = tmp_path / "joint.step"
+    write_step([(p.name, _part_shape(p, T), (0.5, 0.5, 0.5)) for p in parts], path, unit="mm")
+    whole = read_step(path)
+    components = _flat_components(_step_reader(path))
+    assert [n for _, n in components] == [n for n, _ in whole] == [p.name for p in parts]
+    one_by_one = _read_solids(path)
+    assert [n for n, _ in one_by_one] == [n for n, _ in whole]
+    assert [_to_bytes(s) for _, s in one_by_one] == [_to_bytes(s) for _, s in whole]
+    assert _split_rows(path, None) == _rows(whole, None)          # forked: the same rows
+    bare = tmp_path / "bare.step"
+    writer = STEPControl_Writer()
+    writer.Transfer(_part_shape(PLATE, T), STEPControl_AsIs)
+    writer.Write(str(bare))
+    assert _flat_components(_step_reader(bare)) is None
+    assert [_to_bytes(s) for _, s in _read_solids(bare)] == [_to_bytes(s) for _, s in read_step(bare)]
