@@ -112,7 +112,17 @@ def test_fin_folded_back_onto_another_is_found():
     assert not _quads_on(floor + [2, 0, 0], floor, 0.003)                 # beside it
 
 
-def test_butted_part_whose_slide_is_blocked_goes_in_head_on():
+@pytest.fixture
+def obstacles_held(monkeypatch):
+    """The rows in P's way below meet no part, and nothing would hold them (the builder
+    leaves such a plate out: test_fab_held.py); here they stand for plates held elsewhere,
+    so they stay in P's way."""
+    from torsal.fabrication.builder.paths import AssemblyPlanner
+
+    monkeypatch.setattr(AssemblyPlanner, "_loose_panels", lambda self: [])
+
+
+def test_butted_part_whose_slide_is_blocked_goes_in_head_on(obstacles_held):
     # (issue 15, example 9) column P butts against row W and would slide along their common
     # line (z); a plate 50 mm above and one 50 mm below are in the way of both senses (nothing
     # joins them to P): the builder slides P in head on (along -y, towards W), which the
@@ -128,7 +138,7 @@ def test_butted_part_whose_slide_is_blocked_goes_in_head_on():
     np.testing.assert_allclose(step.insert_direction, [0, -1, 0], atol=1e-12)
 
 
-def test_butted_part_blocked_every_way_leaves_out_the_cheaper_panel(monkeypatch):
+def test_butted_part_blocked_every_way_leaves_out_the_cheaper_panel(obstacles_held, monkeypatch):
     # the same with a third plate 50 mm beyond P's free end, in the way of the head-on slide:
     # no direction P's joint allows is clear; of the pair on its first path (sliding down,
     # through the plate above) the cheaper panel is left out: the plate above, one panel of a

@@ -79,10 +79,13 @@ class FixingPlacer:
         return out
 
     # ------------------------------------------------------------------ placing
-    def _place(self, roots: list[Part], directions: dict, *, exclude: set = frozenset()) -> None:
+    def _place(self, roots: list[Part], directions: dict, *, exclude: set = frozenset(),
+               single: set = frozenset()) -> None:
         """Fixings on every plate of ``roots``, each lowered along ``directions[name]``; no
         fixing on the panels ``exclude`` ({(strip index, panel of the strip)}: one there was in
-        a part's way) nor where it would overlap a part."""
+        a part's way) nor where it would overlap a part. The plates named in ``single`` take
+        one fixing, nearest the middle of the foot (a plate its slots carry, held by the
+        fixing only against sliding back out: :meth:`.paths.AssemblyPlanner._slot_hung`)."""
         fs = self.fs
         fs._fixings = []
         fs._fixing_sites = {}
@@ -94,9 +97,9 @@ class FixingPlacer:
             d = directions.get(p.name)
             if d is None:
                 continue
-            want, placed = self._count(p), 0
+            want, placed = (1 if p.name in single else self._count(p)), 0
             si = fs._strip_of.get(p.name)
-            for j in self._panels(p):
+            for j in self._panels(p, want):
                 if (si, p.span[0] + j) in exclude:
                     continue
                 site = self._site(p, j, d, faces)
@@ -118,11 +121,11 @@ class FixingPlacer:
         k = len(p.panels)
         return 1 if k == 1 else min(k, max(2, int(np.ceil(foot / self.fs.fixing_spacing))))
 
-    def _panels(self, p: Part) -> list[int]:
-        """Panels of ``p`` to try, best first: those nearest :meth:`_count` points evenly spread
-        along the foot, then the others nearest to them."""
+    def _panels(self, p: Part, n: int | None = None) -> list[int]:
+        """Panels of ``p`` to try, best first: those nearest ``n`` (default :meth:`_count`)
+        points evenly spread along the foot, then the others nearest to them."""
         foot = np.linalg.norm(p.panels[:, 1] - p.panels[:, 0], axis=1)
-        n = self._count(p)
+        n = self._count(p) if n is None else n
         targets = (np.arange(n) + 0.5) / n * float(foot.sum())
         mids = np.cumsum(foot) - 0.5 * foot
         first = [int(np.argmin(np.abs(mids - x))) for x in targets]

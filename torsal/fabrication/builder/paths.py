@@ -401,6 +401,36 @@ class AssemblyPlanner:
         later = {b for a in after for b in after[a]}
         return [p for p in fs.parts if p.family in (0, 1) and p.name not in later]
 
+    def _slot_hung(self, roots: list[Part]) -> dict[str, np.ndarray]:
+        """``{plate: direction}``: the plates other than ``roots`` that hang in egg-crate slots
+        only and whose way out of them dips more than
+        :data:`~torsal.fabrication.assembly.load_path.SLIDE_DIP_DEG` below the horizontal
+        (model +z up): their weight would draw them back out the way they slid in, so they
+        are fixed to the building too, coming down onto their fixings along that slide
+        direction (the load path, :mod:`torsal.fabrication.assembly.load_path`)."""
+        from ..assembly.load_path import SLIDE_DIP_DEG
+
+        fs = self.fs
+        rooted = {p.name for p in roots}
+        conn = {j.connector for j in fs.joints if j.connector}
+        limit = -np.sin(np.radians(SLIDE_DIP_DEG))
+        out: dict[str, np.ndarray] = {}
+        for j in fs.joints:
+            if j.kind != JointKind.EGG_CRATE:
+                continue
+            d = np.asarray(j.insert_direction, float)
+            if -d[2] / np.linalg.norm(d) >= limit:      # its way out does not dip: it stays
+                continue
+            for name in j.parts:
+                if name[:2] == "F1" and name not in rooted and name not in conn:
+                    out.setdefault(name, d / np.linalg.norm(d))
+        # a plate bolted (bracket, splice) to a plate fixed to the building is held already
+        for j in fs.joints:
+            if j.connector and rooted & set(j.parts):
+                for name in j.parts:
+                    out.pop(name, None)
+        return out
+
     def _root_direction(self, p: Part) -> np.ndarray | None:
         """The direction a plate comes down onto its fixings along (towards the building; None
         for a free strip): where it meets a part of its strip placed before it on a mitred
@@ -622,6 +652,26 @@ class AssemblyPlanner:
             return []
         hosts = site[2][0][6]
         return [(fs.part(name), j) for name, j in hosts if name in fs._strip_of]
+
+    def _loose_panels(self) -> list[tuple]:
+        """The panels of the fin plates that nothing would hold: no joint with another part
+        and no room for a fixing (a sliver of a strip between the boundary and its first
+        crossing, say). They are left out (named, with the others, in ``coplanar_panels``):
+        a workshop has no way to fix them, and the load path
+        (:mod:`torsal.fabrication.assembly.load_path`) would refuse them."""
+        fs = self.fs
+        joined = {n for j in fs.joints for n in j.parts}
+        out = []
+        for p in fs.parts:
+            if p.family not in (0, 1) or p.name in joined:
+                continue
+            si = fs._strip_of[p.name]
+            if any((si, p.span[0] + j) in fs._fixing_exclude for j in range(len(p.panels))):
+                continue    # its fixing was taken out of a part's way: the load path judges it
+            out += [(si, p.span[0] + j, p.name[:-4], int(p.edges[j]), int(p.nodes[j]),
+                     f"{p.name} is held by nothing: it meets no other part and has no room "
+                     "for a fixing") for j in range(len(p.panels))]
+        return out
 
     def _blocked_panels(self, *, leaving: set = frozenset()) -> list[tuple]:
         """Panels to leave out so that every part can be put in (``_blocked_paths``: parts whose

@@ -160,7 +160,10 @@ class Rebuilder:
                 # the joints are settled: now the paths into place (they change with every
                 # panel left out and every joint changed, so they are looked at last)
                 fs._check_paths()
-                new = {(si, i): rec for si, i, *rec in AssemblyPlanner(fs)._blocked_panels()}
+                planner = AssemblyPlanner(fs)
+                new = {(si, i): rec for si, i, *rec in planner._blocked_panels()}
+                new.update({(si, i): rec for si, i, *rec in planner._loose_panels()
+                            if (si, i) not in new})
                 excluded = {(si, i) for _, si, i in fs._evicted} - fs._fixing_exclude
             fs._fixing_exclude |= excluded
             if not (new or new_forced or changed) or attempt == MAX_REBUILDS:
@@ -186,8 +189,8 @@ class Rebuilder:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
                 f"against too obliquely to be trimmed (they lie along it and would overlap it), "
-                f"cross another plate where no joint joins them, or block a part's path into "
-                f"place: "
+                f"cross another plate where no joint joins them, block a part's path into "
+                f"place, or are held by nothing: "
                 + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
@@ -274,10 +277,14 @@ class Rebuilder:
         planner = AssemblyPlanner(fs)
         planner._set_butt_directions()
         # the plates that carry the others are fixed to the building; they come down onto
-        # their fixings along their mean node axis
+        # their fixings along their mean node axis. So are the plates that hang in slots
+        # their weight would draw them out of, along the way they slide in
         roots = planner._roots()
-        FixingPlacer(fs)._place(roots, {p.name: planner._root_direction(p) for p in roots},
-                                exclude=getattr(fs, "_fixing_exclude", set()))
+        directions = {p.name: planner._root_direction(p) for p in roots}
+        hung = planner._slot_hung(roots)
+        directions.update(hung)
+        FixingPlacer(fs)._place(roots + [p for p in fs.parts if p.name in hung], directions,
+                                exclude=getattr(fs, "_fixing_exclude", set()), single=set(hung))
         fs.parts += sorted(fs._fixings, key=lambda p: p.id)
         planner._set_root_directions()
         names = [p.name for p in fs.parts]
