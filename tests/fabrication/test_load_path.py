@@ -183,3 +183,39 @@ def test_a_real_grid_with_two_corners_without_a_bracket_still_reaches_the_buildi
     lp = check_load_path([p.name for p in fs.parts], fs.joints, bolts)
     assert lp.unsupported_parts == ["F1-S002-P00"] and lp.components == 2
     assert sorted(n for _, n, _ in lp.unfastened_joints) == [0, 2, 5, 8]
+
+
+def test_a_connector_leg_without_a_hole_is_welded_to_its_plate():
+    """The builder drills no hole in a leg too small for one (the parts list counts such a
+    connector ``without_holes``: welded or bonded): read from the holes, that leg is a weld
+    to the plate it lies on, which holds; a leg that lies on no plate of its joint welds to
+    nothing."""
+    pytest.importorskip("build123d")
+    import dataclasses
+
+    from test_fab_joints import sheared_grid
+
+    from torsal.fabrication import FinSystem
+    from torsal.fabrication.assembly.load_path import WELD
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fs = FinSystem(sheared_grid(20.0), thickness=3.0, clearance=0.5, tabs=False)
+    bracket = next(p for p in fs.parts if p.name.startswith("C-"))
+    joint = next(j for j in fs.joints if j.connector == bracket.name)
+    before = fastenings_of(fs)
+    bolted = sorted(f.parts for f in before if bracket.name in f.parts)
+    assert len(bolted) == 2 and not any(f.fastener == WELD for f in before)
+    # take the holes out of the bracket's first leg (and its plate's matching hole stays:
+    # only the bracket's own holes make a bolt)
+    legs = {h.panel for h in bracket.holes}
+    assert legs == {0, 1}
+    stripped = dataclasses.replace(bracket, holes=tuple(h for h in bracket.holes if h.panel != 0))
+    fs.parts = [stripped if p.name == bracket.name else p for p in fs.parts]
+    after = fastenings_of(fs)
+    welds = [f.parts for f in after if f.fastener == WELD]
+    assert len(welds) == 1 and welds[0] in bolted                 # the same pair, now a weld
+    assert set(welds[0]) - {bracket.name} <= set(joint.parts)
+    lp = check_load_path([p.name for p in fs.parts], fs.joints, after)
+    assert lp.supported and lp.welded == welds and lp.edges["weld"] == 1
+    assert lp.report()["welded"] == [list(welds[0])]

@@ -739,6 +739,11 @@ def _load_path_rows(lp: dict | None) -> list[tuple]:
         rows.append(("held by slots only (no fastener of their own)",
                      f"{lp['slot_held']} parts: their weight keeps them in their slots; a bolt "
                      "or clip at one crossing keeps wind from drawing them out"))
+    if lp.get("welded"):
+        rows.append(("welded (no room for a bolt)", f"{len(lp['welded'])} legs of connectors "
+                     "and fixings on their plates: " + ", ".join(
+                         html.escape(f"{c} / {p}") for c, p in lp["welded"][:20])
+                     + (" ..." if len(lp["welded"]) > 20 else "")))
     if lp["unfastened_joints"]:
         rows.append(("joints without a fastener", f"{len(lp['unfastened_joints'])}: " + ", ".join(
             f"{html.escape(j['kind'])} at node {j['node']}" for j in lp["unfastened_joints"][:20])))

@@ -30,8 +30,14 @@ Which joints hold (the rule, plainly):
   (no bolt of its own) is still supported against its weight, and is listed in
   ``slot_held_parts``: wind suction along its slide axis could draw it out; a bolt or clip at
   one crossing locks it.
+* **A weld** holds a connector's or fixing's leg to the plate it lies on where the builder
+  drilled no hole in that leg (too small for one, or its plate's hole would fall off the
+  panel: the parts list counts such connectors ``without_holes``, welded or bonded in the
+  workshop). Read from the parts too: a leg without a hole, lying on a plate of its joint
+  (parallel, within ``BOLT_REACH`` thicknesses, its centre over the plate's panel), is a
+  :data:`WELD` to it; listed in ``welded``.
 * Nothing else holds: a joint recorded without a connector (``unconnected_joints``), a
-  butted end without a bracket or tab, parts that merely touch.
+  butted end without a bracket or tab, a tab without a bolt, parts that merely touch.
 
 A bolt or anchor holds both ways; a slot one way or both, as above: the search from the
 building follows an edge only in a direction it holds.
@@ -55,7 +61,7 @@ from typing import Iterable, NamedTuple
 
 import numpy as np
 
-__all__ = ["BUILDING", "SLIDE_DIP_DEG", "BOLT_REACH", "Fastening", "LoadPath", "fastenings_of",
+__all__ = ["BUILDING", "SLIDE_DIP_DEG", "BOLT_REACH", "WELD", "Fastening", "LoadPath", "fastenings_of",
            "check_load_path", "load_path"]
 
 #: the node of the graph that stands for the building (the fixings' anchors hold to it)
@@ -73,6 +79,8 @@ _AXIS_SHARE = 0.1
 #: degrees: the largest angle between the axes of two holes one bolt passes through (both
 #: square to their plates: a leg or tab lies on the plate it is bolted to)
 _AXIS_ANGLE_DEG = 5.0
+#: the fastener name of a leg welded to its plate (no room for a bolt)
+WELD = "weld"
 #: the joint kinds whose parts interlock in slots
 _SLOT_KINDS = ("egg-crate",)
 
@@ -115,6 +123,7 @@ class LoadPath:
     checked: bool = True
     sliding_out: dict = field(default_factory=dict)
     bare_connectors: list[str] = field(default_factory=list)
+    welded: list[tuple[str, str]] = field(default_factory=list)
 
     @property
     def supported(self) -> bool:
@@ -162,6 +171,7 @@ class LoadPath:
                                   for k, n, p in self.unfastened_joints],
             "sliding_out": dict(sorted(self.sliding_out.items())),
             "bare_connectors": list(self.bare_connectors),
+            "welded": [list(w) for w in self.welded],
             "slide_dip_deg": SLIDE_DIP_DEG,
         }
 
@@ -217,7 +227,61 @@ def fastenings_of(fin_system, *, reach: float = BOLT_REACH) -> list[Fastening]:
                 if a == b:
                     continue
                 out.add(((a, b), fastener))
+    out |= _welded_legs(fin_system, parts, rows, grip, parallel)
     return [Fastening(p, f) for p, f in sorted(out)]
+
+
+def _welded_legs(fin_system, parts: list, rows: list, grip: float, parallel: float) -> set:
+    """``{((a, b), WELD)}``: each panel (leg) of a connector or fixing with no hole, lying on a
+    plate its joints name (parallel within 5 deg, its centre within ``grip`` of the plate's
+    panel's mid-plane and over that panel), welded to it."""
+    from ..model import CONNECTOR_FAMILY, FIXING_FAMILY, quad_normals
+
+    drilled = set()
+    by_name = {p.name: p for p in parts}
+    index = {p.name: k for k, p in enumerate(parts)}
+    for k, c, axis, *_ in rows:
+        p = parts[k]
+        if p.family in (CONNECTOR_FAMILY, FIXING_FAMILY):
+            drilled.add((k, _panel_of(p, c)))
+    hosts: dict[str, set] = {}
+    for j in getattr(fin_system, "joints", ()):
+        names = list(j.parts)
+        if j.connector:
+            hosts.setdefault(j.connector, set()).update(n for n in names if n != j.connector)
+        elif str(getattr(j.kind, "value", j.kind)) == "fixing" and len(names) == 2:
+            hosts.setdefault(names[0], set()).add(names[1])
+    out = set()
+    for name, plates in sorted(hosts.items()):
+        c = by_name.get(name)
+        if c is None:
+            continue
+        normals = quad_normals(c.panels)
+        for i, (quad, n) in enumerate(zip(c.panels, normals)):
+            if (index[name], i) in drilled:
+                continue
+            centre = quad.mean(axis=0)
+            for host in sorted(plates):
+                h = by_name.get(host)
+                if h is not None and _lies_on(centre, n, h, grip, parallel):
+                    out.add((tuple(sorted((name, host))), WELD))
+    return out
+
+
+def _lies_on(centre, normal, plate, grip: float, parallel: float) -> bool:
+    """Whether a leg (its ``centre`` and ``normal``) lies on a panel of ``plate``: parallel,
+    within ``grip`` of its mid-plane, the centre over the panel."""
+    from ..model import quad_normals
+
+    for quad, n in zip(plate.panels, quad_normals(plate.panels)):
+        if abs(float(n @ normal)) < parallel or abs(float((centre - quad[0]) @ n)) > grip:
+            continue
+        x = centre - ((centre - quad[0]) @ n) * n
+        edges = np.roll(quad, -1, axis=0) - quad
+        side = np.einsum("ij,ij->i", np.cross(edges, x - quad), np.broadcast_to(n, edges.shape))
+        if (side >= 0).all() or (side <= 0).all():
+            return True
+    return False
 
 
 def _panel_of(part, centre) -> int:
@@ -289,6 +353,7 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
     up = np.asarray(up, float) / np.linalg.norm(up)
     holds: dict[str, set] = {n: set() for n in names + [BUILDING]}   # holder -> held
     edges: dict[str, int] = {}
+    welded: list[tuple[str, str]] = []
     fastened = set()                                                 # parts with a fastener
     joined = set()                                                   # unordered fastened pairs
     for f in fastenings:
@@ -297,8 +362,10 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
             continue
         holds[a].add(b)
         holds[b].add(a)
-        kind = "anchor" if BUILDING in (a, b) else "bolt"
+        kind = "anchor" if BUILDING in (a, b) else "weld" if f.fastener == WELD else "bolt"
         edges[kind] = edges.get(kind, 0) + 1
+        if kind == "weld":
+            welded.append((a, b))
         fastened.update((a, b))
         joined.add(frozenset((a, b)))
     slot_pairs, unfastened, sliding, connectors = set(), [], {}, set()
@@ -323,7 +390,7 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
     sliding_out = {n: round(sliding[n], 1) for n in unsupported if n in sliding}
     bare = [n for n in unsupported if n in connectors and n not in fastened]
     return LoadPath(names, components, unsupported, groups, slot_held, edges, unfastened,
-                    sliding_out=sliding_out, bare_connectors=bare)
+                    sliding_out=sliding_out, bare_connectors=bare, welded=welded)
 
 
 def _joint_fastened(j, known: set, joined: set) -> bool:

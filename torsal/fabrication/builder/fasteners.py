@@ -200,6 +200,22 @@ def matching_hole(hole: Hole, plate: Part, panel: int, *, margin: float = 0.0) -
     return Hole(c, hole.diameter, panel, hole.fastener)
 
 
+def tab_bolts(tab: np.ndarray, start: bool, plate: Part, panel: int, f: Fastener, *,
+              thickness: float, unit: str = "mm") -> list[tuple[np.ndarray, Hole]]:
+    """The bolts of a tab: ``[(centre in the tab, matching hole in the plate)]``, for the tab
+    quad ``tab`` (the first panel of its part when ``start``, else the last) lying on panel
+    ``panel`` of ``plate``: :func:`tab_holes` whose :func:`matching_hole` falls inside that
+    panel (a hole off it has no bolt). Empty: the tab cannot be bolted, it holds nothing."""
+    q = np.asarray(tab, float)
+    (b0, b1), (f0, f1) = ((q[1], q[2]), (q[0], q[3])) if start else ((q[0], q[3]), (q[1], q[2]))
+    out = []
+    for c in tab_holes(b0, b1, f0, f1, f, thickness=thickness, unit=unit):
+        m = matching_hole(Hole(c, f.hole_mm / UNIT_TO_MM[unit], -1, f.label), plate, panel)
+        if m is not None:
+            out.append((c, m))
+    return out
+
+
 class FastenerLayout:
     """Drills the finished fin system ``fs``: the holes of every connector (bolts through both
     legs, :func:`connector_holes`) and fixing (bolts through the leg on the fin, anchors
@@ -250,13 +266,9 @@ class FastenerLayout:
             if p is None or plate is None:
                 continue
             i = tj.panel(p)
-            q = p.panels[i]
-            (b0, b1), (f0, f1) = ((q[1], q[2]), (q[0], q[3])) if tj.start else ((q[0], q[3]), (q[1], q[2]))
-            for c in tab_holes(b0, b1, f0, f1, bolt, thickness=t, unit=fs.unit):
+            for c, m in tab_bolts(p.panels[i], tj.start, plate, tj.host_panel, bolt,
+                                  thickness=t, unit=fs.unit):
                 h = Hole(c, bolt.hole_mm / mm, i, bolt.label, own=True)
-                m = matching_hole(h, plate, tj.host_panel)
-                if m is None:
-                    continue
                 there = plate_holes.setdefault(plate.name, [])
                 shared = any(np.linalg.norm(o.center - m.center) < 0.1 * m.diameter for o in there)
                 own.setdefault(p.name, []).append(Hole(c, h.diameter, i, h.fastener, shared=shared,

@@ -57,6 +57,9 @@ class TabReason(str, Enum):
     ASSEMBLY = "tab-assembly"
     #: a solid around the node could not be built, so nothing proves the tab
     SOLID = "tab-solid"
+    #: no bolt hole of the tab falls on the plate's panel (the tab is too short for one, or
+    #: its holes would lie off the panel): a tab without a bolt holds nothing
+    BOLT = "tab-bolt"
 
 
 @dataclass(frozen=True)

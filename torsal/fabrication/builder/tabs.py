@@ -48,7 +48,10 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from torsal.core.units import UNIT_TO_MM
+
 from ..model import Joint, JointKind, Part
+from .fasteners import fastener_for, tab_bolts
 from .seams import JointFallback
 from .tab_check import TabRegion, _Verdict
 from .tab_sites import TabReason, TabSites, _Proposal, with_tabs
@@ -96,6 +99,7 @@ class TabJoints:
             return
         ends, brackets, refused = self.sites.ends()
         by_name = {p.name: p for p in fs.parts}
+        ends = self._bolted(ends, by_name, refused)
         kept: dict[tuple[str, bool], _Proposal] = {}
         tried: dict[tuple[str, bool], list] = {}
         # each end's first place, then the next for the ends whose check refused it
@@ -134,6 +138,24 @@ class TabJoints:
         self._apply(kept, by_name, spare)
         fs.joint_fallbacks = list(fs.joint_fallbacks) + sorted(
             refused, key=lambda f: (f.node, f.family, f.detail))
+
+    def _bolted(self, ends: dict, by_name: dict, refused: list) -> dict:
+        """``ends`` without the places where no bolt of the tab would pass through the plate
+        (:func:`~.fasteners.tab_bolts`); an end left with none keeps its bracket
+        (:attr:`TabReason.BOLT`)."""
+        fs = self.fs
+        bolt = fastener_for(fs.thickness * UNIT_TO_MM[fs.unit])
+        out = {}
+        for key, alts in sorted(ends.items()):
+            ok = [pr for pr in alts if pr.host in by_name and tab_bolts(
+                pr.geometry.tab, pr.start, by_name[pr.host], pr.host_panel, bolt,
+                thickness=fs.thickness, unit=fs.unit)]
+            if ok:
+                out[key] = ok
+            elif alts:
+                self._refuse(alts[0], _Verdict(False, TabReason.BOLT, "no bolt hole of the tab "
+                                               f"falls on {alts[0].host}"), refused)
+        return out
 
     def _spare(self, candidates: list[str], kept: dict) -> dict[str, str]:
         """``{bracket: why}``: of the brackets ``candidates`` (left at ends bent into a tab in
