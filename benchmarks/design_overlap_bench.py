@@ -12,7 +12,13 @@ CPU seconds and half the CPU seconds of all of them (the work of that interval o
 each process on one), summed. On a loaded machine the wall seconds say little; the estimate,
 the CPU seconds and "both cores" (the estimated seconds in which two cores are busy) are what
 to compare. Then each stage's start and end on the estimated clock. Run it with another
-checkout's ``torsal`` on ``PYTHONPATH`` for the row before a change, taking turns.
+checkout's ``torsal`` on ``PYTHONPATH`` for the row before a change, side by side, *from
+that checkout's folder* (or one without a ``torsal`` package): the fork server the solids'
+workers, the STEP reader, the nester and the pictures come from imports its modules with
+the current folder first on its path and ignores this process's (Python 3.11's
+``multiprocessing.forkserver.main`` drops ``sys_path``), so a run from /work/main with
+another checkout on ``PYTHONPATH`` checks that checkout's main process but this one's
+workers. ``--marks`` adds the fabrication's main steps and every process's span.
 
 Measured 2026-11-29 10:39-10:48 UTC, before = af50f4a and after = 89d8551 (the concurrent
 pictures stage, the sheets nested and written in a process of their own, the STEP reader's
@@ -32,6 +38,27 @@ same but for seconds:
     | assembly | 39.1, 51.9 | 37.9, 50.9 |
     | pictures | (in the report) | 37.8, 50.9 (beside the assembly) |
     | report | 51.9, 54.5 | 50.9, 51.1 |
+
+Measured 2026-11-29 13:13-13:18 UTC, before = the tree at 6102d01 (with other engineers'
+uncommitted files of 12:18) and after = the same with 6b57385, e7f6270, e813695 and ba3a087
+(the tab checks without build123d, the solids read back as they come, the STEP re-read split
+in two from the parse), side by side from each tree's folder, load 8.8-15.9; fins.step,
+fins.ifc, fins.3dm, parts.csv, 40 DXF sheets and assembly.csv byte-identical (87 files):
+
+    | run | est. quiet 2-core s | both cores s | CPU s, all processes |
+    |---|---|---|---|
+    | before | 41.1 | 27.6 | 68.7 |
+    | after | 34.8 | 24.3 | 59.1 |
+
+    | step (est. s) | before | after |
+    |---|---|---|
+    | fin system (seams' and tabs' local checks in the workers) | 1.5-13.7 | 1.5-10.6 |
+    | solids' workers, CPU s | 10.5 + 9.3 | 6.6 + 7.7 |
+    | solids collected (workers end) | 21.5 (20.0) | 17.1 (17.1) |
+    | STEP written | 21.5-23.6 | 17.1-19.9 |
+    | STEP re-read: span, CPU s (process + fork) | 23.6-34.8, 7.6 + 2.3 | 19.9-28.2, 5.2 + 3.6 |
+    | assembly stage waits for the re-read | 28.7-34.9 | 25.6-28.4 |
+    | end | 41.1 | 34.8 |
 
 At that load the estimate runs high (quiet, 7a took 40.5 s wall before) and the CPU seconds
 swell; plain ``torsal design`` at load 6-10 took 140.3 / 73.3 s before and 156.9 / 58.9 s
