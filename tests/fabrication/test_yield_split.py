@@ -267,31 +267,3 @@ def test_the_row_plans_take_the_parts_not_the_pieces(grid, monkeypatch):
     res = nest_split(list(grid.unrolled().values()), cuts=yield_cut_positions(grid), **OPTIONS)
     assert res.n_cuts == 1 and res.pieces           # step A cut a plate into two stand-ins
     assert seen == [sorted(grid.unrolled())]
-
-
-def test_every_free_cut_is_a_candidate_only_for_fewer_sheets(grid):
-    """Step C of the split: every plate cut at every site that adds no fixing, nested afresh.
-    On the grid its pieces are all shorter than half the sheet (none crosses its middle), its
-    layout keeps every piece and takes no more sheets than the one-cut split; that split, with
-    as many sheets and fewer cuts, is the one kept."""
-    from torsal.fabrication.nesting.pieces import Pieces
-    from torsal.fabrication.nesting.search import _Search
-    from torsal.fabrication.nesting.split import _SplitRun
-
-    unrolled = list(grid.unrolled().values())
-    sites = yield_cut_positions(grid)
-    options = dict(OPTIONS, unit=grid.unit, progress=None)
-    search = _Search(unrolled, **options)
-    search.run()
-    pieces = Pieces(dict(search.by_name), {u.name: u for u in unrolled}, sites, {})
-    run = _SplitRun(search, pieces, lambda costs, saved: saved > 0, options, 2000)
-    free = run.free_cuts()
-    n_cuts = sum(len(js) for js in sites.values())
-    assert free is not None and free.cuts == n_cuts
-    laid = {p.name for p in free.layout.placements}
-    assert len(laid) == len(unrolled) + n_cuts
-    outlines = [p.polygon for p in free.layout.placements]
-    assert crossing_bound(outlines, sheet=SHEET, sep=5.0, edge=10.0) < 3
-    assert free.sheets <= 2
-    res = nest_split(unrolled, cuts=sites, unit=grid.unit, **OPTIONS)
-    assert res.layout.n_sheets == 2 and res.n_cuts < n_cuts

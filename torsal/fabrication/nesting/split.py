@@ -26,12 +26,6 @@ B. **Cuts for the rows** (:class:`~.row_plan.RowPlan`). The same, in one dimensi
    ends by cuts. The cuts that bring the rows down to a sheet fewer, two, ... (at most
    :data:`ROW_PLANS` of them) are made before the search, which runs afresh on the pieces,
    and then A again.
-C. **Every free cut** (:meth:`_SplitRun.free_cuts`). Every plate cut at every node line where
-   the cut adds no fixing, the search afresh on the pieces, then A: the plates longer than
-   half the sheet, each a row of its own, become pieces that share rows (7a: the crossing
-   bound, :mod:`.bounds`, 39 -> 23 sheets). Its many seams cost more than one fixing: it is
-   a candidate only where it takes fewer sheets than every layout of A and B (13: 29 -> 28
-   sheets with its 104 seams).
 
 Of the layouts whose cuts pay, the one with the fewest sheets, then the fewest fixings
 added, then the fewest cuts, is kept. Every step counts its tries (drops and repacks), never seconds: the same parts, cuts
@@ -178,23 +172,6 @@ class _SplitRun:
             misses = misses + 1 if cand.sheets > target else 0
         return found
 
-    def free_cuts(self) -> _Candidate | None:
-        """Step C: every plate cut at every node line where a cut adds no fixing (its seam in
-        the crossing slot: a contour and a pierce), nested afresh, then step A; None where a
-        piece does not come apart. The pieces no longer cross the sheets' middle as the
-        plates did (7a: the crossing bound 39 -> 23 sheets, ``benchmarks/final_cut_bounds.py``)."""
-        pieces = self.pieces
-        by_part = {p: {j for j in js if not pieces.fixings.get((p, j), 0)}
-                   for p, js in pieces.cuts.items()}
-        by_part = {p: js for p, js in sorted(by_part.items()) if js}
-        outs = cut_outlines(pieces, self.names, by_part) if by_part else None
-        if outs is None:
-            return None
-        before = [pieces.cost(p, j) for p, js in by_part.items() for j in sorted(js)]
-        s = _Search(outs, **self.options)
-        s.run()
-        return self.phase(s, before)
-
     def result(self, found: list[_Candidate]) -> SplitNesting:
         """The :class:`SplitNesting` of the best candidate (:attr:`_Candidate.rank`: the
         fewest sheets, then fixings added, then cuts) among those that save a sheet and whose
@@ -265,11 +242,4 @@ def nest_split(outlines, *, cuts: Mapping[str, Sequence[int]],
         return SplitNesting(base, base, why=why)
     found = [run.phase(search, [])]                      # A: the searched sheets
     found += run.row_plans(min(found, key=lambda c: (c.sheets, c.cuts)))      # B, then A
-    # C, then A: kept only where it saves a sheet more than A and B (its many seams cost
-    # more than the one fixing a layout of A or B with as many sheets may add)
-    free = run.free_cuts()
-    paid = [c.sheets for c in found
-            if c.sheets < run.n0 and (not c.cuts or run.pays(c.costs, run.n0 - c.sheets))]
-    if free is not None and free.sheets < min(paid, default=run.n0):
-        found.append(free)
     return run.result(found)
