@@ -100,3 +100,34 @@ def test_a_plate_nothing_holds_is_left_out_and_named():
                        "room for a fixing")]
     assert "F0-S001-P00" not in {p.name for p in fs.parts}
     assert load_path(fs).supported
+
+
+def test_plates_a_build_left_held_by_nothing_are_fixed_in_the_next(monkeypatch):
+    """Whatever leaves plates unheld (here: the rule for slot-hung plates switched off, so the
+    columns of the dipping facade hang in slots they slide out of), the builder reads the
+    load path of its result and builds once more with each unheld plate fixed."""
+    from torsal.fabrication.builder.paths import AssemblyPlanner
+
+    monkeypatch.setattr(AssemblyPlanner, "_slot_hung", lambda self, roots: {})
+    fs = _build(facade(20.0))
+    columns = sorted(p.name for p in fs.parts if p.family == 1)
+    assert fs._fix_also == {(fs._strip_of[c], fs.part(c).span[0] + j) for c in columns
+                            for j in range(len(fs.part(c).panels))}
+    assert {c: _fixed(fs).get(c, 0) for c in columns} == {c: 1 for c in columns}
+    assert load_path(fs).supported
+
+
+def test_a_design_no_fixing_fits_keeps_its_fins_and_is_refused():
+    """15 mm deep fins: no fixing has room for its legs anywhere, so nothing holds the plates.
+    They are not left out (more than MAX_UNHOLDABLE_SHARE of the panels): the load path
+    names them, and the design is not buildable until it is deeper."""
+    from fab_structures import flat_structure
+
+    from torsal.fabrication.builder.rebuild import MAX_UNHOLDABLE_SHARE
+
+    fs = _build(flat_structure(3, 5, depth=0.015))
+    plates = sorted(p.name for p in fs.parts if p.family in (0, 1))
+    assert not [p for p in fs.parts if p.family == FIXING_FAMILY]
+    assert fs.coplanar_panels == [] and len(fs._fix_also) > MAX_UNHOLDABLE_SHARE * fs.n_panels
+    lp = load_path(fs)
+    assert not lp.supported and set(plates) <= set(lp.unsupported_parts)

@@ -171,18 +171,24 @@ def test_a_real_grid_with_two_corners_without_a_bracket_still_reaches_the_buildi
         warnings.simplefilter("ignore")          # the two corners without a bracket are named
         fs = FinSystem(sheared_grid(20.0), thickness=3.0, clearance=0.5, tabs=False)
     lp = load_path(fs)
-    # 4 fixings on the outer rows, each anchored and bolted; 8 brackets, two bolts each
-    assert lp.edges == {"anchor": 4, "bolt": 4 + 2 * 8} and lp.supported and lp.components == 1
-    # the two L corners the builder named in unconnected_joints hold nothing
+    # 4 fixings on the outer rows, each anchored and bolted; 8 brackets, two bolts each; the
+    # two L corners the builder named in unconnected_joints ("fasten them on site") hold
+    assert lp.edges == {"anchor": 4, "bolt": 4 + 2 * 8, "site": 2} and lp.supported
+    assert lp.components == 1
     assert sorted((n, p[-1]) for _, n, p in lp.unfastened_joints) == [
         (0, "F1-S000-P00"), (8, "F1-S002-P00")]
+    assert sorted((n, p[-1]) for _, n, p in lp.site_fastened) == [
+        (0, "F1-S000-P00"), (8, "F1-S002-P00")]
     assert sorted(v for _, v, _ in fs.unconnected_joints) == [0, 8]
-    # the third column hangs on the brackets at nodes 2 and 5 (8 has none): without their
-    # bolts into it, it is named, and only it
+    # the third column hangs on the brackets at nodes 2 and 5 and on the site fastening at
+    # 8: without their bolts into it, only node 8 holds it; without that joint too, it is
+    # named, and only it
     bolts = [f for f in fastenings_of(fs) if "F1-S002-P00" not in f.parts]
     lp = check_load_path([p.name for p in fs.parts], fs.joints, bolts)
+    assert lp.supported and sorted(n for _, n, _ in lp.unfastened_joints) == [0, 2, 5, 8]
+    joints = [j for j in fs.joints if not (j.node == 8 and "F1-S002-P00" in j.parts)]
+    lp = check_load_path([p.name for p in fs.parts], joints, bolts)
     assert lp.unsupported_parts == ["F1-S002-P00"] and lp.components == 2
-    assert sorted(n for _, n, _ in lp.unfastened_joints) == [0, 2, 5, 8]
 
 
 def test_a_connector_leg_without_a_hole_is_welded_to_its_plate():

@@ -744,6 +744,10 @@ def _load_path_rows(lp: dict | None) -> list[tuple]:
                      "and fixings on their plates: " + ", ".join(
                          html.escape(f"{c} / {p}") for c, p in lp["welded"][:20])
                      + (" ..." if len(lp["welded"]) > 20 else "")))
+    if lp.get("site_fastened"):
+        rows.append(("fastened on site (no room for a bracket)", f"{len(lp['site_fastened'])}: "
+                     + ", ".join(f"{html.escape(' / '.join(j['parts']))} at node {j['node']}"
+                                 for j in lp["site_fastened"][:20])))
     if lp["unfastened_joints"]:
         rows.append(("joints without a fastener", f"{len(lp['unfastened_joints'])}: " + ", ".join(
             f"{html.escape(j['kind'])} at node {j['node']}" for j in lp["unfastened_joints"][:20])))

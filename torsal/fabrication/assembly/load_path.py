@@ -36,8 +36,11 @@ Which joints hold (the rule, plainly):
   workshop). Read from the parts too: a leg without a hole, lying on a plate of its joint
   (parallel, within ``BOLT_REACH`` thicknesses, its centre over the plate's panel), is a
   :data:`WELD` to it; listed in ``welded``.
-* Nothing else holds: a joint recorded without a connector (``unconnected_joints``), a
-  butted end without a bracket or tab, a tab without a bolt, parts that merely touch.
+* **On site:** a butt joint the builder left without a connector because no bracket has room
+  there (``FinSystem.unconnected_joints``, which the builder's warning tells the fitter to
+  fasten on site: a weld or a clip set there) holds its plates to each other; listed in
+  ``site_fastened`` (and, having no fastener drawn, in ``unfastened_joints``).
+* Nothing else holds: a butted end whose bracket or tab has no bolt, parts that merely touch.
 
 A bolt or anchor holds both ways; a slot one way or both, as above: the search from the
 building follows an edge only in a direction it holds.
@@ -124,6 +127,7 @@ class LoadPath:
     sliding_out: dict = field(default_factory=dict)
     bare_connectors: list[str] = field(default_factory=list)
     welded: list[tuple[str, str]] = field(default_factory=list)
+    site_fastened: list[tuple] = field(default_factory=list)
 
     @property
     def supported(self) -> bool:
@@ -172,6 +176,8 @@ class LoadPath:
             "sliding_out": dict(sorted(self.sliding_out.items())),
             "bare_connectors": list(self.bare_connectors),
             "welded": [list(w) for w in self.welded],
+            "site_fastened": [{"kind": k, "node": int(n), "parts": list(p)}
+                              for k, n, p in self.site_fastened],
             "slide_dip_deg": SLIDE_DIP_DEG,
         }
 
@@ -368,7 +374,7 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
             welded.append((a, b))
         fastened.update((a, b))
         joined.add(frozenset((a, b)))
-    slot_pairs, unfastened, sliding, connectors = set(), [], {}, set()
+    slot_pairs, unfastened, sliding, connectors, site = set(), [], {}, set(), []
     for j in map(_as_joint, joints):
         connectors.add(j.connector)
         if j.kind in _SLOT_KINDS:
@@ -379,7 +385,14 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
             for b, deg in refused:
                 sliding[b] = max(deg, sliding.get(b, 0.0))
         elif not _joint_fastened(j, known, joined):
-            unfastened.append((j.kind, int(j.node), tuple(p for p in j.parts if p in known)))
+            ps = tuple(p for p in j.parts if p in known)
+            unfastened.append((j.kind, int(j.node), ps))
+            if j.kind == "butt-bracket" and not j.connector and len(ps) > 1:
+                site.append((j.kind, int(j.node), ps))
+                for a in ps:
+                    holds[a].update(b for b in ps if b != a)
+    if site:
+        edges["site"] = len(site)
     if slot_pairs:
         edges["slot"] = len(slot_pairs)
     reached = _reach(holds, BUILDING)
@@ -390,7 +403,8 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
     sliding_out = {n: round(sliding[n], 1) for n in unsupported if n in sliding}
     bare = [n for n in unsupported if n in connectors and n not in fastened]
     return LoadPath(names, components, unsupported, groups, slot_held, edges, unfastened,
-                    sliding_out=sliding_out, bare_connectors=bare, welded=welded)
+                    sliding_out=sliding_out, bare_connectors=bare, welded=welded,
+                    site_fastened=site)
 
 
 def _joint_fastened(j, known: set, joined: set) -> bool:

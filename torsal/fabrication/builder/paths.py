@@ -661,16 +661,28 @@ class AssemblyPlanner:
         (:mod:`torsal.fabrication.assembly.load_path`) would refuse them."""
         fs = self.fs
         joined = {n for j in fs.joints for n in j.parts}
+        unholdable = getattr(fs, "_unholdable", set())
         out = []
         for p in fs.parts:
-            if p.family not in (0, 1) or p.name in joined:
+            if p.family not in (0, 1):
                 continue
             si = fs._strip_of[p.name]
-            if any((si, p.span[0] + j) in fs._fixing_exclude for j in range(len(p.panels))):
+            mine = [(si, p.span[0] + j) for j in range(len(p.panels))]
+            if any(k in unholdable for k in mine):
+                why = (f"{p.name} is held by nothing: no fixing fits on it, and the parts it "
+                       "meets reach the building through nothing either")
+            elif p.name in joined:
+                continue
+            else:
+                why = (f"{p.name} is held by nothing: it meets no other part and has no room "
+                       "for a fixing")
+            if not any(k in unholdable for k in mine) and any(
+                    k in fs._fixing_exclude for k in mine):
                 continue    # its fixing was taken out of a part's way: the load path judges it
-            out += [(si, p.span[0] + j, p.name[:-4], int(p.edges[j]), int(p.nodes[j]),
-                     f"{p.name} is held by nothing: it meets no other part and has no room "
-                     "for a fixing") for j in range(len(p.panels))]
+            gone = [k in unholdable for k in mine] if any(k in unholdable for k in mine) \
+                else [True] * len(mine)
+            out += [(si, k, p.name[:-4], int(p.edges[j]), int(p.nodes[j]), why)
+                    for j, (_, k) in enumerate(mine) if gone[j]]
         return out
 
     def _blocked_panels(self, *, leaving: set = frozenset()) -> list[tuple]:

@@ -101,6 +101,12 @@ def init_joints(fs) -> None:
     fs._dropped_connectors: list[str] = []
 
 
+#: the largest share of a design's fin panels left out because nothing can hold their plates
+#: (:meth:`Rebuilder.build_until_trimmed`): a few slivers at a corner; beyond it the design's
+#: load path refuses it, which asks for a deeper structure or more room for fixings
+MAX_UNHOLDABLE_SHARE = 0.05
+
+
 class Rebuilder:
     """Builds the parts of a fin system ``fs`` from its structure, again and again until its
     joints are settled and its paths clear (the phases: :mod:`torsal.fabrication.builder`)."""
@@ -116,8 +122,19 @@ class Rebuilder:
         (warned); at most :data:`MAX_REBUILDS` rebuilds. A rebuild changes only the ends next
         to the panels left out and the crossings forced to butt: the trims, bracket corners,
         connectors and sheet fits of all other ends are taken from the builds before
-        (``FinSystem._cached``), so each costs less than the first."""
+        (``FinSystem._cached``), so each costs less than the first.
+
+        Then the load path of the result (:meth:`_unheld`): plates it does not reach from the
+        building are fixed in one more build (``_fix_also``: one fixing each, along the way
+        they go in); those still held by nothing (no fixing fits them) are left out in the
+        next (``_unholdable``, named in ``coplanar_panels``)."""
         fs = self.fs
+        #: panels {(strip index, panel of the strip)} whose plates are fixed to the building
+        #: because a build before left them held by nothing
+        if not hasattr(fs, "_fix_also"):
+            fs._fix_also: set[tuple[int, int]] = set()
+            #: panels left out because even fixed their plates were held by nothing
+            fs._unholdable: set[tuple[int, int]] = set()
         extra: dict[int, set] = {}
         forced: dict[int, str] = {}
         left_out: list[tuple[str, int, int, str]] = []
@@ -176,8 +193,6 @@ class Rebuilder:
             forced.update(new_forced)
         fs.coplanar_panels = left_out
         SlotSeams(fs).publish()
-        for w in caught:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         # slots that would cut a part in two: once, on the final parts (it unrolls them all)
         CrossingSlotter(fs)._resolve_slot_splits()
         # brackets whose butted end can bend into a tab instead, where the assembly check
@@ -185,6 +200,22 @@ class Rebuilder:
         TabJoints(fs).make()
         # the fasteners' holes, in the connectors, fixings and the plates they lie on
         FastenerLayout(fs)._drill()
+        unheld = self._unheld()
+        if unheld - fs._fix_also:
+            # plates that reach the building through nothing (a group of plates butted onto
+            # each other, none of them carrying the others): build once more, each fixed
+            fs._fix_also |= unheld
+            return self.build_until_trimmed()
+        if unheld - fs._unholdable and len(unheld | fs._unholdable) <= (
+                MAX_UNHOLDABLE_SHARE * sum(len(p.panels) for p in fs.parts if p.family in (0, 1))):
+            # fixed where a fixing fits, and still held by nothing: no room for a fixing on
+            # them: left out (named), as a workshop could not hold them either. Not more than
+            # a few: a design most of whose fins no fixing fits stays as it is, and its load
+            # path says so (not buildable)
+            fs._unholdable |= unheld
+            return self.build_until_trimmed()
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         if left_out:
             warnings.warn(
                 f"{len(left_out)} fin panels were left out because they meet the plate they end "
@@ -195,6 +226,18 @@ class Rebuilder:
                 + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
                 "Raise constraints.min_torsal_angle to keep the two families' fins apart",
                 stacklevel=3)
+
+    def _unheld(self) -> set[tuple[int, int]]:
+        """The panels ``(strip index, panel of the strip)`` of the fin plates (families 0 and
+        1) the load path does not reach from the building
+        (:func:`torsal.fabrication.assembly.load_path.load_path`): by panel, as a plate's name
+        changes when a build leaves panels out."""
+        from ..assembly.load_path import load_path
+
+        fs = self.fs
+        loose = set(load_path(fs).unsupported_parts)
+        return {(fs._strip_of[p.name], p.span[0] + j) for p in fs.parts
+                if p.family in (0, 1) and p.name in loose for j in range(len(p.panels))}
 
     def _settle_seams(self, *, settled: bool) -> bool:
         """Seams inside crossing slots refused during this build (by the slide plan) or, once
@@ -282,6 +325,17 @@ class Rebuilder:
         roots = planner._roots()
         directions = {p.name: planner._root_direction(p) for p in roots}
         hung = planner._slot_hung(roots)
+        # and the plates an earlier build left held by nothing (:meth:`Rebuilder._unheld`),
+        # each along the way it goes in
+        rooted = {p.name for p in roots}
+        also = getattr(fs, "_fix_also", set())
+        for p in fs.parts:
+            si = fs._strip_of.get(p.name)
+            if p.name not in rooted and any((si, p.span[0] + j) in also
+                                            for j in range(len(p.panels))):
+                cands = fs._directions.get(p.name, ((), None))[1]
+                hung.setdefault(p.name, cands[0] if cands else planner._root_direction(p))
+        hung = {n: d for n, d in hung.items() if d is not None}
         directions.update(hung)
         FixingPlacer(fs)._place(roots + [p for p in fs.parts if p.name in hung], directions,
                                 exclude=getattr(fs, "_fixing_exclude", set()), single=set(hung))
