@@ -222,10 +222,13 @@ def test_a_degenerate_one_sun_design_builds_or_names_what_to_do(tmp_path, capsys
         assert a["interfering_pairs"] == 0 and not a["blocked_parts"] and not a["buildable"]
         lp = a["load_path"]
         assert r["fabrication"]["fixings"] == 0 and lp["edges"].get("anchor", 0) == 0
-        # every part, each a loose group of its own
+        # every part
         assert a["unsupported_parts"] == lp["unsupported_parts"] == sorted(
             s["part"] for s in a["sequence"])
-        assert lp["components"] == len(lp["groups"]) == a["parts"]
+        # (the butt joints no bracket has room for hold as the site fastenings the builder
+        # asks for: the plates form groups, none reaching the building)
+        assert lp["components"] == len(lp["groups"]) >= 1
+        assert sorted(sum(lp["groups"], [])) == lp["unsupported_parts"]
         flat = " ".join(err.split())
         assert "do not reach the building" in flat and "fixings" in flat
         assert all(n in flat for n in lp["unsupported_parts"][:8])
