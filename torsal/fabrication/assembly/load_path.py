@@ -64,7 +64,7 @@ from typing import Iterable, NamedTuple
 
 import numpy as np
 
-__all__ = ["BUILDING", "SLIDE_DIP_DEG", "BOLT_REACH", "WELD", "Fastening", "LoadPath", "fastenings_of",
+__all__ = ["BUILDING", "SLIDE_DIP_DEG", "UP", "BOLT_REACH", "WELD", "slides_out", "Fastening", "LoadPath", "fastenings_of",
            "check_load_path", "load_path"]
 
 #: the node of the graph that stands for the building (the fixings' anchors hold to it)
@@ -72,6 +72,8 @@ BUILDING = "building"
 #: degrees: a slot holds a plate unless the way it slides out dips more than this below the
 #: horizontal (its weight would draw it out; no friction is counted on)
 SLIDE_DIP_DEG = 5.0
+#: the upward direction of the model frame (z up)
+UP = (0.0, 0.0, 1.0)
 #: plate thicknesses: the longest distance along a bolt between the mid-surfaces of two parts
 #: it passes through (a leg on a plate: ``t`` + the connector gap; on the far face of a
 #: plate with a connector on each face: ``2 t`` + gaps)
@@ -299,11 +301,23 @@ def _panel_of(part, centre) -> int:
     return int(np.argmin(dist))
 
 
-def _slot_edges(joint, known: set, up: np.ndarray, dip: float) -> tuple[list, list]:
+def slides_out(way, *, up=UP, slide_dip_deg: float = SLIDE_DIP_DEG) -> bool:
+    """Whether a plate whose way out of its slots is the unit vector ``way`` (3,) slides out
+    under its weight: ``way`` dips more than ``slide_dip_deg`` below the horizontal (``up``
+    a unit vector).
+
+    >>> slides_out(np.array([0.0, 0.94, -0.34])), slides_out(np.array([0.0, 1.0, 0.0]))
+    (True, False)
+    """
+    return float(np.asarray(way, float) @ np.asarray(up, float)) < -np.sin(
+        np.radians(slide_dip_deg))
+
+
+def _slot_edges(joint, known: set, up: np.ndarray, dip_deg: float) -> tuple[list, list]:
     """Directed edges ``(holder, held)`` of a slot crossing: each earlier-group part holds each
-    later-group part when the later's way out (``-d``) does not dip more than ``dip``
-    (radians) below the horizontal, and the other way when ``+d`` does not; and the edges
-    refused, ``(held, degrees its way out dips)``."""
+    later-group part when the later's way out (``-d``) does not dip more than ``dip_deg``
+    below the horizontal (:func:`slides_out`), and the other way when ``+d`` does not; and the
+    edges refused, ``(held, degrees its way out dips)``."""
     from .records import joint_groups
 
     groups = [[p for p in g if p in known] for g in joint_groups(joint)]
@@ -311,22 +325,21 @@ def _slot_edges(joint, known: set, up: np.ndarray, dip: float) -> tuple[list, li
         return [], []
     d = np.asarray(joint.insert_direction, float)
     d = d / np.linalg.norm(d)
-    limit = -np.sin(dip)
-    rise = float(d @ up)                          # the later plate's way out rises by -rise
     out, refused = [], []
     for first, later in zip(groups[:-1], groups[1:]):
         for a in first:
             for b in later:
-                for holder, held, way in ((a, b, -rise), (b, a, rise)):
-                    if way >= limit:              # its way out is not downhill: it stays
-                        out.append((holder, held))
+                for holder, held, way in ((a, b, -d), (b, a, d)):
+                    if not slides_out(way, up=up, slide_dip_deg=dip_deg):
+                        out.append((holder, held))            # its way out is not downhill
                     else:
-                        refused.append((held, float(np.degrees(np.arcsin(min(1.0, -way))))))
+                        rise = float(way @ up)
+                        refused.append((held, float(np.degrees(np.arcsin(min(1.0, -rise))))))
     return out, refused
 
 
 def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable | None, *,
-                    up=(0.0, 0.0, 1.0), slide_dip_deg: float = SLIDE_DIP_DEG) -> LoadPath:
+                    up=UP, slide_dip_deg: float = SLIDE_DIP_DEG) -> LoadPath:
     """Which ``parts`` reach the building through joints that hold (rules in the module text).
 
     Parameters
@@ -378,7 +391,7 @@ def check_load_path(parts: Iterable[str], joints: Iterable, fastenings: Iterable
     for j in map(_as_joint, joints):
         connectors.add(j.connector)
         if j.kind in _SLOT_KINDS:
-            kept, refused = _slot_edges(j, known, up, np.radians(slide_dip_deg))
+            kept, refused = _slot_edges(j, known, up, slide_dip_deg)
             for a, b in kept:
                 holds[a].add(b)
                 slot_pairs.add(frozenset((a, b)))
@@ -458,7 +471,7 @@ def _groups(names: list[str], holds: dict) -> list[list[str]]:
     return sorted(out, key=lambda g: (-len(g), g[0]))
 
 
-def load_path(fin_system, *, up=(0.0, 0.0, 1.0)) -> LoadPath:
+def load_path(fin_system, *, up=UP) -> LoadPath:
     """:func:`check_load_path` of a finished :class:`~torsal.fabrication.FinSystem`: its parts,
     its joint records and the fasteners its holes make (:func:`fastenings_of`).
 

@@ -408,22 +408,22 @@ class AssemblyPlanner:
         (model +z up): their weight would draw them back out the way they slid in, so they
         are fixed to the building too, coming down onto their fixings along that slide
         direction (the load path, :mod:`torsal.fabrication.assembly.load_path`)."""
-        from ..assembly.load_path import SLIDE_DIP_DEG
+        from ..assembly.load_path import slides_out
 
         fs = self.fs
         rooted = {p.name for p in roots}
         conn = {j.connector for j in fs.joints if j.connector}
-        limit = -np.sin(np.radians(SLIDE_DIP_DEG))
         out: dict[str, np.ndarray] = {}
         for j in fs.joints:
             if j.kind != JointKind.EGG_CRATE:
                 continue
             d = np.asarray(j.insert_direction, float)
-            if -d[2] / np.linalg.norm(d) >= limit:      # its way out does not dip: it stays
+            d = d / np.linalg.norm(d)
+            if not slides_out(-d):                      # its way out does not dip: it stays
                 continue
             for name in j.parts:
                 if name[:2] == "F1" and name not in rooted and name not in conn:
-                    out.setdefault(name, d / np.linalg.norm(d))
+                    out.setdefault(name, d)
         # a plate bolted (bracket, splice) to a plate fixed to the building is held already
         for j in fs.joints:
             if j.connector and rooted & set(j.parts):
@@ -668,19 +668,16 @@ class AssemblyPlanner:
                 continue
             si = fs._strip_of[p.name]
             mine = [(si, p.span[0] + j) for j in range(len(p.panels))]
-            if any(k in unholdable for k in mine):
+            gone = [k in unholdable for k in mine]
+            if any(gone):
                 why = (f"{p.name} is held by nothing: no fixing fits on it, and the parts it "
                        "meets reach the building through nothing either")
-            elif p.name in joined:
-                continue
+            elif p.name in joined or any(k in fs._fixing_exclude for k in mine):
+                continue    # (a fixing taken out of a part's way: the load path judges it)
             else:
+                gone = [True] * len(mine)
                 why = (f"{p.name} is held by nothing: it meets no other part and has no room "
                        "for a fixing")
-            if not any(k in unholdable for k in mine) and any(
-                    k in fs._fixing_exclude for k in mine):
-                continue    # its fixing was taken out of a part's way: the load path judges it
-            gone = [k in unholdable for k in mine] if any(k in unholdable for k in mine) \
-                else [True] * len(mine)
             out += [(si, k, p.name[:-4], int(p.edges[j]), int(p.nodes[j]), why)
                     for j, (_, k) in enumerate(mine) if gone[j]]
         return out
