@@ -309,8 +309,8 @@ def slides_out(way, *, up=UP, slide_dip_deg: float = SLIDE_DIP_DEG) -> bool:
     >>> slides_out(np.array([0.0, 0.94, -0.34])), slides_out(np.array([0.0, 1.0, 0.0]))
     (True, False)
     """
-    return float(np.asarray(way, float) @ np.asarray(up, float)) < -np.sin(
-        np.radians(slide_dip_deg))
+    return bool(float(np.asarray(way, float) @ np.asarray(up, float))
+                < -np.sin(np.radians(slide_dip_deg)))
 
 
 def _slot_edges(joint, known: set, up: np.ndarray, dip_deg: float) -> tuple[list, list]:
