@@ -93,11 +93,14 @@ class FixingPlacer:
             return
         faces = self._face_normals()
         check = _PathCheck(fs)
+        shares = self._yield_shares([p for p in roots if p.name not in single])
         for p in roots:
             d = directions.get(p.name)
             if d is None:
                 continue
-            want, placed = (1 if p.name in single else self._count(p)), 0
+            want, placed = (1 if p.name in single else shares.get(p.name, self._count(p))), 0
+            if not want:
+                continue
             si = fs._strip_of.get(p.name)
             for j in self._panels(p, want):
                 if (si, p.span[0] + j) in exclude:
@@ -120,6 +123,33 @@ class FixingPlacer:
         foot = float(np.linalg.norm(p.panels[:, 1] - p.panels[:, 0], axis=1).sum())
         k = len(p.panels)
         return 1 if k == 1 else min(k, max(2, int(np.ceil(foot / self.fs.fixing_spacing))))
+
+    def _yield_shares(self, roots: list[Part]) -> dict[str, int]:
+        """``{piece: fixings}`` of the ``roots`` that are pieces of a plate the final cut split
+        at crossing slots (``FinSystem._yield_cuts``): the plate's own fixings
+        (:meth:`_count` of the pieces joined at those seams, :func:`fixing_shares`), each
+        on the piece it falls on; a piece none falls on takes one only where none of its
+        slot crossings holds it (:func:`slot_held`: the crossing plate at its seam, held by
+        the piece fixed, holds it in turn). Whether it is then held is the load path's to
+        say (``Rebuilder._unheld`` fixes it in one more build where it is not)."""
+        fs = self.fs
+        cuts = getattr(fs, "_yield_cuts", {})
+        runs: dict = {}
+        for p in sorted(roots, key=lambda p: (fs._strip_of.get(p.name, -1), p.span[0])):
+            si = fs._strip_of.get(p.name)
+            if si not in cuts or p.family not in (0, 1):
+                continue
+            run = runs.setdefault(si, [])
+            if run and run[-1][-1].span[1] == p.span[0] and p.span[0] in cuts[si]:
+                run[-1].append(p)
+            else:
+                run.append([p])
+        out: dict[str, int] = {}
+        for run in (r for rs in runs.values() for r in rs if len(r) > 1):
+            counts = fixing_shares(self, [p.panels for p in run])
+            for p, c in zip(run, counts):
+                out[p.name] = c if c or slot_held(fs, p.name) else 1
+        return out
 
     def _panels(self, p: Part, n: int | None = None) -> list[int]:
         """Panels of ``p`` to try, best first: those nearest ``n`` (default :meth:`_count`)
@@ -216,3 +246,40 @@ class FixingPlacer:
         fs.joints.append(Joint(JointKind.FIXING, node, (f.name, p.name), np.asarray(d, float),
                                None, None, float(angle), depth))
         return f
+
+
+def fixing_shares(placer: FixingPlacer, pieces: list[np.ndarray]) -> list[int]:
+    """How many of the fixings of a plate whose panels are ``pieces`` ``[(k_i, 4, 3)]`` end to
+    end (:meth:`FixingPlacer._count` of the whole, evenly spread along its foot) fall on each
+    piece: a plate cut at seams inside crossing slots keeps its fixings, each on its piece."""
+    from types import SimpleNamespace
+
+    panels = np.concatenate(pieces)
+    n = placer._count(SimpleNamespace(panels=panels))
+    foot = np.linalg.norm(panels[:, 1] - panels[:, 0], axis=1)
+    targets = (np.arange(n) + 0.5) / n * float(foot.sum())
+    mids = np.cumsum(foot) - 0.5 * foot
+    panel = [int(np.argmin(np.abs(mids - x))) for x in targets]
+    ends = np.cumsum([len(q) for q in pieces])
+    return [min(int(hi - lo), sum(1 for j in panel if lo <= j < hi))
+            for lo, hi in zip(np.r_[0, ends[:-1]], ends)]
+
+
+def slot_held(fs, name: str, nodes=None) -> bool:
+    """Whether an egg-crate crossing of the plate ``name`` of ``fs`` (at ``nodes``; None: any)
+    holds it against its weight: its way off the other plate there does not dip
+    (:func:`~torsal.fabrication.assembly.load_path.slides_out`; a family-0 plate's way off is
+    the crossing's insert direction, a family-1 plate's the reverse), the load path's rule for
+    a slot (:mod:`torsal.fabrication.assembly.load_path`)."""
+    from ..assembly.load_path import slides_out
+
+    nodes = None if nodes is None else {int(v) for v in nodes}
+    for j in fs.joints:
+        if j.kind != JointKind.EGG_CRATE or name not in j.parts or (
+                nodes is not None and int(j.node) not in nodes):
+            continue
+        d = np.asarray(j.insert_direction, float)
+        d = d / np.linalg.norm(d)
+        if not slides_out(d if name[:2] == "F0" else -d):
+            return True
+    return False

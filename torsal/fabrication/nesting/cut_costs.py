@@ -5,8 +5,11 @@ user's rates (:class:`~torsal.fabrication.quantities.Rates`).
 **Without rates** (no ``[costs]``: no price, none invented) the bill is compared in its own
 quantities. A sheet saved is a whole sheet of material (on 3 mm aluminium, 2.5 x 1.25 m:
 25 kg, and the cutting of its skeleton); a seam held in its crossing slot adds one contour
-and one pierce (metres and pierces the report gives); a plate fixed to the building, cut,
-takes one fixing more (each piece is fixed): one small bent bracket and its fasteners
+and one pierce (metres and pierces the report gives); a cut that leaves a piece nothing
+holds to the building takes one fixing more (:func:`fixings_added`: a plate's fixings stay,
+each on its piece, and a piece none falls on is held by the crossing plate at its seam
+where the load path's slot rule says so; a piece hung in slots it slides out of takes its
+own): one small bent bracket and its fasteners
 (7a: 0.004 m^2, 33 g, 0.13 % of the sheet saved; 2 M6 bolts and 2 M8 anchors). So a sheet saved pays for its seams
 and at most :data:`FIXINGS_PER_SHEET_SAVED` fixing: cuts that add more fixings than that
 per sheet they save are not made, and no cut may add a connector (a bracket or splice).
@@ -58,26 +61,69 @@ def cuts_pay(rates, *, sheet, thickness: float, density: float, unit: str, proce
 
 def fixings_added(fs, cuts: Mapping[str, tuple]) -> dict[tuple[str, int], int]:
     """``{(plate, node line): fixings}``: how many fixings more the two pieces of a plate of
-    ``fs`` cut at that node line of ``cuts`` take than the plate (a plate fixed to the building,
-    :mod:`~torsal.fabrication.builder.fixings`: each piece is, one near each end)."""
-    from types import SimpleNamespace
+    ``fs`` cut at that node line of ``cuts`` take than the plate, as the fin system rebuilt
+    with the cut places them (:mod:`~torsal.fabrication.builder.fixings`):
 
-    from ..builder.fixings import FixingPlacer
+    * a plate that carries others (a root of the assembly): its fixings stay, each on the
+      piece it falls on (:func:`~torsal.fabrication.builder.fixings.fixing_shares`); a piece
+      none falls on takes one only where none of its slot crossings holds it
+      (:func:`~torsal.fabrication.builder.fixings.slot_held`, the seam's crossing plate
+      among them): 0 or 1;
+    * a plate hung in slots it would slide out of (one fixing of its own,
+      ``AssemblyPlanner._slot_hung``): one for each piece that still hangs (a piece bolted by
+      a connector to a root there hangs no more) less the plate's one;
+    * a plate fixed because nothing else held it: one for each piece, less its one."""
+    from ..builder.fixings import FixingPlacer, fixing_shares, slot_held
+    from ..builder.paths import AssemblyPlanner
 
-    fixed = {site[0] for site in getattr(fs, "_fixing_sites", {}).values()}
-    if fs.fixing_spacing is None or not fixed:
+    if fs.fixing_spacing is None or fs.structure is None:
         return {}
-    count = FixingPlacer(fs)._count
+    fixed = {site[0] for site in getattr(fs, "_fixing_sites", {}).values()}
+    placer = FixingPlacer(fs)
+    roots = {p.name for p in AssemblyPlanner(fs)._roots()}
+    dips, bolted = _hanging(fs, roots)
     out = {}
     for name, js in cuts.items():
-        if name not in fixed:
-            continue
         p = fs.part(name)
-        whole = count(p)
-        for j in js:
-            out[(name, int(j))] = (count(SimpleNamespace(panels=p.panels[:j]))
-                                   + count(SimpleNamespace(panels=p.panels[j:])) - whole)
+        for j in map(int, js):
+            halves = (p.nodes[:j + 1], p.nodes[j:])
+            if name in roots and name in fixed:
+                shares = fixing_shares(placer, [p.panels[:j], p.panels[j:]])
+                n = sum(1 for c, nodes in zip(shares, halves)
+                        if not c and not slot_held(fs, name, nodes))
+            elif name in dips:
+                n = sum(not bolted.get(name, set()) & {int(v) for v in nodes}
+                        for nodes in halves) - int(name in fixed)
+            else:
+                n = int(name in fixed)
+            out[(name, j)] = n
     return out
+
+
+def _hanging(fs, roots: set) -> tuple[set, dict]:
+    """``(dips, bolted)``: the family-1 plates of ``fs`` other than ``roots`` whose way out of
+    an egg-crate slot dips (:func:`~torsal.fabrication.assembly.load_path.slides_out`: hung
+    in slots, ``AssemblyPlanner._slot_hung``), and ``{plate: nodes}`` where a connector bolts
+    a plate to a root (or its end is bent into a tab bolted to one)."""
+    import numpy as np
+
+    from ..assembly.load_path import slides_out
+    from ..model import JointKind
+
+    conn = {j.connector for j in fs.joints if j.connector}
+    dips: set = set()
+    bolted: dict = {}
+    for j in fs.joints:
+        if j.kind == JointKind.EGG_CRATE:
+            d = np.asarray(j.insert_direction, float)
+            if slides_out(-d / np.linalg.norm(d)):
+                dips.update(n for n in j.parts if n[:2] == "F1" and n not in roots
+                            and n not in conn)
+        elif (j.connector or j.kind == JointKind.BUTT_TAB) and roots & set(j.parts):
+            # (a tab is the bracket the build held the plate with, bent from its end)
+            for n in j.parts:
+                bolted.setdefault(n, set()).add(int(j.node))
+    return dips, bolted
 
 
 def per_fixing(fs, rates, density: float, cutting) -> float:

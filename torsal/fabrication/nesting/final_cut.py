@@ -8,7 +8,8 @@ bill of quantities says a sheet saved is worth the cuts (issues 40, 42).
    that empties a sheet; every sheet emptied must *pay*: ``pays(cuts, sheets saved)``
    (:func:`~.cut_costs.cuts_pay`): with the user's rates, the sheets' material against what the cuts add
    (their contour, a pierce and a part to place each, less the bend a cut at a fold removes,
-   and the fixings a cut of a plate fixed to the building adds: each piece is fixed);
+   and the fixings a cut adds: :func:`~.cut_costs.fixings_added`, a plate's fixings stay on
+   its pieces, and a piece gets one of its own only where its slots do not hold it);
    without rates, a sheet emptied pays for the seams that empty it (contour and pierces,
    which the report gives) and at most one fixing more (a cut of a plate fixed to the
    building: :data:`~.cut_costs.FIXINGS_PER_SHEET_SAVED`, argued in :mod:`.cut_costs`).
