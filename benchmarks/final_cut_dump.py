@@ -6,7 +6,9 @@ nester can be studied on the real outlines in seconds, without running the desig
 Writes OUT/<key>.pkl: what :func:`~torsal.fabrication.nesting.split.nest_split` takes for the
 final cut (``{"outlines": [Unrolled], "cuts", "fixings", "options", "pays_args", "unit"}``,
 :func:`~torsal.fabrication.nesting.final_cut.final_cut`'s split search);
-``benchmarks/final_cut_replay.py`` reads it back.
+``benchmarks/final_cut_replay.py`` reads it back. And OUT/<key>.fs.pkl, the fin system itself
+(its cached OpenCascade solids left out: they are built again where needed), for the whole
+final cut with its rebuild and verdict (``benchmarks/final_cut_run.py``).
 """
 import argparse
 import pickle
@@ -45,7 +47,25 @@ def dump(key: str, out: Path) -> Path:
     dest = out / f"{key}.pkl"
     with open(dest, "wb") as f:
         pickle.dump(data, f, protocol=pickle.HIGHEST_PROTOCOL)
+    dump_fin_system(fs, out / f"{key}.fs.pkl")
     return dest
+
+
+def dump_fin_system(fs, dest: Path) -> None:
+    """Pickle the fin system ``fs`` to ``dest`` without what does not pickle (the cached
+    OpenCascade solids, the build's memo): the final cut builds what it needs again."""
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 100000))
+    state = dict(fs.__dict__)
+    state.pop("_memo", None)
+    for k, v in list(state.items()):
+        try:
+            pickle.dumps(v, protocol=pickle.HIGHEST_PROTOCOL)
+        except (TypeError, pickle.PicklingError):
+            state[k] = None
+    copy = type(fs).__new__(type(fs))
+    copy.__dict__.update(state)
+    with open(dest, "wb") as f:
+        pickle.dump(copy, f, protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def main() -> None:
