@@ -63,6 +63,40 @@ fins.ifc, fins.3dm, parts.csv, 40 DXF sheets and assembly.csv byte-identical (87
 At that load the estimate runs high (quiet, 7a took 40.5 s wall before) and the CPU seconds
 swell; plain ``torsal design`` at load 6-10 took 140.3 / 73.3 s before and 156.9 / 58.9 s
 after, alternating: noise. The lead's quiet timing decides.
+
+Measured 2026-11-29 15:52-16:04 UTC, before = e22d99f and after = the same with the IFC
+written by a process of its own while this one writes the STEP file (``FinSystem.start_ifc``,
+from the workers' BRep bytes), the devices stage concurrent (started once the surface and the
+sun are known, at a lower priority, its result read by the light), the concurrent stages'
+processes started when the run starts (the pictures import matplotlib while the fins are
+made) and the pipeline's modules imported once by the fork server; side by side from each
+tree's folder, two pairs, load 7.5-15.6; fins.step, fins.ifc, fins.3dm, parts.csv,
+assembly.csv, 80 DXF files and the 5 pictures byte-identical, report.json the same but for
+seconds:
+
+    | run | est. quiet 2-core s | both cores s | CPU s, all processes | load |
+    |---|---|---|---|---|
+    | before e22d99f (pair 1) | 49.0 | 35.9 | 84.8 | 9.9 / 11.6 |
+    | after (pair 1) | 47.9 | 36.1 | 84.0 | 9.9 / 11.3 |
+    | before e22d99f (pair 2) | 49.2 | 33.9 | 83.0 | 7.5 / 15.6 |
+    | after (pair 2) | 47.7 | 36.4 | 84.1 | 7.5 / 15.3 |
+
+    | step (est. s, pair 2) | before | after |
+    |---|---|---|
+    | fin system | 1.6-13.2 | 1.5-14.2 |
+    | solids collected | 21.7 | 23.4 |
+    | STEP written | 21.7-25.8 | 23.5-26.4 |
+    | IFC: in this process / its own (CPU s) | 25.9-30.9 | 23.5-37.5 (3.9, beside the read) |
+    | devices: in this process / its own (CPU s) | 31.5-35.2 | 5.1-13.6 (2.9) |
+    | STEP re-read ends | 39.9 | 38.3 |
+    | assembly check | 39.9-46.7 | 38.5-45.5 |
+    | pictures' process ends | 45.2 | 44.4 |
+    | end | 49.2 | 47.7 |
+
+The main process's own CPU fell 31.6 -> 26.4 s; what it no longer does (IFC 4-5 s, devices
+3.7 s) the other core does beside it. The fin system and the solids end 1-1.7 s later: the
+fork server's larger import (the workers start at 5.1 instead of 2.9 s) and the devices and
+the pictures' imports share the cores with the fin system's seam checks.
 """
 from __future__ import annotations
 
@@ -228,6 +262,8 @@ _MARKED = [("torsal.pipeline.stages", "fin_system"),
            ("torsal.fabrication.exports", "write_step"),
            ("torsal.fabrication.parts", "FinSystem.export_3dm"),
            ("torsal.fabrication.parts", "FinSystem.export_ifc"),
+           ("torsal.fabrication.parts", "FinSystem.start_ifc"),
+           ("torsal.fabrication.ifc", "PendingIfc.result"),
            ("torsal.fabrication.parts", "FinSystem.bill_of_materials"),
            ("torsal.fabrication.exports", "PendingStepRead.result"),
            ("torsal.fabrication", "check_assembly")]
@@ -244,7 +280,9 @@ def _mark(events: list) -> None:
         *path, name = attr.split(".")
         for a in path:
             owner = getattr(owner, a)
-        fn = getattr(owner, name)
+        fn = getattr(owner, name, None)
+        if fn is None:                   # a checkout from before the step (the row before)
+            continue
 
         def wrapped(*a, _fn=fn, _label=f"~ {attr}", **k):
             events.append((time.perf_counter(), _label, "start"))

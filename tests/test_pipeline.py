@@ -281,6 +281,69 @@ def _after(inp):
     return {"report": {"z": inp["pid"]["y"] + 1}}
 
 
+def _preloaded(inp):
+    import os
+    import sys
+
+    return {"pid": os.getpid(), "imported": "colorsys" in sys.modules, "nice": os.nice(0)}
+
+
+def test_a_concurrent_stage_starts_once_its_inputs_are_done_its_modules_imported(tmp_path,
+                                                                               monkeypatch):
+    import os
+
+    from torsal.fabrication.workers import BACKGROUND_NICE
+    from torsal.pipeline import stage as stage_module
+
+    events = []
+    made = []
+    real = stage_module._Concurrent
+
+    def counted(name, preload=(), low_priority=False):
+        made.append((name, preload))
+        return real(name, preload, low_priority)
+
+    monkeypatch.setattr(stage_module, "_Concurrent", counted)
+    p = Pipeline((Stage("src", _src), Stage("other", _src), Stage("third", _src),
+                  Stage("pid", _preloaded, inputs=("src",), key=_pid_key, concurrent=True,
+                        preload=("colorsys",), low_priority=True),
+                  Stage("after", _after_preloaded, inputs=("pid",))))
+    run = run_stages(p, SPEC, tmp_path, StageCache(tmp_path / "c"),
+                     progress=lambda stage, event, info: events.append((stage, event)))
+    # listed after "other" and "third", started as soon as "src" was done; one process
+    # each, made when the run started, which imported the stage's module and its preload
+    assert events.index(("pid", "start")) < events.index(("other", "start"))
+    assert made == [("pid", ("test_pipeline", "colorsys"))]
+    assert run.values["pid"]["pid"] != os.getpid() and run.values["pid"]["imported"]
+    # low_priority: at a lower priority than the stages the run waits for
+    assert run.values["pid"]["nice"] == min(19, os.nice(0) + BACKGROUND_NICE)
+    assert run.report["after"] == {"imported": True}
+    # found in the cache: no process is started for it
+    made.clear()
+    again = run_stages(p, SPEC, tmp_path, StageCache(tmp_path / "c"))
+    assert made == [] and "pid" in again.cached and again.report == run.report
+
+
+def _after_preloaded(inp):
+    return {"report": {"imported": inp["pid"]["imported"]}}
+
+
+def _refused(inp):
+    from torsal.core.errors import TorsalError
+
+    raise TorsalError("the test's bad input")
+
+
+def test_a_failed_run_stops_the_processes_started_for_later_stages(tmp_path):
+    import multiprocessing as mp
+
+    p = Pipeline((Stage("src", _src), Stage("bad", _refused),
+                  Stage("pid", _preloaded, inputs=("bad",), concurrent=True)))
+    with pytest.raises(DesignError, match="stage 'bad' failed"):
+        run_stages(p, SPEC, tmp_path, StageCache(tmp_path / "c"))
+    assert not [c for c in mp.active_children() if c.name.startswith("torsal-stage-")]
+
+
 def test_a_concurrent_stage_runs_in_a_process_of_its_own_with_the_same_result(tmp_path):
     import os
 

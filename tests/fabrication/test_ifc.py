@@ -262,6 +262,26 @@ def test_the_same_fins_write_the_same_bytes_a_second_later(exported, tmp_path):
     assert b"'2000-01-01T00:00:00'" in first      # the fixed stamp (no SOURCE_DATE_EPOCH)
 
 
+def test_written_by_a_process_of_its_own_the_same_bytes(exported, tmp_path):
+    from torsal.core.parallel import limit_workers
+
+    fs = exported[0]
+    here = fs.export_ifc(tmp_path / "here.ifc", latitude=48.21, longitude=-16.37).read_bytes()
+    pending = fs.start_ifc(tmp_path / "there.ifc", latitude=48.21, longitude=-16.37)
+    assert pending._process is not None                     # another process writes it
+    assert pending.result() == tmp_path / "there.ifc"
+    assert (tmp_path / "there.ifc").read_bytes() == here
+    with limit_workers(1):                                   # no second process: written here
+        alone = fs.start_ifc(tmp_path / "alone.ifc", latitude=48.21, longitude=-16.37)
+        assert alone._process is None and alone.result().read_bytes() == here
+    # the error of the other process is raised here, and no file is left
+    bad = fs.start_ifc(tmp_path / "bad.ifc", density=0.0)
+    with pytest.raises(ValueError, match="density"):
+        bad.result()
+    assert not (tmp_path / "bad.ifc").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["alone.ifc", "here.ifc", "there.ifc"]
+
+
 def test_a_failed_write_leaves_no_file(exported, tmp_path, monkeypatch):
     fs, f, out = exported
 
@@ -350,6 +370,7 @@ def test_the_fabrication_stage_writes_fins_ifc_and_nothing_half_written(tmp_path
     import tomllib
     import warnings
 
+    from torsal.core.parallel import limit_workers
     from torsal.pipeline import DEFAULT_PIPELINE, Design, StageCache
     from torsal.pipeline.design_file import DesignSpec
 
@@ -383,7 +404,8 @@ def test_the_fabrication_stage_writes_fins_ifc_and_nothing_half_written(tmp_path
 
     monkeypatch.setattr(I._Writer, "write", broken)
     thicker = spec.model_copy(update={"material": spec.material.model_copy(update={"thickness_mm": 4.0})})
-    with warnings.catch_warnings(), pytest.raises(OSError, match="disk full"):
+    # in this process (the patched writer; the IFC's own process is tested above)
+    with warnings.catch_warnings(), pytest.raises(OSError, match="disk full"), limit_workers(1):
         warnings.simplefilter("ignore")
         Design(thicker).run(tmp_path / "failed", pipeline=pipe, cache=cache)
     left = list((tmp_path / "failed").rglob("*")) if (tmp_path / "failed").exists() else []

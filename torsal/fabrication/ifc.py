@@ -751,3 +751,119 @@ def export_ifc(fin_system, path, *, project: str = "torsal fins", latitude: floa
     with atomic_path(path) as tmp:
         w.write(tmp)
     return Path(path)
+
+
+# ------------------------------------------------------------------ in a process of its own
+#: attributes of a fin system that hold OpenCascade shapes or live work (they do not pickle):
+#: the IFC's process gets the fin system without them and the solids as binary BReps
+_LIVE = ("_solids", "_solid_shapes", "_solid_bytes", "_pending", "_breps")
+
+
+def _export_in_child(conn) -> None:
+    """IFC process: imports ifcopenshell while the solids are collected, then reads the pickled
+    ``(fin system, {name: BRep bytes}, path, options)`` from ``conn``, writes the file as
+    :func:`export_ifc` does here and answers ``("done", None)`` or ``("error", exception)``;
+    ends quietly when ``conn`` closes without a payload."""
+    import pickle
+
+    from torsal.core.parallel import portable_error
+
+    from .workers import run_in_background
+
+    run_in_background()          # the STEP file and its reading come first
+    import ifcopenshell  # noqa: F401  (seconds: while this process waits)
+
+    try:
+        payload = conn.recv_bytes()
+    except (EOFError, OSError):
+        return
+    try:
+        fs, data, path, options = pickle.loads(payload)
+        from .workers import _from_bytes, _parts_key
+
+        # the same shapes as the exporting process's: both read the workers' bytes
+        fs._solid_shapes = (_parts_key(fs), {name: _from_bytes(b) for name, b in data.items()})
+        export_ifc(fs, path, **options)
+        message = ("done", None)
+    except BaseException as exc:             # raised again in the parent
+        message = ("error", portable_error(exc))
+    try:
+        conn.send(message)
+        conn.close()
+    except OSError:                           # the caller stopped waiting
+        pass
+
+
+class PendingIfc:
+    """:func:`export_ifc` running in a process of its own (:func:`start_export_ifc`) while
+    this one writes the STEP file: :meth:`result` waits for the file, :meth:`cancel` stops
+    it. Where no second process may be started, or the fin system does not pickle,
+    :meth:`result` writes the file in this process: the same bytes either way."""
+
+    def __init__(self, fin_system, path, options: dict):
+        import pickle
+        import threading
+
+        from torsal.core.parallel import usable_workers
+
+        from .workers import _context, solid_bytes
+
+        self.fin_system, self.path, self.options = fin_system, Path(path), options
+        self._process = self._conn = None
+        if usable_workers(2) < 2:
+            return
+        state = {k: v for k, v in vars(fin_system).items() if k not in _LIVE}
+        fs = object.__new__(type(fin_system))
+        fs.__dict__.update(state)
+        try:
+            payload = pickle.dumps((fs, solid_bytes(fin_system), str(self.path), options),
+                                   protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception:        # a fin system holding something that does not pickle
+            return
+        self._conn, child = _context().Pipe(duplex=True)
+        self._process = _context().Process(target=_export_in_child, args=(child,),
+                                           name="torsal-ifc", daemon=True)
+        self._process.start()
+        child.close()
+        # the process reads its payload once ifcopenshell is imported: a thread waits for it
+        self._sender = threading.Thread(target=self._send, args=(payload,), daemon=True)
+        self._sender.start()
+
+    def _send(self, payload: bytes) -> None:
+        try:
+            self._conn.send_bytes(payload)
+        except OSError:          # the process ended (cancelled): result() says so
+            pass
+
+    def result(self) -> Path:
+        """``path``, written (waits); the exporter's error raised again here."""
+        if self._process is None:
+            return export_ifc(self.fin_system, self.path, **self.options)
+        from .workers import child_answer
+
+        kind, value = child_answer(self._conn, self._process, f"the IFC export of {self.path.name}")
+        self._sender.join()
+        if kind == "error":
+            raise value
+        return self.path
+
+    def cancel(self) -> None:
+        """Stop the export (a later step failed); no file is left (it is written atomically)."""
+        if self._process is not None and self._process.is_alive():
+            self._process.terminate()
+            self._process.join()
+
+
+def start_export_ifc(fin_system, path, **options) -> PendingIfc:
+    """:func:`export_ifc` of ``fin_system`` to ``path`` in a process of its own, started now
+    (after its solids are collected, here): returns at once a :class:`PendingIfc` whose
+    ``result()`` is ``path``, written. The design's fabrication writes the STEP file
+    meanwhile (the IFC's 3-4 s of ifcopenshell on 7a would wait for it, one core idle).
+
+    >>> pending = start_export_ifc(fs, "fins.ifc", latitude=48.21, longitude=16.37)  # doctest: +SKIP
+    >>> write_step_meanwhile()                                                     # doctest: +SKIP
+    >>> pending.result()                                                           # doctest: +SKIP
+    PosixPath('fins.ifc')
+    """
+    solid_shapes(fin_system)            # collected (or built) here: the process reads their bytes
+    return PendingIfc(fin_system, path, options)

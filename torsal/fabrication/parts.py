@@ -444,6 +444,17 @@ class FinSystem:
         """
         return _ifc.export_ifc(self, path, **options)
 
+    def start_ifc(self, path, **options):
+        """:meth:`export_ifc` in a process of its own: collects the solids, then returns at once
+        a :class:`~torsal.fabrication.ifc.PendingIfc` whose ``result()`` is ``path``, written
+        (this process writes the STEP file meanwhile); the same file as :meth:`export_ifc`.
+
+        >>> pending = fs.start_ifc("fins.ifc", latitude=48.21, longitude=16.37)  # doctest: +SKIP
+        >>> fs.export_step("fins.step"); pending.result()                     # doctest: +SKIP
+        PosixPath('fins.ifc')
+        """
+        return _ifc.start_export_ifc(self, path, **options)
+
     # ------------------------------------------------------------------ unrolling, layout
     def unrolled(self) -> dict:
         """``{part name: Unrolled}`` for every part (cached); see :func:`unroll`."""

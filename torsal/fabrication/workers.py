@@ -26,8 +26,9 @@ from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _l
 from .rhino import brep_record
 
 __all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
-           "release_workers", "start_solids", "build_solids", "solid_shapes", "map_prepared",
-           "start_fork_server"]
+           "release_workers", "start_solids", "build_solids", "solid_shapes", "solid_bytes",
+           "map_prepared", "start_fork_server", "child_answer", "BACKGROUND_NICE",
+           "run_in_background"]
 
 
 def _to_bytes(shape) -> bytes:
@@ -75,6 +76,45 @@ def _build_chunk(args):
             record_cpu += time.process_time() - t0
         out.append((p.name, status, None if shape is None else _to_bytes(shape), detail, record))
     return out, time.process_time() - cpu, record_cpu
+
+
+#: niceness a process adds to its own when the run does not wait for it yet (a concurrent
+#: stage's, the IFC's): on two cores the processes the run waits for (the fin system, the
+#: solids' workers, the STEP reader) get the cores first, the others what is left over;
+#: where nothing else runs they run at full speed (it orders the work; results do not change)
+BACKGROUND_NICE = 5
+
+
+def run_in_background() -> None:
+    """Lower this process's priority by :data:`BACKGROUND_NICE` (nothing where the system
+    does not allow it).
+
+    >>> run_in_background()        # doctest: +SKIP
+    """
+    import os
+
+    try:
+        os.nice(BACKGROUND_NICE)
+    except (AttributeError, OSError):
+        pass
+
+
+def child_answer(conn, process, what: str) -> tuple[str, object]:
+    """The one ``(kind, value)`` message a child process sends on ``conn`` (waits), then
+    ``conn`` closed and the process joined; a RuntimeError naming ``what`` (and the exit
+    code) if it ended without one.
+
+    >>> kind, value = child_answer(conn, process, "the IFC export")   # doctest: +SKIP
+    """
+    try:
+        message = conn.recv()
+    except EOFError:
+        raise RuntimeError(f"{what} ended without a result (exit code "
+                           f"{process.join() or process.exitcode})") from None
+    finally:
+        conn.close()
+    process.join()
+    return message
 
 
 def default_workers(n_parts: int) -> int:
@@ -130,23 +170,25 @@ class WorkerPool:
 _PRELOAD = ["torsal.fabrication.workers", "OCP.BRepAlgoAPI"]
 
 
-def _context():
+def _context(also: tuple[str, ...] = ()):
     """The workers' multiprocessing context: forked from a clean server that has imported
-    :data:`_PRELOAD`, where there is one, else spawned."""
+    :data:`_PRELOAD` (and ``also``, when it starts now), where there is one, else spawned."""
     import multiprocessing as mp
 
     if "forkserver" not in mp.get_all_start_methods():
         return mp.get_context("spawn")
     ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(_PRELOAD)
+    ctx.set_forkserver_preload(_PRELOAD + [m for m in also if m not in _PRELOAD])
     return ctx
 
 
-def start_fork_server() -> None:
+def start_fork_server(*, also: tuple[str, ...] = ()) -> None:
     """Start the server the solids' workers are forked from now, in the background: its
     imports (OpenCascade, about a second and a half) then run while this process optimizes,
-    and the fabrication's workers start at once. Nothing where no worker may be started
-    (a daemonic process, :func:`~torsal.core.parallel.limit_workers` ``(1)``) or where
+    and the fabrication's workers start at once. ``also``: more modules it imports, once,
+    for every process forked from it (a design's concurrent stages: the pipeline's modules,
+    which each of them would import again). Nothing where no worker may be started (a
+    daemonic process, :func:`~torsal.core.parallel.limit_workers` ``(1)``) or where
     processes are spawned.
 
     >>> start_fork_server()
@@ -155,7 +197,7 @@ def start_fork_server() -> None:
 
     from torsal.core.parallel import usable_workers
 
-    if usable_workers(2) < 2 or _context().get_start_method() != "forkserver":
+    if usable_workers(2) < 2 or _context(also).get_start_method() != "forkserver":
         return
     forkserver.ensure_running()
 
@@ -269,6 +311,8 @@ class PendingSolids:
         (:meth:`breps`)."""
         self._starter.join()
         res, records = {}, {}
+        #: {part name: the binary BRep a worker sent} (what another process reads the solid from)
+        self.brep_bytes: dict[str, bytes] = {}
         #: CPU seconds the workers spent building, the 3DM's records included (what the
         #: caller's clock does not see), and those of the records alone
         self.cpu_seconds = self.brep_cpu_seconds = 0.0
@@ -285,6 +329,7 @@ class PendingSolids:
                     res[name] = (status, None if data is None else _from_bytes(data), detail)
                     if data is not None:
                         records[name] = record
+                        self.brep_bytes[name] = data
         finally:
             self._pool.shutdown(wait=True)
         self._records = records if self._workers.mesh else None
@@ -366,6 +411,21 @@ def solid_shapes(fin_system, *, repair: bool = True, workers: int | None = None)
     return shapes
 
 
+def solid_bytes(fin_system) -> dict[str, bytes]:
+    """``{part name: OpenCascade binary BRep}`` of :func:`solid_shapes`: the bytes the workers
+    sent where they built them (the shapes are read from those very bytes), else written
+    here. A process that reads them back has the same shapes as this one.
+
+    >>> {name: len(b) for name, b in solid_bytes(fs).items()}      # doctest: +SKIP
+    {'F0-S000-P00': 41213, ...}
+    """
+    shapes = solid_shapes(fin_system)
+    kept = getattr(fin_system, "_solid_bytes", None)
+    if kept is not None and kept[0] == _parts_key(fin_system) and kept[1].keys() == shapes.keys():
+        return kept[1]
+    return {name: _to_bytes(shape) for name, shape in shapes.items()}
+
+
 class WorkerBreps(NamedTuple):
     """The 3DM records the solids' workers made with the solids (:func:`~.rhino.brep_record`):
     for which parts (``key``, :func:`_parts_key`), at which ``tolerance``, and ``breps``
@@ -402,6 +462,7 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
     if pending is not None:
         rows = pending.result()
         cpu = pending.cpu_seconds
+        fin_system._solid_bytes = (_parts_key(fin_system), pending.brep_bytes)
         records = pending.breps()
         if records is not None:      # the 3DM's records, made by the workers with the solids
             fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t, records)

@@ -13,7 +13,7 @@ from .design_file import DesignSpec, load_design_file
 from .assembly import UnbuildableDesignError, unbuildable_message
 from .cache import StageCache
 from .errors import Progress, quiet
-from .stage import Pipeline, Stage, StageRun, run_stages
+from .stage import Pipeline, Stage, StageRun, concurrent_modules, run_stages
 from .stages import DEFAULT_PIPELINE, run_estimate, sun_directions, surface_mesh
 from .staging import Staging
 
@@ -120,8 +120,9 @@ class Design:
                                               key=pipeline["estimate"].key, cache=False))
         spec = self.spec
         if spec.outputs.step or spec.outputs.rhino_3dm or spec.outputs.ifc:
-            # the solids' workers import OpenCascade while the congruence is optimized
-            start_fork_server()
+            # the solids' workers import OpenCascade while the congruence is optimized; the
+            # concurrent stages' processes find their stages' modules imported there too
+            start_fork_server(also=concurrent_modules(pipeline, spec))
         staging = Staging(out, kind="design")
         try:
             with staging:

@@ -9,6 +9,8 @@ cannot be made on the surface is reported not applicable, with the reason.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..light.devices import DEVICE_NAMES
 from .measure import run_devices
 from .stages import DEFAULT_PIPELINE
@@ -20,6 +22,6 @@ DEVICES = DEVICE_NAMES
 
 #: surface, sun and orientation shared with the designs (one cache), then the devices: the
 #: devices stage of every design run (the same keys), so a study's devices and its variants'
-#: are one computation
-DEVICES_PIPELINE = DEFAULT_PIPELINE.until("orient").insert(DEFAULT_PIPELINE["devices"],
-                                                           after="orient")
+#: are one computation; run in order here (the design runs them beside its fins)
+DEVICES_PIPELINE = DEFAULT_PIPELINE.until("orient").insert(
+    replace(DEFAULT_PIPELINE["devices"], concurrent=False), after="orient")

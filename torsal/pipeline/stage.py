@@ -75,7 +75,20 @@ class Stage:
         Its inputs and result must pickle, it sees the report as it was when it started and
         reports no progress of its own. Where no second process may be started
         (:func:`~torsal.core.parallel.limit_workers` ``(1)``, a daemonic process) it runs in
-        order like any other stage: the same result either way.
+        order like any other stage: the same result either way. The process is started
+        when the run starts (unless the stage's result is in the cache): it imports the
+        stage function's module and ``preload`` while the stages before it run, then waits
+        for its inputs.
+    preload : tuple of str
+        Modules a concurrent stage's process imports before its inputs come (those its
+        function imports when it runs: the pictures' matplotlib), so that the seconds of
+        the imports are spent while the earlier stages run.
+    low_priority : bool
+        A concurrent stage whose result is read long after it starts (the devices, read by
+        the light after the fabrication) runs at a lower priority
+        (:data:`~torsal.fabrication.workers.BACKGROUND_NICE`): the stages the run waits for
+        get the cores first. Not for one the end of the run waits for (the pictures, beside
+        the assembly check): it would be left to finish alone.
     """
 
     name: str
@@ -86,6 +99,8 @@ class Stage:
     cache: bool = True
     section: str | None = None
     concurrent: bool = False
+    preload: tuple[str, ...] = ()
+    low_priority: bool = False
 
 
 @dataclass
@@ -249,13 +264,29 @@ def _compute(s: Stage, inputs: "StageInputs") -> dict:
         raise
 
 
-def _compute_in_child(conn) -> None:
-    """Process of a concurrent stage: reads the pickled ``(stage, inputs)`` from ``conn``,
-    answers ``("done", (result, seconds))`` or ``("error", exception)``."""
+def _compute_in_child(conn, preload: tuple[str, ...] = (), low_priority: bool = False) -> None:
+    """Process of a concurrent stage: imports ``preload`` (modules), then reads the pickled
+    ``(stage, inputs)`` from ``conn`` and answers ``("done", (result, seconds))`` or
+    ``("error", exception)``; ends quietly when the run closes ``conn`` without sending
+    (the stage was not needed). ``low_priority``: :attr:`Stage.low_priority`."""
+    import importlib
     import pickle
 
+    if low_priority:              # the stages the run waits for come first
+        from ..fabrication.workers import run_in_background
+
+        run_in_background()
+    for name in preload:          # a warm-up only: a module that fails fails again below
+        try:
+            importlib.import_module(name)
+        except Exception:
+            pass
     try:
-        s, inputs = pickle.loads(conn.recv_bytes())
+        payload = conn.recv_bytes()
+    except (EOFError, OSError):
+        return
+    try:
+        s, inputs = pickle.loads(payload)
         t0 = time.perf_counter()
         message = ("done", (_compute(s, inputs), time.perf_counter() - t0))
     except BaseException as exc:            # raised again in the parent
@@ -280,42 +311,55 @@ def _portable(exc: BaseException) -> tuple:
 
 
 class _Concurrent:
-    """A concurrent stage running in a process of its own (:attr:`Stage.concurrent`):
-    ``payload`` is its pickled ``(stage, inputs)``, sent by a thread (the process reads it
-    once it has started) so that this process goes on at once."""
+    """The process of a concurrent stage (:attr:`Stage.concurrent`), started ahead: a thread
+    starts it (the first start waits for the fork server's imports), it imports ``preload``
+    and waits; :meth:`send` hands it the pickled ``(stage, inputs)``, which the thread
+    sends once the process is up, so this process goes on at once."""
 
-    def __init__(self, name: str, payload: bytes):
+    def __init__(self, name: str, preload: tuple[str, ...] = (), low_priority: bool = False):
         import multiprocessing as mp
+        import queue
         import threading
 
         ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods()
                              else "spawn")
-        self._conn, child = ctx.Pipe(duplex=True)
-        self._process = ctx.Process(target=_compute_in_child, args=(child,),
+        self._conn, self._child = ctx.Pipe(duplex=True)
+        self._process = ctx.Process(target=_compute_in_child, args=(self._child, preload, low_priority),
                                     name=f"torsal-stage-{name}", daemon=True)
-        self._process.start()
-        child.close()
-        self._sender = threading.Thread(target=self._send, args=(payload,), daemon=True)
-        self._sender.start()
+        self._payload: queue.Queue = queue.Queue(maxsize=1)
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
 
-    def _send(self, payload: bytes) -> None:
+    def _run(self) -> None:
         try:
-            self._conn.send_bytes(payload)
+            self._process.start()
+        except BaseException as exc:          # raised by result()
+            self._error = exc
+            return
+        finally:
+            self._child.close()
+        payload = self._payload.get()
+        try:
+            if payload is None:               # not needed: the process ends on EOF
+                self._conn.close()
+            else:
+                self._conn.send_bytes(payload)
         except OSError:          # the process ended (cancelled): result() says so
             pass
 
+    def send(self, payload: bytes) -> None:
+        """Hand the process its pickled ``(stage, inputs)`` (once)."""
+        self._payload.put(payload)
+
     def result(self) -> tuple[dict, float]:
         """``(result, seconds)`` of the stage (waits); its error raised again here."""
-        try:
-            kind, value = self._conn.recv()
-        except EOFError:
-            raise RuntimeError(f"the process of {self._process.name} ended without a result "
-                               f"(exit code {self._process.join() or self._process.exitcode})"
-                               ) from None
-        finally:
-            self._conn.close()
-        self._process.join()
-        self._sender.join()
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        from ..fabrication.workers import child_answer
+
+        kind, value = child_answer(self._conn, self._process, f"the process of {self._process.name}")
         if kind == "design":
             message, stage, key, value = value
             exc = DesignError(stage, "")
@@ -325,26 +369,86 @@ class _Concurrent:
             raise value
         return value
 
+    def release(self) -> None:
+        """Tell a process that has no inputs yet that none will come (it ends at once);
+        returns at once."""
+        try:
+            self._payload.put_nowait(None)
+        except Exception:                     # sent already
+            pass
+
     def cancel(self) -> None:
-        if self._process.is_alive():
+        """Stop the process (a failed run, or a stage not needed after all)."""
+        self.release()
+        self._thread.join()
+        if self._error is None and self._process.is_alive():
             self._process.terminate()
             self._process.join()
+        self._conn.close()
 
 
-def _start_concurrent(s: Stage, inputs: "StageInputs") -> _Concurrent | None:
-    """``s`` started in a process of its own, or None where it runs in order (no second
-    process may be started, or its inputs do not pickle)."""
+def _function_module(s: Stage) -> tuple[str, ...]:
+    """``(module,)`` of stage ``s``'s function (which unpickling the stage imports), or ()."""
+    fn = getattr(s.run, "func", s.run)        # a functools.partial's function
+    module = getattr(fn, "__module__", None)
+    return (module,) if module else ()
+
+
+def _concurrent_modules(s: Stage) -> tuple[str, ...]:
+    """What the process of concurrent stage ``s`` imports ahead: its function's module and
+    its :attr:`Stage.preload`."""
+    return _function_module(s) + tuple(s.preload)
+
+
+def concurrent_modules(pipeline: Pipeline, spec: DesignSpec) -> tuple[str, ...]:
+    """The modules of the functions of ``pipeline``'s concurrent stages that apply to
+    ``spec`` (what unpickling them imports: a fork server that imported them spares each
+    stage's process the seconds; their :attr:`Stage.preload` is left to the stage's own
+    process).
+
+    >>> concurrent_modules(DEFAULT_PIPELINE, spec)                 # doctest: +SKIP
+    ('torsal.pipeline.measure', 'torsal.pipeline.stages')
+    """
+    out: list[str] = []
+    for s in pipeline:
+        if s.concurrent and s.applies(spec):
+            out += [m for m in _function_module(s) if m not in out]
+    return tuple(out)
+
+
+def _start_ahead(pipeline: Pipeline, spec: DesignSpec, cache: StageCache,
+                 keys: dict) -> dict[str, _Concurrent]:
+    """``{stage: process}``: a process started now for every concurrent stage that applies
+    and is not in the cache (none where no second process may be started)."""
+    from ..core.parallel import usable_workers
+
+    if usable_workers(2) < 2:
+        return {}
+    return {s.name: _Concurrent(s.name, _concurrent_modules(s), s.low_priority) for s in pipeline
+            if s.concurrent and s.applies(spec) and not (s.cache and cache.has(s.name, keys[s.name]))}
+
+
+def _start_concurrent(s: Stage, inputs: "StageInputs",
+                      ahead: _Concurrent | None) -> _Concurrent | None:
+    """``s`` started in a process of its own (``ahead``, the one started for it when the run
+    started, else a new one), or None where it runs in order (no second process may be
+    started, or its inputs do not pickle)."""
     import pickle
 
     from ..core.parallel import usable_workers
 
-    if usable_workers(2) < 2:
+    if ahead is None and usable_workers(2) < 2:
         return None
     try:
         payload = pickle.dumps((s, inputs), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception:           # a stage built from a closure, inputs holding a live object
+        if ahead is not None:
+            ahead.cancel()
         return None
-    return _Concurrent(s.name, payload)
+    pending = (ahead if ahead is not None else
+               _Concurrent(s.name, _concurrent_modules(s), s.low_priority))
+    pending.send(payload)
+    return pending
 
 
 def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache, *,
@@ -353,12 +457,16 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
     the stage that failed when its input is the cause (a :class:`TorsalError`, or a
     ``ValueError`` raised by torsal's own checks); any other exception is a bug and
     propagates with a note naming the stage. Results of earlier stages stay cached.
-    Concurrent stages (:attr:`Stage.concurrent`) run beside the later ones; a failure
-    stops them."""
+    Concurrent stages (:attr:`Stage.concurrent`) run beside the later ones, started as soon
+    as the stages they read are done (the devices beside the congruence and the fins); a
+    failure stops them."""
     run = run if run is not None else StageRun()
     keys = stage_keys(pipeline, spec)
     memo = Memo(cache.folder / "memo", enabled=cache.enabled)
     running: dict[str, tuple[Stage, _Concurrent]] = {}
+    stages = [s for s in pipeline if s.applies(spec)]
+    # the concurrent stages' processes start now: their imports run beside the stages before
+    ahead = _start_ahead(pipeline, spec, cache, keys)
 
     def record(s: Stage, value: dict) -> None:
         run.values[s.name], run.keys[s.name] = value, keys[s.name]
@@ -381,9 +489,37 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
             raise
         finish(s, value)
 
+    def inputs_of(s: Stage) -> StageInputs:
+        return StageInputs(spec=spec, out=out, stage=s.name,
+                           results={i: run.values[i] for i in s.inputs if i in run.values},
+                           report=run.report, _progress=progress, memo=memo)
+
+    def start(s: Stage) -> bool:
+        """``s`` started in a process of its own (True), else it is to run here."""
+        pending = _start_concurrent(s, replace(inputs_of(s), report=dict(run.report),
+                                               _progress=quiet), ahead.pop(s.name, None))
+        if pending is not None:
+            running[s.name] = (s, pending)
+        return pending is not None
+
+    tried: set[str] = set()              # concurrent stages started (or tried) ahead
+
+    def start_ready(later: list[Stage]) -> None:
+        """Start the concurrent stages among ``later`` whose inputs are all done and whose
+        result is not in the cache (a cached one is read in its turn, in order)."""
+        names = {t.name for t in stages}
+        for t in later:
+            if (t.concurrent and t.name not in tried
+                    and all(i in run.values for i in t.inputs if i in names)
+                    and not (t.cache and cache.has(t.name, keys[t.name]))):
+                tried.add(t.name)
+                if start(t):
+                    progress(t.name, "start", {})
+
     try:
-        for s in pipeline:
-            if not s.applies(spec):
+        for k, s in enumerate(stages):
+            if s.name in running:               # started ahead of its turn
+                start_ready(stages[k + 1:])
                 continue
             for name in s.inputs:
                 if name in running:
@@ -395,25 +531,24 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
             if value is MISSING:
                 progress(s.name, "start", {})
                 t0 = time.perf_counter()
-                inputs = StageInputs(spec=spec, out=out, stage=s.name,
-                                     results={i: run.values[i] for i in s.inputs if i in run.values},
-                                     report=run.report, _progress=progress, memo=memo)
-                if s.concurrent:
-                    pending = _start_concurrent(s, replace(inputs, report=dict(run.report),
-                                                           _progress=quiet))
-                    if pending is not None:
-                        running[s.name] = (s, pending)
-                        continue
-                value = _compute(s, inputs)
+                if s.concurrent and start(s):
+                    start_ready(stages[k + 1:])
+                    continue
+                value = _compute(s, inputs_of(s))
                 run.stage_seconds[s.name] = time.perf_counter() - t0
                 finish(s, value)
             else:
                 progress(s.name, "cached", {})
                 run.cached.append(s.name)
+                if s.name in ahead:              # its files were there after all
+                    ahead[s.name].release()
                 record(s, value)
+            start_ready(stages[k + 1:])
         for name in list(running):
             collect(name)
     finally:
         for _, pending in running.values():
+            pending.cancel()
+        for pending in ahead.values():       # found in the cache, or the run failed
             pending.cancel()
     return run

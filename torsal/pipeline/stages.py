@@ -538,16 +538,24 @@ def _write_solids(inp: StageInputs, fs) -> dict:
     light are made."""
     spec, out = inp.spec, inp.out
     written = {}
-    if spec.outputs.step:
-        fs.export_step(out / "fins.step")
-        written["step"] = "fins.step"
-        prefetch_step_solids(out / "fins.step")
-    if spec.outputs.rhino_3dm:
-        fs.export_3dm(out / "fins.3dm")
-        written["3dm"] = "fins.3dm"
-    if spec.outputs.ifc:      # written atomically: a failure leaves no fins.ifc
-        fs.export_ifc(out / "fins.ifc", **_ifc_options(spec))
-        written["ifc"] = "fins.ifc"
+    # the IFC (seconds of ifcopenshell) is written by a process of its own while this one
+    # writes the STEP file; written atomically: a failure leaves no fins.ifc
+    ifc = fs.start_ifc(out / "fins.ifc", **_ifc_options(spec)) if spec.outputs.ifc else None
+    try:
+        if spec.outputs.step:
+            fs.export_step(out / "fins.step")
+            written["step"] = "fins.step"
+            prefetch_step_solids(out / "fins.step")
+        if spec.outputs.rhino_3dm:
+            fs.export_3dm(out / "fins.3dm")
+            written["3dm"] = "fins.3dm"
+        if ifc is not None:
+            ifc.result()
+            written["ifc"] = "fins.ifc"
+    except BaseException:
+        if ifc is not None:
+            ifc.cancel()
+        raise
     return written
 
 
@@ -822,6 +830,15 @@ def _renders(spec):
     return bool(spec.outputs.renders)
 
 
+#: what the devices' process imports while it waits for the surface and the sun
+_LIGHT_MODULES = ("torsal.light.devices", "torsal.light.rays", "torsal.light.shading",
+                  "torsal.light.view")
+#: what the pictures' process imports while it waits for the light (matplotlib: seconds)
+_PICTURE_MODULES = ("torsal.pipeline.report", "matplotlib.figure",
+                    "matplotlib.backends.backend_agg", "matplotlib.collections",
+                    "matplotlib.patches", "matplotlib.colors", "mpl_toolkits.mplot3d.art3d")
+
+
 #: The stages of a design run, in order. Insert more with ``DEFAULT_PIPELINE.insert``.
 DEFAULT_PIPELINE = Pipeline((
     Stage("surface", run_surface, key=_surface_key),
@@ -834,8 +851,11 @@ DEFAULT_PIPELINE = Pipeline((
     Stage("substructure", run_substructure, inputs=("orient", "congruence"),
           key=_substructure_key, applies=_has_substructure),
     Stage("fabrication", run_fabrication, inputs=("support",), key=_fabrication_key),
-    # the standard devices of the fins' depth and spacing (measured into light.devices)
-    Stage("devices", run_devices, inputs=("orient", "sun"), key=devices_key),
+    # the standard devices of the fins' depth and spacing (measured into light.devices): they
+    # read only the surface and the sun, so a process of their own measures them from the
+    # moment those are known, while the fins are optimized and made
+    Stage("devices", run_devices, inputs=("orient", "sun"), key=devices_key, concurrent=True,
+          preload=_LIGHT_MODULES, low_priority=True),
     # after the fabrication: it measures the fins that are built
     Stage("light", run_light, inputs=("orient", "sun", "support", "fabrication", "devices"),
           key=_light_key),
@@ -843,7 +863,7 @@ DEFAULT_PIPELINE = Pipeline((
     # the assembly are computed
     Stage("pictures", run_pictures, inputs=("orient", "congruence", "support", "light",
                                             "fabrication"), key=_pictures_key,
-          applies=_renders, cache=False, concurrent=True),
+          applies=_renders, cache=False, concurrent=True, preload=_PICTURE_MODULES),
     # annual irradiance by Radiance, bare / fins as built / devices ([annual] enabled)
     Stage("annual", run_annual, inputs=("orient", "sun", "support", "fabrication"),
           key=annual_key, applies=annual_applies, section="light.annual"),
