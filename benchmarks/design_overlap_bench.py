@@ -96,7 +96,14 @@ seconds:
 The main process's own CPU fell 31.6 -> 26.4 s; what it no longer does (IFC 4-5 s, devices
 3.7 s) the other core does beside it. The fin system and the solids end 1-1.7 s later: the
 fork server's larger import (the workers start at 5.1 instead of 2.9 s) and the devices and
-the pictures' imports share the cores with the fin system's seam checks.
+the pictures' imports share the cores with the fin system's seam checks. Two more pairs,
+16:05-16:14 UTC: without the fork server's import of the pipeline (each process imports
+it) 38.1 -> 37.2 s, CPU 65.5 -> 67.2 s (load 6.5 / 14.0); as committed (7a982eb) 43.4 ->
+43.1 s, CPU 73.7 -> 74.2 s (load 11.8 / 12.8): the gain is 0.3-1.5 s of the estimate, not
+the 3-4 s the moved work would give on an idle second core, because the fin system's window
+is busier than it looked. What is left on the path: the fin system (builder, 9-12 s), the
+STEP re-read (its reading process did 8.5 s CPU, its fork 5.2: the halves are uneven, the
+parse and the rows' sending are the reader's alone) and the assembly check (5-6 s).
 """
 from __future__ import annotations
 
