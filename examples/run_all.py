@@ -47,7 +47,8 @@ def final_cut(spec) -> dict:
     :func:`~torsal.fabrication.nesting.final_cut.final_cut`, the search, then plates split at
     crossing slots where the bill of quantities says a sheet saved pays), from the fin system
     the run built: sheets, yield, cuts kept, processor seconds, and where plates were split,
-    the split design's assembly check (interfering pairs, blocked parts)."""
+    the split design's assembly check (interfering pairs, blocked parts) and load path (parts
+    not held)."""
     from torsal.fabrication import verify_assembly
     from torsal.fabrication.nesting import final_cut as fc
     from torsal.pipeline.fins import last_fin_system
@@ -62,9 +63,13 @@ def final_cut(spec) -> dict:
            "cpu_s": time.process_time() - c0, "method": lay.stats.method,
            "split": split.as_report()}
     if fs2 is not fs:
-        check = verify_assembly(fs2)
-        out["buildable"] = bool(check.buildable)
+        from torsal.fabrication.assembly.load_path import load_path
+
+        # buildable as the design run judges it: in place, and held by its load path
+        check, held = verify_assembly(fs2), load_path(fs2)
+        out["buildable"] = bool(check.buildable and held.supported)
         out["interfering"], out["blocked"] = check.interfering_pairs, len(check.blocked)
+        out["unsupported"] = len(held.unsupported_parts)
     return out
 
 
@@ -77,7 +82,8 @@ def final_cut_cell(r: dict) -> str:
     sp = f.get("split") or {}
     cuts = f"{sp['cuts']} cuts" if sp.get("kept") else "no cut"
     ok = "" if f.get("buildable", True) else (
-        f", NOT buildable: {f['interfering']} interfering, {f['blocked']} blocked")
+        f", NOT buildable: {f['interfering']} interfering, {f['blocked']} blocked, "
+        f"{f.get('unsupported', 0)} not held")
     return (f"{f['sheets']} / {100 * f['utilization']:.1f}% ({cuts}{ok}; "
             f"{f['cpu_s']:.0f} s CPU)")
 
