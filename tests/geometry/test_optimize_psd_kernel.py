@@ -97,14 +97,16 @@ def test_matrices_not_finite_are_left_to_numpy(monkeypatch):
 
 
 def test_psd_projection_with_and_without_the_kernel(monkeypatch):
-    """psd_projection by the kernel (PSD_KERNEL "compiled") and by numpy's eigh (the default,
-    and the path without a C compiler) agree to 1e-12; the kernel is deterministic (the same
-    bytes twice)."""
+    """psd_projection by the kernel (PSD_KERNEL "compiled", the default) and by numpy's eigh
+    (PSD_KERNEL "numpy", and the path without a C compiler) agree to 1e-12; the kernel is
+    deterministic (the same bytes twice)."""
     rng = np.random.default_rng(5)
     a = _random_symmetric(rng, 3000, 8)
-    by_numpy = projected.psd_projection(a)          # the default (PSD_KERNEL "numpy")
+    assert projected.PSD_KERNEL == "compiled"
+    with_kernel = projected.psd_projection(a)       # the default
+    monkeypatch.setattr(projected, "PSD_KERNEL", "numpy")
+    by_numpy = projected.psd_projection(a)
     monkeypatch.setattr(projected, "PSD_KERNEL", "compiled")
-    with_kernel = projected.psd_projection(a)
     assert np.array_equal(with_kernel, projected.psd_projection(a))
     assert not np.array_equal(with_kernel, by_numpy)    # the kernel was used: other rounding
     monkeypatch.setattr(psd_kernel, "_LIB", False)
