@@ -213,6 +213,36 @@ their ends). So row 9 at T rests on its rounding on this machine (another BLAS o
 machine (0.3-0.55 s cpu over two threads; estimated, not measured quietly) once the crawl no longer
 decides row 9's length.
 
+Issue 44, row 9's crawl (``alm.PREDICT_MODEL``: each predicted pass taken only as far as the
+step's model of ``L_A`` decreases; ``alm.INNER_MAX`` 40 -> 15), 2026-11-29 12:10-13:05 UTC,
+``--tables design``, processor seconds of the congruence stage, before at a load of 1.4-14 and
+after at 14-16. ``numpy-U``: numpy's ``eigh`` of the upper triangle, the same projection with
+other rounding (before: af50f4a's runs)::
+
+    row        eigh      run     Newton  fact  cpu s   E            min ang  ended by
+    9          numpy     before    74    300   26.6    0.017241     60.01    design tolerance
+    9          compiled  before   137    555   40.2    0.017242     60.01    design tolerance
+    9          numpy-U   before   136    551   46.3    0.017249     -        design tolerance
+    9          numpy     after     82    332   31.2    0.016936     59.97    design tolerance
+    9          compiled  after     82    333   28.1    0.016937     59.93    design tolerance
+    9          numpy-U   after     76    309   28.8    0.016939     59.96    design tolerance
+    7c         numpy     before    26    111   3.24    0.42719      39.97    design tolerance
+    7c         numpy     after     26    112   3.38    0.42719      39.96    design tolerance
+    7c         compiled  after     26    112   3.15    0.42719      39.96    design tolerance
+    facade80   numpy     before    42    166   4.65    4.2735e-07   80.54    converged
+    facade80   numpy     after     29    118   3.44    4.1642e-07   80.34    converged
+    facade80   compiled  after     29    118   3.64    4.1642e-07   80.34    converged
+
+Before, the step the predicted passes ended at had a linearized ``L_A`` above the start's on row 9
+(rows moved across their bounds added 0.3-6 to the penalty against the 0.05-0.3 the energy
+lost), so the line search cut most steps to 1/64-1/4 and where the solve ended hung on rounding;
+with the model's minimum along each pass most steps are 1/2-1 and every kernel lands on the same
+design: energies within 0.02 % of each other, 1.8 % under before's (and under the 140-step
+converged 0.0172064 of before), each measured feasible (the bound to its 0.1 degree). With the
+model alone (INNER_MAX 40) row 9 took 130 / 135 Newton steps (numpy / compiled, 44.8 / 40.8 s,
+energy 0.01688): the first inner minimizations ran to their 40 steps at the first multipliers;
+INNER_MAX 10 took 108, 20 took 82 (numpy). 7c and the facade take the same steps with each kernel.
+
 Run:  .venv/bin/python benchmarks/optimize_bench.py [--tables fig12 resolve facade family factor synthetic stop design]
           [--rows 7a 7b 7c 7d 9 11 13] [--methods auto converged alm ipopt alm+ipopt lbfgs]
           [--facade-angles 40 60 80] [--psd numpy|compiled]

@@ -1037,6 +1037,10 @@ def earlier_results(tmp_path_factory):
             # accepted as not buildable; what matters here is a complete earlier result)
             assert main(["design", str(base / "d.toml"), "--out", str(out),
                          "--accept-unbuildable"]) == 0
+            # what refuses it is the load path alone: no part interferes or is blocked (a
+            # slot that would cut its fin in two is butted instead: issue 44)
+            assembly = json.loads((out / "report.json").read_text())["fabrication"]["assembly"]
+            assert not assembly["interfering"] and not assembly["blocked_parts"], assembly
             assert main(["analyze", str(base / "plain.obj"), "--out", str(out)]) == 0
             shutil.rmtree(out / ".torsal-cache")
             (base / "done").write_text("")

@@ -82,11 +82,16 @@ def test_the_convergence_record_says_why_a_solve_ended():
         _shading(c).solve(stop="soon")
 
 
-def test_rows_still_out_when_the_energy_has_settled_get_their_penalties_raised():
-    """SETTLED_GAMMA: the miniature at a 50 degree bound settles (decrement and recent decrease
-    within the design tolerance) at Newton step 56 with 8 rows still out of their bounds; their
-    penalties grow there, and the answer is measured feasible at the design tolerance with the
-    converged answer's energy (to a tenth of a percent) and the bound as measured."""
+def test_rows_still_out_when_the_energy_has_settled_get_their_penalties_raised(monkeypatch):
+    """SETTLED_GAMMA: the miniature at a 50 degree bound, solved by the inner minimizations of
+    before issue 44's model-guided passes (40 Newton steps each, the passes' last step taken
+    whole), settles (decrement and recent decrease within the design tolerance) at Newton step
+    56 with 8 rows still out of their bounds; their penalties grow there, and the answer is
+    measured feasible at the design tolerance with the converged answer's energy (to a tenth of
+    a percent) and the bound as measured. (Today's inner minimizations reach this miniature's
+    bound before its energy settles, at 40-70 degrees: the rule is not needed there.)"""
+    monkeypatch.setattr(alm, "INNER_MAX", 40)
+    monkeypatch.setattr(alm, "PREDICT_MODEL", False)
     c = Congruence.from_normals(canopy(nu=11, nv=11))
     d, full = _shading(c, 50).solve(), _shading(c, 50).solve(stop="converged")
     assert d.counts["tightened"] > 0 and full.counts["tightened"] == 0     # the design tolerance's only

@@ -63,7 +63,7 @@ class AssemblyChecker:
     def __init__(self, names: list[str], solids: list, joints: Iterable = (), *,
                  tolerance: float = TOUCHING_TOLERANCE, min_volume: float = MIN_INTERFERENCE_VOLUME,
                  workers: int | None = None, unit: str = "mm", progress: Progress | None = None,
-                 memo: AssemblyMemo | None = None):
+                 memo: AssemblyMemo | None = None, ways: Mapping | None = None):
         self.names = [str(n) for n in names]
         dup = sorted({n for n in self.names if self.names.count(n) > 1})
         if dup:
@@ -75,6 +75,9 @@ class AssemblyChecker:
         self.workers = min(2, os.cpu_count() or 1) if workers is None else workers
         self.progress = progress
         self.memo = memo
+        #: name -> the only directions that part may go in along (see :func:`check_assembly`)
+        self.ways = {str(n): [np.asarray(w, float) / np.linalg.norm(w) for w in ws]
+                     for n, ws in (ways or {}).items()}
         self.memo_hits = self.memo_misses = 0
         self._mesh_done = False
         self._kept: dict = {}             # (what, solid index) -> faces, cover or triangles
@@ -327,7 +330,8 @@ class AssemblyChecker:
                     depths.append(jt.depth if jt.connector != names[k] else None)
             verts = self.vertices(k)
             cands = []
-            for d in _candidate_directions(axes, slotted):
+            ways = self.ways.get(names[k]) if axes else None
+            for d in (ways if ways else _candidate_directions(axes, slotted)):
                 # start one depth of the part (its extent along d) back: disengaged from its
                 # joints (a slot is at most as long as the part is deep along its axis)
                 ext = verts @ d
@@ -389,7 +393,7 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
                    tolerance: float = TOUCHING_TOLERANCE, min_volume: float = MIN_INTERFERENCE_VOLUME,
                    workers: int | None = None, unit: str = "mm",
                    progress: Progress | None = None,
-                   memo: AssemblyMemo | None = None) -> AssemblyCheck:
+                   memo: AssemblyMemo | None = None, ways: Mapping | None = None) -> AssemblyCheck:
     """Check named solids for interference and find an assembly order (see the package text).
 
     Parameters
@@ -411,6 +415,12 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
     memo : AssemblyMemo, optional
         Pairs and paths proved before, by the solids' content: taken from it, and what this
         check proves added (``AssemblyCheck.memo_hits`` counts what it saved).
+    ways : mapping name -> sequence of (3,) directions, optional
+        The only directions (in that sense, in that order) the named parts may go in along,
+        in place of those their joints suggest (a part with no joint to a part placed before
+        it is still set down in place). A check of a few parts cut out of a design passes the
+        ways along which each whole part was proved to go in: a local check free to try
+        others could clear a part along a way its parts far off block.
 
     Returns
     -------
@@ -423,7 +433,7 @@ def check_assembly(solids: Mapping | Iterable, *, joints: Iterable = (),
     items = list(solids.items()) if isinstance(solids, Mapping) else list(solids)
     return AssemblyChecker([n for n, _ in items], [s for _, s in items], joints,
                            tolerance=tolerance, min_volume=min_volume, workers=workers,
-                           unit=unit, progress=progress, memo=memo).run()
+                           unit=unit, progress=progress, memo=memo, ways=ways).run()
 
 
 def verify_assembly(fin_system, *, step_file=None, tolerance: float = TOUCHING_TOLERANCE,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from enum import Enum
 
 import numpy as np
 
@@ -101,6 +102,16 @@ def init_joints(fs) -> None:
     fs._dropped_connectors: list[str] = []
 
 
+class SlotReason(str, Enum):
+    """Why an egg-crate crossing fell back to a butt joint with brackets after its slots were
+    cut (named in ``FinSystem.joint_fallbacks``)."""
+
+    #: a slot would cut its part in two (a narrow or slanted panel at the node) and the
+    #: partner's slot cannot be deepened by what it was made shallower: the two plates would
+    #: interfere there, so that part is split at the node and butted against the other
+    CUTS_PART = "slot-cuts-part"
+
+
 #: the largest share of a design's fin panels left out because nothing can hold their plates
 #: (:meth:`Rebuilder.build_until_trimmed`): a few slivers at a corner; beyond it the design's
 #: load path refuses it, which asks for a deeper structure or more room for fixings
@@ -127,7 +138,9 @@ class Rebuilder:
         Then the load path of the result (:meth:`_unheld`): plates it does not reach from the
         building are fixed in one more build (``_fix_also``: one fixing each, along the way
         they go in); those still held by nothing (no fixing fits them) are left out in the
-        next (``_unholdable``, named in ``coplanar_panels``)."""
+        next (``_unholdable``, named in ``coplanar_panels``). A crossing where a slot would
+        cut its part in two and the plates would interfere is butted in a new build
+        (:meth:`_butt_slots`; named in ``joint_fallbacks``, ``slot-cuts-part``)."""
         fs = self.fs
         #: panels {(strip index, panel of the strip)} whose plates are fixed to the building
         #: because a build before left them held by nothing
@@ -135,8 +148,11 @@ class Rebuilder:
             fs._fix_also: set[tuple[int, int]] = set()
             #: panels left out because even fixed their plates were held by nothing
             fs._unholdable: set[tuple[int, int]] = set()
+            #: crossings butted because a slot there would cut its part in two and the plates
+            #: would interfere (:meth:`_slot_butts`): {node: (family split, why, parts)}
+            fs._slot_butts: dict[int, tuple] = {}
         extra: dict[int, set] = {}
-        forced: dict[int, str] = {}
+        forced: dict[int, tuple[int, str]] = {v: b[:2] for v, b in fs._slot_butts.items()}
         left_out: list[tuple[str, int, int, str]] = []
         #: (strip index, panel of the strip) that take no fixing: one there was in a part's way
         fs._fixing_exclude: set = set()
@@ -193,8 +209,8 @@ class Rebuilder:
             forced.update(new_forced)
         fs.coplanar_panels = left_out
         SlotSeams(fs).publish()
-        # slots that would cut a part in two: once, on the final parts (it unrolls them all)
-        CrossingSlotter(fs)._resolve_slot_splits()
+        if self._butt_slots():
+            return self.build_until_trimmed()
         # brackets whose butted end can bend into a tab instead, where the assembly check
         # around each proves it (issue 42)
         TabJoints(fs).make()
@@ -217,15 +233,49 @@ class Rebuilder:
         for w in caught:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         if left_out:
-            warnings.warn(
-                f"{len(left_out)} fin panels were left out because they meet the plate they end "
-                f"against too obliquely to be trimmed (they lie along it and would overlap it), "
-                f"cross another plate where no joint joins them, block a part's path into "
-                f"place, or are held by nothing: "
-                + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
-                + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
-                "Raise constraints.min_torsal_angle to keep the two families' fins apart",
-                stacklevel=3)
+            _warn_left_out(left_out)
+
+    def _butt_slots(self) -> bool:
+        """Slots that would cut a part in two, once, on the final parts (it unrolls them all:
+        :meth:`~.crossings.CrossingSlotter._resolve_slot_splits`). True where the plates would
+        then interfere at a crossing (:meth:`_slot_butts`): it is butted in a new build; else
+        the crossings butted so far are named in ``joint_fallbacks``."""
+        fs = self.fs
+        with warnings.catch_warnings(record=True) as slot_warnings:
+            warnings.simplefilter("always")
+            CrossingSlotter(fs)._resolve_slot_splits()
+        butts = self._slot_butts()
+        if butts:
+            fs._slot_butts.update(butts)
+            return True
+        for w in slot_warnings:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        fs.joint_fallbacks = list(fs.joint_fallbacks) + [
+            JointFallback(v, fam, SlotReason.CUTS_PART, why, parts) for v, (fam, why, parts) in
+            sorted(fs._slot_butts.items())]
+        return False
+
+    def _slot_butts(self) -> dict[int, tuple]:
+        """``{node: (family, why, parts)}``: the egg-crate crossings where a slot would cut its part
+        in two and was made shallower or left out while no partner's slot could be deepened
+        by as much (``slot_conflicts``, :meth:`~.crossings.CrossingSlotter._resolve_slot_splits`:
+        the plates would interfere by the difference; the bad-input corpus's 5 mm deep facade
+        at 15 mm^3). That part's family is split there instead (butt joint + bracket); a
+        crossing already butted is not changed again."""
+        fs = self.fs
+        egg = {j.node for j in fs.joints if j.kind == JointKind.EGG_CRATE}
+        out: dict[int, tuple] = {}
+        for name, node, d0, d1, note in fs.slot_conflicts:
+            lack = d0 - d1
+            if node in fs._slot_butts or node in out or node not in egg or lack <= 0:
+                continue
+            if note == "no partner slot" or "cannot take it" in note:
+                out[node] = (int(name[1]), f"the slot of {name} would cut it in two and its "
+                             f"partner cannot take {lack:.3g} {fs.unit} more ({note}): "
+                             f"split family {name[1]}",
+                             tuple(sorted({n for j in fs.joints if j.node == node
+                                           and j.kind == JointKind.EGG_CRATE for n in j.parts})))
+        return out
 
     def _unheld(self) -> set[tuple[int, int]]:
         """The panels ``(strip index, panel of the strip)`` of the fin plates (families 0 and
@@ -345,3 +395,15 @@ class Rebuilder:
         assert len(set(names)) == len(names)
         fs._fin_depth = st.depth
 
+
+def _warn_left_out(left_out: list) -> None:
+    """Warn about the fin panels a build left out (``(strip, edge, node, why)``)."""
+    warnings.warn(
+        f"{len(left_out)} fin panels were left out because they meet the plate they end "
+        f"against too obliquely to be trimmed (they lie along it and would overlap it), "
+        f"cross another plate where no joint joins them, block a part's path into "
+        f"place, or are held by nothing: "
+        + "; ".join(f"{s} edge {e} at node {v} ({why})" for s, e, v, why in left_out[:6])
+        + (" ..." if len(left_out) > 6 else "") + "; see FinSystem.coplanar_panels. "
+        "Raise constraints.min_torsal_angle to keep the two families' fins apart",
+        stacklevel=4)

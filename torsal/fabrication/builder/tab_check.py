@@ -40,15 +40,19 @@ class _Verdict:
 
 def _local_check(ask: tuple) -> _Verdict:
     """:func:`~torsal.fabrication.assembly.check_assembly` of the local parts with their joint
-    records (``(parts, joints, thickness, unit)``), in this process (one argument: a task for
-    a worker process). The solids are the bare OCC shapes of :func:`~..plates.part_solid`
+    records and the ways their whole parts go in (``(parts, joints, thickness, unit, ways)``,
+    :func:`_ways`), in this process (one argument: a task for a worker process). Each part
+    goes in only along the ways its whole part was proved to go in along: free to try the
+    other sense of its axis, a tabbed part could clear its tab where the rest of it runs into
+    a plate far off (example 9: F1-S028-P07, tabbed at both ends, cleared its tab at node 405
+    going in the other way, through F0-S028-P04, 7,350 mm^3). The solids are the bare OCC shapes of :func:`~..plates.part_solid`
     (the same solids, unlabelled), as the seams' check takes them: a worker that checks tabs
     need not import build123d (1.5-2.4 s of processor time in each of the two on 7a, while
     the fin system waits for the verdicts)."""
     from ..assembly import MIN_INTERFERENCE_VOLUME, check_assembly
     from ..plates import InvalidSolidError, _part_shape
 
-    parts, joints, thickness, unit = ask
+    parts, joints, thickness, unit, ways = ask
     try:
         solids = {p.name: _part_shape(p, thickness) for p in parts}
     except InvalidSolidError as e:
@@ -60,12 +64,35 @@ def _local_check(ask: tuple) -> _Verdict:
         if keep:
             local.append(dataclasses.replace(
                 j, parts=keep, connector=j.connector if j.connector in names else None))
-    r = check_assembly(solids, joints=local, workers=1, unit=unit,
+    r = check_assembly(solids, joints=local, workers=1, unit=unit, ways=ways,
                        min_volume=LOCAL_VOLUME_SHARE * MIN_INTERFERENCE_VOLUME / UNIT_TO_MM[unit] ** 3)
     if r.buildable:
         return _Verdict(True)
     bad = tuple(sorted(set(r.interfering_parts) | {s.part for s in r.blocked}))
     return _Verdict(False, TabReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "), bad)
+
+
+def _ways(joints: list[Joint], names: set) -> dict[str, tuple]:
+    """``{part: (3,) directions}``: for each of the parts ``names``, the directions its joint
+    records ``joints`` (the whole design's) give it where it goes in after a partner (the
+    builder proved its whole path along them: :meth:`~.paths.AssemblyPlanner._check_paths`),
+    each once, in the joints' order; a connector's own ``connector_direction``."""
+    from ..assembly.records import _as_joint, joint_groups
+
+    out: dict[str, list] = {}
+    for j in joints:
+        rec = _as_joint(j)
+        for group in joint_groups(rec)[1:]:
+            for n in group:
+                if n not in names:
+                    continue
+                w = (rec.connector_direction if n == rec.connector
+                     and rec.connector_direction is not None else rec.insert_direction)
+                w = np.asarray(w, float)
+                have = out.setdefault(n, [])
+                if np.linalg.norm(w) > 0 and not any(np.allclose(w, x, atol=1e-12) for x in have):
+                    have.append(w)
+    return {n: tuple(ws) for n, ws in out.items()}
 
 
 def _local_part(part: Part, lo: int, hi: int) -> Part:
@@ -106,14 +133,15 @@ class TabRegion:
 
     def local(self, props: list[_Proposal], tabbed: dict[str, Part], joints: list[Joint],
                gone: set) -> tuple:
-        """``(parts, joints, thickness, unit)`` of the local assembly check of the tabs
+        """``(parts, joints, thickness, unit, ways)`` of the local assembly check of the tabs
         ``props`` (of one node): what changed there (each tab, and the end it is bent from
         :attr:`REACH` thicknesses into its end panel), swept along the tabbed part's way into
         place both ways over its joint's depth (the parts that go in after it must keep clear
         of the tab too); of every part (plate, connector, fixing; not the brackets ``gone``,
         which tabs replace; the tabbed parts with their tabs) the panels whose mid-surfaces
         come within :attr:`REACH` thicknesses of that region, with their slots; and the joint
-        records."""
+        records; and the ways each of those parts goes in along (:func:`_ways`, from the
+        whole design's joint records)."""
         fs = self.fs
         t = fs.thickness
         reach = self.REACH * t
@@ -178,7 +206,7 @@ class TabRegion:
                else dataclasses.replace(q, slots=[s for s in q.slots if any(
                    n in names for n in s.partner.split("+"))]) for q in out]
         local = [joints[k] for k in sorted({k for n in names for k in self._joints_of(n)})]
-        return out, local, t, fs.unit
+        return out, local, t, fs.unit, _ways(local, names)
 
     def _joints_of(self, name: str) -> list[int]:
         """Indices of the joints (``fs.joints``, in order) that name the part ``name``."""

@@ -39,7 +39,9 @@ A backtracking Armijo line search on ``L_A`` takes the step.
 Two things keep the full step where ``L_A``'s model holds. The active set the step itself
 predicts: a step that moves rows across the kink of their penalty is replaced by the step
 of the active set it predicts, semismooth Newton on the piecewise-quadratic model, up to
-:data:`PREDICT` more factorizations (``_predict``). And rows near a pole: the torsal-angle
+:data:`PREDICT` more factorizations (``_predict``), each pass taken only as far as the model
+keeps decreasing (:data:`PREDICT_MODEL`: the passes of a set that does not settle end no
+worse than they began). And rows near a pole: the torsal-angle
 rows of a face whose line turns into the face's plane grow without bound (the metric seen
 along the line degenerates; on row 9's answer the line of one face in 100 is within 0.3 deg
 of its face's plane). A full step that fails because such a row jumped out of its bounds far
@@ -120,8 +122,15 @@ WARM_RHO_CAP = 100.0
 WARM_EPS = 1e-4
 #: first inner tolerance (Newton decrement relative to |L_A|)
 EPS_START = 1e-3
-#: Newton steps per inner minimization
-INNER_MAX = 40
+#: Newton steps per inner minimization: where it has not reached its tolerance by then, the
+#: multipliers are updated anyway (the inner problem's answer at the old multipliers is not
+#: worth more steps: its active set changes by hundreds of rows a step). Fig. 12 row 9 in
+#: ``torsal design`` (with :data:`PREDICT_MODEL`; 2026-11-29, load 10-15, processor seconds of
+#: the congruence stage), Newton steps / s for numpy's eigh, the compiled kernel, eigh of the
+#: upper triangle: 40: 130 / 44.8, 135 / 40.8, -; 20: 82 / 30.4 (numpy); 15: 82 / 31.4, 82 /
+#: 27.7, 76 / 28.3, energy 0.016936-0.016939 each; 10: 108 / 38.2 (numpy). 7c (26 steps) and the
+#: facade at 80 degrees (29) the same at 15 and 40
+INNER_MAX = 15
 #: multiplier updates per solve: a row stuck at a bound it cannot reach (zero gradient, e.g.
 #: hyperbolicity exactly 0 under a margin) takes no Newton step, so only this ends the solve
 OUTER_MAX = 60
@@ -216,6 +225,17 @@ NEAR_STEPS = 20
 #: without it (0.0209-0.0239; the other two were handed to IPOPT); the small family: 22 %
 #: fewer Newton steps, 10 % more processor time (one factorization per pass)
 PREDICT = 3
+#: each predicted pass moves only as far as the step's model of ``L_A`` keeps decreasing
+#: (``_predict``, ``_Model``). Without it the last pass's step was taken whole, and on Fig. 12
+#: row 9 (issue 44) its model value was above the start's (the rows it moved across their bounds
+#: added 0.3-6 to the linearized penalty against 0.05-0.3 the energy lost): the line search cut
+#: most steps to 1/64-1/4 and the solve's length hung on rounding (74 Newton steps with numpy's
+#: eigh, 136-137 with other rounding of the same projection). With it, and :data:`INNER_MAX` 15,
+#: 76-82 with each (energy 0.01694 against 0.01724 before, both measured feasible); the facade
+#: at 80 degrees 42 -> 29 Newton steps, 7c 26 as before
+PREDICT_MODEL = True
+#: bisections of the model's slope along a pass (``_Model.minimize``): 2^-20 of the pass
+MODEL_BISECTIONS = 20
 #: a row that leaves its bounds on a failed full step by more than this beyond its linear
 #: model (scaled units) is near a pole (row 9: the torsal-angle rows of faces whose lines turn
 #: into the face's plane, where the metric seen along the line degenerates): its penalty
@@ -394,6 +414,39 @@ def _phr(c: np.ndarray, lam: np.ndarray, rho: np.ndarray, lo: np.ndarray, hi: np
     pt = np.clip(t, lo, hi)
     r = t - pt
     return _Merit(float(np.sum(0.5 * rho * r * r - 0.5 * lam * lam / rho)), rho * r, r != 0.0)
+
+
+class _Model:
+    """The model of ``L_A`` a Newton step minimizes, the rows linearized (see ``_predict``):
+    ``m(d) = grad F . d + d.Hd / 2 + sum_j rho_j / 2 dist(t_j + s_j J_j d, [l_j, u_j])^2``
+    with ``H`` the Hessian the step was factored with (without its shift: the model is of
+    ``L_A``, not of the regularized matrix)."""
+
+    def __init__(self, sys: NewtonSystem, pt: _Point, h: np.ndarray, t, rho, s, lo, hi):
+        self.sys, self.pt, self.t, self.rho, self.s, self.lo, self.hi = sys, pt, t, rho, s, lo, hi
+        self.H = sys.chol.full(sys.values(h, pt.jac, np.zeros(sys.n_rows), 0.0))
+
+    def minimize(self, a: np.ndarray, b: np.ndarray) -> float:
+        """The ``beta`` in [0, 1] that minimizes ``m(a + beta (b - a))`` (the model is convex
+        along the segment where ``H`` is positive semidefinite: bisection on its slope)."""
+        step = b - a
+        Hs = self.H @ step
+        q1, q2 = float((self.pt.grad + self.H @ a) @ step), float(step @ Hs)
+        ua = self.t + self.s * self.sys.jv(self.pt.jac, a)
+        du = self.s * self.sys.jv(self.pt.jac, step)
+
+        def slope(beta: float) -> float:
+            u = ua + beta * du
+            return q1 + beta * q2 + float(np.sum(self.rho * (u - np.clip(u, self.lo, self.hi)) * du))
+        if slope(1.0) <= 0.0 or q2 < 0.0:
+            return 1.0
+        lo_b, hi_b = 0.0, 1.0
+        if slope(0.0) >= 0.0:
+            return 0.0
+        for _ in range(MODEL_BISECTIONS):
+            mid = 0.5 * (lo_b + hi_b)
+            lo_b, hi_b = (mid, hi_b) if slope(mid) < 0.0 else (lo_b, mid)
+        return 0.5 * (lo_b + hi_b)
 
 
 @dataclass
@@ -587,12 +640,17 @@ class AugmentedLagrangian:
         s_j J_j d, [l_j, u_j])^2``, is piecewise quadratic: each pass takes the active set
         the last step predicts (with the bound each row crosses) and minimizes that piece
         (one factorization), at most :data:`PREDICT` passes, until the predicted set repeats.
+        With :data:`PREDICT_MODEL`, each pass moves from the last step towards the piece's
+        minimizer only as far as the model keeps decreasing (:meth:`_model_step`): the passes
+        of a set that does not settle (row 9: a thousand rows change each pass) then never
+        end at a step the model itself says is worse than the first.
         ``t``: the rows' shifted values ``s c + lam / rho``; ``w_rows``: the rows' curvature
         weights of the first step. The result is a descent direction of ``L_A`` (else the
         first step).
         """
         sys, d = self.sys, nd.d
         used = w_rows > 0
+        model = _Model(sys, pt, nd.h, t, rho, s, lo, hi) if PREDICT_MODEL else None
         # the first step is that of a piece only where its curvature set is the active set
         piece = np.array_equal(used, (t < lo) | (t > hi))
         for _ in range(PREDICT):
@@ -606,6 +664,10 @@ class AugmentedLagrangian:
                               pt.grad + sys.jt(pt.jac, s * rho * r), nd.shift)
             if nxt is None:
                 break
+            if model is not None:
+                beta = model.minimize(d, nxt)
+                if beta < 1.0:
+                    nxt = d + beta * (nxt - d)
             d, used, piece = nxt, pred, True
         return d if float(gl @ d) < 0.0 else nd.d
 

@@ -109,21 +109,19 @@ def _chunks(m: int) -> list[slice]:
     return [slice(int(lo), int(hi)) for lo, hi in zip(edges[:-1], edges[1:])]
 
 
-#: how :func:`psd_projection` decomposes blocks larger than 2 x 2: ``"numpy"`` (numpy's batched
-#: ``eigh``, LAPACK's ``dsyevd`` per matrix, about 11 us for an 8 x 8 one here) or
-#: ``"compiled"`` (:mod:`.psd_kernel`, about 4.5 us; numpy's where there is no C compiler).
-#: Both give the same projection to rounding, but rounding is enough to move the augmented
-#: Lagrangian's path where its line search is cutting steps short: measured 2026-11-29 on
-#: ``torsal design``'s congruence stage, 7c kept its 26 Newton steps / 111 factorizations
-#: (projection 0.68-0.92 -> 0.37 s cpu, stage 3.3-4.6 -> 3.1 s cpu, lines within 1.2e-6 deg)
-#: and the facade at 80 degrees its 42 / 166, but Fig. 12 row 9 went from 74 Newton steps /
-#: 300 factorizations (24.5 s cpu) to 137 / 555 (41 s cpu; energy +9e-5, 899 fins against
-#: 914): its first inner minimization crawls (steps 10-40 at step lengths 1/32-1/4) and
-#: its end depends on digits past the 15th (numpy's own eigh with other rounding, UPLO="U" or
-#: the product by einsum, took 136 and 137 steps: 74 is the short path). numpy's stays the
-#: default until that crawl is fixed (``benchmarks/optimize_bench.py --tables design --psd
-#: compiled`` measures the other)
-PSD_KERNEL = "numpy"
+#: how :func:`psd_projection` decomposes blocks larger than 2 x 2: ``"compiled"`` (:mod:`.psd_kernel`,
+#: about 4.5 us for an 8 x 8 matrix; numpy's where there is no C compiler) or ``"numpy"`` (numpy's
+#: batched ``eigh``, LAPACK's ``dsyevd`` per matrix, about 11 us). Both give the same projection to
+#: rounding. Until the augmented Lagrangian's predicted passes followed their model
+#: (:data:`.alm.PREDICT_MODEL`) rounding was enough to move its path where the line search cut
+#: steps short: Fig. 12 row 9 took 74 Newton steps with numpy's eigh and 137 with the kernel (136
+#: with numpy's eigh of the upper triangle). Now 82 / 82 / 76 steps to one design (energies within
+#: 0.02 %), the kernel's the fastest: ``torsal design``'s congruence stage 28.1 s cpu against numpy's
+#: 31.2 (row 9), 7c 3.15 against 3.38, the facade at 80 degrees 3.64 against 3.44 (one run each,
+#: 2026-11-29 at a load of 14-16: within the noise; the projection alone 0.37 against 0.68-0.92 s
+#: of 7c's, measured before). ``benchmarks/optimize_bench.py --tables design --psd numpy`` measures
+#: the other
+PSD_KERNEL = "compiled"
 
 
 def _psd_eigh(a: np.ndarray, mode: str) -> None:

@@ -10,7 +10,7 @@ correctly rounded ``hypot``. The library is compiled once per machine with the s
 compiler into the kernel cache (:func:`.kernels.c_library`); where that fails the caller keeps
 numpy's ``eigh``. The projection is ``V max(L, 0) V^T`` (or ``V |L| V^T``) as numpy's, equal to
 it to rounding (a few units of 1e-16 of the matrix's largest entry). It is used where
-:data:`.projected.PSD_KERNEL` is ``"compiled"``; numpy's ``eigh`` is the default (why: there).
+:data:`.projected.PSD_KERNEL` is ``"compiled"``, the default (numpy's ``eigh`` where it is ``"numpy"``).
 """
 from __future__ import annotations
 
