@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["AssemblyJoint", "joints_of", "joint_groups"]
+__all__ = ["AssemblyJoint", "joints_of", "joint_groups", "insertion_ways"]
 
 
 class AssemblyJoint(NamedTuple):
@@ -156,3 +156,30 @@ def _candidate_directions(axes: list[np.ndarray], slotted: list[bool] | None = N
     # at most ten directions, both senses: a part that none of these lets in is blocked (only
     # blocked parts pay for the further tries)
     return [s * c for c in cands[:10] for s in (1.0, -1.0)]
+
+
+def insertion_ways(joints, names: set) -> dict[str, tuple]:
+    """``{part: (3,) directions}``: for each of the parts ``names``, the directions its joint
+    records ``joints`` (the whole design's) give it where it goes in after a partner (the
+    builder proved its whole path along them: the builder's ``AssemblyPlanner._check_paths``),
+    each once, in the joints' order; a connector's own ``connector_direction``. A local
+    check passes them as :func:`~.checker.check_assembly`'s ``ways``, so that a part is not
+    cleared on a way its whole part never takes.
+
+    >>> j = AssemblyJoint("egg-crate", 3, ("A", "B"), np.array([0.0, 0.0, 1.0]))
+    >>> insertion_ways([j], {"A", "B"})          # A is placed first: it has no way in here
+    {'B': (array([0., 0., 1.]),)}"""
+    out: dict[str, list] = {}
+    for j in joints:
+        rec = _as_joint(j)
+        for group in joint_groups(rec)[1:]:
+            for n in group:
+                if n not in names:
+                    continue
+                w = (rec.connector_direction if n == rec.connector
+                     and rec.connector_direction is not None else rec.insert_direction)
+                w = np.asarray(w, float)
+                have = out.setdefault(n, [])
+                if np.linalg.norm(w) > 0 and not any(np.allclose(w, x, atol=1e-12) for x in have):
+                    have.append(w)
+    return {n: tuple(ws) for n, ws in out.items()}

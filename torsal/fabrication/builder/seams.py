@@ -123,6 +123,7 @@ def _local_check(parts: list[Part], joints: list[Joint], thickness: float, unit:
     worker that checks seams need not import build123d (about 1.5 s of processor time in
     each of the two on 7a, while the fin system waits)."""
     from ..assembly import check_assembly
+    from ..assembly.records import insertion_ways
     from ..plates import InvalidSolidError, _part_shape
 
     try:
@@ -131,7 +132,11 @@ def _local_check(parts: list[Part], joints: list[Joint], thickness: float, unit:
         return _Verdict(False, SeamReason.SOLID, f"{e}")
     names = set(solids)
     local = [dataclasses.replace(j, parts=tuple(n for n in j.parts if n in names)) for j in joints]
-    r = check_assembly(solids, joints=local, workers=1, unit=unit)
+    # each piece goes in only along the ways its joint records give it, as a tab's check
+    # (free to try the other sense of its axis, a piece could clear the seam on a way its
+    # whole part never takes)
+    r = check_assembly(solids, joints=local, workers=1, unit=unit,
+                       ways=insertion_ways(joints, names))
     if r.buildable:
         return _Verdict(True)
     return _Verdict(False, SeamReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "))

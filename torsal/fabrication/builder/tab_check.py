@@ -17,6 +17,7 @@ from torsal.core.units import UNIT_TO_MM
 from ..model import CONNECTOR_FAMILY, FIXING_FAMILY, Joint, Part
 from .proximity import _swept_and_still_distances
 from .tab_sites import TabReason, _Proposal
+from ..assembly.records import insertion_ways
 
 __all__ = ["LOCAL_VOLUME_SHARE", "TabRegion"]
 
@@ -41,7 +42,7 @@ class _Verdict:
 def _local_check(ask: tuple) -> _Verdict:
     """:func:`~torsal.fabrication.assembly.check_assembly` of the local parts with their joint
     records and the ways their whole parts go in (``(parts, joints, thickness, unit, ways)``,
-    :func:`_ways`), in this process (one argument: a task for a worker process). Each part
+    :func:`~..assembly.records.insertion_ways`), in this process (one argument: a task for a worker process). Each part
     goes in only along the ways its whole part was proved to go in along: free to try the
     other sense of its axis, a tabbed part could clear its tab where the rest of it runs into
     a plate far off (example 9: F1-S028-P07, tabbed at both ends, cleared its tab at node 405
@@ -70,29 +71,6 @@ def _local_check(ask: tuple) -> _Verdict:
         return _Verdict(True)
     bad = tuple(sorted(set(r.interfering_parts) | {s.part for s in r.blocked}))
     return _Verdict(False, TabReason.ASSEMBLY, r.problems(limit=3).replace("\n", "; "), bad)
-
-
-def _ways(joints: list[Joint], names: set) -> dict[str, tuple]:
-    """``{part: (3,) directions}``: for each of the parts ``names``, the directions its joint
-    records ``joints`` (the whole design's) give it where it goes in after a partner (the
-    builder proved its whole path along them: :meth:`~.paths.AssemblyPlanner._check_paths`),
-    each once, in the joints' order; a connector's own ``connector_direction``."""
-    from ..assembly.records import _as_joint, joint_groups
-
-    out: dict[str, list] = {}
-    for j in joints:
-        rec = _as_joint(j)
-        for group in joint_groups(rec)[1:]:
-            for n in group:
-                if n not in names:
-                    continue
-                w = (rec.connector_direction if n == rec.connector
-                     and rec.connector_direction is not None else rec.insert_direction)
-                w = np.asarray(w, float)
-                have = out.setdefault(n, [])
-                if np.linalg.norm(w) > 0 and not any(np.allclose(w, x, atol=1e-12) for x in have):
-                    have.append(w)
-    return {n: tuple(ws) for n, ws in out.items()}
 
 
 def _local_part(part: Part, lo: int, hi: int) -> Part:
@@ -140,7 +118,7 @@ class TabRegion:
         of the tab too); of every part (plate, connector, fixing; not the brackets ``gone``,
         which tabs replace; the tabbed parts with their tabs) the panels whose mid-surfaces
         come within :attr:`REACH` thicknesses of that region, with their slots; and the joint
-        records; and the ways each of those parts goes in along (:func:`_ways`, from the
+        records; and the ways each of those parts goes in along (:func:`~..assembly.records.insertion_ways`, from the
         whole design's joint records)."""
         fs = self.fs
         t = fs.thickness
@@ -206,7 +184,7 @@ class TabRegion:
                else dataclasses.replace(q, slots=[s for s in q.slots if any(
                    n in names for n in s.partner.split("+"))]) for q in out]
         local = [joints[k] for k in sorted({k for n in names for k in self._joints_of(n)})]
-        return out, local, t, fs.unit, _ways(local, names)
+        return out, local, t, fs.unit, insertion_ways(local, names)
 
     def _joints_of(self, name: str) -> list[int]:
         """Indices of the joints (``fs.joints``, in order) that name the part ``name``."""
