@@ -32,6 +32,11 @@ jobs on the machine: the runs got 0.63-0.67 of its 2 cores)::
     | 002 | 2 | 0.3 | 13.1 | 7.8 | cached | 4.9 |
     | 003 | 2 | 0.5 | 14.4 | 8.3 | cached | 5.6 |
 
+Again 2026-11-29 17:19 UTC (commit d0af5b7, quiet, load 0.8-1.4): serial 23.7 s (1.01 cores),
+Dask 2 workers 19.9 s (1.40 cores; 27.1 s with the cluster's 7.2 s start); the variants 7.3,
+7.1, 4.0 and 5.6 s (assembly check 1.7-3.7 s, fabrication 2.1-3.5 s, congruence 0.2 s once,
+cached for the three others).
+
 (526 s on 2026-11-25's code: nesting 79 s and the assembly check 58 s per variant.)
 
 Run: ``.venv/bin/python benchmarks/study_bench.py [--size test|full|issue40] [--workers 2]``.
