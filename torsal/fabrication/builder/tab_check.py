@@ -42,8 +42,8 @@ class _Verdict:
 def _local_check(ask: tuple) -> _Verdict:
     """:func:`~torsal.fabrication.assembly.check_assembly` of the local parts with their joint
     records and the ways their whole parts go in (``(parts, joints, thickness, unit, ways)``,
-    :func:`~..assembly.records.insertion_ways`), in this process (one argument: a task for a worker process). Each part
-    goes in only along the ways its whole part was proved to go in along: free to try the
+    :func:`~..assembly.records.insertion_ways`), in this process (one argument: a task for a
+    worker process). Each part goes in only along the ways its whole part was proved to go in along: free to try the
     other sense of its axis, a tabbed part could clear its tab where the rest of it runs into
     a plate far off (example 9: F1-S028-P07, tabbed at both ends, cleared its tab at node 405
     going in the other way, through F0-S028-P04, 7,350 mm^3). The solids are the bare OCC shapes of :func:`~..plates.part_solid`
@@ -118,8 +118,8 @@ class TabRegion:
         of the tab too); of every part (plate, connector, fixing; not the brackets ``gone``,
         which tabs replace; the tabbed parts with their tabs) the panels whose mid-surfaces
         come within :attr:`REACH` thicknesses of that region, with their slots; and the joint
-        records; and the ways each of those parts goes in along (:func:`~..assembly.records.insertion_ways`, from the
-        whole design's joint records)."""
+        records; and the ways each of those parts goes in along
+        (:func:`~..assembly.records.insertion_ways`, from the whole design's joint records)."""
         fs = self.fs
         t = fs.thickness
         reach = self.REACH * t
