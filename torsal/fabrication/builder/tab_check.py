@@ -43,13 +43,15 @@ def _local_check(ask: tuple) -> _Verdict:
     """:func:`~torsal.fabrication.assembly.check_assembly` of the local parts with their joint
     records and the ways their whole parts go in (``(parts, joints, thickness, unit, ways)``,
     :func:`~..assembly.records.insertion_ways`), in this process (one argument: a task for a
-    worker process). Each part goes in only along the ways its whole part was proved to go in along: free to try the
-    other sense of its axis, a tabbed part could clear its tab where the rest of it runs into
-    a plate far off (example 9: F1-S028-P07, tabbed at both ends, cleared its tab at node 405
-    going in the other way, through F0-S028-P04, 7,350 mm^3). The solids are the bare OCC shapes of :func:`~..plates.part_solid`
-    (the same solids, unlabelled), as the seams' check takes them: a worker that checks tabs
-    need not import build123d (1.5-2.4 s of processor time in each of the two on 7a, while
-    the fin system waits for the verdicts)."""
+    worker process).
+
+    Each part goes in only along the ways its whole part was proved to go in along: free to
+    try the other sense of its axis, a tabbed part could clear its tab where the rest of it
+    runs into a plate far off (example 9: F1-S028-P07, tabbed at both ends, cleared its tab at
+    node 405 going in the other way, through F0-S028-P04, 7,350 mm^3). The solids are the bare
+    OCC shapes of :func:`~..plates.part_solid` (the same solids, unlabelled), as the seams'
+    check takes them: a worker that checks tabs need not import build123d (1.5-2.4 s of
+    processor time in each of the two on 7a, while the fin system waits for the verdicts)."""
     from ..assembly import MIN_INTERFERENCE_VOLUME, check_assembly
     from ..plates import InvalidSolidError, _part_shape
 
