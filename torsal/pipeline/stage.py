@@ -460,95 +460,110 @@ def run_stages(pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCach
     Concurrent stages (:attr:`Stage.concurrent`) run beside the later ones, started as soon
     as the stages they read are done (the devices beside the congruence and the fins); a
     failure stops them."""
-    run = run if run is not None else StageRun()
-    keys = stage_keys(pipeline, spec)
-    memo = Memo(cache.folder / "memo", enabled=cache.enabled)
-    running: dict[str, tuple[Stage, _Concurrent]] = {}
-    stages = [s for s in pipeline if s.applies(spec)]
-    # the concurrent stages' processes start now: their imports run beside the stages before
-    ahead = _start_ahead(pipeline, spec, cache, keys)
+    return _StageRunner(pipeline, spec, out, cache, progress,
+                        run if run is not None else StageRun()).run()
 
-    def record(s: Stage, value: dict) -> None:
-        run.values[s.name], run.keys[s.name] = value, keys[s.name]
+
+class _StageRunner:
+    """One :func:`run_stages`: the stages in order, the concurrent ones started ahead and
+    collected where a later stage reads them."""
+
+    def __init__(self, pipeline: Pipeline, spec: DesignSpec, out: Path, cache: StageCache,
+                 progress: Progress, run: StageRun):
+        self.spec, self.out, self.cache, self.progress = spec, out, cache, progress
+        self.result = run
+        self.keys = stage_keys(pipeline, spec)
+        self.memo = Memo(cache.folder / "memo", enabled=cache.enabled)
+        self.running: dict[str, tuple[Stage, _Concurrent]] = {}
+        self.stages = [s for s in pipeline if s.applies(spec)]
+        self.tried: set[str] = set()          # concurrent stages started (or tried) ahead
+        # the concurrent stages' processes start now: their imports run beside the stages before
+        self.ahead = _start_ahead(pipeline, spec, cache, self.keys)
+
+    def run(self) -> StageRun:
+        stages = self.stages
+        try:
+            for k, s in enumerate(stages):
+                if s.name not in self.running:      # else: started ahead of its turn
+                    self._run_one(s)
+                self._start_ready(stages[k + 1:])
+            for name in list(self.running):
+                self._collect(name)
+        finally:
+            for _, pending in self.running.values():
+                pending.cancel()
+            for pending in self.ahead.values():  # found in the cache, or the run failed
+                pending.cancel()
+        return self.result
+
+    def _run_one(self, s: Stage) -> None:
+        """Stage ``s`` in its turn: read from the cache, started beside the later ones (a
+        concurrent stage) or computed here."""
+        for name in s.inputs:
+            if name in self.running:
+                self._collect(name)
+        value = self.cache.load(s.name, self.keys[s.name]) if s.cache else MISSING
+        if value is not MISSING and not _files_present(value, self.out):
+            value = MISSING             # outputs deleted since the cached run: make them again
+        if value is MISSING:
+            self.progress(s.name, "start", {})
+            t0 = time.perf_counter()
+            if s.concurrent and self._start(s):
+                return
+            value = _compute(s, self._inputs_of(s))
+            self.result.stage_seconds[s.name] = time.perf_counter() - t0
+            self._finish(s, value)
+        else:
+            self.progress(s.name, "cached", {})
+            self.result.cached.append(s.name)
+            if s.name in self.ahead:              # its files were there after all
+                self.ahead[s.name].release()
+            self._record(s, value)
+
+    def _record(self, s: Stage, value: dict) -> None:
+        run = self.result
+        run.values[s.name], run.keys[s.name] = value, self.keys[s.name]
         if "report" in value:
             _put_section(run.report, s.section or s.name, value["report"])
         run.files.update(value.get("files", {}))
 
-    def finish(s: Stage, value: dict) -> None:
+    def _finish(self, s: Stage, value: dict) -> None:
         if s.cache:
-            cache.store(s.name, keys[s.name], value)
-        progress(s.name, "done", {"seconds": run.stage_seconds[s.name]})
-        record(s, value)
+            self.cache.store(s.name, self.keys[s.name], value)
+        self.progress(s.name, "done", {"seconds": self.result.stage_seconds[s.name]})
+        self._record(s, value)
 
-    def collect(name: str) -> None:
-        s, pending = running.pop(name)
+    def _collect(self, name: str) -> None:
+        s, pending = self.running.pop(name)
         try:
-            value, run.stage_seconds[name] = pending.result()
+            value, self.result.stage_seconds[name] = pending.result()
         except BaseException:
             pending.cancel()
             raise
-        finish(s, value)
+        self._finish(s, value)
 
-    def inputs_of(s: Stage) -> StageInputs:
-        return StageInputs(spec=spec, out=out, stage=s.name,
-                           results={i: run.values[i] for i in s.inputs if i in run.values},
-                           report=run.report, _progress=progress, memo=memo)
+    def _inputs_of(self, s: Stage) -> StageInputs:
+        return StageInputs(spec=self.spec, out=self.out, stage=s.name,
+                           results={i: self.result.values[i] for i in s.inputs
+                                    if i in self.result.values},
+                           report=self.result.report, _progress=self.progress, memo=self.memo)
 
-    def start(s: Stage) -> bool:
+    def _start(self, s: Stage) -> bool:
         """``s`` started in a process of its own (True), else it is to run here."""
-        pending = _start_concurrent(s, replace(inputs_of(s), report=dict(run.report),
-                                               _progress=quiet), ahead.pop(s.name, None))
+        pending = _start_concurrent(s, replace(self._inputs_of(s), report=dict(self.result.report),
+                                               _progress=quiet), self.ahead.pop(s.name, None))
         if pending is not None:
-            running[s.name] = (s, pending)
+            self.running[s.name] = (s, pending)
         return pending is not None
 
-    tried: set[str] = set()              # concurrent stages started (or tried) ahead
-
-    def start_ready(later: list[Stage]) -> None:
+    def _start_ready(self, later: list[Stage]) -> None:
         """Start the concurrent stages among ``later`` whose inputs are all done and whose
         result is not in the cache (a cached one is read in its turn, in order)."""
-        names = {t.name for t in stages}
+        names = {t.name for t in self.stages}
         for t in later:
-            if (t.concurrent and t.name not in tried
-                    and all(i in run.values for i in t.inputs if i in names)
-                    and not (t.cache and cache.has(t.name, keys[t.name]))):
-                tried.add(t.name)
-                if start(t):
-                    progress(t.name, "start", {})
-
-    try:
-        for k, s in enumerate(stages):
-            if s.name in running:               # started ahead of its turn
-                start_ready(stages[k + 1:])
-                continue
-            for name in s.inputs:
-                if name in running:
-                    collect(name)
-            key = keys[s.name]
-            value = cache.load(s.name, key) if s.cache else MISSING
-            if value is not MISSING and not _files_present(value, out):
-                value = MISSING             # outputs deleted since the cached run: make them again
-            if value is MISSING:
-                progress(s.name, "start", {})
-                t0 = time.perf_counter()
-                if s.concurrent and start(s):
-                    start_ready(stages[k + 1:])
-                    continue
-                value = _compute(s, inputs_of(s))
-                run.stage_seconds[s.name] = time.perf_counter() - t0
-                finish(s, value)
-            else:
-                progress(s.name, "cached", {})
-                run.cached.append(s.name)
-                if s.name in ahead:              # its files were there after all
-                    ahead[s.name].release()
-                record(s, value)
-            start_ready(stages[k + 1:])
-        for name in list(running):
-            collect(name)
-    finally:
-        for _, pending in running.values():
-            pending.cancel()
-        for pending in ahead.values():       # found in the cache, or the run failed
-            pending.cancel()
-    return run
+            if (t.concurrent and t.name not in self.tried
+                    and all(i in self.result.values for i in t.inputs if i in names)
+                    and not (t.cache and self.cache.has(t.name, self.keys[t.name]))):
+                self.tried.add(t.name)
+                if self._start(t):
+                    self.progress(t.name, "start", {})
