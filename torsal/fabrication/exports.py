@@ -415,16 +415,9 @@ class PendingStepRead:
         (:func:`binary_round_trip`) wherever they were read (waits)."""
         if self._process is None:
             return read_step_for_check(self.path, mesh_tolerance=self.mesh_tolerance)
-        from .workers import _from_bytes
+        from .workers import _from_bytes, child_answer
 
-        try:
-            kind, value = self._conn.recv()
-        except EOFError:
-            raise RuntimeError(f"the process reading {self.path} ended without a result "
-                               f"(exit code {self._process.join() or self._process.exitcode})") from None
-        finally:
-            self._conn.close()
-        self._process.join()
+        kind, value = child_answer(self._conn, self._process, f"the process reading {self.path}")
         if kind == "error":
             raise value
         return [_prepared(name, _from_bytes(data), records) for name, data, records in value]
