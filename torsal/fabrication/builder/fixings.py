@@ -274,12 +274,13 @@ def slot_held(fs, name: str, nodes=None) -> bool:
     from ..assembly.load_path import slides_out
 
     nodes = None if nodes is None else {int(v) for v in nodes}
+    family0 = fs.part(name).family == 0
     for j in fs.joints:
         if j.kind != JointKind.EGG_CRATE or name not in j.parts or (
                 nodes is not None and int(j.node) not in nodes):
             continue
         d = np.asarray(j.insert_direction, float)
         d = d / np.linalg.norm(d)
-        if not slides_out(d if name[:2] == "F0" else -d):
+        if not slides_out(d if family0 else -d):
             return True
     return False

@@ -255,6 +255,37 @@ class _PathCheck:
         return sorted(out, key=lambda h: (h[3], h[1].name, h[0], h[2]))
 
 
+def dipping_slot_plates(fs, *, exclude=frozenset()) -> dict[str, np.ndarray]:
+    """``{plate: direction}``: the family-1 plates of ``fs`` (other than ``exclude`` and the
+    connectors) slotted onto a crossing plate at an egg-crate joint whose way out of the slot,
+    the reverse of the unit insert direction ``direction`` (shape (3,)), dips more than
+    :data:`~torsal.fabrication.assembly.load_path.SLIDE_DIP_DEG` below the horizontal (model
+    +z up): their weight would draw them back out the way they slid in (the load path,
+    :mod:`torsal.fabrication.assembly.load_path`). The first such joint of a plate, in
+    ``fs.joints`` order, gives its direction.
+
+    Example: ``hung = dipping_slot_plates(fs, exclude={p.name for p in planner._roots()})``;
+    ``hung["F1-S004-P01"]`` is the unit vector it slid in along. :meth:`AssemblyPlanner._slot_hung`
+    then drops the plates bolted to a root, the final cut's
+    :func:`~torsal.fabrication.nesting.cut_costs.fixings_added` keeps them per piece."""
+    from ..assembly.load_path import slides_out
+
+    family = {p.name: p.family for p in fs.parts}
+    conn = {j.connector for j in fs.joints if j.connector}
+    out: dict[str, np.ndarray] = {}
+    for j in fs.joints:
+        if j.kind != JointKind.EGG_CRATE:
+            continue
+        d = np.asarray(j.insert_direction, float)
+        d = d / np.linalg.norm(d)
+        if not slides_out(-d):                          # its way out does not dip: it stays
+            continue
+        for name in j.parts:
+            if family.get(name) == 1 and name not in exclude and name not in conn:
+                out.setdefault(name, d)
+    return out
+
+
 def _cycles(after: dict) -> list[list[str]]:
     """Strongly connected components of more than one part of the graph ``{a: {b: ...}}``
     (``b`` placed after ``a``), each sorted, in a stable order (Tarjan, iterative)."""
@@ -408,22 +439,9 @@ class AssemblyPlanner:
         (model +z up): their weight would draw them back out the way they slid in, so they
         are fixed to the building too, coming down onto their fixings along that slide
         direction (the load path, :mod:`torsal.fabrication.assembly.load_path`)."""
-        from ..assembly.load_path import slides_out
-
         fs = self.fs
         rooted = {p.name for p in roots}
-        conn = {j.connector for j in fs.joints if j.connector}
-        out: dict[str, np.ndarray] = {}
-        for j in fs.joints:
-            if j.kind != JointKind.EGG_CRATE:
-                continue
-            d = np.asarray(j.insert_direction, float)
-            d = d / np.linalg.norm(d)
-            if not slides_out(-d):                      # its way out does not dip: it stays
-                continue
-            for name in j.parts:
-                if name[:2] == "F1" and name not in rooted and name not in conn:
-                    out.setdefault(name, d)
+        out = dipping_slot_plates(fs, exclude=rooted)
         # a plate bolted (bracket, splice) to a plate fixed to the building is held already
         for j in fs.joints:
             if j.connector and rooted & set(j.parts):

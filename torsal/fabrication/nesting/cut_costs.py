@@ -102,24 +102,18 @@ def fixings_added(fs, cuts: Mapping[str, tuple]) -> dict[tuple[str, int], int]:
 
 def _hanging(fs, roots: set) -> tuple[set, dict]:
     """``(dips, bolted)``: the family-1 plates of ``fs`` other than ``roots`` whose way out of
-    an egg-crate slot dips (:func:`~torsal.fabrication.assembly.load_path.slides_out`: hung
-    in slots, ``AssemblyPlanner._slot_hung``), and ``{plate: nodes}`` where a connector bolts
-    a plate to a root (or its end is bent into a tab bolted to one)."""
-    import numpy as np
-
-    from ..assembly.load_path import slides_out
+    an egg-crate slot dips (:func:`~torsal.fabrication.builder.paths.dipping_slot_plates`:
+    hung in slots, ``AssemblyPlanner._slot_hung``), and ``{plate: nodes}`` where a connector
+    bolts a plate to a root (or its end is bent into a tab bolted to one): kept per node, since
+    a cut piece hangs unless one of its own nodes is bolted."""
+    from ..builder.paths import dipping_slot_plates
     from ..model import JointKind
 
-    conn = {j.connector for j in fs.joints if j.connector}
-    dips: set = set()
+    dips = set(dipping_slot_plates(fs, exclude=roots))
     bolted: dict = {}
     for j in fs.joints:
-        if j.kind == JointKind.EGG_CRATE:
-            d = np.asarray(j.insert_direction, float)
-            if slides_out(-d / np.linalg.norm(d)):
-                dips.update(n for n in j.parts if n[:2] == "F1" and n not in roots
-                            and n not in conn)
-        elif (j.connector or j.kind == JointKind.BUTT_TAB) and roots & set(j.parts):
+        if j.kind != JointKind.EGG_CRATE and (j.connector or j.kind == JointKind.BUTT_TAB) \
+                and roots & set(j.parts):
             # (a tab is the bracket the build held the plate with, bent from its end)
             for n in j.parts:
                 bolted.setdefault(n, set()).add(int(j.node))
