@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from fab_structures import cylinder_structure
+from fab_structures import cylinder_structure, flat_structure
 from torsal.fabrication import FinSystem, nest, unroll
 from torsal.fabrication.builder.fasteners import fastener_counts
 from torsal.fabrication.cutting import Cutting, Process
@@ -303,3 +303,17 @@ def test_bad_costs_exit_2_without_traceback(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "costs.per_pierce" in err and "Traceback" not in err
     assert not (tmp_path / "out" / "report.json").exists()
+
+
+def test_developable_strips_keep_the_surface_they_price_by():
+    """Fig. 10's strips have no faces; the price per m^2 and bolts per m^2 divide by the
+    area of the faces they were refined from: 3 x 2 faces of 0.3 m x 2 sin(0.075) 2 m, as the
+    grid's own area (a flat grid: 3 x 2 squares of 0.3 m)."""
+    from torsal.geometry.developable import refine_developable
+
+    chord = 2 * 2.0 * np.sin(0.075)
+    for s, area in ((cylinder_structure(), 3 * 2 * 0.3 * chord), (flat_structure(), 6 * 0.09)):
+        strips = refine_developable(s, 1)
+        assert len(strips.faces) == 0
+        assert surface_area(strips) == pytest.approx(area, rel=1e-9)
+        assert surface_area(refine_developable(strips, 1)) == pytest.approx(area, rel=1e-9)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .mesh import polygon_areas
 from .support import SupportStructure, closest_points, optimize_support
 
 __all__ = ["refine_developable", "four_point"]
@@ -72,7 +73,8 @@ def refine_developable(structure: SupportStructure, levels: int = 1, *, referenc
     SupportStructure
         The strips as disjoint polylines (a node shared by two strips of different families
         is duplicated, one copy per strip); ``faces`` is empty; ``metadata['strip']`` gives the
-        strip index of every edge.
+        strip index of every edge, ``metadata['surface_area']`` the area of the faces of A~ the
+        strips were refined from (model units squared: what a price per m^2 divides by).
 
     Examples
     --------
@@ -119,11 +121,14 @@ def refine_developable(structure: SupportStructure, levels: int = 1, *, referenc
         off += m
     # each family keeps its depth: the duplicated nodes of two crossing strips stay one
     # node line (merged again where the fins are built)
+    meta = {"strip": np.concatenate(sid), "levels": levels,
+            "surface_area": float(polygon_areas(a0, structure.faces).sum())
+            if len(structure.faces) else structure.metadata.get("surface_area", 0.0)}
     s = SupportStructure(np.concatenate(A), np.concatenate(B), [], np.concatenate(Ed),
-                         np.concatenate(fam), metadata={"strip": np.concatenate(sid), "levels": levels},
+                         np.concatenate(fam), metadata=dict(meta),
                          family_depth_ratio=structure.family_depth_ratio)
     if s.delta_pl > hard_tol:
         r = optimize_support(s, reference, hard_tol=hard_tol, method="projection", rounds=2)
         s = r.structure
-        s.metadata.update({"strip": np.concatenate(sid), "levels": levels, "planarize_status": r.status})
+        s.metadata.update({**meta, "planarize_status": r.status})
     return s

@@ -551,6 +551,25 @@ def face_areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
 
 
+def polygon_areas(vertices: np.ndarray, faces) -> np.ndarray:
+    """Areas of polygons given by vertex index lists (any number of corners, planar or not),
+    (F,), in model units squared: each polygon split into the fan of triangles from its first
+    corner; faces of fewer than 3 corners have area 0.
+
+    Examples
+    --------
+    >>> polygon_areas(np.array([[0., 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]]), [[0, 1, 2, 3], [0, 1, 2]])
+    array([2., 1.])
+    """
+    v = np.asarray(vertices, dtype=float)
+    out = np.zeros(len(faces))
+    for k, face in enumerate(faces):
+        p = v[np.asarray(face, dtype=np.int64)]
+        if len(p) >= 3:
+            out[k] = 0.5 * np.linalg.norm(np.cross(p[1:-1] - p[0], p[2:] - p[0]), axis=1).sum()
+    return out
+
+
 def area_vector(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Vector area of the mesh, (3,): the sum of face normals times face areas.
 

@@ -27,8 +27,9 @@ __all__ = ["CACHE_VERSION", "MISSING", "StageCache", "stage_key", "read_pickle",
 #: bump when a stage's cached value changes shape or, for the same inputs, its value (3:
 #: line_spread_deg; 4: the split torsal-angle rows divided by the form's magnitude, new optima;
 #: 5: the augmented Lagrangian's model-bounded predicted passes, new optima, and tabs and seams
-#: proved along their parts' ways in, other fin systems and local verdicts)
-CACHE_VERSION = "5"
+#: proved along their parts' ways in, other fin systems and local verdicts; 6: developable
+#: strips keep the area of the surface they were refined from, metadata['surface_area'])
+CACHE_VERSION = "6"
 MISSING = object()     # what :meth:`StageCache.load` returns for no (usable) entry
 
 

@@ -15,9 +15,8 @@ Example
 """
 from __future__ import annotations
 
-import numpy as np
-
 from ..fabrication.quantities import bill_of_quantities, price
+from ..geometry.mesh import polygon_areas
 from .design_file import DesignSpec
 
 __all__ = ["quantities_report", "surface_area"]
@@ -26,16 +25,12 @@ __all__ = ["quantities_report", "surface_area"]
 def surface_area(structure) -> float:
     """Area of the design surface as the support structure tiles it: the polygons of A~
     (``structure.faces`` on ``structure.vertices_a``), each split into a fan of triangles
-    from its first corner; model units squared."""
-    a = structure.vertices_a
-    total = 0.0
-    for face in structure.faces:
-        p = a[np.asarray(face)]
-        if len(p) < 3:
-            continue
-        cross = np.cross(p[1:-1] - p[0], p[2:] - p[0])
-        total += 0.5 * float(np.linalg.norm(cross, axis=1).sum())
-    return total
+    from its first corner; model units squared. A structure refined into developable strips
+    (Fig. 10) has no faces: the area of the faces it was refined from
+    (``metadata['surface_area']``, :func:`~torsal.geometry.developable.refine_developable`)."""
+    if len(structure.faces) == 0 and "surface_area" in structure.metadata:
+        return float(structure.metadata["surface_area"])
+    return float(polygon_areas(structure.vertices_a, structure.faces).sum())
 
 
 def quantities_report(spec: DesignSpec, fs, layout, structure) -> dict:
