@@ -27,11 +27,11 @@ def _toml(**tables) -> str:
 
 
 def _examples() -> list[Path]:
-    return sorted(p for p in EXAMPLES.glob("*.toml") if p.name != "workshop_rates.toml")
+    return sorted(p for p in EXAMPLES.glob("*.toml"))
 
 
 def test_every_example_is_priced_with_the_workshop_rates():
-    shared = tomllib.loads((EXAMPLES / "workshop_rates.toml").read_text())["costs"]
+    shared = tomllib.loads((EXAMPLES / "rates" / "workshop_rates.toml").read_text())["costs"]
     assert len(_examples()) == 8
     for path in _examples():
         costs = load_design_file(path).costs
