@@ -32,6 +32,8 @@ def _unbuildable_design(tmp_path: Path) -> Path:
     text = (ROOT / "examples" / "7c_facade_see_through.toml").read_text()
     text = text.replace("params = { nu = 33, nv = 33 }", "params = { nu = 15, nv = 11 }")
     text = text.replace("spacing = 0.6", "spacing = 2.0")
+    rates = "rates/workshop_rates.toml"       # (relative to the example; the copy lies elsewhere)
+    text = text.replace(f'"{rates}"', f'"{ROOT / "examples" / rates}"')
     text += ("\n[material]\nsheet_mm = [4000, 2000]\nthickness_mm = 90\nclearance_mm = 0\n\n"
              "[outputs]\nlight_samples = 300\n")
     path = tmp_path / "tight.toml"

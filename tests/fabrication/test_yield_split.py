@@ -267,3 +267,30 @@ def test_the_row_plans_take_the_parts_not_the_pieces(grid, monkeypatch):
     res = nest_split(list(grid.unrolled().values()), cuts=yield_cut_positions(grid), **OPTIONS)
     assert res.n_cuts == 1 and res.pieces           # step A cut a plate into two stand-ins
     assert seen == [sorted(grid.unrolled())]
+
+
+def test_with_rates_a_cut_that_adds_fixings_empties_a_sheet_where_they_cost_less(grid):
+    """Every cut site made to add two fixings: without rates no sheet pays for them (at most
+    one fixing a sheet saved), so the search keeps its three sheets; with rates the price
+    decides: a sheet of 100 against a cut's contour, pierce and placing (0.1 + 0.2 + 3.0
+    less a bend of 1.0 at most: 2.3-3.3) and two fixings. At 45 a fixing the cut pays (93.3
+    at most) and empties a sheet, as without fixings; at 52 it does not (106.3 at least)."""
+    un = list(grid.unrolled().values())
+    sites = yield_cut_positions(grid)
+    two = {(n, j): 2 for n, js in sites.items() for j in js}
+    rates = Rates(material_per_sheet=100.0, cut_per_m={Process.LASER: 2.0}, per_pierce=0.1,
+                  per_bend=1.0, fasteners={"bolt": 0.3, "anchor": 2.0}, per_minute=1.0,
+                  minutes_per_part=3.0, minutes_per_fastener=1.0, minutes_per_hole_drilled=0.5)
+    kw = dict(sheet=SHEET, thickness=T, density=2700.0, unit="mm", process=Process.LASER)
+
+    def split(rates, per_fixing=0.0):
+        pays = fc.cuts_pay(rates, per_fixing=per_fixing, **kw)
+        return nest_split(un, cuts=sites, pays=pays, fixings=two, **OPTIONS)
+
+    free = split(None)
+    assert free.n_cuts == 0 and free.layout.n_sheets == free.base.n_sheets == 3
+    cheap = split(rates, 45.0)
+    assert cheap.layout.n_sheets == 2 and cheap.n_cuts == 1
+    assert [c.fixings for c in cheap.costs] == [2] and 0 < cheap.costs[0].cut <= 100.0
+    dear = split(rates, 52.0)
+    assert dear.n_cuts == 0 and dear.layout.n_sheets == 3

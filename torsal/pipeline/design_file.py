@@ -63,8 +63,10 @@ __all__ = [
     "DesignFileError",
     "CostsSpec",
     "DesignSpec",
+    "FILE_KEYS",
     "Region",
     "load_design_file",
+    "rates_with_file",
     "validate_design",
 ]
 
@@ -594,7 +596,18 @@ class SubstructureSpec(_Spec):
 class CostsSpec(_Spec):
     """The user's rates (issue 42): with them report.json prices the design's bill of
     quantities (``fabrication.costs``); without this table there is no price. Every rate is
-    in ``currency`` per unit of its quantity (see :mod:`torsal.fabrication.quantities.price`)."""
+    in ``currency`` per unit of its quantity (see :mod:`torsal.fabrication.quantities.price`).
+
+    ``file = "rates.toml"`` reads the rates from the ``[costs]`` table of that TOML file
+    (relative to the design file): one workshop's rates shared by many designs; a key given
+    beside ``file`` is taken over the file's (in ``cut_per_m`` and ``fasteners`` key by key)."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _rates_file(cls, data):
+        if isinstance(data, dict) and "file" in data:
+            data = rates_with_file(data)
+        return data
 
     currency: str = Field("", description="label of the rates' currency in the report, e.g. EUR")
     material_per_kg: float | None = Field(None, ge=0, description="per kg of the sheets used "
@@ -632,6 +645,46 @@ class CostsSpec(_Spec):
     def rates(self) -> Rates:
         """The :class:`~torsal.fabrication.quantities.Rates` of this table."""
         return Rates(**self.model_dump(exclude_none=True))
+
+
+#: the design file's keys that name a file, ``(table, key)``: relative to the design file
+FILE_KEYS = (("surface", "mesh"), ("sun", "epw"), ("sun", "weather"), ("costs", "file"))
+
+
+def rates_with_file(costs: dict) -> dict:
+    """The ``[costs]`` table ``costs`` with its ``file`` read (see :class:`CostsSpec`): the
+    ``[costs]`` table of that TOML file, the keys given beside ``file`` over its own. A
+    relative path is taken from the working folder (:func:`load_design_file` makes it the
+    design file's).
+
+    Raises
+    ------
+    ValueError
+        The file is missing, not TOML, or has no ``[costs]`` table (or one with a ``file``).
+    """
+    costs = dict(costs)
+    given = costs.pop("file")
+    if not isinstance(given, str):
+        raise ValueError(f"costs.file must be the path of a TOML file with a [costs] table "
+                         f"(got {given!r})")
+    path = Path(given)
+    try:
+        table = tomllib.loads(path.read_text())
+    except OSError as exc:
+        raise ValueError(f"costs.file: cannot read {path} ({exc.strerror or exc}); give the "
+                         "path of a TOML file with a [costs] table, relative to the design "
+                         "file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"costs.file: {path} is not valid TOML ({exc})") from None
+    shared = table.get("costs")
+    if not isinstance(shared, dict) or "file" in shared:
+        raise ValueError(f"costs.file: {path} needs a [costs] table of rates (without a "
+                         "file key of its own)")
+    out = {**shared, **costs}
+    for key in ("cut_per_m", "fasteners"):
+        if isinstance(shared.get(key), dict) and isinstance(costs.get(key), dict):
+            out[key] = {**shared[key], **costs[key]}
+    return out
 
 
 class AnnualSpec(_Spec):
@@ -819,6 +872,9 @@ def load_design_file(path: str | Path) -> DesignSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise DesignFileError(f"{path}: not valid TOML ({exc})") from None
+    costs = data.get("costs")
+    if isinstance(costs, dict) and isinstance(costs.get("file"), str):
+        data["costs"] = {**costs, "file": str(path.resolve().parent / costs["file"])}
     try:
         spec = DesignSpec.model_validate(data)
     except ValidationError as exc:

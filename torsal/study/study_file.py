@@ -46,7 +46,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..pipeline.design_file import DesignFileError, DesignSpec, _format_errors, load_design_file
+from ..pipeline.design_file import (FILE_KEYS, DesignFileError, DesignSpec, _format_errors,
+                                    load_design_file)
 
 __all__ = ["StudyFileError", "StudySpec", "AxisRange", "RunSpec", "SearchSpec", "Variant",
            "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS",
@@ -245,7 +246,7 @@ def _set(data: dict, key: str, value) -> None:
 def _absolute_paths(data: dict, base_dir: Path) -> dict:
     """File paths in a design dict made absolute against the base design's folder, so a
     variant's design file works from its own folder."""
-    for table, key in (("surface", "mesh"), ("sun", "epw"), ("sun", "weather")):
+    for table, key in FILE_KEYS:
         p = data.get(table, {}).get(key)
         if isinstance(p, str) and not Path(p).is_absolute():
             data[table][key] = str((base_dir / p).resolve())
