@@ -109,12 +109,21 @@ def row(key: str, r: dict | None, err: str | None) -> str:
 
 def quantities_cell(fa: dict) -> str:
     """The bill of quantities' totals (report.json ``fabrication.quantities``): net / gross
-    kg of sheet, metres of cut, pierces, bends."""
+    kg of sheet, metres of cut, pierces, bends; and its price at the design file's
+    ``[costs]`` rates (``fabrication.costs``: total, per m² of the design surface), where
+    it has them."""
     q = fa.get("quantities")
     if not q:
         return "-"
-    return (f"{q['net_kg']:,.0f} / {q['gross_kg']:,.0f} kg; {q['cut_m']:,.0f} m cut; "
+    cell = (f"{q['net_kg']:,.0f} / {q['gross_kg']:,.0f} kg; {q['cut_m']:,.0f} m cut; "
             f"{q['pierces']:,} pierces; {q['bends']:,} bends")
+    c = fa.get("costs")
+    if c:
+        cur = f" {c['currency']}" if c.get("currency") else ""
+        cell += f"; price {c['total']:,.0f}{cur}"
+        if c.get("per_m2"):
+            cell += f", {c['per_m2']:,.0f}{cur}/m²"
+    return cell
 
 
 def louvers(li: dict, key: str) -> str:
@@ -248,7 +257,7 @@ def main():
              "sheets / area bound | utilization (DXF) | final cut: sheets / yield (plates cut; s) | "
              "min torsal angle, measured (deg): planes / directions in the face | interfering pairs | connectors (share of parts); fixings | "
              "seams in slots; fallbacks | fasteners; bolts per m² | "
-             "bill of quantities: net / gross sheet, cut, pierces, bends | fin panels left out | "
+             "bill of quantities: net / gross sheet, cut, pierces, bends; price at the rates | fin panels left out | "
              "paper: \\|V\\| / \\|F\\| / T / delta_pl extr. / opt. |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     started, t0, loads, keys = datetime.now(timezone.utc), time.perf_counter(), [os.getloadavg()[0]], []
