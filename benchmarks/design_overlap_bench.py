@@ -104,6 +104,46 @@ the 3-4 s the moved work would give on an idle second core, because the fin syst
 is busier than it looked. What is left on the path: the fin system (builder, 9-12 s), the
 STEP re-read (its reading process did 8.5 s CPU, its fork 5.2: the halves are uneven, the
 parse and the rows' sending are the reader's alone) and the assembly check (5-6 s).
+
+Measured 2026-11-29 19:58-20:08 UTC (issue 40, helper-47), before = d53451f and after =
+1b4dcd1 (76a8eb9: each quad's flat version remembered and the outline-only unroll for the
+sheet fits, tab sites and slot splits; 71c4000: OpenCascade imported by the main process while
+it waits for the workers, the rows nester at BACKGROUND_NICE; 1b4dcd1: the point-to-segment
+distances without the second segment), taking turns, each from its tree's folder, ``nice -n
+5``, load 4.4-6.3 (another helper's final-cut runs); parts.csv, the 80 DXF/SVG sheet files,
+assembly.csv, fins.step, fins.ifc, the 5 pictures and report.json (but its seconds)
+byte-identical in all six runs::
+
+    | run | wall s | est. quiet 2-core s | both cores s | CPU s, all processes | load |
+    |---|---|---|---|---|---|
+    | after 1b4dcd1 (1) | 86.0 | 45.4 | 35.0 | 80.4 | 5.0 / 4.5 |
+    | before d53451f (1) | 141.2 | 51.6 | 42.1 | 93.7 | 4.5 / 6.3 |
+    | after 1b4dcd1 (2) | 57.7 | 39.2 | 33.4 | 72.7 | 6.1 / 4.7 |
+    | before d53451f (2) | 70.0 | 46.5 | 38.4 | 84.9 | 4.4 / 5.3 |
+    | after 1b4dcd1 (3) | 80.5 | 46.5 | 37.2 | 83.7 | 5.1 / 5.3 |
+    | before d53451f (3) | 90.3 | 51.3 | 39.0 | 90.3 | 5.1 / 6.3 |
+
+Medians: est. quiet 51.3 -> 45.4 s, CPU 90.3 -> 80.4 s, wall 90.3 -> 80.5 s. Steps (est. s,
+medians of the three)::
+
+    | step | before | after |
+    |---|---|---|
+    | fin system | 1.6-15.9 | 1.7-15.5 |
+    | start_layout (unrolling for the nester) | 16.0-18.7 | 15.5-17.2 |
+    | solids collected | 18.7-26.7 | 17.2-22.1 |
+    | STEP written | 26.9-30.7 | 22.1-25.0 |
+    | wait for the IFC | 30.9-37.3 | 25.1-35.0 |
+    | fabrication stage | 1.6-38.1 | 1.7-35.6 |
+    | assembly: wait for the STEP re-read | 38.6-42.3 | 35.9-36.2 |
+    | check_assembly | 42.3-48.9 | 36.2-43.2 |
+    | report ends | 51.3 | 45.4 |
+
+What is on the path now: the STEP file is written 5.7 s (est.) earlier, and its re-read
+ends inside the wait for the IFC (the assembly waits 0.3 s for it instead of 3.7): the IFC
+(BACKGROUND_NICE, beside the reader's two processes) is what the fabrication stage, and so
+the light and the assembly, wait for. The next step is to let the stages after the
+fabrication run while the IFC is written (waiting for it before the report, which lists the
+files), not to speed the IFC up.
 """
 from __future__ import annotations
 

@@ -183,3 +183,26 @@ def test_path_checks_remembered_across_rebuilds_give_the_same_hits():
     n = len(memo.table)
     assert first == fresh and n > 0
     assert rows(_PathCheck(fs)) == fresh and len(memo.table) == n
+
+
+def test_point_segment_distances_are_the_bits_of_the_segment_kernel_and_exact():
+    """A point's distance from a segment (the triangle distances' edges) is bit for bit the
+    two-segment kernel's with a segment of length 0 there, and the hand value: from
+    (1, 2, 0) to the segment (0, 0, 0) -> (4, 0, 0) it is 2 (its foot inside), from (6, 0, 3)
+    sqrt(4 + 9) (past the end), from a point to a segment of length 0 the distance of the two
+    points."""
+    from torsal.fabrication.builder.proximity import _point_segment_distances, _segment_distances
+
+    q0, q1 = np.zeros(3), np.array([4.0, 0.0, 0.0])
+    assert _point_segment_distances(np.array([1.0, 2.0, 0.0]), q0, q1) == 2.0
+    assert _point_segment_distances(np.array([6.0, 0.0, 3.0]), q0, q1) == np.sqrt(13.0)
+    assert _point_segment_distances(np.array([0.0, 3.0, 4.0]), q0, q0) == 5.0
+    rng = np.random.default_rng(3)
+    for scale in (0.0, 1e-9, 1.0, 100.0):
+        x = rng.normal(size=(40, 4, 1, 3)) * 50.0
+        a = rng.normal(size=(40, 1, 2, 3))
+        b = a + scale * rng.normal(size=(40, 1, 2, 3))
+        x[:, 0] = a[:, :, 0]                                   # a point at a segment's end
+        ours, kernel = _point_segment_distances(x, a, b), _segment_distances(x, x, a, b)
+        assert ours.shape == kernel.shape == (40, 4, 2)
+        assert np.array_equal(ours.view(np.int64), kernel.view(np.int64))

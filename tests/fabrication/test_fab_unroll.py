@@ -189,3 +189,50 @@ def test_nonplanar_panels_match_an_independent_least_squares_fit():
         ours = 0.5 * np.sum(((lengths(f) - t) / t) ** 2)
         assert ours <= sol.cost * (1 + 1e-9) + 1e-28
         np.testing.assert_allclose(lengths(f), lengths(sol.x.reshape(4, 2)), rtol=1e-9)
+
+
+def test_flat_quads_remembered_are_the_bits_of_any_batch():
+    """Each bent quad's flat version is its own (the Gauss-Newton treats the quads apart): the
+    same bits developed alone, in a batch, in another batch's order or looked up again."""
+    import importlib
+
+    mod = importlib.import_module("torsal.fabrication.unroll")   # the module, not the function
+    rng = np.random.default_rng(11)
+    quads = np.array([[0, 0, 0], [300, 0, 0], [310, 150, 0], [-5, 140, 0]], float)
+    quads = quads + rng.normal(scale=20.0, size=(25, 4, 3)) * [1.0, 1.0, 0.0]
+    quads[:, :, 2] += rng.normal(scale=3.0, size=(25, 4))
+    quads[3] = [[0, 0, 0], [200, 0, 0], [200, 100, 0], [0, 100, 0]]     # a planar one
+    mod._FLAT_MEMO.clear()
+    batch, planar = mod._develop_quads(quads, 1e-9)
+    assert planar.sum() == 1 and planar[3]
+    alone = [mod._develop_quads(q[None], 1e-9) for q in quads]
+    assert all(np.array_equal(f[0], b) and p[0] == q for (f, p), b, q in zip(alone, batch, planar))
+    order = rng.permutation(len(quads))
+    for _ in range(2):              # developed (in another order), then looked up
+        flat, pl = mod._flat_quads(quads[order], 1e-9)
+        assert np.array_equal(flat, batch[order]) and np.array_equal(pl, planar[order])
+    assert len(mod._FLAT_MEMO) == len(quads)
+    part, pl = mod._flat_quads(quads[5:9], 1e-9)                   # all looked up
+    assert np.array_equal(part, batch[5:9]) and np.array_equal(pl, planar[5:9])
+
+
+def test_flat_outline_is_the_unrolled_outline():
+    """``flat_outline`` is ``unroll(...).outline`` (the same vertices), with and without the
+    slots, and raises where unroll does (slots cutting the part apart)."""
+    from torsal.fabrication.unroll import flat_outline
+
+    fs = FinSystem(sphere_structure(), thickness=3.0, clearance=0.5)
+    slotted = [p for p in fs.parts if p.slots]
+    assert slotted
+    for p in fs.parts:
+        for slots in ([], list(p.slots)):
+            a, b = flat_outline(p.panels, slots=slots), unroll(p.panels, slots=slots).outline
+            assert a.wkb == b.wkb
+    import dataclasses
+
+    p, s = next((p, s) for p in slotted for s in p.slots if 0 < s.position < len(p.panels))
+    through = dataclasses.replace(s, depth=1e6)          # across the whole node line
+    for fn in (lambda: unroll(p.panels, slots=[through]),
+               lambda: flat_outline(p.panels, slots=[through])):
+        with pytest.raises(ValueError, match="slots cut the part into 2 pieces"):
+            fn()

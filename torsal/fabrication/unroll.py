@@ -29,7 +29,8 @@ from shapely.ops import polylabel, unary_union
 
 from .model import Slot, SlotSide, _cross, fold_angles, quad_normals
 
-__all__ = ["Unrolled", "unroll", "fold_back", "slot_rectangle", "flat_point", "FLAT_FOLD"]
+__all__ = ["Unrolled", "unroll", "flat_outline", "fold_back", "slot_rectangle", "flat_point",
+           "FLAT_FOLD"]
 
 #: radians: a fold line whose fold angle is at most this (in absolute value) is flat, not a bend
 FLAT_FOLD = 1e-9
@@ -183,11 +184,40 @@ def _best_flat_quads(target: np.ndarray, start: np.ndarray, *, iterations: int =
     return y
 
 
+#: {(tol, the quad's bytes): (its flat quad (4, 2), planar)} of :func:`_flat_quads`: a fin
+#: system's build unrolls the same panels again and again (the sheet fits' bisection unrolls
+#: every prefix of a run; each rebuild unrolls its runs again: 2,934 quads of 656 distinct
+#: on 7a), and each quad's flat version is its own (the Gauss-Newton of
+#: :func:`_best_flat_quads` treats each quad apart: the same bits alone or in any batch)
+_FLAT_MEMO: dict[tuple[float, bytes], tuple[np.ndarray, bool]] = {}
+#: entries kept at most (then the memo starts afresh): about 300 bytes each
+_FLAT_MEMO_SIZE = 100_000
+
+
 def _flat_quads(quads: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Flat versions (k, 4, 2) of 3D quads (k, 4, 3), each in its own plane frame, and whether
     each is planar (corners within ``tol`` of its size from its plane): a planar quad is
-    projected (an isometry), the others replaced together by the flat quads that best match
-    their edges and diagonals (:func:`_best_flat_quads`)."""
+    projected (an isometry), the others replaced by the flat quads that best match their
+    edges and diagonals (:func:`_best_flat_quads`). Quads developed before are looked up
+    (:data:`_FLAT_MEMO`), the others developed together."""
+    quads = np.asarray(quads, dtype=float)
+    keys = [(float(tol), q.tobytes()) for q in quads]
+    found = [_FLAT_MEMO.get(k) for k in keys]
+    todo = [i for i, f in enumerate(found) if f is None]
+    if todo:
+        x, planar = _develop_quads(quads[todo], tol)
+        if len(_FLAT_MEMO) + len(todo) > _FLAT_MEMO_SIZE:
+            _FLAT_MEMO.clear()
+        for j, i in enumerate(todo):
+            found[i] = _FLAT_MEMO[keys[i]] = (x[j].copy(), bool(planar[j]))
+    x = np.empty((len(quads), 4, 2))
+    for i, (flat, _) in enumerate(found):
+        x[i] = flat
+    return x, np.array([planar for _, planar in found], dtype=bool)
+
+
+def _develop_quads(quads: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_flat_quads` computed (no memo)."""
     x = np.empty((len(quads), 4, 2))
     planar = np.empty(len(quads), bool)
     for i, quad in enumerate(quads):
@@ -239,18 +269,46 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
     Unrolled
         Outline, fold lines and angles, slot cut-outs, label position, worst edge error.
     """
-    quads = np.asarray(getattr(strip, "panels", getattr(strip, "quads", strip)), dtype=float)
-    if quads.ndim != 3 or quads.shape[1:] != (4, 3) or len(quads) == 0:
-        raise ValueError(f"expected (k, 4, 3) quads, got {quads.shape}")
+    quads = _quads_of(strip)
     if slots is None:
         slots = list(getattr(strip, "slots", []))
     if name is None:
         name = getattr(strip, "name", "strip")
     k = len(quads)
-    flat = np.empty((k, 4, 2))
     frame = _plane_frame(quads[0])
+    flat, planar = _lay_flat(quads, planar_tol)
+    # errors
+    l3 = np.linalg.norm(quads[:, _EDGES[:, 0]] - quads[:, _EDGES[:, 1]], axis=2)
+    l2 = np.linalg.norm(flat[:, _EDGES[:, 0]] - flat[:, _EDGES[:, 1]], axis=2)
+    pos = l3 > 0                                   # a triangle panel has a zero-length edge
+    err = float(np.max(np.abs(l2 - l3)[pos] / l3[pos], initial=0.0))
+    outline, rects = _slotted_outline(flat, slots, name)
+    label, label_angle, label_height = _label(flat, outline)
+    fl = np.stack([flat[:-1, 1], flat[:-1, 2]], axis=1) if k > 1 else np.zeros((0, 2, 2))
+    frames = _panel_frames(quads) if getattr(strip, "holes", ()) else None
+    holes = [(flat_point(quads, flat, np.asarray(h.center, float), frames=frames), float(h.diameter))
+             for h in getattr(strip, "holes", ())]
+    return Unrolled(name=name, panels=flat, fold_angles=fold_angles(quads), fold_lines=fl,
+                    slots=rects, outline=outline, label_position=label, label_angle=label_angle,
+                    label_height=label_height, max_edge_error=err, frame=frame, planar=planar,
+                    slot_records=list(slots), holes=holes)
+
+
+def _quads_of(strip) -> np.ndarray:
+    """The (k, 4, 3) float quads of a Part, a FinStrip or an array (ValueError otherwise)."""
+    quads = np.asarray(getattr(strip, "panels", getattr(strip, "quads", strip)), dtype=float)
+    if quads.ndim != 3 or quads.shape[1:] != (4, 3) or len(quads) == 0:
+        raise ValueError(f"expected (k, 4, 3) quads, got {quads.shape}")
+    return quads
+
+
+def _lay_flat(quads: np.ndarray, planar_tol: float) -> tuple[np.ndarray, bool]:
+    """The strip's flat panels (k, 4, 2): the first in its own plane frame, each next one
+    rotated about the shared fold line onto the previous one; and whether every panel is
+    planar (see :func:`_flat_quads`)."""
+    k = len(quads)
+    flat = np.empty((k, 4, 2))
     flats, planar_each = _flat_quads(quads, planar_tol)
-    planar = bool(planar_each.all())
     for i in range(k):
         f = flats[i]
         if i == 0:
@@ -262,12 +320,12 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
         g = f @ r.T + t
         g[[0, 3]] = dst                       # identical points on the shared fold
         flat[i] = g
-    # errors
-    l3 = np.linalg.norm(quads[:, _EDGES[:, 0]] - quads[:, _EDGES[:, 1]], axis=2)
-    l2 = np.linalg.norm(flat[:, _EDGES[:, 0]] - flat[:, _EDGES[:, 1]], axis=2)
-    pos = l3 > 0                                   # a triangle panel has a zero-length edge
-    err = float(np.max(np.abs(l2 - l3)[pos] / l3[pos], initial=0.0))
-    # outline
+    return flat, bool(planar_each.all())
+
+
+def _flat_body(flat: np.ndarray, name: str):
+    """The union (a shapely Polygon) of the flat panels; ValueError naming ``name`` if a panel
+    is degenerate or the strip overlaps itself."""
     polys = [Polygon(f) for f in flat]
     for j, pg in enumerate(polys):
         if not pg.is_valid or pg.area <= 0:
@@ -277,6 +335,14 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
     if abs(body.area - total) > 1e-6 * total or body.geom_type != "Polygon":
         raise ValueError(f"{name}: the unrolled strip overlaps itself (union {body.area:.6g} vs "
                          f"panels {total:.6g}); split it into shorter parts (max_panels)")
+    return body
+
+
+def _slotted_outline(flat: np.ndarray, slots, name: str):
+    """``(outline, slot rectangles)``: the union of the flat panels minus the slots' cut-outs;
+    ValueError naming ``name`` where the panels do not make one polygon or the slots cut it
+    apart."""
+    body = _flat_body(flat, name)
     rects = []
     for s in slots:
         pos = s.position
@@ -287,16 +353,22 @@ def unroll(strip, *, slots: list[Slot] | None = None, planar_tol: float = 1e-9,
         outline = body.difference(unary_union([Polygon(r) for r in rects]))
     if outline.geom_type != "Polygon":
         raise ValueError(f"{name}: slots cut the part into {len(getattr(outline, 'geoms', []))} pieces")
-    outline = shapely.set_precision(outline, 0.0)
-    label, label_angle, label_height = _label(flat, outline)
-    fl = np.stack([flat[:-1, 1], flat[:-1, 2]], axis=1) if k > 1 else np.zeros((0, 2, 2))
-    frames = _panel_frames(quads) if getattr(strip, "holes", ()) else None
-    holes = [(flat_point(quads, flat, np.asarray(h.center, float), frames=frames), float(h.diameter))
-             for h in getattr(strip, "holes", ())]
-    return Unrolled(name=name, panels=flat, fold_angles=fold_angles(quads), fold_lines=fl,
-                    slots=rects, outline=outline, label_position=label, label_angle=label_angle,
-                    label_height=label_height, max_edge_error=err, frame=frame, planar=planar,
-                    slot_records=list(slots), holes=holes)
+    return shapely.set_precision(outline, 0.0), rects
+
+
+def flat_outline(strip, *, slots: list[Slot] = (), planar_tol: float = 1e-9, name: str | None = None):
+    """The outline of a strip unrolled: ``unroll(strip, slots=slots).outline`` (the same
+    polygon, the same ValueError where it cannot be made), without the label, fold angles
+    and holes :func:`unroll` adds (the fin system's sheet fits ask only for the outline's
+    size, hundreds of times). No slots unless given.
+
+    >>> q = np.array([[[0, 0, 0], [2, 0, 0], [2, 0, 1], [0, 0, 1]]], float)
+    >>> flat_outline(q).area
+    2.0
+    """
+    quads = _quads_of(strip)
+    flat, _ = _lay_flat(quads, planar_tol)
+    return _slotted_outline(flat, slots, getattr(strip, "name", "strip") if name is None else name)[0]
 
 
 def flat_point(quads: np.ndarray, flat: np.ndarray, point: np.ndarray, *,

@@ -235,6 +235,48 @@ def release_workers() -> None:
         w.shutdown(cancel=True)
 
 
+#: what this process imports while it waits for the workers (:func:`_preload_while_waiting`):
+#: OpenCascade (one extension of about 2-3 s to load) to read their BReps and write the STEP
+#: file, and rhino3dm for the 3DM
+_WAIT_IMPORTS = ("OCP.BinTools", "OCP.TopoDS")
+_WAIT_IMPORTS_MESH = ("rhino3dm",)
+_preloader: threading.Thread | None = None
+
+
+def _preload_while_waiting(mesh: bool = False) -> None:
+    """Import what this process needs once the solids come back (:data:`_WAIT_IMPORTS`; with
+    ``mesh`` the 3DM's rhino3dm too) in a thread, now that it is about to wait for the
+    workers: loading OpenCascade takes its 2-3 s of the one core the waiting process leaves
+    idle, not of the process's own work after the wait (the first BRep read back, the STEP
+    file). Once per process; the same modules either way, so nothing else changes.
+    :func:`_preloaded` waits for it."""
+    global _preloader
+    import sys
+
+    names = _WAIT_IMPORTS + (_WAIT_IMPORTS_MESH if mesh else ())
+    if _preloader is not None or all(n in sys.modules for n in names):
+        return
+
+    def load():
+        import importlib
+
+        for n in names:
+            try:
+                importlib.import_module(n)
+            except Exception:        # the import that needs it raises it, with its message
+                pass
+
+    _preloader = threading.Thread(target=load, name="torsal-preload", daemon=True)
+    _preloader.start()
+
+
+def _preloaded() -> None:
+    """Wait for :func:`_preload_while_waiting`'s imports (none started: nothing to wait for):
+    the process may fork after it, and a fork must not copy a half-done import."""
+    if _preloader is not None:
+        _preloader.join()
+
+
 def _call_chunk(args):
     """Worker: ``[fn(item) for item in items]`` of ``(fn, items)``."""
     fn, items = args
@@ -254,6 +296,7 @@ def map_prepared(fn, items: list) -> list:
     w = _PREPARED.get()
     if w is None or len(items) < 2:
         return [fn(x) for x in items]
+    _preload_while_waiting(w.mesh)       # this process waits from here: its imports meanwhile
     w.started()
     if w.error is not None:              # the workers could not start: build here
         return [fn(x) for x in items]
@@ -309,6 +352,7 @@ class PendingSolids:
         """``[(name, status, OCC shape, detail)]`` in the order of the parts (waits), then
         stops the workers. With ``mesh`` the workers made the 3DM's records too
         (:meth:`breps`)."""
+        _preload_while_waiting(self._workers.mesh)
         self._starter.join()
         res, records = {}, {}
         #: {part name: the binary BRep a worker sent} (what another process reads the solid from)
@@ -321,8 +365,10 @@ class PendingSolids:
                 raise self._error
             # each chunk's shapes are read back as it comes, while the workers build the
             # last ones (a second of this process's time on 7a that the STEP file waited for)
-            for f in self._futures:
+            for i, f in enumerate(self._futures):
                 rows, cpu, record_cpu = f.result()
+                if i == 0:
+                    _preloaded()
                 self.cpu_seconds += cpu
                 self.brep_cpu_seconds += record_cpu
                 for name, status, data, detail, record in rows:

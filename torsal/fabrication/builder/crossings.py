@@ -19,7 +19,7 @@ import numpy as np
 
 from ..joints import MAX_SLOT_SKEW, TONGUE_SHARE, slot_width
 from ..model import Crossing, Joint, JointKind, Part, Slot, SlotSide, _cross
-from ..unroll import unroll
+from ..unroll import flat_outline
 from .seams import SeamReason, SlotSeams
 from .strips import _Strips
 
@@ -339,7 +339,7 @@ class CrossingSlotter:
 
         def whole(p: Part, slots) -> bool:
             try:
-                unroll(p.panels, slots=list(slots), name=p.name)
+                flat_outline(p.panels, slots=list(slots), name=p.name)
             except ValueError as e:
                 return "slots cut" not in str(e)
             return True

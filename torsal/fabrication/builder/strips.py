@@ -18,7 +18,7 @@ import numpy as np
 from ..joints import toward_panel
 from ..model import (FAMILY_COLORS, MITER_LIMIT, FamilySplit, Part, PartId, _bowtie, _fold_deg,
                      _miter, _oriented_size, _safe_normals, panel_widths)
-from ..unroll import unroll
+from ..unroll import flat_outline
 
 
 class _Strips(NamedTuple):
@@ -307,7 +307,7 @@ class StripCutter:
     def _fits_sheet(self, quads: np.ndarray) -> bool:
         fs = self.fs
         try:
-            outline = unroll(quads, slots=[]).outline
+            outline = flat_outline(quads)
         except ValueError:          # overlaps itself when unrolled: too long anyway
             return False
         w, h = _oriented_size(outline)

@@ -17,7 +17,7 @@ from torsal.core.units import UNIT_TO_MM
 
 from ..joints import TabGeometry, _Untrimmable, place_connector, tab_panel
 from ..model import JointKind, Part, _miter, _oriented_size, quad_normals
-from ..unroll import unroll
+from ..unroll import flat_outline
 from .connectors import CONNECTOR_GAP, _starts_on
 from .seams import JointFallback
 
@@ -255,7 +255,7 @@ def _flat_size(quads: np.ndarray) -> tuple[float, float]:
     """(long, short) sides of the least rectangle round the panels ``quads`` laid flat (inf:
     they overlap themselves laid flat)."""
     try:
-        return _oriented_size(unroll(quads, slots=[]).outline)
+        return _oriented_size(flat_outline(quads))
     except ValueError:
         return np.inf, np.inf
 

@@ -61,12 +61,26 @@ def _nest_and_write(unrolled, options: dict, dxf, progress):
     return layout, (write_sheets(layout, dxf) if dxf is not None else None)
 
 
+def _counts_tries(options: dict) -> bool:
+    """Whether the nest ``options`` ask for gives the same sheets however fast it runs: no time
+    limit and not :attr:`~.stats.Nester.SPARROW` (which stops on the clock)."""
+    from .stats import Nester
+
+    return options.get("time_limit") is None and options.get("nester") != Nester.SPARROW
+
+
 def _nest_in_child(unrolled, options: dict, dxf, queue) -> None:
     """Nesting process: ``("progress", (done, left))`` while it runs, then ``("done",
     (layout, sheets))`` or ``("error", exception)`` on ``queue``."""
     def progress(done: int, left: int) -> None:
         queue.put(("progress", (done, left)))
 
+    if _counts_tries(options):
+        # the design's solids (and the files after them) come first; a nester that counts
+        # its tries nests the same sheets at any priority (not sparrow: it stops on the clock)
+        from ..workers import run_in_background
+
+        run_in_background()
     try:
         layout = _nest_and_write(unrolled, options, dxf, progress)
     except BaseException as exc:            # re-raised in the parent
