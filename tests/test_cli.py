@@ -102,7 +102,7 @@ TINY_DESIGN = """
 name = "tiny [draft]"
 [surface]
 generator = "facade_patch"
-params = {{ nu = 7, nv = 5 }}
+params = {{ nu = 7, nv = 5, width = 6.0, height = 3.0 }}
 [sun]
 vectors = [[0.3, -0.8, 0.5], [0.5, -0.7, 0.4]]
 [fins]
@@ -215,11 +215,12 @@ def test_design_on_an_obj_with_uv_seams_runs_on_the_merged_mesh(tmp_path, capsys
     sys.path.insert(0, str(ROOT / "tests"))
     import mesh_cases as mc
 
-    v, f = facade_patch(nu=7, nv=5)
+    v, f = facade_patch(nu=7, nv=5, width=6.0, height=3.0)
     (tmp_path / "seams.obj").write_text(mc.obj_text(*mc.split_per_face(v, f), uv=True))
     design = tmp_path / "d.toml"
     design.write_text(TINY_DESIGN.format(spacing=1.0).replace(
-        'generator = "facade_patch"\nparams = { nu = 7, nv = 5 }', 'mesh = "seams.obj"'))
+        'generator = "facade_patch"\nparams = { nu = 7, nv = 5, width = 6.0, height = 3.0 }',
+        'mesh = "seams.obj"'))
     assert main(["design", str(design), "--out", str(tmp_path / "o")]) == 0, capsys.readouterr().err
     surface = json.loads((tmp_path / "o" / "report.json").read_text())["surface"]
     assert surface["vertices"] == len(v) and surface["faces"] == len(f)
@@ -252,16 +253,16 @@ def test_no_size_limit_runs_a_design_above_the_limits(tmp_path, capsys, monkeypa
     import importlib
 
     checks = importlib.import_module("torsal.pipeline.checks")
-    monkeypatch.setitem(checks.SIZE_LIMITS, "fins", 50)  # the tiny design has about 130 fins
+    monkeypatch.setitem(checks.SIZE_LIMITS, "fins", 20)  # the tiny design has about 55 fins
     design = tmp_path / "d.toml"
     design.write_text(TINY_DESIGN.format(spacing=1.0))
     assert main(["design", str(design), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert re.search(r"fins about \d+ \(limit 50\): change fins.spacing", err)
+    assert re.search(r"fins about \d+ \(limit 20\): change fins.spacing", err)
     assert main(["design", str(design), "--out", str(tmp_path / "o"), "--no-size-limit"]) == 0
     est = json.loads((tmp_path / "o" / "report.json").read_text())["estimate"]
     fins = json.loads((tmp_path / "o" / "report.json").read_text())["support"]["edges"]
-    assert est["fins"] > 50 and est["limits"]["fins"] == 50
+    assert est["fins"] > 20 and est["limits"]["fins"] == 20
     assert 0.5 < est["fins"] / fins < 2  # the estimate is the right size
 
 
