@@ -36,8 +36,9 @@ def write_canopy_design(folder: Path, **outputs) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     write_hypar(folder / "hypar.obj")
     write_synthetic_epw(folder / "site.epw", 48.21, 16.37, tz_hours=1.0)
-    opts = {"step": False, "rhino_3dm": False, "dxf": False, "bom": False, "renders": True,
-            "light_samples": 400, **outputs}
+    # no solids (STEP, 3DM, IFC): what is compared is the light, not the files
+    opts = {"step": False, "rhino_3dm": False, "ifc": False, "dxf": False, "bom": False,
+            "renders": True, "light_samples": 400, **outputs}
     out = "\n".join(f"{k} = {json.dumps(v)}" for k, v in opts.items())
     (folder / "canopy.toml").write_text(f"""name = "hypar canopy"
 units = "m"
