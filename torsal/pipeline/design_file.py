@@ -65,6 +65,7 @@ __all__ = [
     "DesignSpec",
     "FILE_KEYS",
     "Region",
+    "absolute_file_paths",
     "load_design_file",
     "rates_with_file",
     "validate_design",
@@ -649,6 +650,22 @@ class CostsSpec(_Spec):
 
 #: the design file's keys that name a file, ``(table, key)``: relative to the design file
 FILE_KEYS = (("surface", "mesh"), ("sun", "epw"), ("sun", "weather"), ("costs", "file"))
+
+
+def absolute_file_paths(data: dict, base: Path) -> dict:
+    """``data`` (a design file's tables) with its relative file paths (:data:`FILE_KEYS`) made
+    absolute against the folder ``base``, in place: for a design written to another folder
+    (a study's variant, the FreeCAD object's job). Values that are not strings are left for
+    validation to report.
+
+    >>> absolute_file_paths({"sun": {"epw": "site.epw"}}, Path("/d"))["sun"]["epw"]
+    '/d/site.epw'
+    """
+    for table, key in FILE_KEYS:
+        p = data.get(table, {}).get(key)
+        if isinstance(p, str) and not Path(p).is_absolute():
+            data[table][key] = str((base / p).resolve())
+    return data
 
 
 def rates_with_file(costs: dict) -> dict:

@@ -46,8 +46,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ..pipeline.design_file import (FILE_KEYS, DesignFileError, DesignSpec, _format_errors,
-                                    load_design_file)
+from ..pipeline.design_file import (DesignFileError, DesignSpec, _format_errors,
+                                    absolute_file_paths, load_design_file)
 
 __all__ = ["StudyFileError", "StudySpec", "AxisRange", "RunSpec", "SearchSpec", "Variant",
            "load_study_file", "check_axis", "design_with", "grid_variants", "OBJECTIVE_KEYS",
@@ -245,12 +245,9 @@ def _set(data: dict, key: str, value) -> None:
 
 def _absolute_paths(data: dict, base_dir: Path) -> dict:
     """File paths in a design dict made absolute against the base design's folder, so a
-    variant's design file works from its own folder."""
-    for table, key in FILE_KEYS:
-        p = data.get(table, {}).get(key)
-        if isinstance(p, str) and not Path(p).is_absolute():
-            data[table][key] = str((base_dir / p).resolve())
-    return data
+    variant's design file works from its own folder (:func:`~torsal.pipeline.design_file.
+    absolute_file_paths`)."""
+    return absolute_file_paths(data, base_dir)
 
 
 def design_with(base: dict, base_dir: Path, axes: dict, *, label: str = "") -> tuple[DesignSpec, str]:

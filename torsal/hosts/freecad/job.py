@@ -32,7 +32,7 @@ from ...core.units import UNIT_TO_MM, scale
 from ...geometry.surfaces import grid_faces
 from ...pipeline.assembly import unbuildable_message
 from ...pipeline.design import Design
-from ...pipeline.design_file import FILE_KEYS, DesignFileError, load_design_file
+from ...pipeline.design_file import DesignFileError, absolute_file_paths, load_design_file
 from ..results import read_parts
 
 __all__ = ["FinsJob", "FinsOutcome", "SurfaceGrid", "effective_design", "grid_mesh", "run_job",
@@ -141,12 +141,9 @@ def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
 
 
 def _absolute(data: dict, base: Path) -> None:
-    """The design file's relative paths (:data:`~torsal.pipeline.design_file.FILE_KEYS`)
-    made absolute: the job's design file lives in another folder."""
-    for table, key in FILE_KEYS:
-        value = data.get(table, {}).get(key)
-        if value is not None and not Path(value).is_absolute():
-            data[table][key] = str((base / value).resolve())
+    """The design file's relative paths made absolute (:func:`~torsal.pipeline.design_file.
+    absolute_file_paths`): the job's design file lives in another folder."""
+    absolute_file_paths(data, base)
 
 
 def _family_value(given, both_mm: float | None, second_mm: float | None, mm: float):
