@@ -201,6 +201,10 @@ class FinSystem:
         shorter strip), and one panel of every pair that blocks a part's path into place along
         every direction its joints allow (the cheaper one); ``reason`` names the other panel
         or part.
+    held_crossings : list of :class:`~.builder.held.HeldCrossing`
+        Egg-crate crossings the builder butted with brackets (or tabs) because the load path
+        found a plate hung there loose (its way out of the slot dips, no fixing fits it): each
+        names the plate, the plate it is now bolted to and why (warned; :mod:`.builder.held`).
 
     Examples
     --------

@@ -104,12 +104,15 @@ def fabrication_summary(fs) -> dict:
     fallbacks named, the brackets that stayed instead of a tab among them) and ``tabs``
     (:func:`~torsal.fabrication.builder.tabs.tab_report`: the butt joints made with a tab bent
     from the butted plate instead of a bracket, the fallbacks by reason, the brackets taken
-    away where the parts were joined without them).
+    away where the parts were joined without them) and ``held_by_builder``
+    (:func:`~torsal.fabrication.builder.held.held_report`: the crossings the builder bolted
+    because the load path found a plate hung there loose, each plate named with why).
 
     >>> fabrication_summary(fs)["connector_share"]                    # doctest: +SKIP
     0.43
     """
     from ..fabrication.builder.fasteners import fastener_counts
+    from ..fabrication.builder.held import held_report
     from ..fabrication.builder.seams import joinery_report
     from ..fabrication.builder.tabs import tab_report
 
@@ -132,4 +135,6 @@ def fabrication_summary(fs) -> dict:
         "joinery": joinery_report(fs),
         # butt joints made with a tab bent from the butted plate, no bracket (issue 42)
         "tabs": tab_report(fs),
+        # crossings bolted because the load path found a plate hung there loose (issue 40)
+        "held_by_builder": held_report(fs),
     }

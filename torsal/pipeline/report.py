@@ -628,6 +628,21 @@ def _left_out_cell(fa: dict) -> str:
             f"{named}{more}")
 
 
+def _held_rows(fa: dict) -> list:
+    """The row of the plates the builder bolted to the plate they hung on because the load
+    path found them loose (``fabrication.held_by_builder``); none where it bolted none."""
+    held = fa.get("held_by_builder") or {}
+    if not held.get("crossings"):
+        return []
+    named = "; ".join(html.escape(f"{h['part']} to {h['holder']} at node {h['node']}"
+                                  + f" ({h['dip_deg']:.0f} deg): " + ", ".join(
+                                      [f"tab {n}" for n in h["tabs"]]
+                                      + [f"bracket {c}" for c in h["brackets"]]))
+                      for h in held.get("list", [])[:12])
+    return [("plates bolted where their slot would let them slide out",
+             f"{held['crossings']} crossings butted and bolted (no fixing fitted): {named}")]
+
+
 def _fastener_rows(fa: dict) -> list:
     """Rows of the connectors, fixings and fasteners a workshop counts (see
     :func:`torsal.pipeline.fins.fabrication_summary`)."""
@@ -975,7 +990,7 @@ def design_report_html(report: dict, images: dict, title: str, *, view3d: str | 
         rows = [("parts", fa["parts"]), ("panels", fa["panels"]), ("sheets", fa["sheets"]),
                 ("sheet utilization", fa["utilization"]),
                 *_nesting_rows(fa.get("nesting"), fa.get("cutting")),
-                ("fin panels left out", _left_out_cell(fa))] + _fastener_rows(fa) + [
+                ("fin panels left out", _left_out_cell(fa)), *_held_rows(fa)] + _fastener_rows(fa) + [
                 ("STEP", f'<a href="{fa["step"]}">{fa["step"]}</a>' if fa.get("step") else "-"),
                 ("DXF", ", ".join(f'<a href="{p}">{p}</a>' for p in dxf) or "-")]
         secs.append("<h2>4. Fabrication</h2>" + _table(rows))

@@ -22,6 +22,7 @@ from .crossings import CrossingSlotter
 from .ends import EndJoiner
 from .fasteners import FastenerLayout
 from .fixings import FixingPlacer
+from .held import MAX_HOLD_ROUNDS, HeldCrossing, hold_crossings, publish_held, warn_held
 from .paths import AssemblyPlanner
 from .seams import JointFallback, SlotSeam, SlotSeams
 from .strips import StripCutter, _plate_panels, _read_strips
@@ -46,6 +47,8 @@ def reset_state(fs) -> None:
     fs.crossings: list[Crossing] = []
     #: part ends that could not be butt-trimmed: (part name, node, reason)
     fs.untrimmed_joints: list[tuple[str, int, str]] = []
+    #: crossings butted so that a loose plate is bolted to the plate it hung on (.held)
+    fs.held_crossings: list = []
     init_joints(fs)
     fs.parts = []
 
@@ -135,10 +138,12 @@ class Rebuilder:
         connectors and sheet fits of all other ends are taken from the builds before
         (``FinSystem._cached``), so each costs less than the first.
 
-        Then the load path of the result (:meth:`_unheld`): plates it does not reach from the
-        building are fixed in one more build (``_fix_also``: one fixing each, along the way
-        they go in); those still held by nothing (no fixing fits them) are left out in the
-        next (``_unholdable``, named in ``coplanar_panels``). A crossing where a slot would
+        Then the load path of the result (:meth:`_hold_loose`): plates it does not reach from
+        the building are fixed in one more build (``_fix_also``: one fixing each, along the way
+        they go in); those still held by nothing (no fixing fits them) that hang in a slot
+        their weight draws them out of are bolted to the plate they hang on, that crossing
+        butted with brackets (:mod:`.held`, named in ``held_crossings``); those still held by
+        nothing are left out in the next (``_unholdable``, named in ``coplanar_panels``). A crossing where a slot would
         cut its part in two and the plates would interfere is butted in a new build
         (:meth:`_butt_slots`; named in ``joint_fallbacks``, ``slot-cuts-part``)."""
         fs = self.fs
@@ -151,8 +156,13 @@ class Rebuilder:
             #: crossings butted because a slot there would cut its part in two and the plates
             #: would interfere (:meth:`_slot_butts`): {node: (family split, why, parts)}
             fs._slot_butts: dict[int, tuple] = {}
+            #: crossings butted so that a plate the load path found loose is bolted to the
+            #: plate it hung on ({node: HeldCrossing}, :mod:`.held`), and the rounds that did
+            fs._hold_butts: dict[int, HeldCrossing] = {}
+            fs._hold_rounds = 0
         extra: dict[int, set] = {}
         forced: dict[int, tuple[int, str]] = {v: b[:2] for v, b in fs._slot_butts.items()}
+        forced.update((v, (h.family, h.why)) for v, h in fs._hold_butts.items())
         left_out: list[tuple[str, int, int, str]] = []
         #: (strip index, panel of the strip) that take no fixing: one there was in a part's way
         fs._fixing_exclude: set = set()
@@ -163,9 +173,11 @@ class Rebuilder:
         #: could not be trimmed the way the joinery first chose (the joint changed)
         fs._base_at: dict[int, int] = {}
         #: seams refused a crossing slot ({(family, node): JointFallback}) and the local
-        #: assembly checks of the seams by content (.builder.seams)
+        #: assembly checks of the seams by content (.builder.seams: kept through the builds
+        #: again below, which change a few joints and leave most seams as they were)
         fs._seams_refused: dict = {}
-        fs._seam_verdicts: dict = {}
+        if not hasattr(fs, "_seam_verdicts"):
+            fs._seam_verdicts: dict = {}
         for attempt in range(MAX_REBUILDS + 1):
             fs._rebuilds = attempt
             reset_state(fs)
@@ -216,24 +228,14 @@ class Rebuilder:
         TabJoints(fs).make()
         # the fasteners' holes, in the connectors, fixings and the plates they lie on
         FastenerLayout(fs)._drill()
-        unheld = self._unheld()
-        if unheld - fs._fix_also:
-            # plates that reach the building through nothing (a group of plates butted onto
-            # each other, none of them carrying the others): build once more, each fixed
-            fs._fix_also |= unheld
+        if self._hold_loose():
             return self.build_until_trimmed()
-        if unheld - fs._unholdable and len(unheld | fs._unholdable) <= (
-                MAX_UNHOLDABLE_SHARE * sum(len(p.panels) for p in fs.parts if p.family in (0, 1))):
-            # fixed where a fixing fits, and still held by nothing: no room for a fixing on
-            # them: left out (named), as a workshop could not hold them either. Not more than
-            # a few: a design most of whose fins no fixing fits stays as it is, and its load
-            # path says so (not buildable)
-            fs._unholdable |= unheld
-            return self.build_until_trimmed()
+        fs.held_crossings = publish_held(fs, fs._hold_butts)
         for w in caught:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         if left_out:
             _warn_left_out(left_out)
+        warn_held(fs.held_crossings)
 
     def _butt_slots(self) -> bool:
         """Slots that would cut a part in two, once, on the final parts (it unrolls them all:
@@ -277,15 +279,48 @@ class Rebuilder:
                                            and j.kind == JointKind.EGG_CRATE for n in j.parts})))
         return out
 
-    def _unheld(self) -> set[tuple[int, int]]:
-        """The panels ``(strip index, panel of the strip)`` of the fin plates (families 0 and
-        1) the load path does not reach from the building
-        (:func:`torsal.fabrication.assembly.load_path.load_path`): by panel, as a plate's name
-        changes when a build leaves panels out."""
+    def _hold_loose(self) -> bool:
+        """Whether the plates the load path finds loose (:meth:`_unheld`) take one more build,
+        and what changes in it (``True``: build again): plates that reach the building through
+        nothing (a group of plates butted onto each other, none of them carrying the others)
+        are fixed to it, each (``_fix_also``); those no fixing holds and that hang in a slot
+        their weight draws them out of are bolted to the plate they hang on, that crossing
+        butted with brackets (:func:`.held.hold_crossings`, ``_hold_butts``; at most
+        :data:`.held.MAX_HOLD_ROUNDS` rounds); those still held by nothing, if few, are left
+        out (``_unholdable``, named)."""
         from ..assembly.load_path import load_path
 
         fs = self.fs
-        loose = set(load_path(fs).unsupported_parts)
+        lp = load_path(fs)
+        unheld = self._unheld(lp)
+        if unheld - fs._fix_also:
+            fs._fix_also |= unheld
+            return True
+        if unheld and fs._hold_rounds < MAX_HOLD_ROUNDS:
+            new = hold_crossings(fs, lp, taken=set(fs._slot_butts) | set(fs._hold_butts))
+            if new:
+                fs._hold_butts.update(new)
+                fs._hold_rounds += 1
+                return True
+        if unheld - fs._unholdable and len(unheld | fs._unholdable) <= (
+                MAX_UNHOLDABLE_SHARE * sum(len(p.panels) for p in fs.parts if p.family in (0, 1))):
+            # fixed where a fixing fits, bolted where a slot could hold them, and still held by
+            # nothing: no room for a fixing on them: left out (named), as a workshop could not
+            # hold them either. Not more than a few: a design most of whose fins no fixing
+            # fits stays as it is, and its load path says so (not buildable)
+            fs._unholdable |= unheld
+            return True
+        return False
+
+    def _unheld(self, lp=None) -> set[tuple[int, int]]:
+        """The panels ``(strip index, panel of the strip)`` of the fin plates (families 0 and
+        1) the load path ``lp`` does not reach from the building (default
+        :func:`torsal.fabrication.assembly.load_path.load_path` of the fin system): by panel,
+        as a plate's name changes when a build leaves panels out."""
+        from ..assembly.load_path import load_path
+
+        fs = self.fs
+        loose = set((load_path(fs) if lp is None else lp).unsupported_parts)
         return {(fs._strip_of[p.name], p.span[0] + j) for p in fs.parts
                 if p.family in (0, 1) and p.name in loose for j in range(len(p.panels))}
 
