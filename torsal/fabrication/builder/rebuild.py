@@ -143,41 +143,14 @@ class Rebuilder:
         they go in); those still held by nothing (no fixing fits them) that hang in a slot
         their weight draws them out of are bolted to the plate they hang on, that crossing
         butted with brackets (:mod:`.held`, named in ``held_crossings``); those still held by
-        nothing are left out in the next (``_unholdable``, named in ``coplanar_panels``). A crossing where a slot would
-        cut its part in two and the plates would interfere is butted in a new build
-        (:meth:`_butt_slots`; named in ``joint_fallbacks``, ``slot-cuts-part``)."""
+        nothing are left out in the next (``_unholdable``, named in ``coplanar_panels``). A
+        crossing where a slot would cut its part in two and the plates would interfere is
+        butted in a new build (:meth:`_butt_slots`; named in ``joint_fallbacks``,
+        ``slot-cuts-part``)."""
         fs = self.fs
-        #: panels {(strip index, panel of the strip)} whose plates are fixed to the building
-        #: because a build before left them held by nothing
-        if not hasattr(fs, "_fix_also"):
-            fs._fix_also: set[tuple[int, int]] = set()
-            #: panels left out because even fixed their plates were held by nothing
-            fs._unholdable: set[tuple[int, int]] = set()
-            #: crossings butted because a slot there would cut its part in two and the plates
-            #: would interfere (:meth:`_slot_butts`): {node: (family split, why, parts)}
-            fs._slot_butts: dict[int, tuple] = {}
-            #: crossings butted so that a plate the load path found loose is bolted to the
-            #: plate it hung on ({node: HeldCrossing}, :mod:`.held`), and the rounds that did
-            fs._hold_butts: dict[int, HeldCrossing] = {}
-            fs._hold_rounds = 0
+        forced = self._start_records()
         extra: dict[int, set] = {}
-        forced: dict[int, tuple[int, str]] = {v: b[:2] for v, b in fs._slot_butts.items()}
-        forced.update((v, (h.family, h.why)) for v, h in fs._hold_butts.items())
         left_out: list[tuple[str, int, int, str]] = []
-        #: (strip index, panel of the strip) that take no fixing: one there was in a part's way
-        fs._fixing_exclude: set = set()
-        #: (strip index, node line of the strip) where a split for the sheet must not be: a
-        #: mitred seam there could not be trimmed
-        fs._avoid_splits: set = set()
-        #: node -> family whose plate the other family's parts end against there, where an end
-        #: could not be trimmed the way the joinery first chose (the joint changed)
-        fs._base_at: dict[int, int] = {}
-        #: seams refused a crossing slot ({(family, node): JointFallback}) and the local
-        #: assembly checks of the seams by content (.builder.seams: kept through the builds
-        #: again below, which change a few joints and leave most seams as they were)
-        fs._seams_refused: dict = {}
-        if not hasattr(fs, "_seam_verdicts"):
-            fs._seam_verdicts: dict = {}
         for attempt in range(MAX_REBUILDS + 1):
             fs._rebuilds = attempt
             reset_state(fs)
@@ -236,6 +209,44 @@ class Rebuilder:
         if left_out:
             _warn_left_out(left_out)
         warn_held(fs.held_crossings)
+
+    def _start_records(self) -> dict[int, tuple[int, str]]:
+        """Empty the records :meth:`build_until_trimmed` keeps through its rebuilds (those it
+        keeps through the builds again after it, the load path's and the slots' changes and
+        the seams' verdicts, only on the first); returns the crossings forced to butt from the
+        start, ``{node: (family split, why)}``: where a slot would cut a part in two, and the
+        crossings bolted for the load path."""
+        fs = self.fs
+        #: panels {(strip index, panel of the strip)} whose plates are fixed to the building
+        #: because a build before left them held by nothing
+        if not hasattr(fs, "_fix_also"):
+            fs._fix_also: set[tuple[int, int]] = set()
+            #: panels left out because even fixed their plates were held by nothing
+            fs._unholdable: set[tuple[int, int]] = set()
+            #: crossings butted because a slot there would cut its part in two and the plates
+            #: would interfere (:meth:`_slot_butts`): {node: (family split, why, parts)}
+            fs._slot_butts: dict[int, tuple] = {}
+            #: crossings butted so that a plate the load path found loose is bolted to the
+            #: plate it hung on ({node: HeldCrossing}, :mod:`.held`), and the rounds that did
+            fs._hold_butts: dict[int, HeldCrossing] = {}
+            fs._hold_rounds = 0
+        #: (strip index, panel of the strip) that take no fixing: one there was in a part's way
+        fs._fixing_exclude: set = set()
+        #: (strip index, node line of the strip) where a split for the sheet must not be: a
+        #: mitred seam there could not be trimmed
+        fs._avoid_splits: set = set()
+        #: node -> family whose plate the other family's parts end against there, where an end
+        #: could not be trimmed the way the joinery first chose (the joint changed)
+        fs._base_at: dict[int, int] = {}
+        #: seams refused a crossing slot ({(family, node): JointFallback}) and the local
+        #: assembly checks of the seams by content (.builder.seams: kept through the builds
+        #: again below, which change a few joints and leave most seams as they were)
+        fs._seams_refused: dict = {}
+        if not hasattr(fs, "_seam_verdicts"):
+            fs._seam_verdicts: dict = {}
+        forced = {v: b[:2] for v, b in fs._slot_butts.items()}
+        forced.update((v, (h.family, h.why)) for v, h in fs._hold_butts.items())
+        return forced
 
     def _butt_slots(self) -> bool:
         """Slots that would cut a part in two, once, on the final parts (it unrolls them all:
