@@ -20,6 +20,9 @@ and every path is clear; :class:`FreeStrips` (:mod:`.free`) makes the parts of f
 * :mod:`.clash` finds plates that run into each other without a joint (:class:`ClashFinder`);
 * :mod:`.paths` orders the parts, gives each butted part its direction and checks its path
   into place (:class:`AssemblyPlanner`);
+* :mod:`.held` is the safety net of the load path: a plate hung loose in a slot it would slide
+  out of, where no fixing fits, is bolted to the plate it hangs on (the crossing butted) and
+  named (``FinSystem.held_crossings``);
 * :mod:`.proximity` (panel distance kernels) and :mod:`.memo` (kernel results kept across
   rebuilds) serve them.
 
