@@ -20,6 +20,7 @@ from torsal.fabrication.model import JointKind
 from torsal.pipeline.cache import StageCache
 from torsal.pipeline.design_file import load_design_file
 from torsal.pipeline.fins import fabrication_summary, fin_system, forget_fin_system
+from torsal.pipeline.report import _held_rows
 from torsal.pipeline.stage import StageRun, run_stages
 from torsal.pipeline.stages import DEFAULT_PIPELINE
 
@@ -129,5 +130,8 @@ def test_the_net_bolts_them_to_the_plates_they_hang_on(patch):
     assert report["crossings"] == 3 and report["parts"] == LOOSE
     assert all("no fixing held it" in h["why"] and h["holder"] in h["why"] for h in report["list"])
     assert held_report(fs) == report
+    (label, cell), = _held_rows({"held_by_builder": report})
+    assert cell.startswith("3 crossings") and all(name in cell for name in LOOSE)
+    assert _held_rows({"held_by_builder": {"crossings": 0, "parts": [], "list": []}}) == []
     warned = [m for m in said if "hung loose in slots" in m]
     assert len(warned) == 1 and all(name in warned[0] for name in LOOSE)
