@@ -33,6 +33,12 @@ depth = 0.4
 """
 
 
+#: the module's tests share its design run (8 s of setup): on one xdist worker
+#: (make test's --dist loadgroup) it is made once; tests split over the two workers
+#: would make it twice
+pytestmark = pytest.mark.xdist_group("congruence-convergence-report")
+
+
 @pytest.fixture(scope="module")
 def congruence(tmp_path_factory):
     spec = DesignSpec.model_validate(tomllib.loads(DESIGN))

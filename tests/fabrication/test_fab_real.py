@@ -26,6 +26,10 @@ CASES = ["9_selective_shading", "7d_flat_facade_regions", "13_reflect_to_ceiling
          "7c_facade_see_through"]
 SHEET = (2500.0, 1250.0)
 _CACHE: dict = {}
+#: the tests share _build's fin systems (and their solids, seconds each: 9_selective_shading's
+#: took 14.5 s): on one xdist worker (make test's --dist loadgroup) each is built once, where
+#: split over the two workers they were built twice (a fresh clone's make test)
+pytestmark = pytest.mark.xdist_group("fab-real")
 
 
 def _build(name: str):

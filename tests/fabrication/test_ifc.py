@@ -30,6 +30,12 @@ STRUCTURES = {"flat": flat_structure, "sphere": lambda: sphere_structure(nu=4, n
 PART_CLASSES = ("IfcPlate", "IfcMember")
 
 
+#: the module's tests share each structure's solids and IFC (7 s of setup): on one xdist worker
+#: (make test's --dist loadgroup) it is made once; tests split over the two workers
+#: would make it twice
+pytestmark = pytest.mark.xdist_group("ifc-export")
+
+
 @pytest.fixture(scope="module", params=sorted(STRUCTURES))
 def exported(request, tmp_path_factory):
     """(fin system, its fins.ifc opened, the folder with fins.ifc, fins.step, parts.csv)."""

@@ -48,6 +48,12 @@ def _torsal_angle_numpy(c: Congruence) -> np.ndarray:
     return out
 
 
+#: the module's tests share its solves (11 s of setup): on one xdist worker
+#: (make test's --dist loadgroup) it is made once; tests split over the two workers
+#: would make it twice
+pytestmark = pytest.mark.xdist_group("optimize-forms")
+
+
 @pytest.fixture(scope="module")
 def solved():
     c = Congruence.from_normals(facade_patch(nu=9, nv=7))

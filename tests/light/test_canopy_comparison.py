@@ -19,8 +19,10 @@ from torsal.light.sun import write_synthetic_epw
 FACADE_DEVICES = ("horizontal louvers", "vertical fins", "egg-crate")
 
 
-def write_hypar(path: Path, n: int = 11, size: float = 6.0, k: float = 0.12) -> Path:
-    """A hyperbolic paraboloid z = 3 + k x y over a size x size square, as an OBJ of quads."""
+def write_hypar(path: Path, n: int = 9, size: float = 4.5, k: float = 0.16) -> Path:
+    """A hyperbolic paraboloid z = 3 + k x y over a size x size square, as an OBJ of quads.
+    (4.5 m, 28 fins at 1.5 m: the 6 m one (k = 0.12, the same shape) has 45, its run costs a
+    third more and shows nothing more of the devices.)"""
     x = np.linspace(-size / 2, size / 2, n)
     lines = [f"v {a:.6f} {b:.6f} {3.0 + k * a * b:.6f}" for a in x for b in x]
     for i in range(n - 1):

@@ -84,6 +84,12 @@ def test_reflect_planes_are_mirrors_into_the_target_and_planes_of_incidence():
         reflect_planes(low, v, f, sun, w)
 
 
+#: the module's tests share its optimized reflector (7 s of setup): on one xdist worker
+#: (make test's --dist loadgroup) it is made once; tests split over the two workers
+#: would make it twice
+pytestmark = pytest.mark.xdist_group("reflection-design")
+
+
 @pytest.fixture(scope="module")
 def small_design():
     """The small reflector optimized, remeshed (unplanarized fins) and measured."""

@@ -106,7 +106,6 @@ def show(result_or_folder, *, port: int | None = None, **viewer_options) -> Fins
     run = fins_folder(result_or_folder)      # a bad folder is named before anything else
     try:
         import ocp_vscode
-        from build123d import Compound, Solid
     except ImportError:
         raise ViewerUnavailableError(f"the OCP CAD viewer is not installed: {_INSTALL}") from None
     port = port or ocp_vscode.get_port() or DEFAULT_PORT
@@ -115,6 +114,9 @@ def show(result_or_folder, *, port: int | None = None, **viewer_options) -> Fins
         raise ViewerUnavailableError(f"no OCP CAD viewer is listening on {host}:{port}: start one "
                                      f"with  python -m ocp_viewer --port {port}  (or VS Code's "
                                      "OCP CAD Viewer), then call show again")
+    # (build123d, a dependency of torsal, only once a viewer listens: its import takes seconds)
+    from build123d import Compound, Solid
+
     scene = fins_scene(run.folder if run.step.name == "fins.step" else run.step)
     nodes = [Compound(children=[Solid(scene.solids[n]) for n in names], label=group.value)
              for group, names in scene.groups.items()]

@@ -148,13 +148,18 @@ def _step_solids(path: Path):
 
 
 def _solids(inp: StageInputs):
+    """The solids the check gets: those of the design's STEP file, else the fin system's as
+    bare OpenCascade shapes (:func:`~torsal.fabrication.solids.solid_shapes`: the solids
+    :meth:`~torsal.fabrication.FinSystem.solids` would wrap, without importing build123d,
+    seconds of a run that writes no STEP file)."""
     fab = inp["fabrication"]
     step = fab.get("files", {}).get("step")
     if step and (inp.out / step).exists():
         return _step_solids(inp.out / step)
+    from ..fabrication.solids import solid_shapes
     from .fins import fin_system
 
-    return fin_system(inp.spec, inp["support"]["structure"]).solids()
+    return solid_shapes(fin_system(inp.spec, inp["support"]["structure"]))
 
 
 #: where the pairs and paths the check proved are kept (one memo for a design, or for all
