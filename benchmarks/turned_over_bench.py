@@ -26,6 +26,7 @@ turned over; the cuts, the yield of the last):
   adding a fixing), not turned over: 38;
 * 7b: 40 / 38 / 37 (135 cuts, 81.9 %); its whole plates turned over, not cut: 41;
 * 13: 29 / 28 / 28 (154 cuts, 82.0 %): cutting is enough;
+* 7c: 36 / 37 / 36 (69 cuts): neither helps;
 * 9: every allowed cut (175): 45, as unrolled: 45 (the search's sheets of bent, tapered strips
   are 50-81 % full: not the cuts, the packing of such shapes is what is left).
 
