@@ -5,6 +5,7 @@ process that keeps a core busy, each with a cache of its own (nothing is reused)
 and every DXF sheet are byte-identical, by the rows of every run and by the final cut's search.
 """
 import hashlib
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -42,10 +43,31 @@ def _run(design: Design, out: Path) -> dict:
     return _cut_files(out)
 
 
+#: the tests that read ``quiet_runs`` run on one xdist worker, so that each quiet run (the
+#: final cut's: 12 s) is made once for the two tests that read it
+QUIET_RUNS = pytest.mark.xdist_group("determinism-quiet-runs")
+
+
+@pytest.fixture(scope="module")
+def quiet_runs(tmp_path_factory):
+    """``{final_cut: (folder, cut files)}`` of small 7a run on a quiet worker, made once each
+    (the folder holds the run's cache beside it, ``<folder>-cache``)."""
+    made = {}
+
+    def run(final_cut: bool):
+        if final_cut not in made:
+            out = tmp_path_factory.mktemp("quiet") / "out"
+            made[final_cut] = (out, _run(_design(final_cut), out))
+        return made[final_cut]
+
+    return run
+
+
+@QUIET_RUNS
 @pytest.mark.parametrize("final_cut", [False, True], ids=["rows", "final-cut"])
-def test_cut_files_are_byte_identical_under_load(tmp_path, final_cut):
+def test_cut_files_are_byte_identical_under_load(tmp_path, quiet_runs, final_cut):
     design = _design(final_cut)
-    quiet = _run(design, tmp_path / "quiet")
+    _, quiet = quiet_runs(final_cut)
     busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
         loaded = _run(design, tmp_path / "loaded")
@@ -55,12 +77,15 @@ def test_cut_files_are_byte_identical_under_load(tmp_path, final_cut):
     assert len(quiet) > 2 and quiet == loaded
 
 
-def test_the_final_cut_is_kept_with_the_design(tmp_path):
+@QUIET_RUNS
+def test_the_final_cut_is_kept_with_the_design(tmp_path, quiet_runs):
     """Asked for again after a change that leaves the flat parts as they are (here: no parts
     list), the final cut's sheets are read back from the design's cache, not searched again."""
     design = _design(final_cut=True)
-    out = tmp_path / "out"
-    first = _run(design, out)
+    made, first = quiet_runs(True)
+    out = tmp_path / "out"                  # a copy of the run: this test writes into it
+    shutil.copytree(made, out)
+    shutil.copytree(made.parent / f"{made.name}-cache", out.parent / f"{out.name}-cache")
     spec = design.spec
     again = Design(spec.model_copy(update={"outputs": spec.outputs.model_copy(update={"bom": False})}))
     res = again.run(out, cache=StageCache(out.parent / f"{out.name}-cache"),
