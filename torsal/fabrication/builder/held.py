@@ -63,8 +63,8 @@ class HeldCrossing:
                 "it (a bracket, or a tab bent from the butted end)")
 
 
-def way_out_dip(joint, name: str, *, up=None) -> float:
-    """Degrees the way out of plate ``name`` from the egg-crate ``joint`` dips below the
+def way_out_dip(joint, family: int, *, up=None) -> float:
+    """Degrees the way out of a plate of ``family`` from the egg-crate ``joint`` dips below the
     horizontal (negative: it rises): a family-0 plate comes off along the unit insert direction
     ``d``, a family-1 plate out along ``-d`` (the load path's rule,
     :func:`~torsal.fabrication.assembly.load_path.slides_out`)."""
@@ -73,14 +73,15 @@ def way_out_dip(joint, name: str, *, up=None) -> float:
     up = np.asarray(UP if up is None else up, float)
     d = np.asarray(joint.insert_direction, float)
     d = d / np.linalg.norm(d)
-    way = d if name.startswith("F0-") else -d
+    way = d if family == 0 else -d
     return float(np.degrees(np.arcsin(np.clip(-(way @ up), -1.0, 1.0))))
 
 
-def _candidates(fs, name: str, supported: set, taken: set) -> list[tuple]:
+def _candidates(fs, name: str, supported: dict, taken: set) -> list[tuple]:
     """``[(key, HeldCrossing)]``: the egg-crate crossings of the loose plate ``name`` whose way
-    out dips more than the load path allows and whose other plate is ``supported``, not in
-    ``taken`` (nodes butted already), keyed best first (at the plate's end, then by node)."""
+    out dips more than the load path allows and whose other plate is ``supported`` (``{name:
+    family}``), not in ``taken`` (nodes butted already), keyed best first (at the plate's end,
+    then by node)."""
     from ..assembly.load_path import SLIDE_DIP_DEG
 
     p = fs.part(name)
@@ -89,8 +90,8 @@ def _candidates(fs, name: str, supported: set, taken: set) -> list[tuple]:
     for j in fs.joints:
         if j.kind != JointKind.EGG_CRATE or name not in j.parts or int(j.node) in taken:
             continue
-        dip = way_out_dip(j, name)
-        holders = sorted(n for n in j.parts if n[:2] != name[:2] and n in supported)
+        dip = way_out_dip(j, p.family)
+        holders = sorted(n for n in j.parts if supported.get(n, p.family) != p.family)
         if dip > SLIDE_DIP_DEG and holders:
             held = HeldCrossing(int(j.node), p.family, name, holders[0], round(dip, 1))
             out.append(((int(j.node) not in ends, int(j.node)), held))
@@ -108,7 +109,7 @@ def hold_crossings(fs, lp, *, taken=frozenset()) -> dict[int, HeldCrossing]:
     {30: HeldCrossing(node=30, family=1, part='F1-S001-P00', holder='F0-S000-P00', ...)}
     """
     loose = set(lp.unsupported_parts)
-    supported = {p.name for p in fs.parts if p.name not in loose}
+    supported = {p.name: p.family for p in fs.parts if p.name not in loose}
     out: dict[int, HeldCrossing] = {}
     for p in sorted(fs.parts, key=lambda p: p.name):
         if p.family not in (0, 1) or p.name not in loose:
