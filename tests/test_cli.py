@@ -102,7 +102,7 @@ TINY_DESIGN = """
 name = "tiny [draft]"
 [surface]
 generator = "facade_patch"
-params = {{ nu = 7, nv = 5, width = 6.0, height = 3.0 }}
+params = {{ nu = 7, nv = 5, width = {width}, height = 3.0 }}
 [sun]
 vectors = [[0.3, -0.8, 0.5], [0.5, -0.7, 0.4]]
 [fins]
@@ -118,9 +118,15 @@ light_samples = 100
 """
 
 
+def tiny_design(*, spacing: float = 1.0, width: float = 6.0) -> str:
+    """The tiny design file's text: a ``width`` x 3 m facade patch (metres), fins ``spacing``
+    apart (metres: a wrong unit is what some tests type)."""
+    return TINY_DESIGN.format(spacing=spacing, width=width)
+
+
 def test_messages_are_printed_literally(tmp_path, capsys):
     bad = tmp_path / "d.toml"
-    bad.write_text(TINY_DESIGN.format(spacing=1.0).replace("[sun]\n", "[sun]\nhours = [25, 3]\n"))
+    bad.write_text(tiny_design(spacing=1.0).replace("[sun]\n", "[sun]\nhours = [25, 3]\n"))
     assert main(["design", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     # rich markup used to eat "[h0, h1]" and "[25.0, 3.0]"
@@ -164,7 +170,7 @@ def test_design_progress_streams_line_by_line_when_piped(tmp_path):
     """A real `torsal design ... | cat`: progress lines arrive while the run goes on, and the
     output ends with a newline."""
     design = tmp_path / "d.toml"
-    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    design.write_text(tiny_design(spacing=1.0))
     exe = Path(sys.executable).with_name("torsal")
     proc = subprocess.Popen([str(exe), "design", str(design), "--out", str(tmp_path / "o")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -187,13 +193,13 @@ def _snapshot(folder):
 
 def test_failed_design_leaves_the_earlier_results_as_they_were(tmp_path, capsys):
     design = tmp_path / "d.toml"
-    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    design.write_text(tiny_design(spacing=1.0))
     out = tmp_path / "o"
     assert main(["design", str(design), "--out", str(out)]) == 0
     assert (out / "report.json").exists() and (out / "parts.csv").exists()
     before = _snapshot(out)
     capsys.readouterr()
-    design.write_text(TINY_DESIGN.format(spacing=0.001))  # metres typed as if millimetres
+    design.write_text(tiny_design(spacing=0.001))  # metres typed as if millimetres
     assert main(["design", str(design), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "stage 'estimate' failed" in err and "fins about" in err and "fins.spacing" in err
@@ -204,7 +210,7 @@ def test_failed_design_leaves_the_earlier_results_as_they_were(tmp_path, capsys)
     assert _snapshot(out) == before
     assert (out / ".torsal-cache").is_dir() and not (out / ".torsal-staging").exists()
     # the cache stays: the good design again reuses every stage up to the results
-    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    design.write_text(tiny_design(spacing=1.0))
     assert main(["design", str(design), "--out", str(out)]) == 0
     assert "congruence: cached" in capsys.readouterr().out
     assert (out / "report.json").exists()
@@ -218,7 +224,7 @@ def test_design_on_an_obj_with_uv_seams_runs_on_the_merged_mesh(tmp_path, capsys
     v, f = facade_patch(nu=7, nv=5, width=6.0, height=3.0)
     (tmp_path / "seams.obj").write_text(mc.obj_text(*mc.split_per_face(v, f), uv=True))
     design = tmp_path / "d.toml"
-    design.write_text(TINY_DESIGN.format(spacing=1.0).replace(
+    design.write_text(tiny_design(spacing=1.0).replace(
         'generator = "facade_patch"\nparams = { nu = 7, nv = 5, width = 6.0, height = 3.0 }',
         'mesh = "seams.obj"'))
     assert main(["design", str(design), "--out", str(tmp_path / "o")]) == 0, capsys.readouterr().err
@@ -255,7 +261,7 @@ def test_no_size_limit_runs_a_design_above_the_limits(tmp_path, capsys, monkeypa
     checks = importlib.import_module("torsal.pipeline.checks")
     monkeypatch.setitem(checks.SIZE_LIMITS, "fins", 20)  # the tiny design has about 55 fins
     design = tmp_path / "d.toml"
-    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    design.write_text(tiny_design(spacing=1.0))
     assert main(["design", str(design), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert re.search(r"fins about \d+ \(limit 20\): change fins.spacing", err)
@@ -270,7 +276,7 @@ def test_no_size_limit_runs_a_design_above_the_limits(tmp_path, capsys, monkeypa
 def test_unreadable_input_files_exit_2(facade, tmp_path, capsys, monkeypatch, which):
     """A file without read permission (simulated: the tests may run as root, who reads anyway)."""
     design = tmp_path / "d.toml"
-    design.write_text(TINY_DESIGN.format(spacing=1.0))
+    design.write_text(tiny_design(spacing=1.0))
     np.savetxt(tmp_path / "d.txt", np.ones((len(facade[1]), 3)))
     target = {"design": design, "directions": tmp_path / "d.txt", "mesh": facade[0]}[which]
     real = Path.read_bytes

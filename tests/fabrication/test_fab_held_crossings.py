@@ -9,7 +9,9 @@ about ten (the net's two rounds of builds add about as much again).
 """
 from __future__ import annotations
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,24 +26,11 @@ from torsal.pipeline.report import _held_rows
 from torsal.pipeline.stage import StageRun, run_stages
 from torsal.pipeline.stages import DEFAULT_PIPELINE
 
-PATCH = """
-name = "patch 4 x 3 m [draft]"
-[surface]
-generator = "facade_patch"
-params = { nu = 7, nv = 5, width = 4.0, height = 3.0 }
-[sun]
-vectors = [[0.3, -0.8, 0.5], [0.5, -0.7, 0.4]]
-[fins]
-spacing = 1.0
-depth = 0.5
-[outputs]
-step = false
-rhino_3dm = false
-renders = false
-dxf = false
-ifc = false
-light_samples = 100
-"""
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from test_cli import tiny_design  # noqa: E402
+
+#: the command-line tests' tiny design at 4 x 3 m (its 6 x 3 m builds as it is)
+PATCH = tiny_design(spacing=1.0, width=4.0)
 
 #: the plates the load path finds loose without the net (measured: refused by ``torsal
 #: design``, exit status 3, before the net)
