@@ -42,13 +42,11 @@ def test_sun_weather_is_read_relative_to_the_design_file(tmp_path):
 def test_a_variant_and_a_freecad_job_find_the_weather_file(tmp_path):
     """A study's variant and a FreeCAD job write the design file elsewhere: sun.weather goes
     with them as an absolute path, as sun.epw and surface.mesh do."""
-    from torsal.hosts.freecad.job import _absolute
-    from torsal.study.study_file import _absolute_paths
+    from torsal.pipeline.design_file import absolute_file_paths    # what both call
 
-    for fix in (_absolute_paths, _absolute):
-        data = {"sun": {"weather": "w.csv"}}
-        fix(data, tmp_path)
-        assert data["sun"]["weather"] == str((tmp_path / "w.csv").resolve())
+    data = {"sun": {"weather": "w.csv"}}
+    absolute_file_paths(data, tmp_path)
+    assert data["sun"]["weather"] == str((tmp_path / "w.csv").resolve())
 
 
 def test_the_measured_year_example_loads_and_takes_its_sun_from_the_file():

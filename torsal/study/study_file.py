@@ -243,20 +243,14 @@ def _set(data: dict, key: str, value) -> None:
     data[last] = value
 
 
-def _absolute_paths(data: dict, base_dir: Path) -> dict:
-    """File paths in a design dict made absolute against the base design's folder, so a
-    variant's design file works from its own folder (:func:`~torsal.pipeline.design_file.
-    absolute_file_paths`)."""
-    return absolute_file_paths(data, base_dir)
-
-
 def design_with(base: dict, base_dir: Path, axes: dict, *, label: str = "") -> tuple[DesignSpec, str]:
     """The base design (a TOML dict) with ``axes`` set, validated; and its TOML text.
 
     Raises :class:`StudyFileError` naming the axis whose value the design file rejects."""
     import tomli_w
 
-    data = _absolute_paths(json.loads(json.dumps(base)), base_dir)
+    # file paths made absolute, so that the variant's design file works from its own folder
+    data = absolute_file_paths(json.loads(json.dumps(base)), base_dir)
     for key, value in axes.items():
         _set(data, key, value)
     try:

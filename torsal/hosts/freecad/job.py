@@ -140,12 +140,6 @@ def _write_obj(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
         tmp.write_text("\n".join(lines) + "\n")
 
 
-def _absolute(data: dict, base: Path) -> None:
-    """The design file's relative paths made absolute (:func:`~torsal.pipeline.design_file.
-    absolute_file_paths`): the job's design file lives in another folder."""
-    absolute_file_paths(data, base)
-
-
 def _family_value(given, both_mm: float | None, second_mm: float | None, mm: float):
     """``fins.spacing`` or ``fins.depth`` in model units from the job's family-0 (or both)
     and family-1 lengths in mm, over the design file's ``given`` (one number or [f0, f1]);
@@ -183,7 +177,8 @@ def effective_design(job: FinsJob) -> dict:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise DesignFileError(f"{path}: not valid TOML ({exc})") from None
-    _absolute(data, path.resolve().parent)
+    # the job's design file lives in another folder: its relative paths made absolute
+    absolute_file_paths(data, path.resolve().parent)
     units = data.get("units", "m")
     mm = scale("mm", units) if units in UNIT_TO_MM else 1.0   # (a bad unit: the loader names it)
     fins = data.setdefault("fins", {})
