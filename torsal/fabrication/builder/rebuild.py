@@ -323,15 +323,13 @@ class Rebuilder:
             return True
         return False
 
-    def _unheld(self, lp=None) -> set[tuple[int, int]]:
+    def _unheld(self, lp) -> set[tuple[int, int]]:
         """The panels ``(strip index, panel of the strip)`` of the fin plates (families 0 and
-        1) the load path ``lp`` does not reach from the building (default
-        :func:`torsal.fabrication.assembly.load_path.load_path` of the fin system): by panel,
-        as a plate's name changes when a build leaves panels out."""
-        from ..assembly.load_path import load_path
-
+        1) the load path ``lp`` (:func:`torsal.fabrication.assembly.load_path.load_path` of the
+        fin system) does not reach from the building: by panel, as a plate's name changes when
+        a build leaves panels out."""
         fs = self.fs
-        loose = set((load_path(fs) if lp is None else lp).unsupported_parts)
+        loose = set(lp.unsupported_parts)
         return {(fs._strip_of[p.name], p.span[0] + j) for p in fs.parts
                 if p.family in (0, 1) and p.name in loose for j in range(len(p.panels))}
 
