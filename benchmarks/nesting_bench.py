@@ -15,6 +15,32 @@ once (cached in ``--cache``), the fin system is built and its unrolled parts are
 Every layout is checked with shapely (inside the margins, the gap between cuts) before it is
 counted. "same twice" compares every placement of two runs (name, sheet, rotation, offset).
 
+**What else was tried for 80 % (issues 40, 42), 2026-11-30 01:30-02:15**, load 5-8 (two
+helpers running; sheets and yields do not depend on it):
+
+* *Other sheet formats* (the design file's ``material.sheet_mm``; the fin system builds its
+  strips to the sheet, so the parts change too), ``torsal design --final-cut``, sheets /
+  area bound / yield (cuts kept): 7a on 3000 x 1500: 29 / 20.9 / 72.0 % (5); on 2000 x 1000:
+  71 / 47.2 / 66.4 % (10); 13 on 3000 x 1500: 22 / 16.0 / 72.8 % (0); on 2000 x 1000: 45 /
+  35.3 / 78.5 % (8); on the examples' 2500 x 1250: 7a 38 / 30.1 / 79.3 %, 13 29 / 23.0 /
+  79.2 %. What decides is how the strips' widths fill the sheet's height: 7a's long strips
+  are 331-430 mm wide (median 396), three rows of them fill a 1,230 mm usable height to 97 %
+  and a 1,480 mm one to 80 %; 13's are 283-358 mm (median 319), four rows need at most 304.
+* *Room made on a host* (13's final cut, its search's 29 sheets): where a victim's part
+  neither drops nor can be cut, a part of another sheet cut at a node line and its end piece
+  sent to the victim to leave room: the victim at 46 % holds three 590 x 300 mm plates that
+  no node line cuts, and no host's end piece leaves them room (6,000 tries, 30 hosts):
+  still 29 sheets. Not kept.
+* *The row plans' cuts made by force* (13): the rows' plan for 99 and for 95 rows (9 and 17
+  cuts, within what the rates pay for a sheet) nested afresh: 29 sheets both times (the
+  rows nester stacks three of 13's rows a sheet, 34 sheets; the skyline 29).
+* *Quarter turns* for every part that fits the sheet turned (9, the search): 45 sheets
+  (70.8 %), as with half turns only.
+* *Sparrow as a reference* on 9's 732 parts (spyrrow 0.9.0, one strip 1,230 mm high, any
+  rotation, no sheet edges to lose, 600 s at nice 19): 71.6 % of the strip filled (45.6
+  sheets' length); the search fills its 45 sheets to 70.8 %, in 120 CPU s, the same on every
+  run. The packing of 9's bent, tapered strips is what caps its yield, not the nester.
+
 **Plates split for yield (issues 40, 42), 2026-11-29 05:10-05:50**: ``torsal design
 --final-cut`` of the real thing (not stand-ins): the search, then plates cut at crossing
 slots where that empties a sheet (:mod:`~torsal.fabrication.nesting.split`: A, sheets
