@@ -85,6 +85,12 @@ def _overlapping_pairs(panels: np.ndarray, quads: np.ndarray, t: float, c: float
     return i, j, dist, deep
 
 
+
+def _families(fs) -> dict[str, int]:
+    """``{part: family}`` of the parts of ``fs`` (0, 1; connectors and fixings their own)."""
+    return {p.name: p.family for p in fs.parts}
+
+
 class _PathCheck:
     """The paths of parts into place, checked against the parts that may be in place before
     them, on the panels' mid-surfaces (:func:`_swept_distances`).
@@ -120,12 +126,13 @@ class _PathCheck:
         self.seams = fs._seams
         #: deepest joint at which a part goes in after its partners
         self.depth: dict[str, float] = {}
+        family = _families(fs)
         for j in fs.joints:
             names = [n for n in j.parts if n != j.connector]
             if j.kind == JointKind.BUTT_BRACKET:
                 later = names[-1:]
             elif j.kind == JointKind.EGG_CRATE:
-                later = [n for n in names if n[:2] == "F1"]
+                later = [n for n in names if family.get(n) == 1]
             elif j.kind == JointKind.FIXING:
                 later = names[1:]
             else:
@@ -270,7 +277,7 @@ def dipping_slot_plates(fs, *, exclude=frozenset()) -> dict[str, np.ndarray]:
     :func:`~torsal.fabrication.nesting.cut_costs.fixings_added` keeps them per piece."""
     from ..assembly.load_path import slides_out
 
-    family = {p.name: p.family for p in fs.parts}
+    family = _families(fs)
     conn = {j.connector for j in fs.joints if j.connector}
     out: dict[str, np.ndarray] = {}
     for j in fs.joints:
@@ -343,10 +350,12 @@ class AssemblyPlanner:
         fs = self.fs
         after: dict[str, dict[str, int]] = {}
         conn = {j.connector for j in fs.joints if j.connector}
+        family = _families(fs)
         for j in fs.joints:
             names = [n for n in j.parts if n not in conn]
             if j.kind == JointKind.EGG_CRATE:
-                pairs = [(a, b) for a in names for b in names if a[:2] == "F0" and b[:2] == "F1"]
+                pairs = [(a, b) for a in names for b in names
+                         if family.get(a) == 0 and family.get(b) == 1]
             elif j.kind == JointKind.BUTT_BRACKET:
                 pairs = [(a, names[-1]) for a in names[:-1]]
             else:
@@ -365,13 +374,16 @@ class AssemblyPlanner:
         fs = self.fs
         after = self._butted_after()
         split_at = {x.node: x for x in fs.joinery}
+        family = _families(fs)
         out = {}
         for comp in _cycles(after):
             why = f"the parts {', '.join(comp[:4])} would butt on each other in a cycle"
             # crossings where a family-0 part butts against a family-1 plate (family 0 split
             # there: by the joinery, or for length): split family 1 there too, bracketed across
-            back = sorted({v for a in comp if a[:2] == "F1" for b, v in after.get(a, {}).items()
-                           if b in comp and b[:2] == "F0" and v in split_at and v not in forced})
+            back = sorted({v for a in comp if family.get(a) == 1
+                           for b, v in after.get(a, {}).items()
+                           if b in comp and family.get(b) == 0 and v in split_at
+                           and v not in forced})
             for v in back:
                 x = split_at[v]
                 out[v] = (1, f"{x.why + '; ' if x.why else ''}split family 1: {why}")
