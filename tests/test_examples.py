@@ -98,15 +98,24 @@ def test_every_figure_has_an_example():
 #: the quick set runs 7a end to end (make test); every other example is in the slow set
 #: (make test-slow, CI): each is a whole design run with an independent recount, 20-60 s
 QUICK_EXAMPLE = "7a"
+#: the tests that read conftest.small_7a (the quick example's run, made once per worker) run on
+#: one xdist worker (make test's --dist loadgroup), so that it is made once
+SMALL_7A = pytest.mark.xdist_group("small-7a")
 
 
 @pytest.mark.parametrize("path", [
-    p if p.name.startswith(QUICK_EXAMPLE) else pytest.param(p, marks=pytest.mark.slow)
-    for p in EXAMPLES], ids=[p.stem for p in EXAMPLES])
-def test_example_runs_small(path, tmp_path):
-    d = small(Design.from_toml(path))
-    # the verdict is checked below against an independent recount, for every example
-    res = d.run(tmp_path, accept_unbuildable=True)
+    # the quick example's run is conftest.small_7a, shared with test_report_browser (its group)
+    pytest.param(p, marks=SMALL_7A) if p.name.startswith(QUICK_EXAMPLE)
+    else pytest.param(p, marks=pytest.mark.slow) for p in EXAMPLES], ids=[p.stem for p in EXAMPLES])
+def test_example_runs_small(path, tmp_path, request):
+    if path.name.startswith(QUICK_EXAMPLE):
+        # (the same design, run the same way, once per worker: conftest.small_7a)
+        run = request.getfixturevalue("small_7a")
+        d, res, tmp_path = run.design, run.result, run.out
+    else:
+        d = small(Design.from_toml(path))
+        # the verdict is checked below against an independent recount, for every example
+        res = d.run(tmp_path, accept_unbuildable=True)
     report = json.loads((tmp_path / "report.json").read_text())
     for section, keys in REPORT_KEYS.items():
         assert keys <= set(report[section]), (section, keys - set(report[section]))

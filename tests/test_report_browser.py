@@ -22,9 +22,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_examples import EXAMPLES, small  # noqa: E402
-
-from torsal.design import Design  # noqa: E402
+from test_examples import SMALL_7A  # noqa: E402
 
 websocket = pytest.importorskip("websocket", reason="websocket-client is a test dependency: "
                                 "pip install -e '.[test]'")
@@ -154,9 +152,9 @@ class Browser:
                 self.proc.wait()
 
 
-#: the module's tests share its design runs: one xdist worker runs them all (make test's
-#: --dist loadgroup), so each runs once
-pytestmark = pytest.mark.xdist_group("report-browser")
+#: the module's tests share the quick example's run with test_examples (conftest.small_7a,
+#: made once per worker): one xdist worker runs them all (make test's --dist loadgroup)
+pytestmark = SMALL_7A
 
 
 @pytest.fixture(scope="module")
@@ -166,31 +164,8 @@ def browser(tmp_path_factory):
     b.close()
 
 
-@pytest.fixture(scope="module")
-def design_out(tmp_path_factory):
-    """Example 7a at test size, run through the whole pipeline (report.html included); the
-    STEP, 3dm and DXF files, slow to write, play no part in the report's 3D view."""
-    import torsal.pipeline.report
-
-    out = tmp_path_factory.mktemp("7a-small")
-    d = small(Design.from_toml(next(p for p in EXAMPLES if p.name.startswith("7a"))))
-    d = Design(d.spec.model_copy(update={"outputs": d.spec.outputs.model_copy(
-        update={"step": False, "rhino_3dm": False, "dxf": False})}))
-    write = torsal.pipeline.report.write_design_report
-    passed = {}
-
-    def with_sun(out, spec, *args, **kw):
-        passed["sun"] = kw.get("sun") is not None
-        return write(out, spec, *args, **kw)
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(torsal.pipeline.report, "write_design_report", with_sun)
-        d.run(out)
-    return out, d, passed
-
-
-def test_the_pipeline_hands_its_sun_directions_to_the_report(design_out):
-    assert design_out[2]["sun"]
+def test_the_pipeline_hands_its_sun_directions_to_the_report(small_7a):
+    assert small_7a.report_had_sun
 
 
 def test_the_collector_catches_console_errors(browser, tmp_path):
@@ -220,10 +195,11 @@ def _hue_share(png: bytes, hex_colour: str, tol: int = 6) -> float:
     return float(((dh <= tol) & (hsv[..., 1] > 90) & (hsv[..., 2] > 40)).mean())
 
 
-def test_report_renders_the_3d_view_with_no_errors(browser, design_out):
+def test_report_renders_the_3d_view_with_no_errors(browser, small_7a):
+    """Example 7a at test size, run through the whole pipeline (report.html included)."""
     from torsal.pipeline.report_3d import FAMILY_COLOURS, SUN_COLOUR
 
-    out = design_out[0]
+    out = small_7a.out
     browser.errors.clear()
     browser.requests.clear()
     ready = ("(() => { const g = document.getElementById('torsal-3d');"
