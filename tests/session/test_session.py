@@ -2,6 +2,7 @@
 run's congruence and support, a cancelled build leaves nothing half-written, an infeasible
 edit keeps the last good design, a bad edit is a clear error."""
 import json
+import shutil
 import sys
 import threading
 from pathlib import Path
@@ -25,6 +26,30 @@ def _spec(**outputs):
     spec = small(Design.from_toml(EXAMPLE)).spec
     keep = {"step": False, "rhino_3dm": False, "ifc": False, "renders": False, **outputs}
     return spec.model_copy(update={"outputs": spec.outputs.model_copy(update=keep)})
+
+
+@pytest.fixture(scope="module")
+def measured_devices(tmp_path_factory):
+    """A stage cache holding only the standard devices of the design at test size, made by one
+    cold session start. A session measures them when no design before it has (1.0 s of its
+    1.4 s cold start, every test's); a test copies this folder into its output folder
+    (:func:`_out`), so its session still solves the congruence, remeshes and makes the support
+    from nothing, and finds the devices it would measure (the same inputs, the same values)."""
+    folder = tmp_path_factory.mktemp("session-devices")
+    with Session(_spec(), folder / "live", build=False) as s:
+        assert s.start().ok
+    seed = folder / "seed" / ".torsal-cache"
+    seed.mkdir(parents=True)
+    measured = list((folder / "live" / ".torsal-cache").glob("devices-*.pkl"))
+    assert len(measured) == 1
+    shutil.copy2(measured[0], seed)
+    return seed.parent
+
+
+def _out(folder, devices):
+    """``folder`` as a session's output folder with the standard devices measured."""
+    shutil.copytree(devices, folder, dirs_exist_ok=True)
+    return folder
 
 
 def _cold(spec, folder):
@@ -107,7 +132,7 @@ CHANGES = {
 
 
 @pytest.mark.parametrize("change", list(CHANGES))
-def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, change):
+def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, change, measured_devices):
     """After a first answer and an edit of each kind, the preview (re-solved warm from the
     last optimum, on the kept problem where its structure allows) has a congruence that is
     an optimum of the cold run's problem of the edited design to the solver's tolerance (the
@@ -121,7 +146,7 @@ def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, change):
     a change of the sun the warm answer stays within a few degrees of the last design, where
     a cold solve from the normals lands elsewhere in the family."""
     setup, edit = CHANGES[change]
-    with Session(_spec(), tmp_path / "live", build=False) as s:
+    with Session(_spec(), _out(tmp_path / "live", measured_devices), build=False) as s:
         first = s.start()
         assert first.kind is AnswerKind.PREVIEW and first.revision == 0
         if setup is not None:
@@ -164,7 +189,7 @@ def test_the_preview_is_the_cold_runs_congruence_and_support(tmp_path, change):
     assert 0 < a.light["blocked_share"] <= 1
 
 
-def test_a_bound_added_to_an_ipopt_design_is_solved_as_a_cold_run(tmp_path):
+def test_a_bound_added_to_an_ipopt_design_is_solved_as_a_cold_run(tmp_path, measured_devices):
     """7a without a bound is IPOPT's (no augmented-Lagrangian multipliers); a bound added
     makes it the augmented Lagrangian's, which starts cold as ``torsal design`` does: the
     same lines as the cold run's, in as many steps (warm from IPOPT's answer it measured its
@@ -172,7 +197,7 @@ def test_a_bound_added_to_an_ipopt_design_is_solved_as_a_cold_run(tmp_path):
     rounding, not to the last bit: the session's problem has the strokes' faces (7a's
     boundary) as weights of an f_dir over every face, the cold run's f_dir is over those faces
     (the same function; measured 1.3e-11 apart after the solve)."""
-    with Session(_spec(), tmp_path / "live", build=False) as s:
+    with Session(_spec(), _out(tmp_path / "live", measured_devices), build=False) as s:
         assert s.start().report["congruence"]["solver"] == "ipopt"
         a = s.set_bound(min_torsal_angle=20)
     assert a.kind is AnswerKind.PREVIEW and a.report["congruence"]["solver"].startswith("alm")
@@ -182,10 +207,10 @@ def test_a_bound_added_to_an_ipopt_design_is_solved_as_a_cold_run(tmp_path):
     assert a.report["congruence"]["iterations"] == cold["congruence"]["report"]["iterations"]
 
 
-def test_a_weight_edit_re_solves_the_kept_problem(tmp_path):
+def test_a_weight_edit_re_solves_the_kept_problem(tmp_path, measured_devices):
     """A weight is a parameter of the built problem: the session re-solves the problem it
     keeps (no new one) and only the stages after the congruence run."""
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         s.start()
         reused = s.problems_reused
         a = s.set_weights(perp=12)
@@ -197,13 +222,13 @@ def test_a_weight_edit_re_solves_the_kept_problem(tmp_path):
         assert "blocked_share" in b.light
 
 
-def test_a_moved_point_re_solves_the_kept_nlp(tmp_path):
+def test_a_moved_point_re_solves_the_kept_nlp(tmp_path, measured_devices):
     """Mesh A's points are parameters of the built NLP: a moved surface point re-solves the
     problem the session keeps, without building its NLP again (0.5 s of a preview at full
     size), and the problem solved is the moved mesh's (its normal term measured on it). The
     design's problem is kept while a bound is tried and taken back (the undone edit's answer
     comes from the stage cache, without a solve)."""
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         first = s.start()
         assert s.set_bound(min_torsal_angle=20).kind is AnswerKind.PREVIEW    # another problem
         assert "congruence" in s.apply(first.spec).stages_kept                 # undone, cached
@@ -225,7 +250,7 @@ def test_a_moved_point_re_solves_the_kept_nlp(tmp_path):
     assert _energy(a.report["congruence"]) <= _energy(cold["congruence"]["report"]) * 1.01 + 1e-8
 
 
-def test_a_moved_region_re_solves_the_kept_nlp(tmp_path):
+def test_a_moved_region_re_solves_the_kept_nlp(tmp_path, measured_devices):
     """A let-through region is a parameter of the session's NLP (per-vertex weights of f_perp
     and f_par over every vertex, ``weighted_subsets``): moving it re-solves the kept problem
     without building its NLP again (0.4 s of processor time at full size, and the Newton
@@ -235,7 +260,7 @@ def test_a_moved_region_re_solves_the_kept_nlp(tmp_path):
     from torsal.pipeline.problem import congruence_problem
     from torsal.session.preview import PREVIEW_SOFT_REACH
 
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         s.start()
         assert s.set_region(RegionGoal.LET_THROUGH, {"x": _x_range(s, 0.35, 0.5)}).kind is AnswerKind.PREVIEW
         reused = s.problems_reused
@@ -266,14 +291,14 @@ def test_a_moved_region_re_solves_the_kept_nlp(tmp_path):
     assert kept.energies(e0)["total"] == pytest.approx(cold.energies(e0)["total"], rel=1e-12)
 
 
-def test_a_stroke_drawn_and_moved_re_solves_the_kept_nlp(tmp_path):
+def test_a_stroke_drawn_and_moved_re_solves_the_kept_nlp(tmp_path, measured_devices):
     """The strokes' faces are a parameter of the session's NLP too (per-face weights of an
     f_dir over every face): 7a's boundary alignment is an f_dir, so a first stroke, a moved
     one and the design without strokes again (a moved point after strokes, session_bench's
     rows) all re-solve the design's built NLP, and report the cold run's energies."""
     from torsal.pipeline.problem import congruence_problem
 
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         first = s.start()
         reused = s.problems_reused
         drawn = s.set_strokes(_stroke(s), width=0.6)
@@ -292,10 +317,10 @@ def test_a_stroke_drawn_and_moved_re_solves_the_kept_nlp(tmp_path):
             assert value == pytest.approx(measured[name], rel=1e-12, abs=1e-15), name
 
 
-def test_an_edit_taken_back_after_many_finds_its_results(tmp_path):
+def test_an_edit_taken_back_after_many_finds_its_results(tmp_path, measured_devices):
     """The stage cache on disk keeps one entry per stage: the design as the session started is
     found in memory after several edits (it was re-solved after four)."""
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         first = s.start()
         for perp in (11, 12, 13, 14, 15, 16):
             assert s.set_weights(perp=perp).kind is AnswerKind.PREVIEW
@@ -367,11 +392,11 @@ def test_a_cancelled_build_leaves_nothing_half_written(tmp_path):
         assert s.wait_built(timeout=1) is None          # no built answer of 2.4
 
 
-def test_an_infeasible_edit_keeps_the_last_good_design(tmp_path):
+def test_an_infeasible_edit_keeps_the_last_good_design(tmp_path, measured_devices):
     """A stroke on no face of the surface, and a torsal-angle bound the optimizer cannot meet
     in a few iterations: each answer says infeasible and why, and the next edit starts from
     the last good design."""
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         good = s.set_weights(perp=12)
         bad = s.set_strokes([[[0.0, 50.0, 0.0], [1.0, 50.0, 0.0]]])
         assert bad.kind is AnswerKind.INFEASIBLE and not bad.ok
@@ -387,10 +412,10 @@ def test_an_infeasible_edit_keeps_the_last_good_design(tmp_path):
         assert again.spec.constraints.min_torsal_angle is None and again.spec.weights.perp == 13
 
 
-def test_a_bad_edit_is_a_clear_error(tmp_path):
+def test_a_bad_edit_is_a_clear_error(tmp_path, measured_devices):
     """An unknown key names the keys an edit takes; a bad value is named as in a design file;
     the session is unchanged by either."""
-    with Session(_spec(), tmp_path, build=False) as s:
+    with Session(_spec(), _out(tmp_path, measured_devices), build=False) as s:
         first = s.start()
         with pytest.raises(SessionEditError, match=r"unknown edit key 'spcing' \(did you mean 'spacing'\?\)"):
             s.edit(spcing=1.0)
