@@ -112,6 +112,8 @@ def test_the_check_takes_the_same_solids_from_the_workers_as_made_here(structure
             else:
                 assert np.array_equal(x, y)
         assert _signed_volume(_shape(a)) == _signed_volume(_shape(b))
+        # the records' vertices (its faces', in order) are those of the solid as it arrived
+        assert np.array_equal(a.records.vertices, _vertices(_shape(a)))
     # at another tolerance the workers' copies are not taken: made here, meshed at that one
     other = check_solids(fs, 2 * TOUCHING_TOLERANCE)
     assert len(other) == len(there)

@@ -60,7 +60,9 @@ class PreparedSolid(NamedTuple):
 
 def solid_records(shape) -> SolidRecords:
     """The :class:`SolidRecords` of an OCC solid (meshed first if it is not, as the check
-    meshes it)."""
+    meshes it). Its vertices are its faces' in the faces' order: :func:`~.occ._vertices` of
+    the solid walks the same faces and edges in the same order (the same array, without a
+    second walk)."""
     faces = _face_records(shape)
     cover = solid_cover(shape, faces)
     index = {id(f): n for n, f in enumerate(faces)}
@@ -69,7 +71,8 @@ def solid_records(shape) -> SolidRecords:
         face_normals=np.array([f.normal for f in faces], float).reshape(-1, 3),
         cover_faces=tuple(index[id(f)] for f, _ in cover),
         cover_vector=np.asarray(cover[0][1], float) if cover else np.zeros(3),
-        triangles=_boundary_triangles(shape), vertices=_vertices(shape))
+        triangles=_boundary_triangles(shape),
+        vertices=(np.concatenate([f.points for f in faces]) if faces else _vertices(shape)))
 
 
 def prepare_solid(shape) -> PreparedSolid:
