@@ -103,9 +103,13 @@ def test_the_check_takes_the_same_solids_from_the_workers_as_made_here(structure
         S.release_workers()
     assert fs._check_solids.key == S._parts_key(fs)
     assert sorted(fs._check_solids.rows) == sorted(p.name for p in fs.parts)
-    there = check_solids(fs, TOUCHING_TOLERANCE)
-    assert [n for n, _ in there] == [n for n, _ in here] == [p.name for p in fs.parts]
-    for (_, a), (_, b) in zip(there, here):
+    there = check_solids(fs, TOUCHING_TOLERANCE, release=True)
+    assert fs._check_solids is None                 # let go once taken
+    again = check_solids(fs, TOUCHING_TOLERANCE)    # made here, of the workers' bytes
+    assert [n for n, _ in there] == [n for n, _ in here] == [n for n, _ in again] == \
+        [p.name for p in fs.parts]
+    for (_, a), (_, b), (_, c) in zip(there, here, again):
+        assert np.array_equal(a.records.triangles, c.records.triangles)
         for x, y in zip(a.records, b.records):
             if isinstance(x, tuple):
                 assert len(x) == len(y) and all(np.array_equal(p, q) for p, q in zip(x, y))

@@ -524,12 +524,14 @@ class CheckSolids(NamedTuple):
     rows: Mapping
 
 
-def check_solids(fin_system, tolerance: float) -> list[tuple[str, object]]:
+def check_solids(fin_system, tolerance: float, *, release: bool = False) -> list[tuple[str, object]]:
     """``[(part name, PreparedSolid)]`` of :func:`solid_shapes`, in the parts' order: each
     solid as the assembly check takes it (:func:`check_record` of its :func:`solid_bytes`:
     read, meshed at the touching ``tolerance``, with the records of the check's cheap tests),
     made by the solids' workers where :func:`prepare_workers` asked them to, else here: the
-    same solids and records either way.
+    same solids and records either way. ``release``: the fin system lets go of the workers'
+    copies once they are taken (their bytes and records: tens of MB for a thousand parts;
+    a later call makes them here again).
 
     >>> solids = check_solids(fs, 1.0)          # doctest: +SKIP
     """
@@ -537,6 +539,8 @@ def check_solids(fin_system, tolerance: float) -> list[tuple[str, object]]:
 
     shapes = solid_shapes(fin_system)
     kept = getattr(fin_system, "_check_solids", None)
+    if release:
+        fin_system._check_solids = None
     rows = (kept.rows if kept is not None and kept.key == _parts_key(fin_system)
             and kept.tolerance == tolerance else {})
     data = None if rows.keys() >= shapes.keys() else solid_bytes(fin_system)

@@ -168,8 +168,8 @@ def _solids(inp: StageInputs):
 
     structure = inp["support"]["structure"]
     fs = kept_fin_system(inp.spec, structure)
-    if fs is not None:
-        return check_solids(fs, TOUCHING_TOLERANCE)
+    if fs is not None:      # (the workers' copies are the check's: let go once taken)
+        return check_solids(fs, TOUCHING_TOLERANCE, release=True)
     step = inp["fabrication"].get("files", {}).get("step")
     if step and (inp.out / step).exists():
         return _step_solids(inp.out / step)
