@@ -756,7 +756,7 @@ def export_ifc(fin_system, path, *, project: str = "torsal fins", latitude: floa
 # ------------------------------------------------------------------ in a process of its own
 #: attributes of a fin system that hold OpenCascade shapes or live work (they do not pickle):
 #: the IFC's process gets the fin system without them and the solids as binary BReps
-_LIVE = ("_solids", "_solid_shapes", "_solid_bytes", "_pending", "_breps")
+_LIVE = ("_solids", "_solid_shapes", "_solid_bytes", "_pending", "_breps", "_check_solids")
 
 
 def _export_in_child(conn) -> None:

@@ -28,7 +28,7 @@ from .rhino import brep_record
 __all__ = ["WorkerPool", "PendingSolids", "default_workers", "prepare_workers",
            "release_workers", "start_solids", "build_solids", "solid_shapes", "solid_bytes",
            "map_prepared", "start_fork_server", "child_answer", "BACKGROUND_NICE",
-           "run_in_background"]
+           "run_in_background", "check_solids", "check_record"]
 
 
 def _to_bytes(shape) -> bytes:
@@ -54,16 +54,39 @@ def _from_bytes(data: bytes):
     return _downcast(shape)
 
 
+def check_record(data: bytes, tolerance: float) -> tuple[bytes, object]:
+    """The assembly check's solid of the binary BRep ``data`` (:func:`_to_bytes` of a built
+    solid): read, its triangles (if any) dropped and meshed at the check's touching
+    ``tolerance`` (unit) as the check meshes, with the records of its cheap tests
+    (:func:`~.assembly.prepared.solid_records`). Returns ``(BRep bytes with those triangles,
+    records)``: made by a solids' worker or by the process that checks, the same bytes and
+    records of the same ``data``.
+
+    >>> data, records = check_record(solid_bytes(fs)["F0-S000-P00"], 1.0)   # doctest: +SKIP
+    """
+    from OCP.BRepTools import BRepTools
+
+    from .assembly.occ import _mesh as _check_mesh
+    from .assembly.prepared import solid_records
+
+    shape = _from_bytes(data)
+    BRepTools.Clean_s(shape)        # the previews' triangles, where the worker meshed for them
+    _check_mesh([shape], tolerance)
+    return _to_bytes(shape), solid_records(shape)
+
+
 def _build_chunk(args):
     """Worker: build the solids of some parts and return them as binary BReps (OCP only: a
     worker never imports build123d or rhino3dm), and the CPU seconds that took. With
     ``mesh`` each is meshed at the default tolerance first (the triangles travel with the
     BRep) and comes with its 3DM record (:func:`~.rhino.brep_record` at that tolerance: bytes,
     None where the 3DM joins the part's mesh), made from the shape in hand rather than from
-    the bytes read again; the CPU seconds of the records separately."""
+    the bytes read again; the CPU seconds of the records separately. With ``check`` (the
+    assembly check's touching tolerance, or None) each also comes with the check's solid
+    (:func:`check_record` of the bytes sent)."""
     import time
 
-    parts, thickness, repair, mesh = args
+    parts, thickness, repair, mesh, check = args
     cpu, record_cpu = time.process_time(), 0.0
     out = []
     for p in parts:
@@ -74,7 +97,9 @@ def _build_chunk(args):
             t0 = time.process_time()
             record = brep_record(shape, MESH_TOLERANCE * thickness, threads=False)
             record_cpu += time.process_time() - t0
-        out.append((p.name, status, None if shape is None else _to_bytes(shape), detail, record))
+        data = None if shape is None else _to_bytes(shape)
+        checked = None if data is None or check is None else check_record(data, check)
+        out.append((p.name, status, data, detail, record, checked))
     return out, time.process_time() - cpu, record_cpu
 
 
@@ -131,10 +156,10 @@ class WorkerPool:
     """A pool of worker processes being started (from a thread: the first start waits seconds
     for the fork server to import OpenCascade), to build solids with later."""
 
-    def __init__(self, workers: int, mesh: bool = False):
+    def __init__(self, workers: int, mesh: bool = False, check: float | None = None):
         from concurrent.futures import ProcessPoolExecutor
 
-        self.workers, self.mesh = workers, mesh
+        self.workers, self.mesh, self.check = workers, mesh, check
         # a fork of a process that runs threads (OpenCascade, BLAS, a test runner) can
         # deadlock in the child: workers are forked from a clean server that has imported
         # this module
@@ -211,19 +236,21 @@ def _ready() -> None:
 _PREPARED: ContextVar[WorkerPool | None] = ContextVar("torsal_prepared_workers", default=None)
 
 
-def prepare_workers(n_parts: int, *, workers: int | None = None, mesh: bool = False) -> int:
+def prepare_workers(n_parts: int, *, workers: int | None = None, mesh: bool = False,
+                    check: float | None = None) -> int:
     """Start the worker processes for about ``n_parts`` solids now (in the background), so
     that :func:`start_solids` finds them ready: the caller builds its parts meanwhile (the
     fabrication stage: its FinSystem takes as long as the workers take to start). With
     ``mesh`` they also mesh every solid for the previews (3DM, glTF, STL at the default
     tolerance), which then only read the triangles, and make the 3DM's records of the solids
-    (:func:`~.rhino.brep_record`). Returns the number of processes started
-    (0: the solids will be built in this process). :func:`release_workers` stops them if no
-    build comes."""
+    (:func:`~.rhino.brep_record`). With ``check`` (the assembly check's touching tolerance)
+    they make the check's solids too (:func:`check_record`, taken by :func:`check_solids`).
+    Returns the number of processes started (0: the solids will be built in this process).
+    :func:`release_workers` stops them if no build comes."""
     release_workers()
     n = _workers_for(n_parts, workers)
     if n > 1:
-        _PREPARED.set(WorkerPool(n, mesh))
+        _PREPARED.set(WorkerPool(n, mesh, check))
     return n if n > 1 else 0
 
 
@@ -344,7 +371,8 @@ class PendingSolids:
                 raise self._workers.error
             for c in chunks:
                 self._futures.append(self._pool.submit(
-                    _build_chunk, (c, self.thickness, self.repair, self._workers.mesh)))
+                    _build_chunk, (c, self.thickness, self.repair, self._workers.mesh,
+                                   self._workers.check)))
         except BaseException as e:        # re-raised by result()
             self._error = e
 
@@ -357,6 +385,8 @@ class PendingSolids:
         res, records = {}, {}
         #: {part name: the binary BRep a worker sent} (what another process reads the solid from)
         self.brep_bytes: dict[str, bytes] = {}
+        #: {part name: the assembly check's solid, :func:`check_record`} (with ``check``)
+        self.check_rows: dict[str, tuple] = {}
         #: CPU seconds the workers spent building, the 3DM's records included (what the
         #: caller's clock does not see), and those of the records alone
         self.cpu_seconds = self.brep_cpu_seconds = 0.0
@@ -371,11 +401,13 @@ class PendingSolids:
                     _preloaded()
                 self.cpu_seconds += cpu
                 self.brep_cpu_seconds += record_cpu
-                for name, status, data, detail, record in rows:
+                for name, status, data, detail, record, checked in rows:
                     res[name] = (status, None if data is None else _from_bytes(data), detail)
                     if data is not None:
                         records[name] = record
                         self.brep_bytes[name] = data
+                    if checked is not None:
+                        self.check_rows[name] = checked
         finally:
             self._pool.shutdown(wait=True)
         self._records = records if self._workers.mesh else None
@@ -482,6 +514,43 @@ class WorkerBreps(NamedTuple):
     breps: Mapping
 
 
+class CheckSolids(NamedTuple):
+    """The assembly check's solids the solids' workers made (:func:`check_record`): for which
+    parts (``key``, :func:`_parts_key`), at which touching ``tolerance``, and ``rows``
+    {part name: (BRep bytes, records)}."""
+
+    key: tuple
+    tolerance: float
+    rows: Mapping
+
+
+def check_solids(fin_system, tolerance: float, *, release: bool = False) -> list[tuple[str, object]]:
+    """``[(part name, PreparedSolid)]`` of :func:`solid_shapes`, in the parts' order: each
+    solid as the assembly check takes it (:func:`check_record` of its :func:`solid_bytes`:
+    read, meshed at the touching ``tolerance``, with the records of the check's cheap tests),
+    made by the solids' workers where :func:`prepare_workers` asked them to, else here: the
+    same solids and records either way. ``release``: the fin system lets go of the workers'
+    copies once they are taken (their bytes and records: tens of MB for a thousand parts;
+    a later call makes them here again).
+
+    >>> solids = check_solids(fs, 1.0)          # doctest: +SKIP
+    """
+    from .assembly.prepared import PreparedSolid
+
+    shapes = solid_shapes(fin_system)
+    kept = getattr(fin_system, "_check_solids", None)
+    if release:
+        fin_system._check_solids = None
+    rows = (kept.rows if kept is not None and kept.key == _parts_key(fin_system)
+            and kept.tolerance == tolerance else {})
+    data = None if rows.keys() >= shapes.keys() else solid_bytes(fin_system)
+    out = []
+    for name in shapes:
+        made = rows.get(name) or check_record(data[name], tolerance)
+        out.append((name, PreparedSolid(_from_bytes(made[0]), made[1])))
+    return out
+
+
 def cancel_breps(fin_system) -> None:
     """Forget the 3DM records the solids' workers made for ``fin_system`` (they come with the
     solids: nothing is left to stop); :func:`~.exports.export_3dm` then makes its own."""
@@ -509,6 +578,9 @@ def _collect(fin_system, repair: bool, workers: int | None, pending: PendingSoli
         rows = pending.result()
         cpu = pending.cpu_seconds
         fin_system._solid_bytes = (_parts_key(fin_system), pending.brep_bytes)
+        if pending._workers.check is not None:     # the assembly check's solids, made there
+            fin_system._check_solids = CheckSolids(_parts_key(fin_system), pending._workers.check,
+                                                   pending.check_rows)
         records = pending.breps()
         if records is not None:      # the 3DM's records, made by the workers with the solids
             fin_system._breps = WorkerBreps(_parts_key(fin_system), MESH_TOLERANCE * t, records)

@@ -1,8 +1,16 @@
 """The assembly stage: after fabrication, check that the parts go together (issue 15).
 
-:func:`run_assembly` re-reads the solids from ``fins.step`` (what the workshop gets; the fin
-system is rebuilt only when no STEP file is written), checks every touching pair for
-interference and finds an assembly order (:func:`torsal.fabrication.check_assembly`), writes
+:func:`run_assembly` checks the solids the fabrication stage built and wrote the design's
+files from (``fins.step``, ``fins.3dm``, ``fins.ifc``): the solids' workers make the check's
+copy of each with it (meshed at the touching tolerance, with the records of the cheap tests,
+:func:`~torsal.fabrication.workers.check_solids`). That ``fins.step`` gives those solids back
+(every named solid, its volume and box, none inside out) is proved by the tests
+(tests/fabrication/test_step_fidelity.py, test_step_outward.py), not by reading the file
+again on every run (8-15 s of processor time on 7a). Where the fabrication stage was taken
+from the cache, the solids of its ``fins.step`` are read again
+(:func:`prefetch_step_solids` / :func:`~torsal.fabrication.exports.read_step_for_check`);
+with no STEP file, the fin system's. It checks every touching pair for interference and
+finds an assembly order (:func:`torsal.fabrication.check_assembly`), writes
 ``assembly.csv`` and, with ``outputs.renders``, ``assembly.png`` (interfering parts in red).
 Its report is ``fabrication.assembly`` in report.json.
 
@@ -105,10 +113,11 @@ def _stamp(path: Path) -> tuple:
 
 
 def prefetch_step_solids(path) -> None:
-    """Start re-reading the STEP file the fabrication stage just wrote in a process of its own
-    (:func:`~torsal.fabrication.exports.start_read_step`): OpenCascade's reader (seconds for
-    a thousand parts) runs while the fabrication stage writes its other files and the light
-    is measured, and the assembly stage takes its solids: those its own
+    """Start re-reading a STEP file in a process of its own
+    (:func:`~torsal.fabrication.exports.start_read_step`) for a check of the solids it holds
+    (the assembly stage reads ``fins.step`` itself only where the fabrication stage came
+    from the cache): OpenCascade's reader (seconds for a thousand parts) runs while this
+    process goes on, and the assembly stage takes its solids: those its own
     :func:`~torsal.fabrication.read_step` of that file would give, sent in OpenCascade's
     binary form (vertices bit for bit; a plane's direction is normalized again on reading,
     which moves volumes by round-off, about 1e-15 of them). Only the last file is kept; a
@@ -148,18 +157,23 @@ def _step_solids(path: Path):
 
 
 def _solids(inp: StageInputs):
-    """The solids the check gets: those of the design's STEP file, else the fin system's as
-    bare OpenCascade shapes (:func:`~torsal.fabrication.solids.solid_shapes`: the solids
-    :meth:`~torsal.fabrication.FinSystem.solids` would wrap, without importing build123d,
-    seconds of a run that writes no STEP file)."""
-    fab = inp["fabrication"]
-    step = fab.get("files", {}).get("step")
+    """The solids the check gets: those the fabrication stage of this run built the design's
+    files from (:func:`~torsal.fabrication.workers.check_solids`: made by the solids' workers
+    with the solids, meshed for the check, with its records); where the fabrication stage was
+    taken from the cache, the solids of its ``fins.step`` (read again), else those of the fin
+    system built here."""
+    from ..fabrication.assembly import TOUCHING_TOLERANCE
+    from ..fabrication.workers import check_solids
+    from .fins import fin_system, kept_fin_system
+
+    structure = inp["support"]["structure"]
+    fs = kept_fin_system(inp.spec, structure)
+    if fs is not None:      # (the workers' copies are the check's: let go once taken)
+        return check_solids(fs, TOUCHING_TOLERANCE, release=True)
+    step = inp["fabrication"].get("files", {}).get("step")
     if step and (inp.out / step).exists():
         return _step_solids(inp.out / step)
-    from ..fabrication.solids import solid_shapes
-    from .fins import fin_system
-
-    return solid_shapes(fin_system(inp.spec, inp["support"]["structure"]))
+    return check_solids(fin_system(inp.spec, structure), TOUCHING_TOLERANCE)
 
 
 #: where the pairs and paths the check proved are kept (one memo for a design, or for all

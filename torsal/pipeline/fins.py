@@ -18,7 +18,7 @@ from contextvars import ContextVar
 from .design_file import DesignSpec
 
 __all__ = ["fin_system", "fabrication_summary", "last_fin_system", "forget_fin_system",
-           "keep_fin_system"]
+           "keep_fin_system", "kept_fin_system"]
 
 #: (key, FinSystem) of the last call in this thread or task: the fabrication and assembly
 #: stages of one run share it
@@ -68,6 +68,19 @@ def _key(structure, thickness: float, options: dict) -> str | None:
     except Exception:
         return None
     return hashlib.sha256(data).hexdigest()
+
+
+def kept_fin_system(spec: DesignSpec, structure):
+    """The fin system :func:`fin_system` would return for ``spec`` and ``structure`` without
+    building one: the one this thread or task built (or kept, :func:`keep_fin_system`), else
+    None (the fabrication stage was taken from the cache).
+
+    >>> kept_fin_system(spec, support["structure"]) is fin_system(spec, support["structure"])  # doctest: +SKIP
+    True
+    """
+    key = _key(structure, spec.material.thickness_mm, _options(spec))
+    last = _LAST.get()
+    return last[1] if key is not None and last is not None and last[0] == key else None
 
 
 def fin_system(spec: DesignSpec, structure):

@@ -17,8 +17,7 @@ from ..geometry.optimize import TorsalAngleBetween
 from ..geometry.mesh import area_vector, load_mesh, validate_mesh
 from ..geometry.support import per_family
 from .annual import annual_applies, annual_key, check_weather_site, run_annual
-from .assembly import (MAX_CROSSING_FOLD, congruence_gate, drop_prefetched_solids,
-                       prefetch_step_solids, run_assembly, support_gate)
+from .assembly import MAX_CROSSING_FOLD, congruence_gate, run_assembly, support_gate
 from ..fabrication.nesting.background import write_sheets
 from .fins import fabrication_summary, fin_system
 from .measure import devices_key, measure_fins, run_devices, sun_goals
@@ -460,7 +459,7 @@ def run_fabrication(inp: StageInputs) -> dict:
     """Parts, joints and solids; STEP / 3DM / nested DXF sheets / parts list as the design's
     [outputs] ask. Returns the ``report`` section, ``files`` written and the ``layout``."""
     from ..fabrication import joints_of
-    from ..fabrication.assembly import fastenings_of
+    from ..fabrication.assembly import TOUCHING_TOLERANCE, fastenings_of
     from ..fabrication.solids import prepare_workers, release_workers
 
     spec, out = inp.spec, inp.out
@@ -471,8 +470,11 @@ def run_fabrication(inp: StageInputs) -> dict:
     # unrolls, nests and writes the sheets; STEP and 3DM collect them afterwards. The
     # workers take seconds to start (each imports OpenCascade): they start while this
     # process builds the parts (about one per fin), and check the seams meanwhile
-    if solids:         # the workers mesh the solids too when the 3DM needs them
-        prepare_workers(len(structure.edges), mesh=spec.outputs.rhino_3dm)
+    # the workers mesh the solids too when the 3DM needs them, and make the assembly check's
+    # solids (meshed at its tolerance, with the records of its cheap tests)
+    if solids:
+        prepare_workers(len(structure.edges), mesh=spec.outputs.rhino_3dm,
+                        check=TOUCHING_TOLERANCE)
     written = {}
     try:
         fs = fin_system(spec, structure)
@@ -507,7 +509,6 @@ def run_fabrication(inp: StageInputs) -> dict:
         if pending is not None:
             pending.cancel()
         fs.cancel_solids()
-        drop_prefetched_solids()
         raise
     left_out = ([{"strip": s_, "edge": int(e), "node": int(v), "reason": why}
                  for s_, e, v, why in getattr(fs, "coplanar_panels", [])]
@@ -533,9 +534,10 @@ def run_fabrication(inp: StageInputs) -> dict:
 
 def _write_solids(inp: StageInputs, fs) -> dict:
     """Write the STEP, 3DM and IFC files the design asks for; returns ``{kind: file}``.
-    The assembly stage checks the solids as the STEP file gives them: it is read again in
-    the background (:func:`~.assembly.prefetch_step_solids`) while the 3DM, the IFC and the
-    light are made."""
+    The assembly stage checks the solids these files are written from (the solids' workers
+    made its solids with them, :func:`~torsal.fabrication.workers.check_solids`); that the
+    STEP file gives those solids back is what its tests prove (tests/fabrication/
+    test_step_fidelity.py), not read again on every run."""
     spec, out = inp.spec, inp.out
     written = {}
     # the IFC (seconds of ifcopenshell) is written by a process of its own while this one
@@ -545,7 +547,6 @@ def _write_solids(inp: StageInputs, fs) -> dict:
         if spec.outputs.step:
             fs.export_step(out / "fins.step")
             written["step"] = "fins.step"
-            prefetch_step_solids(out / "fins.step")
         if spec.outputs.rhino_3dm:
             fs.export_3dm(out / "fins.3dm")
             written["3dm"] = "fins.3dm"
@@ -610,8 +611,8 @@ def _final_cut(inp: StageInputs, fs):
     from . import fins
 
     spec = inp.spec
-    # a fin system an earlier final cut of this process split (kept for its assembly check,
-    # the design writing no STEP): every run starts from the one it was split from
+    # a fin system an earlier final cut of this process split (kept for its assembly check):
+    # every run starts from the one it was split from
     unsplit = getattr(fs, "_unsplit", None)
     if unsplit is not None:
         fs = unsplit
@@ -634,8 +635,8 @@ def _final_cut(inp: StageInputs, fs):
             fc.yield_cut_sites(fs, rates))
     new, layout, split = fc.final_cut(fs, options, rates=rates, density=spec.material.density,
                                       progress=progress, memo=inp.memo, key=key)
-    if new is not fs and not spec.outputs.step:
-        # the assembly check builds the solids of this run's fin system (no STEP to read)
+    if new is not fs:
+        # the assembly check takes the solids of this run's fin system: the split one
         new._unsplit = fs
         fins.keep_fin_system(spec, new, structure=fs.structure)
     return new, layout

@@ -1,9 +1,11 @@
 """Assembly verification: do the solids of a fin system interfere, and in which order can they
 be put together? (issue 15)
 
-The check reads only the finished solids (``FinSystem.solids()`` or the solids of ``fins.step``
-re-read with :func:`~torsal.fabrication.solids.read_step`) and the joint records (part names and
-insertion axes); it shares no code with the joint builder, so a mistake there shows up here.
+The check reads only the finished solids (those the design's files are written from:
+``FinSystem.solids()``, the solids' workers' copies of them,
+:func:`~torsal.fabrication.workers.check_solids`, or the solids of a ``fins.step`` read with
+:func:`~torsal.fabrication.solids.read_step`) and the joint records (part names and insertion
+axes); it shares no code with the joint builder, so a mistake there shows up here.
 
 1. **Touching pairs.** Axis-aligned bounding boxes grown by ``tolerance`` select candidate
    pairs; a proximity test on the solids' triangulations (``BRepExtrema_ShapeProximity``, a

@@ -4,13 +4,13 @@
 need: the face records (vertices, edge directions, plane normal), the cover of prisms
 (:func:`~.separation.solid_cover`), the boundary triangles and the vertices. Its forked
 workers each made their own, for every solid their pairs touch: on example 7a, 5.7 s of
-processor time for 314 solids, most of them made twice. The process that re-reads
-``fins.step`` in the background (:func:`torsal.fabrication.exports.start_read_step`) makes
-them once instead (about 3 s there, while the 3DM and the light are made) and sends them with
-the solids as numpy arrays: a :class:`PreparedSolid`, which the check takes like any solid
-(``.wrapped`` is the OCC solid) and whose records it uses as its own. Records are made from
-the solids as read, in the reading process or in this one alike, so the check gets the same
-numbers wherever the file was read.
+processor time for 314 solids, most of them made twice. The solids' workers make them once
+instead, with the solids (:func:`torsal.fabrication.workers.check_record`; or the process
+that re-reads a ``fins.step``, :func:`torsal.fabrication.exports.start_read_step`), and send
+them with the solids as numpy arrays: a :class:`PreparedSolid`, which the check takes like
+any solid (``.wrapped`` is the OCC solid) and whose records it uses as its own. Records are
+made from the solids as sent, in the worker or in this process alike, so the check gets the
+same numbers wherever they were made.
 
 Units: those of the solids.
 
@@ -60,7 +60,9 @@ class PreparedSolid(NamedTuple):
 
 def solid_records(shape) -> SolidRecords:
     """The :class:`SolidRecords` of an OCC solid (meshed first if it is not, as the check
-    meshes it)."""
+    meshes it). Its vertices are its faces' in the faces' order: :func:`~.occ._vertices` of
+    the solid walks the same faces and edges in the same order (the same array, without a
+    second walk)."""
     faces = _face_records(shape)
     cover = solid_cover(shape, faces)
     index = {id(f): n for n, f in enumerate(faces)}
@@ -69,7 +71,8 @@ def solid_records(shape) -> SolidRecords:
         face_normals=np.array([f.normal for f in faces], float).reshape(-1, 3),
         cover_faces=tuple(index[id(f)] for f, _ in cover),
         cover_vector=np.asarray(cover[0][1], float) if cover else np.zeros(3),
-        triangles=_boundary_triangles(shape), vertices=_vertices(shape))
+        triangles=_boundary_triangles(shape),
+        vertices=(np.concatenate([f.points for f in faces]) if faces else _vertices(shape)))
 
 
 def prepare_solid(shape) -> PreparedSolid:

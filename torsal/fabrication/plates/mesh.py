@@ -31,7 +31,7 @@ def _face_triangles(shape, tolerance: float, angular_tolerance: float = 0.1, *,
         if not loc.IsIdentity():
             trsf = loc.Transformation()
             pts = [p.Transformed(trsf) for p in pts]
-        v = np.array([(p.X(), p.Y(), p.Z()) for p in pts], float).reshape(-1, 3)
+        v = np.array([p.Coord() for p in pts], float).reshape(-1, 3)
         # one triangle at a time: poly.Triangles() copies the whole array on every call
         t = np.array([poly.Triangle(i).Get() for i in range(1, poly.NbTriangles() + 1)],
                      dtype=np.int64).reshape(-1, 3) - 1
