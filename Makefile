@@ -8,6 +8,11 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.torsal-installed
 
+# Python's own bytecode cache (__pycache__, git-ignored): an environment that turns it off
+# (PYTHONDONTWRITEBYTECODE=1, as some CI images do) makes every new process compile torsal's
+# modules again, about half a second each (the CLI tests start dozens; a design run three)
+unexport PYTHONDONTWRITEBYTECODE
+
 .PHONY: demo test test-slow bench clean install chromium freecad freecad-screenshot
 
 install: $(STAMP)
