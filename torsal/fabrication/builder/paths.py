@@ -30,7 +30,7 @@ SLAB_TOUCH = 0.01
 
 def _assembly_order(names: list[str], after: dict) -> list[str]:
     """The plates ``names`` in the order they go in: a plate after those it must follow
-    (``after`` = ``{a: {b: ...}}``: ``b`` after ``a``, see :meth:`FinSystem._butted_after`),
+    (``after`` = ``{a: {b: ...}}``: ``b`` after ``a``, see :func:`_butted_after`),
     otherwise by name; where the plates left all wait for one another (a cycle), the one that
     waits for the fewest goes next (connectors go on after the plates)."""
     before: dict[str, set] = {n: set() for n in names}
@@ -117,7 +117,7 @@ class _PathCheck:
         plates = [p for p in fs.parts if p.family not in (CONNECTOR_FAMILY, FIXING_FAMILY)]
         fixings = sorted((p for p in fs.parts if p.family == FIXING_FAMILY), key=lambda p: p.name)
         conns = sorted((p for p in fs.parts if p.family == CONNECTOR_FAMILY), key=lambda p: p.name)
-        order = _assembly_order([p.name for p in plates], AssemblyPlanner(fs)._butted_after())
+        order = _assembly_order([p.name for p in plates], _butted_after(fs))
         self.bodies = fixings + plates + conns
         self.rank = {p.name: r for r, p in enumerate(fixings)}
         self.rank.update((n, len(fixings) + r) for r, n in enumerate(order))
@@ -334,35 +334,35 @@ def _cycles(after: dict) -> list[list[str]]:
     return out
 
 
+def _butted_after(fs) -> dict[str, dict[str, int]]:
+    """``{part: {part placed after it: node}}``: family-1 plates go on family-0 plates
+    at an egg-crate, a butted part after the plate it butts against (the two parts of a
+    mitred seam in either order)."""
+    after: dict[str, dict[str, int]] = {}
+    conn = {j.connector for j in fs.joints if j.connector}
+    family = _families(fs)
+    for j in fs.joints:
+        names = [n for n in j.parts if n not in conn]
+        if j.kind == JointKind.EGG_CRATE:
+            pairs = [(a, b) for a in names for b in names
+                     if family.get(a) == 0 and family.get(b) == 1]
+        elif j.kind == JointKind.BUTT_BRACKET:
+            pairs = [(a, names[-1]) for a in names[:-1]]
+        else:
+            pairs = []
+        for a, b in pairs:
+            after.setdefault(a, {})[b] = j.node
+    return after
+
+
 class AssemblyPlanner:
     """Plans the assembly of a fin system ``fs`` under construction: the order its parts go in
-    (:meth:`_butted_after`), crossings to split the other way (:meth:`_break_cycles`), each butted
+    (:func:`_butted_after`), crossings to split the other way (:meth:`_break_cycles`), each butted
     part's insertion direction (:meth:`_set_butt_directions`, :meth:`_check_paths`) and the
     panels to leave out where a path is blocked (:meth:`_blocked_panels`)."""
 
     def __init__(self, fs):
         self.fs = fs
-
-    def _butted_after(self) -> dict:
-        """``{part: {part placed after it: node}}``: family-1 plates go on family-0 plates
-        at an egg-crate, a butted part after the plate it butts against (the two parts of a
-        mitred seam in either order)."""
-        fs = self.fs
-        after: dict[str, dict[str, int]] = {}
-        conn = {j.connector for j in fs.joints if j.connector}
-        family = _families(fs)
-        for j in fs.joints:
-            names = [n for n in j.parts if n not in conn]
-            if j.kind == JointKind.EGG_CRATE:
-                pairs = [(a, b) for a in names for b in names
-                         if family.get(a) == 0 and family.get(b) == 1]
-            elif j.kind == JointKind.BUTT_BRACKET:
-                pairs = [(a, names[-1]) for a in names[:-1]]
-            else:
-                pairs = []
-            for a, b in pairs:
-                after.setdefault(a, {})[b] = j.node
-        return after
 
     def _break_cycles(self, forced: dict) -> dict:
         """Crossings to split the other way (``{node: (family split, reason)}``) so that no
@@ -372,7 +372,7 @@ class AssemblyPlanner:
         plates are put on family-0 plates), or, if there are none, the first crossing whose
         joint is not yet forced has its split family swapped."""
         fs = self.fs
-        after = self._butted_after()
+        after = _butted_after(self.fs)
         split_at = {x.node: x for x in fs.joinery}
         family = _families(fs)
         out = {}
@@ -440,7 +440,7 @@ class AssemblyPlanner:
         egg-crate, the halves of a mitred strip, a plate others butt against): they carry the
         others and are fixed to the building (:mod:`.fixings`)."""
         fs = self.fs
-        after = self._butted_after()
+        after = _butted_after(self.fs)
         later = {b for a in after for b in after[a]}
         return [p for p in fs.parts if p.family in (0, 1) and p.name not in later]
 
