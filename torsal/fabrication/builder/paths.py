@@ -85,7 +85,6 @@ def _overlapping_pairs(panels: np.ndarray, quads: np.ndarray, t: float, c: float
     return i, j, dist, deep
 
 
-
 def _families(fs) -> dict[str, int]:
     """``{part: family}`` of the parts of ``fs`` (0, 1; connectors and fixings their own)."""
     return {p.name: p.family for p in fs.parts}
