@@ -1057,7 +1057,7 @@ def _nesting_rows(nest: dict | None, cut: dict | None) -> list[tuple[str, str]]:
         dxf = nest.get("utilization_dxf")
         rows += [("sheets / area bound (parts' area / sheet area)",
                   f"{nest['sheets']} / {nest['area_bound_sheets']:.1f}"),
-                 ("utilization, DXF read back", "-" if dxf is None else f"{100 * dxf:.1f}%"),
+                 ("utilization, in the DXF files", "-" if dxf is None else f"{100 * dxf:.1f}%"),
                  ("nesting", f"{nest['nester']}, {nest['seconds']:.0f} s"
                   + (f" of {nest['time_limit_s']:g} s, seed {nest['seed']}"
                      if nest.get("time_limit_s") else "")
