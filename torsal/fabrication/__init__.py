@@ -3,17 +3,20 @@
 Reads a :class:`~torsal.geometry.support.SupportStructure` (model units, metres by default)
 and knows nothing of how it was optimized. Fabrication lengths are in ``unit`` (mm).
 """
-from .layout import Layout, PartTooLargeError, Placement, bill_of_materials, read_dxf_parts
-from .nesting import nest
-from .joints import MAX_CROSSING_FOLD, MIN_CROSSING_ANGLE, slot_width
-from .model import Joint, JointKind
-from .parts import (Crossing, FamilySplit, FinSystem, Part, PartId, Slot, SlotSide, fold_angles,
-                    quad_normals)
-from .solids import InvalidSolidError, export_step, part_solid, read_step
-from .ifc import export_ifc
+from torsal.core.lazy import lazy_exports
 from .unroll import Unrolled, fold_back, unroll
-from .assembly import (AssemblyCheck, AssemblyJoint, AssemblyStep, Interference, check_assembly,
-                       face_polygons, joints_of, verify_assembly)
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".layout": ("Layout", "PartTooLargeError", "Placement", "bill_of_materials", "read_dxf_parts"),
+    ".nesting": ("nest",),
+    ".joints": ("MAX_CROSSING_FOLD", "MIN_CROSSING_ANGLE", "slot_width"),
+    ".model": ("Joint", "JointKind"),
+    ".parts": ("Crossing", "FamilySplit", "FinSystem", "Part", "PartId", "Slot", "SlotSide",
+               "fold_angles", "quad_normals"),
+    ".solids": ("InvalidSolidError", "export_step", "part_solid", "read_step"),
+    ".ifc": ("export_ifc",),
+    ".assembly": ("AssemblyCheck", "AssemblyJoint", "AssemblyStep", "Interference",
+                  "check_assembly", "face_polygons", "joints_of", "verify_assembly"),
+})
 
 __all__ = [
     "FinSystem", "FamilySplit", "Part", "PartId", "Slot", "SlotSide", "Crossing",

@@ -193,17 +193,20 @@ class WorkerPool:
 
 #: what the fork server imports before it forks a worker (OpenCascade: seconds)
 _PRELOAD = ["torsal.fabrication.workers", "OCP.BRepAlgoAPI"]
+#: what it imports last: its imports' objects frozen (gc), shared with its children as they are
+_PRELOAD_LAST = "torsal.core.freeze_imports"
 
 
 def _context(also: tuple[str, ...] = ()):
     """The workers' multiprocessing context: forked from a clean server that has imported
-    :data:`_PRELOAD` (and ``also``, when it starts now), where there is one, else spawned."""
+    :data:`_PRELOAD` (and ``also``, when it starts now) and frozen the objects they made
+    (:mod:`torsal.core.freeze_imports`), where there is one, else spawned."""
     import multiprocessing as mp
 
     if "forkserver" not in mp.get_all_start_methods():
         return mp.get_context("spawn")
     ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(_PRELOAD + [m for m in also if m not in _PRELOAD])
+    ctx.set_forkserver_preload(_PRELOAD + [m for m in also if m not in _PRELOAD] + [_PRELOAD_LAST])
     return ctx
 
 

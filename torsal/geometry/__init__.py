@@ -1,32 +1,19 @@
 """Geometry: meshes, discrete line congruences, torsal curves, support structures."""
-from .congruence import Congruence, FaceFrame
-from .optimize import CongruenceProblem, OptimizationError, OptimizationResult
-from .mesh import (
-    MERGE_TOLERANCE,
-    MeshError,
-    MeshMerge,
-    average_edge_length,
-    boundary_vertices,
-    edge_face_adjacency,
-    load_mesh,
-    merge_vertices,
-    read_mesh_file,
-    umbrella_laplacian,
-    validate_mesh,
-    vertex_normals,
-)
-from .developable import refine_developable
-from .frame_field import FrameFieldError, TorsalFrameField, torsal_frame_field
-from .remesh import ParametrizationError, TorsalParametrization, extract_quads, parametrize, remesh_torsal
-from .support import (
-    FinStrip,
-    SupportOptimizationResult,
-    SupportStructure,
-    SupportWeights,
-    fin_planarity,
-    optimize_support,
-)
-from .torsal_curves import TorsalCurve, trace_torsal_curve
+from torsal.core.lazy import lazy_exports
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".congruence": ("Congruence", "FaceFrame"),
+    ".optimize": ("CongruenceProblem", "OptimizationError", "OptimizationResult"),
+    ".mesh": ("MERGE_TOLERANCE", "MeshError", "MeshMerge", "average_edge_length",
+              "boundary_vertices", "edge_face_adjacency", "load_mesh", "merge_vertices",
+              "read_mesh_file", "umbrella_laplacian", "validate_mesh", "vertex_normals"),
+    ".developable": ("refine_developable",),
+    ".frame_field": ("FrameFieldError", "TorsalFrameField", "torsal_frame_field"),
+    ".remesh": ("ParametrizationError", "TorsalParametrization", "extract_quads", "parametrize",
+                "remesh_torsal"),
+    ".support": ("FinStrip", "SupportOptimizationResult", "SupportStructure", "SupportWeights",
+                 "fin_planarity", "optimize_support"),
+    ".torsal_curves": ("TorsalCurve", "trace_torsal_curve"),
+})
 
 __all__ = [
     "Congruence", "FaceFrame", "MeshError", "MeshMerge", "MERGE_TOLERANCE", "merge_vertices",

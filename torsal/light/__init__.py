@@ -5,50 +5,21 @@ compared with (:mod:`~torsal.light.devices`).
 Imports only :mod:`torsal.geometry` and :mod:`torsal.core` from torsal; never the optimizer or
 fabrication.
 """
-from torsal.light.baselines import (
-    baselines,
-    egg_crate,
-    grid_normal_fins,
-    horizontal_louvers,
-    section_fins,
-    vertical_fins,
-)
-from torsal.light.devices import DEVICE_NAMES, Device, DeviceKind, standard_devices
-from torsal.light.shading import (
-    ReflectionResult,
-    SeeThroughResult,
-    ShadingResult,
-    TransparencyResult,
-    compare,
-    direct_sun_blocked,
-    mirror_normals,
-    ray_hits,
-    rays_blocked,
-    reflect,
-    reflected_hits,
-    see_through,
-    transparency,
-)
-from torsal.light.reflection import (
-    CeilingTarget,
-    MirrorAim,
-    ReflectionBound,
-    ReflectionRays,
-    TargetSide,
-    best_mirror_normals,
-    ideal_mirror_bound,
-    incidence_plane_normals,
-)
-from torsal.light.sun import (
-    SunDirections,
-    epw_hours,
-    hot_hours,
-    light_directions,
-    sun_directions,
-    sun_path,
-    write_synthetic_epw,
-)
-from torsal.light.view import ViewField, ViewOutResult, view_out
+from torsal.core.lazy import lazy_exports
+from .baselines import (baselines, egg_crate, grid_normal_fins, horizontal_louvers,
+                        section_fins, vertical_fins)
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".devices": ("DEVICE_NAMES", "Device", "DeviceKind", "standard_devices"),
+    ".shading": ("ReflectionResult", "SeeThroughResult", "ShadingResult", "TransparencyResult",
+                 "compare", "direct_sun_blocked", "mirror_normals", "ray_hits", "rays_blocked",
+                 "reflect", "reflected_hits", "see_through", "transparency"),
+    ".reflection": ("CeilingTarget", "MirrorAim", "ReflectionBound", "ReflectionRays",
+                    "TargetSide", "best_mirror_normals", "ideal_mirror_bound",
+                    "incidence_plane_normals"),
+    ".sun": ("SunDirections", "epw_hours", "hot_hours", "light_directions", "sun_directions",
+             "sun_path", "write_synthetic_epw"),
+    ".view": ("ViewField", "ViewOutResult", "view_out"),
+})
 
 __all__ = [
     "SunDirections", "sun_directions", "sun_path", "hot_hours", "light_directions",

@@ -30,13 +30,16 @@ import datetime as _dt
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from torsal.core.atomic import atomic_path
 from torsal.core.errors import TorsalError
 from torsal.core.inputs import read_input
+
+if TYPE_CHECKING:           # pandas is imported where it is used (seconds, with pyarrow)
+    import pandas as pd
 
 __all__ = [
     "SunDirections",
@@ -166,6 +169,8 @@ def _unit_vectors(v, name: str) -> np.ndarray:
 
 
 def _as_aware_index(times) -> pd.DatetimeIndex:
+    import pandas as pd
+
     if isinstance(times, (str, _dt.date)) and not isinstance(times, pd.DatetimeIndex):
         times = [times]
     elif isinstance(times, pd.Series):
@@ -320,6 +325,8 @@ def sun_path(latitude: float, longitude: float, start, end, *, timezone: str,
     >>> len(s)
     35
     """
+    import pandas as pd
+
     h0, h1 = map(float, hours)
     if not 0.0 <= h0 <= h1 <= 24.0:
         raise ValueError(f"hours must be a window 0 <= h0 <= h1 <= 24, got {hours}")
@@ -443,6 +450,8 @@ def epw_hours(data: pd.DataFrame) -> pd.DataFrame:
     >>> h.index[1].strftime("%H:%M"), float(h["temp_air"].iloc[1]), float(h["dni"].iloc[1])
     ('12:30', 26.0, 600.0)
     """
+    import pandas as pd
+
     end_reading = data["temp_air"].to_numpy(float)
     start_reading = np.roll(end_reading, 1)
     if len(data) != 8760:
@@ -663,6 +672,7 @@ def _read_tmy3(path: Path, text: str, lines: list[str], coerce_year):
     their hour's start (pvlib stamps the end)."""
     import io
 
+    import pandas as pd
     import pvlib
 
     loc = lines[0].split(",") if lines else []
@@ -710,6 +720,7 @@ def _read_tmy3(path: Path, text: str, lines: list[str], coerce_year):
 def _read_tmy2(path: Path, lines: list[str]):
     """A TMY2 file checked, then read by ``pvlib.iotools.read_tmy2`` (stamped at the hour's
     start already); the dry bulb from tenths of degC to degC."""
+    import pandas as pd
     import pvlib
 
     m = _TMY2_LOCATION.match(lines[0]) if lines else None
@@ -760,6 +771,7 @@ def write_synthetic_epw(path, latitude: float, longitude: float, *, tz_hours: fl
     -------
     Path
     """
+    import pandas as pd
     import pvlib
 
     _check_site(latitude, longitude)

@@ -9,15 +9,18 @@
 Studies are a room above this one (:mod:`torsal.study`, ``torsal.Study``), and the command
 line sits at the top (:mod:`torsal.cli`): the pipeline imports neither.
 """
+from torsal.core.lazy import lazy_exports
 from .analyze import AnalysisResult, DirectionsError, analyze, load_directions, read_directions
-from .assembly import UnbuildableDesignError
-from .cache import StageCache, stage_key
-from .design import Design, DesignResult
-from .errors import DesignError, Progress
-from .problem import JIT_MIN_VERTICES, congruence_problem, term_weights
-from .regions import dominant_light_direction, select_faces, select_vertices
-from .stage import Pipeline, Stage, StageInputs, StageRun, run_stages, stage_keys
-from .stages import DEFAULT_PIPELINE, STAGES
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".assembly": ("UnbuildableDesignError",),
+    ".cache": ("StageCache", "stage_key"),
+    ".design": ("Design", "DesignResult"),
+    ".errors": ("DesignError", "Progress"),
+    ".problem": ("JIT_MIN_VERTICES", "congruence_problem", "term_weights"),
+    ".regions": ("dominant_light_direction", "select_faces", "select_vertices"),
+    ".stage": ("Pipeline", "Stage", "StageInputs", "StageRun", "run_stages", "stage_keys"),
+    ".stages": ("DEFAULT_PIPELINE", "STAGES"),
+})
 
 __all__ = ["AnalysisResult", "analyze", "load_directions", "read_directions", "DirectionsError", "Design", "DesignResult",
            "DesignError", "Progress", "StageCache", "stage_key", "Pipeline", "Stage",

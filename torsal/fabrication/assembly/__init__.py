@@ -78,16 +78,22 @@ Example
 (True, 12, 0.0)
 >>> check.write_csv("out/assembly.csv")                                  # doctest: +SKIP
 """
-from .checker import AssemblyChecker, check_assembly, verify_assembly
-from .memo import AssemblyMemo, solid_digest
-from .occ import (_bbox, _boolean_common, _boundary_triangles, _face_prism, _face_records, _mesh,
-                  _volume, common_volume, face_polygons, solid_distance)
-from .records import AssemblyJoint, joint_groups, joints_of
-from .result import MIN_INTERFERENCE_VOLUME, TOUCHING_TOLERANCE, AssemblyCheck, AssemblyStep, Interference
-from .separation import (CLEAR_TOLERANCE, _inside_by_ray, hull_clear_of_triangles, prism_clear,
-                         prisms_clear, solid_clear, solid_cover, surfaces_clear)
-from .sweep import swept_overlap
-from .load_path import BUILDING, Fastening, LoadPath, check_load_path, fastenings_of, load_path
+from torsal.core.lazy import lazy_exports
+from .load_path import (BUILDING, Fastening, LoadPath, check_load_path, fastenings_of,
+                        load_path)
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".checker": ("AssemblyChecker", "check_assembly", "verify_assembly"),
+    ".memo": ("AssemblyMemo", "solid_digest"),
+    ".occ": ("_bbox", "_boolean_common", "_boundary_triangles", "_face_prism", "_face_records",
+             "_mesh", "_volume", "common_volume", "face_polygons", "solid_distance"),
+    ".records": ("AssemblyJoint", "joint_groups", "joints_of"),
+    ".result": ("MIN_INTERFERENCE_VOLUME", "TOUCHING_TOLERANCE", "AssemblyCheck", "AssemblyStep",
+                "Interference"),
+    ".separation": ("CLEAR_TOLERANCE", "_inside_by_ray", "hull_clear_of_triangles",
+                    "prism_clear", "prisms_clear", "solid_clear", "solid_cover",
+                    "surfaces_clear"),
+    ".sweep": ("swept_overlap",),
+})
 
 __all__ = ["Interference", "AssemblyStep", "AssemblyCheck", "AssemblyJoint", "AssemblyChecker",
            "check_assembly", "verify_assembly", "joints_of", "face_polygons", "common_volume",

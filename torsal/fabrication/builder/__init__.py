@@ -30,17 +30,20 @@ The modules import :mod:`torsal.fabrication.model`, :mod:`~torsal.fabrication.jo
 :mod:`~torsal.fabrication.unroll` and one another in that order, never
 :mod:`torsal.fabrication.parts`.
 """
-from .butts import ButtTrimmer
-from .clash import ClashFinder
-from .connectors import ConnectorPlacer
-from .crossings import CrossingSlotter
-from .ends import EndJoiner
-from .free import FreeStrips
-from .paths import AssemblyPlanner
-from .rebuild import Rebuilder
-from .seams import SlotSeams
-from .strips import StripCutter
-from .tabs import TabJoints
+from torsal.core.lazy import lazy_exports
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".butts": ("ButtTrimmer",),
+    ".clash": ("ClashFinder",),
+    ".connectors": ("ConnectorPlacer",),
+    ".crossings": ("CrossingSlotter",),
+    ".ends": ("EndJoiner",),
+    ".free": ("FreeStrips",),
+    ".paths": ("AssemblyPlanner",),
+    ".rebuild": ("Rebuilder",),
+    ".seams": ("SlotSeams",),
+    ".strips": ("StripCutter",),
+    ".tabs": ("TabJoints",),
+})
 
 __all__ = ["StripCutter", "EndJoiner", "ButtTrimmer", "ConnectorPlacer", "CrossingSlotter",
            "ClashFinder", "AssemblyPlanner", "SlotSeams", "TabJoints", "Rebuilder", "FreeStrips"]

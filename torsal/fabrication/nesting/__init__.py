@@ -24,14 +24,17 @@
 * :mod:`.bottom_left`: :func:`nest`, the fast bottom-left fill, and the shelves for small parts.
 * :mod:`.items`: the parts as every nester takes them.
 """
-from .api import nest_parts
-from .bottom_left import merge_layouts, nest, shelf_pack
-from .bounds import crossing_bound
-from .rows import nest_rows
-from .search import DEFAULT_TRIES, nest_search
-from .stats import (DEFAULT_NESTER, DEFAULT_SEED, DEFAULT_TIME_LIMIT, FINAL_CUT_NESTER,
-                    SECONDS_PER_SHEET, Nester, NestStats)
-from .yield_ import nest_for_yield
+from torsal.core.lazy import lazy_exports
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".api": ("nest_parts",),
+    ".bottom_left": ("merge_layouts", "nest", "shelf_pack"),
+    ".bounds": ("crossing_bound",),
+    ".rows": ("nest_rows",),
+    ".search": ("DEFAULT_TRIES", "nest_search"),
+    ".stats": ("DEFAULT_NESTER", "DEFAULT_SEED", "DEFAULT_TIME_LIMIT", "FINAL_CUT_NESTER",
+               "SECONDS_PER_SHEET", "Nester", "NestStats"),
+    ".yield_": ("nest_for_yield",),
+})
 
 __all__ = ["nest", "shelf_pack", "merge_layouts", "nest_for_yield", "nest_parts", "nest_rows", "nest_search", "Nester", "NestStats", "crossing_bound",
            "DEFAULT_TIME_LIMIT", "SECONDS_PER_SHEET", "DEFAULT_SEED", "DEFAULT_TRIES",

@@ -65,13 +65,17 @@ Package layout (one responsibility per module):
   (with how close to converged it is: ``OptimizationResult.convergence``, the stopping rule
   ``Stop``).
 """
-from .catalogue import DEFAULT_WEIGHTS
-from .forms import TorsalAngleBetween, TorsalAngleForm
-from .measure import Measurement
-from .nlp import tangent_frames
-from .problem import CongruenceProblem
-from .result import STOPS, Convergence, IterationRecord, OptimizationError, OptimizationResult, Stop, StopReason
-from .solve import SOLVERS, Solver
+from torsal.core.lazy import lazy_exports
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".catalogue": ("DEFAULT_WEIGHTS",),
+    ".forms": ("TorsalAngleBetween", "TorsalAngleForm"),
+    ".measure": ("Measurement",),
+    ".nlp": ("tangent_frames",),
+    ".problem": ("CongruenceProblem",),
+    ".result": ("STOPS", "Convergence", "IterationRecord", "OptimizationError",
+                "OptimizationResult", "Stop", "StopReason"),
+    ".solve": ("SOLVERS", "Solver"),
+})
 
 __all__ = ["CongruenceProblem", "OptimizationResult", "OptimizationError", "DEFAULT_WEIGHTS",
            "IterationRecord", "Measurement", "TorsalAngleForm", "TorsalAngleBetween", "tangent_frames", "Solver",

@@ -17,33 +17,17 @@ Examples
 >>> round(wall.annual)                                              # doctest: +SKIP
 1020
 """
-from torsal.light.annual.irradiance import (
-    AMBIENT_BOUNCES,
-    AMBIENT_DIVISIONS,
-    FIN_REFLECTANCE,
-    SHADING_FACTOR_STANDARD,
-    AnnualIrradiance,
-    RadianceSettings,
-    ShadingFactor,
-    Source,
-    annual_irradiance,
-    shading_factor,
-)
-from torsal.light.annual.daylight import Blinds, Daylight, Room, blinds_closed, daylight
-from torsal.light.annual.radiance import Radiance, RadianceError, RadianceNotFound
-from torsal.light.annual.sky import (
-    BALANCE_TEMPERATURE_C,
-    GROUND_REFLECTANCE,
-    SeasonRule,
-    Seasons,
-    SkyQuantity,
-    SkySubdivision,
-    SkyYear,
-    seasons,
-    sky_year,
-)
-from torsal.light.annual.weather import (Weather, WeatherSource, clear_sky_year, epw_year,
-                                         weather_year)
+from torsal.core.lazy import lazy_exports
+from .daylight import Blinds, Daylight, Room, blinds_closed, daylight
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".irradiance": ("AMBIENT_BOUNCES", "AMBIENT_DIVISIONS", "FIN_REFLECTANCE",
+                    "SHADING_FACTOR_STANDARD", "AnnualIrradiance", "RadianceSettings",
+                    "ShadingFactor", "Source", "annual_irradiance", "shading_factor"),
+    ".radiance": ("Radiance", "RadianceError", "RadianceNotFound"),
+    ".sky": ("BALANCE_TEMPERATURE_C", "GROUND_REFLECTANCE", "SeasonRule", "Seasons",
+             "SkyQuantity", "SkySubdivision", "SkyYear", "seasons", "sky_year"),
+    ".weather": ("Weather", "WeatherSource", "clear_sky_year", "epw_year", "weather_year"),
+})
 
 __all__ = [
     "AnnualIrradiance", "RadianceSettings", "ShadingFactor", "Source", "annual_irradiance",

@@ -28,11 +28,14 @@ import warnings
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from torsal.light.sun import read_weather
+
+if TYPE_CHECKING:           # pandas is imported where it is used (seconds, with pyarrow)
+    import pandas as pd
 
 __all__ = ["Weather", "WeatherSource", "epw_year", "weather_year", "clear_sky_year",
            "wea_text", "CLEAR_SKY_YEAR"]
@@ -116,6 +119,8 @@ def weather_year(path, *, format: str | None = None) -> Weather:
     >>> w.source.value, w.place, len(w), round(float(w.temp_air.mean()), 1)
     ('tmy2', 'MIAMI, FL', 8760, 24.3)
     """
+    import pandas as pd
+
     path = Path(path)
     h, meta = read_weather(path, format=format)
     source = WeatherSource(meta["format"])
@@ -175,6 +180,7 @@ def clear_sky_year(latitude: float, longitude: float, *, timezone: str | float,
     Weather
         ``source`` :attr:`WeatherSource.CLEAR_SKY`, ``temp_air`` None.
     """
+    import pandas as pd
     import pvlib
 
     offset = standard_utc_offset(timezone, year) if isinstance(timezone, str) else float(timezone)

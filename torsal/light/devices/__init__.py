@@ -13,11 +13,16 @@
 >>> DEVICE_NAMES[0]
 'horizontal louvers'
 """
-from .catalog import DEVICE_NAMES, MIN_STAND_OUT_DEG, Device, DeviceKind, baselines, standard_devices
-from .facade import egg_crate, grid_normal_fins, horizontal_louvers, vertical_fin_normal, vertical_fins
-from .frame import WALL_LIMIT_DEG, SurfaceFrame, surface_frame
-from .oriented import MAX_TILT_DEG, FinOrientation, optimize_fin_orientation
-from .sections import section_fins
+from torsal.core.lazy import lazy_exports
+__getattr__, __dir__ = lazy_exports(__name__, {
+    ".catalog": ("DEVICE_NAMES", "MIN_STAND_OUT_DEG", "Device", "DeviceKind", "baselines",
+                 "standard_devices"),
+    ".facade": ("egg_crate", "grid_normal_fins", "horizontal_louvers", "vertical_fin_normal",
+                "vertical_fins"),
+    ".frame": ("WALL_LIMIT_DEG", "SurfaceFrame", "surface_frame"),
+    ".oriented": ("MAX_TILT_DEG", "FinOrientation", "optimize_fin_orientation"),
+    ".sections": ("section_fins",),
+})
 
 __all__ = ["DEVICE_NAMES", "Device", "DeviceKind", "standard_devices", "baselines",
            "horizontal_louvers", "vertical_fins", "egg_crate", "grid_normal_fins",
