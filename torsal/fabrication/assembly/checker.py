@@ -16,7 +16,8 @@ from typing import Callable, Iterable, Mapping
 import numpy as np
 
 from .memo import AssemblyMemo, solid_digest
-from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _face_records, _first_vertex,
+from .occ import (INSIDE_TOLERANCE, _bbox, _boundary_triangles, _boundary_triangles_by_face,
+                  _face_records, _first_vertex,
                   _inside, _mesh, _near, _shape, _vertices, common_volume, is_upright)
 from .records import (AssemblyJoint, _as_joint, _candidate_directions, _placement_order,
                       joint_groups, joints_of)
@@ -100,6 +101,7 @@ class AssemblyChecker:
         self._kept[("vertices", k)] = rec.vertices
         self._kept[("cover", k)] = [(faces[n], rec.cover_vector) for n in rec.cover_faces]
         self._kept[("boundary", k)] = rec.triangles
+        self._kept[("face counts", k)] = rec.face_triangle_counts
 
     def faces(self, k: int) -> list:
         """Face records of solid ``k``, made once per process."""
@@ -130,9 +132,21 @@ class AssemblyChecker:
         def make():
             tri = self._kept.get(("boundary", k))
             if tri is None:
-                tri = _boundary_triangles(self.shapes[k])
+                tri, self._kept[("face counts", k)] = _boundary_triangles_by_face(self.shapes[k])
             return tri, _bbox(self.shapes[k]), (tri.min(axis=1), tri.max(axis=1))
         return self._keep("triangles", k, make)
+
+    def face_triangles(self, k: int) -> list[np.ndarray]:
+        """The boundary triangles of each face of solid ``k`` (:meth:`faces`' order), once per
+        process: slices of :meth:`triangles` (the numbers :func:`~.occ._boundary_triangles`
+        of each face gives), where each face's count is known, else read face by face."""
+        def make():
+            tri = self.triangles(k)[0]
+            counts = self._kept.get(("face counts", k))
+            if counts is None or len(counts) != len(self.faces(k)):
+                return [_boundary_triangles(f.face) for f in self.faces(k)]
+            return np.split(tri, np.cumsum(counts)[:-1])
+        return self._keep("face triangles", k, make)
 
     # ------------------------------------------------------------------ jobs (any process)
     def pair(self, job) -> tuple:
@@ -212,6 +226,7 @@ class AssemblyChecker:
         k, vector, others, stop_above = job
         return k, swept_overlap(self.shapes[k], vector, [self.shapes[o] for o in others],
                                 stop_above=stop_above, faces=self.faces(k),
+                                face_triangles=self.face_triangles(k),
                                 upright=lambda n: self.upright(others[n]),
                                 triangles=lambda n: self.triangles(others[n])[0],
                                 boxes=lambda n: self.boxes[others[n]])
