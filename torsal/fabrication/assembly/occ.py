@@ -5,7 +5,7 @@ Units: those of the solids (unit^3 for volumes).
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -258,11 +258,23 @@ class _Face(NamedTuple):
     corners: np.ndarray | None = None
 
 
-def _corners(points: np.ndarray) -> np.ndarray:
-    """The distinct rows of ``points`` (k, 3), each where it first occurs: a face's vertices
-    are listed once per edge (twice each), its hull's corners once (the separating-axis tests
-    project them all, :func:`~.separation._prism_hulls`)."""
-    return np.array(list(dict.fromkeys(map(tuple, points.tolist()))), float).reshape(-1, 3)
+def _corners(points: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per face, the distinct rows of its ``points`` (k, 3), each where it first occurs: a
+    face's vertices are listed once per edge (twice each), its hull's corners once (the
+    separating-axis tests project them all, :func:`~.separation._prism_hulls`). All faces of
+    a solid in one sort (a face at a time cost more than the rest of its records)."""
+    if not len(points):
+        return []
+    counts = np.array([len(p) for p in points])
+    x = np.concatenate(points).reshape(-1, 3)
+    face = np.repeat(np.arange(len(points)), counts)
+    order = np.lexsort((x[:, 2], x[:, 1], x[:, 0], face))      # stable: first occurrence first
+    xs, fs = x[order], face[order]
+    new = np.ones(len(x), bool)
+    new[1:] = (fs[1:] != fs[:-1]) | (xs[1:] != xs[:-1]).any(axis=1)
+    keep = np.zeros(len(x), bool)
+    keep[order[new]] = True
+    return np.split(x[keep], np.cumsum(np.bincount(face[keep], minlength=len(points)))[:-1])
 
 
 def _face_records(shape) -> list[_Face]:
@@ -298,9 +310,8 @@ def _face_records(shape) -> list[_Face]:
             edges.append((last[0] - first[0], last[1] - first[1], last[2] - first[2]))
             ex.Next()
         pts = np.asarray(pts, float).reshape(-1, 3)
-        out.append(_Face(f, pts, np.asarray(edges, float).reshape(-1, 3), _plane_normal(pts),
-                         _corners(pts)))
-    return out
+        out.append(_Face(f, pts, np.asarray(edges, float).reshape(-1, 3), _plane_normal(pts)))
+    return [f._replace(corners=c) for f, c in zip(out, _corners([f.points for f in out]))]
 
 
 def _outward_normals(shape, faces: list[_Face]) -> np.ndarray | None:

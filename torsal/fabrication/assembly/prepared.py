@@ -91,5 +91,6 @@ def face_records_of(shape, records: SolidRecords) -> list[_Face]:
     occ = _faces(shape)
     if len(occ) != len(records.face_points):
         raise ValueError(f"the solid has {len(occ)} faces, its records {len(records.face_points)}")
-    return [_Face(f, p, e, n, _corners(p)) for f, p, e, n in
-            zip(occ, records.face_points, records.face_edges, records.face_normals)]
+    return [_Face(f, p, e, n, c) for f, p, e, n, c in
+            zip(occ, records.face_points, records.face_edges, records.face_normals,
+                _corners(records.face_points))]
