@@ -29,6 +29,23 @@ def _extent(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t.min(axis=0), t.max(axis=0)
 
 
+def _dot3(x, y) -> np.ndarray:
+    """``(x * y).sum(axis=-1)`` of vectors along a last axis of three (broadcast): the same
+    products added in the same order, ``(p0 + p1) + p2``, the numbers numpy's sum gives
+    (checked bit for bit on 7a's check and on random arrays), without its reduction over a
+    short axis (a dozen times slower)."""
+    return x[..., 0] * y[..., 0] + x[..., 1] * y[..., 1] + x[..., 2] * y[..., 2]
+
+
+def _abs_max(x: np.ndarray) -> np.ndarray:
+    """``np.abs(x).max(axis=(1, ...), initial=0.0)``: (k,) the largest magnitude of each
+    of the ``k`` blocks of ``x`` (exact), along the first axis of a transposed copy."""
+    if not x.size:
+        return np.zeros(len(x))
+    a = np.abs(x).reshape(len(x), -1)
+    return np.maximum(np.ascontiguousarray(a.T).max(axis=0), 0.0)
+
+
 def _boxes_meet(lo_a, hi_a, lo_b, hi_b) -> np.ndarray:
     """(p, t) whether box ``p`` (``lo_a``, ``hi_a``: (p, 3)) meets box ``t`` (``lo_b``,
     ``hi_b``: (t, 3)), bounds included: the comparisons of ``(lo_b[None] <= hi_a[:, None])
@@ -91,18 +108,18 @@ def _inside_by_rays(points, triangles) -> np.ndarray:
     a = triangles[None, :, 0] - points[:, None]      # (p, t, 3)
     e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
     h = _cross(d, e2)
-    det = (e1 * h).sum(axis=1)
+    det = _dot3(e1, h)
     n = _cross(e1, e2)
-    nn = np.sqrt((n * n).sum(axis=1))
+    nn = np.sqrt(_dot3(n, n))
     good = np.abs(det) > 1e-9 * nn
     tol = 1e-9
     # the ray runs in a triangle's plane
-    unsure = (~good & (np.abs((n * a).sum(axis=2)) <= tol * nn)).any(axis=1)
+    unsure = (~good & (np.abs(_dot3(n, a)) <= tol * nn)).any(axis=1)
     inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
-    u = -(a * h).sum(axis=2) * inv
+    u = -_dot3(a, h) * inv
     q = _cross(-a, e1)
-    v = (q * d).sum(axis=2) * inv
-    w = (e2 * q).sum(axis=2) * inv                   # distance along the ray
+    v = _dot3(q, d) * inv
+    w = _dot3(e2, q) * inv                           # distance along the ray
     within = good & (u > -tol) & (v > -tol) & (u + v < 1 + tol)
     edge = (np.abs(u) < tol) | (np.abs(v) < tol) | (np.abs(u + v - 1) < tol)
     # on the surface, or the ray grazes an edge or a corner
@@ -220,11 +237,11 @@ def _sat_pairs(pts, edges, normals, tri, pi, ti, group, n_groups: int, eps) -> n
     coordinate among the pairs of its ``group`` (one group: one solid's triangles). The two
     normals separate most pairs: the cross products are made for the others only."""
     c = pts.mean(axis=1)                               # (p, 3): centred, smaller round-off
-    q = (pts - c[:, None])[pi]                         # (n, m, 3)
+    centred = pts - c[:, None]
+    q = centred[pi]                                    # (n, m, 3)
     t = tri[ti] - c[pi][:, None]                       # (n, 3, 3)
     scale = np.ones(n_groups)
-    np.maximum.at(scale, group, np.maximum(np.abs(q).max(axis=(1, 2), initial=0.0),
-                                           np.abs(t).max(axis=(1, 2), initial=0.0)))
+    np.maximum.at(scale, group, np.maximum(_abs_max(centred)[pi], _abs_max(t)))
     shortest = 1e-9 * (scale * scale)[group]           # (n,): parallel edges give no axis
     te = t[:, [1, 2, 0]] - t                           # (n, 3, 3) triangle edges
     sep = _separated(np.stack([_cross(te[:, 0], te[:, 1]), normals[pi]], axis=1), q, t,
@@ -241,7 +258,7 @@ def _separated(axes, q, t, shortest, eps) -> np.ndarray:
     """(n,) whether one of the ``axes`` (n, a, 3) longer than ``shortest`` (n,) has the
     points ``q`` (n, m, 3) and the triangle ``t`` (n, 3, 3) more than ``eps`` (times its
     length) apart."""
-    norm = np.sqrt((axes * axes).sum(axis=2))          # (n, a)
+    norm = np.sqrt(_dot3(axes, axes))          # (n, a)
     pp = axes @ q.transpose(0, 2, 1)                   # (n, a, m)
     tp = axes @ t.transpose(0, 2, 1)                   # (n, a, 3)
     (pmin, pmax), (tmin, tmax) = _extent(pp), _extent(tp)
@@ -319,7 +336,7 @@ def _triangles_apart(ta: np.ndarray, tb: np.ndarray, eps: float) -> np.ndarray:
 def _apart(axes, a, b, shortest: float, eps: float) -> np.ndarray:
     """(n,) whether one of the ``axes`` (n, k, 3) longer than ``shortest`` has the triangles
     ``a`` and ``b`` (n, 3, 3) more than ``eps`` (times its length) apart."""
-    norm = np.sqrt((axes * axes).sum(axis=2))
+    norm = np.sqrt(_dot3(axes, axes))
     pa, pb = axes @ a.transpose(0, 2, 1), axes @ b.transpose(0, 2, 1)  # (n, k, 3)
     (amin, amax), (bmin, bmax) = _extent(pa), _extent(pb)
     gap = np.maximum(bmin - amax, amin - bmax)
