@@ -5,7 +5,7 @@ Units: those of the solids (unit^3 for volumes).
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -248,12 +248,33 @@ def _plane_normal(points: np.ndarray) -> np.ndarray:
 
 
 class _Face(NamedTuple):
-    """A face of a moving solid: its OCC face, vertices (k, 3), edge directions (k, 3)."""
+    """A face of a moving solid: its OCC face, vertices (k, 3), edge directions (k, 3), its
+    plane's normal and its ``corners`` (:func:`_corners` of ``points``; None: ``points``)."""
 
     face: object
     points: np.ndarray
     edges: np.ndarray
     normal: np.ndarray
+    corners: np.ndarray | None = None
+
+
+def _corners(points: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per face, the distinct rows of its ``points`` (k, 3), each where it first occurs: a
+    face's vertices are listed once per edge (twice each), its hull's corners once (the
+    separating-axis tests project them all, :func:`~.separation._prism_hulls`). All faces of
+    a solid in one sort (a face at a time cost more than the rest of its records)."""
+    if not len(points):
+        return []
+    counts = np.array([len(p) for p in points])
+    x = np.concatenate(points).reshape(-1, 3)
+    face = np.repeat(np.arange(len(points)), counts)
+    order = np.lexsort((x[:, 2], x[:, 1], x[:, 0], face))      # stable: first occurrence first
+    xs, fs = x[order], face[order]
+    new = np.ones(len(x), bool)
+    new[1:] = (fs[1:] != fs[:-1]) | (xs[1:] != xs[:-1]).any(axis=1)
+    keep = np.zeros(len(x), bool)
+    keep[order[new]] = True
+    return np.split(x[keep], np.cumsum(np.bincount(face[keep], minlength=len(points)))[:-1])
 
 
 def _face_records(shape) -> list[_Face]:
@@ -290,7 +311,7 @@ def _face_records(shape) -> list[_Face]:
             ex.Next()
         pts = np.asarray(pts, float).reshape(-1, 3)
         out.append(_Face(f, pts, np.asarray(edges, float).reshape(-1, 3), _plane_normal(pts)))
-    return out
+    return [f._replace(corners=c) for f, c in zip(out, _corners([f.points for f in out]))]
 
 
 def _outward_normals(shape, faces: list[_Face]) -> np.ndarray | None:
@@ -350,12 +371,24 @@ def _meshed_triangles(shape) -> np.ndarray | None:
 def _boundary_triangles(shape) -> np.ndarray:
     """(t, 3, 3) corners of the triangles of a shape's boundary (exact for planar faces),
     meshed first if it is not (:class:`~.checker.AssemblyChecker` keeps them per solid)."""
+    return _boundary_triangles_by_face(shape)[0]
+
+
+def _boundary_triangles_by_face(shape) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(triangles (t, 3, 3), counts (f,))``: :func:`_boundary_triangles` of ``shape`` and
+    how many of them each of its faces (:func:`_faces`, in that order) has, so that face
+    ``n``'s are a slice of the array, the very numbers :func:`_boundary_triangles` of that
+    face gives (its triangulation, read alike); ``counts`` None where a face is met twice
+    (then the faces' triangles are not in :func:`_faces`' order)."""
     from OCP.BRepTools import BRepTools
 
-    from ..plates import _triangles
+    from ..plates import _face_triangles
 
     deflection = 0.1 * TOUCHING_TOLERANCE           # as _mesh meshes for the check
     if not BRepTools.Triangulation_s(shape, deflection):
         _mesh([shape], TOUCHING_TOLERANCE)   # serially (a check meshes its solids before any fork)
-    v, f = _triangles(shape, deflection, threads=False)     # forked workers call this
-    return v[f].reshape(-1, 3, 3)
+    # forked workers call this: no threads
+    per = [v[t].reshape(-1, 3, 3) for v, t in _face_triangles(shape, deflection, threads=False)]
+    tri = np.concatenate(per) if per else np.zeros((0, 3, 3))
+    counts = np.array([len(t) for t in per], np.int64)
+    return tri, (counts if len(per) == len(_faces(shape)) else None)

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .occ import _Face, _boundary_triangles, _face_records, _faces, _vertices
+from .occ import _Face, _boundary_triangles_by_face, _corners, _face_records, _faces, _vertices
 from .separation import solid_cover
 
 __all__ = ["SolidRecords", "PreparedSolid", "solid_records", "prepare_solid", "face_records_of"]
@@ -40,7 +40,8 @@ class SolidRecords(NamedTuple):
     faces' best-fit plane normals, all in the OCC explorer's face order; ``cover_faces`` the
     faces of the cover and ``cover_vector`` (3,) their sweep (:func:`~.separation.solid_cover`;
     empty when the solid has no cover); ``triangles`` (t, 3, 3) the boundary triangles;
-    ``vertices`` (v, 3)."""
+    ``vertices`` (v, 3); ``face_triangle_counts`` (f,) how many of the triangles each face
+    has, in order (None: not known; see :func:`~.occ._boundary_triangles_by_face`)."""
 
     face_points: tuple
     face_edges: tuple
@@ -49,6 +50,7 @@ class SolidRecords(NamedTuple):
     cover_vector: np.ndarray
     triangles: np.ndarray
     vertices: np.ndarray
+    face_triangle_counts: np.ndarray | None = None
 
 
 class PreparedSolid(NamedTuple):
@@ -66,13 +68,15 @@ def solid_records(shape) -> SolidRecords:
     faces = _face_records(shape)
     cover = solid_cover(shape, faces)
     index = {id(f): n for n, f in enumerate(faces)}
+    triangles, counts = _boundary_triangles_by_face(shape)
     return SolidRecords(
         face_points=tuple(f.points for f in faces), face_edges=tuple(f.edges for f in faces),
         face_normals=np.array([f.normal for f in faces], float).reshape(-1, 3),
         cover_faces=tuple(index[id(f)] for f, _ in cover),
         cover_vector=np.asarray(cover[0][1], float) if cover else np.zeros(3),
-        triangles=_boundary_triangles(shape),
-        vertices=(np.concatenate([f.points for f in faces]) if faces else _vertices(shape)))
+        triangles=triangles,
+        vertices=(np.concatenate([f.points for f in faces]) if faces else _vertices(shape)),
+        face_triangle_counts=counts)
 
 
 def prepare_solid(shape) -> PreparedSolid:
@@ -87,5 +91,6 @@ def face_records_of(shape, records: SolidRecords) -> list[_Face]:
     occ = _faces(shape)
     if len(occ) != len(records.face_points):
         raise ValueError(f"the solid has {len(occ)} faces, its records {len(records.face_points)}")
-    return [_Face(f, p, e, n) for f, p, e, n in
-            zip(occ, records.face_points, records.face_edges, records.face_normals)]
+    return [_Face(f, p, e, n, c) for f, p, e, n, c in
+            zip(occ, records.face_points, records.face_edges, records.face_normals,
+                _corners(records.face_points))]

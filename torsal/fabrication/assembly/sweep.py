@@ -19,6 +19,7 @@ __all__ = ["swept_overlap", "face_pieces"]
 
 def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.inf,
                   faces: list[_Face] | None = None,
+                  face_triangles: Sequence[np.ndarray] | None = None,
                   triangles: Callable[[int], np.ndarray] | None = None,
                   boxes: Callable[[int], np.ndarray] | None = None,
                   upright: Callable[[int], bool] | None = None) -> list[float]:
@@ -31,7 +32,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     an other adds 0 without a boolean; so does the prism of a notched or holed face whose
     triangles' prisms it proves apart one by one (:func:`face_pieces`), or its surface made of
     the face's triangles (:func:`_prism_surface`).
-    ``faces``: the face records of ``moving`` (``_face_records``), if made already;
+    ``faces``: the face records of ``moving`` (``_face_records``), if made already, and
+    ``face_triangles`` each one's boundary triangles (``_boundary_triangles`` of the face);
     ``triangles(i)``: the boundary triangles of ``others[i]`` (``_boundary_triangles``), and
     ``boxes(i)`` its bounding box (``_bbox``), if kept; ``upright(i)``: whether ``others[i]``
     faces outwards (:func:`~.occ.is_upright`; the prisms do by construction), if known.
@@ -42,6 +44,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     """
     v = np.asarray(vector, float)
     faces = _face_records(_shape(moving)) if faces is None else faces
+    face_tri = (list(face_triangles) if face_triangles is not None else
+                [None] * len(faces))       # None: read from the face when needed
     fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
                np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, tuple] = {}            # face index -> (oriented prism, its box) or None
@@ -65,7 +69,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     left = boxes_meet & ~clear
     if hit and left.any():
         clear[:, hit] |= _pieces_clear_of_each(faces, v, [(tris[i], obs[i]) for i in hit],
-                                               left[:, hit])
+                                               left[:, hit], face_tri)
     out = []
     for i, oshape in enumerate(shapes):
         o, ob = others[i], obs[i]
@@ -74,7 +78,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
         meets = [int(n) for n in np.flatnonzero(boxes_meet[:, i] & ~clear[:, i])]
         for n in meets:
             face = faces[n]
-            if _surface_clear(surfaces, n, face, v, otri, ob):      # before OpenCascade's prism
+            if _surface_clear(surfaces, n, face, v, otri, ob, face_tri[n]):      # before OpenCascade's prism
                 continue
             if n not in prisms:
                 pr = _face_prism(face.face, v)
@@ -97,17 +101,19 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     return out
 
 
-def _surface_clear(surfaces: dict, n: int, face: _Face, v: np.ndarray, triangles, box) -> bool:
+def _surface_clear(surfaces: dict, n: int, face: _Face, v: np.ndarray, triangles, box,
+                   face_triangles: np.ndarray | None = None) -> bool:
     """:func:`~.separation.surfaces_clear` of the prism of face ``n`` (:func:`_prism_surface`,
     made once and kept in ``surfaces``) and a solid's boundary ``triangles`` (None: not
-    known), ``box``."""
+    known), ``box``; ``face_triangles``: the face's own, if known."""
     if n not in surfaces:
-        surfaces[n] = _prism_surface(face, v)
+        surfaces[n] = _prism_surface(face, v, face_triangles)
     return (surfaces[n] is not None and triangles is not None
             and surfaces_clear(surfaces[n][0], triangles, surfaces[n][1], box))
 
 
-def _prism_surface(face: _Face, v: np.ndarray) -> tuple | None:
+def _prism_surface(face: _Face, v: np.ndarray, triangles: np.ndarray | None = None
+                   ) -> tuple | None:
     """``(triangles (t, 3, 3), box (2, 3))`` of the closed surface of the prism ``face`` sweeps
     along ``-v``: the face's triangles (its exact triangulation, :func:`face_pieces`), their
     translates by ``-v`` and two triangles on the sweep of each edge of the face's boundary
@@ -115,35 +121,55 @@ def _prism_surface(face: _Face, v: np.ndarray) -> tuple | None:
     has no triangles. :func:`~.separation.surfaces_clear` of it and another solid's boundary
     proves the prism clear of that solid as the prism OpenCascade builds would (the same
     closed surface, other triangles), without building, orienting and meshing it (on 7a's
-    first tries of the paths: 3.87/3.73 -> 2.87/2.57 s CPU, every swept volume the same)."""
-    tri = _boundary_triangles(face.face)
+    first tries of the paths: 3.87/3.73 -> 2.87/2.57 s CPU, every swept volume the same).
+    ``triangles``: the face's (:func:`~.occ._boundary_triangles` of it), if known."""
+    tri = _boundary_triangles(face.face) if triangles is None else triangles
     if not len(tri):
         return None
-    pts, index = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
-    t = index.reshape(-1, 3)
-    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(edges, axis=0, return_counts=True)
-    a, b = pts[uniq[count == 1, 0]], pts[uniq[count == 1, 1]]
+    a, b = _boundary_edges(tri)
     w = np.asarray(v, float)
     out = np.concatenate([tri, tri - w, np.stack([a, b, b - w], axis=1),
                           np.stack([a, b - w, a - w], axis=1)])
     return out, np.array([out.min(axis=(0, 1)), out.max(axis=(0, 1))])
 
 
-def face_pieces(face: _Face) -> list[_Face]:
+def _boundary_edges(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edges of one triangle only of the triangles ``tri`` (t, 3, 3), vertices matched by
+    their coordinates: their ends ``(a, b)`` (e, 3) each, in the order (and with the numbers)
+    ``np.unique(..., axis=0)`` of the vertices, then of the sorted index pairs, gives them,
+    sorted with ``np.lexsort`` and keyed in one integer (``np.unique`` along an axis sorts
+    rows as records: a third of the prism surface's time on 7a)."""
+    x = tri.reshape(-1, 3)
+    order = np.lexsort((x[:, 2], x[:, 1], x[:, 0]))
+    xs = x[order]
+    new = np.ones(len(xs), bool)
+    new[1:] = (xs[1:] != xs[:-1]).any(axis=1)
+    pts = xs[new]
+    index = np.empty(len(x), np.int64)
+    index[order] = np.cumsum(new) - 1
+    t = index.reshape(-1, 3)
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    keys, count = np.unique(edges[:, 0] * len(pts) + edges[:, 1], return_counts=True)
+    once = keys[count == 1]
+    return pts[once // len(pts)], pts[once % len(pts)]
+
+
+def face_pieces(face: _Face, triangles: np.ndarray | None = None) -> list[_Face]:
     """The triangles of a planar face (its exact triangulation) as convex faces of their own:
-    a notched or holed face's prism is the union of theirs."""
-    tri = _boundary_triangles(face.face)
+    a notched or holed face's prism is the union of theirs. ``triangles``: the face's
+    (:func:`~.occ._boundary_triangles` of it), if known."""
+    tri = _boundary_triangles(face.face) if triangles is None else triangles
     return [_Face(None, t, np.roll(t, -1, axis=0) - t, face.normal) for t in tri]
 
 
-def _pieces_clear_of_each(faces: list[_Face], v, others: list[tuple], candidates: np.ndarray
-                          ) -> np.ndarray:
+def _pieces_clear_of_each(faces: list[_Face], v, others: list[tuple], candidates: np.ndarray,
+                          face_triangles: Sequence | None = None) -> np.ndarray:
     """(f, o) whether every triangle of face ``f`` (:func:`face_pieces`) swept along ``v`` is
     proved apart from solid ``o`` (``others``: its triangles and box), for the ``candidates``
     (f, o): then the whole face's prism is. Faces without triangles are not."""
     rows = np.flatnonzero(candidates.any(axis=1))
-    pieces = {int(n): face_pieces(faces[n]) for n in rows}
+    known = face_triangles if face_triangles is not None else [None] * len(faces)
+    pieces = {int(n): face_pieces(faces[n], known[n]) for n in rows}
     of = np.array([n for n in rows for _ in pieces[int(n)]], int)
     out = np.zeros_like(candidates)
     if not len(of):

@@ -110,7 +110,10 @@ class JobPool:
 
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
-            self._pool.terminate()       # as ``with Pool()`` does: every map has returned
+            if exc[0] is None:           # every map has returned: the workers end of themselves
+                self._pool.close()       # (and count their time, as a process killed does not)
+            else:
+                self._pool.terminate()   # as ``with Pool()`` does
             self._pool.join()
             self._pool = None
 
