@@ -1,7 +1,8 @@
-"""The B-rep of a closed polyhedron (``plates.brep._polyhedron_solid``): its faces built directly
-on their planes where the loop runs counter-clockwise about the normal are the faces
-``BRepBuilderAPI_MakeFace(plane, wire, True)`` makes (the same binary BRep, byte for byte), and
-a loop turned the other way still goes through that call, which turns its wire round."""
+"""Kernels of the plates' B-reps: the B-rep of a closed polyhedron (``plates.brep._polyhedron_solid``):
+its faces built directly on their planes where the loop runs counter-clockwise about the normal
+are the faces ``BRepBuilderAPI_MakeFace(plane, wire, True)`` makes (the same binary BRep, byte
+for byte), a loop turned the other way still goes through that call, which turns its wire
+round; the plane axes of one normal are those of a stack of normals, bit for bit."""
 from __future__ import annotations
 
 import numpy as np
@@ -56,3 +57,21 @@ def test_a_clockwise_loop_is_turned_round_by_the_api():
     solid = brep._polyhedron_solid(_POINTS, loops, _NORMALS, _CENTRES)
     assert _is_valid(solid)
     assert _volume(solid) == pytest.approx(6.0, rel=1e-12)
+
+
+def test_plane_axes_of_one_normal_are_the_stacks_bit_for_bit():
+    # the single-normal route of sections._plane_axes (Python floats) against the array
+    # route of the same normals in a stack: the same bits, signed zeros included
+    from torsal.fabrication.plates.sections import _plane_axes
+
+    rng = np.random.default_rng(7)
+    n = rng.normal(size=(500, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.vstack([np.eye(3), -np.eye(3), [[0.6, -0.8, 0.0], [-0.0, -0.0, -1.0]], n])
+    stacked = _plane_axes(n)
+    for k, x in enumerate(n):
+        one = _plane_axes(x)
+        assert one.shape == (2, 3)
+        assert one.tobytes() == stacked[k].tobytes()
+    e1, e2 = _plane_axes(np.array([0.0, 0.0, 1.0]))
+    assert np.allclose(np.cross(e1, e2), [0, 0, 1]) and np.isclose(e1 @ e2, 0.0)
