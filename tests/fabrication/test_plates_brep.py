@@ -2,7 +2,8 @@
 its faces built directly on their planes where the loop runs counter-clockwise about the normal
 are the faces ``BRepBuilderAPI_MakeFace(plane, wire, True)`` makes (the same binary BRep, byte
 for byte), a loop turned the other way still goes through that call, which turns its wire
-round; the plane axes of one normal are those of a stack of normals, bit for bit."""
+round; the plane axes of one normal are those of a stack of normals, bit for bit; the
+plate's distinct corners are numpy's unique rows."""
 from __future__ import annotations
 
 import numpy as np
@@ -75,3 +76,19 @@ def test_plane_axes_of_one_normal_are_the_stacks_bit_for_bit():
         assert one.tobytes() == stacked[k].tobytes()
     e1, e2 = _plane_axes(np.array([0.0, 0.0, 1.0]))
     assert np.allclose(np.cross(e1, e2), [0, 0, 1]) and np.isclose(e1 @ e2, 0.0)
+
+
+def test_distinct_rows_are_numpys_unique_rows():
+    # plate._distinct_rows against np.unique(axis=0, return_index, return_inverse) on random
+    # integer rows with many repeats (the plate's corners rounded to 1e-12)
+    from torsal.fabrication.plates.plate import _distinct_rows
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        n = int(rng.integers(1, 80))
+        keys = rng.integers(-4, 4, size=(n, 3)).astype(np.int64) * int(rng.choice([1, -7, 10**12]))
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        got_first, got_inverse = _distinct_rows(keys)
+        assert np.array_equal(got_first, first)
+        assert np.array_equal(got_inverse, inverse.reshape(-1))
+        assert np.array_equal(keys[got_first][got_inverse], keys)
