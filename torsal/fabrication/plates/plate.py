@@ -39,6 +39,25 @@ def _fans(pts: np.ndarray, planar_tol: float) -> list:
     return [[list(range(n))] if ok else t.tolist() for ok, t in zip(planar, tri)]
 
 
+def _distinct_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(first, inverse)`` of ``np.unique(keys, axis=0, return_index=True,
+    return_inverse=True)`` for integer rows ``keys`` (N, 3): the index of the first of each
+    distinct row, the rows in lexicographic order, and each row's place among them; the
+    same arrays by a stable lexicographic sort (a fifth of its time: ``axis=0`` sorts the
+    rows as records).
+
+    >>> [x.tolist() for x in _distinct_rows(np.array([[2, 0, 0], [1, 5, 0], [2, 0, 0]]))]
+    [[1, 0], [1, 0, 1]]
+    """
+    order = np.lexsort(keys.T[::-1])
+    rows = keys[order]
+    new = np.ones(len(rows), bool)
+    new[1:] = (rows[1:] != rows[:-1]).any(axis=1)
+    inverse = np.empty(len(rows), np.intp)
+    inverse[order] = np.cumsum(new) - 1
+    return order[new], inverse
+
+
 def _plate_direct(part: Part, thickness: float, planar_tol: float):
     """The plate of a part built as a B-rep directly: one vertex per distinct corner, one edge
     per pair of corners that bound a face (shared by its two faces), one planar face per
@@ -66,8 +85,7 @@ def _plate_polyhedron(part: Part, thickness: float, planar_tol: float):
     flat = outlines.reshape(-1, 3)
     if not np.abs(flat).max() < 1e6:
         raise ValueError("coordinates too large for the vertex table")
-    _, first, ids = np.unique(np.round(flat / 1e-12).astype(np.int64), axis=0,
-                              return_index=True, return_inverse=True)
+    first, ids = _distinct_rows(np.round(flat / 1e-12).astype(np.int64))
     ids = ids.reshape(outlines.shape[:2])
     points = flat[first]
     gaps = np.linalg.norm(points[:, None] - points[None], axis=2)

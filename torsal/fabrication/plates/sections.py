@@ -4,6 +4,8 @@ a closed polyhedron by planes (shapely polygons in the planes' frames), and the 
 grouped by plane."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..model import _cross
@@ -38,10 +40,26 @@ def _plane_axes(n: np.ndarray) -> np.ndarray:
     """Unit axes (..., 2, 3) ``e1, e2`` of planes with the unit normals ``n`` (..., 3),
     ``e1 x e2 = n``: ``e1`` is ``n`` crossed with the coordinate axis it is least along."""
     n = np.asarray(n, float)
+    if n.shape == (3,):
+        return _plane_axes_one(n)
     least = np.argmin(np.abs(n), axis=-1)
     e1 = _cross(n, np.eye(3)[least])
     e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
     return np.stack([e1, _cross(n, e1)], axis=-2)
+
+
+def _plane_axes_one(n: np.ndarray) -> np.ndarray:
+    """:func:`_plane_axes` of one normal (3,), bit for bit: the same products, sums and
+    quotients on Python floats (a tenth of the array route's time; once per box face of every
+    slotted part)."""
+    x = n.tolist()
+    least = int(np.argmin(np.abs(n)))
+    b = [1.0 if k == least else 0.0 for k in range(3)]
+    e1 = [x[1] * b[2] - x[2] * b[1], x[2] * b[0] - x[0] * b[2], x[0] * b[1] - x[1] * b[0]]
+    length = math.sqrt(0.0 + e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+    e1 = [v / length for v in e1]
+    e2 = [x[1] * e1[2] - x[2] * e1[1], x[2] * e1[0] - x[0] * e1[2], x[0] * e1[1] - x[1] * e1[0]]
+    return np.array([e1, e2])
 
 
 _BITS = (np.arange(8)[:, None] >> np.arange(3)) & 1               # corner i: bit k along axis k
