@@ -257,6 +257,26 @@ def test_global_ids_stay_with_the_project(exported, tmp_path):
     assert len({e.GlobalId for e in other.by_type("IfcRoot")}) == len(other.by_type("IfcRoot"))
 
 
+def test_global_ids_are_ifcopenshells_compressed_uuid5(exported):
+    """_guid makes the GlobalId from the UUID's bytes: the same 22 characters as
+    ifcopenshell.guid.compress of its hex text, which expands back to that UUID."""
+    import uuid
+
+    import ifcopenshell.guid
+
+    fs, f, out = exported
+    ns = uuid.uuid5(uuid.NAMESPACE_URL, "torsal:torsal fins")
+    keys = [p.name for p in fs.parts] + ["project", "storey-contents", "k\u00e9y \u2713", ""]
+    keys += [f"fastener:C-N{n:04d}-{i}.{h}" for n in range(0, 4000, 7) for i in range(3) for h in range(2)]
+    for key in keys:
+        u = uuid.uuid5(ns, key)
+        g = I._guid(ns, key)
+        assert g == ifcopenshell.guid.compress(u.hex)
+        assert len(g) == 22 and uuid.UUID(ifcopenshell.guid.expand(g)) == u
+    # the plates of the file carry them
+    assert {e.GlobalId for e in _parts(f)} == {I._guid(ns, p.name) for p in fs.parts}
+
+
 def test_the_same_fins_write_the_same_bytes_a_second_later(exported, tmp_path):
     import time
 

@@ -342,12 +342,22 @@ def fastener_placements(fs) -> list[FastenerPlacement]:
 
 
 # ------------------------------------------------------------------ the file
+#: IFC's base-64 digits (``ifcopenshell.guid``'s), in the order of the standard alphabet's
+_IFC_DIGITS = bytes.maketrans(
+    b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/",
+    b"0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_$")
+
+
 def _guid(namespace: uuid.UUID, key: str) -> str:
     """A GlobalId that stays the same for the same element of the same project (a re-export
-    replaces the elements in a BIM tool instead of adding copies)."""
-    import ifcopenshell.guid
+    replaces the elements in a BIM tool instead of adding copies): ``ifcopenshell.guid.compress``
+    of ``uuid.uuid5(namespace, key)``, the same 22 characters made from the UUID's bytes (two
+    zero bytes before its 16, in base 64, the first two digits dropped) without its hex text
+    (thousands of elements per file)."""
+    import base64
 
-    return ifcopenshell.guid.compress(uuid.uuid5(namespace, key).hex)
+    return base64.b64encode(b"\0\0" + uuid.uuid5(namespace, key).bytes)[2:].translate(
+        _IFC_DIGITS).decode()
 
 
 def _dms(degrees: float) -> tuple[int, int, int, int]:
@@ -361,9 +371,13 @@ def _dms(degrees: float) -> tuple[int, int, int, int]:
     return sign * d, sign * m, sign * s, sign * u
 
 
+#: the unit vectors along x, y, z (rows)
+_AXES = np.eye(3)
+
+
 def _perpendicular(z: np.ndarray) -> np.ndarray:
     """A unit vector square to the unit vector ``z``."""
-    a = np.eye(3)[int(np.argmin(np.abs(z)))]
+    a = _AXES[int(np.argmin(np.abs(z)))]
     x = a - (a @ z) * z
     return x / np.linalg.norm(x)
 
@@ -476,19 +490,22 @@ class _Writer:
         rep = self.f.createIfcShapeRepresentation(self.body, "Body", kind, [item])
         return self.f.createIfcProductDefinitionShape(None, None, [rep])
 
-    def pset(self, element, name: str, values: dict) -> None:
-        """A property set ``name`` of ``values`` (IFC value entities) on ``element``; a
-        property of the same name and value is made once and shared by the sets."""
+    def pset(self, element, name: str, values: dict, *, guid: str | None = None) -> None:
+        """A property set ``name`` of ``values`` (``{property: (IFC value type, value)}``, e.g.
+        ``("IfcLabel", "F0-S000-P00")``) on ``element`` (whose GlobalId is ``guid``, default
+        read from it); a property of the same name and value is made once and shared by the
+        sets (its value entity too: value entities take no line of the file)."""
         f = self.f
         props = []
-        for k, v in values.items():
-            key = (k, v.is_a(), v.wrappedValue)
+        for k, (kind, v) in values.items():
+            key = (k, kind, v)
             if key not in self.properties:
-                self.properties[key] = f.createIfcPropertySingleValue(k, None, v, None)
+                self.properties[key] = f.createIfcPropertySingleValue(
+                    k, None, f.create_entity(kind, v), None)
             props.append(self.properties[key])
-        pset = f.createIfcPropertySet(_guid(self.ns, f"{name}:{element.GlobalId}"), None, name,
-                                      None, props)
-        f.createIfcRelDefinesByProperties(_guid(self.ns, f"{name}-rel:{element.GlobalId}"), None,
+        guid = element.GlobalId if guid is None else guid
+        pset = f.createIfcPropertySet(_guid(self.ns, f"{name}:{guid}"), None, name, None, props)
+        f.createIfcRelDefinesByProperties(_guid(self.ns, f"{name}-rel:{guid}"), None,
                                           None, None, [element], pset)
 
     def write(self, path: Path) -> None:
@@ -528,9 +545,10 @@ def _triangulated(w: _Writer, part: Part, shape, tolerance: float, relative_to):
     if not closed:
         raise ValueError(f"{part.name}: its solid's triangles do not make a closed surface")
     corner = vertices.min(axis=0)
-    points = w.f.createIfcCartesianPointList3D([tuple(map(float, p)) for p in vertices - corner])
+    # (lists of Python floats and ints, made by numpy at once: the same values)
+    points = w.f.createIfcCartesianPointList3D((vertices - corner).tolist())
     item = w.f.createIfcTriangulatedFaceSet(points, None, True,
-                                            [tuple(int(i) + 1 for i in t) for t in tri], None)
+                                            (tri.astype(np.int64) + 1).tolist(), None)
     return w.placement(relative_to, corner), item, "Tessellation"
 
 
@@ -545,21 +563,22 @@ def _part_element(w: _Writer, part: Part, shape, info: dict, joints: list, *, re
         placement, item, kind = _triangulated(w, part, shape, tolerance, relative_to)
     body = PlateBody.EXTRUSION if prof is not None else PlateBody.TRIANGULATED
     fin = part.family not in (CONNECTOR_FAMILY, FIXING_FAMILY)
-    el = f.createIfcPlate(_guid(w.ns, part.name), None, part.name, _description(part, info),
+    guid = _guid(w.ns, part.name)
+    el = f.createIfcPlate(guid, None, part.name, _description(part, info),
                           None if fin else info["kind"], placement, w.shape(item, kind, part.color),
                           part.name, "SHEET" if fin else "USERDEFINED")
     w.pset(el, "Torsal_Part", {
-        "PartName": f.createIfcLabel(part.name), "Family": f.createIfcInteger(part.family),
-        "Strip": f.createIfcInteger(part.id.strip), "Panel": f.createIfcInteger(part.id.index),
-        "JointKind": f.createIfcLabel(info["kind"]),
-        "Joints": f.createIfcText(", ".join(joints) or "none"),
-        "Panels": f.createIfcInteger(len(part.panels)), "Holes": f.createIfcInteger(info["holes"]),
-        "Fastener": f.createIfcLabel(info["fastener"] or "none"),
-        "Thickness": f.createIfcPositiveLengthMeasure(float(w.fs.thickness)),
-        "Body": f.createIfcLabel(body.value)})
-    w.pset(el, "Pset_PlateCommon", {"Reference": f.createIfcIdentifier(part.name),
-                                    "IsExternal": f.createIfcBoolean(True),
-                                    "LoadBearing": f.createIfcBoolean(False)})
+        "PartName": ("IfcLabel", part.name), "Family": ("IfcInteger", part.family),
+        "Strip": ("IfcInteger", part.id.strip), "Panel": ("IfcInteger", part.id.index),
+        "JointKind": ("IfcLabel", info["kind"]),
+        "Joints": ("IfcText", ", ".join(joints) or "none"),
+        "Panels": ("IfcInteger", len(part.panels)), "Holes": ("IfcInteger", info["holes"]),
+        "Fastener": ("IfcLabel", info["fastener"] or "none"),
+        "Thickness": ("IfcPositiveLengthMeasure", float(w.fs.thickness)),
+        "Body": ("IfcLabel", body.value)}, guid=guid)
+    w.pset(el, "Pset_PlateCommon", {"Reference": ("IfcIdentifier", part.name),
+                                    "IsExternal": ("IfcBoolean", True),
+                                    "LoadBearing": ("IfcBoolean", False)}, guid=guid)
     return el, body
 
 
@@ -609,9 +628,8 @@ def _add_parts(w: _Writer, *, flat_profiles: bool, tolerance: float) -> dict[str
         asm = f.createIfcElementAssembly(_guid(w.ns, f"strip:{name}"), None, name,
                                          f"fin strip of {len(parts)} part(s)", "fin strip",
                                          placement, None, name, "SITE", "USERDEFINED")
-        w.pset(asm, "Torsal_Strip", {"Strip": f.createIfcLabel(name),
-                                     "Family": f.createIfcInteger(family),
-                                     "Parts": f.createIfcInteger(len(parts))})
+        w.pset(asm, "Torsal_Strip", {"Strip": ("IfcLabel", name), "Family": ("IfcInteger", family),
+                                     "Parts": ("IfcInteger", len(parts))})
         members = []
         for p in parts:
             el, body = _part_element(w, p, shapes[p.name], info[p.name], joints.get(p.name, []),
@@ -656,16 +674,17 @@ def _add_fasteners(w: _Writer) -> int:
         placement = w.placement(w.storey_placement, fp.start, fp.direction,
                                 _perpendicular(fp.direction))
         key = f"{fp.part}.{fp.hole}"
+        guid = _guid(w.ns, f"fastener:{key}")
         el = f.createIfcMechanicalFastener(
-            _guid(w.ns, f"fastener:{key}"), None, fp.fastener.label,
+            guid, None, fp.fastener.label,
             f"{fp.fastener.label} through {fp.part}"
             + (f" and {fp.host}" if fp.host else " into the building"),
             None, placement, w.fastener_shapes[shape], key, d, float(fp.length),
             _FASTENER_TYPES[fp.fastener.kind])
         w.pset(el, "Torsal_Fastener", {
-            "Fastener": f.createIfcLabel(fp.fastener.label), "Part": f.createIfcLabel(fp.part),
-            "Hole": f.createIfcInteger(fp.hole), "Host": f.createIfcLabel(fp.host or "building"),
-            "HoleDiameter": f.createIfcPositiveLengthMeasure(fp.fastener.hole_mm / mm)})
+            "Fastener": ("IfcLabel", fp.fastener.label), "Part": ("IfcLabel", fp.part),
+            "Hole": ("IfcInteger", fp.hole), "Host": ("IfcLabel", fp.host or "building"),
+            "HoleDiameter": ("IfcPositiveLengthMeasure", fp.fastener.hole_mm / mm)}, guid=guid)
         elements.append(el)
     if elements:
         f.createIfcRelAssociatesMaterial(_guid(w.ns, "material:fasteners"), None, None, None,
