@@ -1142,13 +1142,21 @@ def test_an_earlier_good_result_survives_every_failing_rerun(tmp_path, capsys, e
                                                       ".torsal-results.json")}
 
 
-SUBPROCESS = ["mesh-truncated-obj-line25", "mesh-ply-header-face-100000000", "design-sun-vectors-zero",
-              "design-epw-garbage", "directions-nan", "design-size-spacing-in-metres-as-mm",
-              "cli-design-out-is-file", "design-mesh-one-triangle",
-              "directions-stl-rows-per-merged-vertex-refused"]
+#: the quick set (make test) runs one case of each kind through the real command: a mesh file
+#: refused by its reader, a design file refused by its schema, a stage failing inside the run
+#: (after the fork server started), a directions file, a command line; every case of the corpus
+#: also runs in-process above (test_input: exit 2, the message, no traceback)
+SUBPROCESS = ["mesh-truncated-obj-line25", "design-sun-vectors-zero", "design-epw-garbage",
+              "directions-nan", "cli-design-out-is-file"]
+#: second cases of a kind the quick set runs, in the slow set (make test-slow, CI): each is a
+#: process importing torsal (3-4 CPU s; a design's stage failure also starts the fork server:
+#: 8-12 s of a fresh clone's make test)
+SUBPROCESS_SLOW = ["mesh-ply-header-face-100000000", "design-size-spacing-in-metres-as-mm",
+                   "design-mesh-one-triangle", "directions-stl-rows-per-merged-vertex-refused"]
 
 
-@pytest.mark.parametrize("id", SUBPROCESS)
+@pytest.mark.parametrize("id", SUBPROCESS + [pytest.param(i, marks=pytest.mark.slow)
+                                             for i in SUBPROCESS_SLOW])
 def test_no_traceback_reaches_stderr_of_the_real_command(id, tmp_path):
     c = next(c for c in CASES if c.id == id)
     exe = Path(sys.executable).with_name("torsal")

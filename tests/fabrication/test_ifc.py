@@ -6,8 +6,10 @@ check reads the written file; volumes are compared with the solids of fins.step 
 """
 from __future__ import annotations
 
+import ast
 import csv
 import math
+import types
 
 import numpy as np
 import pytest
@@ -18,6 +20,7 @@ import ifcopenshell.geom  # noqa: E402
 import ifcopenshell.util.element  # noqa: E402
 import ifcopenshell.util.shape  # noqa: E402
 import ifcopenshell.validate  # noqa: E402
+from ifcopenshell.express import rule_executor  # noqa: E402
 
 from torsal.core.units import UNIT_TO_M  # noqa: E402
 from torsal.fabrication import FinSystem, read_step  # noqa: E402
@@ -49,6 +52,15 @@ def exported(request, tmp_path_factory):
     return fs, ifcopenshell.open(str(out / "fins.ifc")), out
 
 
+#: a test whose subject is not the structure runs on the sphere in the quick set (make test):
+#: its folded strips and flat plates write both kinds of body (extruded profiles and closed
+#: triangles); the flat grid (bolt holes in its profiles) runs it in the slow set (make
+#: test-slow, CI). Each takes 5-15 s: a second process importing torsal, or the EXPRESS
+#: rules' validation (ifcopenshell compiles its rules again on every call)
+SPHERE_QUICK = pytest.mark.parametrize(
+    "exported", [pytest.param("flat", marks=pytest.mark.slow), "sphere"], indirect=True)
+
+
 def _parts_csv(out) -> list[dict]:
     with open(out / "parts.csv", newline="", encoding="utf-8") as fh:
         return list(csv.DictReader(fh))
@@ -64,12 +76,63 @@ def _body(el):
     return rep, item
 
 
+class _RulesCompiledOnce:
+    """ifcopenshell's check of the EXPRESS rules (``validate(..., express_rules=True)``) parses
+    its rules module (578 kB for IFC4), rewrites its asserts with pytest's rewriter and
+    compiles it on every call: 4.8 CPU s a call, of which the file's own check is a small part.
+    Put in place of ``rule_executor``'s ``ast.parse`` and ``compile`` for a check, this
+    compiles each schema's rules once per process and hands the same code object to every
+    later check: the same rules run on each file, with the same line numbers in the messages
+    (test_the_rules_compiled_once_still_find_a_broken_rule)."""
+
+    def __init__(self):
+        self.code: dict[str, types.CodeType] = {}
+        self.source: str | None = None
+
+    def parse(self, source, *args, **kw):
+        self.source = source
+        if source in self.code:          # compiled already: nothing for the rewriter to do
+            return ast.Module(body=[], type_ignores=[])
+        return ast.parse(source, *args, **kw)
+
+    def compile(self, tree, filename, mode):
+        if self.source not in self.code:
+            self.code[self.source] = compile(tree, filename, mode)
+        return self.code[self.source]
+
+
+_RULES = _RulesCompiledOnce()
+
+
+def _validation_statements(f) -> list:
+    """What ``ifcopenshell.validate`` logs for the file ``f``, its EXPRESS rules checked."""
+    log = ifcopenshell.validate.json_logger()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(rule_executor, "ast", types.SimpleNamespace(parse=_RULES.parse))
+        mp.setattr(rule_executor, "compile", _RULES.compile, raising=False)
+        ifcopenshell.validate.validate(f, log, express_rules=True)
+    return log.statements
+
+
+def test_the_rules_compiled_once_still_find_a_broken_rule():
+    """A direction of length 0 breaks IfcDirection's rule MagnitudeGreaterZero (which the
+    schema check without the rules does not see): found by the first check and again by a
+    later one that runs the rules compiled by the first."""
+    f = ifcopenshell.file(schema="IFC4")
+    f.createIfcDirection((0.0, 0.0, 0.0))
+    for _ in range(2):
+        (found,) = _validation_statements(f)
+        assert found["type"] == "entity_rule" and "IfcDirection" in found["message"]
+    assert len(_RULES.code) == 1
+    log = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(f, log, express_rules=False)
+    assert log.statements == []
+
+
 def test_schema_validation_finds_nothing(exported):
     fs, f, out = exported
     assert f.schema == "IFC4"
-    log = ifcopenshell.validate.json_logger()
-    ifcopenshell.validate.validate(f, log, express_rules=True)
-    assert log.statements == []
+    assert _validation_statements(f) == []
     # the project's length unit is the fin system's millimetre
     (length,) = [u for u in f.by_type("IfcProject")[0].UnitsInContext.Units
                  if u.is_a("IfcNamedUnit") and u.UnitType == "LENGTHUNIT"]
@@ -288,6 +351,7 @@ def test_the_same_fins_write_the_same_bytes_a_second_later(exported, tmp_path):
     assert b"'2000-01-01T00:00:00'" in first      # the fixed stamp (no SOURCE_DATE_EPOCH)
 
 
+@SPHERE_QUICK
 def test_written_by_a_process_of_its_own_the_same_bytes(exported, tmp_path):
     from torsal.core.parallel import limit_workers
 
@@ -321,6 +385,7 @@ def test_a_failed_write_leaves_no_file(exported, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+@SPHERE_QUICK
 def test_other_units_and_bad_options(exported, tmp_path):
     fs, f, out = exported
     with pytest.raises(ValueError, match="latitude and longitude"):
@@ -335,9 +400,7 @@ def test_other_units_and_bad_options(exported, tmp_path):
                  if u.is_a("IfcNamedUnit") and u.UnitType == "LENGTHUNIT"]
     assert length.is_a("IfcConversionBasedUnit") and length.Name == "inch"
     assert length.ConversionFactor.ValueComponent.wrappedValue == pytest.approx(0.0254)
-    log = ifcopenshell.validate.json_logger()
-    ifcopenshell.validate.validate(g, log, express_rules=True)
-    assert log.statements == [] and not g.by_type("IfcMaterialLayerSetUsage")
+    assert _validation_statements(g) == [] and not g.by_type("IfcMaterialLayerSetUsage")
     (plate,) = g.by_type("IfcPlate")
     assert _body(plate)[1].is_a("IfcTriangulatedFaceSet")
     assert ifcopenshell.util.element.get_psets(plate)["Torsal_Part"]["Family"] == -1
@@ -413,9 +476,7 @@ def test_the_fabrication_stage_writes_fins_ifc_and_nothing_half_written(tmp_path
     rows = _parts_csv(tmp_path / "out")
     assert sorted(e.Name for e in _parts(f)) == sorted(r["part_id"] for r in rows)
     # a remeshed structure (trimmed ends, dropped panels): valid, and the volumes of fins.step
-    log = ifcopenshell.validate.json_logger()
-    ifcopenshell.validate.validate(f, log, express_rules=True)
-    assert log.statements == []
+    assert _validation_statements(f) == []
     step = {name: _volume(solid) for name, solid in read_step(tmp_path / "out" / "fins.step")}
     settings = ifcopenshell.geom.settings()
     for el in _parts(f):
