@@ -32,11 +32,11 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     an other adds 0 without a boolean; so does the prism of a notched or holed face whose
     triangles' prisms it proves apart one by one (:func:`face_pieces`), or its surface made of
     the face's triangles (:func:`_prism_surface`).
-    ``faces``: the face records of ``moving`` (``_face_records``), if made already, and
-    ``face_triangles`` each one's boundary triangles (``_boundary_triangles`` of the face);
-    ``triangles(i)``: the boundary triangles of ``others[i]`` (``_boundary_triangles``), and
-    ``boxes(i)`` its bounding box (``_bbox``), if kept; ``upright(i)``: whether ``others[i]``
-    faces outwards (:func:`~.occ.is_upright`; the prisms do by construction), if known.
+    ``faces``: the face records of ``moving`` (``_face_records``), ``face_triangles`` each
+    one's triangles (``_boundary_triangles`` of the face), if made already; ``triangles(i)``:
+    the boundary triangles of ``others[i]`` (``_boundary_triangles``), and ``boxes(i)`` its
+    bounding box (``_bbox``), if kept; ``upright(i)``: whether ``others[i]`` faces outwards
+    (:func:`~.occ.is_upright`; the prisms do by construction), if known.
 
     >>> from build123d import Box, Pos
     >>> [round(v, 6) for v in swept_overlap(Box(1, 1, 1), (0, 0, 3), [Pos(0, 0, -2) * Box(1, 1, 1)])]
@@ -44,8 +44,6 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     """
     v = np.asarray(vector, float)
     faces = _face_records(_shape(moving)) if faces is None else faces
-    face_tri = (list(face_triangles) if face_triangles is not None else
-                [None] * len(faces))       # None: read from the face when needed
     fboxes = [(np.minimum(f.points.min(axis=0), (f.points - v).min(axis=0)),
                np.maximum(f.points.max(axis=0), (f.points - v).max(axis=0))) for f in faces]
     prisms: dict[int, tuple] = {}            # face index -> (oriented prism, its box) or None
@@ -69,7 +67,7 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
     left = boxes_meet & ~clear
     if hit and left.any():
         clear[:, hit] |= _pieces_clear_of_each(faces, v, [(tris[i], obs[i]) for i in hit],
-                                               left[:, hit], face_tri)
+                                               left[:, hit], face_triangles)
     out = []
     for i, oshape in enumerate(shapes):
         o, ob = others[i], obs[i]
@@ -78,7 +76,8 @@ def swept_overlap(moving, vector, others: Sequence, *, stop_above: float = np.in
         meets = [int(n) for n in np.flatnonzero(boxes_meet[:, i] & ~clear[:, i])]
         for n in meets:
             face = faces[n]
-            if _surface_clear(surfaces, n, face, v, otri, ob, face_tri[n]):      # before OpenCascade's prism
+            if _surface_clear(surfaces, n, face, v, otri, ob,
+                              None if face_triangles is None else face_triangles[n]):      # before OpenCascade's prism
                 continue
             if n not in prisms:
                 pr = _face_prism(face.face, v)
