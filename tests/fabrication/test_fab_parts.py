@@ -321,3 +321,46 @@ def test_slab_depths_known_values():
     tilt = wall.copy()
     tilt[0, 2:, 0] += 1.0                                   # top edge moved 1 along x: 45 deg
     assert _slab_depths(tilt, [0, 3.0, 0], floor, 0.2)[0] == pytest.approx(-(0.3 - 0.1 / np.sqrt(2)))
+
+
+def test_the_build_leaves_the_collector_as_it_found_it():
+    """FinSystem's build runs with the objects that existed before it frozen (gc.freeze): the
+    objects it makes are still collected, and afterwards nothing is frozen; a caller's own
+    frozen objects are left frozen (nothing frozen or unfrozen by the build), and so is a
+    disabled collector."""
+    import gc
+    import weakref
+
+    from torsal.fabrication import parts as P
+
+    class Node:
+        pass
+
+    assert gc.get_freeze_count() == 0
+    before = Node()
+    with P._old_objects_frozen():
+        assert gc.get_freeze_count() > 0
+        cycle = Node()
+        cycle.me = cycle                              # garbage only the cyclic collector frees
+        gone = weakref.ref(cycle)
+        del cycle
+        gc.collect()
+        assert gone() is None                         # made in the block: collected there
+    assert gc.get_freeze_count() == 0 and gc.is_tracked(before)
+    fs = FinSystem(flat_structure(), thickness=3.0)
+    assert len(fs.parts) > 0 and gc.get_freeze_count() == 0
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        with P._old_objects_frozen():
+            assert gc.get_freeze_count() == frozen
+        assert gc.get_freeze_count() == frozen
+    finally:
+        gc.unfreeze()
+    gc.disable()
+    try:
+        with P._old_objects_frozen():
+            assert gc.get_freeze_count() == 0
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -83,6 +83,8 @@ Example
 """
 from __future__ import annotations
 
+import contextlib
+import gc
 from typing import Iterable, Sequence
 
 import numpy as np
@@ -128,6 +130,24 @@ __all__ = [
     "JointKind", "UNIT_TO_MM", "INSUNITS", "FAMILY_COLORS", "fold_angles", "quad_normals",
     "MITER_LIMIT", "panel_widths",
 ]
+
+
+@contextlib.contextmanager
+def _old_objects_frozen():
+    """The objects that exist now left out of Python's cyclic garbage collection while the
+    block runs (:func:`gc.freeze`; none is freed meanwhile: they were live), then put back.
+    A fin system's build makes hundreds of thousands of objects, so the collector runs its full
+    pass a few times, each over everything the process holds (the imported modules, the
+    structure, the stages' results: 300,000 objects on 7a): 0.6 of its 0.8 s of collecting.
+    Nothing is frozen by a caller that froze objects itself (``gc.get_freeze_count()``)."""
+    if gc.get_freeze_count() or not gc.isenabled():
+        yield
+        return
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 class FinSystem:
@@ -258,7 +278,8 @@ class FinSystem:
         self._unrolled: dict | None = None
         if len(structure.edges) == 0:
             raise ValueError("the support structure has no edges: nothing to fabricate")
-        Rebuilder(self).build_until_trimmed()
+        with _old_objects_frozen():
+            Rebuilder(self).build_until_trimmed()
         self.__dict__.pop("_memo", None)        # only the rebuilds of this construction use it
 
     def _cached(self, fn, *args, **kw):
