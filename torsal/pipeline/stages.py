@@ -675,9 +675,10 @@ def _nest(inp: StageInputs, fs):
 
 
 def _nesting_report(layout, sheets) -> dict:
-    """Sheets used, the area bound, utilization (of the layout, and of the DXF files read back
-    with ezdxf when written: ``sheets``, :class:`~torsal.fabrication.nesting.background.SheetFiles`)
-    and the nester's time."""
+    """Sheets used, the area bound, utilization (of the layout, and of the parts' area in the
+    DXF files when written: ``sheets``, :class:`~torsal.fabrication.nesting.background.SheetFiles`,
+    the area a reader of the files finds, taken from the drawings they are written from) and
+    the nester's time."""
     st = layout.stats
     sheet_area = layout.sheet[0] * layout.sheet[1]
     rep = {"nester": st.method, "sheets": int(layout.n_sheets),
