@@ -189,7 +189,34 @@ def _freecad(args, ui: _Terminal) -> int:
     return EXIT_OK
 
 
+def _start_fork_server_early(design_file) -> None:
+    """Start the fork server the run's processes are forked from (the solids' workers, the
+    concurrent stages; :func:`~torsal.fabrication.workers.start_fork_server`) before this
+    process imports the pipeline: its imports (OpenCascade and the pipeline's stages, seconds)
+    then run on the core that this process's own imports leave idle, instead of beside the
+    congruence and the fin system later. It imports :mod:`torsal.pipeline.stages`, the module
+    of the pipeline this command runs (its concurrent stages' functions and what they import).
+    :meth:`~torsal.pipeline.design.Design.run` starts it where this did not (its start is a
+    no-op once the server runs). Nothing where the file does not parse as TOML (the design's
+    own check names the problem) or where its ``[outputs]`` turn off STEP, 3DM and IFC (no
+    solids to build)."""
+    import tomllib
+
+    try:
+        with open(design_file, "rb") as f:
+            outputs = tomllib.load(f).get("outputs", {})
+    except (OSError, ValueError):
+        return
+    if isinstance(outputs, dict) and all(outputs.get(k) is False
+                                         for k in ("step", "rhino_3dm", "ifc")):
+        return
+    from .fabrication.workers import start_fork_server
+
+    start_fork_server(also=("torsal.pipeline.stages",))
+
+
 def _design(args, ui: _Terminal) -> int:
+    _start_fork_server_early(args.file)
     from .core.outputs import new_output_folder
     from .pipeline.assembly import UnbuildableDesignError
     from .pipeline.design import Design
