@@ -369,3 +369,62 @@ def test_a_concurrent_stage_runs_in_a_process_of_its_own_with_the_same_result(tm
     with pytest.raises(DesignError, match="stage 'pid' failed: fins.depth above 1") as err:
         run_stages(p, _depth(SPEC, 1.5), tmp_path, StageCache(tmp_path / "c"))
     assert err.value.stage == "pid"
+
+
+def _write_after(path, seconds, text):
+    import time
+
+    time.sleep(seconds)
+    path.write_text(text)
+    return path
+
+
+def _writes_in_a_process(inp):
+    from torsal.core.parallel import ForkedCall
+
+    inp.defer(ForkedCall(_write_after, inp.out / "late.txt", 0.5, "written"))
+    return {"files": {"late": "late.txt"}, "report": {"deferred": True}}
+
+
+def test_a_deferred_file_is_written_before_the_run_ends_and_then_cached(tmp_path):
+    cache = StageCache(tmp_path / "c")
+    seen = []
+
+    def after(inp):                     # runs while the deferred process still writes
+        seen.append((inp.out / "late.txt").exists())
+        return {}
+
+    p = Pipeline((Stage("late", _writes_in_a_process), Stage("after", after, inputs=("late",))))
+    run = run_stages(p, SPEC, tmp_path, cache)
+    assert seen == [False]              # the next stage did not wait for it
+    assert (tmp_path / "late.txt").read_text() == "written" and run.files["late"] == "late.txt"
+    assert cache.has("late", run.keys["late"])          # cached once its file was there
+    assert run_stages(p, SPEC, tmp_path, cache).cached == ["late", "after"]
+
+
+def test_a_failed_run_stops_a_deferred_process_and_caches_nothing(tmp_path):
+    import multiprocessing as mp
+
+    cache = StageCache(tmp_path / "c")
+    p = Pipeline((Stage("late", _writes_in_a_process), Stage("bad", _refused, inputs=("late",))))
+    with pytest.raises(DesignError, match="stage 'bad' failed"):
+        run_stages(p, SPEC, tmp_path, cache)
+    assert not [c for c in mp.active_children() if c.name == "torsal-_write_after"]
+    assert not (tmp_path / "late.txt").exists()
+    assert not cache.has("late", stage_keys(p, SPEC)["late"])
+
+
+def _fails_in_a_process(inp):
+    from torsal.core.parallel import ForkedCall
+
+    inp.defer(ForkedCall(_write_after, inp.out / "missing" / "late.txt", 0.0, "x"))
+    return {"files": {"late": "missing/late.txt"}}
+
+
+def test_a_deferred_process_s_error_fails_the_run_naming_the_stage(tmp_path):
+    cache = StageCache(tmp_path / "c")
+    with pytest.raises(FileNotFoundError) as e:
+        run_stages(Pipeline((Stage("late", _fails_in_a_process),)), SPEC, tmp_path, cache)
+    assert "in stage 'late'" in e.value.__notes__    # a bug's error, named like the stage's own
+    assert not cache.has("late", stage_keys(Pipeline((Stage("late", _fails_in_a_process),)),
+                                            SPEC)["late"])

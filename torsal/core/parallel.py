@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Iterator
 
-__all__ = ["usable_workers", "limit_workers", "portable_error"]
+__all__ = ["usable_workers", "limit_workers", "portable_error", "ForkedCall"]
 
 #: the cap set by the innermost :func:`limit_workers` (None: no cap)
 _CAP: ContextVar[int | None] = ContextVar("torsal_worker_cap", default=None)
@@ -69,3 +69,64 @@ def portable_error(exc: BaseException) -> BaseException:
     except Exception:
         return RuntimeError(f"{type(exc).__name__}: {exc}" + "".join(
             f"; {n}" for n in getattr(exc, "__notes__", ())))
+
+
+def _answer(conn, fn, args: tuple) -> None:
+    """A :class:`ForkedCall`'s process: ``fn(*args)``'s value, or its error, sent back."""
+    try:
+        answer = ("value", fn(*args))
+    except BaseException as e:         # crosses to the parent, raised again there
+        answer = ("error", portable_error(e))
+    conn.send(answer)
+    conn.close()
+
+
+class ForkedCall:
+    """``fn(*args)`` in a process forked from this one, started at once: nothing but the
+    answer is pickled (the arguments are inherited, OpenCascade shapes among them).
+    :meth:`result` waits for the value, the call's error raised again here; :meth:`cancel`
+    stops it. Where this process may not start one (no ``fork``, a daemonic worker of a
+    study: :func:`usable_workers`) the call runs here, now.
+
+    >>> ForkedCall(pow, 2, 10).result()
+    1024
+    """
+
+    def __init__(self, fn, *args):
+        self._process = self._conn = None
+        self._done: tuple | None = None
+        if "fork" not in multiprocessing.get_all_start_methods() or usable_workers(2) < 2:
+            try:
+                self._done = ("value", fn(*args))
+            except Exception as e:
+                self._done = ("error", e)
+            return
+        ctx = multiprocessing.get_context("fork")
+        self._conn, child = ctx.Pipe(duplex=False)
+        self._process = ctx.Process(target=_answer, args=(child, fn, args), daemon=True,
+                                    name=f"torsal-{getattr(fn, '__name__', 'call')}")
+        self._process.start()
+        child.close()
+
+    def result(self):
+        """The call's value (waits); its error raised again here."""
+        if self._done is None:
+            try:
+                self._done = self._conn.recv()
+            except EOFError:        # ended without an answer: killed, or out of memory
+                self._process.join()
+                self._done = ("error", RuntimeError(
+                    f"the process {self._process.name} ended without an answer "
+                    f"(exit code {self._process.exitcode})"))
+            self._process.join()
+            self._conn.close()
+        kind, value = self._done
+        if kind == "error":
+            raise value
+        return value
+
+    def cancel(self) -> None:
+        """Stop the call (a later step failed)."""
+        if self._process is not None and self._process.is_alive():
+            self._process.terminate()
+            self._process.join()

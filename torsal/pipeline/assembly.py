@@ -215,10 +215,12 @@ def run_assembly(inp: StageInputs) -> dict:
     report["unsupported_parts"] = list(held.unsupported_parts)
     report["buildable"] = bool(check.buildable and held.supported)
     if inp.spec.outputs.renders:
+        from ..core.parallel import ForkedCall
         from .report import plot_assembly
 
-        files["assembly_png"] = plot_assembly(solids, check, inp.out / "assembly.png").name
-        report["picture"] = files["assembly_png"]
+        # drawn (a second of matplotlib) by a process of its own while the run writes its report
+        inp.defer(ForkedCall(plot_assembly, solids, check, inp.out / "assembly.png"))
+        files["assembly_png"] = report["picture"] = "assembly.png"
     report["csv"] = files["assembly"]
     return {"report": report, "files": files}
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -118,6 +119,9 @@ class StageInputs(Mapping):
     #: results kept by their content beside the stage cache (:class:`~.memo.Memo`); None
     #: outside :func:`run_stages`
     memo: Memo | None = None
+    #: takes the work a stage leaves running when it returns (:meth:`defer`); None: the
+    #: stage waits for it itself (outside :func:`run_stages`, in a concurrent stage's process)
+    _defer: Callable[[object], None] | None = None
 
     def __getitem__(self, name: str) -> dict:
         try:
@@ -138,6 +142,20 @@ class StageInputs(Mapping):
 
     def progress(self, event: str, info: dict) -> None:
         self._progress(self.stage, event, info)
+
+    def defer(self, pending) -> None:
+        """A file the stage's result names that a process of its own is still writing
+        (``pending``: ``result()`` waits for it, raising its error; ``cancel()`` stops it):
+        the run goes on to the next stages and waits for it before it ends (and before the
+        stage's result is cached); a failure of the run cancels it. Where nothing takes it,
+        it is waited for here.
+
+        >>> inputs.defer(fs.start_ifc(inputs.out / "fins.ifc"))   # doctest: +SKIP
+        """
+        if self._defer is None:
+            pending.result()
+        else:
+            self._defer(pending)
 
 
 @dataclass(frozen=True)
@@ -477,6 +495,8 @@ class _StageRunner:
         self.running: dict[str, tuple[Stage, _Concurrent]] = {}
         self.stages = [s for s in pipeline if s.applies(spec)]
         self.tried: set[str] = set()          # concurrent stages started (or tried) ahead
+        #: {stage: [pending work]} of :meth:`StageInputs.defer`, waited for at the end
+        self.deferred: dict[str, list] = {}
         # the concurrent stages' processes start now: their imports run beside the stages before
         self.ahead = _start_ahead(pipeline, spec, cache, self.keys)
 
@@ -489,8 +509,11 @@ class _StageRunner:
                 self._start_ready(stages[k + 1:])
             for name in list(self.running):
                 self._collect(name)
+            self._settle()
         finally:
             for _, pending in self.running.values():
+                pending.cancel()
+            for pending in (p for items in self.deferred.values() for p in items):
                 pending.cancel()
             for pending in self.ahead.values():  # found in the cache, or the run failed
                 pending.cancel()
@@ -528,10 +551,25 @@ class _StageRunner:
         run.files.update(value.get("files", {}))
 
     def _finish(self, s: Stage, value: dict) -> None:
-        if s.cache:
+        if s.cache and s.name not in self.deferred:     # else once its files are written
             self.cache.store(s.name, self.keys[s.name], value)
         self.progress(s.name, "done", {"seconds": self.result.stage_seconds[s.name]})
         self._record(s, value)
+
+    def _defer(self, name: str, pending) -> None:
+        self.deferred.setdefault(name, []).append(pending)
+
+    def _settle(self) -> None:
+        """Wait for the work the stages deferred (:meth:`StageInputs.defer`), then cache
+        their results: a cached result's files are all written."""
+        for name in list(self.deferred):
+            s = next(t for t in self.stages if t.name == name)
+            # its errors as the stage's own (a DesignError naming it, or a bug with a note)
+            _compute(replace(s, run=lambda _, items=self.deferred[name]: [p.result() for p in items]),
+                     None)
+            del self.deferred[name]
+            if s.cache:
+                self.cache.store(name, self.keys[name], self.result.values[name])
 
     def _collect(self, name: str) -> None:
         s, pending = self.running.pop(name)
@@ -546,12 +584,14 @@ class _StageRunner:
         return StageInputs(spec=self.spec, out=self.out, stage=s.name,
                            results={i: self.result.values[i] for i in s.inputs
                                     if i in self.result.values},
-                           report=self.result.report, _progress=self.progress, memo=self.memo)
+                           report=self.result.report, _progress=self.progress, memo=self.memo,
+                           _defer=partial(self._defer, s.name))
 
     def _start(self, s: Stage) -> bool:
         """``s`` started in a process of its own (True), else it is to run here."""
-        pending = _start_concurrent(s, replace(self._inputs_of(s), report=dict(self.result.report),
-                                               _progress=quiet), self.ahead.pop(s.name, None))
+        inputs = replace(self._inputs_of(s), report=dict(self.result.report), _progress=quiet,
+                         _defer=None)              # its process waits for what it defers
+        pending = _start_concurrent(s, inputs, self.ahead.pop(s.name, None))
         if pending is not None:
             self.running[s.name] = (s, pending)
         return pending is not None

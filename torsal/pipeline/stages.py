@@ -551,7 +551,8 @@ def _write_solids(inp: StageInputs, fs) -> dict:
             fs.export_3dm(out / "fins.3dm")
             written["3dm"] = "fins.3dm"
         if ifc is not None:
-            ifc.result()
+            # the run goes on (the assembly check, the pictures) while its process writes it
+            inp.defer(ifc)
             written["ifc"] = "fins.ifc"
     except BaseException:
         if ifc is not None:
