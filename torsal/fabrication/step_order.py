@@ -14,13 +14,29 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-__all__ = ["canonical_styles", "canonical_styles_file"]
+__all__ = ["canonical_styles", "canonical_styles_file", "canonical_occurrence_ids"]
 
 _PRESENTATION = "MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION"
 #: one instance ``#id = text;`` (text without quotes containing ';' : the writer's style
 #: entities have empty or plain names)
 _INSTANCE = re.compile(r"#(\d+)\s*=\s*((?:[^;']|'[^']*')*);\s*", re.S)
 _REF = re.compile(r"#(\d+)")
+#: the id (a label, not a reference) of an assembly's occurrence of a part
+_OCCURRENCE_ID = re.compile(r"(NEXT_ASSEMBLY_USAGE_OCCURRENCE\(')(\d+)(')")
+
+
+def canonical_occurrence_ids(text: str) -> str:
+    """``text`` of a STEP file with its parts' occurrences (``NEXT_ASSEMBLY_USAGE_OCCURRENCE``)
+    labelled 1, 2, ... in file order. OpenCascade's writer takes the labels from a counter
+    that lives as long as the process: the second file a process writes (a notebook's or a
+    host's second run) labelled its 40 parts 169-208 where the first had 1-40. The labels are
+    names only: no entity refers to them.
+
+    >>> canonical_occurrence_ids("#9 = NEXT_ASSEMBLY_USAGE_OCCURRENCE('169','P00','',#5,#1,$);")
+    "#9 = NEXT_ASSEMBLY_USAGE_OCCURRENCE('1','P00','',#5,#1,$);"
+    """
+    count = iter(range(1, text.count("NEXT_ASSEMBLY_USAGE_OCCURRENCE(") + 1))
+    return _OCCURRENCE_ID.sub(lambda m: f"{m.group(1)}{next(count)}{m.group(3)}", text)
 
 
 def canonical_styles(text: str) -> str:
@@ -98,9 +114,10 @@ def _numbering(body: dict[int, str]) -> dict[int, int]:
 
 
 def canonical_styles_file(path) -> None:
-    """:func:`canonical_styles` of the STEP file ``path``, in place."""
+    """:func:`canonical_styles` and :func:`canonical_occurrence_ids` of the STEP file
+    ``path``, in place."""
     path = Path(path)
     text = path.read_text(encoding="latin-1")
-    out = canonical_styles(text)
+    out = canonical_occurrence_ids(canonical_styles(text))
     if out != text:
         path.write_text(out, encoding="latin-1")
