@@ -37,6 +37,12 @@ Dask 2 workers 19.9 s (1.40 cores; 27.1 s with the cluster's 7.2 s start); the v
 7.1, 4.0 and 5.6 s (assembly check 1.7-3.7 s, fabrication 2.1-3.5 s, congruence 0.2 s once,
 cached for the three others).
 
+Again 2026-11-30 06:41 UTC (commit a369949, quiet, load 2.0-2.1): Dask 2 workers 19.5 s (1.36
+cores; 26.9 s with the cluster's 7.4 s start); the variants 6.1, 6.7, 3.8 and 5.1 s (assembly
+check 1.7-3.2 s, fabrication 1.9-3.3 s, congruence 0.2 s once, cached for the three others).
+The 7a example's ``costs.file`` is made absolute in the study's base (it was read relative to
+the study's temporary folder, and the bench stopped with the design file's error).
+
 (526 s on 2026-11-25's code: nesting 79 s and the assembly check 58 s per variant.)
 
 Run: ``.venv/bin/python benchmarks/study_bench.py [--size test|full|issue40] [--workers 2]``.
@@ -71,6 +77,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def write_study(folder: Path, size: str) -> Path:
     d = tomllib.loads((ROOT / "examples" / "7a_facade_block.toml").read_text())
+    if "file" in d.get("costs", {}):      # relative to the example, not to the study's folder
+        d["costs"]["file"] = str((ROOT / "examples" / d["costs"]["file"]).resolve())
     if size == "issue40":
         # issue 40's study: 7a on a 9 x 9 mesh, fabrication on, 4 variants (depth x spacing),
         # what a variant writes by default (its report.json)
