@@ -67,6 +67,24 @@ meshed for the check and its records made (``_read_meshed``) 13.60, 15.93; the c
 of the same solids made from their binary BReps (``check_record``) 5.71, 6.81. The re-read's
 parse and transfer go; the meshing and the records (most of what the reading process did
 after its transfer) stay, now in the solids' workers.
+
+2026-11-30 on a quiet machine (load 1.8-2.4), one run each: 705dae3 71.0 and 71.5 CPU s of
+all processes (wall 40.1, 40.2 s); a369949 (the sheets' DXF as text and not read back, the
+assembly check's kernels vectorized, lazy imports and a cheaper exit, cheaper solids and IFC,
+the IFC and the assembly picture deferred while the run goes on) **55.1 CPU s, wall 30.0 s**,
+the same digest ff18dd76674f. Per process, a369949::
+
+    | process | CPU s |
+    |---|---|
+    | solids' workers (build 12.4, seams' local checks 5.7, tabs' 1.2) | 19.6 |
+    | main | 15.1 |
+    | the check's forked workers | 4.3 |
+    | fork server + resource tracker | 3.4 |
+    | pictures | 3.4 |
+    | IFC | 2.7 |
+    | devices | 2.6 |
+    | nester (rows, DXF written) | 1.8 |
+    | the assembly picture (forked) | 1.3 |
 """
 from __future__ import annotations
 
