@@ -394,17 +394,18 @@ def _parts_of_rings(outlines: list, circles: list) -> list[Polygon]:
     rings = [Polygon(o) for o in outlines]
     rings += [Point(c).buffer(r, quad_segs=32) for c, r in circles]
     rings.sort(key=lambda p: -p.area)
-    outers: list[list] = []
+    outers: list[tuple[Polygon, tuple, list]] = []        # (ring, its bounds, its holes)
     for r in rings:
         x0, y0, x1, y1 = r.bounds
-        for o in outers:
+        for outer, (ox0, oy0, ox1, oy1), holes in outers:
             # a ring outside the outer's box is not in it: only the others need the test
-            if o[1] <= x0 and o[2] <= y0 and x1 <= o[3] and y1 <= o[4] and o[0].contains(r):
-                o.append(r)
+            if ox0 <= x0 and oy0 <= y0 and x1 <= ox1 and y1 <= oy1 and outer.contains(r):
+                holes.append(r)
                 break
         else:
-            outers.append([r, *r.bounds])
-    return [Polygon(o[0].exterior.coords, [h.exterior.coords for h in o[5:]]) for o in outers]
+            outers.append((r, r.bounds, []))
+    return [Polygon(o.exterior.coords, [h.exterior.coords for h in holes])
+            for o, _, holes in outers]
 
 
 # ---------------------------------------------------------------------------- BOM
