@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Iterator
 
-__all__ = ["usable_workers", "limit_workers", "portable_error", "ForkedCall"]
+__all__ = ["usable_workers", "limit_workers", "portable_error", "child_answer", "ForkedCall"]
 
 #: the cap set by the innermost :func:`limit_workers` (None: no cap)
 _CAP: ContextVar[int | None] = ContextVar("torsal_worker_cap", default=None)
@@ -71,6 +71,24 @@ def portable_error(exc: BaseException) -> BaseException:
             f"; {n}" for n in getattr(exc, "__notes__", ())))
 
 
+def child_answer(conn, process, what: str) -> tuple[str, object]:
+    """The one ``(kind, value)`` message a child process sends on ``conn`` (waits), then
+    ``conn`` closed and the process joined; a RuntimeError naming ``what`` (and the exit
+    code) if it ended without one.
+
+    >>> kind, value = child_answer(conn, process, "the IFC export")   # doctest: +SKIP
+    """
+    try:
+        message = conn.recv()
+    except EOFError:
+        raise RuntimeError(f"{what} ended without a result (exit code "
+                           f"{process.join() or process.exitcode})") from None
+    finally:
+        conn.close()
+    process.join()
+    return message
+
+
 def _answer(conn, fn, args: tuple) -> None:
     """A :class:`ForkedCall`'s process: ``fn(*args)``'s value, or its error, sent back."""
     try:
@@ -111,15 +129,8 @@ class ForkedCall:
     def result(self):
         """The call's value (waits); its error raised again here."""
         if self._done is None:
-            try:
-                self._done = self._conn.recv()
-            except EOFError:        # ended without an answer: killed, or out of memory
-                self._process.join()
-                self._done = ("error", RuntimeError(
-                    f"the process {self._process.name} ended without an answer "
-                    f"(exit code {self._process.exitcode})"))
-            self._process.join()
-            self._conn.close()
+            self._done = child_answer(self._conn, self._process,
+                                      f"the process {self._process.name}")
         kind, value = self._done
         if kind == "error":
             raise value

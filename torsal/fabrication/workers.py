@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from torsal.core.parallel import usable_workers
+from torsal.core.parallel import child_answer, usable_workers  # noqa: F401  (re-exported)
 
 from .plates import MESH_TOLERANCE, InvalidSolidError, _build_one, _downcast, _labelled, _mesh
 from .rhino import brep_record
@@ -122,24 +122,6 @@ def run_in_background() -> None:
         os.nice(BACKGROUND_NICE)
     except (AttributeError, OSError):
         pass
-
-
-def child_answer(conn, process, what: str) -> tuple[str, object]:
-    """The one ``(kind, value)`` message a child process sends on ``conn`` (waits), then
-    ``conn`` closed and the process joined; a RuntimeError naming ``what`` (and the exit
-    code) if it ended without one.
-
-    >>> kind, value = child_answer(conn, process, "the IFC export")   # doctest: +SKIP
-    """
-    try:
-        message = conn.recv()
-    except EOFError:
-        raise RuntimeError(f"{what} ended without a result (exit code "
-                           f"{process.join() or process.exitcode})") from None
-    finally:
-        conn.close()
-    process.join()
-    return message
 
 
 def default_workers(n_parts: int) -> int:

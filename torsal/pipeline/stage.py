@@ -375,7 +375,7 @@ class _Concurrent:
         self._thread.join()
         if self._error is not None:
             raise self._error
-        from ..fabrication.workers import child_answer
+        from ..core.parallel import child_answer
 
         kind, value = child_answer(self._conn, self._process, f"the process of {self._process.name}")
         if kind == "design":
