@@ -149,11 +149,6 @@ def _prism_hulls(faces: Sequence[_Face], vectors, eps: float) -> tuple:
     return pts, edges, normals, pts.min(axis=1) - eps, pts.max(axis=1) + eps
 
 
-def _near_boxes(lo, hi, tmin, tmax) -> np.ndarray:
-    """(p, t) whether box ``p`` (``lo``, ``hi``: (p, 3)) meets triangle box ``t``."""
-    return _boxes_meet(lo, hi, tmin, tmax)
-
-
 def prisms_clear(faces: Sequence[_Face], vectors, other_triangles: np.ndarray,
                  other_box: np.ndarray, *, eps: float = CLEAR_TOLERANCE,
                  triangle_boxes=None) -> np.ndarray:
@@ -198,7 +193,7 @@ def prisms_clear_of_each(faces: Sequence[_Face], vectors, others: Sequence[tuple
     pis, tis = [], []
     for i, (_, _, (tmin, tmax)) in enumerate(others):
         p = np.flatnonzero(candidates[:, i])       # the near pairs of each solid's candidates
-        a, b = np.nonzero(_near_boxes(lo[p], hi[p], tmin, tmax))
+        a, b = np.nonzero(_boxes_meet(lo[p], hi[p], tmin, tmax))
         pis.append(p[a])
         tis.append(b + start[i])
     pi, ti = np.concatenate(pis), np.concatenate(tis)
